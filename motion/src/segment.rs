@@ -1,0 +1,112 @@
+//! `Segment`: the one type between the interpreter and motion. A segment says where every
+//! configured axis must end up and how to get there, plus the non-motion events that must be
+//! sequenced with motion (dwell, spindle, tool change, stop, message). Positions are absolute
+//! machine coordinates in each axis's unit (mm, degrees), indexed like `MachineConfig::axes`.
+
+use std::sync::Arc;
+
+pub use cnc402_config::MAX_AXES;
+
+/// Absolute machine position of every configured axis (index = position in the config's axis
+/// list); entries past the configured count are 0 and ignored.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct AxisPos(pub [f64; MAX_AXES]);
+
+impl std::ops::Index<usize> for AxisPos {
+    type Output = f64;
+    fn index(&self, i: usize) -> &f64 {
+        &self.0[i]
+    }
+}
+impl std::ops::IndexMut<usize> for AxisPos {
+    fn index_mut(&mut self, i: usize) -> &mut f64 {
+        &mut self.0[i]
+    }
+}
+
+/// Where a segment came from, for every message that must name a program location.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Source {
+    pub file: Arc<str>,
+    /// 1-based line number.
+    pub line: u32,
+    /// The block's N number, if it had one.
+    pub n: Option<u32>,
+}
+
+/// The working plane of an arc: the two axes it turns in and the axis normal to it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Plane {
+    /// G17: X-Y, normal Z.
+    XY,
+    /// G18: Z-X, normal Y.
+    ZX,
+    /// G19: Y-Z, normal X.
+    YZ,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ArcDir {
+    /// G2
+    Cw,
+    /// G3
+    Ccw,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpindleDir {
+    /// M3
+    Cw,
+    /// M4
+    Ccw,
+    /// M5
+    Stop,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopKind {
+    /// M0
+    Program,
+    /// M1
+    Optional,
+    /// M2
+    End,
+    /// M30
+    EndRewind,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum SegmentKind {
+    /// G0: the fastest straight line the axes allow.
+    Rapid { end: AxisPos },
+    /// G1 (and cycle feeds, and taps: Z with C). `feed` is the path speed in units/min over
+    /// the linear axes that move; over the rotary axes when only rotary axes move.
+    Linear { end: AxisPos, feed: f64 },
+    /// G2/G3, with an optional helical component along the plane's normal (and any other axis
+    /// moving linearly with it). `center` is in machine coordinates, X Y Z. `turns` counts
+    /// extra full turns (0 = less than one turn; a full circle is `turns = 1` with end = start).
+    Arc {
+        end: AxisPos,
+        center: [f64; 3],
+        plane: Plane,
+        dir: ArcDir,
+        turns: u32,
+        feed: f64,
+    },
+    /// G4, and the P dwell of cycles.
+    Dwell { seconds: f64 },
+    /// M3/M4/M5 with S: the spindle axis runs in speed mode. `rpm` ≥ 0.
+    Spindle { rpm: f64, dir: SpindleDir },
+    /// T with M6.
+    ToolChange { tool: u32 },
+    /// M0/M1/M2/M30.
+    Stop { kind: StopKind },
+    /// A message for the operator (MSG, `(MSG, …)`).
+    Message { text: String },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Segment {
+    pub kind: SegmentKind,
+    pub source: Source,
+}
