@@ -1,0 +1,266 @@
+//! Program locations and the one error type for anything wrong in an NC program.
+//! [`SourceFile`] turns byte offsets into `line:col`; [`NcError`] carries `file:line:col`, the
+//! offending block and what was expected, and renders with a caret through `miette`. The
+//! parser produces it; the interpreter, motion and drive layers reuse it to point at a block.
+
+use std::fmt;
+use std::sync::Arc;
+
+use miette::{LabeledSpan, NamedSource, SourceCode};
+
+use crate::ast::Span;
+
+/// An NC program's text with its name and an index of line starts.
+///
+/// ```
+/// use cnc402_lang::SourceFile;
+/// let src = SourceFile::new("a.nc", "G0 X1\nG1 Ä2 F3\n");
+/// assert_eq!(src.line_col(6), (2, 1));
+/// assert_eq!(src.line_col(12), (2, 6)); // `Ä` is one column, two bytes
+/// assert_eq!(src.line_text(2), "G1 Ä2 F3");
+/// ```
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SourceFile {
+    pub name: Arc<str>,
+    pub text: Arc<str>,
+    /// Byte offset of the start of every line; `line_starts[0] == 0`.
+    line_starts: Vec<u32>,
+}
+
+impl SourceFile {
+    /// Wraps `text` (a whole program) named `name` (usually its path).
+    pub fn new(name: impl Into<Arc<str>>, text: impl Into<Arc<str>>) -> Self {
+        let name = name.into();
+        let text: Arc<str> = text.into();
+        let mut line_starts = Vec::with_capacity(text.len() / 16 + 1);
+        line_starts.push(0);
+        line_starts.extend(
+            text.bytes()
+                .enumerate()
+                .filter(|&(_, b)| b == b'\n')
+                .map(|(i, _)| (i + 1) as u32),
+        );
+        SourceFile {
+            name,
+            text,
+            line_starts,
+        }
+    }
+
+    /// Number of lines (a final line without a terminator counts; a trailing `\n` does not
+    /// start a new one).
+    pub fn line_count(&self) -> u32 {
+        let n = self.line_starts.len();
+        if n > 1 && self.line_starts[n - 1] as usize == self.text.len() {
+            (n - 1) as u32
+        } else {
+            n as u32
+        }
+    }
+
+    /// 1-based line and column of `byte_offset`; the column counts characters, not bytes.
+    /// Offsets past the end are clamped to the end; an offset inside a multi-byte character
+    /// counts as that character.
+    pub fn line_col(&self, byte_offset: usize) -> (u32, u32) {
+        let off = byte_offset.min(self.text.len());
+        let idx = match self.line_starts.binary_search(&(off as u32)) {
+            Ok(i) => i,
+            Err(i) => i - 1, // i >= 1 because line_starts[0] == 0 <= off
+        };
+        let start = self.line_starts[idx] as usize;
+        let mut end = off;
+        while !self.text.is_char_boundary(end) {
+            end -= 1;
+        }
+        let col = self.text[start..end].chars().count() as u32 + 1;
+        (idx as u32 + 1, col)
+    }
+
+    /// The text of 1-based `line`, without its `\n` or `\r\n`; `""` for a line that does not
+    /// exist.
+    pub fn line_text(&self, line: u32) -> &str {
+        let Some(i) = (line as usize).checked_sub(1) else {
+            return "";
+        };
+        let Some(&start) = self.line_starts.get(i) else {
+            return "";
+        };
+        let start = start as usize;
+        let end = self
+            .line_starts
+            .get(i + 1)
+            .map_or(self.text.len(), |&e| e as usize - 1);
+        let s = &self.text[start..end];
+        s.strip_suffix('\r').unwrap_or(s)
+    }
+
+    /// Byte span of 1-based `line` (without terminator), or an empty span at the end.
+    pub fn line_span(&self, line: u32) -> Span {
+        let Some(i) = (line as usize).checked_sub(1) else {
+            return Span::new(0, 0);
+        };
+        match self.line_starts.get(i) {
+            Some(&start) => {
+                let start = start as usize;
+                Span::new(start, start + self.line_text(line).len())
+            }
+            None => Span::new(self.text.len(), self.text.len()),
+        }
+    }
+}
+
+/// The error for anything wrong in an NC program: where it is, the offending block, what is
+/// wrong and what was expected.
+///
+/// `Display` gives `file:line:col: message (expected …)` and the block on the next line;
+/// through [`miette::Diagnostic`] a report shows the block with a caret under the span.
+///
+/// ```
+/// use cnc402_lang::{NcError, SourceFile, ast::Span};
+/// let src = SourceFile::new("p.nc", "G0 X1\nG1 X Y2\n");
+/// let e = NcError::new(&src, Span::new(9, 10), "missing number after address X")
+///     .with_expected("a number");
+/// assert_eq!((e.line, e.col), (2, 4));
+/// assert_eq!(e.to_string(),
+///     "p.nc:2:4: missing number after address X (expected a number)\n    G1 X Y2");
+/// ```
+#[derive(Clone, PartialEq)]
+pub struct NcError {
+    pub file: Arc<str>,
+    /// 1-based line of `span.start`.
+    pub line: u32,
+    /// 1-based column (in characters) of `span.start`.
+    pub col: u32,
+    /// Byte span of the offending text in the whole program.
+    pub span: Span,
+    /// The text of the offending line.
+    pub block: String,
+    pub message: String,
+    /// What would have been accepted at this point, if that is known.
+    pub expected: Option<String>,
+    source: NamedSource<Arc<str>>,
+}
+
+impl NcError {
+    /// An error at `span` of `src`. `span` is clamped to the text.
+    pub fn new(src: &SourceFile, span: Span, message: impl Into<String>) -> Self {
+        let len = src.text.len();
+        let start = (span.start as usize).min(len);
+        let end = (span.end as usize).clamp(start, len);
+        let span = Span::new(start, end);
+        let (line, col) = src.line_col(start);
+        NcError {
+            file: src.name.clone(),
+            line,
+            col,
+            span,
+            block: src.line_text(line).to_string(),
+            message: message.into(),
+            expected: None,
+            source: NamedSource::new(src.name.to_string(), src.text.clone()),
+        }
+    }
+
+    /// Says what would have been accepted where the error is.
+    pub fn with_expected(mut self, e: impl Into<String>) -> Self {
+        self.expected = Some(e.into());
+        self
+    }
+
+    /// `file:line:col`, as at the head of the message.
+    pub fn location(&self) -> String {
+        format!("{}:{}:{}", self.file, self.line, self.col)
+    }
+}
+
+impl fmt::Display for NcError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.location(), self.message)?;
+        if let Some(e) = &self.expected {
+            write!(f, " (expected {e})")?;
+        }
+        write!(f, "\n    {}", self.block)
+    }
+}
+
+impl fmt::Debug for NcError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("NcError")
+            .field("file", &self.file)
+            .field("line", &self.line)
+            .field("col", &self.col)
+            .field("span", &self.span)
+            .field("block", &self.block)
+            .field("message", &self.message)
+            .field("expected", &self.expected)
+            .finish()
+    }
+}
+
+impl std::error::Error for NcError {}
+
+impl miette::Diagnostic for NcError {
+    fn code<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
+        Some(Box::new("cnc402::nc"))
+    }
+
+    fn source_code(&self) -> Option<&dyn SourceCode> {
+        Some(&self.source)
+    }
+
+    fn labels(&self) -> Option<Box<dyn Iterator<Item = LabeledSpan> + '_>> {
+        let label = match &self.expected {
+            Some(e) => format!("expected {e}"),
+            None => "here".to_string(),
+        };
+        Some(Box::new(std::iter::once(
+            LabeledSpan::new_primary_with_span(Some(label), self.span.range()),
+        )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_col_at_line_starts_and_ends() {
+        let s = SourceFile::new("t", "ab\r\ncd\n\nx");
+        assert_eq!(s.line_col(0), (1, 1));
+        assert_eq!(s.line_col(2), (1, 3));
+        assert_eq!(s.line_col(4), (2, 1));
+        assert_eq!(s.line_col(7), (3, 1));
+        assert_eq!(s.line_col(8), (4, 1));
+        assert_eq!(s.line_col(9), (4, 2));
+        assert_eq!(s.line_col(1000), (4, 2));
+        assert_eq!(s.line_text(1), "ab");
+        assert_eq!(s.line_text(3), "");
+        assert_eq!(s.line_text(4), "x");
+        assert_eq!(s.line_text(5), "");
+        assert_eq!(s.line_text(0), "");
+        assert_eq!(s.line_count(), 4);
+        assert_eq!(SourceFile::new("t", "a\n").line_count(), 1);
+        assert_eq!(SourceFile::new("t", "").line_count(), 1);
+    }
+
+    #[test]
+    fn column_counts_chars_and_survives_mid_char_offsets() {
+        let s = SourceFile::new("t", "(全角)X");
+        assert_eq!(s.line_col(1 + 6 + 1), (1, 5));
+        assert_eq!(s.line_col(2), (1, 2)); // inside `全`
+    }
+
+    #[test]
+    fn error_span_is_clamped_and_renders_with_miette() {
+        let s = SourceFile::new("p.nc", "G1 X\n");
+        let e = NcError::new(&s, Span::new(4, 99), "missing number after address X")
+            .with_expected("a number");
+        assert_eq!(e.span, Span::new(4, 5));
+        let mut out = String::new();
+        miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
+            .render_report(&mut out, &e)
+            .unwrap();
+        assert!(out.contains("p.nc:1:5"), "{out}");
+        assert!(out.contains("expected a number"), "{out}");
+    }
+}
