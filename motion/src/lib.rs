@@ -2,6 +2,7 @@
 //! limits, and the fixed-period interpolator samples it into per-axis setpoints. Pure: no I/O,
 //! no clock; time advances only by the period passed in.
 
+pub mod profile;
 pub mod segment;
 
 pub use cnc402_config::MAX_AXES;
