@@ -1,7 +1,10 @@
 //! NC program parser: ISO 7-bit / DIN 66025 text to the AST in [`ast`], with byte spans.
-//! [`diag`] holds program locations and [`NcError`], the error type every layer reuses.
+//! [`parse`] reads a whole program; [`diag`] holds program locations and [`NcError`], the
+//! error type every layer reuses.
 
 pub mod ast;
 pub mod diag;
+mod parse;
 
 pub use diag::{NcError, SourceFile};
+pub use parse::{parse, parse_expr};
