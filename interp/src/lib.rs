@@ -1,1 +1,38 @@
-//! (filled in by its issue)
+//! The NC interpreter: executes a parsed program ([`cnc402_lang::ast::Program`]) against a
+//! modal state and produces motion [`Segment`](cnc402_motion::segment::Segment)s one at a time,
+//! each with its source (file, line, N). No I/O, no clock.
+//!
+//! Behaviour follows Fanuc (M series); where LinuxCNC differs the tests say so. Decisions worth
+//! knowing:
+//! - Positions in segments are absolute machine coordinates of every configured axis (work
+//!   offset G54–G59 applied, inches converted to mm). The program starts at
+//!   [`Options::start`] (machine 0 by default). Numbers without a decimal point are read as
+//!   whole units (`X10` = 10 mm: "calculator-type input"), not as Fanuc's least increments.
+//! - G4: `X` seconds or `P` whole milliseconds. Cycle `P` dwells are milliseconds too.
+//! - Canned cycles: Fanuc sequence, data (R, Z, Q, P) modal until G80 or a group 01 code; a
+//!   block drills when it has a position, drilling-axis or R word; K and L both repeat; in G91
+//!   R is measured from the initial level and Z from R. G73 retracts by `peck_retract`, G83
+//!   re-enters to `peck_clearance` above the last depth (config `[interp]`).
+//! - G74/G84 are rigid taps: feed moves of the drilling axis with the spindle axis C,
+//!   C = C0 + depth·360/pitch (negative for G74), pitch = F/S (G94) or F (G95). They need M3
+//!   (G84) or M4 (G74) or M29; a turning spindle is stopped before and restarted after the
+//!   block. With Q, peck tapping: in by Q, out by `peck_retract`, every move coupled.
+//! - G76/G87 orientation = spindle stop + C rapid to the nearest multiple of 360°; the shift is
+//!   +Q along the plane's first axis (G17 +X, G18 +Z, G19 +Y). G87 always returns to the
+//!   initial level (Fanuc: G99 is not used with G87). G86 stops the spindle at the bottom and
+//!   restarts it after the rapid out; G88 dwells, stops the spindle, emits a program stop
+//!   (the operator's manual retract in Fanuc), then rapids out and restarts the spindle.
+//! - M1 stops only with [`Options::optional_stop`]; `/` blocks are skipped with
+//!   [`Options::block_delete`]; M2/M30 end the run; a `%` after the first block ends it.
+
+pub mod arc;
+pub mod cycles;
+pub mod dump;
+pub mod eval;
+mod interp;
+pub mod state;
+pub mod words;
+
+pub use dump::segment_to_json;
+pub use interp::{Interpreter, Options, run_program, run_program_with};
+pub use state::ModalState;

@@ -1,0 +1,251 @@
+//! The segment dump: one JSON object per segment (JSON Lines), the interpreter's stable contract
+//! that `cnc402 segments` prints and the golden tests compare byte for byte. Numbers are rounded
+//! to 1e-6 and printed in their shortest form (`10`, `-2.5`, `0.000001`); keys come in a fixed
+//! order.
+//!
+//! Keys: `kind` (`rapid` `linear` `arc` `dwell` `spindle` `tool_change` `stop` `message`),
+//! `file`, `line`, `n` (N number or null); motion kinds add `end` (axis name → absolute machine
+//! position of every configured axis, mm or degrees); `linear` and `arc` add `feed` (mm/min);
+//! `arc` adds `center` (`X` `Y` `Z`, machine coordinates; the normal axis holds the start's
+//! value), `plane` (`XY` `ZX` `YZ`), `dir` (`cw` `ccw`) and `turns` (1 = full circle);
+//! `dwell` adds `seconds`; `spindle` adds `rpm` and `dir` (`cw` `ccw` `stop`); `tool_change`
+//! adds `tool`; `stop` adds `stop` (`program` `optional` `end` `end_rewind`); `message` adds
+//! `text`.
+//!
+//! The spindle axis C is the program's view: it starts at 0 and moves only with rigid taps,
+//! orientation and C words; speed-mode runs (M3/M4) do not change it, because the motion layer
+//! re-bases C when the spindle returns to position control.
+
+use std::fmt::Write;
+
+use cnc402_config::MachineConfig;
+use cnc402_motion::segment::{
+    ArcDir, AxisPos, Plane, Segment, SegmentKind, SpindleDir, StopKind,
+};
+
+/// `v` rounded to 1e-6 in its shortest decimal form; `-0` prints as `0`, non-finite as `null`.
+///
+/// ```
+/// use cnc402_interp::dump::num;
+/// assert_eq!(num(10.0), "10");
+/// assert_eq!(num(-2.50000004), "-2.5");
+/// assert_eq!(num(-0.0000001), "0");
+/// assert_eq!(num(1.0 / 3.0), "0.333333");
+/// ```
+pub fn num(v: f64) -> String {
+    if !v.is_finite() {
+        return "null".into();
+    }
+    let r = (v * 1e6).round() / 1e6;
+    if r == 0.0 { "0".into() } else { format!("{r}") }
+}
+
+/// `s` as a JSON string literal.
+pub fn json_str(s: &str) -> String {
+    let mut o = String::with_capacity(s.len() + 2);
+    o.push('"');
+    for c in s.chars() {
+        match c {
+            '"' => o.push_str("\\\""),
+            '\\' => o.push_str("\\\\"),
+            '\n' => o.push_str("\\n"),
+            '\r' => o.push_str("\\r"),
+            '\t' => o.push_str("\\t"),
+            c if (c as u32) < 0x20 => {
+                let _ = write!(o, "\\u{:04x}", c as u32);
+            }
+            c => o.push(c),
+        }
+    }
+    o.push('"');
+    o
+}
+
+fn end_obj(o: &mut String, end: &AxisPos, cfg: &MachineConfig) {
+    o.push_str(",\"end\":{");
+    for (i, ax) in cfg.axes.iter().enumerate() {
+        if i > 0 {
+            o.push(',');
+        }
+        let _ = write!(o, "\"{}\":{}", ax.name, num(end[i]));
+    }
+    o.push('}');
+}
+
+/// One segment as a single-line JSON object (no trailing newline).
+///
+/// ```
+/// use cnc402_config::MachineConfig;
+/// use cnc402_interp::dump::segment_to_json;
+/// use cnc402_motion::segment::{AxisPos, Segment, SegmentKind, Source};
+/// let cfg = MachineConfig::default_machine();
+/// let mut end = AxisPos::default();
+/// end[0] = 12.5;
+/// let seg = Segment {
+///     kind: SegmentKind::Linear { end, feed: 300.0 },
+///     source: Source { file: "a.nc".into(), line: 3, n: Some(30) },
+/// };
+/// assert_eq!(segment_to_json(&seg, &cfg),
+///     r#"{"kind":"linear","file":"a.nc","line":3,"n":30,"end":{"X":12.5,"Y":0,"Z":0,"C":0},"feed":300}"#);
+/// ```
+pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
+    let mut o = String::with_capacity(160);
+    let kind = match seg.kind {
+        SegmentKind::Rapid { .. } => "rapid",
+        SegmentKind::Linear { .. } => "linear",
+        SegmentKind::Arc { .. } => "arc",
+        SegmentKind::Dwell { .. } => "dwell",
+        SegmentKind::Spindle { .. } => "spindle",
+        SegmentKind::ToolChange { .. } => "tool_change",
+        SegmentKind::Stop { .. } => "stop",
+        SegmentKind::Message { .. } => "message",
+    };
+    let _ = write!(
+        o,
+        "{{\"kind\":\"{kind}\",\"file\":{},\"line\":{},\"n\":",
+        json_str(&seg.source.file),
+        seg.source.line
+    );
+    match seg.source.n {
+        Some(n) => {
+            let _ = write!(o, "{n}");
+        }
+        None => o.push_str("null"),
+    }
+    match &seg.kind {
+        SegmentKind::Rapid { end } => end_obj(&mut o, end, cfg),
+        SegmentKind::Linear { end, feed } => {
+            end_obj(&mut o, end, cfg);
+            let _ = write!(o, ",\"feed\":{}", num(*feed));
+        }
+        SegmentKind::Arc {
+            end,
+            center,
+            plane,
+            dir,
+            turns,
+            feed,
+        } => {
+            end_obj(&mut o, end, cfg);
+            let plane = match plane {
+                Plane::XY => "XY",
+                Plane::ZX => "ZX",
+                Plane::YZ => "YZ",
+            };
+            let dir = match dir {
+                ArcDir::Cw => "cw",
+                ArcDir::Ccw => "ccw",
+            };
+            let _ = write!(
+                o,
+                ",\"center\":{{\"X\":{},\"Y\":{},\"Z\":{}}},\"plane\":\"{plane}\",\"dir\":\"{dir}\",\"turns\":{turns},\"feed\":{}",
+                num(center[0]),
+                num(center[1]),
+                num(center[2]),
+                num(*feed)
+            );
+        }
+        SegmentKind::Dwell { seconds } => {
+            let _ = write!(o, ",\"seconds\":{}", num(*seconds));
+        }
+        SegmentKind::Spindle { rpm, dir } => {
+            let dir = match dir {
+                SpindleDir::Cw => "cw",
+                SpindleDir::Ccw => "ccw",
+                SpindleDir::Stop => "stop",
+            };
+            let _ = write!(o, ",\"rpm\":{},\"dir\":\"{dir}\"", num(*rpm));
+        }
+        SegmentKind::ToolChange { tool } => {
+            let _ = write!(o, ",\"tool\":{tool}");
+        }
+        SegmentKind::Stop { kind } => {
+            let k = match kind {
+                StopKind::Program => "program",
+                StopKind::Optional => "optional",
+                StopKind::End => "end",
+                StopKind::EndRewind => "end_rewind",
+            };
+            let _ = write!(o, ",\"stop\":\"{k}\"");
+        }
+        SegmentKind::Message { text } => {
+            let _ = write!(o, ",\"text\":{}", json_str(text));
+        }
+    }
+    o.push('}');
+    o
+}
+
+/// Every segment as JSON Lines (each line ends in `\n`).
+pub fn segments_to_jsonl(segs: &[Segment], cfg: &MachineConfig) -> String {
+    let mut o = String::with_capacity(segs.len() * 120);
+    for s in segs {
+        o.push_str(&segment_to_json(s, cfg));
+        o.push('\n');
+    }
+    o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cnc402_motion::segment::Source;
+
+    fn seg(kind: SegmentKind) -> Segment {
+        Segment {
+            kind,
+            source: Source {
+                file: "q\"x.nc".into(),
+                line: 7,
+                n: None,
+            },
+        }
+    }
+
+    #[test]
+    fn every_kind_is_valid_json_with_its_keys() {
+        let cfg = MachineConfig::default_machine();
+        let kinds = [
+            SegmentKind::Rapid { end: AxisPos::default() },
+            SegmentKind::Arc {
+                end: AxisPos::default(),
+                center: [1.0, 2.0, 3.0],
+                plane: Plane::ZX,
+                dir: ArcDir::Ccw,
+                turns: 1,
+                feed: 100.0,
+            },
+            SegmentKind::Dwell { seconds: 0.5 },
+            SegmentKind::Spindle { rpm: 800.0, dir: SpindleDir::Ccw },
+            SegmentKind::ToolChange { tool: 4 },
+            SegmentKind::Stop { kind: StopKind::EndRewind },
+            SegmentKind::Message { text: "a\tb \"c\"\u{1}".into() },
+        ];
+        let want = [
+            ("rapid", "end"),
+            ("arc", "center"),
+            ("dwell", "seconds"),
+            ("spindle", "rpm"),
+            ("tool_change", "tool"),
+            ("stop", "stop"),
+            ("message", "text"),
+        ];
+        for (k, (name, key)) in kinds.into_iter().zip(want) {
+            let j = segment_to_json(&seg(k), &cfg);
+            let v: serde_json::Value = serde_json::from_str(&j).unwrap_or_else(|e| panic!("{j}: {e}"));
+            assert_eq!(v["kind"], name);
+            assert_eq!(v["file"], "q\"x.nc");
+            assert_eq!(v["line"], 7);
+            assert!(v["n"].is_null());
+            assert!(!v[key].is_null(), "{j}");
+        }
+    }
+
+    #[test]
+    fn numbers_are_rounded_and_minimal() {
+        assert_eq!(num(0.1 + 0.2), "0.3");
+        assert_eq!(num(-1e-7), "0");
+        assert_eq!(num(123456.0000004), "123456");
+        assert_eq!(num(f64::NAN), "null");
+    }
+}

@@ -1,0 +1,850 @@
+//! The interpreter: a program counter over the lines of a parsed program, the modal state, and
+//! one block's execution ([`Exec`]) turning words into [`Segment`]s. Segments are produced on
+//! demand ([`Interpreter::next_segment`]) so that the interpreter can run ahead of motion and,
+//! with Macro B, stop at sync points (reading a position variable waits for queued motion).
+
+use std::collections::{HashMap, VecDeque};
+use std::sync::Arc;
+
+use cnc402_config::MachineConfig;
+use cnc402_lang::ast::{Comment, Line, LineKind, Program, Span};
+use cnc402_lang::{NcError, SourceFile};
+use cnc402_motion::segment::{
+    ArcDir, AxisPos, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind,
+};
+
+use crate::arc::{self, ArcError};
+use crate::state::{Cycle, CycleData, ModalState, Motion};
+use crate::words::{Arg, GGroup, Words, fmt_num};
+
+/// Operator switches that change how a program runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Block delete switch: when on, lines starting with `/` are skipped. Default on.
+    pub block_delete: bool,
+    /// Optional stop switch: when on, M1 stops like M0; when off, M1 does nothing. Default on.
+    pub optional_stop: bool,
+    /// Machine position of every axis when the program starts (default all 0). C, the spindle,
+    /// is the program's view and should start at 0.
+    pub start: AxisPos,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            block_delete: true,
+            optional_stop: true,
+            start: AxisPos::default(),
+        }
+    }
+}
+
+/// Runs one program: `load` it, then pull segments with [`next_segment`](Self::next_segment)
+/// (or iterate). The first error ends the run; segments of the block that failed are never
+/// produced (a canned cycle is checked whole before any of it is given out).
+pub struct Interpreter {
+    cfg: MachineConfig,
+    opts: Options,
+    state: ModalState,
+    src: Arc<SourceFile>,
+    program: Arc<Program>,
+    /// N number → index into `program.lines` (first occurrence); GOTO targets for Macro B.
+    labels: HashMap<u32, usize>,
+    /// Index of the next line to execute.
+    pc: usize,
+    queue: VecDeque<Segment>,
+    /// A `%` after the first block, M2/M30, an error, or the end of the text.
+    done: bool,
+    seen_block: bool,
+}
+
+impl Interpreter {
+    /// An interpreter for the machine `cfg`, default [`Options`], no program loaded.
+    pub fn new(cfg: &MachineConfig) -> Self {
+        Self::with_options(cfg, Options::default())
+    }
+
+    /// An interpreter with explicit operator switches.
+    pub fn with_options(cfg: &MachineConfig, opts: Options) -> Self {
+        Interpreter {
+            state: ModalState::new(cfg, opts.start),
+            cfg: cfg.clone(),
+            opts,
+            src: Arc::new(SourceFile::new("", "")),
+            program: Arc::new(Program { lines: Vec::new() }),
+            labels: HashMap::new(),
+            pc: 0,
+            queue: VecDeque::new(),
+            done: true,
+            seen_block: false,
+        }
+    }
+
+    /// Starts `program` (parsed from `src`) from its first line with the modal state of a fresh
+    /// start.
+    pub fn load(&mut self, src: SourceFile, program: Program) {
+        let mut labels = HashMap::new();
+        for (i, l) in program.lines.iter().enumerate() {
+            if let Some(n) = l.n {
+                labels.entry(n.value).or_insert(i);
+            }
+        }
+        self.state = ModalState::new(&self.cfg, self.opts.start);
+        self.src = Arc::new(src);
+        self.program = Arc::new(program);
+        self.labels = labels;
+        self.pc = 0;
+        self.queue.clear();
+        self.done = false;
+        self.seen_block = false;
+    }
+
+    /// The next segment, `Ok(None)` at the end of the program, or the error that ends it.
+    pub fn next_segment(&mut self) -> Result<Option<Segment>, NcError> {
+        loop {
+            if let Some(s) = self.queue.pop_front() {
+                return Ok(Some(s));
+            }
+            if self.done {
+                return Ok(None);
+            }
+            if let Err(e) = self.step() {
+                self.done = true;
+                return Err(e);
+            }
+        }
+    }
+
+    /// The modal state after the last executed block.
+    pub fn state(&self) -> &ModalState {
+        &self.state
+    }
+
+    /// The 1-based line of the first block numbered `N n`, if any.
+    pub fn label_line(&self, n: u32) -> Option<u32> {
+        self.labels.get(&n).map(|&i| self.program.lines[i].line_no)
+    }
+
+    /// Executes the line at the program counter, queueing its segments.
+    fn step(&mut self) -> Result<(), NcError> {
+        let program = self.program.clone();
+        let Some(line) = program.lines.get(self.pc) else {
+            self.done = true;
+            return Ok(());
+        };
+        self.pc += 1;
+        if line.block_delete && self.opts.block_delete {
+            return Ok(());
+        }
+        let block = match &line.kind {
+            LineKind::Percent => {
+                if self.seen_block {
+                    self.done = true;
+                }
+                return Ok(());
+            }
+            LineKind::ProgramNumber { .. } => return Ok(()),
+            LineKind::Empty => None,
+            LineKind::Block(b) => {
+                self.seen_block = true;
+                Some(b)
+            }
+            #[allow(unreachable_patterns)]
+            _ => {
+                return Err(NcError::new(
+                    &self.src,
+                    line.span,
+                    "this statement is not supported yet (Custom Macro B comes in a later issue)",
+                ));
+            }
+        };
+        let words = match block {
+            Some(b) => Words::collect(&self.src, b)?,
+            None => Words::collect(&self.src, &Default::default())?,
+        };
+        let mut ex = Exec {
+            cfg: &self.cfg,
+            opts: &self.opts,
+            src: &self.src,
+            st: &mut self.state,
+            w: words,
+            source: Source {
+                file: self.src.name.clone(),
+                line: line.line_no,
+                n: line.n.map(|n| n.value),
+            },
+            line_span: line.span,
+            out: Vec::new(),
+            end: false,
+        };
+        ex.run(line)?;
+        let Exec { out, end, .. } = ex;
+        self.queue.extend(out);
+        if end {
+            self.done = true;
+        }
+        Ok(())
+    }
+}
+
+impl Iterator for Interpreter {
+    type Item = Result<Segment, NcError>;
+    /// Segments until the end of the program; an error is the last item.
+    fn next(&mut self) -> Option<Self::Item> {
+        self.next_segment().transpose()
+    }
+}
+
+/// Parses and runs `src` to its end: every segment, or the first error (parser or interpreter).
+///
+/// ```
+/// use cnc402_config::MachineConfig;
+/// use cnc402_lang::SourceFile;
+/// let cfg = MachineConfig::default_machine();
+/// let segs = cnc402_interp::run_program(&cfg, &SourceFile::new("a.nc", "G1 X10 F100\nM30\n"))
+///     .unwrap();
+/// assert_eq!(segs.len(), 2);
+/// let err = cnc402_interp::run_program(&cfg, &SourceFile::new("b.nc", "G1 X10\n")).unwrap_err();
+/// assert_eq!(err.to_string(), "b.nc:1:1: zero feed in a motion block (expected an F word > 0 in this or an earlier block)\n    G1 X10");
+/// ```
+pub fn run_program(cfg: &MachineConfig, src: &SourceFile) -> Result<Vec<Segment>, NcError> {
+    run_program_with(cfg, Options::default(), src)
+}
+
+/// [`run_program`] with explicit operator switches.
+pub fn run_program_with(
+    cfg: &MachineConfig,
+    opts: Options,
+    src: &SourceFile,
+) -> Result<Vec<Segment>, NcError> {
+    let program = cnc402_lang::parse(src)?;
+    let mut it = Interpreter::with_options(cfg, opts);
+    it.load(src.clone(), program);
+    it.collect()
+}
+
+/// One block being executed.
+pub(crate) struct Exec<'a> {
+    pub cfg: &'a MachineConfig,
+    pub opts: &'a Options,
+    pub src: &'a SourceFile,
+    pub st: &'a mut ModalState,
+    pub w: Words,
+    pub source: Source,
+    pub line_span: Span,
+    pub out: Vec<Segment>,
+    /// M2/M30 was executed.
+    pub end: bool,
+}
+
+/// `(MSG, text)` → `text`.
+fn msg_text(c: &Comment) -> Option<String> {
+    let t = c.text.trim_start();
+    if t.len() >= 4 && t[..3].eq_ignore_ascii_case("MSG") && t.as_bytes()[3] == b',' {
+        Some(t[4..].trim().to_string())
+    } else {
+        None
+    }
+}
+
+fn group_name(g: GGroup) -> &'static str {
+    match g {
+        GGroup::NonModal => "00 (one-shot)",
+        GGroup::Motion => "01 (motion)",
+        GGroup::Plane => "02 (plane)",
+        GGroup::Distance => "03 (G90/G91)",
+        GGroup::FeedMode => "05 (feed mode)",
+        GGroup::Units => "06 (units)",
+        GGroup::Cycle => "09 (canned cycle)",
+        GGroup::ReturnMode => "10 (cycle return)",
+        GGroup::WorkOffset => "14 (work offset)",
+    }
+}
+
+/// M code groups: two codes of one group in a block are an error.
+fn m_group(code: u32) -> Result<u8, String> {
+    Ok(match code {
+        0 | 1 | 2 | 30 => 0,
+        3..=5 => 1,
+        6 => 2,
+        29 => 3,
+        98 | 99 => {
+            return Err(format!(
+                "M{code} (sub-program call/return) is not supported yet: it comes with Custom Macro B"
+            ));
+        }
+        _ => return Err(format!("unknown M code M{code}")),
+    })
+}
+
+impl Exec<'_> {
+    pub fn err(&self, span: Span, msg: impl Into<String>) -> NcError {
+        NcError::new(self.src, span, msg)
+    }
+
+    /// The span of `letter`'s word if the block has one, else of the whole block.
+    pub fn span_of(&self, letters: &[char]) -> Span {
+        letters
+            .iter()
+            .find_map(|&l| self.w.peek(l).map(|a| a.span))
+            .unwrap_or(if self.w.span == Span::default() {
+                self.line_span
+            } else {
+                self.w.span
+            })
+    }
+
+    pub fn push(&mut self, kind: SegmentKind) {
+        self.out.push(Segment {
+            kind,
+            source: self.source.clone(),
+        });
+    }
+
+    fn run(&mut self, line: &Line) -> Result<(), NcError> {
+        for c in &line.comments {
+            if let Some(text) = msg_text(c) {
+                self.push(SegmentKind::Message { text });
+            }
+        }
+        self.check_groups()?;
+        self.modes()?;
+        self.feed_word()?;
+        let spindle_m = self.w.m.iter().any(|m| matches!(m.0, 3..=5));
+        self.speed_word(spindle_m)?;
+        if let Some(t) = self.w.take('T') {
+            self.st.tool_selected = self.whole(t, "T (tool number)")?;
+        }
+        self.m_before_motion()?;
+        let dwell = self.w.g.iter().any(|g| g.0 == 4);
+        if dwell {
+            self.dwell()?;
+        } else {
+            self.motion()?;
+        }
+        self.m_after_motion();
+        if let Some((c, a)) = self.w.first_unused() {
+            return Err(self
+                .err(a.span, format!("address {c} is not used in this block"))
+                .with_expected(self.expected_here()));
+        }
+        Ok(())
+    }
+
+    fn expected_here(&self) -> String {
+        let axes: String = self.cfg.axes.iter().map(|a| a.name).collect();
+        if self.st.cycle.is_some() {
+            "a canned cycle word (the plane and drilling axes, R, Q, P, F, K, L) or G, M, S, T"
+                .into()
+        } else {
+            match self.st.motion {
+                Motion::ArcCw | Motion::ArcCcw => {
+                    format!("axis words ({axes}), I J K or R, F, or G, M, S, T")
+                }
+                _ => format!("axis words ({axes}), F, G, M, S, T"),
+            }
+        }
+    }
+
+    /// A whole, non-negative number (tool numbers, repeat counts).
+    pub fn whole(&self, a: Arg, what: &str) -> Result<u32, NcError> {
+        if a.v < 0.0 || a.v.fract() != 0.0 || a.v > 1e9 {
+            return Err(self
+                .err(a.span, format!("{what} must be a whole number >= 0, not {}", fmt_num(a.v)))
+                .with_expected("a whole number"));
+        }
+        Ok(a.v as u32)
+    }
+
+    fn check_groups(&self) -> Result<(), NcError> {
+        let g = &self.w.g;
+        for (i, &(code, grp, span)) in g.iter().enumerate() {
+            if let Some(&(c0, _, _)) = g[..i].iter().find(|x| x.1 == grp) {
+                return Err(self.err(
+                    span,
+                    format!(
+                        "G{c0} and G{code} are both in modal group {}: a block takes one G code of each group",
+                        group_name(grp)
+                    ),
+                ));
+            }
+        }
+        let motion = g.iter().find(|x| x.1 == GGroup::Motion);
+        let cycle = g.iter().find(|x| x.1 == GGroup::Cycle && x.0 != 80);
+        if let (Some(m), Some(c)) = (motion, cycle) {
+            let later = if m.2.start > c.2.start { m } else { c };
+            return Err(self.err(
+                later.2,
+                format!("G{} and G{} in one block: both set what the axis words do", m.0, c.0),
+            ));
+        }
+        if let Some(d) = g.iter().find(|x| x.0 == 4) {
+            if let Some(o) = motion.or(cycle) {
+                return Err(self.err(
+                    o.2,
+                    format!("G{} cannot share a block with G4 (dwell)", o.0),
+                ));
+            }
+            let _ = d;
+        }
+        let mut seen: [Option<u32>; 4] = [None; 4];
+        for &(code, span) in &self.w.m {
+            let grp = m_group(code).map_err(|m| self.err(span, m))?;
+            if let Some(c0) = seen[grp as usize] {
+                return Err(self.err(
+                    span,
+                    format!("M{c0} and M{code} in one block: they contradict each other"),
+                ));
+            }
+            seen[grp as usize] = Some(code);
+        }
+        Ok(())
+    }
+
+    fn modes(&mut self) -> Result<(), NcError> {
+        if let Some((c, _)) = self.w.g_of(GGroup::Units) {
+            self.st.inch = c == 20;
+        }
+        if let Some((c, span)) = self.w.g_of(GGroup::Plane) {
+            let p = match c {
+                17 => Plane::XY,
+                18 => Plane::ZX,
+                _ => Plane::YZ,
+            };
+            let cancelling = self.w.g_of(GGroup::Cycle).is_some_and(|g| g.0 == 80)
+                || self.w.g_of(GGroup::Motion).is_some();
+            if p != self.st.plane && self.st.cycle.is_some() && !cancelling {
+                return Err(self
+                    .err(span, format!("G{c} while a canned cycle is active"))
+                    .with_expected("G80 before changing the plane"));
+            }
+            self.st.plane = p;
+        }
+        if let Some((c, _)) = self.w.g_of(GGroup::Distance) {
+            self.st.incremental = c == 91;
+        }
+        if let Some((c, _)) = self.w.g_of(GGroup::FeedMode) {
+            self.st.feed_per_rev = c == 95;
+        }
+        if let Some((c, _)) = self.w.g_of(GGroup::WorkOffset) {
+            self.st.work_offset = (c - 54) as usize;
+        }
+        if let Some((c, _)) = self.w.g_of(GGroup::ReturnMode) {
+            self.st.return_to_r = c == 99;
+        }
+        if let Some((80, _)) = self.w.g_of(GGroup::Cycle) {
+            self.cancel_cycle();
+        }
+        Ok(())
+    }
+
+    fn cancel_cycle(&mut self) {
+        self.st.cycle = None;
+        self.st.cycle_data = CycleData::default();
+        self.st.rigid = false;
+    }
+
+    fn feed_word(&mut self) -> Result<(), NcError> {
+        if let Some(f) = self.w.take('F') {
+            if f.v < 0.0 {
+                return Err(self.err(f.span, "F must not be negative").with_expected("F >= 0"));
+            }
+            self.st.feed = f.v * self.st.unit();
+        }
+        Ok(())
+    }
+
+    fn speed_word(&mut self, spindle_m: bool) -> Result<(), NcError> {
+        let Some(s) = self.w.take('S') else {
+            return Ok(());
+        };
+        if s.v < 0.0 {
+            return Err(self.err(s.span, "S must not be negative").with_expected("S >= 0"));
+        }
+        if let Some(max) = self
+            .cfg
+            .spindle_index()
+            .and_then(|i| self.cfg.axes[i].max_rpm)
+            && s.v > max
+        {
+            return Err(self.err(
+                s.span,
+                format!("S{} is above the spindle's max_rpm {}", fmt_num(s.v), fmt_num(max)),
+            ));
+        }
+        let changed = s.v != self.st.speed;
+        self.st.speed = s.v;
+        if changed && !spindle_m && self.st.spindle != SpindleDir::Stop {
+            self.push(SegmentKind::Spindle {
+                rpm: s.v,
+                dir: self.st.spindle,
+            });
+        }
+        Ok(())
+    }
+
+    fn m_before_motion(&mut self) -> Result<(), NcError> {
+        let ms = self.w.m.clone();
+        for (code, span) in ms {
+            match code {
+                6 => {
+                    self.st.tool_loaded = Some(self.st.tool_selected);
+                    self.push(SegmentKind::ToolChange {
+                        tool: self.st.tool_selected,
+                    });
+                }
+                29 => self.st.rigid = true,
+                3..=5 => {
+                    if self.cfg.spindle_index().is_none() {
+                        return Err(self.err(span, "no spindle axis is configured"));
+                    }
+                    let dir = match code {
+                        3 => SpindleDir::Cw,
+                        4 => SpindleDir::Ccw,
+                        _ => SpindleDir::Stop,
+                    };
+                    self.st.spindle = dir;
+                    let rpm = if dir == SpindleDir::Stop { 0.0 } else { self.st.speed };
+                    self.push(SegmentKind::Spindle { rpm, dir });
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    fn m_after_motion(&mut self) {
+        let ms = self.w.m.clone();
+        for (code, _) in ms {
+            let kind = match code {
+                0 => StopKind::Program,
+                1 if self.opts.optional_stop => StopKind::Optional,
+                2 => StopKind::End,
+                30 => StopKind::EndRewind,
+                _ => continue,
+            };
+            self.push(SegmentKind::Stop { kind });
+            if matches!(kind, StopKind::End | StopKind::EndRewind) {
+                self.end = true;
+            }
+        }
+    }
+
+    /// G4: `X` seconds or `P` milliseconds (Fanuc; LinuxCNC's P is seconds).
+    fn dwell(&mut self) -> Result<(), NcError> {
+        let x = self.w.take('X');
+        let p = self.w.take('P');
+        let seconds = match (x, p) {
+            (Some(_), Some(p)) => {
+                return Err(self.err(p.span, "G4 takes X (seconds) or P (milliseconds), not both"));
+            }
+            (Some(x), None) => {
+                if x.v < 0.0 {
+                    return Err(self.err(x.span, "dwell time must not be negative"));
+                }
+                x.v
+            }
+            (None, Some(p)) => self.dwell_p(p)?,
+            (None, None) => return Ok(()),
+        };
+        if seconds > 0.0 {
+            self.push(SegmentKind::Dwell { seconds });
+        }
+        Ok(())
+    }
+
+    /// A Fanuc `P` dwell: whole milliseconds → seconds.
+    pub fn dwell_p(&self, p: Arg) -> Result<f64, NcError> {
+        if p.v < 0.0 || p.v.fract() != 0.0 {
+            return Err(self
+                .err(p.span, format!("P{} is not a dwell: P is whole milliseconds", fmt_num(p.v)))
+                .with_expected("P as a whole number of milliseconds, e.g. P500 for 0.5 s"));
+        }
+        Ok(p.v / 1000.0)
+    }
+
+    /// Index of the configured axis `letter`, or an error naming what needs it.
+    pub fn axis(&self, letter: char, span: Span, what: &str) -> Result<usize, NcError> {
+        self.cfg
+            .axis_index(letter)
+            .ok_or_else(|| self.err(span, format!("{what} needs axis {letter}, which is not configured")))
+    }
+
+    /// Feed rate in mm/min for a feed move (G94: F; G95: F × S).
+    pub fn feed_rate(&self, at: Span) -> Result<f64, NcError> {
+        let rate = if self.st.feed_per_rev {
+            if self.st.speed <= 0.0 && self.st.feed > 0.0 {
+                return Err(self
+                    .err(self.w.peek('S').map_or(at, |a| a.span), "feed per revolution (G95) with S0")
+                    .with_expected("S > 0 for a G95 feed"));
+            }
+            self.st.feed * self.st.speed
+        } else {
+            self.st.feed
+        };
+        if rate <= 0.0 {
+            let span = self.w.peek('F').map_or(at, |a| a.span);
+            return Err(self
+                .err(span, "zero feed in a motion block")
+                .with_expected("an F word > 0 in this or an earlier block"));
+        }
+        Ok(rate)
+    }
+
+    /// Soft-limit check of a target, before the segment exists. `hint`: words to blame for an
+    /// axis whose own word is not in the block.
+    pub fn check_limits(&self, end: &AxisPos, hint: &[char]) -> Result<(), NcError> {
+        for (i, ax) in self.cfg.axes.iter().enumerate() {
+            let Some((lo, hi)) = ax.soft_limits else { continue };
+            let v = end[i];
+            if v < lo - 1e-9 || v > hi + 1e-9 {
+                let mut letters = vec![ax.name];
+                letters.extend_from_slice(hint);
+                return Err(self
+                    .err(
+                        self.span_of(&letters),
+                        format!(
+                            "{} {} is outside the soft limits {}..{} (machine coordinates)",
+                            ax.name,
+                            fmt_num(v),
+                            fmt_num(lo),
+                            fmt_num(hi)
+                        ),
+                    )
+                    .with_expected(format!("a target inside {}..{}", fmt_num(lo), fmt_num(hi))));
+            }
+        }
+        Ok(())
+    }
+
+    /// Error if the spindle axis is asked to move while it turns in speed mode.
+    fn check_spindle_still(&self, end: &AxisPos) -> Result<(), NcError> {
+        if let Some(c) = self.cfg.spindle_index()
+            && (end[c] - self.st.pos[c]).abs() > 1e-9
+            && self.st.spindle_turning()
+        {
+            let name = self.cfg.axes[c].name;
+            return Err(self
+                .err(self.span_of(&[name]), format!("{name} positioning while the spindle turns"))
+                .with_expected("M5 before positioning the spindle axis"));
+        }
+        Ok(())
+    }
+
+    pub fn rapid(&mut self, end: AxisPos, hint: &[char]) -> Result<(), NcError> {
+        self.check_limits(&end, hint)?;
+        self.push(SegmentKind::Rapid { end });
+        self.st.pos = end;
+        Ok(())
+    }
+
+    pub fn linear(&mut self, end: AxisPos, feed: f64, hint: &[char]) -> Result<(), NcError> {
+        self.check_limits(&end, hint)?;
+        self.push(SegmentKind::Linear { end, feed });
+        self.st.pos = end;
+        Ok(())
+    }
+
+    /// Axis words of the block → machine targets (G53: machine coordinates as given).
+    fn targets(&mut self, machine: bool) -> (AxisPos, bool) {
+        let mut end = self.st.pos;
+        let mut any = false;
+        let unit = self.st.unit();
+        let off = self.cfg.work_offsets[self.st.work_offset];
+        for (i, ax) in self.cfg.axes.iter().enumerate() {
+            if let Some(a) = self.w.take(ax.name) {
+                any = true;
+                let v = if ax.kind.is_rotary() { a.v } else { a.v * unit };
+                end[i] = if machine {
+                    v
+                } else if self.st.incremental {
+                    self.st.pos[i] + v
+                } else {
+                    v + off[i]
+                };
+            }
+        }
+        (end, any)
+    }
+
+    fn motion(&mut self) -> Result<(), NcError> {
+        let g53 = self.w.g.iter().find(|g| g.0 == 53).map(|g| g.2);
+        if let Some((code, _)) = self.w.g_of(GGroup::Motion) {
+            self.st.motion = match code {
+                0 => Motion::Rapid,
+                1 => Motion::Linear,
+                2 => Motion::ArcCw,
+                _ => Motion::ArcCcw,
+            };
+            self.cancel_cycle();
+        }
+        if let Some((code, span)) = self.w.g_of(GGroup::Cycle)
+            && let Some(c) = Cycle::from_code(code)
+        {
+            if let Some(s) = g53 {
+                return Err(self.err(s, "G53 cannot be used in a canned cycle"));
+            }
+            if self.st.cycle.is_none() {
+                let (_, _, d) = self.plane_letters();
+                let id = self.axis(d, span, "a canned cycle in this plane")?;
+                self.st.cycle_data = CycleData {
+                    initial: self.st.pos[id],
+                    ..CycleData::default()
+                };
+            }
+            self.st.cycle = Some(c);
+            return self.cycle(c, span);
+        }
+        if let Some(c) = self.st.cycle {
+            if let Some(s) = g53 {
+                return Err(self.err(s, "G53 cannot be used in a canned cycle"));
+            }
+            let span = self.w.span;
+            return self.cycle(c, span);
+        }
+        if let Some(s) = g53 {
+            if !matches!(self.st.motion, Motion::Rapid | Motion::Linear) {
+                return Err(self.err(s, "G53 works only with G0 or G1"));
+            }
+            if self.st.incremental {
+                return Err(self
+                    .err(s, "G53 in G91 (Fanuc ignores it; cnc402 refuses)")
+                    .with_expected("G90 with G53"));
+            }
+        }
+        let motion_span = self
+            .w
+            .g_of(GGroup::Motion)
+            .map(|g| g.1)
+            .unwrap_or(self.w.span);
+        match self.st.motion {
+            Motion::Rapid | Motion::Linear => {
+                let (end, any) = self.targets(g53.is_some());
+                if !any {
+                    return Ok(());
+                }
+                self.check_spindle_still(&end)?;
+                if self.st.motion == Motion::Rapid {
+                    self.rapid(end, &[])
+                } else {
+                    let feed = self.feed_rate(motion_span)?;
+                    self.linear(end, feed, &[])
+                }
+            }
+            Motion::ArcCw | Motion::ArcCcw => self.arc(motion_span),
+        }
+    }
+
+    /// (first plane axis, second plane axis, normal / drilling axis) letters.
+    pub fn plane_letters(&self) -> (char, char, char) {
+        match self.st.plane {
+            Plane::XY => ('X', 'Y', 'Z'),
+            Plane::ZX => ('Z', 'X', 'Y'),
+            Plane::YZ => ('Y', 'Z', 'X'),
+        }
+    }
+
+    fn arc(&mut self, span: Span) -> Result<(), NcError> {
+        let cw = self.st.motion == Motion::ArcCw;
+        let (la, lb, ln) = self.plane_letters();
+        // The plane's centre offsets, in the order of (first, second) axis.
+        let (oa, ob) = match self.st.plane {
+            Plane::XY => ('I', 'J'),
+            Plane::ZX => ('K', 'I'),
+            Plane::YZ => ('J', 'K'),
+        };
+        let (end, any) = self.targets(false);
+        let r = self.w.take('R');
+        let (wa, wb) = if r.is_some() {
+            // Fanuc: with R given, I/J/K are ignored.
+            self.w.consume(oa);
+            self.w.consume(ob);
+            (None, None)
+        } else {
+            (self.w.take(oa), self.w.take(ob))
+        };
+        if !any && r.is_none() && wa.is_none() && wb.is_none() {
+            return Ok(());
+        }
+        let ia = self.axis(la, span, "an arc in this plane")?;
+        let ib = self.axis(lb, span, "an arc in this plane")?;
+        let inn = self.cfg.axis_index(ln);
+        self.check_spindle_still(&end)?;
+        let feed = self.feed_rate(span)?;
+        let unit = self.st.unit();
+        let start = (self.st.pos[ia], self.st.pos[ib]);
+        let stop = (end[ia], end[ib]);
+        let tol = self.cfg.interp.arc_tolerance;
+        let g = match r {
+            Some(r) => arc::arc_radius(start, stop, r.v * unit, cw, tol),
+            None => {
+                if wa.is_none() && wb.is_none() {
+                    return Err(self
+                        .err(span, format!("G{} needs the centre ({oa}, {ob}) or R", if cw { 2 } else { 3 }))
+                        .with_expected(format!("{oa}/{ob} or R")));
+                }
+                let off = (
+                    wa.map_or(0.0, |a| a.v * unit),
+                    wb.map_or(0.0, |a| a.v * unit),
+                );
+                arc::arc_center(start, stop, off, cw, tol)
+            }
+        };
+        let g = g.map_err(|e| {
+            let at = r.map(|r| r.span).unwrap_or(span);
+            match e {
+                ArcError::ZeroRadius => self.err(at, "arc radius is zero"),
+                ArcError::NotOnCircle {
+                    start_radius,
+                    end_radius,
+                } => self
+                    .err(
+                        self.span_of(&[la, lb]),
+                        format!(
+                            "arc end point is not on the circle: start radius {}, end radius {} (difference {} > tolerance {})",
+                            fmt_num(start_radius),
+                            fmt_num(end_radius),
+                            fmt_num((start_radius - end_radius).abs()),
+                            fmt_num(tol)
+                        ),
+                    )
+                    .with_expected("an end point at the start point's distance from the centre"),
+                ArcError::ImpossibleRadius { r, chord } => self
+                    .err(
+                        at,
+                        format!(
+                            "R arc with impossible radius: R {} but the end point is {} away",
+                            fmt_num(r.abs()),
+                            fmt_num(chord)
+                        ),
+                    )
+                    .with_expected(format!("|R| >= {}", fmt_num(chord / 2.0))),
+                ArcError::RFullCircle => self
+                    .err(at, "R arc ending at its start point: the circle is not determined")
+                    .with_expected("I/J/K for a full circle"),
+            }
+        })?;
+        for (a, b) in arc::extremes(&g, cw) {
+            let mut p = end;
+            p[ia] = a;
+            p[ib] = b;
+            self.check_limits(&p, &[la, lb])?;
+        }
+        self.check_limits(&end, &[])?;
+        let mut center = [0.0f64; 3];
+        let xyz = |l: char| (l as u8 - b'X') as usize;
+        center[xyz(la)] = g.center.0;
+        center[xyz(lb)] = g.center.1;
+        center[xyz(ln)] = inn.map_or(0.0, |i| self.st.pos[i]);
+        self.push(SegmentKind::Arc {
+            end,
+            center,
+            plane: self.st.plane,
+            dir: if cw { ArcDir::Cw } else { ArcDir::Ccw },
+            turns: g.turns,
+            feed,
+        });
+        self.st.pos = end;
+        Ok(())
+    }
+}

@@ -1,0 +1,241 @@
+//! A block's words sorted for execution: G codes with their modal group, M codes, and one value
+//! per other address letter. Every value that is read is marked used, so that a word the block
+//! cannot use is reported instead of silently ignored.
+
+use cnc402_lang::ast::{Block, Span, Value};
+use cnc402_lang::{NcError, SourceFile};
+
+use crate::eval;
+
+/// The value of one address in a block.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Arg {
+    pub v: f64,
+    pub span: Span,
+    /// Written with a decimal point (literal numbers only; expressions count as having one).
+    pub has_point: bool,
+}
+
+/// Fanuc modal groups of the G codes this interpreter knows (group numbers as Fanuc M series).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GGroup {
+    /// 00: G4, G53 (one-shot).
+    NonModal,
+    /// 01: G0 G1 G2 G3.
+    Motion,
+    /// 02: G17 G18 G19.
+    Plane,
+    /// 03: G90 G91.
+    Distance,
+    /// 05: G94 G95.
+    FeedMode,
+    /// 06: G20 G21.
+    Units,
+    /// 09: G73 G74 G76 G80-G89.
+    Cycle,
+    /// 10: G98 G99.
+    ReturnMode,
+    /// 14: G54-G59.
+    WorkOffset,
+}
+
+/// The modal group of G code `code`, or the reason it cannot be run.
+pub fn g_group(code: u32) -> Result<GGroup, String> {
+    use GGroup::*;
+    Ok(match code {
+        4 | 53 => NonModal,
+        0..=3 => Motion,
+        17..=19 => Plane,
+        90 | 91 => Distance,
+        94 | 95 => FeedMode,
+        20 | 21 => Units,
+        73 | 74 | 76 | 80..=89 => Cycle,
+        98 | 99 => ReturnMode,
+        54..=59 => WorkOffset,
+        10 | 11 => return Err(format!("G{code} (programmable data input) is not supported yet")),
+        27..=30 => return Err(format!("G{code} (reference position return) is not supported yet")),
+        40..=42 => return Err(format!("G{code} (cutter radius compensation) is not supported yet")),
+        43 | 44 | 49 => return Err(format!("G{code} (tool length compensation) is not supported yet")),
+        65..=67 => {
+            return Err(format!(
+                "G{code} (macro call) is not supported yet: it comes with Custom Macro B"
+            ));
+        }
+        92 => return Err("G92 (coordinate system setting) is not supported yet".into()),
+        _ => return Err(format!("unknown G code G{code}")),
+    })
+}
+
+/// The words of one block.
+#[derive(Debug)]
+pub struct Words {
+    /// G codes in source order, with their group.
+    pub g: Vec<(u32, GGroup, Span)>,
+    /// M codes in source order.
+    pub m: Vec<(u32, Span)>,
+    args: [Option<Arg>; 26],
+    used: u32,
+    /// The span of the whole block (all its words), for errors not at one word.
+    pub span: Span,
+}
+
+impl Words {
+    /// Sorts `block`'s words; errors on a G/M value that is not a known code, a letter given
+    /// twice, an `N` inside the block, and on expressions that fail to evaluate.
+    pub fn collect(src: &SourceFile, block: &Block) -> Result<Words, NcError> {
+        let mut w = Words {
+            g: Vec::new(),
+            m: Vec::new(),
+            args: [None; 26],
+            used: 0,
+            span: block
+                .words
+                .iter()
+                .map(|w| w.span)
+                .reduce(Span::join)
+                .unwrap_or_default(),
+        };
+        for word in &block.words {
+            let v = eval::value(src, &word.value)?;
+            let has_point = match &word.value {
+                Value::Number(n) => n.has_point,
+                Value::Expr(_) => true,
+            };
+            let here = |m: String| NcError::new(src, word.span, m);
+            match word.letter {
+                'G' | 'M' => {
+                    let l = word.letter;
+                    let code = whole_code(v).ok_or_else(|| {
+                        here(format!(
+                            "{l}{} is not a {l} code: {l} codes here are whole numbers",
+                            fmt_num(v)
+                        ))
+                        .with_expected(format!("a whole {l} number such as {l}1"))
+                    })?;
+                    if l == 'G' {
+                        let grp = g_group(code).map_err(here)?;
+                        w.g.push((code, grp, word.span));
+                    } else {
+                        w.m.push((code, word.span));
+                    }
+                }
+                'N' | 'O' => {
+                    return Err(here(format!(
+                        "address {} is only allowed at the start of a line",
+                        word.letter
+                    )));
+                }
+                c if c.is_ascii_uppercase() => {
+                    let i = (c as u8 - b'A') as usize;
+                    if let Some(prev) = w.args[i] {
+                        let (l, c0) = src.line_col(prev.span.start as usize);
+                        return Err(here(format!(
+                            "address {c} given twice in one block (first at {l}:{c0})"
+                        )));
+                    }
+                    w.args[i] = Some(Arg {
+                        v,
+                        span: word.span,
+                        has_point,
+                    });
+                }
+                c => return Err(here(format!("address {c:?} is not an address letter"))),
+            }
+        }
+        Ok(w)
+    }
+
+    /// The value of `letter`, marking it used.
+    pub fn take(&mut self, letter: char) -> Option<Arg> {
+        let i = (letter as u8).wrapping_sub(b'A') as usize;
+        let a = *self.args.get(i)?;
+        if a.is_some() {
+            self.used |= 1 << i;
+        }
+        a
+    }
+
+    /// The value of `letter` without marking it used.
+    pub fn peek(&self, letter: char) -> Option<Arg> {
+        let i = (letter as u8).wrapping_sub(b'A') as usize;
+        *self.args.get(i)?
+    }
+
+    pub fn has(&self, letter: char) -> bool {
+        self.peek(letter).is_some()
+    }
+
+    /// Marks `letter` used without reading it (a word whose meaning is "ignored, as Fanuc").
+    pub fn consume(&mut self, letter: char) {
+        let _ = self.take(letter);
+    }
+
+    /// The first (in source order) address that was given but not used.
+    pub fn first_unused(&self) -> Option<(char, Arg)> {
+        (0..26)
+            .filter(|i| self.used & (1 << i) == 0)
+            .filter_map(|i| self.args[i].map(|a| ((b'A' + i as u8) as char, a)))
+            .min_by_key(|(_, a)| a.span.start)
+    }
+
+    /// The G code of `group` in this block, if any (the caller has checked there is at most one).
+    pub fn g_of(&self, group: GGroup) -> Option<(u32, Span)> {
+        self.g
+            .iter()
+            .find(|(_, g, _)| *g == group)
+            .map(|&(c, _, s)| (c, s))
+    }
+}
+
+/// `v` as a whole code number, if it is one.
+fn whole_code(v: f64) -> Option<u32> {
+    if v >= 0.0 && v <= 9999.0 && v.fract() == 0.0 {
+        Some(v as u32)
+    } else {
+        None
+    }
+}
+
+/// A number for a message: no trailing zeros.
+pub fn fmt_num(v: f64) -> String {
+    let r = (v * 1e6).round() / 1e6;
+    if r == 0.0 { "0".into() } else { format!("{r}") }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cnc402_lang::ast::LineKind;
+
+    fn words(t: &str) -> Result<Words, NcError> {
+        let src = SourceFile::new("w", t);
+        let p = cnc402_lang::parse(&src).expect("parses");
+        match &p.lines[0].kind {
+            LineKind::Block(b) => Words::collect(&src, b),
+            k => panic!("not a block: {k:?}"),
+        }
+    }
+
+    #[test]
+    fn sorts_codes_and_marks_use() {
+        let mut w = words("G0 G90 X1 Y[2*3] M3 S100").unwrap();
+        assert_eq!(w.g.len(), 2);
+        assert_eq!(w.g_of(GGroup::Distance).map(|g| g.0), Some(90));
+        assert_eq!(w.m[0].0, 3);
+        assert_eq!(w.take('Y').unwrap().v, 6.0);
+        assert_eq!(w.first_unused().unwrap().0, 'X');
+        w.consume('X');
+        w.consume('S');
+        assert!(w.first_unused().is_none());
+    }
+
+    #[test]
+    fn rejects_fractional_codes_duplicates_and_unknown_g() {
+        let e = words("G1.5 X1").unwrap_err();
+        assert!(e.message.contains("G1.5 is not a G code"), "{e}");
+        let e = words("G1 X1 X2").unwrap_err();
+        assert_eq!((e.col, e.message.as_str()), (7, "address X given twice in one block (first at 1:4)"));
+        assert!(words("G7").unwrap_err().message.contains("unknown G code G7"));
+        assert!(words("G41 D1").unwrap_err().message.contains("not supported yet"));
+    }
+}
