@@ -1,1 +1,11 @@
-//! (filled in by its issue)
+//! cnc402-drives: CAN frames and CANopen messages (`wire`), the bus abstraction with an
+//! in-process simulated bus and a fault injector (`bus`), a small object dictionary (`od`),
+//! and the simulated CiA 402 drive (`sim`). Time is always passed in ([`time::Instant`]).
+
+#![forbid(unsafe_code)]
+
+pub mod bus;
+pub mod time;
+pub mod wire;
+
+pub use time::Instant;
