@@ -1,0 +1,20 @@
+%
+O2000 (DRILLING CYCLES IN G17: G81 G82 G73 G83, G98 G99, K AND L)
+N10 G21 G90 G17 G94 G54
+N20 T1 M6
+N30 M3 S1000
+N40 G0 X0 Y0 Z20.
+N50 G98 G81 X10. Y10. Z-5. R2. F120
+N60 X20.                      (second hole, same data)
+N70 G99 X30.                  (return to R)
+N80 G80 G0 Z20.
+N90 G99 G82 X10. Y20. Z-4. R1. P500 F100
+N100 G98 G73 X20. Y20. Z-3. R1. Q1.2 F90
+N110 G83 X30. Y20. Z-4. R2. Q2.5 F80
+N120 G80
+N130 G91 G98 G81 X10. Y0 Z-6. R-18. K3 F150   (G91: R from initial level, Z from R)
+N140 G90 G80 G0 Z20.
+N150 G99 G81 X0 Y40. Z-2. R3. L2 F100      (L repeats like K; G90 drills the same hole twice)
+N160 G80 M5
+N170 M30
+%

@@ -1,0 +1,16 @@
+%
+O5000 (CYCLES IN G18 AND G19)
+N10 G21 G90 G94 G54
+N20 M3 S1000
+N30 G0 X50. Y20. Z0
+N40 G18 G98 G81 X40. Z10. Y-5. R15. F100   (drills along Y; X Z is the hole position)
+N50 G83 X30. Y-6. R15. Q4. F100
+N60 G80
+N70 G0 X50. Y0 Z0
+N80 G19 G99 G81 Y10. Z5. X30. R45. F100     (drills along X)
+N90 G84 Y20. X35. R45. F1000               (tap along X, pitch 1)
+N100 G76 Y30. X40. R45. Q0.5 F100          (shift +Y in G19)
+N110 G80
+N120 G17
+N130 M30
+%
