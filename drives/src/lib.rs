@@ -5,6 +5,7 @@
 #![forbid(unsafe_code)]
 
 pub mod bus;
+pub mod od;
 pub mod time;
 pub mod wire;
 

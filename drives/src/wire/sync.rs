@@ -21,10 +21,8 @@ impl SyncRepr {
             return Err(WireError::WrongCobId(frame.id()));
         }
         let counter = canopen_rs::sync::decode(frame.data()).map_err(|_| WireError::BadLength)?;
-        if let Some(c) = counter {
-            if c == 0 || c > 240 {
-                return Err(WireError::Invalid("SYNC counter outside 1..=240"));
-            }
+        if let Some(0 | 241..) = counter {
+            return Err(WireError::Invalid("SYNC counter outside 1..=240"));
         }
         Ok(SyncRepr { counter })
     }

@@ -1,0 +1,579 @@
+//! A small object dictionary: (index, sub-index) → typed value with access rights, a
+//! PDO-mappable flag and an optional value range; errors map to SDO abort codes. Used by the
+//! simulated drive's SDO server.
+//!
+//! Not canopen-rs 0.6.1's `ObjectDictionary`: it has no PDO-mappable flag (needed for abort
+//! 0x06040041), reports a missing sub-index like a missing object (no 0x06090011), and caps
+//! strings at 32 bytes (datatypes.rs ~29).
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use crate::wire::AbortCode;
+
+/// A CANopen basic data type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DataType {
+    /// BOOLEAN (1 byte on SDO, 1 bit in a PDO).
+    Boolean,
+    /// INTEGER8.
+    Integer8,
+    /// INTEGER16.
+    Integer16,
+    /// INTEGER32.
+    Integer32,
+    /// INTEGER64.
+    Integer64,
+    /// UNSIGNED8.
+    Unsigned8,
+    /// UNSIGNED16.
+    Unsigned16,
+    /// UNSIGNED32.
+    Unsigned32,
+    /// UNSIGNED64.
+    Unsigned64,
+    /// VISIBLE_STRING.
+    VisibleString,
+    /// OCTET_STRING.
+    OctetString,
+    /// DOMAIN.
+    Domain,
+}
+
+impl DataType {
+    /// Bytes of a fixed-size type; `None` for strings and domains.
+    pub const fn size(self) -> Option<usize> {
+        match self {
+            DataType::Boolean | DataType::Integer8 | DataType::Unsigned8 => Some(1),
+            DataType::Integer16 | DataType::Unsigned16 => Some(2),
+            DataType::Integer32 | DataType::Unsigned32 => Some(4),
+            DataType::Integer64 | DataType::Unsigned64 => Some(8),
+            DataType::VisibleString | DataType::OctetString | DataType::Domain => None,
+        }
+    }
+    /// Bits when mapped into a PDO; `None` for types that cannot be mapped.
+    pub const fn pdo_bits(self) -> Option<u8> {
+        match self {
+            DataType::Boolean => Some(1),
+            t => match t.size() {
+                Some(n) => Some((n * 8) as u8),
+                None => None,
+            },
+        }
+    }
+    const fn signed(self) -> bool {
+        matches!(
+            self,
+            DataType::Integer8 | DataType::Integer16 | DataType::Integer32 | DataType::Integer64
+        )
+    }
+}
+
+/// A typed value.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Value {
+    /// BOOLEAN.
+    Boolean(bool),
+    /// INTEGER8.
+    I8(i8),
+    /// INTEGER16.
+    I16(i16),
+    /// INTEGER32.
+    I32(i32),
+    /// INTEGER64.
+    I64(i64),
+    /// UNSIGNED8.
+    U8(u8),
+    /// UNSIGNED16.
+    U16(u16),
+    /// UNSIGNED32.
+    U32(u32),
+    /// UNSIGNED64.
+    U64(u64),
+    /// VISIBLE_STRING.
+    VisibleString(String),
+    /// OCTET_STRING.
+    OctetString(Vec<u8>),
+    /// DOMAIN.
+    Domain(Vec<u8>),
+}
+
+impl Value {
+    /// Its data type.
+    pub fn data_type(&self) -> DataType {
+        match self {
+            Value::Boolean(_) => DataType::Boolean,
+            Value::I8(_) => DataType::Integer8,
+            Value::I16(_) => DataType::Integer16,
+            Value::I32(_) => DataType::Integer32,
+            Value::I64(_) => DataType::Integer64,
+            Value::U8(_) => DataType::Unsigned8,
+            Value::U16(_) => DataType::Unsigned16,
+            Value::U32(_) => DataType::Unsigned32,
+            Value::U64(_) => DataType::Unsigned64,
+            Value::VisibleString(_) => DataType::VisibleString,
+            Value::OctetString(_) => DataType::OctetString,
+            Value::Domain(_) => DataType::Domain,
+        }
+    }
+
+    /// The raw bits of a fixed-size value, zero-extended (for PDO packing); `None` for strings.
+    pub fn to_raw(&self) -> Option<u64> {
+        Some(match *self {
+            Value::Boolean(b) => b as u64,
+            Value::I8(v) => v as u8 as u64,
+            Value::I16(v) => v as u16 as u64,
+            Value::I32(v) => v as u32 as u64,
+            Value::I64(v) => v as u64,
+            Value::U8(v) => v as u64,
+            Value::U16(v) => v as u64,
+            Value::U32(v) => v as u64,
+            Value::U64(v) => v,
+            _ => return None,
+        })
+    }
+
+    /// A value of fixed-size type `t` from raw bits (low bits used; sign from the type).
+    pub fn from_raw(t: DataType, raw: u64) -> Option<Value> {
+        Some(match t {
+            DataType::Boolean => Value::Boolean(raw & 1 != 0),
+            DataType::Integer8 => Value::I8(raw as u8 as i8),
+            DataType::Integer16 => Value::I16(raw as u16 as i16),
+            DataType::Integer32 => Value::I32(raw as u32 as i32),
+            DataType::Integer64 => Value::I64(raw as i64),
+            DataType::Unsigned8 => Value::U8(raw as u8),
+            DataType::Unsigned16 => Value::U16(raw as u16),
+            DataType::Unsigned32 => Value::U32(raw as u32),
+            DataType::Unsigned64 => Value::U64(raw),
+            _ => return None,
+        })
+    }
+
+    /// As a signed number (integers and booleans), sign-extended.
+    pub fn as_i64(&self) -> Option<i64> {
+        let t = self.data_type();
+        let raw = self.to_raw()?;
+        let bits = t.size()? * 8;
+        Some(if t.signed() && bits < 64 {
+            let shift = 64 - bits;
+            ((raw << shift) as i64) >> shift
+        } else {
+            raw as i64
+        })
+    }
+
+    /// As an unsigned number (raw bits of integers and booleans).
+    pub fn as_u64(&self) -> Option<u64> {
+        self.to_raw()
+    }
+
+    /// Little-endian bytes as SDO carries them.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        match self {
+            Value::VisibleString(s) => s.as_bytes().to_vec(),
+            Value::OctetString(b) | Value::Domain(b) => b.clone(),
+            v => {
+                let n = v.data_type().size().unwrap_or(0);
+                v.to_raw().unwrap_or(0).to_le_bytes()[..n].to_vec()
+            }
+        }
+    }
+
+    /// Decodes SDO bytes as type `t`; fixed-size types need exactly their size.
+    pub fn from_bytes(t: DataType, bytes: &[u8]) -> Result<Value, OdError> {
+        match t.size() {
+            Some(n) => {
+                if bytes.len() > n {
+                    return Err(OdError::LengthTooHigh);
+                }
+                if bytes.len() < n {
+                    return Err(OdError::LengthTooLow);
+                }
+                let mut b = [0u8; 8];
+                b[..n].copy_from_slice(bytes);
+                Value::from_raw(t, u64::from_le_bytes(b)).ok_or(OdError::LengthMismatch)
+            }
+            None => Ok(match t {
+                DataType::VisibleString => Value::VisibleString(
+                    String::from_utf8(bytes.to_vec()).map_err(|_| OdError::InvalidValue)?,
+                ),
+                DataType::OctetString => Value::OctetString(bytes.to_vec()),
+                _ => Value::Domain(bytes.to_vec()),
+            }),
+        }
+    }
+}
+
+/// Access rights of an entry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Access {
+    /// Read only (may change inside the device, e.g. the statusword).
+    ReadOnly,
+    /// Write only.
+    WriteOnly,
+    /// Read and write.
+    ReadWrite,
+    /// Constant.
+    Const,
+}
+
+impl Access {
+    /// Whether SDO upload is allowed.
+    pub const fn readable(self) -> bool {
+        !matches!(self, Access::WriteOnly)
+    }
+    /// Whether SDO download is allowed.
+    pub const fn writable(self) -> bool {
+        matches!(self, Access::WriteOnly | Access::ReadWrite)
+    }
+}
+
+/// One object dictionary entry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Entry {
+    /// Human-readable name (for messages).
+    pub name: &'static str,
+    /// Current value; its variant fixes the type.
+    pub value: Value,
+    /// Access rights.
+    pub access: Access,
+    /// May be mapped into a PDO.
+    pub pdo_mappable: bool,
+    /// Allowed range of integer values written over SDO (inclusive).
+    pub range: Option<(i64, i64)>,
+}
+
+impl Entry {
+    /// An entry, not PDO-mappable, no range.
+    pub fn new(name: &'static str, access: Access, value: Value) -> Entry {
+        Entry {
+            name,
+            value,
+            access,
+            pdo_mappable: false,
+            range: None,
+        }
+    }
+    /// Marks it PDO-mappable.
+    pub fn mappable(mut self) -> Entry {
+        self.pdo_mappable = true;
+        self
+    }
+    /// Restricts SDO writes to `min..=max`.
+    pub fn range(mut self, min: i64, max: i64) -> Entry {
+        self.range = Some((min, max));
+        self
+    }
+}
+
+/// Why an access failed; [`OdError::abort_code`] gives the SDO abort code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum OdError {
+    /// No such index.
+    NoObject,
+    /// Index exists, sub-index does not.
+    NoSubIndex,
+    /// Write to a read-only or constant entry.
+    ReadOnly,
+    /// Read of a write-only entry.
+    WriteOnly,
+    /// Value type does not match the entry.
+    LengthMismatch,
+    /// More bytes than the type has.
+    LengthTooHigh,
+    /// Fewer bytes than the type has.
+    LengthTooLow,
+    /// Above the entry's range.
+    ValueTooHigh,
+    /// Below the entry's range.
+    ValueTooLow,
+    /// A value the entry does not accept.
+    InvalidValue,
+}
+
+impl OdError {
+    /// The SDO abort code a server answers with.
+    pub const fn abort_code(self) -> AbortCode {
+        match self {
+            OdError::NoObject => AbortCode::NoObject,
+            OdError::NoSubIndex => AbortCode::NoSubIndex,
+            OdError::ReadOnly => AbortCode::WriteReadOnly,
+            OdError::WriteOnly => AbortCode::ReadWriteOnly,
+            OdError::LengthMismatch => AbortCode::LengthMismatch,
+            OdError::LengthTooHigh => AbortCode::LengthTooHigh,
+            OdError::LengthTooLow => AbortCode::LengthTooLow,
+            OdError::ValueTooHigh => AbortCode::ValueTooHigh,
+            OdError::ValueTooLow => AbortCode::ValueTooLow,
+            OdError::InvalidValue => AbortCode::InvalidValue,
+        }
+    }
+}
+
+impl fmt::Display for OdError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let c = self.abort_code();
+        write!(f, "{}", c)
+    }
+}
+
+impl std::error::Error for OdError {}
+
+/// The object dictionary.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ObjectDictionary {
+    objects: BTreeMap<u16, BTreeMap<u8, Entry>>,
+}
+
+impl ObjectDictionary {
+    /// An empty dictionary.
+    pub fn new() -> ObjectDictionary {
+        ObjectDictionary::default()
+    }
+
+    /// Inserts (or replaces) an entry.
+    pub fn insert(&mut self, index: u16, sub: u8, entry: Entry) {
+        self.objects.entry(index).or_default().insert(sub, entry);
+    }
+
+    /// Inserts a variable at sub-index 0.
+    pub fn insert_var(&mut self, index: u16, entry: Entry) {
+        self.insert(index, 0, entry);
+    }
+
+    /// Whether the object (any sub-index) exists.
+    pub fn has_object(&self, index: u16) -> bool {
+        self.objects.contains_key(&index)
+    }
+
+    /// The entry at (index, sub).
+    pub fn entry(&self, index: u16, sub: u8) -> Result<&Entry, OdError> {
+        self.objects
+            .get(&index)
+            .ok_or(OdError::NoObject)?
+            .get(&sub)
+            .ok_or(OdError::NoSubIndex)
+    }
+
+    fn entry_mut(&mut self, index: u16, sub: u8) -> Result<&mut Entry, OdError> {
+        self.objects
+            .get_mut(&index)
+            .ok_or(OdError::NoObject)?
+            .get_mut(&sub)
+            .ok_or(OdError::NoSubIndex)
+    }
+
+    /// Reads as an SDO upload would: fails on write-only entries.
+    pub fn read(&self, index: u16, sub: u8) -> Result<&Value, OdError> {
+        let e = self.entry(index, sub)?;
+        if !e.access.readable() {
+            return Err(OdError::WriteOnly);
+        }
+        Ok(&e.value)
+    }
+
+    /// The value regardless of access rights (device-internal).
+    pub fn get(&self, index: u16, sub: u8) -> Option<&Value> {
+        self.entry(index, sub).ok().map(|e| &e.value)
+    }
+
+    /// Device-internal unsigned read (raw bits); `None` if missing or a string.
+    pub fn get_u64(&self, index: u16, sub: u8) -> Option<u64> {
+        self.get(index, sub)?.as_u64()
+    }
+
+    /// Device-internal signed read; `None` if missing or a string.
+    pub fn get_i64(&self, index: u16, sub: u8) -> Option<i64> {
+        self.get(index, sub)?.as_i64()
+    }
+
+    /// Checks an SDO download of `bytes` without storing it; returns the decoded value.
+    pub fn check_write(&self, index: u16, sub: u8, bytes: &[u8]) -> Result<Value, OdError> {
+        let e = self.entry(index, sub)?;
+        if !e.access.writable() {
+            return Err(OdError::ReadOnly);
+        }
+        let v = Value::from_bytes(e.value.data_type(), bytes)?;
+        if let (Some((min, max)), Some(x)) = (e.range, v.as_i64()) {
+            if x > max {
+                return Err(OdError::ValueTooHigh);
+            }
+            if x < min {
+                return Err(OdError::ValueTooLow);
+            }
+        }
+        Ok(v)
+    }
+
+    /// An SDO download: checks access, length and range, then stores.
+    pub fn write(&mut self, index: u16, sub: u8, bytes: &[u8]) -> Result<(), OdError> {
+        let v = self.check_write(index, sub, bytes)?;
+        self.entry_mut(index, sub)?.value = v;
+        Ok(())
+    }
+
+    /// Device-internal store, ignoring access rights; the type must match.
+    pub fn set(&mut self, index: u16, sub: u8, value: Value) -> Result<(), OdError> {
+        let e = self.entry_mut(index, sub)?;
+        if e.value.data_type() != value.data_type() {
+            return Err(OdError::LengthMismatch);
+        }
+        e.value = value;
+        Ok(())
+    }
+
+    /// Device-internal store of raw bits into a fixed-size entry (PDO unpacking; no
+    /// allocation).
+    pub fn set_raw(&mut self, index: u16, sub: u8, raw: u64) -> Result<(), OdError> {
+        let e = self.entry_mut(index, sub)?;
+        e.value = Value::from_raw(e.value.data_type(), raw).ok_or(OdError::LengthMismatch)?;
+        Ok(())
+    }
+
+    /// Sub-indices of an object, ascending.
+    pub fn subs(&self, index: u16) -> impl Iterator<Item = u8> + '_ {
+        self.objects
+            .get(&index)
+            .into_iter()
+            .flat_map(|m| m.keys().copied())
+    }
+
+    /// All object indices, ascending.
+    pub fn indices(&self) -> impl Iterator<Item = u16> + '_ {
+        self.objects.keys().copied()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn od() -> ObjectDictionary {
+        let mut od = ObjectDictionary::new();
+        od.insert_var(
+            0x1000,
+            Entry::new("device type", Access::Const, Value::U32(0x0002_0192)),
+        );
+        od.insert_var(
+            0x1008,
+            Entry::new(
+                "name",
+                Access::Const,
+                Value::VisibleString("cnc402 sim".into()),
+            ),
+        );
+        od.insert_var(
+            0x6040,
+            Entry::new("controlword", Access::ReadWrite, Value::U16(0)).mappable(),
+        );
+        od.insert_var(
+            0x6041,
+            Entry::new("statusword", Access::ReadOnly, Value::U16(0x250)).mappable(),
+        );
+        od.insert_var(
+            0x6060,
+            Entry::new("mode", Access::ReadWrite, Value::I8(0)).range(-128, 10),
+        );
+        od.insert_var(
+            0x607A,
+            Entry::new("target", Access::ReadWrite, Value::I32(0)).mappable(),
+        );
+        od.insert_var(
+            0x2000,
+            Entry::new("secret", Access::WriteOnly, Value::U8(0)),
+        );
+        od.insert(0x1018, 0, Entry::new("n", Access::Const, Value::U8(4)));
+        od.insert(
+            0x1018,
+            1,
+            Entry::new("vendor", Access::Const, Value::U32(0x1234)),
+        );
+        od
+    }
+
+    #[test]
+    fn reads_and_errors_with_abort_codes() {
+        let od = od();
+        assert_eq!(od.read(0x1000, 0), Ok(&Value::U32(0x0002_0192)));
+        assert_eq!(
+            od.read(0x1000, 0).unwrap().to_bytes(),
+            vec![0x92, 0x01, 0x02, 0x00]
+        );
+        assert_eq!(
+            od.read(0x1008, 0).unwrap().to_bytes(),
+            b"cnc402 sim".to_vec()
+        );
+        assert_eq!(od.read(0x1001, 0), Err(OdError::NoObject));
+        assert_eq!(od.read(0x1018, 5), Err(OdError::NoSubIndex));
+        assert_eq!(od.read(0x2000, 0), Err(OdError::WriteOnly));
+        assert_eq!(OdError::NoObject.abort_code().to_u32(), 0x0602_0000);
+        assert_eq!(OdError::NoSubIndex.abort_code().to_u32(), 0x0609_0011);
+        assert_eq!(OdError::ReadOnly.abort_code().to_u32(), 0x0601_0002);
+        assert_eq!(OdError::WriteOnly.abort_code().to_u32(), 0x0601_0001);
+        assert!(od.entry(0x607A, 0).unwrap().pdo_mappable);
+        assert!(!od.entry(0x1000, 0).unwrap().pdo_mappable);
+        assert_eq!(od.subs(0x1018).collect::<Vec<_>>(), vec![0, 1]);
+    }
+
+    #[test]
+    fn writes_check_access_length_and_range() {
+        let mut od = od();
+        assert_eq!(od.write(0x6041, 0, &[0, 0]), Err(OdError::ReadOnly));
+        assert_eq!(od.write(0x1000, 0, &[0; 4]), Err(OdError::ReadOnly));
+        assert_eq!(od.write(0x6040, 0, &[0x0F]), Err(OdError::LengthTooLow));
+        assert_eq!(
+            od.write(0x6040, 0, &[0x0F, 0, 0]),
+            Err(OdError::LengthTooHigh)
+        );
+        assert_eq!(od.write(0x6040, 0, &[0x0F, 0]), Ok(()));
+        assert_eq!(od.get_u64(0x6040, 0), Some(0x0F));
+        assert_eq!(od.write(0x6060, 0, &[11]), Err(OdError::ValueTooHigh));
+        assert_eq!(od.write(0x6060, 0, &[8]), Ok(()));
+        assert_eq!(od.write(0x607A, 0, &(-5i32).to_le_bytes()), Ok(()));
+        assert_eq!(od.get_i64(0x607A, 0), Some(-5));
+        assert_eq!(od.write(0x2000, 0, &[1]), Ok(()));
+        assert_eq!(od.set(0x6041, 0, Value::U16(0x237)), Ok(()));
+        assert_eq!(
+            od.set(0x6041, 0, Value::U32(1)),
+            Err(OdError::LengthMismatch)
+        );
+        assert_eq!(od.set_raw(0x607A, 0, 0xFFFF_FFFF), Ok(()));
+        assert_eq!(od.get_i64(0x607A, 0), Some(-1));
+        assert_eq!(od.set_raw(0x1008, 0, 1), Err(OdError::LengthMismatch));
+    }
+
+    #[test]
+    fn values_round_trip_through_bytes_and_raw() {
+        let vals = [
+            Value::Boolean(true),
+            Value::I8(-3),
+            Value::I16(-300),
+            Value::I32(i32::MIN),
+            Value::I64(-1),
+            Value::U8(200),
+            Value::U16(0xBEEF),
+            Value::U32(0xDEAD_BEEF),
+            Value::U64(u64::MAX),
+            Value::VisibleString("héllo".into()),
+            Value::OctetString(vec![0, 1, 2]),
+            Value::Domain(vec![]),
+        ];
+        for v in vals {
+            let t = v.data_type();
+            assert_eq!(Value::from_bytes(t, &v.to_bytes()), Ok(v.clone()));
+            if let Some(raw) = v.to_raw() {
+                assert_eq!(Value::from_raw(t, raw), Some(v.clone()));
+                assert_eq!(
+                    t.pdo_bits().map(|b| b as usize),
+                    t.size()
+                        .map(|n| if t == DataType::Boolean { 1 } else { n * 8 })
+                );
+            }
+        }
+        assert_eq!(Value::I16(-300).as_i64(), Some(-300));
+        assert_eq!(Value::U32(0xFFFF_FFFF).as_i64(), Some(0xFFFF_FFFF));
+        assert_eq!(
+            Value::from_bytes(DataType::VisibleString, &[0xFF]),
+            Err(OdError::InvalidValue)
+        );
+    }
+}
