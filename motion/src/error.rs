@@ -1,0 +1,92 @@
+//! `MotionError`: why a segment cannot be planned or a move cannot be started. Heap-free and
+//! `Copy`, so the real-time side can return it without allocating; it names the program line.
+
+use std::fmt;
+
+/// A planning or sequencing error, with the program line (and N number) it came from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionError {
+    pub line: u32,
+    pub n: Option<u32>,
+    pub kind: MotionErrorKind,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MotionErrorKind {
+    /// A feed move (G1/G2/G3) with a feed that is zero, negative or not finite.
+    BadFeed(f64),
+    /// An end position (or arc center) that is not finite; `axis` is the axis letter
+    /// (`'?'` for an arc center).
+    NonFinite { axis: char },
+    /// A dwell that is negative or not finite.
+    BadDwell(f64),
+    /// A spindle speed that is negative or not finite.
+    BadRpm(f64),
+    /// A spindle speed above the axis' `max_rpm` / `max_velocity`.
+    SpindleTooFast { rpm: f64, max_rpm: f64 },
+    /// A spindle command on a machine without a spindle axis.
+    NoSpindle,
+    /// A position move of the spindle axis while it runs in speed mode (M3/M4 active).
+    SpindleRunning,
+    /// An arc whose plane needs an axis the machine does not have.
+    MissingPlaneAxis { axis: char },
+    /// An arc whose start or end lies on its center.
+    ZeroRadius,
+    /// An arc whose start and end radius differ by more than the configured tolerance.
+    RadiusMismatch { start: f64, end: f64 },
+    /// A linear axis would leave its soft limits.
+    SoftLimit { axis: char, value: f64, min: f64, max: f64 },
+    /// The axes' limits give no usable profile (a limit is zero or not finite).
+    BadLimits,
+    /// `Interpolator::start` with a path move that does not begin where the last one ended.
+    NotAtStart,
+    /// `Interpolator::start` while a move is still running.
+    Busy,
+    /// `Interpolator::start` after `request_stop`, before `clear_stop`.
+    Stopped,
+}
+
+impl fmt::Display for MotionError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "line {}", self.line)?;
+        if let Some(n) = self.n {
+            write!(f, " (N{n})")?;
+        }
+        write!(f, ": ")?;
+        match self.kind {
+            MotionErrorKind::BadFeed(v) => write!(f, "feed move with feed {v} (must be > 0)"),
+            MotionErrorKind::NonFinite { axis } => write!(f, "axis {axis}: position not finite"),
+            MotionErrorKind::BadDwell(s) => write!(f, "dwell of {s} s (must be ≥ 0)"),
+            MotionErrorKind::BadRpm(r) => write!(f, "spindle speed {r} rpm (must be ≥ 0)"),
+            MotionErrorKind::SpindleTooFast { rpm, max_rpm } => {
+                write!(f, "spindle speed {rpm} rpm above the maximum {max_rpm} rpm")
+            }
+            MotionErrorKind::NoSpindle => write!(f, "spindle command but no spindle axis"),
+            MotionErrorKind::SpindleRunning => write!(
+                f,
+                "the spindle axis is moved as a position axis while it runs (stop it with M5 first)"
+            ),
+            MotionErrorKind::MissingPlaneAxis { axis } => {
+                write!(f, "arc plane needs axis {axis}, which is not configured")
+            }
+            MotionErrorKind::ZeroRadius => write!(f, "arc start or end lies on its center"),
+            MotionErrorKind::RadiusMismatch { start, end } => {
+                write!(f, "arc radius {start} at the start but {end} at the end")
+            }
+            MotionErrorKind::SoftLimit {
+                axis,
+                value,
+                min,
+                max,
+            } => write!(f, "axis {axis} to {value} leaves its soft limits {min}..{max}"),
+            MotionErrorKind::BadLimits => write!(f, "axis limits give no usable profile"),
+            MotionErrorKind::NotAtStart => {
+                write!(f, "move does not start where the previous one ended")
+            }
+            MotionErrorKind::Busy => write!(f, "a move is still running"),
+            MotionErrorKind::Stopped => write!(f, "motion is stopped"),
+        }
+    }
+}
+
+impl std::error::Error for MotionError {}

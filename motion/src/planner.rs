@@ -1,0 +1,505 @@
+//! The planner: turns each [`Segment`] into a heap-free [`PlannedMove`] — the geometry plus a
+//! jerk-limited path profile s(t) whose speed, acceleration and jerk keep every moving axis
+//! within its limits and the path within the programmed feed. It remembers where the previous
+//! segment ended (and whether the spindle runs), so segments only carry their end points.
+
+use std::f64::consts::{PI, TAU};
+
+use cnc402_config::{AxisKind, MachineConfig};
+
+use crate::error::{MotionError, MotionErrorKind};
+use crate::profile::{JerkProfile, Limits, PathProfile, State, rest_to_rest};
+use crate::segment::{ArcDir, AxisPos, MAX_AXES, Plane, Segment, SegmentKind, SpindleDir, StopKind};
+
+/// A segment made ready for the interpolator. `Copy` and heap-free: the source location is
+/// kept as `line` and `n`, and a message's text stays with the caller's [`Segment`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlannedMove {
+    /// 1-based program line.
+    pub line: u32,
+    /// The block's N number.
+    pub n: Option<u32>,
+    pub kind: MoveKind,
+}
+
+/// What a planned move does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MoveKind {
+    /// A move along a path (G0, G1, G2/G3, taps).
+    Path(PathMove),
+    /// Hold position for `ticks` periods (`seconds` rounded up to whole periods, at least 1).
+    Dwell { seconds: f64, ticks: u64 },
+    /// Spindle speed mode: ramp the spindle axis to `velocity` (deg/s, signed: M3 > 0,
+    /// M4 < 0, M5 = 0) under `acceleration`/`jerk`; the move completes when the spindle is at
+    /// speed (at rest for 0), and the spindle keeps turning during later moves.
+    Spindle {
+        velocity: f64,
+        acceleration: f64,
+        jerk: f64,
+    },
+    /// T with M6: reported to the caller in one tick.
+    ToolChange { tool: u32 },
+    /// M0/M1/M2/M30: reported to the caller in one tick; the caller decides whether to pause.
+    ProgramStop { kind: StopKind },
+    /// An operator message; the text stays with the caller's `Segment`.
+    Message,
+}
+
+/// A move along a path: positions are program (machine) coordinates, every configured axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathMove {
+    pub start: AxisPos,
+    pub end: AxisPos,
+    pub geometry: Geometry,
+    /// Path length in the path parameter's unit: mm over the linear axes that move (degrees
+    /// over the rotary axes when only rotary axes move; arcs: the helix length).
+    pub length: f64,
+    /// The bounds on path speed/acceleration/jerk that every axis's limits and the feed gave.
+    pub limits: Limits,
+    /// s(t) from 0 to `length`, stretched so that it lasts exactly `ticks` periods.
+    pub profile: JerkProfile,
+    /// Number of interpolator periods the move takes (≥ 1); the last one lands on `end`.
+    pub ticks: u64,
+    pub rapid: bool,
+}
+
+/// The shape of a path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Geometry {
+    /// Every axis moves in proportion to s/length.
+    Line,
+    Arc(ArcGeometry),
+}
+
+/// A circular (or slightly spiral, when start and end radius differ within tolerance) arc in
+/// a plane; all other axes move in proportion to s/length (helix).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArcGeometry {
+    pub plane: Plane,
+    pub dir: ArcDir,
+    pub turns: u32,
+    /// Machine X Y Z of the center, as programmed.
+    pub center: [f64; 3],
+    /// Axis indices of the plane's first and second axis (XY: X,Y; ZX: Z,X; YZ: Y,Z).
+    pub axes: [usize; 2],
+    /// The center in the plane's (first, second) axes.
+    pub center_2d: [f64; 2],
+    pub start_angle: f64,
+    /// Signed angle swept (CCW > 0), including the extra full turns.
+    pub sweep: f64,
+    pub start_radius: f64,
+    pub end_radius: f64,
+}
+
+impl PathMove {
+    /// The position at path parameter `s` (0 ≤ s ≤ length), on the true curve.
+    #[inline]
+    pub fn point(&self, s: f64) -> AxisPos {
+        let u = if self.length > 0.0 {
+            s / self.length
+        } else {
+            0.0
+        };
+        let mut p = self.start;
+        for i in 0..MAX_AXES {
+            p.0[i] = self.start.0[i] + (self.end.0[i] - self.start.0[i]) * u;
+        }
+        if let Geometry::Arc(arc) = &self.geometry {
+            let th = arc.start_angle + arc.sweep * u;
+            let r = arc.start_radius + (arc.end_radius - arc.start_radius) * u;
+            let (sin, cos) = th.sin_cos();
+            p.0[arc.axes[0]] = arc.center_2d[0] + r * cos;
+            p.0[arc.axes[1]] = arc.center_2d[1] + r * sin;
+        }
+        p
+    }
+}
+
+/// Plans segments in program order; see the module doc.
+#[derive(Clone, Debug)]
+pub struct Planner {
+    axes: [AxisData; MAX_AXES],
+    n_axes: usize,
+    spindle: Option<usize>,
+    period: f64,
+    arc_tolerance: f64,
+    pos: AxisPos,
+    spindle_running: bool,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct AxisData {
+    name: char,
+    linear: bool,
+    v: f64,
+    a: f64,
+    j: f64,
+    soft: Option<(f64, f64)>,
+    max_rpm: f64,
+}
+
+impl Planner {
+    /// A planner for `config`'s axes and period, starting at machine position 0 with the
+    /// spindle at rest (see [`Planner::set_position`]).
+    pub fn new(config: &MachineConfig) -> Planner {
+        let mut axes = [AxisData::default(); MAX_AXES];
+        let n_axes = config.axes.len().min(MAX_AXES);
+        for (d, a) in axes.iter_mut().zip(&config.axes) {
+            *d = AxisData {
+                name: a.name,
+                linear: a.kind == AxisKind::Linear,
+                v: a.max_velocity,
+                a: a.max_acceleration,
+                j: a.max_jerk,
+                soft: a.soft_limits,
+                max_rpm: a.max_rpm.unwrap_or(0.0),
+            };
+        }
+        Planner {
+            axes,
+            n_axes,
+            spindle: config.spindle_index().filter(|&i| i < MAX_AXES),
+            period: config.bus.period_s(),
+            arc_tolerance: config.interp.arc_tolerance,
+            pos: AxisPos::default(),
+            spindle_running: false,
+        }
+    }
+
+    /// Sets where the next segment starts (machine coordinates; C in program coordinates).
+    pub fn set_position(&mut self, pos: AxisPos) {
+        self.pos = pos;
+        for i in self.n_axes..MAX_AXES {
+            self.pos.0[i] = 0.0;
+        }
+    }
+
+    /// Where the next segment starts.
+    pub fn position(&self) -> AxisPos {
+        self.pos
+    }
+
+    /// True after an M3/M4 with S > 0, until an M5 (or S0).
+    pub fn spindle_running(&self) -> bool {
+        self.spindle_running
+    }
+
+    /// Plans one segment starting where the previous one ended. On error nothing changes.
+    pub fn plan(&mut self, seg: &Segment) -> Result<PlannedMove, MotionError> {
+        let line = seg.source.line;
+        let n = seg.source.n;
+        let err = |kind| MotionError { line, n, kind };
+        let kind = match &seg.kind {
+            SegmentKind::Rapid { end } => {
+                let end = self.check_end(end).map_err(err)?;
+                MoveKind::Path(self.line_move(end, f64::INFINITY, true).map_err(err)?)
+            }
+            SegmentKind::Linear { end, feed } => {
+                check_feed(*feed).map_err(err)?;
+                let end = self.check_end(end).map_err(err)?;
+                MoveKind::Path(self.line_move(end, feed / 60.0, false).map_err(err)?)
+            }
+            SegmentKind::Arc {
+                end,
+                center,
+                plane,
+                dir,
+                turns,
+                feed,
+            } => {
+                check_feed(*feed).map_err(err)?;
+                let end = self.check_end(end).map_err(err)?;
+                if center.iter().any(|c| !c.is_finite()) {
+                    return Err(err(MotionErrorKind::NonFinite { axis: '?' }));
+                }
+                let m = self
+                    .arc_move(end, *center, *plane, *dir, *turns, feed / 60.0)
+                    .map_err(err)?;
+                MoveKind::Path(m)
+            }
+            SegmentKind::Dwell { seconds } => {
+                if !(seconds.is_finite() && *seconds >= 0.0) {
+                    return Err(err(MotionErrorKind::BadDwell(*seconds)));
+                }
+                let ticks = ((seconds / self.period).ceil() as u64).max(1);
+                MoveKind::Dwell {
+                    seconds: *seconds,
+                    ticks,
+                }
+            }
+            SegmentKind::Spindle { rpm, dir } => {
+                let si = self.spindle.ok_or(err(MotionErrorKind::NoSpindle))?;
+                if !(rpm.is_finite() && *rpm >= 0.0) {
+                    return Err(err(MotionErrorKind::BadRpm(*rpm)));
+                }
+                let ax = self.axes[si];
+                let max_rpm = ax.max_rpm.min(ax.v / 6.0);
+                let sign = match dir {
+                    SpindleDir::Cw => 1.0,
+                    SpindleDir::Ccw => -1.0,
+                    SpindleDir::Stop => 0.0,
+                };
+                if sign != 0.0 && *rpm > max_rpm * (1.0 + 1e-12) {
+                    return Err(err(MotionErrorKind::SpindleTooFast {
+                        rpm: *rpm,
+                        max_rpm,
+                    }));
+                }
+                let velocity = sign * rpm.min(max_rpm) * 6.0;
+                self.spindle_running = velocity != 0.0;
+                MoveKind::Spindle {
+                    velocity,
+                    acceleration: ax.a,
+                    jerk: ax.j,
+                }
+            }
+            SegmentKind::ToolChange { tool } => MoveKind::ToolChange { tool: *tool },
+            SegmentKind::Stop { kind } => MoveKind::ProgramStop { kind: *kind },
+            SegmentKind::Message { .. } => MoveKind::Message,
+        };
+        if let MoveKind::Path(m) = &kind {
+            self.pos = m.end;
+        }
+        Ok(PlannedMove { line, n, kind })
+    }
+
+    /// Finite, within soft limits, spindle not moved while running; zeroes unused entries.
+    fn check_end(&self, end: &AxisPos) -> Result<AxisPos, MotionErrorKind> {
+        let mut e = AxisPos::default();
+        for i in 0..self.n_axes {
+            let ax = &self.axes[i];
+            let v = end.0[i];
+            if !v.is_finite() {
+                return Err(MotionErrorKind::NonFinite { axis: ax.name });
+            }
+            self.check_soft(i, v)?;
+            e.0[i] = v;
+        }
+        if let Some(si) = self.spindle
+            && self.spindle_running
+            && e.0[si] != self.pos.0[si]
+        {
+            return Err(MotionErrorKind::SpindleRunning);
+        }
+        Ok(e)
+    }
+
+    fn check_soft(&self, i: usize, v: f64) -> Result<(), MotionErrorKind> {
+        let ax = &self.axes[i];
+        if let Some((min, max)) = ax.soft
+            && ax.linear
+            && !(v >= min - 1e-9 && v <= max + 1e-9)
+        {
+            return Err(MotionErrorKind::SoftLimit {
+                axis: ax.name,
+                value: v,
+                min,
+                max,
+            });
+        }
+        Ok(())
+    }
+
+    /// A straight line: path length over the linear axes that move (rotary if only they
+    /// move); each axis i moving by Δi bounds the path by limit_i · L / |Δi|.
+    fn line_move(&self, end: AxisPos, feed: f64, rapid: bool) -> Result<PathMove, MotionErrorKind> {
+        let start = self.pos;
+        let (mut lin2, mut rot2) = (0.0, 0.0);
+        for i in 0..self.n_axes {
+            let d = end.0[i] - start.0[i];
+            if self.axes[i].linear {
+                lin2 += d * d;
+            } else {
+                rot2 += d * d;
+            }
+        }
+        let length = if lin2 > 0.0 { lin2.sqrt() } else { rot2.sqrt() };
+        let mut lim = Limits {
+            velocity: feed,
+            acceleration: f64::INFINITY,
+            jerk: f64::INFINITY,
+        };
+        if length > 0.0 {
+            for i in 0..self.n_axes {
+                let k = (end.0[i] - start.0[i]).abs() / length;
+                self.bound_axis(&mut lim, i, k);
+            }
+        }
+        self.finish(start, end, Geometry::Line, length, lim, rapid)
+    }
+
+    fn bound_axis(&self, lim: &mut Limits, i: usize, k: f64) {
+        if k > 0.0 {
+            let ax = &self.axes[i];
+            lim.velocity = lim.velocity.min(ax.v / k);
+            lim.acceleration = lim.acceleration.min(ax.a / k);
+            lim.jerk = lim.jerk.min(ax.j / k);
+        }
+    }
+
+    /// Builds the profile and stretches it to a whole number of periods (k ≥ 1 only lowers
+    /// speed, acceleration and jerk).
+    fn finish(
+        &self,
+        start: AxisPos,
+        end: AxisPos,
+        geometry: Geometry,
+        length: f64,
+        lim: Limits,
+        rapid: bool,
+    ) -> Result<PathMove, MotionErrorKind> {
+        let (profile, ticks) = if length > 0.0 {
+            let p = rest_to_rest(length, lim).map_err(|_| MotionErrorKind::BadLimits)?;
+            let ticks = ((p.duration() / self.period).ceil() as u64).max(1);
+            let k = ticks as f64 * self.period / p.duration();
+            (p.time_scaled(k), ticks)
+        } else {
+            (JerkProfile::hold(State::default()), 1)
+        };
+        Ok(PathMove {
+            start,
+            end,
+            geometry,
+            length,
+            limits: lim,
+            profile,
+            ticks,
+            rapid,
+        })
+    }
+
+    /// An arc or helix. Speed bounds (conservative; r = the smaller of the two radii, and
+    /// k = |d(plane point)/ds| ≤ (r_max·|sweep| + |Δr|)/L):
+    /// - plane axes: k·v ≤ v_max; centripetal (k·v)²/r ≤ a_max/2 and tangential k·a ≤
+    ///   a_max·√3/2, so |accel| = √(a_c² + a_t²) ≤ a_max on each plane axis;
+    /// - jerk of circular motion is (j_t − v³/r²)·T + (3·v·a_t/r)·N: we keep (k·v)³/r² ≤
+    ///   j_max/4, 3·(k·v)(k·a)/r ≤ j_max/4 and k·j ≤ j_max/2, so |jerk| ≤ j_max;
+    /// - every other axis moves linearly with s and is bounded like on a line.
+    ///
+    /// The plane limits are the smaller of the two plane axes' limits.
+    fn arc_move(
+        &self,
+        end: AxisPos,
+        center: [f64; 3],
+        plane: Plane,
+        dir: ArcDir,
+        turns: u32,
+        feed: f64,
+    ) -> Result<PathMove, MotionErrorKind> {
+        let start = self.pos;
+        let (l0, l1) = match plane {
+            Plane::XY => ('X', 'Y'),
+            Plane::ZX => ('Z', 'X'),
+            Plane::YZ => ('Y', 'Z'),
+        };
+        let find = |l: char| {
+            self.axes[..self.n_axes]
+                .iter()
+                .position(|a| a.name == l)
+                .ok_or(MotionErrorKind::MissingPlaneAxis { axis: l })
+        };
+        let (p, q) = (find(l0)?, find(l1)?);
+        let cidx = |l: char| match l {
+            'X' => 0,
+            'Y' => 1,
+            _ => 2,
+        };
+        let c = [center[cidx(l0)], center[cidx(l1)]];
+        let r0 = (start.0[p] - c[0]).hypot(start.0[q] - c[1]);
+        let r1 = (end.0[p] - c[0]).hypot(end.0[q] - c[1]);
+        if !(r0 > 1e-9 && r1 > 1e-9) {
+            return Err(MotionErrorKind::ZeroRadius);
+        }
+        if (r0 - r1).abs() > self.arc_tolerance + 1e-9 * r0.max(r1) {
+            return Err(MotionErrorKind::RadiusMismatch { start: r0, end: r1 });
+        }
+        let a0 = (start.0[q] - c[1]).atan2(start.0[p] - c[0]);
+        let a1 = (end.0[q] - c[1]).atan2(end.0[p] - c[0]);
+        let mut base = match dir {
+            ArcDir::Ccw => (a1 - a0).rem_euclid(TAU),
+            ArcDir::Cw => (a0 - a1).rem_euclid(TAU),
+        };
+        let rm = r0.max(r1);
+        // End on start (to rounding) is a whole turn, not 2π − ε plus `turns` more.
+        if (TAU - base) * rm < 1e-9 {
+            base = 0.0;
+        }
+        let mut sweep_abs = base + turns as f64 * TAU;
+        if sweep_abs * rm < 1e-9 {
+            // End = start with turns = 0: a full circle, as G2/G3 with I/J programs it.
+            sweep_abs = base + TAU;
+        }
+        let sweep = match dir {
+            ArcDir::Ccw => sweep_abs,
+            ArcDir::Cw => -sweep_abs,
+        };
+        // Soft limits at the arc's extreme points in the plane.
+        for m in 0..4 {
+            let th = m as f64 * PI / 2.0;
+            let d = if sweep > 0.0 {
+                (th - a0).rem_euclid(TAU)
+            } else {
+                (a0 - th).rem_euclid(TAU)
+            };
+            if d <= sweep_abs {
+                let (i, v) = match m {
+                    0 => (p, c[0] + rm),
+                    1 => (q, c[1] + rm),
+                    2 => (p, c[0] - rm),
+                    _ => (q, c[1] - rm),
+                };
+                self.check_soft(i, v)?;
+            }
+        }
+        let mut h2 = 0.0;
+        for i in 0..self.n_axes {
+            if self.axes[i].linear && i != p && i != q {
+                let d = end.0[i] - start.0[i];
+                h2 += d * d;
+            }
+        }
+        let arc_len = 0.5 * (r0 + r1) * sweep_abs;
+        let length = arc_len.hypot(h2.sqrt());
+        let rmin = r0.min(r1);
+        let k = (rm * sweep_abs + (r1 - r0).abs()) / length;
+        let (ap, bp) = (&self.axes[p], &self.axes[q]);
+        let (vp, amp, jp) = (ap.v.min(bp.v), ap.a.min(bp.a), ap.j.min(bp.j));
+        let mut lim = Limits {
+            velocity: feed
+                .min(vp / k)
+                .min((amp * rmin / 2.0).sqrt() / k)
+                .min((jp * rmin * rmin / 4.0).cbrt() / k),
+            acceleration: amp * 0.75f64.sqrt() / k,
+            jerk: jp / (2.0 * k),
+        };
+        for i in 0..self.n_axes {
+            if i != p && i != q {
+                self.bound_axis(&mut lim, i, (end.0[i] - start.0[i]).abs() / length);
+            }
+        }
+        lim.acceleration = lim
+            .acceleration
+            .min(jp * rmin / (12.0 * k * k * lim.velocity));
+        let geometry = Geometry::Arc(ArcGeometry {
+            plane,
+            dir,
+            turns,
+            center,
+            axes: [p, q],
+            center_2d: c,
+            start_angle: a0,
+            sweep,
+            start_radius: r0,
+            end_radius: r1,
+        });
+        self.finish(start, end, geometry, length, lim, false)
+    }
+}
+
+fn check_feed(feed: f64) -> Result<(), MotionErrorKind> {
+    if feed.is_finite() && feed > 0.0 {
+        Ok(())
+    } else {
+        Err(MotionErrorKind::BadFeed(feed))
+    }
+}
