@@ -1,9 +1,42 @@
 //! Motion: the planner gives every segment a jerk-limited velocity profile within the axes'
 //! limits, and the fixed-period interpolator samples it into per-axis setpoints. Pure: no I/O,
 //! no clock; time advances only by the period passed in.
+//!
+//! # The spindle
+//! `Spindle { rpm, dir }` puts the spindle axis in speed mode: its velocity ramps (jerk-limited,
+//! within its acceleration, jerk and `max_rpm`) to ±rpm·6 deg/s and the move completes when it
+//! is at speed ("spindle at speed"; rpm 0 / M5: when it is at rest). The spindle keeps turning
+//! during later moves and its position keeps counting, never wrapped (an f64 in degrees: after
+//! 10 h at 6000 rpm, 1.3·10⁹ deg, one ulp is 2.4·10⁻⁷ deg = 9·10⁻⁵ counts at 131072
+//! counts/rev, and each sample is computed from the ramp's start, not summed, so errors do not
+//! accumulate). Wrapping to INT32 is [`to_counts_wrapping`], for the drives layer.
+//!
+//! Position moves of the spindle axis (rigid tapping: a `Linear` move of Z with C) are only
+//! allowed with the spindle at rest. The interpreter cannot know where a speed-mode run left
+//! the spindle, so program C coordinates are re-based: when the spindle comes to rest the
+//! interpolator sets `offset = machine C − program C`, and outputs machine C = program C +
+//! offset; a move from program C0 to C1 turns the spindle by exactly C1 − C0 from wherever it
+//! stopped. (Hence the exact-end guarantee of a move holds bit-for-bit for C only while the
+//! offset is 0; otherwise the end is `end[C] + offset`.)
+//!
+//! # Ticks
+//! A move of N ticks outputs samples at t = P, 2P, … NP; its profile is stretched (never
+//! sped up) so that NP is exactly its duration and the N-th sample is the end position,
+//! bit-for-bit. The sample at t = 0 is the previous move's last one, which is this move's
+//! start. Dwells, tool changes, program stops and messages pass through as ticks with a
+//! [`TickState`] and [`MoveEvent`].
 
+pub mod counts;
+pub mod error;
+pub mod interpolator;
+pub mod planner;
 pub mod profile;
 pub mod segment;
 
 pub use cnc402_config::MAX_AXES;
+pub use counts::to_counts_wrapping;
+pub use error::{MotionError, MotionErrorKind};
+pub use interpolator::{Interpolator, MoveEvent, Tick, TickState};
+pub use planner::{ArcGeometry, Geometry, MoveKind, PathMove, PlannedMove, Planner};
+pub use profile::{JerkProfile, Limits, PathProfile, State};
 pub use segment::*;

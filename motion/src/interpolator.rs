@@ -1,0 +1,406 @@
+//! The fixed-period interpolator: samples one [`PlannedMove`] at a time, one period per
+//! [`Interpolator::tick`], into a commanded position for every configured axis. Time is the
+//! tick count times the period, so a late call never distorts the path. It also runs the
+//! spindle in speed mode alongside moves and performs controlled stops along the path.
+//! Nothing here allocates.
+
+use cnc402_config::MachineConfig;
+
+use crate::error::{MotionError, MotionErrorKind};
+use crate::planner::{MoveKind, PathMove, PlannedMove};
+use crate::profile::{JerkProfile, PathProfile, State, velocity_change};
+use crate::segment::{AxisPos, MAX_AXES, StopKind};
+
+/// What one tick produced.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tick {
+    /// Commanded machine position of every configured axis (the spindle axis includes the
+    /// spindle offset, see the crate doc).
+    pub pos: AxisPos,
+    /// Program line and N number of the move this tick belongs to (the last one when idle).
+    pub line: u32,
+    pub n: Option<u32>,
+    pub state: TickState,
+    /// The move given to `start` completed with this tick; `start` the next one.
+    pub finished: bool,
+    /// A non-motion event of the program, reported once (on the tick that finishes it).
+    pub event: Option<MoveEvent>,
+    /// Path speed (path units/s) of this sample.
+    pub path_velocity: f64,
+    /// Spindle speed in deg/s (0 in position mode).
+    pub spindle_velocity: f64,
+}
+
+/// What the interpolator was doing during a tick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TickState {
+    /// No move; holding position.
+    Idle,
+    /// Moving along a path.
+    Moving,
+    /// Holding position for a dwell; `remaining` periods after this one.
+    Dwelling { remaining: u64 },
+    /// Waiting for the spindle to reach the commanded speed.
+    SpindleRamp,
+    /// Reporting a non-motion event (see [`Tick::event`]).
+    Event,
+    /// Decelerating after `request_stop`.
+    Stopping,
+    /// At rest after `request_stop`; `clear_stop` returns to `Idle`.
+    Held,
+}
+
+/// The program's non-motion events, for the caller to act on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MoveEvent {
+    ToolChange { tool: u32 },
+    ProgramStop { kind: StopKind },
+    /// The text is in the caller's `Segment` of this line.
+    Message,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Job {
+    Idle,
+    Held,
+    Path {
+        mv: PathMove,
+        k: u64,
+        /// Stop profile and the tick it starts at.
+        stop: Option<(JerkProfile, u64)>,
+    },
+    Dwell {
+        left: u64,
+    },
+    SpindleRamp,
+    Event(MoveEvent),
+}
+
+#[derive(Clone, Copy, Debug)]
+enum SpindleRun {
+    /// Position mode: machine C = program C + offset.
+    Position,
+    /// Speed mode: C (machine, degrees) = profile sampled `k` periods after its start.
+    Speed { profile: JerkProfile, k: u64 },
+}
+
+#[derive(Clone, Copy, Debug)]
+struct SpindleAxis {
+    index: usize,
+    acceleration: f64,
+    jerk: f64,
+}
+
+/// See the module doc. Built once per machine; every method is allocation-free.
+#[derive(Clone, Debug)]
+pub struct Interpolator {
+    period: f64,
+    spindle: Option<SpindleAxis>,
+    /// Program-coordinate position of the last sample.
+    prog: AxisPos,
+    /// Machine C − program C in position mode (spindle turned in speed mode).
+    offset: f64,
+    spin: SpindleRun,
+    job: Job,
+    stopping: bool,
+    line: u32,
+    n: Option<u32>,
+    last: AxisPos,
+}
+
+impl Interpolator {
+    /// An idle interpolator holding `start` (machine coordinates), spindle at rest, spindle
+    /// offset 0, period from `config.bus.period_us`.
+    pub fn new(config: &MachineConfig, start: AxisPos) -> Interpolator {
+        let n_axes = config.axes.len().min(MAX_AXES);
+        let mut prog = start;
+        for i in n_axes..MAX_AXES {
+            prog.0[i] = 0.0;
+        }
+        let spindle = config
+            .spindle_index()
+            .filter(|&i| i < MAX_AXES)
+            .map(|i| SpindleAxis {
+                index: i,
+                acceleration: config.axes[i].max_acceleration,
+                jerk: config.axes[i].max_jerk,
+            });
+        Interpolator {
+            period: config.bus.period_s(),
+            spindle,
+            prog,
+            offset: 0.0,
+            spin: SpindleRun::Position,
+            job: Job::Idle,
+            stopping: false,
+            line: 0,
+            n: None,
+            last: prog,
+        }
+    }
+
+    /// The period in seconds.
+    pub fn period(&self) -> f64 {
+        self.period
+    }
+
+    /// True when a new move may be started.
+    pub fn is_idle(&self) -> bool {
+        matches!(self.job, Job::Idle) && !self.stopping
+    }
+
+    /// True once a requested stop has brought every axis (and the spindle) to rest.
+    pub fn is_held(&self) -> bool {
+        self.stopping && matches!(self.job, Job::Held) && self.spindle_at_rest()
+    }
+
+    /// True while a stop has been requested and not cleared.
+    pub fn is_stopping(&self) -> bool {
+        self.stopping
+    }
+
+    /// The last commanded machine position.
+    pub fn position(&self) -> AxisPos {
+        self.last
+    }
+
+    /// The last position in program coordinates (the spindle axis without its offset): what
+    /// `Planner::set_position` needs after a stop.
+    pub fn program_position(&self) -> AxisPos {
+        self.prog
+    }
+
+    /// Machine C − program C (the angle the spindle turned in speed mode).
+    pub fn spindle_offset(&self) -> f64 {
+        self.offset
+    }
+
+    fn spindle_at_rest(&self) -> bool {
+        matches!(self.spin, SpindleRun::Position)
+    }
+
+    /// Starts the next move. It must start where the last one ended (program coordinates,
+    /// exactly: the planner chains them); a path move may not turn the spindle axis while it
+    /// runs in speed mode.
+    pub fn start(&mut self, mv: PlannedMove) -> Result<(), MotionError> {
+        let err = |kind| MotionError {
+            line: mv.line,
+            n: mv.n,
+            kind,
+        };
+        if self.stopping {
+            return Err(err(MotionErrorKind::Stopped));
+        }
+        if !matches!(self.job, Job::Idle) {
+            return Err(err(MotionErrorKind::Busy));
+        }
+        self.job = match mv.kind {
+            MoveKind::Path(p) => {
+                if p.start != self.prog {
+                    return Err(err(MotionErrorKind::NotAtStart));
+                }
+                if let Some(sp) = self.spindle
+                    && !self.spindle_at_rest()
+                    && p.end.0[sp.index] != p.start.0[sp.index]
+                {
+                    return Err(err(MotionErrorKind::SpindleRunning));
+                }
+                Job::Path {
+                    mv: p,
+                    k: 0,
+                    stop: None,
+                }
+            }
+            MoveKind::Dwell { ticks, .. } => Job::Dwell {
+                left: ticks.max(1),
+            },
+            MoveKind::Spindle {
+                velocity,
+                acceleration,
+                jerk,
+            } => {
+                let Some(sp) = self.spindle else {
+                    return Err(err(MotionErrorKind::NoSpindle));
+                };
+                let now = self.spindle_state(sp);
+                self.spin = SpindleRun::Speed {
+                    profile: velocity_change(now, velocity, acceleration, jerk),
+                    k: 0,
+                };
+                Job::SpindleRamp
+            }
+            MoveKind::ToolChange { tool } => Job::Event(MoveEvent::ToolChange { tool }),
+            MoveKind::ProgramStop { kind } => Job::Event(MoveEvent::ProgramStop { kind }),
+            MoveKind::Message => Job::Event(MoveEvent::Message),
+        };
+        self.line = mv.line;
+        self.n = mv.n;
+        Ok(())
+    }
+
+    /// The spindle's machine position, velocity and acceleration at the last tick.
+    fn spindle_state(&self, sp: SpindleAxis) -> State {
+        match &self.spin {
+            SpindleRun::Position => State {
+                s: self.prog.0[sp.index] + self.offset,
+                v: 0.0,
+                a: 0.0,
+            },
+            SpindleRun::Speed { profile, k } => profile.sample(*k as f64 * self.period),
+        }
+    }
+
+    /// Decelerates the current move along its own path (jerk-limited, within the move's
+    /// path limits, so axes moving together — Z and C of a tap — stay coupled) and the
+    /// spindle to rest, then holds. A dwell or event is dropped at once. Starting new moves
+    /// is refused until [`Interpolator::clear_stop`].
+    pub fn request_stop(&mut self) {
+        if self.stopping {
+            return;
+        }
+        self.stopping = true;
+        match &mut self.job {
+            Job::Path { mv, k, stop } => {
+                let now = mv.profile.sample(*k as f64 * self.period);
+                let sp = velocity_change(now, 0.0, mv.limits.acceleration, mv.limits.jerk);
+                // The ramp turns back only if the acceleration in hand cannot be taken out
+                // before v reaches 0 — then we are already braking to the end point, and the
+                // planned profile is itself the quickest stop. Same if it would overrun.
+                let reverses = -now.v - now.a * now.a.abs() / (2.0 * mv.limits.jerk) > 0.0;
+                if !reverses && sp.end().s <= mv.length && sp.duration() > 0.0 {
+                    *stop = Some((sp, *k));
+                }
+            }
+            _ => self.job = Job::Held,
+        }
+        if let Some(ax) = self.spindle
+            && let SpindleRun::Speed { .. } = self.spin
+        {
+            let now = self.spindle_state(ax);
+            self.spin = SpindleRun::Speed {
+                profile: velocity_change(now, 0.0, ax.acceleration, ax.jerk),
+                k: 0,
+            };
+        }
+    }
+
+    /// After a stop has come to rest: forget the interrupted move and become idle at the
+    /// held position. Returns false (and does nothing) if not yet held.
+    pub fn clear_stop(&mut self) -> bool {
+        if !self.is_held() {
+            return false;
+        }
+        self.stopping = false;
+        self.job = Job::Idle;
+        true
+    }
+
+    /// Advances one period and returns the setpoints for it.
+    pub fn tick(&mut self) -> Tick {
+        let p = self.period;
+        let mut finished = false;
+        let mut event = None;
+        let mut path_velocity = 0.0;
+        let mut state;
+
+        // The spindle first: a ramp move completes when it is at speed.
+        let mut spindle_pos = None;
+        let mut spindle_velocity = 0.0;
+        let mut ramp_done = true;
+        if let (Some(sp), SpindleRun::Speed { profile, k }) = (self.spindle, &mut self.spin) {
+            *k += 1;
+            let t = *k as f64 * p;
+            let st = profile.sample(t);
+            ramp_done = t >= profile.duration();
+            if ramp_done && profile.end().v == 0.0 {
+                // At rest: position mode again, re-based so that program C continues from
+                // where the spindle stopped.
+                let c = profile.end().s;
+                self.offset = c - self.prog.0[sp.index];
+                self.spin = SpindleRun::Position;
+                spindle_pos = Some(c);
+            } else {
+                spindle_pos = Some(st.s);
+                spindle_velocity = st.v;
+            }
+        }
+
+        match &mut self.job {
+            Job::Idle => state = TickState::Idle,
+            Job::Held => state = TickState::Stopping,
+            Job::Path { mv, k, stop } => {
+                *k += 1;
+                state = TickState::Moving;
+                match stop {
+                    Some((sp, k0)) => {
+                        let t = (*k - *k0) as f64 * p;
+                        let st = sp.sample(t);
+                        self.prog = mv.point(st.s);
+                        path_velocity = st.v;
+                        if t >= sp.duration() {
+                            self.job = Job::Held;
+                        }
+                    }
+                    None if *k >= mv.ticks => {
+                        self.prog = mv.end;
+                        if self.stopping {
+                            self.job = Job::Held;
+                        } else {
+                            finished = true;
+                            self.job = Job::Idle;
+                        }
+                    }
+                    None => {
+                        let st = mv.profile.sample(*k as f64 * p);
+                        self.prog = mv.point(st.s);
+                        path_velocity = st.v;
+                    }
+                }
+            }
+            Job::Dwell { left } => {
+                *left = left.saturating_sub(1);
+                state = TickState::Dwelling { remaining: *left };
+                if *left == 0 {
+                    finished = true;
+                    self.job = Job::Idle;
+                }
+            }
+            Job::SpindleRamp => {
+                state = TickState::SpindleRamp;
+                if ramp_done {
+                    finished = true;
+                    self.job = Job::Idle;
+                }
+            }
+            Job::Event(e) => {
+                state = TickState::Event;
+                event = Some(*e);
+                finished = true;
+                self.job = Job::Idle;
+            }
+        }
+        if self.stopping {
+            state = if self.is_held() {
+                TickState::Held
+            } else {
+                TickState::Stopping
+            };
+        }
+
+        let mut pos = self.prog;
+        if let Some(sp) = self.spindle {
+            pos.0[sp.index] = spindle_pos.unwrap_or(self.prog.0[sp.index] + self.offset);
+        }
+        self.last = pos;
+        Tick {
+            pos,
+            line: self.line,
+            n: self.n,
+            state,
+            finished,
+            event,
+            path_velocity,
+            spindle_velocity,
+        }
+    }
+}
