@@ -216,7 +216,7 @@ impl Exec<'_> {
         }
         if self.st.speed <= 0.0 {
             return Err(self
-                .err(self.w.peek('S').map_or(span, |a| a.span), format!("tapping with S = 0 ({name})"))
+                .err(self.w.peek('S').map_or(span, |a| a.span), format!("tapping with S = 0 ({})", &name[..3]))
                 .with_expected("S > 0 (the pitch is F/S in G94)"));
         }
         let pitch = if self.st.feed_per_rev {
@@ -244,21 +244,23 @@ impl Exec<'_> {
         Ok(())
     }
 
-    fn hint(&self) -> [char; 2] {
-        [self.plane_letters().2, 'R']
+    /// Words to blame for a drilling-axis target out of limits: R for the R level.
+    fn hint(&self, h: &Hole, level: f64) -> [char; 2] {
+        let d = self.plane_letters().2;
+        if level == h.r_level { ['R', d] } else { [d, 'R'] }
     }
 
     fn rapid_d(&mut self, h: &Hole, level: f64) -> Result<(), NcError> {
         let mut p = self.st.pos;
         p[h.id] = level;
-        let hint = self.hint();
+        let hint = self.hint(h, level);
         self.rapid_to(p, &hint)
     }
 
     fn feed_d(&mut self, h: &Hole, level: f64) -> Result<(), NcError> {
         let mut p = self.st.pos;
         p[h.id] = level;
-        let hint = self.hint();
+        let hint = self.hint(h, level);
         self.linear(p, h.feed, &hint)
     }
 
@@ -267,7 +269,7 @@ impl Exec<'_> {
         let mut p = self.st.pos;
         p[h.id] = level;
         p[t.ic] = t.c0 + (level - h.r_level).abs() * t.k;
-        let hint = self.hint();
+        let hint = self.hint(h, level);
         self.linear(p, h.feed, &hint)
     }
 
@@ -297,7 +299,7 @@ impl Exec<'_> {
         let mut p = self.st.pos;
         p[h.ia] += by;
         let l = self.plane_letters().0;
-        self.rapid_to(p, &[l, 'Q'])
+        self.rapid_to(p, &['Q', l])
     }
 
     /// Level at distance `t` from R into the hole.

@@ -598,7 +598,11 @@ impl Exec<'_> {
             let Some((lo, hi)) = ax.soft_limits else { continue };
             let v = end[i];
             if v < lo - 1e-9 || v > hi + 1e-9 {
-                let mut letters = vec![ax.name];
+                // A hint that names the axis itself gives the whole order of blame.
+                let mut letters = Vec::with_capacity(hint.len() + 1);
+                if !hint.contains(&ax.name) {
+                    letters.push(ax.name);
+                }
                 letters.extend_from_slice(hint);
                 return Err(self
                     .err(
