@@ -1,0 +1,312 @@
+//! Canned cycles checked by their geometry rather than by a golden file: peck depths with the
+//! configured d, tap coupling, return planes of every cycle, G91 levels, repeats, planes, and
+//! the G76/G87 shift. Fanuc behaviour throughout; LinuxCNC differences are noted where they are.
+
+use cnc402_config::MachineConfig;
+use cnc402_interp::run_program;
+use cnc402_lang::SourceFile;
+use cnc402_motion::segment::{AxisPos, Segment, SegmentKind, SpindleDir, StopKind};
+
+const X: usize = 0;
+const Y: usize = 1;
+const Z: usize = 2;
+const C: usize = 3;
+
+fn run_cfg(cfg: &MachineConfig, text: &str) -> Vec<Segment> {
+    run_program(cfg, &SourceFile::new("t.nc", text)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn run(text: &str) -> Vec<Segment> {
+    run_cfg(&MachineConfig::default_machine(), text)
+}
+
+fn end(s: &Segment) -> Option<AxisPos> {
+    match &s.kind {
+        SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } | SegmentKind::Arc { end, .. } => {
+            Some(*end)
+        }
+        _ => None,
+    }
+}
+
+/// (kind letter R/F, value of axis `i`) for the motion segments of line `line`.
+fn moves(segs: &[Segment], line: u32, i: usize) -> Vec<(char, f64)> {
+    segs.iter()
+        .filter(|s| s.source.line == line)
+        .filter_map(|s| {
+            let k = match s.kind {
+                SegmentKind::Rapid { .. } => 'R',
+                SegmentKind::Linear { .. } => 'F',
+                _ => return None,
+            };
+            end(s).map(|e| (k, (e[i] * 1e6).round() / 1e6))
+        })
+        .collect()
+}
+
+#[test]
+fn g73_pecks_use_the_configured_retract() {
+    let mut cfg = MachineConfig::default_machine();
+    cfg.interp.peck_retract = 0.3;
+    let segs = run_cfg(&cfg, "G0 Z10\nG73 X0 Y0 Z-5 R1 Q2 F100\nM30\n");
+    assert_eq!(
+        moves(&segs, 2, Z),
+        vec![
+            ('R', 1.0),
+            ('F', -1.0),
+            ('R', -0.7),
+            ('F', -3.0),
+            ('R', -2.7),
+            ('F', -5.0),
+            ('R', 10.0)
+        ]
+    );
+}
+
+#[test]
+fn g83_pecks_return_to_r_and_reenter_to_the_configured_clearance() {
+    let mut cfg = MachineConfig::default_machine();
+    cfg.interp.peck_clearance = 1.0;
+    let segs = run_cfg(&cfg, "G0 Z10\nG99 G83 X0 Y0 Z-7 R2 Q3 F100\nM30\n");
+    assert_eq!(
+        moves(&segs, 2, Z),
+        vec![
+            ('R', 2.0),
+            ('F', -1.0),
+            ('R', 2.0),
+            ('R', 0.0),
+            ('F', -4.0),
+            ('R', 2.0),
+            ('R', -3.0),
+            ('F', -7.0),
+            ('R', 2.0)
+        ]
+    );
+}
+
+/// Every tap move satisfies C = C0 + (R − Z)·360/pitch (G84, M3) or its negative (G74, M4);
+/// the tool leaves the hole on the same helix and C returns to C0.
+#[test]
+fn taps_couple_c_to_z_one_turn_per_pitch() {
+    for (prog, hand, pitch) in [
+        ("M3 S400\nG0 Z10\nG84 X5 Y5 Z-12 R2 F600\nM30\n", 1.0, 1.5),
+        ("M4 S400\nG0 Z10\nG74 X5 Y5 Z-12 R2 F400\nM30\n", -1.0, 1.0),
+        ("M3 S400\nG95\nG0 Z10\nG84 X5 Y5 Z-12 R2 Q4 F1.75\nM30\n", 1.0, 1.75),
+        ("G0 Z10\nM29 S300\nG74 X5 Y5 Z-12 R2 Q5 F375\nM30\n", -1.0, 1.25),
+    ] {
+        let segs = run(prog);
+        let taps: Vec<_> = segs
+            .iter()
+            .filter(|s| matches!(s.kind, SegmentKind::Linear { .. }))
+            .collect();
+        assert!(taps.len() >= 2, "{prog}");
+        for s in &taps {
+            let e = end(s).unwrap();
+            let want = hand * (2.0 - e[Z]) * 360.0 / pitch;
+            assert!((e[C] - want).abs() < 1e-9, "{prog}: C {} want {want}", e[C]);
+            let SegmentKind::Linear { feed, .. } = s.kind else { unreachable!() };
+            assert!((feed - pitch * if prog.contains("M29 S300") { 300.0 } else { 400.0 }).abs() < 1e-9);
+        }
+        let deepest = taps.iter().map(|s| end(s).unwrap()[Z]).fold(f64::MAX, f64::min);
+        assert!((deepest + 12.0).abs() < 1e-9);
+        let last = end(taps.last().unwrap()).unwrap();
+        assert_eq!((last[Z], last[C]), (2.0, 0.0), "{prog}");
+    }
+}
+
+/// Fanuc high-speed peck tapping: each peck goes Q deeper than the last depth (as G73),
+/// backing out by the configured d between pecks; every move is a coupled tap move.
+#[test]
+fn peck_tap_goes_in_by_q_and_out_by_d() {
+    let mut cfg = MachineConfig::default_machine();
+    cfg.interp.peck_retract = 1.0;
+    let segs = run_cfg(&cfg, "M3 S500\nG0 Z5\nG99 G84 X0 Y0 Z-8 R0 Q3 F500\nM30\n");
+    assert_eq!(
+        moves(&segs, 3, Z),
+        vec![
+            ('R', 0.0),
+            ('F', -3.0),
+            ('F', -2.0),
+            ('F', -6.0),
+            ('F', -5.0),
+            ('F', -8.0),
+            ('F', 0.0)
+        ]
+    );
+}
+
+/// A turning spindle is stopped before the tap and restarted (same S and direction) after it;
+/// a spindle at rest in M29 stays at rest. (M29 is cancelled by G80 and group 01 codes, as
+/// Fanuc, so it comes after the positioning block.)
+#[test]
+fn tap_stops_and_restarts_a_turning_spindle_only() {
+    let segs = run("M3 S600\nG0 Z10\nG84 X0 Y0 Z-5 R2 F600\nM30\n");
+    let line3: Vec<_> = segs.iter().filter(|s| s.source.line == 3).map(|s| &s.kind).collect();
+    assert_eq!(line3.first(), Some(&&SegmentKind::Spindle { rpm: 0.0, dir: SpindleDir::Stop }));
+    assert_eq!(line3.last(), Some(&&SegmentKind::Spindle { rpm: 600.0, dir: SpindleDir::Cw }));
+    let rigid = run("G0 Z10\nM29 S600\nG84 X0 Y0 Z-5 R2 F600\nM30\n");
+    assert!(!rigid.iter().any(|s| matches!(s.kind, SegmentKind::Spindle { .. })));
+}
+
+/// Final drilling-axis level of every cycle under G98 (initial level 10) and G99 (R = 2).
+/// G87 returns to the initial level in both (Fanuc: G99 is not used with G87).
+#[test]
+fn every_cycle_returns_to_its_plane() {
+    for cyc in [73, 74, 76, 81, 82, 83, 84, 85, 86, 87, 88, 89] {
+        for (ret, want) in [(98, 10.0), (99, 2.0)] {
+            let spindle = if cyc == 74 { "M4 S500" } else { "M3 S500" };
+            let (r, z) = if cyc == 87 { (-8.0, -2.0) } else { (2.0, -5.0) };
+            let want = if cyc == 87 { 10.0 } else { want };
+            let prog = format!(
+                "{spindle}\nG0 X0 Y0 Z10\nG{ret} G{cyc} X5 Y5 Z{z} R{r} Q1 P100 F500\nM30\n"
+            );
+            let segs = run(&prog);
+            let last = segs
+                .iter()
+                .filter(|s| s.source.line == 3)
+                .filter_map(end)
+                .last()
+                .unwrap();
+            assert_eq!((last[X], last[Y], last[Z]), (5.0, 5.0, want), "{prog}");
+            let deepest = segs.iter().filter_map(end).map(|e| e[Z]).fold(f64::MAX, f64::min);
+            let want_deep = if cyc == 87 { -8.0 } else { -5.0 };
+            assert!((deepest - want_deep).abs() < 1e-9, "{prog}: {deepest}");
+        }
+    }
+}
+
+/// G91 (Fanuc): R is the distance from the initial level, Z from R; X/Y increments repeat with
+/// K. LinuxCNC agrees on R/Z; its repeat word is L, which cnc402 accepts as well.
+#[test]
+fn g91_levels_and_repeats() {
+    for rep in ["K3", "L3"] {
+        let segs = run(&format!("G0 X0 Y0 Z20\nG91 G99 G81 X10 Y5 Z-7 R-15 {rep} F100\nM30\n"));
+        let holes: Vec<_> = segs
+            .iter()
+            .filter_map(|s| match s.kind {
+                SegmentKind::Linear { end, .. } => Some((end[X], end[Y], end[Z])),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(holes, vec![(10.0, 5.0, -2.0), (20.0, 10.0, -2.0), (30.0, 15.0, -2.0)]);
+        // G99 in G91: R stays measured from the initial level (20), not from the R level.
+        let last = segs.iter().filter_map(end).last().unwrap();
+        assert_eq!(last[Z], 5.0);
+    }
+    // K0: the data is stored, nothing moves; the next block with a position drills with it.
+    let segs = run("G0 Z20\nG81 X1 Z-1 R2 K0 F100\nX2\nM30\n");
+    assert!(segs.iter().all(|s| s.source.line != 2));
+    assert_eq!(moves(&segs, 3, Z), vec![('R', 20.0), ('R', 2.0), ('F', -1.0), ('R', 20.0)]);
+}
+
+/// G17 drills along Z, G18 along Y, G19 along X; the other two are the hole position.
+#[test]
+fn cycles_drill_along_the_planes_normal() {
+    let cases = [
+        ("G17", "X5 Y6 Z-3 R1", Z, [(X, 5.0), (Y, 6.0)]),
+        ("G18", "Z5 X6 Y-3 R1", Y, [(Z, 5.0), (X, 6.0)]),
+        ("G19", "Y5 Z6 X-3 R1", X, [(Y, 5.0), (Z, 6.0)]),
+    ];
+    for (plane, words, axis, pos) in cases {
+        let segs = run(&format!("G0 X10 Y10 Z10\n{plane} G99 G81 {words} F100\nM30\n"));
+        let feeds: Vec<_> = segs
+            .iter()
+            .filter_map(|s| match s.kind {
+                SegmentKind::Linear { end, .. } => Some(end),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(feeds.len(), 1);
+        assert_eq!(feeds[0][axis], -3.0, "{plane}");
+        for (i, v) in pos {
+            assert_eq!(feeds[0][i], v, "{plane}");
+        }
+        assert_eq!(segs.iter().filter_map(end).last().unwrap()[axis], 1.0);
+    }
+}
+
+/// G76: at the bottom the spindle stops, C goes to the oriented angle (nearest multiple of
+/// 360°), the tool shifts +Q along the plane's first axis, retracts, shifts back, restarts.
+#[test]
+fn g76_orients_and_shifts_by_q() {
+    for (plane, words, shift_axis) in [
+        ("G17", "X0 Y0 Z-5 R2", X),
+        ("G18", "Z0 X0 Y-5 R2", Z),
+        ("G19", "Y0 Z0 X-5 R2", Y),
+    ] {
+        let segs = run(&format!(
+            "G0 X10 Y10 Z10 C200\nM3 S500\n{plane} G98 G76 {words} Q0.4 F100\nM30\n"
+        ));
+        let l3: Vec<_> = segs.iter().filter(|s| s.source.line == 3).collect();
+        let stop = l3
+            .iter()
+            .position(|s| s.kind == SegmentKind::Spindle { rpm: 0.0, dir: SpindleDir::Stop })
+            .unwrap();
+        let orient = end(l3[stop + 1]).unwrap();
+        assert_eq!(orient[C], 360.0, "{plane}: nearest multiple of 360 to 200");
+        let shifted = end(l3[stop + 2]).unwrap();
+        assert!((shifted[shift_axis] - orient[shift_axis] - 0.4).abs() < 1e-9, "{plane}");
+        let back = end(l3[stop + 4]).unwrap();
+        assert_eq!(back[shift_axis], orient[shift_axis]);
+        assert_eq!(
+            l3.last().unwrap().kind,
+            SegmentKind::Spindle { rpm: 500.0, dir: SpindleDir::Cw }
+        );
+    }
+}
+
+/// G87 back boring: shifted rapid down to R (below the bore), shift back, spindle on, feed up to
+/// Z, shift again and rapid out to the initial level. LinuxCNC's G87 takes I/J/K offsets instead
+/// of Q and is not compared.
+#[test]
+fn g87_back_boring_sequence() {
+    let segs = run("M3 S500\nG0 X0 Y0 Z10\nG87 X5 Y5 Z-4 R-20 Q1.5 F100\nM30\n");
+    let seq: Vec<String> = segs
+        .iter()
+        .filter(|s| s.source.line == 3)
+        .map(|s| match &s.kind {
+            SegmentKind::Rapid { end } => format!("R{},{}", end[X], end[Z]),
+            SegmentKind::Linear { end, .. } => format!("F{},{}", end[X], end[Z]),
+            SegmentKind::Spindle { rpm, .. } => format!("S{rpm}"),
+            k => format!("{k:?}"),
+        })
+        .collect();
+    assert_eq!(
+        seq,
+        [
+            "R5,10", "S0", "R6.5,10", "R6.5,-20", "R5,-20", "S500", "F5,-4", "S0", "R6.5,-4",
+            "R6.5,10", "R5,10", "S500"
+        ]
+    );
+}
+
+/// G88: feed, dwell, spindle stop, program stop (Fanuc: the operator retracts by hand), then on
+/// restart a rapid to the return level and the spindle back on. LinuxCNC's G88 has no rapid out.
+#[test]
+fn g88_stops_at_the_bottom() {
+    let segs = run("M3 S500\nG0 X0 Y0 Z10\nG99 G88 X1 Z-4 R2 P250 F100\nM30\n");
+    let kinds: Vec<_> = segs.iter().filter(|s| s.source.line == 3).map(|s| &s.kind).collect();
+    assert!(matches!(kinds[3], SegmentKind::Dwell { seconds } if *seconds == 0.25));
+    assert_eq!(*kinds[4], SegmentKind::Spindle { rpm: 0.0, dir: SpindleDir::Stop });
+    assert_eq!(*kinds[5], SegmentKind::Stop { kind: StopKind::Program });
+    assert!(matches!(kinds[6], SegmentKind::Rapid { end } if end[Z] == 2.0));
+}
+
+/// Cycle data is modal until G80 (Fanuc); a block without position words does not drill.
+#[test]
+fn cycle_data_is_modal_and_g80_clears_it() {
+    let segs = run("G0 Z10\nG81 X1 Z-3 R2 F100\nF200\nX2\nG80\nX3\nM30\n");
+    assert!(segs.iter().all(|s| s.source.line != 3));
+    assert!(segs.iter().any(|s| s.source.line == 4
+        && matches!(s.kind, SegmentKind::Linear { end, feed } if end[Z] == -3.0 && feed == 200.0)));
+    // After G80, X3 is a plain G0 move (group 01 stays what it was).
+    let l6: Vec<_> = segs.iter().filter(|s| s.source.line == 6).collect();
+    assert_eq!(l6.len(), 1);
+    assert!(matches!(l6[0].kind, SegmentKind::Rapid { end } if end[X] == 3.0 && end[Z] == 10.0));
+    let e = run_program(
+        &MachineConfig::default_machine(),
+        &SourceFile::new("t.nc", "G0 Z10\nG81 X1 Z-3 R2 F100\nG80\nG81 X2 F100\n"),
+    )
+    .unwrap_err();
+    assert_eq!((e.line, e.message.as_str()), (4, "canned cycle G81 needs R (the R level)"));
+}
