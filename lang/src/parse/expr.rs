@@ -229,6 +229,15 @@ impl<'a> Cx<'a> {
                 "`(` starts a comment, not a group; group with `[ ]`",
                 "an expression",
             ),
+            Some(c) if c.is_ascii_alphabetic() => {
+                let n = at.bytes().take_while(u8::is_ascii_alphabetic).count();
+                fail_exp(
+                    at,
+                    n,
+                    format!("unexpected `{}` in expression", &at[..n]),
+                    "an expression",
+                )
+            }
             Some(c) => fail_exp(
                 at,
                 c.len_utf8(),
@@ -246,12 +255,20 @@ impl<'a> Cx<'a> {
             .filter(|(kw, _)| starts_with_kw(i, kw))
             .max_by_key(|(kw, _)| kw.len())
         else {
-            return fail_exp(
+            // A name used like a function is an unknown function; any other letters are
+            // not an operand at all (e.g. the next word after `F=100`): let the caller say.
+            if ws(&i[name_len..]).starts_with('[') {
+                return fail_exp(
+                    i,
+                    name_len,
+                    format!("unknown function `{}`", &i[..name_len]),
+                    "a function name: SIN COS TAN ASIN ACOS ATAN SQRT ABS ROUND FIX FUP LN EXP POW BIN BCD",
+                );
+            }
+            return Err(nom::Err::Error(nom::error::ParseError::from_error_kind(
                 i,
-                name_len,
-                format!("unknown function `{}`", &i[..name_len]),
-                "a number, `[`, `#` or a function name",
-            );
+                nom::error::ErrorKind::Alpha,
+            )));
         };
         if depth >= MAX_DEPTH {
             return self.too_deep(i);

@@ -207,3 +207,217 @@ impl<'a> Cx<'a> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::ast::*;
+    use crate::{SourceFile, parse};
+
+    fn one(s: &str) -> Line {
+        let p = parse(&SourceFile::new("t", s)).unwrap_or_else(|e| panic!("{s:?}: {e}"));
+        assert_eq!(p.lines.len(), 1, "{s:?}");
+        p.lines.into_iter().next().unwrap()
+    }
+
+    fn words(s: &str) -> Vec<Word> {
+        match one(s).kind {
+            LineKind::Block(b) => b.words,
+            k => panic!("{s:?}: not a block: {k:?}"),
+        }
+    }
+
+    fn nums(s: &str) -> Vec<(char, f64, bool)> {
+        words(s)
+            .into_iter()
+            .map(|w| match w.value {
+                Value::Number(n) => (w.letter, n.value, n.has_point),
+                v => panic!("{s:?}: not a number: {v:?}"),
+            })
+            .collect()
+    }
+
+    fn err(s: &str) -> (u32, u32, String) {
+        let e = parse(&SourceFile::new("t", s)).unwrap_err();
+        (e.line, e.col, e.message)
+    }
+
+    #[test]
+    fn percent_and_program_numbers() {
+        assert_eq!(one("%").kind, LineKind::Percent);
+        assert_eq!(one(" % (end)").kind, LineKind::Percent);
+        let l = one("O0001(MAIN)");
+        assert_eq!(
+            l.kind,
+            LineKind::ProgramNumber {
+                number: 1,
+                span: Span::new(0, 5)
+            }
+        );
+        assert_eq!(l.comments[0].text, "MAIN");
+        assert!(matches!(
+            one(":1234").kind,
+            LineKind::ProgramNumber { number: 1234, .. }
+        ));
+        assert!(matches!(
+            one("o 12").kind,
+            LineKind::ProgramNumber { number: 12, .. }
+        ));
+    }
+
+    #[test]
+    fn sequence_numbers() {
+        let l = one("N10 G1 X1");
+        assert_eq!(
+            l.n,
+            Some(SeqNo {
+                value: 10,
+                span: Span::new(0, 3)
+            })
+        );
+        let l = one("N100");
+        assert_eq!(l.n.map(|n| n.value), Some(100));
+        assert_eq!(l.kind, LineKind::Empty);
+        assert_eq!(one("n 5 g0").n.map(|n| n.value), Some(5));
+    }
+
+    #[test]
+    fn words_with_and_without_point() {
+        assert_eq!(
+            nums("G01 X10 Y-2.5 Z.5 A+3 B1."),
+            vec![
+                ('G', 1.0, false),
+                ('X', 10.0, false),
+                ('Y', -2.5, true),
+                ('Z', 0.5, true),
+                ('A', 3.0, false),
+                ('B', 1.0, true)
+            ]
+        );
+        assert_eq!(nums("X1E2"), vec![('X', 1.0, false), ('E', 2.0, false)]);
+        assert_eq!(
+            nums("G38.2 Z-5"),
+            vec![('G', 38.2, true), ('Z', -5.0, false)]
+        );
+    }
+
+    #[test]
+    fn several_g_words_and_no_spaces() {
+        assert_eq!(
+            nums("G90G54G0X1Y2"),
+            vec![
+                ('G', 90.0, false),
+                ('G', 54.0, false),
+                ('G', 0.0, false),
+                ('X', 1.0, false),
+                ('Y', 2.0, false)
+            ]
+        );
+    }
+
+    #[test]
+    fn lower_case_is_folded_and_space_after_letter_is_allowed() {
+        assert_eq!(
+            nums("g1 x 10 y\t-2"),
+            vec![('G', 1.0, false), ('X', 10.0, false), ('Y', -2.0, false)]
+        );
+        let w = words("x 10");
+        assert_eq!(w[0].span, Span::new(0, 4));
+    }
+
+    #[test]
+    fn comments_anywhere() {
+        let l = one("G1(first)X1 (second) Y2 ; third");
+        let texts: Vec<&str> = l.comments.iter().map(|c| c.text.as_str()).collect();
+        assert_eq!(texts, ["first", "second", " third"]);
+        assert_eq!(l.comments[0].span, Span::new(2, 9));
+        let LineKind::Block(b) = l.kind else { panic!() };
+        assert_eq!(b.words.len(), 3);
+        assert_eq!(one("(only a comment)").kind, LineKind::Empty);
+        assert_eq!(one("; G1 X1").kind, LineKind::Empty);
+        assert_eq!(one("(全角コメント∕)G0").comments[0].text, "全角コメント∕");
+    }
+
+    #[test]
+    fn block_delete() {
+        let l = one("/N20 G1 X5");
+        assert!(l.block_delete);
+        assert_eq!(l.n.map(|n| n.value), Some(20));
+        assert!(!one("G1 X5").block_delete);
+        assert!(one(" / G1").block_delete);
+    }
+
+    #[test]
+    fn expression_values() {
+        let w = words("X[1+2*3] F=100*2 G[FUP[1.2]]");
+        assert_eq!(w.len(), 3);
+        let Value::Expr(e) = &w[0].value else {
+            panic!()
+        };
+        assert!(matches!(e.kind, ExprKind::Binary(BinaryOp::Add, _, _)));
+        assert_eq!(e.span, Span::new(1, 8));
+        assert_eq!(w[0].span, Span::new(0, 8));
+        let Value::Expr(e) = &w[1].value else {
+            panic!()
+        };
+        assert!(matches!(e.kind, ExprKind::Binary(BinaryOp::Mul, _, _)));
+        assert_eq!(w[1].span, Span::new(9, 16));
+        let Value::Expr(e) = &w[2].value else {
+            panic!()
+        };
+        assert!(matches!(e.kind, ExprKind::Call(Func::Fup, _)));
+        // `=expr` ends where the next word starts.
+        let w = words("F = 100 * 2 X-1");
+        assert_eq!(w.len(), 2);
+        assert_eq!(w[1].letter, 'X');
+    }
+
+    #[test]
+    fn spans_and_crlf() {
+        let p = parse(&SourceFile::new("t", "G0 X1\r\nG1 Y2\r\n")).unwrap();
+        assert_eq!(p.lines.len(), 2);
+        assert_eq!(p.lines[1].line_no, 2);
+        assert_eq!(p.lines[1].span, Span::new(7, 12));
+        let LineKind::Block(b) = &p.lines[1].kind else {
+            panic!()
+        };
+        assert_eq!(b.words[1].span, Span::new(10, 12));
+    }
+
+    #[test]
+    fn blank_lines_are_kept() {
+        let p = parse(&SourceFile::new("t", "G0\n\n  \nG1\n")).unwrap();
+        assert_eq!(p.lines.len(), 4);
+        assert_eq!(p.lines[1].kind, LineKind::Empty);
+        assert_eq!(p.lines[2].kind, LineKind::Empty);
+        assert_eq!(parse(&SourceFile::new("t", "")).unwrap().lines.len(), 1);
+    }
+
+    #[test]
+    fn errors_point_at_the_offending_text() {
+        assert_eq!(err("G1 X"), (1, 4, "no value after address X".into()));
+        assert_eq!(err("G1 (open"), (1, 4, "unclosed comment".into()));
+        assert_eq!(err("G1 Ä1"), (1, 4, "unknown address letter `Ä`".into()));
+        assert_eq!(
+            err("G1 X[1+2"),
+            (1, 5, "unbalanced bracket: `[` is not closed".into())
+        );
+        assert_eq!(
+            err("G1 X1.2.3"),
+            (1, 8, "a second decimal point in a number".into())
+        );
+        assert_eq!(
+            err("G1 X1 0"),
+            (1, 7, "a number without an address letter".into())
+        );
+        assert_eq!(
+            err("G1 N10"),
+            (1, 4, "a sequence number N must start the block".into())
+        );
+        assert_eq!(
+            err("N1.5"),
+            (1, 2, "a sequence number must be a whole number".into())
+        );
+        assert_eq!(err("% G1"), (1, 3, "unexpected text after `%`".into()));
+        assert_eq!(err("G1\nX-"), (2, 3, "no digits after `-`".into()));
+    }
+}
