@@ -35,7 +35,12 @@ pub enum MotionErrorKind {
     /// An arc whose start and end radius differ by more than the configured tolerance.
     RadiusMismatch { start: f64, end: f64 },
     /// A linear axis would leave its soft limits.
-    SoftLimit { axis: char, value: f64, min: f64, max: f64 },
+    SoftLimit {
+        axis: char,
+        value: f64,
+        min: f64,
+        max: f64,
+    },
     /// The axes' limits give no usable profile (a limit is zero or not finite).
     BadLimits,
     /// `Interpolator::start` with a path move that does not begin where the last one ended.
@@ -78,7 +83,10 @@ impl fmt::Display for MotionError {
                 value,
                 min,
                 max,
-            } => write!(f, "axis {axis} to {value} leaves its soft limits {min}..{max}"),
+            } => write!(
+                f,
+                "axis {axis} to {value} leaves its soft limits {min}..{max}"
+            ),
             MotionErrorKind::BadLimits => write!(f, "axis limits give no usable profile"),
             MotionErrorKind::NotAtStart => {
                 write!(f, "move does not start where the previous one ended")

@@ -53,12 +53,18 @@ pub enum TickState {
 /// The program's non-motion events, for the caller to act on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MoveEvent {
-    ToolChange { tool: u32 },
-    ProgramStop { kind: StopKind },
+    ToolChange {
+        tool: u32,
+    },
+    ProgramStop {
+        kind: StopKind,
+    },
     /// The text is in the caller's `Segment` of this line.
     Message,
 }
 
+// Large variants on purpose: boxing them would allocate in the real-time loop.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 enum Job {
     Idle,
@@ -76,6 +82,7 @@ enum Job {
     Event(MoveEvent),
 }
 
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 enum SpindleRun {
     /// Position mode: machine C = program C + offset.
@@ -175,6 +182,11 @@ impl Interpolator {
         self.offset
     }
 
+    /// True while the spindle axis is in speed mode (turning or ramping).
+    pub fn spindle_running(&self) -> bool {
+        !self.spindle_at_rest()
+    }
+
     fn spindle_at_rest(&self) -> bool {
         matches!(self.spin, SpindleRun::Position)
     }
@@ -211,9 +223,7 @@ impl Interpolator {
                     stop: None,
                 }
             }
-            MoveKind::Dwell { ticks, .. } => Job::Dwell {
-                left: ticks.max(1),
-            },
+            MoveKind::Dwell { ticks, .. } => Job::Dwell { left: ticks.max(1) },
             MoveKind::Spindle {
                 velocity,
                 acceleration,

@@ -9,7 +9,9 @@ use cnc402_config::{AxisKind, MachineConfig};
 
 use crate::error::{MotionError, MotionErrorKind};
 use crate::profile::{JerkProfile, Limits, PathProfile, State, rest_to_rest};
-use crate::segment::{ArcDir, AxisPos, MAX_AXES, Plane, Segment, SegmentKind, SpindleDir, StopKind};
+use crate::segment::{
+    ArcDir, AxisPos, MAX_AXES, Plane, Segment, SegmentKind, SpindleDir, StopKind,
+};
 
 /// A segment made ready for the interpolator. `Copy` and heap-free: the source location is
 /// kept as `line` and `n`, and a message's text stays with the caller's [`Segment`].
@@ -22,7 +24,9 @@ pub struct PlannedMove {
     pub kind: MoveKind,
 }
 
-/// What a planned move does.
+/// What a planned move does. (`Path` is large on purpose: moves travel by value through
+/// fixed-capacity rings, and a box would allocate.)
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MoveKind {
     /// A move along a path (G0, G1, G2/G3, taps).
@@ -184,6 +188,12 @@ impl Planner {
         self.spindle_running
     }
 
+    /// Tells the planner whether the spindle runs (after a stop has brought it to rest, or
+    /// when re-syncing with the interpolator: see `Interpolator::spindle_running`).
+    pub fn set_spindle_running(&mut self, running: bool) {
+        self.spindle_running = running;
+    }
+
     /// Plans one segment starting where the previous one ended. On error nothing changes.
     pub fn plan(&mut self, seg: &Segment) -> Result<PlannedMove, MotionError> {
         let line = seg.source.line;
@@ -240,10 +250,7 @@ impl Planner {
                     SpindleDir::Stop => 0.0,
                 };
                 if sign != 0.0 && *rpm > max_rpm * (1.0 + 1e-12) {
-                    return Err(err(MotionErrorKind::SpindleTooFast {
-                        rpm: *rpm,
-                        max_rpm,
-                    }));
+                    return Err(err(MotionErrorKind::SpindleTooFast { rpm: *rpm, max_rpm }));
                 }
                 let velocity = sign * rpm.min(max_rpm) * 6.0;
                 self.spindle_running = velocity != 0.0;

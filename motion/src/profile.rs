@@ -90,7 +90,7 @@ impl JerkProfile {
 
     /// Appends a piece of jerk `j` lasting `dt` seconds (ignored unless `dt > 0`).
     fn push(&mut self, dt: f64, j: f64) {
-        if !(dt > 0.0) || self.len as usize >= MAX_PIECES {
+        if dt.is_nan() || dt <= 0.0 || self.len as usize >= MAX_PIECES {
             return;
         }
         let p = Piece {
@@ -245,12 +245,7 @@ pub fn rest_to_rest(distance: f64, lim: Limits) -> Result<JerkProfile, ProfileEr
 /// (jerk ±j, hold, jerk ∓j). If the acceleration in hand overshoots the target, the ramp
 /// goes the other way first, so velocity may pass `v_target` briefly. Past its end the
 /// profile cruises at `v_target`.
-pub fn velocity_change(
-    from: State,
-    v_target: f64,
-    acceleration: f64,
-    jerk: f64,
-) -> JerkProfile {
+pub fn velocity_change(from: State, v_target: f64, acceleration: f64, jerk: f64) -> JerkProfile {
     let mut p = JerkProfile::hold(from);
     p.start = from;
     p.end = from;
@@ -303,18 +298,31 @@ mod tests {
         for i in 1..=n {
             let st = p.sample(t_end * i as f64 / n as f64);
             assert!(st.v.abs() <= l.velocity * (1.0 + 1e-9), "v {st:?} {l:?}");
-            assert!(st.a.abs() <= l.acceleration * (1.0 + 1e-9), "a {st:?} {l:?}");
+            assert!(
+                st.a.abs() <= l.acceleration * (1.0 + 1e-9),
+                "a {st:?} {l:?}"
+            );
             assert!(st.s >= last.s - 1e-12 * dist.max(1.0), "monotone");
             assert!(st.v >= -1e-9 * l.velocity);
             last = st;
         }
         assert!(p.max_jerk() <= l.jerk * (1.0 + 1e-12));
-        assert_eq!(p.end(), State { s: dist, v: 0.0, a: 0.0 });
+        assert_eq!(
+            p.end(),
+            State {
+                s: dist,
+                v: 0.0,
+                a: 0.0
+            }
+        );
         assert_eq!(p.sample(t_end).s, dist);
         assert_eq!(p.sample(t_end + 1.0).s, dist);
         // The integrated chain meets the exact end to rounding.
         let before = p.sample(t_end * (1.0 - 1e-12));
-        assert!((before.s - dist).abs() <= 1e-9 * dist.max(1.0), "{before:?} {dist}");
+        assert!(
+            (before.s - dist).abs() <= 1e-9 * dist.max(1.0),
+            "{before:?} {dist}"
+        );
     }
 
     #[test]
@@ -400,9 +408,21 @@ mod tests {
             (1.0, -1000.0, 0.0), // overshoot: must turn the acceleration around
             (0.0, 0.0, 1.0),     // tiny: acceleration limit not reached
         ] {
-            let p = velocity_change(State { s: 5.0, v: v0, a: a0 }, v1, a, j);
+            let p = velocity_change(
+                State {
+                    s: 5.0,
+                    v: v0,
+                    a: a0,
+                },
+                v1,
+                a,
+                j,
+            );
             let e = p.sample(p.duration());
-            assert!((e.v - v1).abs() < 1e-9 * (1.0 + v1.abs()), "{v0} {a0} {v1}: {e:?}");
+            assert!(
+                (e.v - v1).abs() < 1e-9 * (1.0 + v1.abs()),
+                "{v0} {a0} {v1}: {e:?}"
+            );
             assert_eq!(e.a, 0.0);
             // Continuous at the end: the integrated chain meets the cruise.
             let before = p.sample(p.duration() * (1.0 - 1e-12));
@@ -413,7 +433,14 @@ mod tests {
                 let st = p.sample(p.duration() * i as f64 / 1000.0);
                 assert!(st.a.abs() <= a * (1.0 + 1e-12) + 1e-9, "{st:?}");
             }
-            assert_eq!(p.sample(0.0), State { s: 5.0, v: v0, a: a0 });
+            assert_eq!(
+                p.sample(0.0),
+                State {
+                    s: 5.0,
+                    v: v0,
+                    a: a0
+                }
+            );
         }
     }
 
@@ -421,7 +448,16 @@ mod tests {
     fn stop_from_cruise_is_the_mirror_of_the_ramp() {
         let (a, j) = (1500.0, 40000.0);
         let up = velocity_change(State::default(), 200.0, a, j);
-        let down = velocity_change(State { s: 0.0, v: 200.0, a: 0.0 }, 0.0, a, j);
+        let down = velocity_change(
+            State {
+                s: 0.0,
+                v: 200.0,
+                a: 0.0,
+            },
+            0.0,
+            a,
+            j,
+        );
         assert!((up.duration() - down.duration()).abs() < 1e-12);
         // Stopping distance = v·T/2 for a symmetric ramp.
         assert!((down.end().s - 200.0 * down.duration() / 2.0).abs() < 1e-9);

@@ -92,7 +92,9 @@ fn full_circles_cw_small_radius_stay_within_limits() {
     p.set_position(start);
     let mv = p.plan(&arc).unwrap();
     let MoveKind::Path(m) = mv.kind else { panic!() };
-    let Geometry::Arc(g) = m.geometry else { panic!() };
+    let Geometry::Arc(g) = m.geometry else {
+        panic!()
+    };
     assert!((g.sweep + 4.0 * std::f64::consts::PI).abs() < 1e-12);
     let ticks = run(&c, start, &[arc]);
     check_limits(&c, &ticks);
@@ -133,7 +135,11 @@ fn zx_plane_arc_turns_from_z_towards_x_for_g3() {
     );
     let ticks = run(&c, start, &[arc]);
     // A quarter turn, never leaving the first quadrant.
-    assert!(ticks.iter().all(|t| t.pos.0[0] >= -1e-12 && t.pos.0[2] >= -1e-12));
+    assert!(
+        ticks
+            .iter()
+            .all(|t| t.pos.0[0] >= -1e-12 && t.pos.0[2] >= -1e-12)
+    );
     assert_eq!(ticks.last().unwrap().pos, end);
 }
 
@@ -233,7 +239,12 @@ fn spindle_ramps_to_speed_then_turns_through_moves_and_rebases_c() {
     assert!(c_stop > 18000.0 * 0.5);
     assert_eq!(ticks[stop_idx].spindle_velocity, 0.0);
     let last = ticks.last().unwrap();
-    assert!((last.pos.0[3] - c_stop - 720.0).abs() < 1e-9, "{} {}", last.pos.0[3], c_stop);
+    assert!(
+        (last.pos.0[3] - c_stop - 720.0).abs() < 1e-9,
+        "{} {}",
+        last.pos.0[3],
+        c_stop
+    );
     assert_eq!(last.pos.0[2], -3.0);
     // C never jumps.
     for w in ticks.windows(2) {
@@ -273,7 +284,9 @@ fn position_move_of_c_while_spindle_runs_is_refused() {
         1,
     ))
     .unwrap();
-    let e = p.plan(&lin(xyzc(0.0, 0.0, -1.0, 360.0), 100.0, 2)).unwrap_err();
+    let e = p
+        .plan(&lin(xyzc(0.0, 0.0, -1.0, 360.0), 100.0, 2))
+        .unwrap_err();
     assert_eq!(e.kind, MotionErrorKind::SpindleRunning);
     assert_eq!(e.line, 2);
     // Moves that leave C alone are fine.
@@ -335,25 +348,56 @@ fn bad_segments_are_errors_not_panics() {
     let e = |p: &mut Planner, k: SegmentKind| p.plan(&seg(k, 9)).unwrap_err().kind;
     for f in [0.0, -5.0, f64::NAN, f64::INFINITY] {
         assert!(matches!(
-            e(&mut p, SegmentKind::Linear { end: xyzc(1.0, 0.0, 0.0, 0.0), feed: f }),
+            e(
+                &mut p,
+                SegmentKind::Linear {
+                    end: xyzc(1.0, 0.0, 0.0, 0.0),
+                    feed: f
+                }
+            ),
             MotionErrorKind::BadFeed(_)
         ));
     }
     assert_eq!(
-        e(&mut p, SegmentKind::Rapid { end: xyzc(f64::NAN, 0.0, 0.0, 0.0) }),
+        e(
+            &mut p,
+            SegmentKind::Rapid {
+                end: xyzc(f64::NAN, 0.0, 0.0, 0.0)
+            }
+        ),
         MotionErrorKind::NonFinite { axis: 'X' }
     );
     assert!(matches!(
-        e(&mut p, SegmentKind::Rapid { end: xyzc(301.0, 0.0, 0.0, 0.0) }),
+        e(
+            &mut p,
+            SegmentKind::Rapid {
+                end: xyzc(301.0, 0.0, 0.0, 0.0)
+            }
+        ),
         MotionErrorKind::SoftLimit { axis: 'X', .. }
     ));
-    assert!(matches!(e(&mut p, SegmentKind::Dwell { seconds: -1.0 }), MotionErrorKind::BadDwell(_)));
     assert!(matches!(
-        e(&mut p, SegmentKind::Spindle { rpm: 7000.0, dir: SpindleDir::Cw }),
+        e(&mut p, SegmentKind::Dwell { seconds: -1.0 }),
+        MotionErrorKind::BadDwell(_)
+    ));
+    assert!(matches!(
+        e(
+            &mut p,
+            SegmentKind::Spindle {
+                rpm: 7000.0,
+                dir: SpindleDir::Cw
+            }
+        ),
         MotionErrorKind::SpindleTooFast { .. }
     ));
     assert!(matches!(
-        e(&mut p, SegmentKind::Spindle { rpm: f64::NAN, dir: SpindleDir::Cw }),
+        e(
+            &mut p,
+            SegmentKind::Spindle {
+                rpm: f64::NAN,
+                dir: SpindleDir::Cw
+            }
+        ),
         MotionErrorKind::BadRpm(_)
     ));
     let arc = |end, center| SegmentKind::Arc {
@@ -364,7 +408,10 @@ fn bad_segments_are_errors_not_panics() {
         turns: 0,
         feed: 100.0,
     };
-    assert_eq!(e(&mut p, arc(xyzc(1.0, 0.0, 0.0, 0.0), [0.0, 0.0, 0.0])), MotionErrorKind::ZeroRadius);
+    assert_eq!(
+        e(&mut p, arc(xyzc(1.0, 0.0, 0.0, 0.0), [0.0, 0.0, 0.0])),
+        MotionErrorKind::ZeroRadius
+    );
     assert!(matches!(
         e(&mut p, arc(xyzc(10.0, 0.0, 0.0, 0.0), [4.0, 1.0, 0.0])),
         MotionErrorKind::RadiusMismatch { .. }
@@ -378,10 +425,23 @@ fn bad_segments_are_errors_not_panics() {
     // Nothing was planned: the position did not move.
     assert_eq!(p.position(), xyzc(290.0, 10.0, 0.0, 0.0));
     // The short way round (CCW) stays inside.
-    let ok = SegmentKind::Arc { end: xyzc(290.0, -10.0, 0.0, 0.0), center: [295.0, 0.0, 0.0], plane: Plane::XY, dir: ArcDir::Ccw, turns: 0, feed: 100.0 };
+    let ok = SegmentKind::Arc {
+        end: xyzc(290.0, -10.0, 0.0, 0.0),
+        center: [295.0, 0.0, 0.0],
+        plane: Plane::XY,
+        dir: ArcDir::Ccw,
+        turns: 0,
+        feed: 100.0,
+    };
     assert!(p.plan(&seg(ok, 9)).is_ok());
-    assert!(format!("{}", p.plan(&seg(SegmentKind::Dwell { seconds: -1.0 }, 4)).unwrap_err())
-        .starts_with("line 4: dwell"));
+    assert!(
+        format!(
+            "{}",
+            p.plan(&seg(SegmentKind::Dwell { seconds: -1.0 }, 4))
+                .unwrap_err()
+        )
+        .starts_with("line 4: dwell")
+    );
 }
 
 #[test]

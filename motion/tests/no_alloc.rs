@@ -63,7 +63,13 @@ static GLOBAL: Counting = Counting;
 fn ticks_and_starts_allocate_nothing() {
     let c = MachineConfig::default_machine();
     let segs = vec![
-        seg(SegmentKind::Spindle { rpm: 2000.0, dir: SpindleDir::Cw }, 1),
+        seg(
+            SegmentKind::Spindle {
+                rpm: 2000.0,
+                dir: SpindleDir::Cw,
+            },
+            1,
+        ),
         rapid(xyzc(10.0, 5.0, 2.0, 0.0), 2),
         lin(xyzc(30.0, 5.0, 0.0, 0.0), 1200.0, 3),
         seg(
@@ -78,11 +84,28 @@ fn ticks_and_starts_allocate_nothing() {
             4,
         ),
         seg(SegmentKind::Dwell { seconds: 0.05 }, 5),
-        seg(SegmentKind::Message { text: "tap next".into() }, 6),
-        seg(SegmentKind::Spindle { rpm: 0.0, dir: SpindleDir::Stop }, 7),
+        seg(
+            SegmentKind::Message {
+                text: "tap next".into(),
+            },
+            6,
+        ),
+        seg(
+            SegmentKind::Spindle {
+                rpm: 0.0,
+                dir: SpindleDir::Stop,
+            },
+            7,
+        ),
         lin(xyzc(40.0, 15.0, -16.0, 15.0 / 1.5 * 360.0), 600.0 * 1.5, 8),
         lin(xyzc(40.0, 15.0, -1.0, 0.0), 600.0 * 1.5, 9),
-        seg(SegmentKind::Spindle { rpm: 3000.0, dir: SpindleDir::Ccw }, 10),
+        seg(
+            SegmentKind::Spindle {
+                rpm: 3000.0,
+                dir: SpindleDir::Ccw,
+            },
+            10,
+        ),
         lin(xyzc(0.0, 0.0, -1.0, 0.0), 3000.0, 11),
     ];
     // Planning happens off the real-time path; plan everything first.
@@ -120,7 +143,11 @@ fn ticks_and_starts_allocate_nothing() {
     assert!(ip.is_held());
     assert!(ticks > 3000, "{ticks}");
     assert!(sum.is_finite());
-    assert_eq!(allocs() - before, 0, "allocations in start/tick/request_stop");
+    assert_eq!(
+        allocs() - before,
+        0,
+        "allocations in start/tick/request_stop"
+    );
 }
 
 #[test]

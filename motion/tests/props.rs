@@ -15,11 +15,32 @@ use proptest::prelude::*;
 
 #[derive(Clone, Debug)]
 enum Spec {
-    Line { to: [f64; 3], feed: f64 },
-    Rapid { to: [f64; 3] },
-    Arc { r: f64, phi: f64, sweep: f64, ccw: bool, turns: u32, dz: f64, feed: f64, plane: u8 },
-    Tap { pitch: f64, depth: f64, rpm: f64, left: bool },
-    Dwell { ms: f64 },
+    Line {
+        to: [f64; 3],
+        feed: f64,
+    },
+    Rapid {
+        to: [f64; 3],
+    },
+    Arc {
+        r: f64,
+        phi: f64,
+        sweep: f64,
+        ccw: bool,
+        turns: u32,
+        dz: f64,
+        feed: f64,
+        plane: u8,
+    },
+    Tap {
+        pitch: f64,
+        depth: f64,
+        rpm: f64,
+        left: bool,
+    },
+    Dwell {
+        ms: f64,
+    },
 }
 
 fn spec() -> impl Strategy<Value = Spec> {
@@ -48,8 +69,14 @@ fn spec() -> impl Strategy<Value = Spec> {
                 feed,
                 plane
             }),
-        (0.3..3.0f64, 0.5..30.0f64, 50.0..3000.0f64, any::<bool>())
-            .prop_map(|(pitch, depth, rpm, left)| Spec::Tap { pitch, depth, rpm, left }),
+        (0.3..3.0f64, 0.5..30.0f64, 50.0..3000.0f64, any::<bool>()).prop_map(
+            |(pitch, depth, rpm, left)| Spec::Tap {
+                pitch,
+                depth,
+                rpm,
+                left
+            }
+        ),
         (0.0..30.0f64).prop_map(|ms| Spec::Dwell { ms }),
     ]
 }
@@ -62,12 +89,19 @@ struct AxisLimits {
 }
 
 fn linear_limits() -> impl Strategy<Value = AxisLimits> {
-    (5.0..500.0f64, 50.0..10000.0f64, 500.0..200000.0f64).prop_map(|(v, a, j)| AxisLimits { v, a, j })
+    (5.0..500.0f64, 50.0..10000.0f64, 500.0..200000.0f64).prop_map(|(v, a, j)| AxisLimits {
+        v,
+        a,
+        j,
+    })
 }
 
 fn spindle_limits() -> impl Strategy<Value = AxisLimits> {
-    (3600.0..36000.0f64, 3600.0..72000.0f64, 36000.0..1.44e6f64)
-        .prop_map(|(v, a, j)| AxisLimits { v, a, j })
+    (3600.0..36000.0f64, 3600.0..72000.0f64, 36000.0..1.44e6f64).prop_map(|(v, a, j)| AxisLimits {
+        v,
+        a,
+        j,
+    })
 }
 
 fn machine(l: &[AxisLimits]) -> MachineConfig {
@@ -83,7 +117,10 @@ fn machine(l: &[AxisLimits]) -> MachineConfig {
 
 /// Turns specs into segments from `start`, tracking the position; taps are returned with the
 /// (line, z0, c0, pitch, dir) needed to check their coupling.
-fn build(specs: &[Spec], start: AxisPos) -> (Vec<Segment>, Vec<(u32, f64, f64, f64, f64)>) {
+/// A tap to check: (line, z0, c0, pitch, dir).
+type TapCheck = (u32, f64, f64, f64, f64);
+
+fn build(specs: &[Spec], start: AxisPos) -> (Vec<Segment>, Vec<TapCheck>) {
     let mut pos = start;
     let mut segs = Vec::new();
     let mut taps = Vec::new();
@@ -98,7 +135,16 @@ fn build(specs: &[Spec], start: AxisPos) -> (Vec<Segment>, Vec<(u32, f64, f64, f
                 pos.0[..3].copy_from_slice(&to);
                 segs.push(rapid(pos, line));
             }
-            Spec::Arc { r, phi, sweep, ccw, turns, dz, feed, plane } => {
+            Spec::Arc {
+                r,
+                phi,
+                sweep,
+                ccw,
+                turns,
+                dz,
+                feed,
+                plane,
+            } => {
                 let (pl, a, b, n) = match plane {
                     0 => (Plane::XY, 0, 1, 2),
                     1 => (Plane::ZX, 2, 0, 1),
@@ -114,11 +160,23 @@ fn build(specs: &[Spec], start: AxisPos) -> (Vec<Segment>, Vec<(u32, f64, f64, f
                 pos.0[n] += dz;
                 let dir = if ccw { ArcDir::Ccw } else { ArcDir::Cw };
                 segs.push(seg(
-                    SegmentKind::Arc { end: pos, center, plane: pl, dir, turns, feed },
+                    SegmentKind::Arc {
+                        end: pos,
+                        center,
+                        plane: pl,
+                        dir,
+                        turns,
+                        feed,
+                    },
                     line,
                 ));
             }
-            Spec::Tap { pitch, depth, rpm, left } => {
+            Spec::Tap {
+                pitch,
+                depth,
+                rpm,
+                left,
+            } => {
                 let dir = if left { -1.0 } else { 1.0 };
                 let (z0, c0) = (pos.0[2], pos.0[3]);
                 let mut bottom = pos;
@@ -179,15 +237,21 @@ fn run_checked(c: &MachineConfig, segs: &[Segment], stop_at: Option<usize>) -> V
     out
 }
 
-fn check_taps(ticks: &[Tick], taps: &[(u32, f64, f64, f64, f64)]) {
+fn check_taps(ticks: &[Tick], taps: &[TapCheck]) {
     let (zc, cc) = (10000.0, 131072.0 / 360.0);
     for &(line, z0, c0, pitch, dir) in taps {
         for t in ticks.iter().filter(|t| t.line == line) {
             let (z, c) = (t.pos.0[2], t.pos.0[3]);
             let c_ideal = c0 + (z0 - z) * 360.0 / pitch * dir;
             let z_ideal = z0 - (c - c0) * pitch / 360.0 * dir;
-            assert!(((c * cc).round() - (c_ideal * cc).round()).abs() <= 1.0, "C line {line}");
-            assert!(((z * zc).round() - (z_ideal * zc).round()).abs() <= 1.0, "Z line {line}");
+            assert!(
+                ((c * cc).round() - (c_ideal * cc).round()).abs() <= 1.0,
+                "C line {line}"
+            );
+            assert!(
+                ((z * zc).round() - (z_ideal * zc).round()).abs() <= 1.0,
+                "Z line {line}"
+            );
         }
     }
 }

@@ -16,7 +16,13 @@ fn spindle_runs_past_two_wraps_of_int32_counts_without_a_jump() {
     assert!((cpu - 131072.0 / 360.0).abs() < 1e-12);
     let mut planner = Planner::new(&c);
     let mut ip = Interpolator::new(&c, AxisPos::default());
-    let on = seg(SegmentKind::Spindle { rpm: 6000.0, dir: SpindleDir::Cw }, 1);
+    let on = seg(
+        SegmentKind::Spindle {
+            rpm: 6000.0,
+            dir: SpindleDir::Cw,
+        },
+        1,
+    );
     ip.start(planner.plan(&on).unwrap()).unwrap();
 
     let per_tick = 36000.0 * 1e-3 * cpu; // 13107.2 counts at speed
@@ -54,7 +60,13 @@ fn spindle_runs_past_two_wraps_of_int32_counts_without_a_jump() {
     assert!((prev - expect).abs() < 1e-6, "{prev} {expect}");
 
     // M5: it stops, and C stays where it stopped.
-    let off = seg(SegmentKind::Spindle { rpm: 0.0, dir: SpindleDir::Stop }, 2);
+    let off = seg(
+        SegmentKind::Spindle {
+            rpm: 0.0,
+            dir: SpindleDir::Stop,
+        },
+        2,
+    );
     ip.start(planner.plan(&off).unwrap()).unwrap();
     loop {
         let t = ip.tick();

@@ -10,7 +10,12 @@ use common::*;
 
 /// Runs `segs` and requests a stop after `stop_after` ticks; returns all ticks up to and
 /// including the first `Held` one (plus 5 more held ticks).
-fn run_with_stop(cfg: &MachineConfig, start: AxisPos, segs: &[Segment], stop_after: usize) -> Vec<Tick> {
+fn run_with_stop(
+    cfg: &MachineConfig,
+    start: AxisPos,
+    segs: &[Segment],
+    stop_after: usize,
+) -> Vec<Tick> {
     let mut planner = Planner::new(cfg);
     planner.set_position(start);
     let mut ip = Interpolator::new(cfg, start);
@@ -78,18 +83,26 @@ fn stop_mid_tap_keeps_z_and_c_coupled_while_decelerating() {
         let w = worst_coupling(&ticks, z0, 1.5);
         assert!(w.0 <= 1 && w.1 <= 1, "stop at {stop_after}: {w:?}");
         check_limits(&c, &ticks);
-        assert!(ticks.iter().all(|t| !t.finished || t.line == 10), "no move completes after the stop");
+        assert!(
+            ticks.iter().all(|t| !t.finished || t.line == 10),
+            "no move completes after the stop"
+        );
         let held = ticks.last().unwrap();
         assert_eq!(held.state, TickState::Held);
         assert_eq!(held.path_velocity, 0.0);
         // Within the tap's stroke, and it did stop early.
         assert!(held.pos.0[2] <= z0 && held.pos.0[2] >= z0 - 20.0);
         // Bounded by the time to swing a from +a_max to −a_max plus braking from v_max.
-        let MoveKind::Path(m) = Planner::new(&c).plan(&segs[0]).unwrap().kind else { panic!() };
+        let MoveKind::Path(m) = Planner::new(&c).plan(&segs[0]).unwrap().kind else {
+            panic!()
+        };
         let l = m.limits;
         let bound = l.velocity / l.acceleration + 2.0 * l.acceleration / l.jerk;
         let stop_ticks = ticks.len() - 1 - 6 - stop_after;
-        assert!((stop_ticks as f64) * 1e-3 <= bound + 2e-3, "{stop_after}: {stop_ticks}");
+        assert!(
+            (stop_ticks as f64) * 1e-3 <= bound + 2e-3,
+            "{stop_after}: {stop_ticks}"
+        );
     }
 }
 
@@ -104,7 +117,10 @@ fn stop_is_shorter_than_finishing_and_never_turns_back() {
     let end = *x.last().unwrap();
     assert!(end > 10.0 && end < 100.0, "{end}");
     // Stopping from 200 mm/s with a = 2000, j = 50000: 200/2000 + 2000/50000 = 0.14 s.
-    let held_at = ticks.iter().position(|t| t.state == TickState::Held).unwrap();
+    let held_at = ticks
+        .iter()
+        .position(|t| t.state == TickState::Held)
+        .unwrap();
     assert!((held_at - 200) as f64 * 1e-3 <= 0.141 + 1e-3, "{held_at}");
 }
 
@@ -113,7 +129,9 @@ fn stop_while_braking_into_the_end_point_finishes_the_braking() {
     let c = MachineConfig::default_machine();
     let segs = [lin(xyzc(10.0, 0.0, 0.0, 0.0), 12000.0, 1)];
     let mut p = Planner::new(&c);
-    let MoveKind::Path(m) = p.plan(&segs[0]).unwrap().kind else { panic!() };
+    let MoveKind::Path(m) = p.plan(&segs[0]).unwrap().kind else {
+        panic!()
+    };
     let ticks = run_with_stop(&c, AxisPos::default(), &segs, m.ticks as usize - 3);
     check_limits(&c, &ticks);
     // Braking at the full limits stops a hair before the (gentler, stretched) planned end.
@@ -127,7 +145,13 @@ fn stop_while_braking_into_the_end_point_finishes_the_braking() {
 fn stop_ramps_the_spindle_down_and_clear_stop_allows_a_new_start() {
     let c = MachineConfig::default_machine();
     let segs = [
-        seg(SegmentKind::Spindle { rpm: 5000.0, dir: SpindleDir::Ccw }, 1),
+        seg(
+            SegmentKind::Spindle {
+                rpm: 5000.0,
+                dir: SpindleDir::Ccw,
+            },
+            1,
+        ),
         lin(xyzc(50.0, 20.0, 0.0, 0.0), 3000.0, 2),
     ];
     let ticks = run_with_stop(&c, AxisPos::default(), &segs, 1000);
@@ -136,9 +160,16 @@ fn stop_ramps_the_spindle_down_and_clear_stop_allows_a_new_start() {
     assert_eq!(held.spindle_velocity, 0.0);
     // The spindle (1 s ramp at most from 30000 deg/s) takes longer than the path: the
     // interpolator reports Stopping until it is at rest.
-    let first_held = ticks.iter().position(|t| t.state == TickState::Held).unwrap();
+    let first_held = ticks
+        .iter()
+        .position(|t| t.state == TickState::Held)
+        .unwrap();
     assert!(first_held - 1000 > 800, "{first_held}");
-    assert!(ticks[1001..first_held].iter().all(|t| t.state == TickState::Stopping));
+    assert!(
+        ticks[1001..first_held]
+            .iter()
+            .all(|t| t.state == TickState::Stopping)
+    );
 
     // Resume: clear the stop, re-sync the planner from the interpolator, move on.
     let mut planner = Planner::new(&c);
@@ -161,7 +192,8 @@ fn stop_ramps_the_spindle_down_and_clear_stop_allows_a_new_start() {
     planner = Planner::new(&c);
     planner.set_position(ip.program_position());
     let end = xyzc(5.0, 0.0, -1.0, 360.0);
-    ip.start(planner.plan(&lin(end, 300.0, 3)).unwrap()).unwrap();
+    ip.start(planner.plan(&lin(end, 300.0, 3)).unwrap())
+        .unwrap();
     let mut last = ip.tick();
     while !last.finished {
         last = ip.tick();

@@ -1,0 +1,60 @@
+//! Our rest-to-rest double-S against a proven peer: Ruckig (rsruckig) computes the
+//! time-optimal jerk-limited trajectory for the same distance and limits. Durations must agree
+//! and so must the sampled motion (the rest-to-rest time-optimal profile is unique).
+
+use cnc402_motion::profile::{Limits, PathProfile, rest_to_rest};
+use proptest::prelude::*;
+use rsruckig::prelude::*;
+
+fn ruckig(dist: f64, l: Limits) -> Trajectory<1> {
+    let mut otg = Ruckig::<1, ThrowErrorHandler>::new(None, 0.001);
+    let mut input = InputParameter::new(None);
+    input.current_position[0] = 0.0;
+    input.target_position[0] = dist;
+    input.max_velocity[0] = l.velocity;
+    input.max_acceleration[0] = l.acceleration;
+    input.max_jerk[0] = l.jerk;
+    let mut traj = Trajectory::new(None);
+    otg.calculate(&input, &mut traj)
+        .expect("ruckig solves rest-to-rest");
+    traj
+}
+
+fn ruckig_pos(traj: &Trajectory<1>, t: f64) -> (f64, f64) {
+    let mut p = DataArrayOrVec::new(None, 0.0);
+    let mut v = DataArrayOrVec::new(None, 0.0);
+    traj.at_time(
+        t,
+        &mut Some(&mut p),
+        &mut Some(&mut v),
+        &mut None,
+        &mut None,
+        &mut None,
+    );
+    (p[0], v[0])
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+    #[test]
+    fn double_s_matches_ruckig(
+        dist in 1e-4..500.0f64,
+        v in 1.0..500.0f64,
+        a in 10.0..20000.0f64,
+        j in 100.0..500000.0f64,
+    ) {
+        let l = Limits { velocity: v, acceleration: a, jerk: j };
+        let ours = rest_to_rest(dist, l).unwrap();
+        let traj = ruckig(dist, l);
+        let (t1, t2) = (ours.duration(), traj.get_duration());
+        prop_assert!((t1 - t2).abs() <= 1e-7 * t2.max(1e-3), "ours {} ruckig {}", t1, t2);
+        for i in 0..=50 {
+            let t = t2 * i as f64 / 50.0;
+            let (p, vel) = ruckig_pos(&traj, t);
+            let st = ours.sample(t);
+            prop_assert!((st.s - p).abs() <= 1e-6 * dist.max(1e-3), "t {}: {} vs {}", t, st.s, p);
+            prop_assert!((st.v - vel).abs() <= 1e-5 * v, "t {}: v {} vs {}", t, st.v, vel);
+        }
+    }
+}
