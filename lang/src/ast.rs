@@ -69,8 +69,22 @@ pub enum LineKind {
     ProgramNumber { number: u32, span: Span },
     /// An ordinary block of words.
     Block(Block),
-    // Later issues add: macro assignment `#1=…`, `IF[…]GOTO n`, `IF[…]THEN …`, `WHILE[…]DO m`,
-    // `END m`, `GOTO n`, and C-like statements. They are new variants here.
+    /// Fanuc Custom Macro B assignment: `#100=#4001`, `#[#1+2]=SIN[30]`, `#3000=12(TEXT)`
+    /// (the comment is in [`Line::comments`]). `target` is an [`ExprKind::Var`] or
+    /// [`ExprKind::IndirectVar`].
+    Assign { target: Expr, value: Expr },
+    /// `GOTO 100`, `GOTO #10`, `GOTO [#1+10]`: jump to the block with that N number.
+    Goto { target: Expr },
+    /// `IF [#1 EQ 2] GOTO 100`: conditional jump.
+    IfGoto { cond: Expr, target: Expr },
+    /// `IF [#520 EQ 3] THEN #113=1`: conditional statement. `then` is an
+    /// [`LineKind::Assign`] or a [`LineKind::Block`] (`IF[#1 GT 0]THEN G0 X#1`).
+    IfThen { cond: Expr, then: Box<LineKind> },
+    /// `WHILE [#1 LT 10] DO 1`: loop head; `id` (1, 2 or 3) pairs it with its `END`.
+    While { cond: Expr, id: u8 },
+    /// `END 1`: loop end, paired with `WHILE … DO 1`.
+    End { id: u8 },
+    // Later issues add C-like statements as new variants here.
 }
 
 /// A block: the words of one line, in source order. Several G words may appear.
@@ -93,7 +107,8 @@ pub struct Word {
 pub enum Value {
     /// A literal number as written: `10`, `-2.5`, `.5`, `007`.
     Number(Number),
-    /// A bracketed expression `X[1+2*3]`, or one given with `=`: `F=100*2`.
+    /// A bracketed expression `X[1+2*3]`, one given with `=`: `F=100*2`, or a macro variable,
+    /// possibly negated: `X#500`, `Z-#1`.
     Expr(Expr),
 }
 
@@ -126,8 +141,13 @@ pub enum ExprKind {
     Binary(BinaryOp, Box<Expr>, Box<Expr>),
     /// A built-in function applied to its arguments: `SIN[30]`, `ATAN[1]/[2]` (two args).
     Call(Func, Vec<Expr>),
-    // Later issues add: `#n` and `#[expr]` variables, `@SYSVAR`, `$global`, C identifiers,
-    // string literals, array indexing, function calls by name.
+    /// A macro variable by number: `#100` (`#0` is the vacant variable). As a word value:
+    /// `X#500`, `G#524`.
+    Var(u32),
+    /// A macro variable whose number is computed: `#[#1+2]`.
+    IndirectVar(Box<Expr>),
+    // Later issues add: `@SYSVAR`, `$global`, C identifiers, string literals, array
+    // indexing, function calls by name.
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

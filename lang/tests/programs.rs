@@ -103,3 +103,151 @@ fn linuxcnc_contour() {
         .count();
     assert_eq!(moves, 16);
 }
+
+/// Renders an expression in Fanuc syntax, fully bracketed, for compact assertions.
+fn ex(e: &Expr) -> String {
+    match &e.kind {
+        ExprKind::Number(v) => format!("{v}"),
+        ExprKind::Var(n) => format!("#{n}"),
+        ExprKind::IndirectVar(e) => format!("#[{}]", ex(e)),
+        ExprKind::Unary(UnaryOp::Neg, a) => format!("-{}", ex(a)),
+        ExprKind::Unary(UnaryOp::Plus, a) => format!("+{}", ex(a)),
+        ExprKind::Binary(op, a, b) => {
+            format!("[{} {} {}]", ex(a), format!("{op:?}").to_uppercase(), ex(b))
+        }
+        ExprKind::Call(f, args) => format!(
+            "{}[{}]",
+            format!("{f:?}").to_uppercase(),
+            args.iter().map(ex).collect::<Vec<_>>().join(",")
+        ),
+    }
+}
+
+/// A line in a normalised Fanuc form: statements spelled out, words with `letter value`.
+fn show(kind: &LineKind) -> String {
+    match kind {
+        LineKind::Empty => String::new(),
+        LineKind::Percent => "%".into(),
+        LineKind::ProgramNumber { number, .. } => format!("O{number}"),
+        LineKind::Block(b) => b
+            .words
+            .iter()
+            .map(|w| match &w.value {
+                Value::Number(n) => format!("{}{}", w.letter, n.value),
+                Value::Expr(e) => format!("{}{}", w.letter, ex(e)),
+            })
+            .collect::<Vec<_>>()
+            .join(" "),
+        LineKind::Assign { target, value } => format!("{}={}", ex(target), ex(value)),
+        LineKind::Goto { target } => format!("GOTO {}", ex(target)),
+        LineKind::IfGoto { cond, target } => format!("IF{} GOTO {}", ex(cond), ex(target)),
+        LineKind::IfThen { cond, then } => format!("IF{} THEN {}", ex(cond), show(then)),
+        LineKind::While { cond, id } => format!("WHILE{} DO{id}", ex(cond)),
+        LineKind::End { id } => format!("END{id}"),
+    }
+}
+
+#[test]
+fn mlt980_main_program_o0001_as_printed() {
+    let p = load("mlt980_O0001.nc");
+    let shown: Vec<String> = p
+        .lines
+        .iter()
+        .map(|l| match l.n {
+            Some(n) => format!("N{} {}", n.value, show(&l.kind))
+                .trim_end()
+                .to_string(),
+            None => show(&l.kind),
+        })
+        .collect();
+    let want = [
+        "O1",
+        "#113=#0",
+        "#114=#0",
+        "#115=#0",
+        "#116=#0",
+        "#100=#4001",
+        "#101=#4002",
+        "#103=#4005",
+        "#104=#4007",
+        "#105=#4014",
+        "#106=#4016",
+        "#107=#4109",
+        "#108=#4119",
+        "#109=#4120",
+        "IF[#520 EQ 3] THEN #113=1",
+        "IF[#520 EQ 4] THEN #114=1",
+        "IF[[#113 OR #114] NE 1] GOTO 101",
+        "IF[#524 EQ 98] THEN #115=1",
+        "IF[#524 EQ 99] THEN #116=1",
+        "IF[[#115 OR #116] NE 1] GOTO 102",
+        "IF[#530 EQ 1] GOTO 1",
+        "IF[#530 EQ 2] GOTO 2",
+        "IF[#530 EQ 3] GOTO 3",
+        "IF[#530 EQ 4] GOTO 4",
+        "IF[#530 EQ 5] GOTO 5",
+        "GOTO 6",
+        "N1 M98 P9001",
+        "GOTO 100",
+        "N2 M98 P9002",
+        "GOTO 100",
+        "N3 M98 P9003",
+        "GOTO 100",
+        "N4 M98 P9004",
+        "GOTO 100",
+        "N5 M98 P9005",
+        "GOTO 100",
+        "N6 M98 P9006",
+        "N100",
+        // Bracket groups are not nodes: `G[FUP[#100]]` is the word G with value FUP[#100].
+        "GFUP[#100]",
+        "GFUP[#101]",
+        "GFUP[#103]",
+        "GFUP[#104]",
+        "GFUP[#105]",
+        "GFUP[#106]",
+        "F#107",
+        "S#108",
+        "TFUP[#109]",
+        "M30",
+        "N101 G65 H99 P1",
+        "N102 G65 H99 P2",
+    ];
+    assert_eq!(shown, want);
+    // The full-width comments, with their nested annotations, are kept whole.
+    assert_eq!(p.lines[0].comments[0].text, "主程序模塊");
+    assert_eq!(
+        p.lines[16].comments[0].text,
+        "主軸旋向數(shù)據(jù)非法檢測(cè),若非法,則報(bào)警提示"
+    );
+    assert_eq!(
+        p.lines[48].comments[0].text,
+        "∕主軸旋向未指定或指定值錯(cuò)誤"
+    );
+}
+
+#[test]
+fn mlt980_linear_holes_o9001_as_printed() {
+    let p = load("mlt980_O9001.nc");
+    let shown: Vec<String> = p.lines.iter().map(|l| show(&l.kind)).collect();
+    assert_eq!(shown[0], "O9001");
+    assert_eq!(shown[1], "M#520 S#521");
+    assert_eq!(shown[2], "G0 X#500 Y#501");
+    assert_eq!(shown[3], "IF[#519 EQ 81] GOTO 81");
+    assert_eq!(shown[11], "IF[#519 EQ 87] GOTO 87");
+    assert_eq!(shown[12], "G#524 G#519 X#509 Y#510 Z#502 R#503 L#511 F#522");
+    assert_eq!(p.lines[12].n.map(|n| n.value), Some(81));
+    assert_eq!(
+        shown[20],
+        "G#524 G#519 X#509 Y#510 Z#502 R#503 Q#516 P#523 L#511 F#517"
+    );
+    assert_eq!(shown[22], "G80");
+    assert_eq!(p.lines[22].n.map(|n| n.value), Some(999));
+    assert_eq!(shown[24], "M99");
+    let gotos = p
+        .lines
+        .iter()
+        .filter(|l| matches!(l.kind, LineKind::Goto { .. }))
+        .count();
+    assert_eq!(gotos, 5);
+}

@@ -1,7 +1,8 @@
 //! The Fanuc expression grammar, loosest binding first:
 //! `cmp := add ((EQ|NE|GT|GE|LT|LE) add)*`, `add := mul ((+|-|OR|XOR) mul)*`,
 //! `mul := unary ((*|/|AND|MOD) unary)*`, `unary := (-|+) unary | primary`,
-//! `primary := number | [cmp] | FUNC[cmp] | ATAN[cmp]/[cmp] | ATAN[cmp,cmp] | POW[cmp,cmp]`.
+//! `primary := number | #n | #[cmp] | [cmp] | FUNC[cmp] | ATAN[cmp]/[cmp] | ATAN[cmp,cmp]
+//! | POW[cmp,cmp]`.
 //! Keywords are case-insensitive and need no surrounding spaces (`#1OR#2`).
 
 use super::lex::{char_len, starts_with_kw, ws};
@@ -174,10 +175,48 @@ impl<'a> Cx<'a> {
                 ))
             }
             Some(c) if c.is_ascii_alphabetic() => self.call(i, depth),
+            Some(b'#') => self.var(i, depth),
             _ => Err(nom::Err::Error(nom::error::ParseError::from_error_kind(
                 i,
                 nom::error::ErrorKind::Alt,
             ))),
+        }
+    }
+
+    /// A macro variable at `i` (which starts with `#`): `#100` or `#[expr]`; whitespace may
+    /// follow the `#`.
+    pub(crate) fn var(&self, i: &'a str, depth: u32) -> PResult<'a, Expr> {
+        let after = ws(&i[1..]);
+        match after.as_bytes().first() {
+            Some(b'0'..=b'9') => {
+                let (rest, n) = self.whole(after, "variable number")?;
+                Ok((
+                    rest,
+                    Expr {
+                        kind: ExprKind::Var(n),
+                        span: self.span(i, rest),
+                    },
+                ))
+            }
+            Some(b'[') => {
+                if depth >= MAX_DEPTH {
+                    return self.too_deep(after);
+                }
+                let (rest, e) = self.bracketed(after, depth + 1)?;
+                Ok((
+                    rest,
+                    Expr {
+                        kind: ExprKind::IndirectVar(Box::new(e)),
+                        span: self.span(i, rest),
+                    },
+                ))
+            }
+            _ => fail_exp(
+                i,
+                1,
+                "missing variable number after `#`",
+                "a variable number or `[expression]` after #",
+            ),
         }
     }
 
@@ -383,8 +422,8 @@ mod tests {
                 let a: Vec<String> = args.iter().map(show).collect();
                 format!("{f:?}({})", a.join(","))
             }
-            #[allow(unreachable_patterns)]
-            other => format!("{other:?}"),
+            ExprKind::Var(n) => format!("#{n}"),
+            ExprKind::IndirectVar(e) => format!("#[{}]", show(e)),
         }
     }
 
@@ -445,6 +484,21 @@ mod tests {
         assert_eq!(p("POW[2,3]"), "Pow(2,3)");
         assert_eq!(p("SIN[30]/2"), "(Sin(30) Div 2)");
         assert_eq!(p("FUP[SQRT[4]+1]"), "Fup((Sqrt(4) Add 1))");
+    }
+
+    #[test]
+    fn variables() {
+        assert_eq!(p("#1+#2*#3"), "(#1 Add (#2 Mul #3))");
+        assert_eq!(p("[#113 OR#114]NE 1"), "((#113 Or #114) Ne 1)");
+        assert_eq!(p("# 100"), "#100");
+        assert_eq!(p("#[#1+2]"), "#[(#1 Add 2)]");
+        assert_eq!(p("#[#[1]]"), "#[#[1]]");
+        assert_eq!(p("-#0"), "-#0");
+        assert_eq!(p("FUP[#100]"), "Fup(#100)");
+        assert_eq!(p("#"), "ERR missing variable number after `#`");
+        assert_eq!(p("#1.5"), "ERR a variable number must be a whole number");
+        assert_eq!(p("#-1"), "ERR missing variable number after `#`");
+        assert_eq!(p("#[1"), "ERR unbalanced bracket: `[` is not closed");
     }
 
     #[test]

@@ -34,16 +34,33 @@ pub(crate) fn starts_with_kw(i: &str, kw: &str) -> bool {
     i.len() >= kw.len() && i.as_bytes()[..kw.len()].eq_ignore_ascii_case(kw.as_bytes())
 }
 
+/// Byte index of the `)` that closes a comment whose body starts at `body`, counting nested
+/// parentheses.
+fn close_paren(body: &str) -> Option<usize> {
+    let mut depth = 0u32;
+    for (k, b) in body.bytes().enumerate() {
+        match b {
+            b'(' => depth += 1,
+            b')' if depth == 0 => return Some(k),
+            b')' => depth -= 1,
+            _ => {}
+        }
+    }
+    None
+}
+
 impl<'a> Cx<'a> {
-    /// Skips whitespace and comments, collecting the comments: `( … )` (no nesting: the first
-    /// `)` closes) and `;` to the end of the line.
+    /// Skips whitespace and comments, collecting the comments: `( … )` and `;` to the end of
+    /// the line. Parentheses nest inside a comment (`(START(dòng) SPINDLE)` is one comment), as
+    /// the macro programs of source 001 print annotations that way; a comment ends at the
+    /// end of its line.
     pub(crate) fn trivia(&self, mut i: &'a str, comments: &mut Vec<Comment>) -> PResult<'a, ()> {
         loop {
             i = ws(i);
             match i.as_bytes().first() {
                 Some(b'(') => {
                     let body = &i[1..];
-                    match body.find(')') {
+                    match close_paren(body) {
                         Some(end) => {
                             comments.push(Comment {
                                 text: body[..end].to_string(),
@@ -235,16 +252,19 @@ mod tests {
 
     #[test]
     fn comments_between_words() {
-        let s = "  (a(b) ;rest\r";
+        let s = "  (a(b)) ;rest\r";
         let cx = Cx { text: s };
         let mut c = Vec::new();
         let (rest, ()) = cx.trivia(s, &mut c).unwrap();
         assert_eq!(rest, "");
         assert_eq!(c.len(), 2);
-        assert_eq!(c[0].text, "a(b");
-        assert_eq!(c[0].span.range(), 2..7);
+        assert_eq!(c[0].text, "a(b)");
+        assert_eq!(c[0].span.range(), 2..8);
         assert_eq!(c[1].text, "rest");
-        assert_eq!(c[1].span.range(), 8..13);
+        assert_eq!(c[1].span.range(), 9..14);
+        let s = "(a(b)";
+        let cx = Cx { text: s };
+        assert!(cx.trivia(s, &mut c).is_err());
     }
 
     #[test]

@@ -2,9 +2,9 @@
 //! Whitespace may stand anywhere between words and between an address letter and its value
 //! (`X 10` is `X10`, as Fanuc reads it), but not inside a number (`X1 0` is an error).
 
-use super::lex::{char_len, ws};
+use super::lex::{char_len, starts_with_kw, ws};
 use super::{Cx, PResult, fail, fail_exp};
-use crate::ast::{Block, Line, LineKind, SeqNo, Value, Word};
+use crate::ast::{Block, Comment, Expr, ExprKind, Line, LineKind, SeqNo, UnaryOp, Value, Word};
 
 impl<'a> Cx<'a> {
     /// Parses `i`, the text of line `line_no` without its `\n`, to the end.
@@ -47,12 +47,8 @@ impl<'a> Cx<'a> {
                     });
                     i = self.trivia(r, &mut comments)?.0;
                 }
-                let (_, block) = self.block(i, &mut comments)?;
-                if block.words.is_empty() {
-                    LineKind::Empty
-                } else {
-                    LineKind::Block(block)
-                }
+                let (_, kind) = self.statement_or_block(i, &mut comments)?;
+                kind
             }
         };
         Ok((
@@ -66,6 +62,202 @@ impl<'a> Cx<'a> {
                 comments,
             },
         ))
+    }
+
+    /// What follows the N number: a Custom Macro B statement or a block of words, to the end
+    /// of the line.
+    ///
+    /// Statements are told from words by their first characters: `#` starts an assignment, and
+    /// the keywords `IF`, `WHILE`, `GOTO` and `END` cannot start a word (an address letter
+    /// must be followed by a value, and `F`, `H`, `O`, `N` are not values).
+    fn statement_or_block(&self, i: &'a str, comments: &mut Vec<Comment>) -> PResult<'a, LineKind> {
+        let (rest, kind) = match i.as_bytes().first() {
+            Some(b'#') => self.assignment(i)?,
+            Some(b'I' | b'i') if starts_with_kw(i, "IF") => self.if_statement(i, comments)?,
+            Some(b'W' | b'w') if starts_with_kw(i, "WHILE") => {
+                let (r, cond) = self.keyword_condition(i, "WHILE")?;
+                let r = ws(r);
+                if !starts_with_kw(r, "DO") {
+                    return fail_exp(
+                        r,
+                        char_len(r),
+                        "missing DO after WHILE[…]",
+                        "DO and a loop number 1-3",
+                    );
+                }
+                let (r, id) = self.loop_id(&r[2..], "DO")?;
+                (r, LineKind::While { cond, id })
+            }
+            Some(b'G' | b'g') if starts_with_kw(i, "GOTO") => {
+                let (r, target) = self.goto_target(&i[4..])?;
+                (r, LineKind::Goto { target })
+            }
+            Some(b'E' | b'e') if starts_with_kw(i, "END") => {
+                let (r, id) = self.loop_id(&i[3..], "END")?;
+                (r, LineKind::End { id })
+            }
+            _ => {
+                let (r, block) = self.block(i, comments)?;
+                let kind = if block.words.is_empty() {
+                    LineKind::Empty
+                } else {
+                    LineKind::Block(block)
+                };
+                return Ok((r, kind));
+            }
+        };
+        let (rest, ()) = self.trivia(rest, comments)?;
+        self.expect_end(rest, "after the statement")?;
+        Ok((rest, kind))
+    }
+
+    /// `#n = expr` or `#[expr] = expr`; `i` starts with `#`.
+    fn assignment(&self, i: &'a str) -> PResult<'a, LineKind> {
+        let (r, target) = self.var(i, 0)?;
+        let r = ws(r);
+        let Some(after) = r.strip_prefix('=') else {
+            return fail_exp(
+                r,
+                char_len(r),
+                "missing `=` after the variable",
+                "`=` and an expression",
+            );
+        };
+        match self.expr(after, 0) {
+            Ok((r, value)) => Ok((r, LineKind::Assign { target, value })),
+            Err(nom::Err::Error(_)) => {
+                let at = ws(after);
+                fail_exp(
+                    at,
+                    char_len(at),
+                    "missing expression after `=`",
+                    "an expression",
+                )
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// `KW [cond]` (`IF`, `WHILE`); returns the condition.
+    fn keyword_condition(&self, i: &'a str, kw: &'static str) -> PResult<'a, Expr> {
+        let open = ws(&i[kw.len()..]);
+        if !open.starts_with('[') {
+            return fail_exp(
+                open,
+                char_len(open),
+                format!("missing `[` after {kw}"),
+                "a condition in `[ ]`",
+            );
+        }
+        let (r, mut cond) = self.bracketed(open, 1)?;
+        cond.span = self.span(open, r);
+        Ok((r, cond))
+    }
+
+    /// `IF[cond]GOTO n` or `IF[cond]THEN statement`.
+    fn if_statement(&self, i: &'a str, comments: &mut Vec<Comment>) -> PResult<'a, LineKind> {
+        let (r, cond) = self.keyword_condition(i, "IF")?;
+        let r = ws(r);
+        if starts_with_kw(r, "GOTO") {
+            let (r, target) = self.goto_target(&r[4..])?;
+            return Ok((r, LineKind::IfGoto { cond, target }));
+        }
+        if !starts_with_kw(r, "THEN") {
+            return fail_exp(
+                r,
+                char_len(r),
+                "missing GOTO or THEN after IF[…]",
+                "GOTO n or THEN and a statement",
+            );
+        }
+        let (r, ()) = self.trivia(&r[4..], comments)?;
+        let then = match r.as_bytes().first() {
+            Some(b'#') => {
+                let (r, a) = self.assignment(r)?;
+                (r, a)
+            }
+            None => {
+                return fail_exp(
+                    r,
+                    0,
+                    "missing statement after THEN",
+                    "an assignment or a block",
+                );
+            }
+            _ => {
+                for kw in ["IF", "WHILE", "GOTO", "END"] {
+                    if starts_with_kw(r, kw) {
+                        return fail_exp(
+                            r,
+                            kw.len(),
+                            format!("THEN takes an assignment or a block, not {kw}"),
+                            "an assignment or a block",
+                        );
+                    }
+                }
+                let (r, block) = self.block(r, comments)?;
+                (r, LineKind::Block(block))
+            }
+        };
+        Ok((
+            then.0,
+            LineKind::IfThen {
+                cond,
+                then: Box::new(then.1),
+            },
+        ))
+    }
+
+    /// The target of `GOTO`: a sequence number, `#v` or `[expr]`.
+    fn goto_target(&self, i: &'a str) -> PResult<'a, Expr> {
+        let i = ws(i);
+        match i.as_bytes().first() {
+            Some(b'0'..=b'9') => {
+                let (r, n) = self.whole(i, "sequence number")?;
+                Ok((
+                    r,
+                    Expr {
+                        kind: ExprKind::Number(f64::from(n)),
+                        span: self.span(i, r),
+                    },
+                ))
+            }
+            Some(b'#') => self.var(i, 0),
+            Some(b'[') => {
+                let (r, mut e) = self.bracketed(i, 1)?;
+                e.span = self.span(i, r);
+                Ok((r, e))
+            }
+            _ => fail_exp(
+                i,
+                char_len(i),
+                "missing sequence number after GOTO",
+                "a sequence number, `#variable` or `[expression]`",
+            ),
+        }
+    }
+
+    /// The loop number after `DO` or `END`: 1, 2 or 3.
+    fn loop_id(&self, i: &'a str, kw: &'static str) -> PResult<'a, u8> {
+        let i = ws(i);
+        if !i.as_bytes().first().is_some_and(u8::is_ascii_digit) {
+            return fail_exp(
+                i,
+                char_len(i),
+                format!("missing loop number after {kw}"),
+                "a loop number 1, 2 or 3",
+            );
+        }
+        let (r, n) = self.whole(i, "loop number")?;
+        match u8::try_from(n) {
+            Ok(id @ 1..=3) => Ok((r, id)),
+            _ => fail_exp(
+                i,
+                self.off(r) - self.off(i),
+                format!("loop number {n} after {kw} is out of range"),
+                "a loop number 1, 2 or 3",
+            ),
+        }
     }
 
     /// An error unless only the end of the line is left.
@@ -83,7 +275,7 @@ impl<'a> Cx<'a> {
     }
 
     /// Words (with comments between them) to the end of the line.
-    fn block(&self, mut i: &'a str, comments: &mut Vec<crate::ast::Comment>) -> PResult<'a, Block> {
+    fn block(&self, mut i: &'a str, comments: &mut Vec<Comment>) -> PResult<'a, Block> {
         let mut words = Vec::new();
         loop {
             i = self.trivia(i, comments)?.0;
@@ -146,6 +338,32 @@ impl<'a> Cx<'a> {
                     Err(e) => return Err(e),
                 }
             }
+            Some(b'#') => {
+                let (r, e) = self.var(v, 0)?;
+                (r, Value::Expr(e))
+            }
+            // `X-#1`, `Z-[#1+2]`: a signed variable or bracket is an expression.
+            Some(b'+' | b'-') if matches!(ws(&v[1..]).as_bytes().first(), Some(b'#' | b'[')) => {
+                let op = if v.starts_with('-') {
+                    UnaryOp::Neg
+                } else {
+                    UnaryOp::Plus
+                };
+                let inner = ws(&v[1..]);
+                let (r, mut e) = if inner.starts_with('#') {
+                    self.var(inner, 1)?
+                } else {
+                    self.bracketed(inner, 1)?
+                };
+                e.span = self.span(inner, r);
+                (
+                    r,
+                    Value::Expr(Expr {
+                        kind: ExprKind::Unary(op, Box::new(e)),
+                        span: self.span(v, r),
+                    }),
+                )
+            }
             Some(b'+' | b'-' | b'.' | b'0'..=b'9') => {
                 let (r, num) = self.number(v)?;
                 // `X1.2.3` is a malformed number, not two words.
@@ -155,6 +373,9 @@ impl<'a> Cx<'a> {
                 (r, Value::Number(num))
             }
             _ => {
+                if letter == 'D' && starts_with_kw(i, "DO") {
+                    return fail_exp(i, 2, "DO without WHILE[…]", "WHILE[condition] DO n");
+                }
                 // Point at the address: it is what lacks a value.
                 return fail_exp(
                     i,
@@ -419,5 +640,150 @@ mod tests {
         );
         assert_eq!(err("% G1"), (1, 3, "unexpected text after `%`".into()));
         assert_eq!(err("G1\nX-"), (2, 3, "no digits after `-`".into()));
+    }
+
+    fn var(n: u32) -> ExprKind {
+        ExprKind::Var(n)
+    }
+
+    #[test]
+    fn macro_variables_as_word_values() {
+        let w = words("G#524 X#500 M#520 Z-#1 Y+#2 X [#1] F-[#3+1]");
+        let kinds: Vec<&ExprKind> = w
+            .iter()
+            .map(|w| match &w.value {
+                Value::Expr(e) => &e.kind,
+                v => panic!("{v:?}"),
+            })
+            .collect();
+        assert_eq!(kinds[0], &var(524));
+        assert_eq!(kinds[1], &var(500));
+        assert_eq!(kinds[2], &var(520));
+        assert!(matches!(kinds[3], ExprKind::Unary(UnaryOp::Neg, e) if e.kind == var(1)));
+        assert!(matches!(kinds[4], ExprKind::Unary(UnaryOp::Plus, e) if e.kind == var(2)));
+        assert_eq!(kinds[5], &var(1));
+        assert!(
+            matches!(kinds[6], ExprKind::Unary(UnaryOp::Neg, e) if matches!(e.kind, ExprKind::Binary(..)))
+        );
+        assert_eq!(w[3].span, Span::new(18, 22));
+        let w = words("X#[#1+2]");
+        assert!(
+            matches!(&w[0].value, Value::Expr(e) if matches!(e.kind, ExprKind::IndirectVar(_)))
+        );
+    }
+
+    #[test]
+    fn assignments() {
+        let l = one("#100=#4001(SAVE)");
+        let LineKind::Assign { target, value } = &l.kind else {
+            panic!("{l:?}")
+        };
+        assert_eq!(target.kind, var(100));
+        assert_eq!(target.span, Span::new(0, 4));
+        assert_eq!(value.kind, var(4001));
+        assert_eq!(l.comments[0].text, "SAVE");
+        let l = one("N10 #[#1+2] = SIN[30]*2");
+        assert_eq!(l.n.map(|n| n.value), Some(10));
+        let LineKind::Assign { target, value } = &l.kind else {
+            panic!("{l:?}")
+        };
+        assert!(matches!(target.kind, ExprKind::IndirectVar(_)));
+        assert!(matches!(value.kind, ExprKind::Binary(BinaryOp::Mul, _, _)));
+        let l = one("#3000=12(TOOL NOT FOUND)");
+        assert!(
+            matches!(&l.kind, LineKind::Assign { value, .. } if value.kind == ExprKind::Number(12.0))
+        );
+        assert_eq!(l.comments[0].text, "TOOL NOT FOUND");
+        assert!(matches!(one("/#1=0").kind, LineKind::Assign { .. }));
+    }
+
+    #[test]
+    fn gotos() {
+        let t = |s: &str| match one(s).kind {
+            LineKind::Goto { target } => target.kind,
+            k => panic!("{k:?}"),
+        };
+        assert_eq!(t("GOTO100"), ExprKind::Number(100.0));
+        assert_eq!(t("goto 5 (back)"), ExprKind::Number(5.0));
+        assert_eq!(t("GOTO#10"), var(10));
+        assert!(matches!(
+            t("GOTO[#1+10]"),
+            ExprKind::Binary(BinaryOp::Add, _, _)
+        ));
+    }
+
+    #[test]
+    fn if_goto_and_if_then() {
+        let l = one("IF[[#113 OR#114]NE 1]GOTO101(CHECK)");
+        let LineKind::IfGoto { cond, target } = &l.kind else {
+            panic!("{l:?}")
+        };
+        assert!(matches!(cond.kind, ExprKind::Binary(BinaryOp::Ne, _, _)));
+        assert_eq!(cond.span, Span::new(2, 21));
+        assert_eq!(target.kind, ExprKind::Number(101.0));
+        let l = one("IF [#520 EQ 3] THEN #113=1");
+        let LineKind::IfThen { cond, then } = &l.kind else {
+            panic!("{l:?}")
+        };
+        assert!(matches!(cond.kind, ExprKind::Binary(BinaryOp::Eq, _, _)));
+        assert!(matches!(**then, LineKind::Assign { .. }));
+        let l = one("if[#1 gt 0]then g0 x#1 (move)");
+        let LineKind::IfThen { then, .. } = &l.kind else {
+            panic!("{l:?}")
+        };
+        let LineKind::Block(b) = &**then else {
+            panic!("{then:?}")
+        };
+        assert_eq!(b.words.len(), 2);
+        assert_eq!(l.comments[0].text, "move");
+    }
+
+    #[test]
+    fn while_do_end() {
+        let l = one("WHILE[#1 LT 10]DO1");
+        let LineKind::While { cond, id } = &l.kind else {
+            panic!("{l:?}")
+        };
+        assert!(matches!(cond.kind, ExprKind::Binary(BinaryOp::Lt, _, _)));
+        assert_eq!(*id, 1);
+        assert!(matches!(
+            one("N5 while [#2 LE #3] do 3").kind,
+            LineKind::While { id: 3, .. }
+        ));
+        assert_eq!(one("END1").kind, LineKind::End { id: 1 });
+        assert_eq!(one("end 2 (loop)").kind, LineKind::End { id: 2 });
+    }
+
+    #[test]
+    fn g65_stays_a_block() {
+        assert_eq!(
+            nums("G65 H99 P1"),
+            vec![('G', 65.0, false), ('H', 99.0, false), ('P', 1.0, false)]
+        );
+    }
+
+    #[test]
+    fn statement_errors() {
+        assert_eq!(err("#1"), (1, 3, "missing `=` after the variable".into()));
+        assert_eq!(err("#1="), (1, 4, "missing expression after `=`".into()));
+        assert_eq!(err("IF #1 GOTO 5"), (1, 4, "missing `[` after IF".into()));
+        assert_eq!(
+            err("IF[#1]X1"),
+            (1, 7, "missing GOTO or THEN after IF[…]".into())
+        );
+        assert_eq!(
+            err("WHILE[1]DO4"),
+            (1, 11, "loop number 4 after DO is out of range".into())
+        );
+        assert_eq!(err("END"), (1, 4, "missing loop number after END".into()));
+        assert_eq!(
+            err("GOTO"),
+            (1, 5, "missing sequence number after GOTO".into())
+        );
+        assert_eq!(
+            err("GOTO 5 X1"),
+            (1, 8, "unexpected text after the statement".into())
+        );
+        assert_eq!(err("DO1"), (1, 1, "DO without WHILE[…]".into()));
     }
 }
