@@ -5,6 +5,8 @@
 #![forbid(unsafe_code)]
 
 pub mod bus;
+pub mod coupling;
+pub mod master;
 pub mod od;
 pub mod time;
 pub mod wire;

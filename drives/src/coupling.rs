@@ -1,0 +1,326 @@
+//! The rigid-tapping coupling checker: fed once per tick with Z and C (setpoints and actual
+//! positions) and the program line, it finds each window in which both axes move and reports
+//! the pitch observed and the worst deviation from it, in µm of Z, for setpoints and for
+//! actual positions. Used by `cnc402 run` and by the `simdrive` process (which sees only what
+//! arrives on the bus, so it reports every window of coupled Z+C motion, taps or not).
+
+/// One tick's positions: Z in mm, C in degrees (unwrapped), and the program line.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CouplingSample {
+    /// Z setpoint (mm).
+    pub z_cmd: f64,
+    /// Z actual position (mm).
+    pub z_act: f64,
+    /// C setpoint (degrees).
+    pub c_cmd: f64,
+    /// C actual position (degrees).
+    pub c_act: f64,
+    /// The program line being executed.
+    pub line: u32,
+}
+
+/// One window of coupled Z and C motion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TapWindow {
+    /// Program line at the window's first tick.
+    pub line: u32,
+    /// Tick number (count of samples fed before it) of the window's first moving tick.
+    pub first_tick: u64,
+    /// Ticks in the window.
+    pub ticks: u64,
+    /// Z path length (sum of |ΔZ| of the setpoints), mm.
+    pub z_travel_mm: f64,
+    /// C path length (sum of |ΔC| of the setpoints), degrees.
+    pub c_travel_deg: f64,
+    /// Pitch observed: Z travel per C revolution (mm/rev), always positive.
+    pub pitch_mm: f64,
+    /// Whether Z and C move in the same sense (Z+ with C+): the sign of the coupling.
+    pub same_sense: bool,
+    /// Worst |ΔZ − ΔC·pitch/360·sense| over the window, setpoints, µm of Z.
+    pub max_error_um_cmd: f64,
+    /// The same for actual positions (against the setpoints' pitch), µm of Z.
+    pub max_error_um_act: f64,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Rel {
+    dz_cmd: f64,
+    dc_cmd: f64,
+    dz_act: f64,
+    dc_act: f64,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Open {
+    line: u32,
+    first_tick: u64,
+    origin: CouplingSample,
+    z_travel: f64,
+    c_travel: f64,
+    dot: f64,
+}
+
+/// Finds tapping windows in a stream of samples (see the module doc).
+///
+/// The pitch is only known when a window ends, so the window's samples are kept (in a
+/// buffer reused from window to window: it allocates only when a window is longer than every
+/// earlier one; [`with_capacity`](Self::with_capacity) avoids even that).
+#[derive(Clone, Debug)]
+pub struct CouplingChecker {
+    z_eps: f64,
+    c_eps: f64,
+    prev: Option<CouplingSample>,
+    ticks: u64,
+    open: Option<Open>,
+    samples: Vec<Rel>,
+    windows: Vec<TapWindow>,
+}
+
+impl CouplingChecker {
+    /// A checker for Z with `z_counts_per_mm` and C with `c_counts_per_deg`: an axis "moves"
+    /// in a tick when its setpoint changes by more than half a count.
+    pub fn new(z_counts_per_mm: f64, c_counts_per_deg: f64) -> CouplingChecker {
+        CouplingChecker::with_capacity(z_counts_per_mm, c_counts_per_deg, 0)
+    }
+
+    /// As [`new`](Self::new), with room for windows of `ticks` ticks without allocating.
+    pub fn with_capacity(z_counts_per_mm: f64, c_counts_per_deg: f64, ticks: usize) -> CouplingChecker {
+        let eps = |cpu: f64| {
+            if cpu.is_finite() && cpu > 0.0 {
+                0.5 / cpu
+            } else {
+                1e-9
+            }
+        };
+        CouplingChecker {
+            z_eps: eps(z_counts_per_mm),
+            c_eps: eps(c_counts_per_deg),
+            prev: None,
+            ticks: 0,
+            open: None,
+            samples: Vec::with_capacity(ticks),
+            windows: Vec::new(),
+        }
+    }
+
+    /// Feeds one tick. Returns the window that this tick closed, if any.
+    pub fn feed(&mut self, s: CouplingSample) -> Option<TapWindow> {
+        let tick = self.ticks;
+        self.ticks += 1;
+        let Some(prev) = self.prev.replace(s) else {
+            return None;
+        };
+        let dz = s.z_cmd - prev.z_cmd;
+        let dc = s.c_cmd - prev.c_cmd;
+        let both = dz.abs() > self.z_eps && dc.abs() > self.c_eps;
+        if !both {
+            return self.close();
+        }
+        let open = self.open.get_or_insert_with(|| Open {
+            line: s.line,
+            first_tick: tick,
+            origin: prev,
+            z_travel: 0.0,
+            c_travel: 0.0,
+            dot: 0.0,
+        });
+        open.z_travel += dz.abs();
+        open.c_travel += dc.abs();
+        open.dot += dz * dc;
+        let o = open.origin;
+        self.samples.push(Rel {
+            dz_cmd: s.z_cmd - o.z_cmd,
+            dc_cmd: s.c_cmd - o.c_cmd,
+            // Actuals are measured from the setpoints' origin: an actual that has not caught up
+            // at the window's start is part of the coupling error, not a new zero.
+            dz_act: s.z_act - o.z_cmd,
+            dc_act: s.c_act - o.c_cmd,
+        });
+        None
+    }
+
+    /// Closes the open window (end of the stream); returns it.
+    pub fn finish(&mut self) -> Option<TapWindow> {
+        self.close()
+    }
+
+    fn close(&mut self) -> Option<TapWindow> {
+        let open = self.open.take()?;
+        let same_sense = open.dot >= 0.0;
+        // Z per degree of C, signed.
+        let k = if open.c_travel > 0.0 {
+            open.z_travel / open.c_travel * if same_sense { 1.0 } else { -1.0 }
+        } else {
+            0.0
+        };
+        let mut cmd: f64 = 0.0;
+        let mut act: f64 = 0.0;
+        for r in &self.samples {
+            cmd = cmd.max((r.dz_cmd - k * r.dc_cmd).abs());
+            act = act.max((r.dz_act - k * r.dc_act).abs());
+        }
+        let w = TapWindow {
+            line: open.line,
+            first_tick: open.first_tick,
+            ticks: self.samples.len() as u64,
+            z_travel_mm: open.z_travel,
+            c_travel_deg: open.c_travel,
+            pitch_mm: k.abs() * 360.0,
+            same_sense,
+            max_error_um_cmd: cmd * 1000.0,
+            max_error_um_act: act * 1000.0,
+        };
+        self.samples.clear();
+        self.windows.push(w);
+        Some(w)
+    }
+
+    /// Every window closed so far.
+    pub fn windows(&self) -> &[TapWindow] {
+        &self.windows
+    }
+
+    /// Windows merged per program line (a peck tap is several windows on one line): the
+    /// pitch from the line's total travel, the worst errors of its windows.
+    pub fn by_line(&self) -> Vec<TapWindow> {
+        let mut out: Vec<TapWindow> = Vec::new();
+        for w in &self.windows {
+            match out.iter_mut().find(|o| o.line == w.line) {
+                Some(o) => {
+                    o.ticks += w.ticks;
+                    o.z_travel_mm += w.z_travel_mm;
+                    o.c_travel_deg += w.c_travel_deg;
+                    o.pitch_mm = if o.c_travel_deg > 0.0 {
+                        o.z_travel_mm / o.c_travel_deg * 360.0
+                    } else {
+                        0.0
+                    };
+                    o.max_error_um_cmd = o.max_error_um_cmd.max(w.max_error_um_cmd);
+                    o.max_error_um_act = o.max_error_um_act.max(w.max_error_um_act);
+                }
+                None => out.push(*w),
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const Z_CPU: f64 = 10000.0;
+    const C_CPU: f64 = 131072.0 / 360.0;
+
+    /// A tap at `pitch` mm/rev, right hand (Z down with C forward), with an S-ish velocity
+    /// profile, in and out, with a still tick at the bottom; C actual lags by `lag` ticks.
+    fn tap(pitch: f64, depth: f64, lag: usize, line: u32) -> Vec<CouplingSample> {
+        let n = 400;
+        let mut z = vec![10.0];
+        for i in 1..=n {
+            let u = i as f64 / n as f64;
+            z.push(10.0 - depth * (3.0 * u * u - 2.0 * u * u * u));
+        }
+        z.push(10.0 - depth); // still at the bottom
+        for i in 1..=n {
+            let u = i as f64 / n as f64;
+            z.push(10.0 - depth + depth * (3.0 * u * u - 2.0 * u * u * u));
+        }
+        let c: Vec<f64> = z.iter().map(|zz| 720.0 + (10.0 - zz) / pitch * 360.0).collect();
+        let mut out = vec![];
+        for (i, zz) in z.iter().enumerate() {
+            out.push(CouplingSample {
+                z_cmd: *zz,
+                z_act: *zz,
+                c_cmd: c[i],
+                c_act: c[i.saturating_sub(lag)],
+                line,
+            });
+        }
+        // Rest before and after.
+        let first = out[0];
+        let last = *out.last().unwrap();
+        let mut all = vec![first; 5];
+        all.extend(out);
+        all.extend(vec![
+            CouplingSample {
+                c_act: last.c_cmd,
+                ..last
+            };
+            5
+        ]);
+        all
+    }
+
+    #[test]
+    fn perfect_tap_deviates_less_than_a_count() {
+        let mut ch = CouplingChecker::new(Z_CPU, C_CPU);
+        for s in tap(1.5, 20.0, 0, 42) {
+            ch.feed(s);
+        }
+        ch.finish();
+        let w = ch.windows();
+        assert_eq!(w.len(), 2, "in and out: {w:?}");
+        for w in w {
+            assert_eq!(w.line, 42);
+            assert!((w.pitch_mm - 1.5).abs() < 1e-9, "{}", w.pitch_mm);
+            assert!(!w.same_sense);
+            assert!(w.max_error_um_cmd < 0.1, "< 1 count of Z: {}", w.max_error_um_cmd);
+            assert!(w.max_error_um_act < 0.1);
+            assert!((w.z_travel_mm - 20.0).abs() < 1e-9);
+        }
+        let merged = ch.by_line();
+        assert_eq!(merged.len(), 1);
+        assert!((merged[0].pitch_mm - 1.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn c_lag_is_reported_in_um_of_z() {
+        let lag = 3;
+        let samples = tap(1.5, 20.0, lag, 7);
+        let mut ch = CouplingChecker::new(Z_CPU, C_CPU);
+        for s in &samples {
+            ch.feed(*s);
+        }
+        ch.finish();
+        // Expected: the largest C lag in degrees, times pitch/360, in µm, over the moving ticks.
+        let mut expected: f64 = 0.0;
+        for s in &samples {
+            expected = expected.max((s.c_cmd - s.c_act).abs() * 1.5 / 360.0 * 1000.0);
+        }
+        let worst = ch
+            .windows()
+            .iter()
+            .map(|w| w.max_error_um_act)
+            .fold(0.0, f64::max);
+        assert!(expected > 50.0, "{expected}");
+        assert!((worst - expected).abs() < 1e-6, "{worst} vs {expected}");
+        // Setpoints are still perfect.
+        assert!(ch.windows().iter().all(|w| w.max_error_um_cmd < 0.1));
+    }
+
+    #[test]
+    fn z_alone_or_c_alone_is_no_window() {
+        let mut ch = CouplingChecker::new(Z_CPU, C_CPU);
+        for i in 0..100 {
+            ch.feed(CouplingSample {
+                z_cmd: i as f64 * 0.01,
+                z_act: i as f64 * 0.01,
+                c_cmd: 0.0,
+                c_act: 0.0,
+                line: 1,
+            });
+        }
+        for i in 0..100 {
+            ch.feed(CouplingSample {
+                z_cmd: 1.0,
+                z_act: 1.0,
+                c_cmd: i as f64 * 36.0,
+                c_act: i as f64 * 36.0,
+                line: 2,
+            });
+        }
+        assert_eq!(ch.finish(), None);
+        assert!(ch.windows().is_empty());
+    }
+}

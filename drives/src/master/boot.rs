@@ -1,0 +1,632 @@
+//! Boot and configuration of the drives (blocking, over a [`TimedBus`]): wait for each
+//! drive's boot-up (after NMT reset communication), check 0x1000 is CiA 402, read 0x1018 and
+//! 0x1008 for the report, map RPDO1 = 0x6040 + 0x607A and TPDO1 = 0x6041 + 0x6064
+//! (synchronous) in the CiA 301 remap sequence, set CSP, 0x60C2, 0x6065/0x6066 and the
+//! heartbeat, NMT start, write 0x607A = 0x6064, then run the CiA 402 enable sequence
+//! cyclically with the target held at the actual position (enabling never moves an axis).
+
+use core::fmt;
+use core::time::Duration;
+
+use cia402::{EnableSequencer, Goal, Progress, State, Statusword, Stuck, objects as obj};
+
+use super::sdo::{BlockingSdo, SdoError};
+use super::stop::{Emcy, SafetyStop};
+use super::timed::TimedBus;
+use super::{COMMAND_HISTORY, Master, Phase};
+use crate::bus::BusError;
+use crate::time::Instant;
+use crate::wire::{AbortCode, CanFrame, MappingEntry, NmtCommand, NmtRepr, NmtTarget, NodeId};
+
+/// The 0x60C2 representation of the cycle period: `value · 10^exponent` seconds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct InterpolationPeriod {
+    /// Sub 1, UNSIGNED8.
+    pub value: u8,
+    /// Sub 2, INTEGER8 (−3 = ms … −6 = µs).
+    pub exponent: i8,
+}
+
+impl InterpolationPeriod {
+    /// The exact representation of `us` microseconds with the coarsest unit that fits
+    /// (1000 µs → 1 × 10^−3; 250 µs → 25 × 10^−5; 125 µs → 125 × 10^−6); `None` if none.
+    pub fn from_micros(us: u32) -> Option<InterpolationPeriod> {
+        for (exponent, unit) in [(-3i8, 1000u32), (-4, 100), (-5, 10), (-6, 1)] {
+            if us % unit == 0 && (1..=255).contains(&(us / unit)) {
+                return Some(InterpolationPeriod {
+                    value: (us / unit) as u8,
+                    exponent,
+                });
+            }
+        }
+        None
+    }
+}
+
+/// What boot learnt about one drive (for the log and the run report).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DriveIdentity {
+    /// Axis letter.
+    pub axis: char,
+    /// Node id.
+    pub node: u8,
+    /// 0x1000.
+    pub device_type: u32,
+    /// 0x1018:1..4 (sub 2..4 are optional in CiA 301).
+    pub vendor: u32,
+    /// 0x1018:2.
+    pub product: Option<u32>,
+    /// 0x1018:3.
+    pub revision: Option<u32>,
+    /// 0x1018:4.
+    pub serial: Option<u32>,
+    /// 0x1008 (optional).
+    pub name: Option<String>,
+    /// When its boot-up (or first heartbeat) was seen.
+    pub seen_at: Instant,
+    /// Statusword read before enabling.
+    pub initial_statusword: Statusword,
+    /// The drive was in FAULT before enabling (it was fault-reset); with its EMCY if one came.
+    pub fault_at_power_on: Option<Option<Emcy>>,
+    /// 0x6064 read before enabling (counts) = the target written to 0x607A.
+    pub position_counts: i32,
+    /// The same in axis units.
+    pub position: f64,
+}
+
+/// What boot did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BootReport {
+    /// Per drive, in config order.
+    pub drives: Vec<DriveIdentity>,
+    /// When every drive was in OPERATION ENABLED.
+    pub enabled_at: Instant,
+    /// Cycles the enable sequence took.
+    pub enable_cycles: u32,
+}
+
+/// Why boot failed; every variant names the node (and the object, abort code or timeout).
+#[derive(Clone, Debug, PartialEq)]
+pub enum BootError {
+    /// No boot-up or heartbeat from this drive within the boot timeout.
+    NoBootUp {
+        /// Axis letter.
+        axis: char,
+        /// Node id.
+        node: u8,
+        /// How long the master waited.
+        waited: Duration,
+    },
+    /// An SDO transfer failed (names node, index:sub, abort code or timeout).
+    Sdo(SdoError),
+    /// 0x1000 does not say CiA 402 (low word 0x0192).
+    NotCia402 {
+        /// Axis letter.
+        axis: char,
+        /// Node id.
+        node: u8,
+        /// The 0x1000 value read.
+        device_type: u32,
+    },
+    /// The enable sequence did not reach OPERATION ENABLED in time.
+    Enable {
+        /// Axis letter.
+        axis: char,
+        /// Node id.
+        node: u8,
+        /// The last statusword.
+        statusword: Option<Statusword>,
+        /// The sequencer's diagnosis, if it had one.
+        stuck: Option<Stuck>,
+        /// The last EMCY from the drive.
+        emcy: Option<Emcy>,
+        /// How long the master tried.
+        waited: Duration,
+    },
+    /// A monitor tripped while enabling.
+    Stopped(SafetyStop),
+    /// The transport failed.
+    Bus(BusError),
+    /// `boot` or `disable` called in the wrong phase.
+    WrongPhase(Phase),
+}
+
+impl fmt::Display for BootError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            BootError::NoBootUp { axis, node, waited } => write!(
+                f,
+                "axis {axis} (node {node}): no boot-up or heartbeat within {} ms",
+                waited.as_millis()
+            ),
+            BootError::Sdo(e) => write!(f, "{e}"),
+            BootError::NotCia402 {
+                axis,
+                node,
+                device_type,
+            } => write!(
+                f,
+                "axis {axis} (node {node}): 0x1000 device type {device_type:#010x} is not a \
+                 CiA 402 drive (low word must be 0x0192)"
+            ),
+            BootError::Enable {
+                axis,
+                node,
+                statusword,
+                stuck,
+                emcy,
+                waited,
+            } => {
+                write!(
+                    f,
+                    "axis {axis} (node {node}): not OPERATION ENABLED after {} ms",
+                    waited.as_millis()
+                )?;
+                match (stuck, statusword) {
+                    (Some(s), _) => write!(f, ": {s}")?,
+                    (None, Some(sw)) => write!(f, ": statusword {sw}")?,
+                    (None, None) => write!(f, ": no statusword received")?,
+                }
+                if let Some(e) = emcy {
+                    write!(f, "; last {e}")?;
+                }
+                Ok(())
+            }
+            BootError::Stopped(s) => write!(f, "while enabling: {s}"),
+            BootError::Bus(e) => write!(f, "{e}"),
+            BootError::WrongPhase(p) => write!(f, "not possible in phase {p:?}"),
+        }
+    }
+}
+
+impl std::error::Error for BootError {}
+
+impl From<SdoError> for BootError {
+    fn from(e: SdoError) -> BootError {
+        BootError::Sdo(e)
+    }
+}
+
+impl From<BusError> for BootError {
+    fn from(e: BusError) -> BootError {
+        BootError::Bus(e)
+    }
+}
+
+/// RPDO1 mapping: controlword + target position.
+pub const RPDO1_MAPPING: [MappingEntry; 2] = [
+    MappingEntry::new(obj::CONTROLWORD, 0, 16),
+    MappingEntry::new(obj::TARGET_POSITION, 0, 32),
+];
+/// TPDO1 mapping: statusword + position actual.
+pub const TPDO1_MAPPING: [MappingEntry; 2] = [
+    MappingEntry::new(obj::STATUSWORD, 0, 16),
+    MappingEntry::new(obj::POSITION_ACTUAL, 0, 32),
+];
+/// Transmission type 1: synchronous, every SYNC.
+pub const SYNCHRONOUS_EVERY_SYNC: u8 = 1;
+
+const COB_INVALID: u32 = 0x8000_0000;
+const COB_NO_RTR: u32 = 0x4000_0000;
+
+fn optional<T>(r: Result<T, SdoError>) -> Result<Option<T>, SdoError> {
+    match r {
+        Ok(v) => Ok(Some(v)),
+        Err(e)
+            if matches!(
+                e.abort_code(),
+                Some(AbortCode::NoObject | AbortCode::NoSubIndex | AbortCode::UnsupportedAccess)
+            ) =>
+        {
+            Ok(None)
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// Maps one PDO in the CiA 301 sequence: COB-ID bit 31 set (invalid) → mapping sub0 = 0 →
+/// entries → sub0 = n → transmission type → COB-ID valid. The COB-ID's bit 30 (RTR not
+/// allowed) is kept as the drive reports it.
+pub fn map_pdo<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    node: NodeId,
+    comm: u16,
+    mapping: u16,
+    cob_id: u16,
+    entries: &[MappingEntry],
+    transmission_type: u8,
+) -> Result<(), SdoError> {
+    let current = sdo.read_u32(node, comm, 1)?;
+    let valid = (current & COB_NO_RTR) | cob_id as u32;
+    sdo.write_u32(node, comm, 1, valid | COB_INVALID)?;
+    sdo.write_u8(node, mapping, 0, 0)?;
+    for (i, e) in entries.iter().enumerate() {
+        sdo.write_u32(node, mapping, i as u8 + 1, e.to_u32())?;
+    }
+    sdo.write_u8(node, mapping, 0, entries.len() as u8)?;
+    sdo.write_u8(node, comm, 2, transmission_type)?;
+    sdo.write_u32(node, comm, 1, valid)
+}
+
+/// The configuration one drive gets (from the machine config).
+struct DriveSetup {
+    axis: char,
+    node: NodeId,
+    period: InterpolationPeriod,
+    period_us: u32,
+    window_counts: u32,
+    fe_timeout_ms: u16,
+    heartbeat_ms: u16,
+    counts_per_unit: f64,
+}
+
+/// Identity, checks and configuration of one drive, up to NMT start (exclusive).
+fn configure<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    d: &DriveSetup,
+    seen_at: Instant,
+) -> Result<DriveIdentity, BootError> {
+    let n = d.node;
+    let device_type = sdo.read_u32(n, obj::DEVICE_TYPE, 0)?;
+    if device_type & 0xFFFF != 0x0192 {
+        return Err(BootError::NotCia402 {
+            axis: d.axis,
+            node: n.get(),
+            device_type,
+        });
+    }
+    let vendor = sdo.read_u32(n, obj::IDENTITY, 1)?;
+    let product = optional(sdo.read_u32(n, obj::IDENTITY, 2))?;
+    let revision = optional(sdo.read_u32(n, obj::IDENTITY, 3))?;
+    let serial = optional(sdo.read_u32(n, obj::IDENTITY, 4))?;
+    let name = optional(sdo.read_string(n, obj::DEVICE_NAME, 0))?;
+
+    let id = n.get() as u16;
+    map_pdo(
+        sdo,
+        n,
+        obj::RPDO_COMMUNICATION,
+        obj::RPDO_MAPPING,
+        0x200 + id,
+        &RPDO1_MAPPING,
+        SYNCHRONOUS_EVERY_SYNC,
+    )?;
+    map_pdo(
+        sdo,
+        n,
+        obj::TPDO_COMMUNICATION,
+        obj::TPDO_MAPPING,
+        0x180 + id,
+        &TPDO1_MAPPING,
+        SYNCHRONOUS_EVERY_SYNC,
+    )?;
+    // TPDO2..4 off: a drive's default mapping would only add bus load (4 CSP axes at 1 ms
+    // already use ~97 % of 1 Mbit/s).
+    for p in 1..4u16 {
+        let comm = obj::TPDO_COMMUNICATION + p;
+        if let Some(cob) = optional(sdo.read_u32(n, comm, 1))? {
+            if cob & COB_INVALID == 0 {
+                sdo.write_u32(n, comm, 1, cob | COB_INVALID)?;
+            }
+        }
+    }
+    sdo.write_i8(n, obj::MODES_OF_OPERATION, 0, 8)?;
+    sdo.write_u8(
+        n,
+        obj::INTERPOLATION_TIME_PERIOD,
+        obj::INTERPOLATION_TIME_PERIOD_VALUE_SUB,
+        d.period.value,
+    )?;
+    sdo.write_i8(
+        n,
+        obj::INTERPOLATION_TIME_PERIOD,
+        obj::INTERPOLATION_TIME_PERIOD_INDEX_SUB,
+        d.period.exponent,
+    )?;
+    // 0x1006 lets the drive watch the SYNC period; optional in CiA 301.
+    optional(sdo.write_u32(n, obj::COMMUNICATION_CYCLE_PERIOD, 0, d.period_us))?;
+    sdo.write_u32(n, obj::FOLLOWING_ERROR_WINDOW, 0, d.window_counts)?;
+    sdo.write_u16(n, obj::FOLLOWING_ERROR_TIMEOUT, 0, d.fe_timeout_ms)?;
+    sdo.write_u16(n, obj::PRODUCER_HEARTBEAT_TIME, 0, d.heartbeat_ms)?;
+    let initial_statusword = Statusword(sdo.read_u16(n, obj::STATUSWORD, 0)?);
+    Ok(DriveIdentity {
+        axis: d.axis,
+        node: n.get(),
+        device_type,
+        vendor,
+        product,
+        revision,
+        serial,
+        name,
+        seen_at,
+        initial_statusword,
+        fault_at_power_on: None,
+        position_counts: 0,
+        position: 0.0,
+    })
+}
+
+impl Master {
+    fn drive_indices(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.n_axes).filter(|&i| self.axes[i].node.is_some())
+    }
+
+    fn absorb_all(&mut self, frames: &mut Vec<CanFrame>, now: Instant) {
+        for f in frames.drain(..) {
+            self.absorb(&f, now);
+        }
+    }
+
+    /// Boots, configures and enables every drive (blocking; see the module doc). On success
+    /// the master is in [`Phase::Running`] and [`positions`](Self::positions) are the actual
+    /// positions the drives were enabled at.
+    pub fn boot<B: TimedBus + ?Sized>(&mut self, bus: &mut B) -> Result<BootReport, BootError> {
+        if self.phase != Phase::Idle {
+            return Err(BootError::WrongPhase(self.phase));
+        }
+        let t0 = bus.now();
+        while let Some(f) = bus.recv()? {
+            self.absorb(&f, t0);
+        }
+        let drives: Vec<usize> = self.drive_indices().collect();
+        if self.options.reset_communication {
+            for &i in &drives {
+                if let Some(n) = self.axes[i].node {
+                    bus.send(
+                        &NmtRepr {
+                            command: NmtCommand::ResetCommunication,
+                            target: NmtTarget::Node(n),
+                        }
+                        .emit(),
+                    )?;
+                }
+                self.axes[i].booted = false;
+                self.axes[i].last_heartbeat = None;
+            }
+        }
+        // Wait for every drive's boot-up (a late drive: up to the boot timeout).
+        let boot_deadline = t0 + self.options.boot_timeout;
+        let mut seen_at = [Instant::ZERO; cnc402_config::MAX_AXES];
+        loop {
+            for &i in &drives {
+                if self.axes[i].booted && seen_at[i] == Instant::ZERO {
+                    seen_at[i] = self.axes[i].last_heartbeat.unwrap_or(bus.now());
+                }
+            }
+            if drives.iter().all(|&i| self.axes[i].booted) {
+                break;
+            }
+            match bus.recv_until(boot_deadline)? {
+                Some(f) => {
+                    let now = bus.now();
+                    self.absorb(&f, now);
+                }
+                None => {
+                    let i = drives
+                        .iter()
+                        .copied()
+                        .find(|&i| !self.axes[i].booted)
+                        .unwrap_or(0);
+                    return Err(BootError::NoBootUp {
+                        axis: self.axes[i].name,
+                        node: self.axes[i].node.map(NodeId::get).unwrap_or(0),
+                        waited: bus.now().saturating_since(t0),
+                    });
+                }
+            }
+        }
+
+        // Configure each drive, then start it.
+        let mut report = BootReport {
+            drives: Vec::with_capacity(drives.len()),
+            enabled_at: Instant::ZERO,
+            enable_cycles: 0,
+        };
+        let mut queue: Vec<CanFrame> = Vec::new();
+        for &i in &drives {
+            let a = &self.axes[i];
+            let Some(node) = a.node else { continue };
+            let setup = DriveSetup {
+                axis: a.name,
+                node,
+                period: self.interpolation,
+                period_us: self.period_us,
+                window_counts: a.window_counts,
+                fe_timeout_ms: a.fe_timeout_ms,
+                heartbeat_ms: self.heartbeat_ms,
+                counts_per_unit: a.counts_per_unit,
+            };
+            let mut push = |f: &CanFrame| queue.push(*f);
+            let mut sdo = BlockingSdo::new(&mut *bus, self.sdo_timeout, &mut push);
+            let mut ident = configure(&mut sdo, &setup, seen_at[i])?;
+            drop(sdo);
+            let now = bus.now();
+            self.absorb_all(&mut queue, now);
+            bus.send(
+                &NmtRepr {
+                    command: NmtCommand::Start,
+                    target: NmtTarget::Node(node),
+                }
+                .emit(),
+            )?;
+            // The first setpoint is the actual position: 0x607A = 0x6064 before enabling.
+            let mut push = |f: &CanFrame| queue.push(*f);
+            let mut sdo = BlockingSdo::new(&mut *bus, self.sdo_timeout, &mut push);
+            let pos = sdo.read_i32(node, obj::POSITION_ACTUAL, 0)?;
+            sdo.write_i32(node, obj::TARGET_POSITION, 0, pos)?;
+            drop(sdo);
+            let now = bus.now();
+            self.absorb_all(&mut queue, now);
+            ident.position_counts = pos;
+            ident.position = pos as f64 / setup.counts_per_unit;
+            if ident.initial_statusword.state().is_some_and(State::is_fault) {
+                ident.fault_at_power_on = Some(self.axes[i].emcy);
+            }
+            let a = &mut self.axes[i];
+            a.reset_actual(pos);
+            a.target = pos;
+            a.statusword = Some(ident.initial_statusword);
+            report.drives.push(ident);
+        }
+
+        // Enable: cycles at the period, target held at the actual position.
+        self.start_enabling();
+        let t_enable = bus.now();
+        let deadline = t_enable + self.options.enable_timeout;
+        let mut next = t_enable + self.period;
+        let hold = self.positions();
+        let mut stuck: [Option<Stuck>; cnc402_config::MAX_AXES] = [None; cnc402_config::MAX_AXES];
+        loop {
+            self.wait_until(bus, next)?;
+            let progress = self.enable_step(bus, next, &hold[..self.n_axes])?;
+            report.enable_cycles += 1;
+            let mut all = true;
+            for &i in &drives {
+                match progress[i] {
+                    Progress::Reached => {}
+                    Progress::Stuck(s) => {
+                        stuck[i] = Some(s);
+                        all = false;
+                    }
+                    Progress::Moving(_) => all = false,
+                }
+            }
+            if all {
+                break;
+            }
+            if next >= deadline {
+                let i = drives
+                    .iter()
+                    .copied()
+                    .find(|&i| progress[i] != Progress::Reached)
+                    .unwrap_or(0);
+                let a = &self.axes[i];
+                return Err(BootError::Enable {
+                    axis: a.name,
+                    node: a.node.map(NodeId::get).unwrap_or(0),
+                    statusword: a.statusword,
+                    stuck: stuck[i],
+                    emcy: a.emcy,
+                    waited: next.saturating_since(t_enable),
+                });
+            }
+            next += self.period;
+        }
+        report.enabled_at = next;
+        self.start_running(next);
+        Ok(report)
+    }
+
+    /// Waits until `deadline`, taking in every frame that arrives.
+    fn wait_until<B: TimedBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        deadline: Instant,
+    ) -> Result<(), BusError> {
+        while let Some(f) = bus.recv_until(deadline)? {
+            let now = bus.now();
+            self.absorb(&f, now);
+        }
+        Ok(())
+    }
+
+    fn start_enabling(&mut self) {
+        self.phase = Phase::Enabling;
+        for a in self.axes[..self.n_axes].iter_mut() {
+            a.sequencer = EnableSequencer::new(Goal::OperationEnabled);
+            a.quick_stop = false;
+            a.tpdo_missing = 0;
+            a.tpdo_this_cycle = false;
+        }
+        self.sync_sent = false;
+    }
+
+    /// One enable cycle: the cycle's send phase steps each drive's sequencer; returns each
+    /// drive's progress towards OPERATION ENABLED.
+    fn enable_step<B: TimedBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        now: Instant,
+        hold: &[f64],
+    ) -> Result<[Progress; cnc402_config::MAX_AXES], BootError> {
+        self.cycle(bus, now, hold).map_err(BootError::Stopped)?;
+        Ok(core::array::from_fn(|i| {
+            if self.axes.get(i).is_some_and(|a| a.node.is_some()) {
+                self.axes[i].progress
+            } else {
+                Progress::Reached
+            }
+        }))
+    }
+
+    fn start_running(&mut self, now: Instant) {
+        self.phase = Phase::Running;
+        self.cycles = 0;
+        for a in self.axes[..self.n_axes].iter_mut() {
+            a.history = [a.actual; COMMAND_HISTORY];
+            a.last_command = a.actual;
+            a.emcy = None;
+            a.tpdo_missing = 0;
+            a.following_error = 0.0;
+            a.max_following_error = 0.0;
+            if a.node.is_some() && a.last_heartbeat.is_none() {
+                a.last_heartbeat = Some(now);
+            }
+        }
+    }
+
+    /// Takes every drive to SWITCH ON DISABLED (blocking, cycles at the period with the
+    /// last commands held); gives up after the enable timeout naming the drive.
+    pub fn disable<B: TimedBus + ?Sized>(&mut self, bus: &mut B) -> Result<(), BootError> {
+        if self.phase == Phase::Idle {
+            return Err(BootError::WrongPhase(self.phase));
+        }
+        self.request_disable();
+        let t0 = bus.now();
+        let deadline = t0 + self.options.enable_timeout;
+        let mut next = t0 + self.period;
+        let hold: [f64; cnc402_config::MAX_AXES] =
+            core::array::from_fn(|i| self.axes[i].last_command);
+        loop {
+            self.wait_until(bus, next)?;
+            let _ = self.cycle(bus, next, &hold[..self.n_axes]);
+            if self.is_disabled() {
+                return Ok(());
+            }
+            if next >= deadline {
+                let i = (0..self.n_axes)
+                    .find(|&i| !self.axes[i].disabled)
+                    .unwrap_or(0);
+                let a = &self.axes[i];
+                return Err(BootError::Enable {
+                    axis: a.name,
+                    node: a.node.map(NodeId::get).unwrap_or(0),
+                    statusword: a.statusword,
+                    stuck: None,
+                    emcy: a.emcy,
+                    waited: next.saturating_since(t0),
+                });
+            }
+            next += self.period;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interpolation_period_representations() {
+        let p = |us| InterpolationPeriod::from_micros(us).map(|p| (p.value, p.exponent));
+        assert_eq!(p(1000), Some((1, -3)));
+        assert_eq!(p(2000), Some((2, -3)));
+        assert_eq!(p(250), Some((25, -5)));
+        assert_eq!(p(125), Some((125, -6)));
+        assert_eq!(p(1500), Some((15, -4)));
+        assert_eq!(p(255_000), Some((255, -3)));
+        assert_eq!(p(256_000), None);
+        assert_eq!(p(12345), None);
+        assert_eq!(p(0), None);
+    }
+}

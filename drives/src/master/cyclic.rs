@@ -1,0 +1,497 @@
+//! Cyclic operation: once per period, [`Master::cycle`] takes in what arrived (TPDO1 =
+//! statusword + position actual, EMCY, heartbeats, SDO responses), runs the safety monitors,
+//! and sends one RPDO1 per drive (controlword + target position, INT32 counts, wrapping) and
+//! then a SYNC. No allocation, no clock, no logging; per-axis state lives in fixed arrays.
+//!
+//! Following error rule: the TPDO read in cycle k was sampled at SYNC k−1, where the drive
+//! took the command sent in cycle k−1; a drive with a pure delay of d cycles (the axis's
+//! `sim.delay_cycles`, which describes the real drive too) tracks the command of cycle
+//! k−1−d. So the monitor compares the fresh actual with the command sent `1 + d` cycles
+//! earlier — dead time is not counted as error, tracking lag is.
+
+use cia402::{Controlword, Goal, Progress, State, Statusword};
+use cnc402_config::MAX_AXES;
+use cnc402_motion::to_counts_wrapping;
+
+use super::sdo::{SdoError, SdoEvent};
+use super::stop::{SafetyStop, StopReason};
+use super::{COMMAND_HISTORY, Master, Phase, StopMode};
+use crate::bus::{BusError, CanBus};
+use crate::time::Instant;
+use crate::wire::{CanFrame, EmcyRepr, Function, HeartbeatRepr, NmtState, SyncRepr};
+
+/// What one cycle gives back, per axis (indexed like `config.axes`; `Copy`, no heap).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Feedback {
+    /// Cycles since enabling (this one included).
+    pub cycle: u64,
+    /// Configured axes.
+    pub axis_count: usize,
+    /// Actual position in axis units (virtual axes: the command).
+    pub actual: [f64; MAX_AXES],
+    /// The command taken this cycle.
+    pub command: [f64; MAX_AXES],
+    /// Delayed command minus actual (see the module doc), axis units.
+    pub following_error: [f64; MAX_AXES],
+    /// The last statusword of each drive (`None` for virtual axes).
+    pub statusword: [Option<Statusword>; MAX_AXES],
+    /// Whether the drive's TPDO1 arrived since the previous cycle.
+    pub fresh: [bool; MAX_AXES],
+    /// A stop reaction is running (the latched stop: [`Master::stop_reason`]).
+    pub stopping: bool,
+}
+
+impl Feedback {
+    /// The CiA 402 state of axis `i`'s drive.
+    pub fn state(&self, i: usize) -> Option<State> {
+        self.statusword.get(i).copied().flatten().and_then(Statusword::state)
+    }
+    /// Actual positions of the configured axes.
+    pub fn actual(&self) -> &[f64] {
+        &self.actual[..self.axis_count.min(MAX_AXES)]
+    }
+}
+
+/// Decodes a TPDO1 (statusword u16 + position actual i32, little-endian, 6 bytes).
+fn parse_tpdo1(data: &[u8]) -> Option<(Statusword, i32)> {
+    if data.len() != 6 {
+        return None;
+    }
+    let sw = u16::from_le_bytes([data[0], data[1]]);
+    let pos = i32::from_le_bytes([data[2], data[3], data[4], data[5]]);
+    Some((Statusword(sw), pos))
+}
+
+/// Encodes an RPDO1 (controlword u16 + target position i32, 6 bytes).
+fn rpdo1(cob_id: u16, cw: Controlword, target: i32) -> CanFrame {
+    let mut d = [0u8; 6];
+    d[..2].copy_from_slice(&cw.bits().to_le_bytes());
+    d[2..].copy_from_slice(&target.to_le_bytes());
+    // The id is 0x200 + node (≤ 0x27F) and 6 ≤ 8 bytes: cannot fail.
+    CanFrame::new(cob_id, &d).unwrap_or_else(|_| SyncRepr { counter: None }.emit())
+}
+
+impl Master {
+    fn slot_of(&self, node: crate::wire::NodeId) -> Option<usize> {
+        self.axes[..self.n_axes]
+            .iter()
+            .position(|a| a.node == Some(node))
+    }
+
+    /// Takes in one received frame (no sending here: SDO requests it produces go out in the
+    /// next send phase, which also paces SDO traffic to one frame per drive per cycle).
+    pub(crate) fn absorb(&mut self, frame: &CanFrame, now: Instant) {
+        match frame.function() {
+            Function::Tpdo(1, node) => {
+                let Some(i) = self.slot_of(node) else {
+                    self.unexpected_frames += 1;
+                    return;
+                };
+                match parse_tpdo1(frame.data()) {
+                    Some((sw, pos)) => {
+                        let a = &mut self.axes[i];
+                        a.statusword = Some(sw);
+                        a.set_actual_raw(pos);
+                        a.tpdo_this_cycle = true;
+                    }
+                    None => self.unexpected_frames += 1,
+                }
+            }
+            Function::Emcy(node) => match (self.slot_of(node), EmcyRepr::parse(frame)) {
+                (Some(i), Ok(e)) => {
+                    if e.code != 0 {
+                        self.axes[i].emcy = Some(e.into());
+                    }
+                }
+                _ => self.unexpected_frames += 1,
+            },
+            Function::Heartbeat(node) => match (self.slot_of(node), HeartbeatRepr::parse(frame)) {
+                (Some(i), Ok(hb)) => {
+                    let a = &mut self.axes[i];
+                    a.last_heartbeat = Some(now);
+                    a.nmt = Some(hb.state);
+                    a.booted = true;
+                }
+                _ => self.unexpected_frames += 1,
+            },
+            Function::SdoTx(node) => {
+                let Some(i) = self.slot_of(node) else {
+                    self.unexpected_frames += 1;
+                    return;
+                };
+                let a = &mut self.axes[i];
+                if let Some(c) = a.sdo.as_mut() {
+                    match c.on_frame(frame, now) {
+                        SdoEvent::Send(f) => a.sdo_tx = Some(f),
+                        SdoEvent::Done => a.sdo_outcome = Some(Ok(())),
+                        SdoEvent::Failed(e, abort) => {
+                            a.sdo_tx = abort;
+                            a.sdo_outcome = Some(Err(e));
+                        }
+                        SdoEvent::NotMine | SdoEvent::Idle => {}
+                    }
+                }
+            }
+            _ => self.unexpected_frames += 1,
+        }
+    }
+
+    fn stop_for(&self, i: usize, reason: StopReason, now: Instant) -> SafetyStop {
+        let a = &self.axes[i];
+        SafetyStop {
+            reason,
+            axis: Some(a.name),
+            axis_index: Some(i),
+            node: a.node.map(|n| n.get()),
+            statusword: a.statusword,
+            emcy: a.emcy,
+            at: now,
+            line: None,
+        }
+    }
+
+    fn bus_stop(&self, e: BusError, now: Instant) -> SafetyStop {
+        SafetyStop {
+            reason: StopReason::Bus(e),
+            axis: None,
+            axis_index: None,
+            node: None,
+            statusword: None,
+            emcy: None,
+            at: now,
+            line: None,
+        }
+    }
+
+    /// The first monitor that trips for drive axis `i` (Running phase only).
+    fn monitor(&self, i: usize, now: Instant) -> Option<StopReason> {
+        let a = &self.axes[i];
+        a.node?;
+        let state = a.statusword.and_then(Statusword::state);
+        if state.is_some_and(State::is_fault) {
+            return Some(StopReason::DriveFault);
+        }
+        if a.emcy.is_some() {
+            return Some(StopReason::Emergency);
+        }
+        if a.tpdo_this_cycle && state != Some(State::OperationEnabled) {
+            return Some(StopReason::NotEnabled);
+        }
+        if let Some(t) = a.last_heartbeat {
+            let silent = now.saturating_since(t);
+            if silent > self.heartbeat_timeout {
+                return Some(StopReason::HeartbeatLost {
+                    silent_ms: silent.as_millis() as u64,
+                });
+            }
+        }
+        if let Some(s) = a.nmt {
+            if s != NmtState::Operational {
+                return Some(StopReason::NmtState(s));
+            }
+        }
+        if a.tpdo_missing >= self.tpdo_timeout_cycles {
+            return Some(StopReason::TpdoMissing {
+                cycles: a.tpdo_missing,
+            });
+        }
+        if a.tpdo_this_cycle && a.window > 0.0 && a.following_error.abs() > a.window {
+            return Some(StopReason::FollowingError {
+                error: a.following_error,
+                window: a.window,
+            });
+        }
+        None
+    }
+
+    /// Latches `stop` and starts the stop reaction.
+    fn trip(&mut self, stop: SafetyStop) {
+        self.stop = Some(stop);
+        self.phase = Phase::Stopping;
+        for (i, a) in self.axes[..self.n_axes].iter_mut().enumerate() {
+            if self.options.stop_mode == StopMode::QuickStop || stop.axis_index == Some(i) {
+                a.quick_stop = true;
+            }
+        }
+    }
+
+    /// One period. `commands` are the positions in axis units for the configured axes
+    /// (indexed like `config.axes`; a missing entry holds the last command). `now` is the
+    /// cycle's time (the caller's deadline). Returns the feedback, or the safety stop the
+    /// first time a monitor trips — the stop reaction has then already been sent, and later
+    /// cycles return `Ok` with [`Feedback::stopping`] set. Allocation-free.
+    pub fn cycle<B: CanBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        now: Instant,
+        commands: &[f64],
+    ) -> Result<Feedback, SafetyStop> {
+        let mut tripped: Option<SafetyStop> = None;
+        loop {
+            match bus.recv() {
+                Ok(Some(f)) => self.absorb(&f, now),
+                Ok(None) => break,
+                Err(e) => {
+                    tripped = Some(self.bus_stop(e, now));
+                    break;
+                }
+            }
+        }
+        let running = self.phase == Phase::Running;
+        if running || self.phase == Phase::Stopping {
+            self.cycles += 1;
+        }
+        let k = self.cycles as usize;
+        let mut fb = Feedback {
+            cycle: self.cycles,
+            axis_count: self.n_axes,
+            actual: [0.0; MAX_AXES],
+            command: [0.0; MAX_AXES],
+            following_error: [0.0; MAX_AXES],
+            statusword: [None; MAX_AXES],
+            fresh: [false; MAX_AXES],
+            stopping: false,
+        };
+        for i in 0..self.n_axes {
+            let mut cmd = commands.get(i).copied().unwrap_or(self.axes[i].last_command);
+            if !cmd.is_finite() {
+                if running && tripped.is_none() {
+                    tripped = Some(self.stop_for(i, StopReason::BadSetpoint, now));
+                }
+                cmd = self.axes[i].last_command;
+            }
+            let sync_sent = self.sync_sent;
+            let a = &mut self.axes[i];
+            a.last_command = cmd;
+            a.history[k % COMMAND_HISTORY] = cmd;
+            if a.node.is_some() {
+                if sync_sent {
+                    if a.tpdo_this_cycle {
+                        a.tpdo_missing = 0;
+                    } else {
+                        a.tpdo_missing = a.tpdo_missing.saturating_add(1);
+                    }
+                }
+                if a.tpdo_this_cycle {
+                    let reference = a.history[(k + COMMAND_HISTORY - a.fe_lag) % COMMAND_HISTORY];
+                    a.following_error = reference - a.actual;
+                    if running {
+                        a.max_following_error = a.max_following_error.max(a.following_error.abs());
+                    }
+                }
+            } else {
+                a.actual = cmd;
+                a.following_error = 0.0;
+            }
+            fb.actual[i] = a.actual;
+            fb.command[i] = cmd;
+            fb.following_error[i] = a.following_error;
+            fb.statusword[i] = a.statusword;
+            fb.fresh[i] = a.tpdo_this_cycle;
+        }
+        if running && tripped.is_none() {
+            for i in 0..self.n_axes {
+                if let Some(reason) = self.monitor(i, now) {
+                    tripped = Some(self.stop_for(i, reason, now));
+                    break;
+                }
+            }
+        }
+        if let Some(s) = tripped {
+            if self.stop.is_none() {
+                self.trip(s);
+            } else {
+                tripped = None;
+            }
+        }
+        // Send phase: RPDO1 per drive, then SYNC, then at most one SDO frame per drive.
+        let mut send_err: Option<BusError> = None;
+        for i in 0..self.n_axes {
+            let a = &mut self.axes[i];
+            let Some(node) = a.node else { continue };
+            a.tpdo_this_cycle = false;
+            let sw = a.statusword.unwrap_or(Statusword(0));
+            let (cw, target) = match self.phase {
+                Phase::Idle => continue,
+                Phase::Enabling => {
+                    let step = a.sequencer.step(sw);
+                    a.progress = step.progress;
+                    (step.controlword, a.target)
+                }
+                Phase::Running => (
+                    Controlword::ENABLE_OPERATION_CMD,
+                    to_counts_wrapping(a.last_command, a.counts_per_unit),
+                ),
+                Phase::Stopping => (
+                    if a.quick_stop {
+                        Controlword::QUICK_STOP_CMD
+                    } else {
+                        Controlword::ENABLE_OPERATION_CMD
+                    },
+                    to_counts_wrapping(a.last_command, a.counts_per_unit),
+                ),
+                Phase::Disabling => {
+                    let step = a.sequencer.step(sw);
+                    a.disabled = step.progress == Progress::Reached;
+                    (step.controlword, a.target)
+                }
+            };
+            a.controlword = cw;
+            a.target = target;
+            let cob = 0x200 + node.get() as u16;
+            if let Err(e) = bus.send(&rpdo1(cob, cw, target)) {
+                send_err = send_err.or(Some(e));
+            }
+        }
+        if self.phase != Phase::Idle {
+            if let Err(e) = bus.send(&SyncRepr { counter: None }.emit()) {
+                send_err = send_err.or(Some(e));
+            }
+            self.sync_sent = true;
+        }
+        for a in self.axes[..self.n_axes].iter_mut() {
+            if let Some(c) = a.sdo.as_mut() {
+                if let SdoEvent::Failed(e, abort) = c.poll(now) {
+                    a.sdo_outcome = Some(Err(e));
+                    a.sdo_tx = abort;
+                }
+            }
+            if let Some(f) = a.sdo_tx.take() {
+                if let Err(e) = bus.send(&f) {
+                    send_err = send_err.or(Some(e));
+                }
+            }
+        }
+        if let Some(e) = send_err {
+            if self.stop.is_none() && running {
+                let s = self.bus_stop(e, now);
+                self.trip(s);
+                tripped = Some(s);
+            }
+        }
+        fb.stopping = self.phase == Phase::Stopping;
+        match tripped {
+            Some(s) => Err(s),
+            None => Ok(fb),
+        }
+    }
+
+    /// Sends quick stop (controlword 0x02) to every drive from the next cycle on; the caller
+    /// keeps calling [`cycle`](Self::cycle) while the drives brake.
+    pub fn quick_stop(&mut self) {
+        if matches!(self.phase, Phase::Running | Phase::Stopping) {
+            self.phase = Phase::Stopping;
+            for a in self.axes[..self.n_axes].iter_mut() {
+                a.quick_stop = true;
+            }
+        }
+    }
+
+    /// From the next cycle on, takes every drive to SWITCH ON DISABLED (power stage off) with
+    /// the CiA 402 sequencer; [`is_disabled`](Self::is_disabled) says when all are there.
+    pub fn request_disable(&mut self) {
+        if self.phase == Phase::Idle {
+            return;
+        }
+        self.phase = Phase::Disabling;
+        for a in self.axes[..self.n_axes].iter_mut() {
+            a.sequencer.set_goal(Goal::SwitchOnDisabled);
+            a.disabled = a.node.is_none();
+            a.target = to_counts_wrapping(a.last_command, a.counts_per_unit);
+        }
+    }
+
+    /// Whether every drive reached SWITCH ON DISABLED (or FAULT) after
+    /// [`request_disable`](Self::request_disable).
+    pub fn is_disabled(&self) -> bool {
+        self.phase == Phase::Disabling && self.axes[..self.n_axes].iter().all(|a| a.disabled)
+    }
+
+    /// Starts an SDO read of `index:sub` on axis `axis`'s drive during cyclic operation; the
+    /// frames go out in the following cycles' send phases (one per cycle) and PDOs keep
+    /// flowing. Poll [`take_sdo_outcome`](Self::take_sdo_outcome).
+    pub fn start_sdo_upload(
+        &mut self,
+        axis: usize,
+        index: u16,
+        sub: u8,
+        now: Instant,
+    ) -> Result<(), SdoError> {
+        let a = self.drive_slot(axis, index, sub)?;
+        let c = a.sdo.as_mut().ok_or_else(|| no_drive(axis, index, sub))?;
+        let f = c.start_upload(index, sub, now)?;
+        a.sdo_outcome = None;
+        a.sdo_tx = Some(f);
+        Ok(())
+    }
+
+    /// Starts an SDO write during cyclic operation (see
+    /// [`start_sdo_upload`](Self::start_sdo_upload)). Data up to 256 bytes does not allocate.
+    pub fn start_sdo_download(
+        &mut self,
+        axis: usize,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        now: Instant,
+    ) -> Result<(), SdoError> {
+        let a = self.drive_slot(axis, index, sub)?;
+        let c = a.sdo.as_mut().ok_or_else(|| no_drive(axis, index, sub))?;
+        let f = c.start_download(index, sub, data, now)?;
+        a.sdo_outcome = None;
+        a.sdo_tx = Some(f);
+        Ok(())
+    }
+
+    fn drive_slot(
+        &mut self,
+        axis: usize,
+        index: u16,
+        sub: u8,
+    ) -> Result<&mut super::AxisSlot, SdoError> {
+        if axis >= self.n_axes {
+            return Err(no_drive(axis, index, sub));
+        }
+        Ok(&mut self.axes[axis])
+    }
+
+    /// The outcome of the last in-cycle SDO transfer on `axis`, once it has ended (taken).
+    pub fn take_sdo_outcome(&mut self, axis: usize) -> Option<Result<(), SdoError>> {
+        self.axes.get_mut(axis).and_then(|a| a.sdo_outcome.take())
+    }
+
+    /// The data of the last completed in-cycle SDO upload on `axis`.
+    pub fn sdo_data(&self, axis: usize) -> &[u8] {
+        self.axes
+            .get(axis)
+            .and_then(|a| a.sdo.as_ref())
+            .map(|c| c.data())
+            .unwrap_or(&[])
+    }
+}
+
+fn no_drive(axis: usize, index: u16, sub: u8) -> SdoError {
+    SdoError {
+        node: 0,
+        index,
+        sub,
+        write: false,
+        kind: super::sdo::SdoErrorKind::NoDrive { axis },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pdo_codecs() {
+        let f = rpdo1(0x203, Controlword::ENABLE_OPERATION_CMD, -2);
+        assert_eq!(f.to_string(), "203#0F00FEFFFFFF");
+        assert_eq!(
+            parse_tpdo1(&[0x37, 0x16, 0x00, 0x00, 0x00, 0x80]),
+            Some((Statusword(0x1637), i32::MIN))
+        );
+        assert_eq!(parse_tpdo1(&[0; 5]), None);
+    }
+}

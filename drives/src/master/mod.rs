@@ -1,0 +1,376 @@
+//! The CANopen master for CiA 402 drives in cyclic synchronous position mode. A caller that
+//! owns the bus drives it:
+//!
+//! ```text
+//! let mut m = Master::new(&config)?;            // per-axis state in fixed arrays
+//! let report = m.boot(&mut bus)?;               // blocking, over a TimedBus (see `boot`)
+//! let mut cmd = m.positions();                  // start the interpolator here: first setpoint = actual
+//! loop {                                        // once per period, at absolute deadlines
+//!     let fb = m.cycle(&mut bus, now, &cmd[..m.axis_count()])?;  // no allocation, no clock
+//!     ...                                       // Err(SafetyStop): interpolator.request_stop()
+//! }
+//! m.disable(&mut bus)?;                         // blocking: drives to SWITCH ON DISABLED
+//! ```
+//!
+//! `cycle` first takes in everything received since the last call (TPDO1s answering the
+//! previous SYNC, EMCY, heartbeats, SDO responses), runs the safety monitors, then sends one
+//! RPDO1 per drive and a SYNC. Feedback is therefore one period old; the following error rule
+//! accounts for it (see [`cyclic`]). Modules: `sdo` (client), `boot`, `cyclic`, `stop`
+//! (safety stop values), `timed` (how blocking helpers wait).
+
+pub mod boot;
+pub mod cyclic;
+pub mod sdo;
+pub mod stop;
+pub mod timed;
+
+use core::fmt;
+use core::time::Duration;
+
+use cia402::{Controlword, EnableSequencer, Goal, Statusword};
+use cnc402_config::{MAX_AXES, MachineConfig};
+
+use crate::time::Instant;
+use crate::wire::{NodeId, NmtState};
+
+pub use boot::{BootError, BootReport, DriveIdentity, InterpolationPeriod};
+pub use cyclic::Feedback;
+pub use sdo::{BlockingSdo, ProtocolViolation, SdoClient, SdoError, SdoErrorKind, SdoEvent};
+pub use stop::{Emcy, SafetyStop, StopReason, emcy_text};
+pub use timed::TimedBus;
+
+/// Commands older than this many cycles are not kept for the following error comparison.
+pub const COMMAND_HISTORY: usize = 32;
+
+/// What the master does to the drives when a safety monitor trips.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopMode {
+    /// Every drive gets the controlword quick stop (0x02) at once and brakes on its own quick
+    /// stop ramp (0x605A/0x6085). The default.
+    QuickStop,
+    /// Healthy drives stay enabled and keep following the caller's setpoints (the interpolator
+    /// decelerating along the path after `request_stop`, so Z and C stay coupled in a tap);
+    /// only the drive that tripped gets quick stop. The caller calls
+    /// [`Master::quick_stop`] once the path has stopped.
+    FollowPath,
+}
+
+/// Master settings that are not in the machine config.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MasterOptions {
+    /// How long boot waits for every drive's boot-up (a drive that boots late).
+    pub boot_timeout: Duration,
+    /// How long the enable sequence may take (fault reset included).
+    pub enable_timeout: Duration,
+    /// Send NMT reset communication to each drive before waiting for its boot-up (so drives
+    /// that were already running announce themselves again).
+    pub reset_communication: bool,
+    /// The stop reaction.
+    pub stop_mode: StopMode,
+}
+
+impl Default for MasterOptions {
+    fn default() -> MasterOptions {
+        MasterOptions {
+            boot_timeout: Duration::from_secs(10),
+            enable_timeout: Duration::from_secs(3),
+            reset_communication: true,
+            stop_mode: StopMode::QuickStop,
+        }
+    }
+}
+
+/// Why a [`Master`] could not be built from a config.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum MasterConfigError {
+    /// More axes than [`MAX_AXES`].
+    TooManyAxes(usize),
+    /// A node id outside 1..=127.
+    BadNode {
+        /// Axis letter.
+        axis: char,
+        /// The id.
+        node: u8,
+    },
+    /// Two axes on one node.
+    DuplicateNode(u8),
+    /// `period_us` has no 0x60C2 representation (value 1..=255 × 10^exp s, exp −6..=−3).
+    UnsupportedPeriod(u32),
+}
+
+impl fmt::Display for MasterConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MasterConfigError::TooManyAxes(n) => write!(f, "{n} axes, at most {MAX_AXES}"),
+            MasterConfigError::BadNode { axis, node } => {
+                write!(f, "axis {axis}: node id {node} outside 1..=127")
+            }
+            MasterConfigError::DuplicateNode(n) => write!(f, "two axes on node {n}"),
+            MasterConfigError::UnsupportedPeriod(p) => write!(
+                f,
+                "bus.period_us = {p} cannot be written to 0x60C2 (value 1..=255 × 10^-3..-6 s)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for MasterConfigError {}
+
+/// Where the master is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// Built, not booted.
+    Idle,
+    /// Drives configured and started, enable sequence running.
+    Enabling,
+    /// Every drive in OPERATION ENABLED, following setpoints.
+    Running,
+    /// A safety stop (or `quick_stop`) happened; the stop reaction runs.
+    Stopping,
+    /// Drives are being taken to SWITCH ON DISABLED.
+    Disabling,
+}
+
+/// One axis: its config and the master's per-cycle state (fixed size, no heap).
+#[derive(Clone, Debug)]
+pub(crate) struct AxisSlot {
+    pub name: char,
+    pub node: Option<NodeId>,
+    pub counts_per_unit: f64,
+    pub window: f64,
+    pub window_counts: u32,
+    pub fe_timeout_ms: u16,
+    /// Cycles between a command leaving the master and the actual that answers it.
+    pub fe_lag: usize,
+    pub sequencer: EnableSequencer,
+    pub controlword: Controlword,
+    pub quick_stop: bool,
+    /// The last target sent (counts, wrapped).
+    pub target: i32,
+    pub statusword: Option<Statusword>,
+    /// The last raw 0x6064 value and its unwrapped count.
+    pub actual_raw: i32,
+    pub actual_counts: i64,
+    /// Actual position in axis units.
+    pub actual: f64,
+    pub tpdo_this_cycle: bool,
+    pub tpdo_missing: u32,
+    pub last_heartbeat: Option<Instant>,
+    pub nmt: Option<NmtState>,
+    pub booted: bool,
+    pub emcy: Option<Emcy>,
+    /// Commands in axis units, a ring indexed by the cycle count.
+    pub history: [f64; COMMAND_HISTORY],
+    pub last_command: f64,
+    pub following_error: f64,
+    pub max_following_error: f64,
+    pub sdo: Option<SdoClient>,
+    pub sdo_outcome: Option<Result<(), SdoError>>,
+    /// An SDO frame to send in the next send phase.
+    pub sdo_tx: Option<crate::wire::CanFrame>,
+    /// Disabling: the sequencer reached SWITCH ON DISABLED.
+    pub disabled: bool,
+    /// Enabling: the sequencer's last progress.
+    pub progress: cia402::Progress,
+}
+
+impl AxisSlot {
+    fn empty() -> AxisSlot {
+        AxisSlot {
+            name: ' ',
+            node: None,
+            counts_per_unit: 1.0,
+            window: 0.0,
+            window_counts: 0,
+            fe_timeout_ms: 0,
+            fe_lag: 1,
+            sequencer: EnableSequencer::new(Goal::OperationEnabled),
+            controlword: Controlword::DISABLE_VOLTAGE,
+            quick_stop: false,
+            target: 0,
+            statusword: None,
+            actual_raw: 0,
+            actual_counts: 0,
+            actual: 0.0,
+            tpdo_this_cycle: false,
+            tpdo_missing: 0,
+            last_heartbeat: None,
+            nmt: None,
+            booted: false,
+            emcy: None,
+            history: [0.0; COMMAND_HISTORY],
+            last_command: 0.0,
+            following_error: 0.0,
+            max_following_error: 0.0,
+            sdo: None,
+            sdo_outcome: None,
+            sdo_tx: None,
+            disabled: false,
+            progress: cia402::Progress::Moving(None),
+        }
+    }
+
+    /// Takes in a new raw 0x6064 value: the unwrapped count moves by the wrapping difference,
+    /// so the f64 position keeps counting past ±2^31 counts.
+    pub(crate) fn set_actual_raw(&mut self, raw: i32) {
+        let delta = raw.wrapping_sub(self.actual_raw) as i64;
+        self.actual_raw = raw;
+        self.actual_counts = self.actual_counts.wrapping_add(delta);
+        self.actual = self.actual_counts as f64 / self.counts_per_unit;
+    }
+
+    /// Sets the position from a fresh read (boot): the unwrapped count starts at `raw`.
+    pub(crate) fn reset_actual(&mut self, raw: i32) {
+        self.actual_raw = raw;
+        self.actual_counts = raw as i64;
+        self.actual = raw as f64 / self.counts_per_unit;
+    }
+}
+
+/// The CANopen master for the machine's drives (see the module doc for the call sequence).
+#[derive(Clone, Debug)]
+pub struct Master {
+    pub(crate) axes: [AxisSlot; MAX_AXES],
+    pub(crate) n_axes: usize,
+    pub(crate) options: MasterOptions,
+    pub(crate) period: Duration,
+    pub(crate) period_us: u32,
+    pub(crate) heartbeat_ms: u16,
+    pub(crate) heartbeat_timeout: Duration,
+    pub(crate) tpdo_timeout_cycles: u32,
+    pub(crate) sdo_timeout: Duration,
+    pub(crate) interpolation: InterpolationPeriod,
+    pub(crate) phase: Phase,
+    pub(crate) cycles: u64,
+    pub(crate) sync_sent: bool,
+    pub(crate) stop: Option<SafetyStop>,
+    pub(crate) unexpected_frames: u64,
+}
+
+impl Master {
+    /// A master for `config`'s axes with default options.
+    pub fn new(config: &MachineConfig) -> Result<Master, MasterConfigError> {
+        Master::with_options(config, MasterOptions::default())
+    }
+
+    /// A master for `config`'s axes. Axes with `node: Some(id)` are drives; the others are
+    /// virtual (their actual position echoes the command).
+    pub fn with_options(
+        config: &MachineConfig,
+        options: MasterOptions,
+    ) -> Result<Master, MasterConfigError> {
+        if config.axes.len() > MAX_AXES {
+            return Err(MasterConfigError::TooManyAxes(config.axes.len()));
+        }
+        let interpolation = InterpolationPeriod::from_micros(config.bus.period_us)
+            .ok_or(MasterConfigError::UnsupportedPeriod(config.bus.period_us))?;
+        let mut axes: [AxisSlot; MAX_AXES] = core::array::from_fn(|_| AxisSlot::empty());
+        for (i, a) in config.axes.iter().enumerate() {
+            let node = match a.node {
+                Some(id) => Some(NodeId::new(id).map_err(|_| MasterConfigError::BadNode {
+                    axis: a.name,
+                    node: id,
+                })?),
+                None => None,
+            };
+            if let Some(n) = node {
+                if axes[..i].iter().any(|s| s.node == Some(n)) {
+                    return Err(MasterConfigError::DuplicateNode(n.get()));
+                }
+            }
+            let s = &mut axes[i];
+            s.name = a.name;
+            s.node = node;
+            s.counts_per_unit = if a.counts_per_unit.is_finite() && a.counts_per_unit > 0.0 {
+                a.counts_per_unit
+            } else {
+                1.0
+            };
+            s.window = a.following_error_window;
+            let wc = (a.following_error_window * s.counts_per_unit).round();
+            s.window_counts = if wc.is_finite() && wc >= 1.0 {
+                wc.min((u32::MAX - 1) as f64) as u32
+            } else {
+                u32::MAX // 0xFFFF_FFFF: monitoring off in the drive
+            };
+            s.fe_timeout_ms = a.following_error_timeout_ms.min(u16::MAX as u32) as u16;
+            s.fe_lag = (1 + a.sim.delay_cycles as usize).min(COMMAND_HISTORY - 1);
+            if let Some(n) = node {
+                s.sdo = Some(SdoClient::new(
+                    n,
+                    Duration::from_millis(config.bus.sdo_timeout_ms as u64),
+                ));
+            }
+        }
+        Ok(Master {
+            axes,
+            n_axes: config.axes.len(),
+            options,
+            period: Duration::from_micros(config.bus.period_us as u64),
+            period_us: config.bus.period_us,
+            heartbeat_ms: config.bus.heartbeat_ms,
+            heartbeat_timeout: Duration::from_millis(config.bus.heartbeat_timeout_ms as u64),
+            tpdo_timeout_cycles: config.bus.tpdo_timeout_cycles.max(1),
+            sdo_timeout: Duration::from_millis(config.bus.sdo_timeout_ms as u64),
+            interpolation,
+            phase: Phase::Idle,
+            cycles: 0,
+            sync_sent: false,
+            stop: None,
+            unexpected_frames: 0,
+        })
+    }
+
+    /// Number of configured axes (commands and feedback are indexed like `config.axes`).
+    pub fn axis_count(&self) -> usize {
+        self.n_axes
+    }
+
+    /// The phase.
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// The cycle period.
+    pub fn period(&self) -> Duration {
+        self.period
+    }
+
+    /// Actual positions in axis units (indexed like `config.axes`; entries past
+    /// [`axis_count`](Self::axis_count) are 0). After boot, start the interpolator here.
+    pub fn positions(&self) -> [f64; MAX_AXES] {
+        core::array::from_fn(|i| if i < self.n_axes { self.axes[i].actual } else { 0.0 })
+    }
+
+    /// The latched safety stop, if one happened.
+    pub fn stop_reason(&self) -> Option<&SafetyStop> {
+        self.stop.as_ref()
+    }
+
+    /// Largest |following error| per axis since enabling, in axis units.
+    pub fn max_following_errors(&self) -> [f64; MAX_AXES] {
+        core::array::from_fn(|i| self.axes[i].max_following_error)
+    }
+
+    /// Cycles run since enabling.
+    pub fn cycles(&self) -> u64 {
+        self.cycles
+    }
+
+    /// Frames received that no part of the master expected (unknown COB-IDs, malformed).
+    pub fn unexpected_frames(&self) -> u64 {
+        self.unexpected_frames
+    }
+
+    /// The axis index of drive `node`.
+    pub fn axis_of_node(&self, node: u8) -> Option<usize> {
+        self.axes[..self.n_axes]
+            .iter()
+            .position(|a| a.node.map(NodeId::get) == Some(node))
+    }
+
+    /// The last EMCY drive `axis` sent since the last clear (boot, enable).
+    pub fn last_emcy(&self, axis: usize) -> Option<Emcy> {
+        self.axes.get(axis).and_then(|a| a.emcy)
+    }
+}
