@@ -1,1 +1,124 @@
-fn main() {}
+//! `cnc402`: the command-line front end. A thin binary over the library crates: arguments are
+//! turned into a validated plan (config loaded, program parsed) before anything runs.
+//!
+//! Exit codes (documented in README.md):
+//! 0 success · 1 the machine stopped on a fault or safety reaction during `run` ·
+//! 2 the program is wrong (parse, interpreter or planning error) · 3 the machine config is wrong ·
+//! 4 an I/O error (file unreadable, CAN interface missing) · 64 bad command-line usage.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cli_error;
+mod run;
+use cli_error::{CliError, exit};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "cnc402",
+    version,
+    about = "CNC motion backend: NC programs to CiA 402 drives over CAN"
+)]
+struct Cli {
+    /// Machine description.
+    #[arg(long, global = true, default_value = cnc402_config::DEFAULT_PATH)]
+    config: PathBuf,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Print the motion segments of a program as JSON Lines (the interpreter's contract).
+    ///
+    /// Example: cnc402 segments examples/bolt-circle-drilling.nc
+    Segments {
+        /// The NC program.
+        program: PathBuf,
+    },
+    /// Run a program on the configured machine (the embedded simulated drives when
+    /// `bus.interface = "sim"`), print a summary, and exit non-zero on any error.
+    ///
+    /// Example: cnc402 run examples/m10x1.5-rigid-tap.nc --report run.json
+    Run(RunArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct RunArgs {
+    /// The NC program.
+    program: PathBuf,
+    /// Write the JSON report here.
+    #[arg(long, value_name = "FILE.json")]
+    report: Option<PathBuf>,
+    /// Write one CSV row per tick here (t, line, <AXIS>_cmd, <AXIS>_act, <AXIS>_sw).
+    #[arg(long, value_name = "FILE.csv")]
+    trace: Option<PathBuf>,
+    /// Draw Z and C against time and the coupling error into this SVG file.
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
+    /// Run against the wall clock at the configured period (always so on a real CAN bus).
+    #[arg(long)]
+    realtime: bool,
+    /// Testing: make drive NODE fault with EMCY CODE (hex) SECONDS after enable.
+    #[arg(long, hide = true, value_name = "NODE:CODE@SECONDS")]
+    inject_fault: Option<String>,
+}
+
+fn main() -> ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { exit::USAGE } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => e.report(),
+    }
+}
+
+fn run(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        Command::Segments { program } => {
+            let cfg = load_config(&cli.config)?;
+            segments(&cfg, &program)
+        }
+        Command::Run(args) => {
+            let cfg = load_config(&cli.config)?;
+            run::run(&cfg, &args)
+        }
+    }
+}
+
+fn load_config(path: &std::path::Path) -> Result<cnc402_config::MachineConfig, CliError> {
+    cnc402_config::MachineConfig::load(path).map_err(CliError::Config)
+}
+
+pub(crate) fn load_program(path: &std::path::Path) -> Result<cnc402_lang::SourceFile, CliError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError::Io(format!("{}: {e}", path.display())))?;
+    Ok(cnc402_lang::SourceFile::new(
+        path.display().to_string(),
+        text,
+    ))
+}
+
+fn segments(cfg: &cnc402_config::MachineConfig, program: &std::path::Path) -> Result<(), CliError> {
+    use std::io::Write;
+    let src = load_program(program)?;
+    let ast = cnc402_lang::parse(&src).map_err(CliError::Program)?;
+    let mut interp = cnc402_interp::Interpreter::new(cfg);
+    interp.load(src, ast);
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    while let Some(seg) = interp.next_segment().map_err(CliError::Program)? {
+        writeln!(out, "{}", cnc402_interp::dump::segment_to_json(&seg, cfg))
+            .map_err(|e| CliError::Io(e.to_string()))?;
+    }
+    out.flush().map_err(|e| CliError::Io(e.to_string()))
+}

@@ -1,0 +1,336 @@
+//! The cycle controller: the code that runs once per period, the same in virtual and real
+//! time. It takes planned moves from the move ring, ticks the interpolator, exchanges
+//! setpoints for feedback through the [`DriveLink`], runs the stop sequence, and pushes one
+//! [`Status`] per tick into the status ring. It never allocates, logs, locks or reads a clock:
+//! `now` is passed in.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use cnc402_config::{AxisKind, MAX_AXES, MachineConfig};
+use cnc402_drives::Instant;
+use cnc402_motion::{AxisPos, Interpolator, MoveKind, PlannedMove, to_counts_wrapping};
+
+use crate::link::{DriveFeedback, DriveLink, DriveStop, StopCause};
+use crate::ring::{Consumer, LoopInput, MoveConsumer, Producer, StatusProducer};
+use crate::status::{Outcome, Phase, Status, TapCoupling};
+
+/// Ticks the drives get to come to rest after the last setpoint before the run ends.
+pub const SETTLE_TICKS: u32 = 50;
+/// Ticks quick stop may take before the run ends anyway.
+pub const QUICK_STOP_TICKS: u32 = 500;
+
+/// What one [`CycleController::step`] left behind.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Step {
+    /// Keep calling `step` every period.
+    Continue,
+    /// The cyclic phase is over.
+    Done(Outcome),
+}
+
+/// Per-axis constants the loop needs, copied out of the config once.
+#[derive(Clone, Copy, Debug)]
+pub struct AxisTable {
+    pub n: usize,
+    pub counts_per_unit: [f64; MAX_AXES],
+    pub linear: [bool; MAX_AXES],
+    pub spindle: Option<usize>,
+}
+
+impl AxisTable {
+    /// From the config.
+    pub fn new(cfg: &MachineConfig) -> AxisTable {
+        let n = cfg.axes.len().min(MAX_AXES);
+        let mut counts_per_unit = [1.0; MAX_AXES];
+        let mut linear = [false; MAX_AXES];
+        for (i, a) in cfg.axes.iter().take(n).enumerate() {
+            counts_per_unit[i] = a.counts_per_unit;
+            linear[i] = a.kind == AxisKind::Linear;
+        }
+        AxisTable {
+            n,
+            counts_per_unit,
+            linear,
+            spindle: cfg.spindle_index().filter(|&i| i < n),
+        }
+    }
+
+    /// Counts to position.
+    pub fn counts_to_pos(&self, axis: usize, counts: i64) -> f64 {
+        counts as f64 / self.counts_per_unit[axis]
+    }
+}
+
+/// See the module doc.
+pub struct CycleController<L: DriveLink> {
+    interp: Interpolator,
+    axes: AxisTable,
+    moves: MoveConsumer,
+    status: StatusProducer,
+    link: L,
+    stop_request: Arc<AtomicBool>,
+    tick: u64,
+    phase: Phase,
+    phase_ticks: u32,
+    input_done: bool,
+    tap: Option<TapCoupling>,
+    setpoints: [i32; MAX_AXES],
+    feedback: [DriveFeedback; MAX_AXES],
+    /// Unwrapped actual counts, and the last wrapped value they were advanced from.
+    act_unwrapped: [i64; MAX_AXES],
+    act_last: [i32; MAX_AXES],
+    /// The first stop and the line executing then.
+    stop: Option<(DriveStop, u32)>,
+    motion_error: Option<cnc402_motion::MotionError>,
+    starved: u64,
+    dropped: u64,
+    last_line: u32,
+}
+
+impl<L: DriveLink> CycleController<L> {
+    /// A controller holding `start` (machine position the drives reported at enable, in
+    /// counts), reading moves from `moves` and writing status to `status`. `stop_request` is
+    /// polled every tick (SIGINT).
+    pub fn new(
+        cfg: &MachineConfig,
+        start_counts: [i32; MAX_AXES],
+        link: L,
+        moves: MoveConsumer,
+        status: StatusProducer,
+        stop_request: Arc<AtomicBool>,
+    ) -> CycleController<L> {
+        let axes = AxisTable::new(cfg);
+        let start = start_position(&axes, &start_counts);
+        let mut act_unwrapped = [0i64; MAX_AXES];
+        for i in 0..MAX_AXES {
+            act_unwrapped[i] = start_counts[i] as i64;
+        }
+        CycleController {
+            interp: Interpolator::new(cfg, start),
+            axes,
+            moves,
+            status,
+            link,
+            stop_request,
+            tick: 0,
+            phase: Phase::Running,
+            phase_ticks: 0,
+            input_done: false,
+            tap: None,
+            setpoints: start_counts,
+            feedback: [DriveFeedback::default(); MAX_AXES],
+            act_unwrapped,
+            act_last: start_counts,
+            stop: None,
+            motion_error: None,
+            starved: 0,
+            dropped: 0,
+            last_line: 0,
+        }
+    }
+
+    /// Ticks in which the interpolator had nothing to do while the program was not over (the
+    /// feeder fell behind). Harmless between exact-stop moves, but counted.
+    pub fn starved_ticks(&self) -> u64 {
+        self.starved
+    }
+
+    /// Status records lost because the status ring was full.
+    pub fn dropped_status(&self) -> u64 {
+        self.dropped
+    }
+
+    /// Ticks run so far.
+    pub fn ticks(&self) -> u64 {
+        self.tick
+    }
+
+    /// The drive link (for counters after the run).
+    pub fn link(&self) -> &L {
+        &self.link
+    }
+
+    /// Runs one period at `now`. Allocation-free.
+    pub fn step(&mut self, now: Instant) -> Step {
+        if self.phase == Phase::Running && self.stop_request.load(Ordering::Relaxed) {
+            self.begin_stop(DriveStop {
+                cause: StopCause::Operator,
+                node: 0,
+                statusword: 0,
+                emcy: None,
+            });
+        }
+        if self.phase == Phase::Running && self.interp.is_idle() {
+            self.next_move();
+        }
+
+        let t = self.interp.tick();
+        self.last_line = t.line;
+        for i in 0..self.axes.n {
+            self.setpoints[i] = to_counts_wrapping(t.pos.0[i], self.axes.counts_per_unit[i]);
+        }
+
+        let mut raised = None;
+        let all_stopped = if self.phase == Phase::QuickStop {
+            self.link.quick_stop(now, &mut self.feedback)
+        } else {
+            if let Err(s) = self.link.cycle(now, &self.setpoints, &mut self.feedback) {
+                raised = Some(s);
+            }
+            false
+        };
+        if let Some(s) = raised {
+            self.begin_stop(s);
+        }
+        for i in 0..self.axes.n {
+            let p = self.feedback[i].position;
+            self.act_unwrapped[i] += p.wrapping_sub(self.act_last[i]) as i64;
+            self.act_last[i] = p;
+        }
+
+        let mut st = Status {
+            tick: self.tick,
+            line: t.line,
+            phase: self.phase,
+            cmd: t.pos.0,
+            cmd_counts: self.setpoints,
+            act: [0.0; MAX_AXES],
+            act_counts: self.act_last,
+            statusword: [0; MAX_AXES],
+            event: t.event,
+            tap: if t.state == cnc402_motion::TickState::Moving || self.phase == Phase::Stopping {
+                self.tap
+            } else {
+                None
+            },
+            stop: raised,
+        };
+        for i in 0..self.axes.n {
+            st.act[i] = self.axes.counts_to_pos(i, self.act_unwrapped[i]);
+            st.statusword[i] = self.feedback[i].statusword;
+        }
+        if self.status.try_push(st).is_err() {
+            self.dropped += 1;
+        }
+        self.tick += 1;
+        self.phase_ticks = self.phase_ticks.saturating_add(1);
+
+        match self.phase {
+            Phase::Running => {
+                if self.input_done && self.interp.is_idle() {
+                    self.enter(Phase::Settling);
+                }
+                Step::Continue
+            }
+            Phase::Stopping => {
+                if self.interp.is_held() {
+                    self.enter(Phase::QuickStop);
+                }
+                Step::Continue
+            }
+            Phase::QuickStop => {
+                if all_stopped || self.phase_ticks >= QUICK_STOP_TICKS {
+                    Step::Done(self.outcome())
+                } else {
+                    Step::Continue
+                }
+            }
+            Phase::Settling => {
+                if self.phase_ticks >= SETTLE_TICKS || self.settled() {
+                    Step::Done(Outcome::Finished)
+                } else {
+                    Step::Continue
+                }
+            }
+        }
+    }
+
+    fn outcome(&self) -> Outcome {
+        if let Some(error) = self.motion_error {
+            return Outcome::MotionFailed { error };
+        }
+        match self.stop {
+            Some((stop, line)) => Outcome::Stopped { stop, line },
+            None => Outcome::Finished,
+        }
+    }
+
+    fn enter(&mut self, phase: Phase) {
+        self.phase = phase;
+        self.phase_ticks = 0;
+    }
+
+    /// Every drive's actual position equals its last setpoint.
+    fn settled(&self) -> bool {
+        (0..self.axes.n).all(|i| self.feedback[i].position == self.setpoints[i])
+    }
+
+    fn begin_stop(&mut self, stop: DriveStop) {
+        if self.stop.is_none() && self.motion_error.is_none() {
+            self.stop = Some((stop, self.last_line));
+        }
+        if matches!(self.phase, Phase::Running | Phase::Settling) {
+            self.interp.request_stop();
+            self.enter(Phase::Stopping);
+        }
+    }
+
+    fn next_move(&mut self) {
+        match self.moves.try_pop() {
+            Some(LoopInput::Move(mv)) => {
+                self.tap = tap_coupling(&self.axes, &mv);
+                if let Err(e) = self.interp.start(mv) {
+                    self.motion_error = Some(e);
+                    self.last_line = e.line;
+                    self.begin_stop(DriveStop {
+                        cause: StopCause::Motion,
+                        node: 0,
+                        statusword: 0,
+                        emcy: None,
+                    });
+                }
+            }
+            Some(LoopInput::End) => self.input_done = true,
+            None => {
+                if !self.input_done {
+                    self.starved += 1;
+                }
+            }
+        }
+    }
+}
+
+/// The machine position (mm / degrees) of start counts.
+pub fn start_position(axes: &AxisTable, counts: &[i32; MAX_AXES]) -> AxisPos {
+    let mut p = AxisPos::default();
+    for i in 0..axes.n {
+        p.0[i] = axes.counts_to_pos(i, counts[i] as i64);
+    }
+    p
+}
+
+/// The coupling of a path move that turns the spindle axis as a position axis together with
+/// a linear axis (a rigid tap): the linear axis that moves most, and Δlinear/Δspindle.
+pub fn tap_coupling(axes: &AxisTable, mv: &PlannedMove) -> Option<TapCoupling> {
+    let MoveKind::Path(p) = &mv.kind else {
+        return None;
+    };
+    let c = axes.spindle?;
+    let dc = p.end.0[c] - p.start.0[c];
+    if dc == 0.0 {
+        return None;
+    }
+    let (tool, dz) = (0..axes.n)
+        .filter(|&i| axes.linear[i])
+        .map(|i| (i, p.end.0[i] - p.start.0[i]))
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+    if dz == 0.0 {
+        return None;
+    }
+    Some(TapCoupling {
+        tool: tool as u8,
+        spindle: c as u8,
+        ratio: dz / dc,
+    })
+}

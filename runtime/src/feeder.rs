@@ -1,0 +1,141 @@
+//! The feeder: runs the interpreter and the planner ahead of the loop (outside it) and pushes
+//! planned moves into the move ring while there is room. Errors become [`NcError`]s that point
+//! at the program line (a planner error has no column: it names the block).
+
+use std::collections::VecDeque;
+
+use cnc402_config::MachineConfig;
+use cnc402_interp::{Interpreter, Options};
+use cnc402_lang::ast::Program;
+use cnc402_lang::{NcError, SourceFile};
+use cnc402_motion::{AxisPos, MotionError, MoveKind, PlannedMove, Planner, SegmentKind};
+
+use crate::ring::{LoopInput, MoveProducer, Observer, Producer};
+
+/// An interpreter and a planner in step; see the module doc.
+pub struct Feeder {
+    interp: Interpreter,
+    planner: Planner,
+    src: SourceFile,
+    /// A move planned but not yet accepted by the ring.
+    held: Option<LoopInput>,
+    done: bool,
+    /// Texts of `Message` moves sent, in order (the loop reports only that one finished).
+    messages: VecDeque<String>,
+}
+
+/// A planner error as a program error at the block's line.
+pub fn motion_error_to_nc(src: &SourceFile, e: &MotionError) -> NcError {
+    NcError::new(src, src.line_span(e.line), e.to_string())
+}
+
+impl Feeder {
+    /// Loads `program` for a machine standing at `start` (machine coordinates).
+    pub fn new(cfg: &MachineConfig, src: SourceFile, program: Program, start: AxisPos) -> Feeder {
+        let opts = Options {
+            start,
+            ..Options::default()
+        };
+        let mut interp = Interpreter::with_options(cfg, opts);
+        interp.load(src.clone(), program);
+        let mut planner = Planner::new(cfg);
+        planner.set_position(start);
+        Feeder {
+            interp,
+            planner,
+            src,
+            held: None,
+            done: false,
+            messages: VecDeque::new(),
+        }
+    }
+
+    /// The next planned move, `Ok(None)` at the end.
+    pub fn next_move(&mut self) -> Result<Option<PlannedMove>, NcError> {
+        let Some(seg) = self.interp.next_segment()? else {
+            return Ok(None);
+        };
+        let mv = self
+            .planner
+            .plan(&seg)
+            .map_err(|e| motion_error_to_nc(&self.src, &e))?;
+        if let (MoveKind::Message, SegmentKind::Message { text }) = (&mv.kind, seg.kind) {
+            self.messages.push_back(text);
+        }
+        Ok(Some(mv))
+    }
+
+    /// Pushes moves into `ring` until it is full or the program is over (then `End`).
+    /// Returns how many entries were pushed.
+    pub fn fill(&mut self, ring: &mut MoveProducer) -> Result<usize, NcError> {
+        let mut pushed = 0;
+        loop {
+            if ring.is_full() {
+                return Ok(pushed);
+            }
+            let item = match self.held.take() {
+                Some(i) => i,
+                None if self.done => return Ok(pushed),
+                None => match self.next_move()? {
+                    Some(mv) => LoopInput::Move(mv),
+                    None => {
+                        self.done = true;
+                        LoopInput::End
+                    }
+                },
+            };
+            if let Err(back) = ring.try_push(item) {
+                self.held = Some(back);
+                return Ok(pushed);
+            }
+            pushed += 1;
+        }
+    }
+
+    /// True once `End` went into the ring.
+    pub fn is_done(&self) -> bool {
+        self.done && self.held.is_none()
+    }
+
+    /// The text of the next message the loop will report.
+    pub fn take_message(&mut self) -> Option<String> {
+        self.messages.pop_front()
+    }
+
+    /// The program text.
+    pub fn source(&self) -> &SourceFile {
+        &self.src
+    }
+}
+
+/// What a dry run of the whole program (interpreter + planner, no motion) found.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DryRun {
+    /// Planned moves.
+    pub moves: u64,
+    /// Interpolator ticks of all moves (path moves and dwells; spindle ramps and events are
+    /// not known in advance and count as 0).
+    pub ticks: u64,
+}
+
+/// Interprets and plans the whole program without moving anything, so that a program error
+/// is reported (exit 2) before a drive is enabled, and the progress bar knows the length.
+pub fn dry_run(
+    cfg: &MachineConfig,
+    src: &SourceFile,
+    program: &Program,
+    start: AxisPos,
+) -> Result<DryRun, NcError> {
+    let mut f = Feeder::new(cfg, src.clone(), program.clone(), start);
+    let mut d = DryRun::default();
+    while let Some(mv) = f.next_move()? {
+        d.moves += 1;
+        d.ticks += match mv.kind {
+            MoveKind::Path(p) => p.ticks,
+            MoveKind::Dwell { ticks, .. } => ticks,
+            _ => 1,
+        };
+        f.messages.clear();
+    }
+    Ok(d)
+}

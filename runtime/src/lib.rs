@@ -1,0 +1,21 @@
+//! cnc402-runtime: the cycle controller. A program goes through the interpreter and the
+//! planner (outside the loop, running ahead) into a fixed-capacity ring of planned moves; the
+//! loop ticks the interpolator and exchanges setpoints for feedback with the drives once per
+//! period, and sends one status record per tick out through a second ring. The same loop runs
+//! in virtual time (as fast as the CPU allows) or in real time on its own thread.
+
+pub mod controller;
+pub mod feeder;
+pub mod link;
+pub mod recorder;
+pub mod report;
+pub mod ring;
+pub mod rt;
+pub mod run;
+pub mod status;
+
+pub use controller::{CycleController, Step};
+pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, ModelLink, Startup, StopCause};
+pub use report::{RunReport, write_plot};
+pub use run::{Progress, RunError, RunOptions, Timing, make_link, run_program};
+pub use status::{Outcome, Phase, Status};

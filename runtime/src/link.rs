@@ -1,0 +1,254 @@
+//! The loop's view of the drives: [`DriveLink`], one exchange of setpoints for feedback per
+//! period, plus start-up (boot, configure, enable) and quick stop. The CANopen master over a
+//! bus implements it; [`ModelLink`] is a bus-less stand-in (pure delay, exact following) used
+//! to test the loop and as the loopback machine when no master is wanted.
+
+use cnc402_config::{MAX_AXES, MachineConfig};
+use cnc402_drives::Instant;
+use cnc402_drives::bus::BusCounters;
+
+/// What one drive reported in one cycle.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DriveFeedback {
+    /// Position actual value 0x6064, INT32 counts (wrapping).
+    pub position: i32,
+    /// Statusword 0x6041.
+    pub statusword: u16,
+}
+
+/// Why the machine must stop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopCause {
+    /// A drive is in FAULT (statusword bit 3), with or without an EMCY.
+    DriveFault,
+    /// An EMCY with an error code other than "no error" arrived.
+    Emergency,
+    /// A drive's heartbeat was not seen within its timeout.
+    HeartbeatLost,
+    /// A drive's TPDO was missing for the configured number of cycles.
+    TpdoMissing,
+    /// Following error (setpoint − 0x6064) beyond the axis window for its time-out.
+    FollowingError,
+    /// The bus failed (bus-off, interface down, I/O error).
+    Bus,
+    /// The operator asked (SIGINT).
+    Operator,
+    /// A move could not be started (an interpreter/planner inconsistency).
+    Motion,
+}
+
+impl StopCause {
+    /// Short human text.
+    pub fn describe(self) -> &'static str {
+        match self {
+            StopCause::DriveFault => "drive fault",
+            StopCause::Emergency => "emergency message",
+            StopCause::HeartbeatLost => "heartbeat lost",
+            StopCause::TpdoMissing => "feedback PDO missing",
+            StopCause::FollowingError => "following error beyond window",
+            StopCause::Bus => "CAN bus error",
+            StopCause::Operator => "operator stop (SIGINT)",
+            StopCause::Motion => "motion error",
+        }
+    }
+}
+
+/// A safety reaction: what happened and on which drive. Heap-free, so the loop can carry it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DriveStop {
+    pub cause: StopCause,
+    /// CANopen node id of the drive concerned (0 = not a drive: operator, bus, motion).
+    pub node: u8,
+    /// Its last statusword.
+    pub statusword: u16,
+    /// The EMCY error code it sent, if any.
+    pub emcy: Option<u16>,
+}
+
+/// Progress of start-up, polled once per period.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Startup {
+    /// Still booting / configuring / enabling.
+    Pending,
+    /// Every drive is in OPERATION ENABLED, holding this actual position (counts, indexed like
+    /// the config's axes; axes without a drive report 0).
+    Ready([i32; MAX_AXES]),
+    /// Start-up failed.
+    Failed(DriveStop),
+}
+
+/// The drives as the loop sees them. Implementations must not allocate, log or lock in
+/// [`cycle`](Self::cycle) and [`quick_stop`](Self::quick_stop).
+pub trait DriveLink {
+    /// One start-up step at `now` (boot, SDO configuration, enable). Called every period until
+    /// it returns `Ready` or `Failed`; never from the cyclic part. May allocate and log.
+    fn startup(&mut self, now: Instant) -> Startup;
+    /// One cycle at `now`: send `setpoints` (counts, config axis order) and SYNC, and fill
+    /// `feedback` with what came back. Returns the first safety reaction the monitors
+    /// raised; a stop is reported once, later cycles keep exchanging with the healthy drives.
+    fn cycle(
+        &mut self,
+        now: Instant,
+        setpoints: &[i32; MAX_AXES],
+        feedback: &mut [DriveFeedback; MAX_AXES],
+    ) -> Result<(), DriveStop>;
+    /// Commands quick stop to every drive (one step per call, fills `feedback` like `cycle`).
+    /// Returns true once every drive has stopped (quick stop active, disabled or in fault).
+    fn quick_stop(&mut self, now: Instant, feedback: &mut [DriveFeedback; MAX_AXES]) -> bool;
+    /// Frame and bit counters of the bus (zero for a bus-less link).
+    fn counters(&self) -> BusCounters;
+    /// Bit rate for bus load (0 for a bus-less link).
+    fn bitrate(&self) -> u32;
+}
+
+/// A drive fault to inject into a simulated machine: `node` goes to FAULT with `emcy` at
+/// `at` (time since start of the cyclic phase).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FaultPlan {
+    pub node: u8,
+    pub at: core::time::Duration,
+    pub emcy: u16,
+}
+
+/// Statusword of a drive in OPERATION ENABLED with voltage, quick stop off and remote set.
+pub const SW_OPERATION_ENABLED: u16 = 0x0237;
+/// Statusword of a drive in FAULT (voltage and remote still set).
+pub const SW_FAULT: u16 = 0x0218;
+/// Statusword of a drive in QUICK STOP ACTIVE.
+pub const SW_QUICK_STOP_ACTIVE: u16 = 0x0217;
+
+/// A machine without a bus: each drive follows its setpoint after `delay` cycles, exactly.
+/// For loop tests and the bus-less benchmark peer; a [`FaultPlan`] makes one drive fault.
+#[derive(Clone, Debug)]
+pub struct ModelLink {
+    n_axes: usize,
+    nodes: [u8; MAX_AXES],
+    /// Delay line per axis, `delay` deep (ring, index `head`).
+    line: [[i32; 8]; MAX_AXES],
+    delay: usize,
+    head: usize,
+    start: [i32; MAX_AXES],
+    sw: [u16; MAX_AXES],
+    fault: Option<FaultPlan>,
+    t0: Option<Instant>,
+    startup_cycles: u32,
+    reported: bool,
+}
+
+impl ModelLink {
+    /// A model of `cfg`'s drives standing at `start` (counts), following with a pure delay of
+    /// `delay` cycles (0..=7), enabling after a few cycles.
+    pub fn new(cfg: &MachineConfig, start: [i32; MAX_AXES], delay: usize) -> ModelLink {
+        let n_axes = cfg.axes.len().min(MAX_AXES);
+        let mut nodes = [0u8; MAX_AXES];
+        for (n, a) in nodes.iter_mut().zip(&cfg.axes) {
+            *n = a.node.unwrap_or(0);
+        }
+        let mut line = [[0i32; 8]; MAX_AXES];
+        for (l, s) in line.iter_mut().zip(start) {
+            *l = [s; 8];
+        }
+        ModelLink {
+            n_axes,
+            nodes,
+            line,
+            delay: delay.min(7),
+            head: 0,
+            start,
+            sw: [0x0250; MAX_AXES],
+            fault: None,
+            t0: None,
+            startup_cycles: 0,
+            reported: false,
+        }
+    }
+
+    /// Arms a fault.
+    pub fn with_fault(mut self, plan: FaultPlan) -> ModelLink {
+        self.fault = Some(plan);
+        self
+    }
+
+    fn feedback(&self, fb: &mut [DriveFeedback; MAX_AXES]) {
+        let tail = (self.head + 8 - self.delay) % 8;
+        for i in 0..self.n_axes {
+            fb[i] = DriveFeedback {
+                position: self.line[i][tail],
+                statusword: self.sw[i],
+            };
+        }
+    }
+}
+
+impl DriveLink for ModelLink {
+    fn startup(&mut self, now: Instant) -> Startup {
+        self.startup_cycles += 1;
+        if self.startup_cycles < 4 {
+            return Startup::Pending;
+        }
+        self.sw = [SW_OPERATION_ENABLED; MAX_AXES];
+        self.t0 = Some(now);
+        Startup::Ready(self.start)
+    }
+
+    fn cycle(
+        &mut self,
+        now: Instant,
+        setpoints: &[i32; MAX_AXES],
+        fb: &mut [DriveFeedback; MAX_AXES],
+    ) -> Result<(), DriveStop> {
+        let head = (self.head + 1) % 8;
+        let tail = (self.head + 8 - self.delay) % 8;
+        for i in 0..self.n_axes {
+            // A faulted or stopped drive ignores setpoints and holds (no brake model here).
+            self.line[i][head] = if self.sw[i] == SW_OPERATION_ENABLED {
+                setpoints[i]
+            } else {
+                self.line[i][tail]
+            };
+        }
+        self.head = head;
+        let mut stop = None;
+        if let (Some(plan), Some(t0)) = (self.fault, self.t0)
+            && now.saturating_since(t0) >= plan.at
+            && !self.reported
+        {
+            self.reported = true;
+            if let Some(i) = self.nodes[..self.n_axes]
+                .iter()
+                .position(|&n| n == plan.node)
+            {
+                self.sw[i] = SW_FAULT;
+                stop = Some(DriveStop {
+                    cause: StopCause::DriveFault,
+                    node: plan.node,
+                    statusword: SW_FAULT,
+                    emcy: Some(plan.emcy),
+                });
+            }
+        }
+        self.feedback(fb);
+        match stop {
+            Some(s) => Err(s),
+            None => Ok(()),
+        }
+    }
+
+    fn quick_stop(&mut self, _now: Instant, fb: &mut [DriveFeedback; MAX_AXES]) -> bool {
+        for i in 0..self.n_axes {
+            if self.sw[i] == SW_OPERATION_ENABLED {
+                self.sw[i] = SW_QUICK_STOP_ACTIVE;
+            }
+        }
+        self.feedback(fb);
+        true
+    }
+
+    fn counters(&self) -> BusCounters {
+        BusCounters::default()
+    }
+
+    fn bitrate(&self) -> u32 {
+        0
+    }
+}

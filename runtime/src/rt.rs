@@ -1,0 +1,215 @@
+//! The real-time side: what the loop thread asks of the OS (memory locked, SCHED_FIFO — each
+//! only when permitted), the monotonic clock, absolute-deadline sleeps, and the wake-up
+//! latency histogram (fixed buckets, allocated before the loop starts), plus the SIGINT flag.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use nix::sys::mman::{MlockAllFlags, mlockall};
+use nix::sys::time::TimeSpec;
+use nix::time::{ClockId, ClockNanosleepFlags, clock_gettime, clock_nanosleep};
+
+/// SCHED_FIFO priority the loop thread asks for.
+pub const RT_PRIORITY: i32 = 80;
+
+/// Which real-time privileges the loop thread got.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RtGrant {
+    /// `mlockall(MCL_CURRENT | MCL_FUTURE)` succeeded, or why not.
+    pub mlockall: Result<(), String>,
+    /// SCHED_FIFO at [`RT_PRIORITY`] succeeded, or why not.
+    pub fifo: Result<(), String>,
+}
+
+impl RtGrant {
+    /// One line for the log.
+    pub fn describe(&self) -> String {
+        let s = |r: &Result<(), String>| match r {
+            Ok(()) => "granted".to_string(),
+            Err(e) => format!("not granted ({e})"),
+        };
+        format!(
+            "real-time loop: mlockall {}, SCHED_FIFO {} {}",
+            s(&self.mlockall),
+            RT_PRIORITY,
+            s(&self.fifo)
+        )
+    }
+}
+
+/// Locks memory and switches the calling thread to SCHED_FIFO where the process may; never
+/// fails (the loop runs anyway, just with worse latency).
+pub fn request_realtime() -> RtGrant {
+    let mlock = mlockall(MlockAllFlags::MCL_CURRENT | MlockAllFlags::MCL_FUTURE)
+        .map_err(|e| e.desc().to_string());
+    let param = libc::sched_param {
+        sched_priority: RT_PRIORITY,
+    };
+    // SAFETY: plain syscall on the calling thread with a valid parameter struct.
+    let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
+    let fifo = if rc == 0 {
+        Ok(())
+    } else {
+        Err(nix::errno::Errno::from_raw(rc).desc().to_string())
+    };
+    RtGrant {
+        mlockall: mlock,
+        fifo,
+    }
+}
+
+/// CLOCK_MONOTONIC in nanoseconds.
+pub fn monotonic_ns() -> u64 {
+    match clock_gettime(ClockId::CLOCK_MONOTONIC) {
+        Ok(t) => t.tv_sec() as u64 * 1_000_000_000 + t.tv_nsec() as u64,
+        Err(_) => 0,
+    }
+}
+
+/// Sleeps until CLOCK_MONOTONIC reaches `deadline_ns` (absolute; a signal does not shorten it).
+pub fn sleep_until(deadline_ns: u64) {
+    let ts = TimeSpec::new(
+        (deadline_ns / 1_000_000_000) as _,
+        (deadline_ns % 1_000_000_000) as _,
+    );
+    loop {
+        match clock_nanosleep(
+            ClockId::CLOCK_MONOTONIC,
+            ClockNanosleepFlags::TIMER_ABSTIME,
+            &ts,
+        ) {
+            Err(nix::errno::Errno::EINTR) => continue,
+            _ => return,
+        }
+    }
+}
+
+/// Wake-up latency figures in microseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LatencySummary {
+    pub samples: u64,
+    pub p50_us: f64,
+    pub p99_us: f64,
+    pub max_us: f64,
+    /// Wake-ups later than the late threshold (half a period).
+    pub late: u64,
+}
+
+/// A histogram of wake-up latency with 1 µs buckets up to its size and an exact maximum.
+/// `record` is allocation-free.
+#[derive(Clone, Debug)]
+pub struct LatencyHistogram {
+    buckets: Vec<u64>,
+    overflow: u64,
+    samples: u64,
+    max_ns: u64,
+    late_threshold_ns: u64,
+    late: u64,
+}
+
+impl LatencyHistogram {
+    /// Buckets for 0..`range_us` µs; wake-ups later than `late_threshold_ns` count as late.
+    pub fn new(range_us: usize, late_threshold_ns: u64) -> LatencyHistogram {
+        LatencyHistogram {
+            buckets: vec![0; range_us.max(1)],
+            overflow: 0,
+            samples: 0,
+            max_ns: 0,
+            late_threshold_ns,
+            late: 0,
+        }
+    }
+
+    /// Records one wake-up `latency_ns` after its deadline.
+    #[inline]
+    pub fn record(&mut self, latency_ns: u64) {
+        self.samples += 1;
+        self.max_ns = self.max_ns.max(latency_ns);
+        if latency_ns > self.late_threshold_ns {
+            self.late += 1;
+        }
+        match self.buckets.get_mut((latency_ns / 1000) as usize) {
+            Some(b) => *b += 1,
+            None => self.overflow += 1,
+        }
+    }
+
+    /// The upper edge (µs) of the bucket holding quantile `q` (0..1); the max if it overflowed.
+    pub fn quantile_us(&self, q: f64) -> f64 {
+        if self.samples == 0 {
+            return 0.0;
+        }
+        let rank = ((q * self.samples as f64).ceil() as u64).clamp(1, self.samples);
+        let mut seen = 0;
+        for (i, &n) in self.buckets.iter().enumerate() {
+            seen += n;
+            if seen >= rank {
+                return ((i + 1) as f64).min(self.max_ns as f64 / 1000.0);
+            }
+        }
+        self.max_ns as f64 / 1000.0
+    }
+
+    /// p50/p99/max/late.
+    pub fn summary(&self) -> LatencySummary {
+        LatencySummary {
+            samples: self.samples,
+            p50_us: self.quantile_us(0.5),
+            p99_us: self.quantile_us(0.99),
+            max_us: self.max_ns as f64 / 1000.0,
+            late: self.late,
+        }
+    }
+}
+
+static SIGINT_SEEN: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_sigint(_: libc::c_int) {
+    SIGINT_SEEN.store(true, Ordering::SeqCst);
+}
+
+/// Installs a SIGINT handler that only sets a flag (async-signal-safe); the run polls it
+/// ([`sigint_seen`]) and stops the machine the same way as a fault.
+pub fn install_sigint_handler() -> Result<(), String> {
+    use nix::sys::signal::{SaFlags, SigAction, SigHandler, SigSet, Signal, sigaction};
+    let act = SigAction::new(
+        SigHandler::Handler(on_sigint),
+        SaFlags::SA_RESTART,
+        SigSet::empty(),
+    );
+    // SAFETY: the handler only stores to an atomic.
+    unsafe { sigaction(Signal::SIGINT, &act) }
+        .map(|_| ())
+        .map_err(|e| e.desc().to_string())
+}
+
+/// True once SIGINT arrived (after [`install_sigint_handler`]).
+pub fn sigint_seen() -> bool {
+    SIGINT_SEEN.load(Ordering::SeqCst)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_from_buckets() {
+        let mut h = LatencyHistogram::new(100, 500_000);
+        for us in 1..=100u64 {
+            h.record(us * 1000 - 500);
+        }
+        h.record(2_000_000);
+        let s = h.summary();
+        assert_eq!(s.samples, 101);
+        assert_eq!(s.p50_us, 51.0);
+        assert_eq!(s.p99_us, 100.0);
+        assert_eq!(s.max_us, 2000.0);
+        assert_eq!(s.late, 1);
+    }
+
+    #[test]
+    fn absolute_sleep_reaches_its_deadline() {
+        let t0 = monotonic_ns();
+        sleep_until(t0 + 2_000_000);
+        assert!(monotonic_ns() >= t0 + 2_000_000);
+    }
+}

@@ -1,0 +1,582 @@
+//! Running a whole program: a dry run first (program errors before anything moves), then the
+//! drives are started, and the cycle controller runs either in virtual time on the calling
+//! thread (as fast as the CPU allows) or in real time on a thread of its own with absolute
+//! deadlines. The feeder and the recorder stay on the calling thread in both cases.
+
+use std::io::Write;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use cnc402_config::{MAX_AXES, MachineConfig};
+use cnc402_drives::Instant;
+use cnc402_lang::ast::Program;
+use cnc402_lang::{NcError, SourceFile};
+use cnc402_motion::{AxisPos, MoveEvent};
+
+use crate::controller::{AxisTable, CycleController, Step, start_position};
+use crate::feeder::{Feeder, dry_run, motion_error_to_nc};
+use crate::link::{DriveLink, DriveStop, FaultPlan, ModelLink, Startup, StopCause};
+use crate::recorder::Recorder;
+use crate::report::{AxisReport, RunReport, StopReport};
+use crate::ring::{
+    Consumer, MOVE_RING, MoveProducer, Observer, STATUS_RING, StatusConsumer, move_ring,
+    status_ring,
+};
+use crate::rt::{LatencyHistogram, LatencySummary, monotonic_ns, request_realtime, sleep_until};
+use crate::status::{Outcome, Status};
+
+/// How time advances.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Timing {
+    /// Each tick right after the last: virtual time, as fast as the CPU allows.
+    Virtual,
+    /// Against CLOCK_MONOTONIC at the configured period, on a thread of its own.
+    RealTime,
+}
+
+/// What a run needs besides the program.
+pub struct RunOptions {
+    pub timing: Timing,
+    /// A fault to inject into the simulated drives (tests, demos).
+    pub fault: Option<FaultPlan>,
+    /// Where to write the CSV trace.
+    pub trace: Option<Box<dyn Write>>,
+    /// Raised by the caller (SIGINT) to stop the machine the way a fault does.
+    pub stop_request: Arc<AtomicBool>,
+    /// Use the bus-less [`ModelLink`] (pure delay) instead of the configured bus.
+    pub model_link: bool,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions {
+            timing: Timing::Virtual,
+            fault: None,
+            trace: None,
+            stop_request: Arc::new(AtomicBool::new(false)),
+            model_link: false,
+        }
+    }
+}
+
+/// Why a run could not produce a report.
+#[derive(Debug)]
+pub enum RunError {
+    /// The program is wrong (found by the dry run, or while running: then the machine was
+    /// stopped first).
+    Program(NcError),
+    /// A file or device could not be used.
+    Io(String),
+}
+
+/// Progress as the reporting side sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Progress {
+    pub tick: u64,
+    /// Ticks the dry run expects (spindle ramps excluded, so `tick` may pass it).
+    pub expected_ticks: u64,
+    pub line: u32,
+}
+
+/// The drive link for `cfg`'s bus: the embedded simulated machine for `interface = "sim"`;
+/// any other interface needs the SocketCAN transport.
+pub fn make_link(
+    cfg: &MachineConfig,
+    fault: Option<FaultPlan>,
+    model: bool,
+) -> Result<Box<dyn DriveLink>, RunError> {
+    if !cfg.bus.is_sim() && !model {
+        return Err(RunError::Io(format!(
+            "bus interface {:?}: SocketCAN transport not available yet",
+            cfg.bus.interface
+        )));
+    }
+    // Until the CANopen master lands, the simulated machine is the bus-less model: each
+    // drive follows after its configured delay.
+    let delay = cfg
+        .axes
+        .iter()
+        .map(|a| a.sim.delay_cycles as usize)
+        .max()
+        .unwrap_or(1);
+    let mut link = ModelLink::new(cfg, [0; MAX_AXES], delay);
+    if let Some(f) = fault {
+        link = link.with_fault(f);
+    }
+    Ok(Box::new(link))
+}
+
+impl<L: DriveLink + ?Sized> DriveLink for Box<L> {
+    fn startup(&mut self, now: Instant) -> Startup {
+        (**self).startup(now)
+    }
+    fn cycle(
+        &mut self,
+        now: Instant,
+        setpoints: &[i32; MAX_AXES],
+        feedback: &mut [crate::link::DriveFeedback; MAX_AXES],
+    ) -> Result<(), DriveStop> {
+        (**self).cycle(now, setpoints, feedback)
+    }
+    fn quick_stop(
+        &mut self,
+        now: Instant,
+        feedback: &mut [crate::link::DriveFeedback; MAX_AXES],
+    ) -> bool {
+        (**self).quick_stop(now, feedback)
+    }
+    fn counters(&self) -> cnc402_drives::bus::BusCounters {
+        (**self).counters()
+    }
+    fn bitrate(&self) -> u32 {
+        (**self).bitrate()
+    }
+}
+
+/// Start-up may take this long (boot, SDO configuration, enable) before it is a fault.
+const STARTUP_LIMIT: Duration = Duration::from_secs(10);
+
+/// What the loop side hands back at the end.
+struct LoopEnd {
+    outcome: Outcome,
+    ticks: u64,
+    starved: u64,
+    dropped: u64,
+    counters: cnc402_drives::bus::BusCounters,
+    bitrate: u32,
+    elapsed: Duration,
+    latency: Option<LatencySummary>,
+    grant: Option<String>,
+    wall: Duration,
+}
+
+/// The reporting side: feeder, recorder, progress callback.
+struct Side<'a> {
+    cfg: &'a MachineConfig,
+    feeder: Option<Feeder>,
+    recorder: Recorder,
+    progress: &'a mut dyn FnMut(&Progress),
+    expected: u64,
+    program_error: Option<NcError>,
+    program_ticks: u64,
+}
+
+impl Side<'_> {
+    fn fill(&mut self, ring: &mut MoveProducer, stop: &AtomicBool) {
+        if self.program_error.is_some() {
+            return;
+        }
+        if let Some(f) = self.feeder.as_mut()
+            && let Err(e) = f.fill(ring)
+        {
+            // The program failed while running (the dry run should have caught it): stop the
+            // machine like a fault and report the program error.
+            self.program_error = Some(e);
+            stop.store(true, Ordering::SeqCst);
+        }
+    }
+
+    fn drain(&mut self, ring: &mut StatusConsumer) {
+        let mut last: Option<Status> = None;
+        while let Some(s) = ring.try_pop() {
+            if let Some(MoveEvent::Message) = s.event
+                && let Some(text) = self.feeder.as_mut().and_then(|f| f.take_message())
+            {
+                log::info!("line {}: {}", s.line, text);
+            }
+            if s.phase != crate::status::Phase::Settling
+                && s.phase != crate::status::Phase::QuickStop
+            {
+                self.program_ticks = s.tick + 1;
+            }
+            self.recorder.record(&s);
+            last = Some(s);
+        }
+        if let Some(s) = last {
+            (self.progress)(&Progress {
+                tick: s.tick,
+                expected_ticks: self.expected,
+                line: s.line,
+            });
+        }
+    }
+}
+
+/// Runs `program` on the machine `cfg` describes and reports. Program errors found before
+/// motion are `Err(RunError::Program)`; faults and stops are reports with `ok == false`.
+pub fn run_program(
+    cfg: &MachineConfig,
+    src: SourceFile,
+    program: Program,
+    opts: RunOptions,
+    progress: &mut dyn FnMut(&Progress),
+) -> Result<RunReport, RunError> {
+    let dry = dry_run(cfg, &src, &program, AxisPos::default()).map_err(RunError::Program)?;
+    if !cfg.bus.is_sim() && !opts.model_link {
+        // Fail before anything else when the transport cannot exist.
+        make_link(cfg, None, false)?;
+    }
+    let mut recorder = Recorder::new(cfg, dry.ticks);
+    let RunOptions {
+        timing,
+        fault,
+        trace,
+        stop_request,
+        model_link,
+    } = opts;
+    if let Some(t) = trace {
+        recorder = recorder.with_trace(t);
+    }
+    let mut side = Side {
+        cfg,
+        feeder: None,
+        recorder,
+        progress,
+        expected: dry.ticks,
+        program_error: None,
+        program_ticks: 0,
+    };
+    let src_keep = src.clone();
+    let end = match timing {
+        Timing::Virtual => run_virtual(
+            cfg,
+            src,
+            program,
+            fault,
+            model_link,
+            stop_request,
+            &mut side,
+        )?,
+        Timing::RealTime => run_realtime(
+            cfg,
+            src,
+            program,
+            fault,
+            model_link,
+            stop_request,
+            &mut side,
+        )?,
+    };
+    let trace_result = side.recorder.finish();
+    if let Some(e) = side.program_error.take() {
+        return Err(RunError::Program(e));
+    }
+    if let Outcome::MotionFailed { error } = end.outcome {
+        return Err(RunError::Program(motion_error_to_nc(&src_keep, &error)));
+    }
+    trace_result.map_err(|e| RunError::Io(format!("trace: {e}")))?;
+    Ok(build_report(cfg, &src_keep, &side, &end))
+}
+
+fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEnd) -> RunReport {
+    let rec = &side.recorder;
+    let period_s = cfg.bus.period_s();
+    let axes = cfg
+        .axes
+        .iter()
+        .take(MAX_AXES)
+        .enumerate()
+        .map(|(i, a)| AxisReport {
+            name: a.name,
+            max_following_error: rec.max_following_error[i],
+            final_position: rec.last.map_or(0.0, |s| s.act[i]),
+        })
+        .collect();
+    let (ok, error, stop) = match end.outcome {
+        Outcome::Finished => (true, None, None),
+        Outcome::Stopped { stop, line } => {
+            let axis = cfg
+                .axes
+                .iter()
+                .find(|a| stop.node != 0 && a.node == Some(stop.node))
+                .map(|a| a.name);
+            let location = format!("{}:{}", src.name, line);
+            let block = src.line_text(line).trim().to_string();
+            let mut msg = stop.cause.describe().to_string();
+            if stop.node != 0 {
+                msg.push_str(&format!(" on node {}", stop.node));
+                if let Some(a) = axis {
+                    msg.push_str(&format!(" (axis {a})"));
+                }
+                msg.push_str(&format!(", statusword 0x{:04x}", stop.statusword));
+                match stop.emcy {
+                    Some(c) => msg.push_str(&format!(", EMCY 0x{c:04x}")),
+                    None => msg.push_str(", no EMCY"),
+                }
+            }
+            msg.push_str(&format!(
+                ", while executing {location}: {block}; all axes stopped"
+            ));
+            (
+                false,
+                Some(msg),
+                Some(StopReport {
+                    stop,
+                    axis,
+                    location,
+                    block,
+                }),
+            )
+        }
+        Outcome::MotionFailed { .. } => (false, Some("motion error".into()), None),
+    };
+    let program_time_s = side.program_ticks as f64 * period_s;
+    let wall = end.wall.as_secs_f64();
+    let axes_t = AxisTable::new(cfg);
+    RunReport {
+        ok,
+        error,
+        stop,
+        period_us: cfg.bus.period_us,
+        ticks: end.ticks,
+        program_time_s,
+        path_length_mm: rec.path_length,
+        axes,
+        tapping: rec.taps.clone(),
+        bus_frames: end.counters.bus_frames,
+        bus_load_percent: end.counters.load_percent(end.bitrate, end.elapsed),
+        wakeup_latency: end.latency,
+        realtime_grant: end.grant.clone(),
+        starved_ticks: end.starved,
+        dropped_status: end.dropped,
+        wall_time_s: wall,
+        realtime_factor: if wall > 0.0 {
+            end.ticks as f64 * period_s / wall
+        } else {
+            0.0
+        },
+        coupling_bound_um: coupling_bound_um(&axes_t, &rec.taps),
+        plot: rec.plot_points().to_vec(),
+    }
+}
+
+/// One count of the tool axis or the tool-axis equivalent of one spindle count, whichever is
+/// larger, over all windows (µm). With no spindle or taps: one count of Z (or of the first
+/// linear axis).
+pub fn coupling_bound_um(axes: &AxisTable, taps: &[crate::recorder::TapWindow]) -> f64 {
+    let tool_count = (0..axes.n)
+        .filter(|&i| axes.linear[i])
+        .map(|i| 1.0 / axes.counts_per_unit[i])
+        .fold(0.0, f64::max);
+    let spindle_count = axes.spindle.map_or(0.0, |c| 1.0 / axes.counts_per_unit[c]);
+    let pitch = taps.iter().map(|t| t.pitch_mm).fold(0.0, f64::max);
+    tool_count.max(spindle_count * pitch / 360.0) * 1000.0
+}
+
+fn startup_failed(stop: DriveStop) -> Outcome {
+    Outcome::Stopped { stop, line: 0 }
+}
+
+fn startup_timeout() -> DriveStop {
+    DriveStop {
+        cause: StopCause::Bus,
+        node: 0,
+        statusword: 0,
+        emcy: None,
+    }
+}
+
+fn run_virtual(
+    cfg: &MachineConfig,
+    src: SourceFile,
+    program: Program,
+    fault: Option<FaultPlan>,
+    model: bool,
+    stop_request: Arc<AtomicBool>,
+    side: &mut Side,
+) -> Result<LoopEnd, RunError> {
+    let wall0 = std::time::Instant::now();
+    let period = Duration::from_micros(cfg.bus.period_us as u64);
+    let mut link = make_link(cfg, fault, model)?;
+    let mut now = Instant::ZERO;
+    let start = loop {
+        match link.startup(now) {
+            Startup::Pending if now.nanos() < STARTUP_LIMIT.as_nanos() as u64 => now += period,
+            Startup::Pending => {
+                return Ok(failed_end(
+                    startup_failed(startup_timeout()),
+                    &*link,
+                    now,
+                    wall0,
+                ));
+            }
+            Startup::Ready(p) => break p,
+            Startup::Failed(s) => return Ok(failed_end(startup_failed(s), &*link, now, wall0)),
+        }
+    };
+    let axes = AxisTable::new(cfg);
+    side.feeder = Some(Feeder::new(
+        cfg,
+        src,
+        program,
+        start_position(&axes, &start),
+    ));
+    let (mut mprod, mcons) = move_ring(MOVE_RING);
+    let (sprod, mut scons) = status_ring(STATUS_RING);
+    let mut ctrl = CycleController::new(cfg, start, link, mcons, sprod, stop_request.clone());
+    side.fill(&mut mprod, &stop_request);
+    let outcome = loop {
+        if mprod.occupied_len() < MOVE_RING / 4 {
+            side.fill(&mut mprod, &stop_request);
+        }
+        now += period;
+        let step = ctrl.step(now);
+        if scons.occupied_len() >= STATUS_RING / 2 || step != Step::Continue {
+            side.drain(&mut scons);
+            if crate::rt::sigint_seen() {
+                stop_request.store(true, Ordering::SeqCst);
+            }
+        }
+        if let Step::Done(o) = step {
+            break o;
+        }
+    };
+    side.drain(&mut scons);
+    let link = ctrl.link();
+    Ok(LoopEnd {
+        outcome,
+        ticks: ctrl.ticks(),
+        starved: ctrl.starved_ticks(),
+        dropped: ctrl.dropped_status(),
+        counters: link.counters(),
+        bitrate: link.bitrate(),
+        elapsed: Duration::from_nanos(now.nanos()),
+        latency: None,
+        grant: None,
+        wall: wall0.elapsed(),
+    })
+}
+
+fn failed_end(
+    outcome: Outcome,
+    link: &dyn DriveLink,
+    now: Instant,
+    wall0: std::time::Instant,
+) -> LoopEnd {
+    LoopEnd {
+        outcome,
+        ticks: 0,
+        starved: 0,
+        dropped: 0,
+        counters: link.counters(),
+        bitrate: link.bitrate(),
+        elapsed: Duration::from_nanos(now.nanos()),
+        latency: None,
+        grant: None,
+        wall: wall0.elapsed(),
+    }
+}
+
+/// Messages from the loop thread before the cyclic phase.
+enum Hello {
+    Ready([i32; MAX_AXES]),
+}
+
+fn run_realtime(
+    cfg: &MachineConfig,
+    src: SourceFile,
+    program: Program,
+    fault: Option<FaultPlan>,
+    model: bool,
+    stop_request: Arc<AtomicBool>,
+    side: &mut Side,
+) -> Result<LoopEnd, RunError> {
+    let (mut mprod, mcons) = move_ring(MOVE_RING);
+    let (sprod, mut scons) = status_ring(STATUS_RING);
+    let (hello_tx, hello_rx) = std::sync::mpsc::sync_channel::<Hello>(1);
+    let cfg_t = cfg.clone();
+    let stop_t = stop_request.clone();
+    let period_ns = cfg.bus.period_us as u64 * 1000;
+    let handle = std::thread::Builder::new()
+        .name("cnc402-loop".into())
+        .spawn(move || -> Result<LoopEnd, RunError> {
+            let grant = request_realtime();
+            log::info!("{}", grant.describe());
+            let wall0 = std::time::Instant::now();
+            let mut link = make_link(&cfg_t, fault, model)?;
+            let t0 = monotonic_ns();
+            let mut next = t0;
+            let start = loop {
+                let now = Instant::from_nanos(monotonic_ns().saturating_sub(t0));
+                match link.startup(now) {
+                    Startup::Pending if now.nanos() < STARTUP_LIMIT.as_nanos() as u64 => {}
+                    Startup::Pending => {
+                        return Ok(failed_end(
+                            startup_failed(startup_timeout()),
+                            &*link,
+                            now,
+                            wall0,
+                        ));
+                    }
+                    Startup::Ready(p) => break p,
+                    Startup::Failed(s) => {
+                        return Ok(failed_end(startup_failed(s), &*link, now, wall0));
+                    }
+                }
+                next += period_ns;
+                sleep_until(next);
+            };
+            let _ = hello_tx.send(Hello::Ready(start));
+            let mut ctrl = CycleController::new(&cfg_t, start, link, mcons, sprod, stop_t);
+            let mut hist = LatencyHistogram::new(5000, period_ns / 2);
+            let wall_cyclic = std::time::Instant::now();
+            let outcome = loop {
+                next += period_ns;
+                sleep_until(next);
+                let woke = monotonic_ns();
+                hist.record(woke.saturating_sub(next));
+                if let Step::Done(o) = ctrl.step(Instant::from_nanos(woke.saturating_sub(t0))) {
+                    break o;
+                }
+            };
+            let now = monotonic_ns().saturating_sub(t0);
+            let _ = wall0;
+            let link = ctrl.link();
+            Ok(LoopEnd {
+                outcome,
+                ticks: ctrl.ticks(),
+                starved: ctrl.starved_ticks(),
+                dropped: ctrl.dropped_status(),
+                counters: link.counters(),
+                bitrate: link.bitrate(),
+                elapsed: Duration::from_nanos(now),
+                latency: Some(hist.summary()),
+                grant: Some(grant.describe()),
+                wall: wall_cyclic.elapsed(),
+            })
+        })
+        .map_err(|e| RunError::Io(format!("cannot start the loop thread: {e}")))?;
+
+    match hello_rx.recv() {
+        Ok(Hello::Ready(start)) => {
+            let axes = AxisTable::new(cfg);
+            side.feeder = Some(Feeder::new(
+                cfg,
+                src,
+                program,
+                start_position(&axes, &start),
+            ));
+        }
+        Err(_) => {
+            // The thread ended during start-up; its result says why.
+            return handle
+                .join()
+                .map_err(|_| RunError::Io("the loop thread panicked".into()))?;
+        }
+    }
+    while !handle.is_finished() {
+        side.fill(&mut mprod, &stop_request);
+        side.drain(&mut scons);
+        if crate::rt::sigint_seen() {
+            stop_request.store(true, Ordering::SeqCst);
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let end = handle
+        .join()
+        .map_err(|_| RunError::Io("the loop thread panicked".into()))??;
+    side.drain(&mut scons);
+    let _ = side.cfg;
+    Ok(end)
+}

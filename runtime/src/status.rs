@@ -1,0 +1,67 @@
+//! The record the loop sends out every tick ([`Status`]) and how a run ended ([`Outcome`]).
+//! `Copy` and heap-free: it travels through the status ring.
+
+use cnc402_config::MAX_AXES;
+use cnc402_motion::{MotionError, MoveEvent};
+
+use crate::link::DriveStop;
+
+/// What the loop is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// Running the program.
+    Running,
+    /// Decelerating along the path after a stop request or safety reaction.
+    Stopping,
+    /// Path at rest; quick stop commanded to the drives.
+    QuickStop,
+    /// Program done; waiting for the drives to settle on the last setpoint.
+    Settling,
+}
+
+/// A rigid-tap coupling in force during a move: `tool` axis moves `ratio` units per unit of
+/// the spindle axis `spindle` (degrees).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TapCoupling {
+    pub tool: u8,
+    pub spindle: u8,
+    /// Δtool / Δspindle of the move (mm per degree, signed).
+    pub ratio: f64,
+}
+
+/// One tick as the loop saw it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Status {
+    /// Tick number from the start of the cyclic phase (t = tick · period).
+    pub tick: u64,
+    /// Program line of the move executing.
+    pub line: u32,
+    pub phase: Phase,
+    /// Commanded machine position (mm / degrees), unwrapped.
+    pub cmd: [f64; MAX_AXES],
+    /// The setpoints sent (INT32 counts, wrapping).
+    pub cmd_counts: [i32; MAX_AXES],
+    /// Actual position from 0x6064, unwrapped, in mm / degrees.
+    pub act: [f64; MAX_AXES],
+    /// Actual position counts as received.
+    pub act_counts: [i32; MAX_AXES],
+    pub statusword: [u16; MAX_AXES],
+    /// Non-motion program event finished on this tick.
+    pub event: Option<MoveEvent>,
+    /// The rigid-tap coupling of the move executing, if it is one.
+    pub tap: Option<TapCoupling>,
+    /// The safety reaction raised on this tick, if any.
+    pub stop: Option<DriveStop>,
+}
+
+/// How the cyclic phase ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Outcome {
+    /// The program ran to its end.
+    Finished,
+    /// A safety reaction or operator stop brought the machine to rest; `line` is the program
+    /// line that was executing when it happened.
+    Stopped { stop: DriveStop, line: u32 },
+    /// A move could not be started; the machine was stopped.
+    MotionFailed { error: MotionError },
+}

@@ -1,0 +1,40 @@
+//! What can end a `cnc402` command, and the exit code each one maps to.
+
+use std::process::ExitCode;
+
+/// Documented exit codes (README.md, "Exit codes").
+pub mod exit {
+    pub const FAULT: u8 = 1;
+    pub const PROGRAM: u8 = 2;
+    pub const CONFIG: u8 = 3;
+    pub const IO: u8 = 4;
+    pub const USAGE: u8 = 64;
+}
+
+#[derive(Debug)]
+pub enum CliError {
+    /// The NC program is wrong: printed with its location and a caret.
+    Program(cnc402_lang::NcError),
+    /// The machine config is wrong.
+    Config(cnc402_config::ConfigError),
+    /// A file or device could not be used.
+    Io(String),
+    /// The machine stopped during a run (drive fault, safety reaction, operator stop).
+    Fault(String),
+    /// A command-line value that clap cannot check by itself.
+    Usage(String),
+}
+
+impl CliError {
+    pub fn report(self) -> ExitCode {
+        let (code, report) = match self {
+            CliError::Program(e) => (exit::PROGRAM, miette::Report::new(e)),
+            CliError::Config(e) => (exit::CONFIG, miette::Report::new(e)),
+            CliError::Io(m) => (exit::IO, miette::miette!("{m}")),
+            CliError::Fault(m) => (exit::FAULT, miette::miette!("{m}")),
+            CliError::Usage(m) => (exit::USAGE, miette::miette!("{m}")),
+        };
+        eprintln!("{report:?}");
+        ExitCode::from(code)
+    }
+}

@@ -1,0 +1,112 @@
+//! `cnc402 run`: arguments to [`cnc402_runtime::RunOptions`], a progress bar on a terminal, the
+//! summary on stdout, and the report, trace and plot files.
+
+use std::io::{IsTerminal, Write};
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use cnc402_config::MachineConfig;
+use cnc402_runtime::{FaultPlan, Progress, RunError, RunOptions, Timing};
+
+use crate::RunArgs;
+use crate::cli_error::CliError;
+
+/// Parses `NODE:CODE@SECONDS` (CODE in hex, with or without 0x), e.g. `3:8611@0.5`.
+fn parse_fault(s: &str) -> Result<FaultPlan, String> {
+    let bad = || format!("--inject-fault {s:?}: expected NODE:CODE@SECONDS, e.g. 3:8611@0.5");
+    let (node, rest) = s.split_once(':').ok_or_else(bad)?;
+    let (code, secs) = rest.split_once('@').ok_or_else(bad)?;
+    let node: u8 = node.trim().parse().map_err(|_| bad())?;
+    let code = code.trim().trim_start_matches("0x");
+    let emcy = u16::from_str_radix(code, 16).map_err(|_| bad())?;
+    let secs: f64 = secs.trim().parse().map_err(|_| bad())?;
+    if !(secs.is_finite() && secs >= 0.0) || node == 0 || node > 127 {
+        return Err(bad());
+    }
+    Ok(FaultPlan {
+        node,
+        at: Duration::from_secs_f64(secs),
+        emcy,
+    })
+}
+
+fn create(path: &Path) -> Result<std::fs::File, CliError> {
+    std::fs::File::create(path).map_err(|e| CliError::Io(format!("{}: {e}", path.display())))
+}
+
+/// Runs the program and reports; see the subcommand's help.
+pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
+    let fault = match &args.inject_fault {
+        Some(s) => Some(parse_fault(s).map_err(CliError::Usage)?),
+        None => None,
+    };
+    let src = crate::load_program(&args.program)?;
+    let ast = cnc402_lang::parse(&src).map_err(CliError::Program)?;
+    let trace: Option<Box<dyn Write>> = match &args.trace {
+        Some(p) => Some(Box::new(std::io::BufWriter::new(create(p)?))),
+        None => None,
+    };
+    if let Err(e) = cnc402_runtime::rt::install_sigint_handler() {
+        log::warn!("cannot install the SIGINT handler: {e}");
+    }
+    let opts = RunOptions {
+        // A real bus always runs against the clock.
+        timing: if args.realtime || !cfg.bus.is_sim() {
+            Timing::RealTime
+        } else {
+            Timing::Virtual
+        },
+        fault,
+        trace,
+        stop_request: Arc::new(AtomicBool::new(false)),
+        model_link: false,
+    };
+
+    let bar = if std::io::stderr().is_terminal() {
+        let b = indicatif::ProgressBar::new(0);
+        if let Ok(style) = indicatif::ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% {msg}",
+        ) {
+            b.set_style(style);
+        }
+        Some(b)
+    } else {
+        None
+    };
+    let name = src.name.clone();
+    let mut on_progress = |p: &Progress| {
+        if let Some(b) = &bar {
+            b.set_length(p.expected_ticks.max(p.tick + 1));
+            b.set_position(p.tick);
+            b.set_message(format!("{name}:{}", p.line));
+        }
+    };
+    let result = cnc402_runtime::run_program(cfg, src, ast, opts, &mut on_progress);
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let report = match result {
+        Ok(r) => r,
+        Err(RunError::Program(e)) => return Err(CliError::Program(e)),
+        Err(RunError::Io(m)) => return Err(CliError::Io(m)),
+    };
+    print!("{}", report.summary());
+    if let Some(p) = &args.report {
+        let text = serde_json::to_string_pretty(&report.to_json())
+            .map_err(|e| CliError::Io(format!("{}: {e}", p.display())))?;
+        let mut f = create(p)?;
+        writeln!(f, "{text}").map_err(|e| CliError::Io(format!("{}: {e}", p.display())))?;
+    }
+    if let Some(p) = &args.plot {
+        let title = format!("{} — Z and C setpoints", args.program.display());
+        cnc402_runtime::write_plot(p, &report.plot, &title).map_err(CliError::Io)?;
+    }
+    match report.error {
+        None if report.ok => Ok(()),
+        e => Err(CliError::Fault(
+            e.unwrap_or_else(|| "the machine stopped".into()),
+        )),
+    }
+}
