@@ -8,6 +8,7 @@ pub mod bus;
 pub mod coupling;
 pub mod master;
 pub mod od;
+pub mod sim;
 pub mod time;
 pub mod wire;
 

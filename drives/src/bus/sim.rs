@@ -172,10 +172,18 @@ impl<D: CanDevice> SimBus<D> {
                 return;
             };
             let start = earliest.max(self.bus_free_at);
-            // Arbitration among everything waiting when the bus goes idle: lowest id wins.
-            let Some(i) = (0..self.pending.len())
-                .filter(|&i| self.pending[i].ready <= start)
-                .min_by_key(|&i| (self.pending[i].frame.id(), self.pending[i].seq))
+            // Each node's transmit queue is FIFO (as a SocketCAN socket's is): only the oldest
+            // frame of each sender competes. Among those waiting when the bus goes idle,
+            // arbitration lets the lowest identifier win.
+            let pending = &self.pending;
+            let head_of_queue = |i: usize| {
+                !pending
+                    .iter()
+                    .any(|q| q.origin == pending[i].origin && q.seq < pending[i].seq)
+            };
+            let Some(i) = (0..pending.len())
+                .filter(|&i| pending[i].ready <= start && head_of_queue(i))
+                .min_by_key(|&i| (pending[i].frame.id(), pending[i].seq))
             else {
                 return;
             };
@@ -346,27 +354,27 @@ mod tests {
             .iter()
             .map(|t| (t.frame.id(), t.origin))
             .collect();
-        // At t=0 the master's two frames compete (0x750 wins); the devices' ticks are queued at
-        // the poll at 10 ms, after both.
-        assert_eq!(ids[0], (0x750, Origin::Master));
-        assert_eq!(ids[1], (0x7FF, Origin::Master));
+        // One sender's queue is FIFO: 0x7FF was queued first and goes first.
+        assert_eq!(ids[0], (0x7FF, Origin::Master));
+        assert_eq!(ids[1], (0x750, Origin::Master));
+        // Device 1's tick (0x701) competes with device 0's (0x700): arbitration by id.
         assert_eq!(
             &ids[2..],
             &[(0x700, Origin::Device(0)), (0x701, Origin::Device(1))]
         );
+        // Different senders at the same time: the lower id wins.
+        bus.device_mut(0).unwrap().tick = Some(0x020);
+        bus.device_mut(1).unwrap().tick = Some(0x010);
+        bus.advance(Instant::from_millis(12));
+        bus.advance(Instant::from_millis(13));
+        let ids: Vec<_> = bus.take_trace().iter().map(|t| t.frame.id()).collect();
+        assert_eq!(&ids[..2], &[0x010, 0x020]);
         assert!(
             bus.device(0)
                 .unwrap()
                 .seen
                 .iter()
-                .all(|(_, fr)| fr.id() != 0x700)
-        );
-        assert!(
-            bus.device(1)
-                .unwrap()
-                .seen
-                .iter()
-                .any(|(_, fr)| fr.id() == 0x700)
+                .all(|(_, fr)| fr.id() != 0x020)
         );
     }
 

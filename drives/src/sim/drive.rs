@@ -1,0 +1,1006 @@
+//! `SimDrive`: a CiA 402 servo drive on CANopen, driven only by frames and time — NMT slave
+//! with boot-up and heartbeat, SDO server, PDOs with the remap rules, the device state
+//! machine, CSP following with configurable dynamics, following-error monitoring, and a
+//! fault injection API. Works on [`crate::bus::SimBus`] and on any frame source with a clock.
+
+use core::fmt;
+use core::str::FromStr;
+use core::time::Duration;
+
+use cia402::objects as o;
+use cia402::{
+    Controlword, DeviceStateMachine, OperationMode, QuickStopOption, State, Statusword, Transition,
+};
+use cnc402_config::AxisConfig;
+
+use super::motion::AxisModel;
+use super::objects::{self, DriveParams};
+use super::pdo::{self, RpdoSlot, TpdoSlot};
+use super::sdo_server::{ObjectAccess, SdoServer};
+use crate::bus::{CanDevice, FrameSink};
+use crate::od::{ObjectDictionary, OdError, Value};
+use crate::time::Instant;
+use crate::wire::{
+    AbortCode, CanFrame, EmcyRepr, HeartbeatRepr, NmtCommand, NmtRepr, NmtState, NodeId,
+    SdoRequest, WireError, emcy_code,
+};
+
+/// The drive's NMT state, including "not yet on the bus".
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum NmtStatus {
+    /// Powered but not booted yet (boot delay), silent.
+    Booting,
+    /// PRE-OPERATIONAL: SDO, no PDO.
+    PreOperational,
+    /// OPERATIONAL: SDO and PDO.
+    Operational,
+    /// STOPPED: NMT and heartbeat only.
+    Stopped,
+}
+
+/// How the simulated drive starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SimDriveOptions {
+    /// Time from power-on (the first `poll`/`on_frame`) to the boot-up message.
+    pub boot_delay: Duration,
+    /// Start in FAULT with this EMCY code right after boot-up.
+    pub start_in_fault: Option<u16>,
+    /// Motor position at power-on (counts).
+    pub initial_position: i32,
+}
+
+impl Default for SimDriveOptions {
+    fn default() -> Self {
+        SimDriveOptions {
+            boot_delay: Duration::from_millis(1),
+            start_in_fault: None,
+            initial_position: 0,
+        }
+    }
+}
+
+/// A fault the tests or `simdrive --fault NODE:KIND@SECONDS` inject.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FaultKind {
+    /// Enter FAULT with this EMCY code (`fault` = 0x1000 generic, `fault:0x7300`). The cause
+    /// clears on fault reset.
+    Fault(u16),
+    /// Like `Fault`, but the cause persists: fault resets do not clear it (`fault-persistent`).
+    PersistentFault(u16),
+    /// Stop sending heartbeats (`heartbeat`).
+    HeartbeatSilence,
+    /// Stop answering SDO requests (`sdo`).
+    SdoSilence,
+    /// Stop sending TPDOs (`tpdo`).
+    DropTpdos,
+}
+
+/// A `FaultKind` that did not parse.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FaultKindError(pub String);
+
+impl fmt::Display for FaultKindError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "unknown fault kind `{}` (expected fault[:CODE], fault-persistent[:CODE], heartbeat, sdo, tpdo)",
+            self.0
+        )
+    }
+}
+
+impl std::error::Error for FaultKindError {}
+
+impl FromStr for FaultKind {
+    type Err = FaultKindError;
+    /// Parses `fault`, `fault:0x7300`, `fault-persistent[:CODE]`, `heartbeat`, `sdo`, `tpdo`.
+    ///
+    /// ```
+    /// use cnc402_drives::sim::FaultKind;
+    /// assert_eq!("fault:0x8611".parse(), Ok(FaultKind::Fault(0x8611)));
+    /// assert_eq!("tpdo".parse(), Ok(FaultKind::DropTpdos));
+    /// ```
+    fn from_str(s: &str) -> Result<FaultKind, FaultKindError> {
+        let err = || FaultKindError(s.to_string());
+        let (kind, code) = match s.split_once(':') {
+            Some((k, c)) => {
+                let c = c.trim();
+                let v = match c.strip_prefix("0x").or_else(|| c.strip_prefix("0X")) {
+                    Some(h) => u16::from_str_radix(h, 16),
+                    None => c.parse(),
+                }
+                .map_err(|_| err())?;
+                (k, Some(v))
+            }
+            None => (s, None),
+        };
+        Ok(match (kind.trim(), code) {
+            ("fault", c) => FaultKind::Fault(c.unwrap_or(emcy_code::GENERIC)),
+            ("fault-persistent", c) => FaultKind::PersistentFault(c.unwrap_or(emcy_code::GENERIC)),
+            ("heartbeat", None) => FaultKind::HeartbeatSilence,
+            ("sdo", None) => FaultKind::SdoSilence,
+            ("tpdo", None) => FaultKind::DropTpdos,
+            _ => return Err(err()),
+        })
+    }
+}
+
+/// Protocol-level counters of one drive (for `simdrive`'s report and tests).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SimDriveStats {
+    /// SYNCs processed (in OPERATIONAL).
+    pub syncs: u64,
+    /// RPDOs applied.
+    pub rpdos_applied: u64,
+    /// RPDOs rejected for their length (EMCY 0x8210 / 0x8220 sent).
+    pub pdo_length_errors: u64,
+    /// TPDOs sent.
+    pub tpdos_sent: u64,
+    /// TPDOs suppressed by fault injection.
+    pub tpdos_dropped: u64,
+    /// SDO requests received.
+    pub sdo_requests: u64,
+    /// SDO aborts sent.
+    pub sdo_aborts: u64,
+    /// EMCY messages sent.
+    pub emcys_sent: u64,
+    /// Heartbeats sent (not counting boot-up).
+    pub heartbeats_sent: u64,
+    /// Boot-up messages sent.
+    pub boot_ups: u64,
+    /// Frames addressed to this drive that made no sense (bad length, PDO while not
+    /// operational, unknown NMT command).
+    pub unexpected_frames: u64,
+    /// Frames the sink refused.
+    pub tx_errors: u64,
+    /// Largest |following error| seen while following, counts.
+    pub max_following_error: u32,
+}
+
+/// The simulated CiA 402 drive.
+pub struct SimDrive {
+    node: NodeId,
+    params: DriveParams,
+    options: SimDriveOptions,
+    defaults: ObjectDictionary,
+    od: ObjectDictionary,
+    nmt: NmtStatus,
+    powered_at: Option<Instant>,
+    now: Instant,
+    cia: DeviceStateMachine,
+    axis: AxisModel,
+    delay_cycles: u32,
+    bandwidth_hz: f64,
+    sdo: SdoServer,
+    rpdo: [RpdoSlot; 4],
+    tpdo: [TpdoSlot; 4],
+    next_heartbeat: Option<Instant>,
+    fe_since: Option<Instant>,
+    fe_exceeded: bool,
+    last_sync: Option<Instant>,
+    fault_cause: Option<u16>,
+    fault_persistent: bool,
+    heartbeat_silent: bool,
+    sdo_silent: bool,
+    drop_tpdos: bool,
+    outbox: Vec<CanFrame>,
+    stats: SimDriveStats,
+    nominal_period: Duration,
+}
+
+impl fmt::Debug for SimDrive {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("SimDrive")
+            .field("node", &self.node)
+            .field("nmt", &self.nmt)
+            .field("state", &self.cia.state())
+            .field("position", &self.axis.actual())
+            .finish()
+    }
+}
+
+fn error_register_for(code: u16) -> u8 {
+    // Bit 0 generic always; the class bits by the code's high nibble / byte.
+    let class = match code >> 12 {
+        0x2 => 0x02,
+        0x3 => 0x04,
+        0x4 => 0x08,
+        0x8 if code >> 8 == 0x81 => 0x10,
+        0x8 | 0x6 | 0x5 | 0x7 => 0x20,
+        _ => 0x00,
+    };
+    0x01 | class
+}
+
+impl SimDrive {
+    /// A drive for `axis` at `node`, with SYNC period `period` (sets 0x60C2), booting 1 ms
+    /// after power-on at position 0.
+    pub fn new(axis: &AxisConfig, node: NodeId, period: Duration) -> SimDrive {
+        SimDrive::with_options(axis, node, period, SimDriveOptions::default())
+    }
+
+    /// A drive with explicit start options.
+    pub fn with_options(
+        axis: &AxisConfig,
+        node: NodeId,
+        period: Duration,
+        options: SimDriveOptions,
+    ) -> SimDrive {
+        let cpu = axis.counts_per_unit.abs();
+        let window = (axis.following_error_window * cpu).round();
+        let window = if window.is_finite() && window >= 1.0 {
+            window.min(u32::MAX as f64 - 1.0) as u32
+        } else {
+            1
+        };
+        let decel = (axis.max_acceleration * cpu * 2.0).round();
+        let decel = if decel.is_finite() && decel >= 1.0 {
+            decel.min(u32::MAX as f64) as u32
+        } else {
+            1
+        };
+        let period_us = u32::try_from(period.as_micros()).unwrap_or(u32::MAX).max(1);
+        let params = DriveParams {
+            node,
+            name: format!("cnc402 simdrive {}", axis.name),
+            following_error_window: window,
+            following_error_timeout_ms: axis.following_error_timeout_ms.min(u16::MAX as u32) as u16,
+            quick_stop_deceleration: decel,
+            interpolation_period: objects::interpolation_period(period_us),
+        };
+        let defaults = objects::build(&params);
+        let mut d = SimDrive {
+            node,
+            options,
+            od: defaults.clone(),
+            defaults,
+            params,
+            nmt: NmtStatus::Booting,
+            powered_at: None,
+            now: Instant::ZERO,
+            cia: DeviceStateMachine::new(),
+            axis: AxisModel::new(
+                axis.sim.delay_cycles,
+                axis.sim.bandwidth_hz,
+                options.initial_position,
+            ),
+            delay_cycles: axis.sim.delay_cycles,
+            bandwidth_hz: axis.sim.bandwidth_hz,
+            sdo: SdoServer::new(),
+            rpdo: [RpdoSlot::default(); 4],
+            tpdo: [TpdoSlot::default(); 4],
+            next_heartbeat: None,
+            fe_since: None,
+            fe_exceeded: false,
+            last_sync: None,
+            fault_cause: None,
+            fault_persistent: false,
+            heartbeat_silent: false,
+            sdo_silent: false,
+            drop_tpdos: false,
+            outbox: Vec::with_capacity(32),
+            stats: SimDriveStats::default(),
+            nominal_period: period,
+        };
+        d.reload_pdos();
+        d.publish();
+        d
+    }
+
+    // ---- observation ------------------------------------------------------------------
+
+    /// Node id.
+    pub fn node(&self) -> NodeId {
+        self.node
+    }
+    /// Device name (0x1008).
+    pub fn name(&self) -> &str {
+        &self.params.name
+    }
+    /// NMT state.
+    pub fn nmt(&self) -> NmtStatus {
+        self.nmt
+    }
+    /// CiA 402 state.
+    pub fn state(&self) -> State {
+        self.cia.state()
+    }
+    /// The statusword as sent (0x6041).
+    pub fn statusword(&self) -> Statusword {
+        Statusword(self.od.get_u64(o::STATUSWORD, 0).unwrap_or(0) as u16)
+    }
+    /// Position actual value 0x6064 (counts).
+    pub fn position_actual(&self) -> i32 {
+        self.axis.actual()
+    }
+    /// Position demand 0x6062: the setpoint the loop tracks (after the pure delay).
+    pub fn position_demand(&self) -> i32 {
+        self.axis.demand()
+    }
+    /// Target position 0x607A as last received.
+    pub fn target_position(&self) -> i32 {
+        self.od.get_i64(o::TARGET_POSITION, 0).unwrap_or(0) as i32
+    }
+    /// Following error 0x60F4 (counts).
+    pub fn following_error(&self) -> i32 {
+        self.axis.following_error()
+    }
+    /// The active fault's EMCY code, if in FAULT / FAULT REACTION ACTIVE.
+    pub fn fault_code(&self) -> Option<u16> {
+        if self.cia.state().is_fault() {
+            self.fault_cause
+        } else {
+            None
+        }
+    }
+    /// Time of the last SYNC processed.
+    pub fn last_sync(&self) -> Option<Instant> {
+        self.last_sync
+    }
+    /// Counters.
+    pub fn stats(&self) -> SimDriveStats {
+        let mut s = self.stats;
+        s.sdo_aborts = self.sdo.aborts_sent();
+        s
+    }
+    /// The object dictionary (read-only view).
+    pub fn od(&self) -> &ObjectDictionary {
+        &self.od
+    }
+    /// Simulated dynamics: (delay cycles, bandwidth Hz).
+    pub fn dynamics(&self) -> (u32, f64) {
+        (self.delay_cycles, self.bandwidth_hz)
+    }
+
+    // ---- fault injection ----------------------------------------------------------------
+
+    /// Applies an injected fault at `now` (frames go out at the next `poll`/`on_frame`).
+    pub fn inject(&mut self, kind: FaultKind, now: Instant) {
+        self.now = self.now.max(now);
+        match kind {
+            FaultKind::Fault(code) => {
+                self.fault_persistent = false;
+                self.raise_fault(code);
+            }
+            FaultKind::PersistentFault(code) => {
+                self.fault_persistent = true;
+                self.raise_fault(code);
+            }
+            FaultKind::HeartbeatSilence => self.heartbeat_silent = true,
+            FaultKind::SdoSilence => self.sdo_silent = true,
+            FaultKind::DropTpdos => self.drop_tpdos = true,
+        }
+    }
+
+    /// Clears every injected condition (a persistent fault cause included; the drive stays in
+    /// FAULT until reset).
+    pub fn clear_injected(&mut self) {
+        self.fault_persistent = false;
+        self.heartbeat_silent = false;
+        self.sdo_silent = false;
+        self.drop_tpdos = false;
+    }
+
+    // ---- internals ----------------------------------------------------------------------
+
+    fn send(&mut self, f: CanFrame) {
+        self.outbox.push(f);
+    }
+
+    fn flush(&mut self, now: Instant, tx: &mut dyn FrameSink) {
+        for f in self.outbox.drain(..) {
+            if tx.transmit(&f, now).is_err() {
+                self.stats.tx_errors += 1;
+            }
+        }
+    }
+
+    fn mode(&self) -> Option<OperationMode> {
+        OperationMode::from_i8(self.od.get_i64(o::MODES_OF_OPERATION, 0).unwrap_or(0) as i8)
+    }
+
+    fn csp_active(&self) -> bool {
+        self.cia.state() == State::OperationEnabled
+            && self.mode() == Some(OperationMode::CyclicSyncPosition)
+    }
+
+    /// Writes the device-produced objects into the dictionary (no allocation).
+    fn publish(&mut self) {
+        let mut sw = self.cia.statusword().with(Statusword::REMOTE, true);
+        if self.csp_active() {
+            sw = sw.with(Statusword::FOLLOWS_COMMAND, true);
+        }
+        sw = sw.with(Statusword::FOLLOWING_ERROR, self.fe_exceeded);
+        let mode = self.od.get_i64(o::MODES_OF_OPERATION, 0).unwrap_or(0);
+        let v = self.axis.velocity() / self.period_s().max(1e-9);
+        let set = |od: &mut ObjectDictionary, i, raw: u64| {
+            let _ = od.set_raw(i, 0, raw);
+        };
+        set(&mut self.od, o::STATUSWORD, sw.0 as u64);
+        set(&mut self.od, o::MODES_OF_OPERATION_DISPLAY, mode as u64);
+        set(
+            &mut self.od,
+            o::POSITION_ACTUAL,
+            self.axis.actual() as u32 as u64,
+        );
+        set(
+            &mut self.od,
+            o::POSITION_DEMAND,
+            self.axis.demand() as u32 as u64,
+        );
+        set(
+            &mut self.od,
+            o::FOLLOWING_ERROR_ACTUAL,
+            self.axis.following_error() as u32 as u64,
+        );
+        set(
+            &mut self.od,
+            o::VELOCITY_ACTUAL,
+            (v.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32) as u32 as u64,
+        );
+    }
+
+    fn period_s(&self) -> f64 {
+        let v = self
+            .od
+            .get_u64(o::INTERPOLATION_TIME_PERIOD, 1)
+            .unwrap_or(0) as u8;
+        let e = self
+            .od
+            .get_i64(o::INTERPOLATION_TIME_PERIOD, 2)
+            .unwrap_or(-3) as i8;
+        let s = objects::interpolation_seconds(v, e);
+        if s > 0.0 {
+            s
+        } else {
+            self.nominal_period.as_secs_f64()
+        }
+    }
+
+    fn reload_pdos(&mut self) {
+        for n in 0..4u16 {
+            self.rpdo[n as usize] = pdo::load_rpdo(&self.od, n);
+            self.tpdo[n as usize] = pdo::load_tpdo(&self.od, n);
+        }
+    }
+
+    fn emcy(&mut self, code: u16) {
+        if matches!(self.nmt, NmtStatus::Booting | NmtStatus::Stopped) {
+            return;
+        }
+        let register = self.od.get_u64(o::ERROR_REGISTER, 0).unwrap_or(0) as u8;
+        let f = EmcyRepr {
+            node: self.node,
+            code,
+            register,
+            manufacturer: [0; 5],
+        }
+        .emit();
+        self.send(f);
+        self.stats.emcys_sent += 1;
+    }
+
+    fn raise_fault(&mut self, code: u16) {
+        self.fault_cause = Some(code);
+        if self.cia.fault().is_none() {
+            return;
+        }
+        let _ = self.od.set_raw(o::ERROR_CODE, 0, code as u64);
+        let _ = self
+            .od
+            .set_raw(o::ERROR_REGISTER, 0, error_register_for(code) as u64);
+        // 0x1003: newest at sub 1, at most 8.
+        let count = self
+            .od
+            .get_u64(o::PREDEFINED_ERROR_FIELD, 0)
+            .unwrap_or(0)
+            .min(8) as u8;
+        for sub in (1..count.min(7) + 1).rev() {
+            let v = self.od.get_u64(o::PREDEFINED_ERROR_FIELD, sub).unwrap_or(0);
+            let _ = self.od.set_raw(o::PREDEFINED_ERROR_FIELD, sub + 1, v);
+        }
+        let _ = self.od.set_raw(o::PREDEFINED_ERROR_FIELD, 1, code as u64);
+        let _ = self
+            .od
+            .set_raw(o::PREDEFINED_ERROR_FIELD, 0, (count + 1).min(8) as u64);
+        self.fe_since = None;
+        self.emcy(code);
+        self.publish();
+    }
+
+    fn apply_controlword(&mut self, cw: Controlword) {
+        let before = self.cia.state();
+        let t = self.cia.on_controlword(cw);
+        if t == Some(Transition::T15) {
+            if self.fault_persistent {
+                let code = self.fault_cause.unwrap_or(emcy_code::GENERIC);
+                self.raise_fault(code);
+            } else {
+                self.fault_cause = None;
+                let _ = self.od.set_raw(o::ERROR_CODE, 0, 0);
+                let _ = self.od.set_raw(o::ERROR_REGISTER, 0, 0);
+                self.emcy(emcy_code::NO_ERROR);
+            }
+        }
+        let after = self.cia.state();
+        if after == State::OperationEnabled && before != State::OperationEnabled {
+            // Enabling: the loop starts from where the motor is.
+            self.axis.hold();
+            self.fe_since = None;
+            self.fe_exceeded = false;
+        }
+        if after == State::QuickStopActive && self.cia.quick_stop_option().coasts() {
+            self.axis.hold();
+        }
+        self.publish();
+    }
+
+    fn boot(&mut self) {
+        self.nmt = NmtStatus::PreOperational;
+        let f = HeartbeatRepr {
+            node: self.node,
+            state: NmtState::BootUp,
+        }
+        .emit();
+        self.send(f);
+        self.stats.boot_ups += 1;
+        self.schedule_heartbeat();
+        self.cia.init_done();
+        if let Some(code) = self.options.start_in_fault.take() {
+            self.fault_persistent = false;
+            self.raise_fault(code);
+        } else if self.fault_persistent {
+            let code = self.fault_cause.unwrap_or(emcy_code::GENERIC);
+            self.raise_fault(code);
+        }
+        self.publish();
+    }
+
+    fn schedule_heartbeat(&mut self) {
+        let ms = self.od.get_u64(o::PRODUCER_HEARTBEAT_TIME, 0).unwrap_or(0);
+        self.next_heartbeat = (ms > 0).then(|| self.now + Duration::from_millis(ms));
+    }
+
+    fn reset_communication(&mut self) {
+        for index in self
+            .defaults
+            .indices()
+            .filter(|i| (0x1000..=0x1FFF).contains(i))
+            .collect::<Vec<_>>()
+        {
+            for sub in self.defaults.subs(index).collect::<Vec<_>>() {
+                if let Some(v) = self.defaults.get(index, sub).cloned() {
+                    let _ = self.od.set(index, sub, v);
+                }
+            }
+        }
+        // The error history survives a communication reset.
+        self.sdo.reset();
+        self.reload_pdos();
+        self.nmt = NmtStatus::Booting;
+        self.boot_comm_only();
+    }
+
+    fn boot_comm_only(&mut self) {
+        self.nmt = NmtStatus::PreOperational;
+        let f = HeartbeatRepr {
+            node: self.node,
+            state: NmtState::BootUp,
+        }
+        .emit();
+        self.send(f);
+        self.stats.boot_ups += 1;
+        self.schedule_heartbeat();
+    }
+
+    fn reset_node(&mut self) {
+        let position = self.axis.actual();
+        self.od = self.defaults.clone();
+        self.cia = DeviceStateMachine::new();
+        self.axis = AxisModel::new(self.delay_cycles, self.bandwidth_hz, position);
+        self.sdo.reset();
+        self.fe_since = None;
+        self.fe_exceeded = false;
+        if !self.fault_persistent {
+            self.fault_cause = None;
+        }
+        self.reload_pdos();
+        self.nmt = NmtStatus::Booting;
+        self.boot();
+    }
+
+    fn on_nmt(&mut self, frame: &CanFrame) {
+        let Ok(r) = NmtRepr::parse(frame) else {
+            self.stats.unexpected_frames += 1;
+            return;
+        };
+        if !r.target.includes(self.node) {
+            return;
+        }
+        match r.command {
+            NmtCommand::Start => self.nmt = NmtStatus::Operational,
+            NmtCommand::Stop => self.nmt = NmtStatus::Stopped,
+            NmtCommand::EnterPreOperational => self.nmt = NmtStatus::PreOperational,
+            NmtCommand::ResetNode => self.reset_node(),
+            NmtCommand::ResetCommunication => self.reset_communication(),
+        }
+        if r.command != NmtCommand::Start {
+            for r in &mut self.rpdo {
+                r.pending = None;
+            }
+        }
+    }
+
+    fn on_sdo(&mut self, frame: &CanFrame) {
+        if self.sdo_silent || self.nmt == NmtStatus::Stopped {
+            return;
+        }
+        self.stats.sdo_requests += 1;
+        let mut server = std::mem::take(&mut self.sdo);
+        let response = match SdoRequest::parse(frame) {
+            Ok((_, req)) => server.handle(req, self),
+            Err(WireError::UnknownCommand(_)) => server.handle_unparsable(frame.data()),
+            Err(_) => {
+                self.stats.unexpected_frames += 1;
+                None
+            }
+        };
+        self.sdo = server;
+        if let Some(r) = response {
+            let f = r.emit(self.node);
+            self.send(f);
+        }
+    }
+
+    fn apply_rpdo_data(&mut self, n: usize, data: &[u8]) {
+        let map = self.rpdo[n].map;
+        let mut has_cw = false;
+        let od = &mut self.od;
+        let res = map.unpack(data, |e, raw| {
+            has_cw |= e.index == o::CONTROLWORD && e.sub == 0;
+            let _ = od.set_raw(e.index, e.sub, raw);
+        });
+        if res.is_ok() {
+            self.stats.rpdos_applied += 1;
+            if has_cw {
+                let cw = Controlword(self.od.get_u64(o::CONTROLWORD, 0).unwrap_or(0) as u16);
+                self.apply_controlword(cw);
+            }
+        }
+    }
+
+    fn on_rpdo(&mut self, n: usize, frame: &CanFrame) {
+        if self.nmt != NmtStatus::Operational || frame.is_remote() {
+            self.stats.unexpected_frames += 1;
+            return;
+        }
+        let slot = self.rpdo[n];
+        let expected = slot.map.byte_len();
+        let got = frame.dlc();
+        if got != expected {
+            self.stats.pdo_length_errors += 1;
+            let code = if got < expected {
+                emcy_code::PDO_LENGTH
+            } else {
+                emcy_code::PDO_LENGTH_EXCEEDED
+            };
+            self.emcy(code);
+            return;
+        }
+        if slot.transmission_type <= 240 {
+            let mut d = [0u8; 8];
+            d[..got].copy_from_slice(frame.data());
+            self.rpdo[n].pending = Some((d, got));
+        } else {
+            self.apply_rpdo_data(n, frame.data());
+            self.event_tpdos();
+        }
+    }
+
+    fn on_sync(&mut self) {
+        if self.nmt != NmtStatus::Operational {
+            return;
+        }
+        self.stats.syncs += 1;
+        self.last_sync = Some(self.now);
+        // 1. Synchronous RPDOs received since the last SYNC take effect now.
+        for n in 0..4 {
+            if let Some((d, len)) = self.rpdo[n].pending.take() {
+                self.apply_rpdo_data(n, &d[..len]);
+            }
+        }
+        // 2. The motor moves one cycle.
+        let dt = self.period_s();
+        let decel = self.od.get_u64(o::QUICK_STOP_DECELERATION, 0).unwrap_or(1) as f64 * dt * dt;
+        match self.cia.state() {
+            State::OperationEnabled if self.mode() == Some(OperationMode::CyclicSyncPosition) => {
+                self.axis.follow(self.target_position(), dt);
+            }
+            State::QuickStopActive => {
+                if self.axis.brake(decel) {
+                    self.cia.quick_stop_done();
+                }
+            }
+            State::FaultReactionActive => {
+                if self.axis.brake(decel) {
+                    self.cia.fault_reaction_done();
+                }
+            }
+            _ => self.axis.hold(),
+        }
+        // 3. Following error monitoring (0x6065 window, 0x6066 time-out).
+        self.check_following_error();
+        self.publish();
+        // 4. Synchronous TPDOs.
+        for n in 0..4 {
+            let t = self.tpdo[n];
+            if !t.valid {
+                continue;
+            }
+            match t.transmission_type {
+                1..=240 => {
+                    let c = t.sync_count + 1;
+                    if c >= t.transmission_type as u32 {
+                        self.tpdo[n].sync_count = 0;
+                        self.send_tpdo(n, false);
+                    } else {
+                        self.tpdo[n].sync_count = c;
+                    }
+                }
+                0 => self.send_tpdo(n, true),
+                _ => {}
+            }
+        }
+        self.event_tpdos();
+    }
+
+    fn check_following_error(&mut self) {
+        if !self.csp_active() {
+            self.fe_since = None;
+            self.fe_exceeded = false;
+            return;
+        }
+        let fe = self.axis.following_error().unsigned_abs();
+        self.stats.max_following_error = self.stats.max_following_error.max(fe);
+        let window = self.od.get_u64(o::FOLLOWING_ERROR_WINDOW, 0).unwrap_or(0) as u32;
+        if window == 0 || window == u32::MAX || fe <= window {
+            self.fe_since = None;
+            self.fe_exceeded = false;
+            return;
+        }
+        self.fe_exceeded = true;
+        let since = *self.fe_since.get_or_insert(self.now);
+        let timeout =
+            Duration::from_millis(self.od.get_u64(o::FOLLOWING_ERROR_TIMEOUT, 0).unwrap_or(0));
+        if self.now - since >= timeout {
+            self.raise_fault(emcy_code::FOLLOWING_ERROR);
+        }
+    }
+
+    fn pack_tpdo(&self, n: usize) -> ([u8; 8], usize) {
+        let mut d = [0u8; 8];
+        let len = self.tpdo[n]
+            .map
+            .pack(&mut d, |e| self.od.get_u64(e.index, e.sub).unwrap_or(0));
+        (d, len)
+    }
+
+    /// Sends TPDO `n`; with `only_if_changed`, only when its data differ from the last sent.
+    fn send_tpdo(&mut self, n: usize, only_if_changed: bool) {
+        let (d, len) = self.pack_tpdo(n);
+        if only_if_changed && self.tpdo[n].last_data == Some((d, len)) {
+            return;
+        }
+        if self.drop_tpdos {
+            self.stats.tpdos_dropped += 1;
+            return;
+        }
+        let f = CanFrame::from_parts(self.tpdo[n].cob_id, d, len);
+        self.send(f);
+        self.tpdo[n].last_data = Some((d, len));
+        self.tpdo[n].last_tx_ns = Some(self.now.nanos());
+        self.stats.tpdos_sent += 1;
+    }
+
+    /// Event-driven TPDOs (254/255): on change of their data (respecting the inhibit time)
+    /// and on the event timer.
+    fn event_tpdos(&mut self) {
+        if self.nmt != NmtStatus::Operational {
+            return;
+        }
+        for n in 0..4 {
+            let t = self.tpdo[n];
+            if !t.valid || t.transmission_type < 254 {
+                continue;
+            }
+            let since = t.last_tx_ns.map(|ns| self.now.nanos().saturating_sub(ns));
+            let inhibit_ns = t.inhibit_100us as u64 * 100_000;
+            if since.is_some_and(|s| s < inhibit_ns) {
+                continue;
+            }
+            let timer_due = t.event_timer_ms > 0
+                && since.is_none_or(|s| s >= t.event_timer_ms as u64 * 1_000_000);
+            self.send_tpdo(n, !timer_due);
+        }
+    }
+
+    fn handle_frame(&mut self, frame: &CanFrame) {
+        let id = frame.id();
+        let sync_id = (self.od.get_u64(o::SYNC_COB_ID, 0).unwrap_or(0x80) & 0x7FF) as u16;
+        if id == 0 {
+            self.on_nmt(frame);
+            return;
+        }
+        if self.nmt == NmtStatus::Stopped {
+            return;
+        }
+        if id == 0x600 + self.node.get() as u16 {
+            self.on_sdo(frame);
+        } else if id == sync_id {
+            self.on_sync();
+        } else if let Some(n) = (0..4).find(|&n| self.rpdo[n].valid && self.rpdo[n].cob_id == id) {
+            self.on_rpdo(n, frame);
+        }
+    }
+
+    fn timers(&mut self) {
+        let now = self.now;
+        let powered = *self.powered_at.get_or_insert(now);
+        if self.nmt == NmtStatus::Booting {
+            if now >= powered + self.options.boot_delay {
+                self.boot();
+            } else {
+                return;
+            }
+        }
+        if let Some(next) = self.next_heartbeat {
+            if now >= next {
+                if !self.heartbeat_silent {
+                    let state = match self.nmt {
+                        NmtStatus::Operational => NmtState::Operational,
+                        NmtStatus::Stopped => NmtState::Stopped,
+                        _ => NmtState::PreOperational,
+                    };
+                    let f = HeartbeatRepr {
+                        node: self.node,
+                        state,
+                    }
+                    .emit();
+                    self.send(f);
+                    self.stats.heartbeats_sent += 1;
+                }
+                let ms = self.od.get_u64(o::PRODUCER_HEARTBEAT_TIME, 0).unwrap_or(0);
+                let period = Duration::from_millis(ms.max(1));
+                let mut n = next + period;
+                if n <= now {
+                    n = now + period;
+                }
+                self.next_heartbeat = Some(n);
+            }
+        }
+        // Without SYNCs a ramp cannot run: after 10 missed periods the motor is taken as
+        // stopped so that a fault reaction / quick stop still ends.
+        let state = self.cia.state();
+        if matches!(state, State::FaultReactionActive | State::QuickStopActive) {
+            let stale = Duration::from_secs_f64(self.period_s() * 10.0);
+            if self.last_sync.is_none_or(|t| now - t > stale) {
+                self.axis.hold();
+                if state == State::FaultReactionActive {
+                    self.cia.fault_reaction_done();
+                } else {
+                    self.cia.quick_stop_done();
+                }
+                self.publish();
+            }
+        }
+        self.event_tpdos();
+    }
+}
+
+impl ObjectAccess for SimDrive {
+    fn upload(&mut self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode> {
+        if index == o::PREDEFINED_ERROR_FIELD && sub >= 1 {
+            let count = self.od.get_u64(index, 0).unwrap_or(0);
+            if self.od.entry(index, sub).is_ok() && sub as u64 > count {
+                return Err(AbortCode::NoData);
+            }
+        }
+        self.od
+            .read(index, sub)
+            .map(Value::to_bytes)
+            .map_err(OdError::abort_code)
+    }
+
+    fn download_check(&mut self, index: u16, sub: u8) -> Result<Option<usize>, AbortCode> {
+        let e = self.od.entry(index, sub).map_err(OdError::abort_code)?;
+        if !e.access.writable() {
+            return Err(AbortCode::WriteReadOnly);
+        }
+        if pdo::is_pdo_parameter(index) && self.nmt == NmtStatus::Operational {
+            return Err(AbortCode::DeviceState);
+        }
+        Ok(e.value.data_type().size())
+    }
+
+    fn download(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let value = self
+            .od
+            .check_write(index, sub, data)
+            .map_err(OdError::abort_code)?;
+        if pdo::is_pdo_parameter(index) {
+            let raw = value.as_u64().unwrap_or(0) as u32;
+            pdo::check_write(
+                &self.od,
+                index,
+                sub,
+                raw,
+                self.nmt == NmtStatus::Operational,
+            )?;
+        }
+        match index {
+            o::PREDEFINED_ERROR_FIELD if value.as_u64() != Some(0) => {
+                return Err(AbortCode::InvalidValue);
+            }
+            o::MODES_OF_OPERATION => {
+                let supported = self.od.get_u64(o::SUPPORTED_DRIVE_MODES, 0).unwrap_or(0) as u32;
+                let ok = OperationMode::from_i8(value.as_i64().unwrap_or(0) as i8)
+                    .is_some_and(|m| m.is_supported_by(supported));
+                if !ok {
+                    return Err(AbortCode::InvalidValue);
+                }
+            }
+            o::QUICK_STOP_OPTION => {
+                let opt = QuickStopOption::from_i16(value.as_i64().unwrap_or(-1) as i16)
+                    .ok_or(AbortCode::InvalidValue)?;
+                self.cia.set_quick_stop_option(opt);
+            }
+            o::SYNC_COB_ID => {
+                let v = value.as_u64().unwrap_or(0) as u32;
+                // This drive consumes SYNC only; it cannot produce it, nor use 29-bit ids.
+                if v & (3 << 29) != 0 {
+                    return Err(AbortCode::InvalidValue);
+                }
+            }
+            o::INTERPOLATION_TIME_PERIOD if sub == 1 && value.as_u64() == Some(0) => {
+                return Err(AbortCode::InvalidValue);
+            }
+            _ => {}
+        }
+        self.od
+            .write(index, sub, data)
+            .map_err(OdError::abort_code)?;
+        match index {
+            o::CONTROLWORD => {
+                let cw = Controlword(value.as_u64().unwrap_or(0) as u16);
+                self.apply_controlword(cw);
+            }
+            o::PRODUCER_HEARTBEAT_TIME => self.schedule_heartbeat(),
+            o::PREDEFINED_ERROR_FIELD => {
+                for s in 1..=8 {
+                    let _ = self.od.set_raw(index, s, 0);
+                }
+            }
+            i if pdo::is_pdo_parameter(i) => self.reload_pdos(),
+            _ => {}
+        }
+        self.publish();
+        Ok(())
+    }
+}
+
+impl CanDevice for SimDrive {
+    fn on_frame(&mut self, frame: &CanFrame, now: Instant, tx: &mut dyn FrameSink) {
+        self.now = self.now.max(now);
+        self.timers();
+        if self.nmt != NmtStatus::Booting {
+            self.handle_frame(frame);
+        }
+        self.flush(now, tx);
+    }
+
+    fn poll(&mut self, now: Instant, tx: &mut dyn FrameSink) {
+        self.now = self.now.max(now);
+        self.timers();
+        self.flush(now, tx);
+    }
+}
