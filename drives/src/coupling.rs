@@ -84,7 +84,11 @@ impl CouplingChecker {
     }
 
     /// As [`new`](Self::new), with room for windows of `ticks` ticks without allocating.
-    pub fn with_capacity(z_counts_per_mm: f64, c_counts_per_deg: f64, ticks: usize) -> CouplingChecker {
+    pub fn with_capacity(
+        z_counts_per_mm: f64,
+        c_counts_per_deg: f64,
+        ticks: usize,
+    ) -> CouplingChecker {
         let eps = |cpu: f64| {
             if cpu.is_finite() && cpu > 0.0 {
                 0.5 / cpu
@@ -226,7 +230,10 @@ mod tests {
             let u = i as f64 / n as f64;
             z.push(10.0 - depth + depth * (3.0 * u * u - 2.0 * u * u * u));
         }
-        let c: Vec<f64> = z.iter().map(|zz| 720.0 + (10.0 - zz) / pitch * 360.0).collect();
+        let c: Vec<f64> = z
+            .iter()
+            .map(|zz| 720.0 + (10.0 - zz) / pitch * 360.0)
+            .collect();
         let mut out = vec![];
         for (i, zz) in z.iter().enumerate() {
             out.push(CouplingSample {
@@ -265,7 +272,11 @@ mod tests {
             assert_eq!(w.line, 42);
             assert!((w.pitch_mm - 1.5).abs() < 1e-9, "{}", w.pitch_mm);
             assert!(!w.same_sense);
-            assert!(w.max_error_um_cmd < 0.1, "< 1 count of Z: {}", w.max_error_um_cmd);
+            assert!(
+                w.max_error_um_cmd < 0.1,
+                "< 1 count of Z: {}",
+                w.max_error_um_cmd
+            );
             assert!(w.max_error_um_act < 0.1);
             assert!((w.z_travel_mm - 20.0).abs() < 1e-9);
         }

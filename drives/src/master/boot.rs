@@ -449,6 +449,8 @@ impl Master {
                 }
                 .emit(),
             )?;
+            // The NMT state is unknown until the next heartbeat (the boot-up is history).
+            self.axes[i].nmt = None;
             // The first setpoint is the actual position: 0x607A = 0x6064 before enabling.
             let mut push = |f: &CanFrame| queue.push(*f);
             let mut sdo = BlockingSdo::new(&mut *bus, self.sdo_timeout, &mut push);
@@ -459,7 +461,11 @@ impl Master {
             self.absorb_all(&mut queue, now);
             ident.position_counts = pos;
             ident.position = pos as f64 / setup.counts_per_unit;
-            if ident.initial_statusword.state().is_some_and(State::is_fault) {
+            if ident
+                .initial_statusword
+                .state()
+                .is_some_and(State::is_fault)
+            {
                 ident.fault_at_power_on = Some(self.axes[i].emcy);
             }
             let a = &mut self.axes[i];
@@ -537,8 +543,10 @@ impl Master {
             a.quick_stop = false;
             a.tpdo_missing = 0;
             a.tpdo_this_cycle = false;
+            a.tpdos = 0;
         }
         self.sync_sent = false;
+        self.syncs = 0;
     }
 
     /// One enable cycle: the cycle's send phase steps each drive's sequencer; returns each

@@ -31,7 +31,7 @@ use cia402::{Controlword, EnableSequencer, Goal, Statusword};
 use cnc402_config::{MAX_AXES, MachineConfig};
 
 use crate::time::Instant;
-use crate::wire::{NodeId, NmtState};
+use crate::wire::{NmtState, NodeId};
 
 pub use boot::{BootError, BootReport, DriveIdentity, InterpolationPeriod};
 pub use cyclic::Feedback;
@@ -155,6 +155,8 @@ pub(crate) struct AxisSlot {
     pub actual: f64,
     pub tpdo_this_cycle: bool,
     pub tpdo_missing: u32,
+    /// TPDO1s received since boot (compared with SYNCs sent: late frames).
+    pub tpdos: u64,
     pub last_heartbeat: Option<Instant>,
     pub nmt: Option<NmtState>,
     pub booted: bool,
@@ -194,6 +196,7 @@ impl AxisSlot {
             actual: 0.0,
             tpdo_this_cycle: false,
             tpdo_missing: 0,
+            tpdos: 0,
             last_heartbeat: None,
             nmt: None,
             booted: false,
@@ -243,6 +246,8 @@ pub struct Master {
     pub(crate) phase: Phase,
     pub(crate) cycles: u64,
     pub(crate) sync_sent: bool,
+    /// SYNCs sent since boot.
+    pub(crate) syncs: u64,
     pub(crate) stop: Option<SafetyStop>,
     pub(crate) unexpected_frames: u64,
 }
@@ -316,6 +321,7 @@ impl Master {
             phase: Phase::Idle,
             cycles: 0,
             sync_sent: false,
+            syncs: 0,
             stop: None,
             unexpected_frames: 0,
         })
@@ -339,7 +345,13 @@ impl Master {
     /// Actual positions in axis units (indexed like `config.axes`; entries past
     /// [`axis_count`](Self::axis_count) are 0). After boot, start the interpolator here.
     pub fn positions(&self) -> [f64; MAX_AXES] {
-        core::array::from_fn(|i| if i < self.n_axes { self.axes[i].actual } else { 0.0 })
+        core::array::from_fn(|i| {
+            if i < self.n_axes {
+                self.axes[i].actual
+            } else {
+                0.0
+            }
+        })
     }
 
     /// The latched safety stop, if one happened.

@@ -174,11 +174,15 @@ enum Phase {
     /// Waiting for the initiate upload response.
     UploadInitiate,
     /// Waiting for an upload segment with this toggle.
-    UploadSegment { toggle: bool },
+    UploadSegment {
+        toggle: bool,
+    },
     /// Waiting for the initiate download confirmation.
     DownloadInitiate,
     /// Waiting for the confirmation of the download segment with this toggle.
-    DownloadSegment { toggle: bool },
+    DownloadSegment {
+        toggle: bool,
+    },
 }
 
 /// A non-blocking SDO client for one server node. Start a transfer, send the frame it returns,
@@ -272,7 +276,12 @@ impl SdoClient {
     }
 
     /// Starts reading `index:sub`; returns the request frame to send.
-    pub fn start_upload(&mut self, index: u16, sub: u8, now: Instant) -> Result<CanFrame, SdoError> {
+    pub fn start_upload(
+        &mut self,
+        index: u16,
+        sub: u8,
+        now: Instant,
+    ) -> Result<CanFrame, SdoError> {
         if self.is_busy() {
             return Err(self.busy(index, sub, false));
         }
@@ -506,7 +515,9 @@ impl<'a, B: TimedBus + ?Sized> BlockingSdo<'a, B> {
             kind: SdoErrorKind::Bus(e),
         };
         let write = matches!(client.phase, Phase::DownloadInitiate);
-        self.bus.send(&first).map_err(|e| bus_err(client, e, write))?;
+        self.bus
+            .send(&first)
+            .map_err(|e| bus_err(client, e, write))?;
         loop {
             let deadline = client.deadline;
             let frame = self
@@ -705,8 +716,16 @@ mod tests {
         let mut c = SdoClient::new(n(1), T);
         let f = c.start_download(0x2000, 1, &data, Instant::ZERO).unwrap();
         assert_eq!(f.to_string(), "601#2100200114000000");
-        let ack = resp(1, SdoResponse::InitiateDownload { index: 0x2000, sub: 1 });
-        let SdoEvent::Send(s1) = c.on_frame(&ack, Instant::ZERO) else { panic!() };
+        let ack = resp(
+            1,
+            SdoResponse::InitiateDownload {
+                index: 0x2000,
+                sub: 1,
+            },
+        );
+        let SdoEvent::Send(s1) = c.on_frame(&ack, Instant::ZERO) else {
+            panic!()
+        };
         assert_eq!(s1.to_string(), "601#0000010203040506");
         let SdoEvent::Send(s2) = c.on_frame(
             &resp(1, SdoResponse::DownloadSegment { toggle: false }),

@@ -127,10 +127,9 @@ impl fmt::Display for StopReason {
             StopReason::TpdoMissing { cycles } => {
                 write!(f, "TPDO1 missing for {cycles} consecutive cycles")
             }
-            StopReason::FollowingError { error, window } => write!(
-                f,
-                "following error {error:.4} beyond window ±{window:.4}"
-            ),
+            StopReason::FollowingError { error, window } => {
+                write!(f, "following error {error:.4} beyond window ±{window:.4}")
+            }
             StopReason::BadSetpoint => write!(f, "commanded position not finite"),
             StopReason::Bus(e) => write!(f, "CAN bus: {e}"),
         }
@@ -217,7 +216,14 @@ mod tests {
         }
         .at_line(42);
         let t = s.to_string();
-        for part in ["axis Z (node 3)", "drive fault", "FAULT", "0x8611", "following error", "line 42"] {
+        for part in [
+            "axis Z (node 3)",
+            "drive fault",
+            "FAULT",
+            "0x8611",
+            "following error",
+            "line 42",
+        ] {
             assert!(t.contains(part), "{t} lacks {part}");
         }
     }
