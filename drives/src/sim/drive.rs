@@ -206,7 +206,7 @@ fn error_register_for(code: u16) -> u8 {
         0x3 => 0x04,
         0x4 => 0x08,
         0x8 if code >> 8 == 0x81 => 0x10,
-        0x8 | 0x6 | 0x5 | 0x7 => 0x20,
+        0x5..=0x8 => 0x20,
         _ => 0x00,
     };
     0x01 | class
@@ -853,30 +853,30 @@ impl SimDrive {
                 return;
             }
         }
-        if let Some(next) = self.next_heartbeat {
-            if now >= next {
-                if !self.heartbeat_silent {
-                    let state = match self.nmt {
-                        NmtStatus::Operational => NmtState::Operational,
-                        NmtStatus::Stopped => NmtState::Stopped,
-                        _ => NmtState::PreOperational,
-                    };
-                    let f = HeartbeatRepr {
-                        node: self.node,
-                        state,
-                    }
-                    .emit();
-                    self.send(f);
-                    self.stats.heartbeats_sent += 1;
+        if let Some(next) = self.next_heartbeat
+            && now >= next
+        {
+            if !self.heartbeat_silent {
+                let state = match self.nmt {
+                    NmtStatus::Operational => NmtState::Operational,
+                    NmtStatus::Stopped => NmtState::Stopped,
+                    _ => NmtState::PreOperational,
+                };
+                let f = HeartbeatRepr {
+                    node: self.node,
+                    state,
                 }
-                let ms = self.od.get_u64(o::PRODUCER_HEARTBEAT_TIME, 0).unwrap_or(0);
-                let period = Duration::from_millis(ms.max(1));
-                let mut n = next + period;
-                if n <= now {
-                    n = now + period;
-                }
-                self.next_heartbeat = Some(n);
+                .emit();
+                self.send(f);
+                self.stats.heartbeats_sent += 1;
             }
+            let ms = self.od.get_u64(o::PRODUCER_HEARTBEAT_TIME, 0).unwrap_or(0);
+            let period = Duration::from_millis(ms.max(1));
+            let mut n = next + period;
+            if n <= now {
+                n = now + period;
+            }
+            self.next_heartbeat = Some(n);
         }
         // Without SYNCs a ramp cannot run: after 10 missed periods the motor is taken as
         // stopped so that a fault reaction / quick stop still ends.

@@ -333,7 +333,10 @@ pub fn interpolation_period(period_us: u32) -> (u8, i8) {
         (-5, 10),
         (-6, 1),
     ] {
-        if period_us % unit_us == 0 && period_us / unit_us <= 255 && period_us / unit_us >= 1 {
+        if period_us.is_multiple_of(unit_us)
+            && period_us / unit_us <= 255
+            && period_us / unit_us >= 1
+        {
             return ((period_us / unit_us) as u8, exp);
         }
     }

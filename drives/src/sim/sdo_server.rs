@@ -219,20 +219,16 @@ impl SdoServer {
                 }
                 data.extend_from_slice(seg.data());
                 *toggle = !*toggle;
-                if let Some(s) = size {
-                    if data.len() > s as usize {
-                        return self.abort(index, sub, AbortCode::LengthTooHigh);
-                    }
+                if size.is_some_and(|s| data.len() > s as usize) {
+                    return self.abort(index, sub, AbortCode::LengthTooHigh);
                 }
                 if !seg.last {
                     return Some(SdoResponse::DownloadSegment { toggle: seg.toggle });
                 }
                 let data = std::mem::take(data);
                 self.transfer = Transfer::Idle;
-                if let Some(s) = size {
-                    if data.len() < s as usize {
-                        return self.abort(index, sub, AbortCode::LengthTooLow);
-                    }
+                if size.is_some_and(|s| data.len() < s as usize) {
+                    return self.abort(index, sub, AbortCode::LengthTooLow);
                 }
                 match od.download(index, sub, &data) {
                     Ok(()) => Some(SdoResponse::DownloadSegment { toggle: seg.toggle }),
