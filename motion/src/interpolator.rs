@@ -277,7 +277,7 @@ impl Interpolator {
                 // before v reaches 0 — then we are already braking to the end point, and the
                 // planned profile is itself the quickest stop. Same if it would overrun.
                 let reverses = -now.v - now.a * now.a.abs() / (2.0 * mv.limits.jerk) > 0.0;
-                if !reverses && sp.end().s <= mv.length && sp.duration() > 0.0 {
+                if !reverses && sp.end().s <= mv.length {
                     *stop = Some((sp, *k));
                 }
             }

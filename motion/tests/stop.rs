@@ -210,3 +210,20 @@ fn stop_during_a_dwell_holds_at_once() {
     assert_eq!(ticks[11].state, TickState::Held);
     assert!(ticks.iter().all(|t| t.pos == xyzc(1.0, 1.0, 1.0, 0.0)));
 }
+
+#[test]
+fn stop_before_the_first_tick_of_a_move_does_not_run_it() {
+    let c = MachineConfig::default_machine();
+    let mut planner = Planner::new(&c);
+    let mut ip = Interpolator::new(&c, AxisPos::default());
+    ip.start(
+        planner
+            .plan(&lin(xyzc(50.0, 0.0, 0.0, 0.0), 3000.0, 1))
+            .unwrap(),
+    )
+    .unwrap();
+    ip.request_stop();
+    let t = ip.tick();
+    assert_eq!(t.state, TickState::Held);
+    assert_eq!(t.pos, AxisPos::default());
+}
