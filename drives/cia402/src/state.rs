@@ -54,6 +54,13 @@ impl State {
 
     /// Decodes the state from a statusword by the CiA 402 masks; `None` if no state matches
     /// (e.g. 0x0001, or bit 3 with bit 6).
+    ///
+    /// ```
+    /// use cia402::{State, Statusword};
+    /// assert_eq!(State::from_statusword(Statusword(0x0237)), Some(State::OperationEnabled));
+    /// assert_eq!(State::from_statusword(Statusword(0x0250)), Some(State::SwitchOnDisabled));
+    /// assert_eq!(State::from_statusword(Statusword(0x0001)), None);
+    /// ```
     pub const fn from_statusword(sw: Statusword) -> Option<State> {
         let mut i = 0;
         while i < State::ALL.len() {

@@ -83,6 +83,12 @@ impl Controlword {
     /// The state machine command encoded in bits 0..=3 (CiA 402 table of device control
     /// commands). Every bit pattern is one command; fault reset is an edge of bit 7 and
     /// is not returned here.
+    ///
+    /// ```
+    /// use cia402::{Command, Controlword};
+    /// assert_eq!(Controlword(0x000F).command(), Command::EnableOperation);
+    /// assert_eq!(Controlword(0x000B).command(), Command::QuickStop);
+    /// ```
     pub const fn command(self) -> Command {
         if !self.enable_voltage() {
             Command::DisableVoltage

@@ -837,7 +837,12 @@ impl SimDrive {
         if id == 0x600 + self.node.get() as u16 {
             self.on_sdo(frame);
         } else if id == sync_id {
-            self.on_sync();
+            // A SYNC with more than one data byte is not a SYNC (CiA 301); count it.
+            if frame.dlc() > 1 || frame.is_remote() {
+                self.stats.unexpected_frames += 1;
+            } else {
+                self.on_sync();
+            }
         } else if let Some(n) = (0..4).find(|&n| self.rpdo[n].valid && self.rpdo[n].cob_id == id) {
             self.on_rpdo(n, frame);
         }

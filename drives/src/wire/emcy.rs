@@ -73,6 +73,14 @@ pub struct EmcyRepr {
 
 impl EmcyRepr {
     /// Parses a frame on 0x081..=0x0FF with exactly 8 data bytes.
+    ///
+    /// ```
+    /// use cnc402_drives::wire::{CanFrame, EmcyRepr};
+    /// let f = CanFrame::new(0x084, &[0x11, 0x86, 0x21, 0, 0, 0, 0, 0]).unwrap();
+    /// let e = EmcyRepr::parse(&f).unwrap();
+    /// assert_eq!((e.node.get(), e.code, e.register), (4, 0x8611, 0x21));
+    /// assert!(EmcyRepr::parse(&CanFrame::new(0x084, &[0x11, 0x86]).unwrap()).is_err());
+    /// ```
     pub fn parse(frame: &CanFrame) -> Result<EmcyRepr, WireError> {
         let id = frame.id();
         if id & 0x780 != 0x080 {

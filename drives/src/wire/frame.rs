@@ -44,6 +44,13 @@ impl CanFrame {
     pub const MAX_ID: u16 = 0x7FF;
 
     /// A data frame; fails if `id > 0x7FF` or `data` is longer than 8 bytes.
+    ///
+    /// ```
+    /// use cnc402_drives::wire::CanFrame;
+    /// let f = CanFrame::new(0x183, &[0x37, 0x02]).unwrap();
+    /// assert_eq!((f.id(), f.data(), f.bits()), (0x183, &[0x37u8, 0x02][..], 75));
+    /// assert!(CanFrame::new(0x800, &[]).is_err());
+    /// ```
     pub fn new(id: u16, data: &[u8]) -> Result<CanFrame, WireError> {
         if id > Self::MAX_ID {
             return Err(WireError::BadId(id));
@@ -177,6 +184,14 @@ pub enum Function {
 
 impl Function {
     /// Classifies an 11-bit identifier by the pre-defined connection set.
+    ///
+    /// ```
+    /// use cnc402_drives::wire::{Function, NodeId};
+    /// let n3 = NodeId::new(3).unwrap();
+    /// assert_eq!(Function::classify(0x183), Function::Tpdo(1, n3));
+    /// assert_eq!(Function::classify(0x080), Function::Sync);
+    /// assert_eq!(Function::classify(0x083), Function::Emcy(n3));
+    /// ```
     pub fn classify(id: u16) -> Function {
         if id == 0x000 {
             return Function::Nmt;

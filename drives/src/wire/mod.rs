@@ -16,7 +16,9 @@ use core::fmt;
 
 pub use emcy::{EmcyPacket, EmcyRepr, emcy_code};
 pub use frame::{CanFrame, Function, NodeId, frame_bits};
-pub use nmt::{HeartbeatRepr, NmtCommand, NmtRepr, NmtState, NmtTarget};
+pub use nmt::{
+    HeartbeatPacket, HeartbeatRepr, NmtCommand, NmtPacket, NmtRepr, NmtState, NmtTarget,
+};
 pub use pdo::{MappingEntry, PdoDirection, PdoError, PdoMap, pdo_cob_id};
 pub use sdo::{
     AbortCode, ExpeditedData, InitiateKind, SdoPacket, SdoRequest, SdoResponse, SdoSegment,

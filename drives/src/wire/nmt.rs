@@ -6,6 +6,54 @@ use canopen_rs::nmt as co;
 
 use super::{CanFrame, NodeId, WireError};
 
+/// Zero-copy view of an NMT node control frame's data bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct NmtPacket<T: AsRef<[u8]>> {
+    buffer: T,
+}
+
+impl<T: AsRef<[u8]>> NmtPacket<T> {
+    /// Checks the length (exactly 2).
+    pub fn new_checked(buffer: T) -> Result<Self, WireError> {
+        if buffer.as_ref().len() != 2 {
+            return Err(WireError::BadLength);
+        }
+        Ok(NmtPacket { buffer })
+    }
+    /// Byte 0: command specifier.
+    pub fn command_byte(&self) -> u8 {
+        self.buffer.as_ref()[0]
+    }
+    /// Byte 1: target node id (0 = all).
+    pub fn node_byte(&self) -> u8 {
+        self.buffer.as_ref()[1]
+    }
+}
+
+/// Zero-copy view of a heartbeat / boot-up frame's data byte.
+#[derive(Clone, Copy, Debug)]
+pub struct HeartbeatPacket<T: AsRef<[u8]>> {
+    buffer: T,
+}
+
+impl<T: AsRef<[u8]>> HeartbeatPacket<T> {
+    /// Checks the length (exactly 1).
+    pub fn new_checked(buffer: T) -> Result<Self, WireError> {
+        if buffer.as_ref().len() != 1 {
+            return Err(WireError::BadLength);
+        }
+        Ok(HeartbeatPacket { buffer })
+    }
+    /// Bits 6..0: the NMT state byte.
+    pub fn state_byte(&self) -> u8 {
+        self.buffer.as_ref()[0] & 0x7F
+    }
+    /// Bit 7: the node-guarding toggle (0 in heartbeats).
+    pub fn toggle(&self) -> bool {
+        self.buffer.as_ref()[0] & 0x80 != 0
+    }
+}
+
 /// An NMT node control command.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum NmtCommand {
@@ -72,11 +120,19 @@ pub struct NmtRepr {
 
 impl NmtRepr {
     /// Parses a frame on COB-ID 0x000 with exactly 2 data bytes.
+    ///
+    /// ```
+    /// use cnc402_drives::wire::{CanFrame, NmtCommand, NmtRepr, NmtTarget};
+    /// let r = NmtRepr::parse(&CanFrame::new(0x000, &[0x01, 0x00]).unwrap()).unwrap();
+    /// assert_eq!((r.command, r.target), (NmtCommand::Start, NmtTarget::All));
+    /// assert!(NmtRepr::parse(&CanFrame::new(0x000, &[0x07, 0x00]).unwrap()).is_err());
+    /// ```
     pub fn parse(frame: &CanFrame) -> Result<NmtRepr, WireError> {
         if frame.id() != 0x000 {
             return Err(WireError::WrongCobId(frame.id()));
         }
-        let data: [u8; 2] = frame.data().try_into().map_err(|_| WireError::BadLength)?;
+        let p = NmtPacket::new_checked(frame.data())?;
+        let data = [p.command_byte(), p.node_byte()];
         let (command, target) = co::decode_command(&data).map_err(|e| match e {
             canopen_rs::Error::InvalidNodeId => WireError::BadNodeId(data[1]),
             _ => WireError::UnknownCommand(data[0]),
@@ -141,21 +197,26 @@ pub struct HeartbeatRepr {
 impl HeartbeatRepr {
     /// Parses a frame on 0x701..=0x77F with exactly one data byte (bit 7, the node-guarding
     /// toggle, is ignored). Remote frames (node guarding requests) are rejected.
+    ///
+    /// ```
+    /// use cnc402_drives::wire::{CanFrame, HeartbeatRepr, NmtState};
+    /// let r = HeartbeatRepr::parse(&CanFrame::new(0x705, &[0x00]).unwrap()).unwrap();
+    /// assert_eq!((r.node.get(), r.state), (5, NmtState::BootUp));
+    /// ```
     pub fn parse(frame: &CanFrame) -> Result<HeartbeatRepr, WireError> {
         let id = frame.id();
         if id & 0x780 != 0x700 || frame.is_remote() {
             return Err(WireError::WrongCobId(id));
         }
         let node = NodeId::new((id & 0x7F) as u8).map_err(|_| WireError::WrongCobId(id))?;
-        let [byte] = frame.data() else {
-            return Err(WireError::BadLength);
-        };
-        let state = match co::NmtState::from_wire(*byte) {
+        let p = HeartbeatPacket::new_checked(frame.data())?;
+        let byte = p.state_byte();
+        let state = match co::NmtState::from_wire(byte) {
             Ok(co::NmtState::Initialising) => NmtState::BootUp,
             Ok(co::NmtState::Stopped) => NmtState::Stopped,
             Ok(co::NmtState::Operational) => NmtState::Operational,
             Ok(co::NmtState::PreOperational) => NmtState::PreOperational,
-            Err(_) => return Err(WireError::UnknownCommand(*byte)),
+            Err(_) => return Err(WireError::UnknownCommand(byte)),
         };
         Ok(HeartbeatRepr { node, state })
     }
@@ -238,6 +299,11 @@ mod tests {
         assert_eq!(p(0x705, &[]), Err(WireError::BadLength));
         assert_eq!(p(0x705, &[5, 0]), Err(WireError::BadLength));
         assert_eq!(p(0x705, &[0x06]), Err(WireError::UnknownCommand(6)));
+        let v = HeartbeatPacket::new_checked(&[0x85u8][..]).unwrap();
+        assert!(v.toggle() && v.state_byte() == 5);
+        let v = NmtPacket::new_checked(&[0x81u8, 7][..]).unwrap();
+        assert_eq!((v.command_byte(), v.node_byte()), (0x81, 7));
+        assert!(NmtPacket::new_checked(&[1u8][..]).is_err());
         assert!(HeartbeatRepr::parse(&CanFrame::new_remote(0x705, 1).unwrap()).is_err());
     }
 }

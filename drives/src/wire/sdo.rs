@@ -574,6 +574,14 @@ impl SdoRequest {
     }
 
     /// Parses a request frame (0x600 + node); returns the addressed server's node id.
+    ///
+    /// ```
+    /// use cnc402_drives::wire::{CanFrame, SdoRequest};
+    /// let f = CanFrame::new(0x603, &[0x40, 0x64, 0x60, 0x00, 0, 0, 0, 0]).unwrap();
+    /// let (node, req) = SdoRequest::parse(&f).unwrap();
+    /// assert_eq!(node.get(), 3);
+    /// assert_eq!(req, SdoRequest::InitiateUpload { index: 0x6064, sub: 0 });
+    /// ```
     pub fn parse(frame: &CanFrame) -> Result<(NodeId, SdoRequest), WireError> {
         let (node, p) = sdo_packet(frame, 0x600)?;
         Ok((node, Self::parse_bytes(p.buffer)?))
@@ -670,6 +678,13 @@ impl SdoResponse {
     }
 
     /// Parses a response frame (0x580 + node); returns the responding server's node id.
+    ///
+    /// ```
+    /// use cnc402_drives::wire::{AbortCode, CanFrame, SdoResponse};
+    /// let f = CanFrame::new(0x583, &[0x80, 0x00, 0x16, 0x01, 0x22, 0x00, 0x00, 0x08]).unwrap();
+    /// let (_, r) = SdoResponse::parse(&f).unwrap();
+    /// assert_eq!(r, SdoResponse::Abort { index: 0x1600, sub: 1, code: AbortCode::DeviceState });
+    /// ```
     pub fn parse(frame: &CanFrame) -> Result<(NodeId, SdoResponse), WireError> {
         let (node, p) = sdo_packet(frame, 0x580)?;
         Ok((node, Self::parse_bytes(p.buffer)?))

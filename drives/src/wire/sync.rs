@@ -16,6 +16,12 @@ impl SyncRepr {
 
     /// Parses a frame on 0x080 with 0 or 1 data byte (a counter of 0 or above 240 is
     /// rejected as invalid).
+    ///
+    /// ```
+    /// use cnc402_drives::wire::{CanFrame, SyncRepr};
+    /// assert_eq!(SyncRepr::parse(&CanFrame::new(0x080, &[]).unwrap()).unwrap().counter, None);
+    /// assert_eq!(SyncRepr::parse(&CanFrame::new(0x080, &[7]).unwrap()).unwrap().counter, Some(7));
+    /// ```
     pub fn parse(frame: &CanFrame) -> Result<SyncRepr, WireError> {
         if frame.id() != Self::COB_ID {
             return Err(WireError::WrongCobId(frame.id()));
