@@ -42,7 +42,10 @@ fn full_boot_of_the_shipped_machine() {
         assert_eq!(d.vendor, VENDOR_ID);
         assert_eq!(d.product, Some(PRODUCT_CODE));
         assert_eq!(d.revision, Some(REVISION));
-        assert_eq!(d.name.as_deref(), Some(format!("cnc402 simdrive {}", a.name).as_str()));
+        assert_eq!(
+            d.name.as_deref(),
+            Some(format!("cnc402 simdrive {}", a.name).as_str())
+        );
         assert!(d.fault_at_power_on.is_none());
         let drive = rig.drive(i);
         assert_eq!(drive.state(), State::OperationEnabled, "{}", a.name);
@@ -57,7 +60,11 @@ fn full_boot_of_the_shipped_machine() {
     }
     // The enable sequence took a handful of cycles, not the timeout.
     assert!(report.enable_cycles < 20, "{}", report.enable_cycles);
-    assert!(report.enabled_at < cnc402_drives::Instant::from_millis(500), "{}", report.enabled_at);
+    assert!(
+        report.enabled_at < cnc402_drives::Instant::from_millis(500),
+        "{}",
+        report.enabled_at
+    );
 }
 
 #[test]
@@ -72,7 +79,11 @@ fn pdo_mapping_read_back_equals_what_was_written() {
             assert_eq!(r8(s, 0x1600, 0), 2);
             assert_eq!(r(s, 0x1600, 1), 0x6040_0010);
             assert_eq!(r(s, 0x1600, 2), 0x607A_0020);
-            assert_eq!(r(s, 0x1400, 1) & 0xBFFF_FFFF, 0x200 + id, "valid, 0x200 + node");
+            assert_eq!(
+                r(s, 0x1400, 1) & 0xBFFF_FFFF,
+                0x200 + id,
+                "valid, 0x200 + node"
+            );
             assert_eq!(r8(s, 0x1400, 2), 1);
             assert_eq!(r8(s, 0x1A00, 0), 2);
             assert_eq!(r(s, 0x1A00, 1), 0x6041_0010);
@@ -203,7 +214,13 @@ fn persistent_fault_at_power_on_fails_naming_node_and_state() {
     );
     rig.inject(2, FaultKind::PersistentFault(0x4310));
     let err = rig.master.boot(&mut rig.bus).unwrap_err();
-    let BootError::Enable { node, axis, statusword, .. } = &err else {
+    let BootError::Enable {
+        node,
+        axis,
+        statusword,
+        ..
+    } = &err
+    else {
         panic!("{err}")
     };
     assert_eq!((*node, *axis), (3, 'Z'));
@@ -215,7 +232,11 @@ fn persistent_fault_at_power_on_fails_naming_node_and_state() {
 #[test]
 fn late_drive_is_waited_for() {
     let mut rig = Rig::new(|i| SimDriveOptions {
-        boot_delay: if i == 2 { Duration::from_secs(2) } else { Duration::from_millis(1) },
+        boot_delay: if i == 2 {
+            Duration::from_secs(2)
+        } else {
+            Duration::from_millis(1)
+        },
         ..SimDriveOptions::default()
     });
     let report = rig.boot();
@@ -229,7 +250,11 @@ fn drive_that_never_boots_is_named() {
     let mut rig = Rig::with_config(
         cnc402_config::MachineConfig::default_machine(),
         |i| SimDriveOptions {
-            boot_delay: if i == 3 { Duration::from_secs(60) } else { Duration::from_millis(1) },
+            boot_delay: if i == 3 {
+                Duration::from_secs(60)
+            } else {
+                Duration::from_millis(1)
+            },
             ..SimDriveOptions::default()
         },
         MasterOptions {
@@ -259,7 +284,10 @@ fn sdo_abort_is_decoded_and_named() {
         assert_eq!(e.abort_code(), Some(AbortCode::NoObject));
         let t = e.to_string();
         assert!(t.contains("node 1") && t.contains("0x2345:00"), "{t}");
-        assert!(t.contains("0x06020000") && t.contains("object does not exist"), "{t}");
+        assert!(
+            t.contains("0x06020000") && t.contains("object does not exist"),
+            "{t}"
+        );
         let e = s.read_u32(node(1), 0x1018, 9).unwrap_err();
         assert_eq!(e.abort_code(), Some(AbortCode::NoSubIndex));
         let e = s.write_u16(node(1), 0x6041, 0, 0).unwrap_err();
@@ -285,7 +313,10 @@ fn sdo_timeout_sends_an_abort_to_the_silent_drive() {
         assert!(e.to_string().contains("node 2"), "{e}");
     });
     let waited = rig.bus.now().saturating_since(t0);
-    assert!(waited >= Duration::from_millis(100) && waited < Duration::from_millis(102), "{waited:?}");
+    assert!(
+        waited >= Duration::from_millis(100) && waited < Duration::from_millis(102),
+        "{waited:?}"
+    );
     rig.bus.advance(rig.bus.now() + Duration::from_millis(1));
     let aborts: Vec<String> = rig
         .bus
@@ -302,7 +333,9 @@ fn segmented_upload_of_the_device_name_and_other_frames_kept() {
     let mut rig = Rig::new(|_| SimDriveOptions::default());
     rig.power_on();
     // Heartbeats at 1 ms so some arrive while the transfer runs.
-    sdo(&mut rig.bus, |s| s.write_u16(node(4), 0x1017, 0, 1).unwrap());
+    sdo(&mut rig.bus, |s| {
+        s.write_u16(node(4), 0x1017, 0, 1).unwrap()
+    });
     let other = sdo(&mut rig.bus, |s| {
         let name = s.read_string(node(4), 0x1008, 0).unwrap();
         assert_eq!(name, "cnc402 simdrive C");
@@ -310,7 +343,9 @@ fn segmented_upload_of_the_device_name_and_other_frames_kept() {
         assert_eq!(raw.len(), 17);
     });
     assert!(
-        other.iter().any(|f| f.function() == Function::Heartbeat(node(4))),
+        other
+            .iter()
+            .any(|f| f.function() == Function::Heartbeat(node(4))),
         "heartbeats during the transfer were handed back: {other:?}"
     );
     let _ = rig.bus.counters();

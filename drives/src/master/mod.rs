@@ -31,7 +31,7 @@ use cia402::{Controlword, EnableSequencer, Goal, Statusword};
 use cnc402_config::{MAX_AXES, MachineConfig};
 
 use crate::time::Instant;
-use crate::wire::{NmtState, NodeId};
+use crate::wire::{NmtState, NodeId, frame_bits};
 
 pub use boot::{BootError, BootReport, DriveIdentity, InterpolationPeriod};
 pub use cyclic::Feedback;
@@ -250,6 +250,11 @@ pub struct Master {
     pub(crate) syncs: u64,
     pub(crate) stop: Option<SafetyStop>,
     pub(crate) unexpected_frames: u64,
+    /// Bits per cycle the cyclic frames and heartbeats leave free on the bus.
+    pub(crate) sdo_free_bits: f64,
+    pub(crate) sdo_credit: f64,
+    pub(crate) cyclic_bits: f64,
+    pub(crate) bits_per_cycle: f64,
 }
 
 impl Master {
@@ -307,7 +312,23 @@ impl Master {
                 ));
             }
         }
+        let drives = axes[..config.axes.len()]
+            .iter()
+            .filter(|a| a.node.is_some())
+            .count() as f64;
+        let bits_per_cycle = config.bus.bitrate as f64 * config.bus.period_us as f64 * 1e-6;
+        let heartbeats = if config.bus.heartbeat_ms > 0 {
+            drives * frame_bits(1) as f64 * config.bus.period_us as f64
+                / (config.bus.heartbeat_ms as f64 * 1000.0)
+        } else {
+            0.0
+        };
+        let cyclic_bits = frame_bits(0) as f64 + drives * 2.0 * frame_bits(6) as f64 + heartbeats;
         Ok(Master {
+            sdo_free_bits: (bits_per_cycle - cyclic_bits).max(0.0),
+            sdo_credit: 0.0,
+            cyclic_bits,
+            bits_per_cycle,
             axes,
             n_axes: config.axes.len(),
             options,
@@ -372,6 +393,27 @@ impl Master {
     /// Frames received that no part of the master expected (unknown COB-IDs, malformed).
     pub fn unexpected_frames(&self) -> u64 {
         self.unexpected_frames
+    }
+
+    /// Share of the bus (percent) the cyclic frames (SYNC, RPDO1, TPDO1) and heartbeats use,
+    /// worst-case bit stuffing.
+    pub fn cyclic_load_percent(&self) -> f64 {
+        if self.bits_per_cycle > 0.0 {
+            100.0 * self.cyclic_bits / self.bits_per_cycle
+        } else {
+            100.0
+        }
+    }
+
+    /// SYNCs sent since boot (enable sequence included).
+    pub fn syncs_sent(&self) -> u64 {
+        self.syncs
+    }
+
+    /// TPDO1s received from axis `axis`'s drive since boot; equals
+    /// [`syncs_sent`](Self::syncs_sent) minus the ones still in flight when none was lost.
+    pub fn tpdos_received(&self, axis: usize) -> u64 {
+        self.axes.get(axis).map(|a| a.tpdos).unwrap_or(0)
     }
 
     /// The axis index of drive `node`.

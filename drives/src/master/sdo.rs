@@ -21,7 +21,7 @@ use crate::wire::{
 };
 
 /// Why an SDO transfer failed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SdoErrorKind {
     /// The server aborted the transfer with this code.
     Aborted(AbortCode),
@@ -46,6 +46,11 @@ pub enum SdoErrorKind {
     },
     /// A transfer is already running on this client.
     Busy,
+    /// In cyclic operation the bus has no room for SDO next to the PDOs.
+    NoBusCapacity {
+        /// Share of the bus the cyclic frames and heartbeats use.
+        cyclic_load_percent: f64,
+    },
     /// The axis addressed has no drive (virtual axis or index out of range).
     NoDrive {
         /// The axis index.
@@ -98,7 +103,7 @@ impl fmt::Display for ProtocolViolation {
 }
 
 /// A failed SDO transfer, naming the node and the object.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SdoError {
     /// The server's node id.
     pub node: u8,
@@ -145,6 +150,13 @@ impl fmt::Display for SdoError {
                 write!(f, "value has {got} bytes, expected {expected}")
             }
             SdoErrorKind::Busy => write!(f, "another SDO transfer is running"),
+            SdoErrorKind::NoBusCapacity {
+                cyclic_load_percent,
+            } => write!(
+                f,
+                "no bus capacity during cyclic operation (cyclic frames use \
+                 {cyclic_load_percent:.1} %); use a longer period or SDO at standstill"
+            ),
             SdoErrorKind::NoDrive { axis } => write!(f, "axis {axis} has no drive"),
             SdoErrorKind::Bus(e) => write!(f, "{e}"),
         }
@@ -154,7 +166,7 @@ impl fmt::Display for SdoError {
 impl std::error::Error for SdoError {}
 
 /// What [`SdoClient::on_frame`] / [`SdoClient::poll`] asks the caller to do.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SdoEvent {
     /// The frame is not an SDO response of this client's server: handle it elsewhere.
     NotMine,

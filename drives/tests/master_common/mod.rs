@@ -22,7 +22,11 @@ pub struct Rig {
 impl Rig {
     /// The shipped machine; `options(axis_index)` sets each drive's start options.
     pub fn new(options: impl Fn(usize) -> SimDriveOptions) -> Rig {
-        Rig::with_config(MachineConfig::default_machine(), options, MasterOptions::default())
+        Rig::with_config(
+            MachineConfig::default_machine(),
+            options,
+            MasterOptions::default(),
+        )
     }
 
     pub fn with_config(
@@ -48,7 +52,10 @@ impl Rig {
     }
 
     pub fn boot(&mut self) -> BootReport {
-        let r = self.master.boot(&mut self.bus).unwrap_or_else(|e| panic!("boot: {e}"));
+        let r = self
+            .master
+            .boot(&mut self.bus)
+            .unwrap_or_else(|e| panic!("boot: {e}"));
         self.next = r.enabled_at + self.master.period();
         r
     }
@@ -56,7 +63,11 @@ impl Rig {
     /// The SimDrive of axis `i` (drives are attached in config order).
     pub fn drive(&self, i: usize) -> &SimDrive {
         let n = self.config.axes[i].node.unwrap();
-        self.bus.devices().iter().find(|d| d.node().get() == n).unwrap()
+        self.bus
+            .devices()
+            .iter()
+            .find(|d| d.node().get() == n)
+            .unwrap()
     }
 
     pub fn inject(&mut self, axis: usize, kind: FaultKind) {

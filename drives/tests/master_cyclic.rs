@@ -1,0 +1,479 @@
+//! The master in cyclic operation against four simulated drives (virtual time): following a
+//! ramp, each safety reaction with the stop value it produces, the INT32 wrap of a spindle,
+//! SDO during cyclic operation without losing PDOs, virtual axes, quick stop and disable.
+
+mod master_common;
+
+use cia402::State;
+use cnc402_config::{AxisKind, MachineConfig};
+use cnc402_drives::bus::Origin;
+use cnc402_drives::master::{Feedback, MasterOptions, Phase, SafetyStop, StopMode, StopReason};
+use cnc402_drives::sim::{FaultKind, SimDriveOptions};
+use cnc402_drives::wire::Function;
+use master_common::Rig;
+
+fn booted() -> Rig {
+    let mut rig = Rig::new(|_| SimDriveOptions::default());
+    rig.boot();
+    rig
+}
+
+fn smoothstep(u: f64) -> f64 {
+    let u = u.clamp(0.0, 1.0);
+    u * u * (3.0 - 2.0 * u)
+}
+
+/// Commands at cycle `k` of a move from `start`: X +40 mm, Y −30 mm, Z −20 mm in 1 s
+/// (S-shaped), C accelerating to 600 rpm in 0.5 s and then turning at that speed.
+fn ramp(start: &[f64], k: u64) -> [f64; 4] {
+    let t = k as f64 * 1e-3;
+    let u = t / 1.0;
+    let c = if t < 0.5 {
+        // ∫ of a smoothstep velocity ramp to 3600 °/s over 0.5 s.
+        let x = t / 0.5;
+        3600.0 * 0.5 * (x * x * x - 0.5 * x * x * x * x)
+    } else {
+        3600.0 * 0.5 * 0.5 + 3600.0 * (t - 0.5)
+    };
+    [
+        start[0] + 40.0 * smoothstep(u),
+        start[1] - 30.0 * smoothstep(u),
+        start[2] - 20.0 * smoothstep(u),
+        start[3] + c,
+    ]
+}
+
+/// Runs `cycles` cycles of `ramp` from cycle `from`; stops at the first safety stop.
+fn run(
+    rig: &mut Rig,
+    start: &[f64],
+    from: u64,
+    cycles: u64,
+) -> Result<Vec<Feedback>, (u64, SafetyStop)> {
+    let mut out = Vec::new();
+    for k in from..from + cycles {
+        match rig.cycle(&ramp(start, k)) {
+            Ok(fb) => out.push(fb),
+            Err(s) => return Err((k, s)),
+        }
+    }
+    Ok(out)
+}
+
+#[test]
+fn all_four_drives_follow_a_ramp() {
+    let mut rig = booted();
+    let start = rig.master.positions();
+    let fbs = run(&mut rig, &start, 0, 1500).unwrap_or_else(|(k, s)| panic!("cycle {k}: {s}"));
+    let mut late = 0;
+    for fb in &fbs {
+        for i in 0..4 {
+            assert_eq!(fb.state(i), Some(State::OperationEnabled));
+            if !fb.fresh[i] {
+                late += 1;
+            }
+        }
+    }
+    let max = rig.master.max_following_errors();
+    for i in 0..4 {
+        let a = &rig.config.axes[i];
+        assert!(
+            max[i] < a.following_error_window / 2.0,
+            "{}: {}",
+            a.name,
+            max[i]
+        );
+        assert!(max[i] > 0.0, "{} moved, so it lagged", a.name);
+    }
+    // Hold the end point: every actual settles on its command (within a count).
+    let end = ramp(&start, 1500);
+    let mut fb = fbs[fbs.len() - 1];
+    for _ in 0..100 {
+        fb = rig.cycle(&[end[0], end[1], end[2], end[3] + 0.0]).unwrap();
+    }
+    // C keeps its last command (the ramp stopped feeding it at cycle 1499).
+    for i in 0..3 {
+        let cpu = rig.config.axes[i].counts_per_unit;
+        assert!(
+            (fb.actual[i] - end[i]).abs() * cpu <= 1.0,
+            "{i}: {} vs {}",
+            fb.actual[i],
+            end[i]
+        );
+        assert!((rig.drive(i).position_actual() as f64 - end[i] * cpu).abs() <= 1.0);
+    }
+    eprintln!(
+        "ramp: max following error X {:.4} Y {:.4} Z {:.4} mm, C {:.3} deg; late TPDO samples {late} of {}",
+        max[0],
+        max[1],
+        max[2],
+        max[3],
+        fbs.len() * 4
+    );
+}
+
+#[test]
+fn drive_fault_with_emcy_stops_all_axes_naming_node_state_and_code() {
+    let mut rig = booted();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 300).unwrap();
+    rig.bus.start_trace();
+    rig.inject(2, FaultKind::Fault(0x8611));
+    let (k, stop) = run(&mut rig, &start, 300, 10).unwrap_err();
+    assert!(k <= 302, "noticed at cycle {k}");
+    assert!(
+        matches!(stop.reason, StopReason::DriveFault | StopReason::Emergency),
+        "{stop}"
+    );
+    assert_eq!(
+        (stop.axis, stop.node, stop.axis_index),
+        (Some('Z'), Some(3), Some(2))
+    );
+    assert_eq!(stop.emcy.map(|e| e.code), Some(0x8611));
+    assert!(stop.statusword.is_some());
+    let text = stop.at_line(17).to_string();
+    for part in [
+        "axis Z (node 3)",
+        "0x8611",
+        "following error",
+        "statusword",
+        "line 17",
+    ] {
+        assert!(text.contains(part), "{text} lacks {part}");
+    }
+    // Later cycles report the stop reaction; every drive got quick stop (0x02).
+    assert_eq!(rig.master.phase(), Phase::Stopping);
+    let hold = rig.master.positions();
+    for _ in 0..300 {
+        let fb = rig.cycle(&hold[..4]).unwrap();
+        assert!(fb.stopping);
+    }
+    for i in 0..4 {
+        let s = rig.drive(i).state();
+        assert!(
+            matches!(
+                s,
+                State::QuickStopActive | State::SwitchOnDisabled | State::Fault
+            ),
+            "axis {i} in {s}"
+        );
+    }
+    let quick_stops: Vec<u16> = rig
+        .bus
+        .take_trace()
+        .iter()
+        .filter(|t| t.origin == Origin::Master)
+        .filter(|t| matches!(t.frame.function(), Function::Rpdo(1, _)))
+        .filter(|t| t.frame.data()[0] == 0x02)
+        .map(|t| t.frame.id())
+        .collect();
+    for id in [0x201, 0x202, 0x203, 0x204] {
+        assert!(quick_stops.contains(&id), "{id:#x}");
+    }
+    assert_eq!(rig.master.stop_reason().map(|s| s.node), Some(Some(3)));
+}
+
+#[test]
+fn silent_heartbeat_stops_naming_the_drive() {
+    let mut rig = booted();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 100).unwrap();
+    rig.inject(1, FaultKind::HeartbeatSilence);
+    let (k, stop) = run(&mut rig, &start, 100, 400).unwrap_err();
+    let StopReason::HeartbeatLost { silent_ms } = stop.reason else {
+        panic!("{stop}")
+    };
+    assert_eq!((stop.axis, stop.node), (Some('Y'), Some(2)));
+    // Heartbeat every 50 ms, timeout 200 ms: noticed 200..=251 ms after the last one.
+    assert!((201..=202).contains(&silent_ms), "{silent_ms}");
+    assert!((250..=360).contains(&k), "{k}");
+    assert_eq!(
+        stop.statusword.and_then(|s| s.state()),
+        Some(State::OperationEnabled)
+    );
+}
+
+#[test]
+fn missing_tpdos_stop_after_the_configured_cycles() {
+    let mut rig = booted();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 100).unwrap();
+    rig.inject(3, FaultKind::DropTpdos);
+    let (k, stop) = run(&mut rig, &start, 100, 20).unwrap_err();
+    assert_eq!(stop.reason, StopReason::TpdoMissing { cycles: 5 });
+    assert_eq!((stop.axis, stop.node), (Some('C'), Some(4)));
+    assert!((104..=106).contains(&k), "{k}");
+}
+
+#[test]
+fn following_error_beyond_the_window_stops_before_the_drive_faults() {
+    let mut rig = booted();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 50).unwrap();
+    // A 3 mm jump of X: the drive closes most of it in one cycle, so its own 10 ms time-out
+    // never fires — the master's window check does.
+    let mut cmd = ramp(&start, 50);
+    cmd[0] += 3.0;
+    let mut stop = None;
+    for _ in 0..5 {
+        if let Err(s) = rig.cycle(&cmd) {
+            stop = Some(s);
+            break;
+        }
+    }
+    let stop = stop.expect("following error stop");
+    let StopReason::FollowingError { error, window } = stop.reason else {
+        panic!("{stop}")
+    };
+    assert_eq!((stop.axis, stop.node), (Some('X'), Some(1)));
+    assert_eq!(window, 0.5);
+    assert!(error > 0.5 && error < 3.0, "{error}");
+    assert_eq!(rig.drive(0).fault_code(), None);
+}
+
+#[test]
+fn spindle_across_the_int32_wrap_keeps_counting() {
+    let start_counts = [0, 0, 0, i32::MAX - 300_000];
+    let mut rig = Rig::new(|i| SimDriveOptions {
+        initial_position: start_counts[i],
+        ..SimDriveOptions::default()
+    });
+    rig.boot();
+    let cpu = rig.config.axes[3].counts_per_unit;
+    let start = rig.master.positions();
+    assert!((start[3] * cpu - start_counts[3] as f64).abs() < 1e-6);
+    let mut prev = start[3];
+    let mut crossed = false;
+    for k in 0..800u64 {
+        let fb = rig
+            .cycle(&ramp(&start, k))
+            .unwrap_or_else(|s| panic!("cycle {k}: {s}"));
+        let a = fb.actual[3];
+        // Continuous: at most 3600 °/s · 1 ms plus tracking transients per cycle, never back.
+        assert!(
+            a - prev >= -1e-9 && a - prev < 10.0,
+            "cycle {k}: {prev} → {a}"
+        );
+        prev = a;
+        if a * cpu > i32::MAX as f64 + 1000.0 {
+            crossed = true;
+        }
+    }
+    assert!(crossed, "actual {prev} deg = {} counts", prev * cpu);
+    // The drive's own counter wrapped; the master's did not.
+    assert!(rig.drive(3).position_actual() < 0);
+    assert!(rig.master.max_following_errors()[3] < 5.0);
+}
+
+#[test]
+fn pdos_keep_flowing_while_an_sdo_transfer_runs() {
+    // At 1 ms the four drives' PDOs fill 97.5 % of 1 Mbit/s (see the next test); at 2 ms
+    // half the bus is free for SDO.
+    let mut config = MachineConfig::default_machine();
+    config.bus.period_us = 2000;
+    let mut rig = Rig::with_config(
+        config,
+        |_| SimDriveOptions::default(),
+        MasterOptions::default(),
+    );
+    rig.boot();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 20).unwrap();
+    let now = rig.next;
+    rig.master.start_sdo_upload(3, 0x1008, 0, now).unwrap();
+    let mut k = 20;
+    let outcome = loop {
+        rig.cycle(&ramp(&start, k))
+            .unwrap_or_else(|s| panic!("cycle {k}: {s}"));
+        k += 1;
+        if let Some(o) = rig.master.take_sdo_outcome(3) {
+            break o;
+        }
+        assert!(k < 200, "SDO never finished");
+    };
+    outcome.unwrap();
+    assert_eq!(rig.master.sdo_data(3), b"cnc402 simdrive C");
+    // A write during cyclic operation too, then the read-back.
+    let now = rig.next;
+    rig.master
+        .start_sdo_download(0, 0x6065, 0, &6000u32.to_le_bytes(), now)
+        .unwrap();
+    loop {
+        rig.cycle(&ramp(&start, k)).unwrap();
+        k += 1;
+        if let Some(o) = rig.master.take_sdo_outcome(0) {
+            o.unwrap();
+            break;
+        }
+    }
+    assert_eq!(rig.drive(0).od().get_u64(0x6065, 0), Some(6000));
+    run(&mut rig, &start, k, 5).unwrap();
+    // Not one TPDO lost: all but the one answering the last SYNC (still in flight) arrived.
+    let syncs = rig.master.syncs_sent();
+    for i in 0..4 {
+        let got = rig.master.tpdos_received(i);
+        assert!(
+            got + 1 >= syncs && got <= syncs,
+            "axis {i}: {got} of {syncs}"
+        );
+    }
+}
+
+#[test]
+fn sdo_during_cyclic_operation_is_refused_when_the_bus_is_full() {
+    let mut rig = booted();
+    assert!(
+        (rig.master.cyclic_load_percent() - 98.02).abs() < 0.01,
+        "{}",
+        rig.master.cyclic_load_percent()
+    );
+    let now = rig.next;
+    let e = rig.master.start_sdo_upload(3, 0x1008, 0, now).unwrap_err();
+    assert!(
+        matches!(
+            e.kind,
+            cnc402_drives::master::SdoErrorKind::NoBusCapacity { .. }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("98.0 %"), "{e}");
+    // Nothing was sent; cyclic operation goes on.
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 100).unwrap();
+}
+
+#[test]
+fn sdo_error_during_cyclic_operation_is_reported_not_a_stop() {
+    let mut config = MachineConfig::default_machine();
+    config.bus.period_us = 2000;
+    let mut rig = Rig::with_config(
+        config,
+        |_| SimDriveOptions::default(),
+        MasterOptions::default(),
+    );
+    rig.boot();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 10).unwrap();
+    let now = rig.next;
+    rig.master.start_sdo_upload(1, 0x2345, 0, now).unwrap();
+    let mut k = 10;
+    let outcome = loop {
+        rig.cycle(&ramp(&start, k)).unwrap();
+        k += 1;
+        if let Some(o) = rig.master.take_sdo_outcome(1) {
+            break o;
+        }
+        assert!(k < 200);
+    };
+    let e = outcome.unwrap_err();
+    assert_eq!(
+        e.abort_code(),
+        Some(cnc402_drives::wire::AbortCode::NoObject)
+    );
+    assert_eq!(e.node, 2);
+    // Silence: the in-cycle client times out after 100 ms and aborts.
+    rig.inject(1, FaultKind::SdoSilence);
+    let now = rig.next;
+    rig.master.start_sdo_upload(1, 0x1000, 0, now).unwrap();
+    let t0 = k;
+    let outcome = loop {
+        rig.cycle(&ramp(&start, k)).unwrap();
+        k += 1;
+        if let Some(o) = rig.master.take_sdo_outcome(1) {
+            break o;
+        }
+        assert!(k < t0 + 200);
+    };
+    assert!(matches!(
+        outcome.unwrap_err().kind,
+        cnc402_drives::master::SdoErrorKind::Timeout { .. }
+    ));
+    assert!((50..=52).contains(&(k - t0)), "100 ms at 2 ms: {}", k - t0);
+}
+
+#[test]
+fn virtual_axes_echo_their_command() {
+    let mut config = MachineConfig::default_machine();
+    let mut a = config.axes[3].clone();
+    a.name = 'A';
+    a.kind = AxisKind::Rotary;
+    a.node = None;
+    config.axes.push(a);
+    let mut rig = Rig::with_config(
+        config,
+        |_| SimDriveOptions::default(),
+        MasterOptions::default(),
+    );
+    rig.boot();
+    assert_eq!(rig.master.axis_count(), 5);
+    let start = rig.master.positions();
+    for k in 0..100u64 {
+        let r = ramp(&start, k);
+        let cmd = [r[0], r[1], r[2], r[3], k as f64 * 0.5];
+        let fb = rig.cycle(&cmd).unwrap();
+        assert_eq!(fb.actual[4], k as f64 * 0.5);
+        assert_eq!(fb.statusword[4], None);
+    }
+}
+
+#[test]
+fn quick_stop_then_disable() {
+    let mut rig = booted();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 400).unwrap();
+    rig.master.quick_stop();
+    let hold = ramp(&start, 400);
+    for _ in 0..200 {
+        assert!(rig.cycle(&hold).unwrap().stopping);
+    }
+    for i in 0..4 {
+        let s = rig.drive(i).state();
+        assert!(
+            matches!(s, State::QuickStopActive | State::SwitchOnDisabled),
+            "{i}: {s}"
+        );
+    }
+    rig.bus.advance(rig.next);
+    rig.master.disable(&mut rig.bus).unwrap();
+    for i in 0..4 {
+        assert_eq!(rig.drive(i).state(), State::SwitchOnDisabled, "axis {i}");
+    }
+}
+
+#[test]
+fn follow_path_stop_mode_keeps_healthy_drives_enabled() {
+    let mut rig = Rig::with_config(
+        MachineConfig::default_machine(),
+        |_| SimDriveOptions::default(),
+        MasterOptions {
+            stop_mode: StopMode::FollowPath,
+            ..MasterOptions::default()
+        },
+    );
+    rig.boot();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 200).unwrap();
+    rig.inject(0, FaultKind::Fault(0x2310));
+    let (k, stop) = run(&mut rig, &start, 200, 10).unwrap_err();
+    assert_eq!(stop.node, Some(1));
+    assert_eq!(stop.emcy.map(|e| e.text()), Some("current"));
+    // Z and C keep following the (caller's decelerating) path.
+    let fbs = run(&mut rig, &start, k + 1, 100).unwrap();
+    for fb in &fbs {
+        assert!(fb.stopping);
+        assert_eq!(fb.state(2), Some(State::OperationEnabled));
+        assert_eq!(fb.state(3), Some(State::OperationEnabled));
+    }
+    rig.master.quick_stop();
+    let hold = rig.master.positions();
+    for _ in 0..300 {
+        rig.cycle(&hold[..4]).unwrap();
+    }
+    for i in 1..4 {
+        let s = rig.drive(i).state();
+        assert!(
+            matches!(s, State::QuickStopActive | State::SwitchOnDisabled),
+            "{i}: {s}"
+        );
+    }
+}
