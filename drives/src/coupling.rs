@@ -111,16 +111,14 @@ impl CouplingChecker {
     pub fn feed(&mut self, s: CouplingSample) -> Option<TapWindow> {
         let tick = self.ticks;
         self.ticks += 1;
-        let Some(prev) = self.prev.replace(s) else {
-            return None;
-        };
+        let prev = self.prev.replace(s)?;
         let dz = s.z_cmd - prev.z_cmd;
         let dc = s.c_cmd - prev.c_cmd;
         let both = dz.abs() > self.z_eps && dc.abs() > self.c_eps;
         if !both {
             return self.close();
         }
-        let open = self.open.get_or_insert_with(|| Open {
+        let open = self.open.get_or_insert(Open {
             line: s.line,
             first_tick: tick,
             origin: prev,

@@ -2,6 +2,9 @@
 //! shipped machine, the PDO mapping read back, enabling without motion, a drive in FAULT at
 //! power-on, a late drive, SDO abort / timeout / segmented transfers.
 
+// Several per-axis arrays are indexed together.
+#![allow(clippy::needless_range_loop)]
+
 mod master_common;
 
 use std::time::Duration;

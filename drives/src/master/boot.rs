@@ -32,7 +32,7 @@ impl InterpolationPeriod {
     /// (1000 µs → 1 × 10^−3; 250 µs → 25 × 10^−5; 125 µs → 125 × 10^−6); `None` if none.
     pub fn from_micros(us: u32) -> Option<InterpolationPeriod> {
         for (exponent, unit) in [(-3i8, 1000u32), (-4, 100), (-5, 10), (-6, 1)] {
-            if us % unit == 0 && (1..=255).contains(&(us / unit)) {
+            if us.is_multiple_of(unit) && (1..=255).contains(&(us / unit)) {
                 return Some(InterpolationPeriod {
                     value: (us / unit) as u8,
                     exponent,
@@ -304,10 +304,10 @@ fn configure<B: TimedBus + ?Sized>(
     // already use ~97 % of 1 Mbit/s).
     for p in 1..4u16 {
         let comm = obj::TPDO_COMMUNICATION + p;
-        if let Some(cob) = optional(sdo.read_u32(n, comm, 1))? {
-            if cob & COB_INVALID == 0 {
-                sdo.write_u32(n, comm, 1, cob | COB_INVALID)?;
-            }
+        if let Some(cob) = optional(sdo.read_u32(n, comm, 1))?
+            && cob & COB_INVALID == 0
+        {
+            sdo.write_u32(n, comm, 1, cob | COB_INVALID)?;
         }
     }
     sdo.write_i8(n, obj::MODES_OF_OPERATION, 0, 8)?;
@@ -438,8 +438,8 @@ impl Master {
             };
             let mut push = |f: &CanFrame| queue.push(*f);
             let mut sdo = BlockingSdo::new(&mut *bus, self.sdo_timeout, &mut push);
-            let mut ident = configure(&mut sdo, &setup, seen_at[i])?;
-            drop(sdo);
+            let ident = configure(&mut sdo, &setup, seen_at[i]);
+            let mut ident = ident?;
             let now = bus.now();
             self.absorb_all(&mut queue, now);
             bus.send(
@@ -453,10 +453,12 @@ impl Master {
             self.axes[i].nmt = None;
             // The first setpoint is the actual position: 0x607A = 0x6064 before enabling.
             let mut push = |f: &CanFrame| queue.push(*f);
-            let mut sdo = BlockingSdo::new(&mut *bus, self.sdo_timeout, &mut push);
-            let pos = sdo.read_i32(node, obj::POSITION_ACTUAL, 0)?;
-            sdo.write_i32(node, obj::TARGET_POSITION, 0, pos)?;
-            drop(sdo);
+            let pos = {
+                let mut sdo = BlockingSdo::new(&mut *bus, self.sdo_timeout, &mut push);
+                let pos = sdo.read_i32(node, obj::POSITION_ACTUAL, 0)?;
+                sdo.write_i32(node, obj::TARGET_POSITION, 0, pos)?;
+                pos
+            };
             let now = bus.now();
             self.absorb_all(&mut queue, now);
             ident.position_counts = pos;

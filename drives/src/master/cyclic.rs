@@ -192,10 +192,10 @@ impl Master {
                 });
             }
         }
-        if let Some(s) = a.nmt {
-            if s != NmtState::Operational {
-                return Some(StopReason::NmtState(s));
-            }
+        if let Some(s) = a.nmt
+            && s != NmtState::Operational
+        {
+            return Some(StopReason::NmtState(s));
         }
         if a.tpdo_missing >= self.tpdo_timeout_cycles {
             return Some(StopReason::TpdoMissing {
@@ -371,30 +371,31 @@ impl Master {
         let cap = self.sdo_free_bits.max(2.0 * SDO_EXCHANGE_BITS);
         self.sdo_credit = (self.sdo_credit + self.sdo_free_bits).min(cap);
         for a in self.axes[..self.n_axes].iter_mut() {
-            if let Some(c) = a.sdo.as_mut() {
-                if let SdoEvent::Failed(e, abort) = c.poll(now) {
-                    a.sdo_outcome = Some(Err(e));
-                    a.sdo_tx = abort;
-                }
+            if let Some(c) = a.sdo.as_mut()
+                && let SdoEvent::Failed(e, abort) = c.poll(now)
+            {
+                a.sdo_outcome = Some(Err(e));
+                a.sdo_tx = abort;
             }
             let is_abort = a.sdo.as_ref().is_some_and(|c| !c.is_busy());
             if a.sdo_tx.is_some() && (is_abort || self.sdo_credit >= SDO_EXCHANGE_BITS) {
                 if !is_abort {
                     self.sdo_credit -= SDO_EXCHANGE_BITS;
                 }
-                if let Some(f) = a.sdo_tx.take() {
-                    if let Err(e) = bus.send(&f) {
-                        send_err = send_err.or(Some(e));
-                    }
+                if let Some(f) = a.sdo_tx.take()
+                    && let Err(e) = bus.send(&f)
+                {
+                    send_err = send_err.or(Some(e));
                 }
             }
         }
-        if let Some(e) = send_err {
-            if self.stop.is_none() && running {
-                let s = self.bus_stop(e, now);
-                self.trip(s);
-                tripped = Some(s);
-            }
+        if let Some(e) = send_err
+            && self.stop.is_none()
+            && running
+        {
+            let s = self.bus_stop(e, now);
+            self.trip(s);
+            tripped = Some(s);
         }
         fb.stopping = self.phase == Phase::Stopping;
         match tripped {

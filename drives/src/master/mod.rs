@@ -283,10 +283,10 @@ impl Master {
                 })?),
                 None => None,
             };
-            if let Some(n) = node {
-                if axes[..i].iter().any(|s| s.node == Some(n)) {
-                    return Err(MasterConfigError::DuplicateNode(n.get()));
-                }
+            if let Some(n) = node
+                && axes[..i].iter().any(|s| s.node == Some(n))
+            {
+                return Err(MasterConfigError::DuplicateNode(n.get()));
             }
             let s = &mut axes[i];
             s.name = a.name;

@@ -405,10 +405,10 @@ impl SdoClient {
             self.phase = Phase::Idle;
             return SdoEvent::Failed(err, None);
         }
-        if let Some((index, sub)) = resp.multiplexer() {
-            if (index, sub) != (self.index, self.sub) {
-                return self.fail_protocol(ProtocolViolation::WrongObject { index, sub });
-            }
+        if let Some((index, sub)) = resp.multiplexer()
+            && (index, sub) != (self.index, self.sub)
+        {
+            return self.fail_protocol(ProtocolViolation::WrongObject { index, sub });
         }
         self.deadline = now + self.timeout;
         match (self.phase, resp) {
@@ -430,14 +430,14 @@ impl SdoClient {
                     return self.fail_protocol(ProtocolViolation::Toggle);
                 }
                 self.buf.extend_from_slice(seg.data());
-                if let Some(ind) = self.indicated {
-                    if self.buf.len() > ind as usize || (seg.last && self.buf.len() != ind as usize)
-                    {
-                        return self.fail_protocol(ProtocolViolation::SizeMismatch {
-                            indicated: ind,
-                            received: self.buf.len(),
-                        });
-                    }
+                if let Some(ind) = self.indicated
+                    && (self.buf.len() > ind as usize
+                        || (seg.last && self.buf.len() != ind as usize))
+                {
+                    return self.fail_protocol(ProtocolViolation::SizeMismatch {
+                        indicated: ind,
+                        received: self.buf.len(),
+                    });
                 }
                 if seg.last {
                     self.phase = Phase::Idle;
