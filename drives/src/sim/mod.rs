@@ -12,7 +12,7 @@
 //! use cnc402_drives::sim::SimDrive;
 //! use cnc402_drives::wire::NodeId;
 //!
-//! fn host(bus: &mut dyn CanBus, drives: &mut [SimDrive], now: Instant) {
+//! fn host<B: CanBus>(bus: &mut B, drives: &mut [SimDrive], now: Instant) {
 //!     // Real transports block here for at most the timeout; virtual ones return at once.
 //!     while let Ok(Some(frame)) = bus.recv_timeout(Duration::from_micros(100)) {
 //!         for d in drives.iter_mut() {
@@ -28,7 +28,8 @@
 //! let mut drives = vec![SimDrive::new(&cfg.axes[0], NodeId::new(1).unwrap(), Duration::from_millis(1))];
 //! // A loopback-free bus that only collects what the drives send:
 //! let mut sent = cnc402_drives::bus::SimBus::<SimDrive>::new(0);
-//! host(&mut sent, &mut drives, Instant::from_millis(5));
+//! host(&mut sent, &mut drives, Instant::ZERO); // power on
+//! host(&mut sent, &mut drives, Instant::from_millis(5)); // booted 1 ms later
 //! sent.advance(Instant::from_millis(5));
 //! assert_eq!(sent.counters().tx_frames, 1); // the boot-up message
 //! ```
