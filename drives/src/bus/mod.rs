@@ -103,6 +103,23 @@ impl<B: CanBus + ?Sized> CanBus for &mut B {
     }
 }
 
+/// A boxed transport (e.g. chosen at run time: SocketCAN or simulated) is a bus too, and so a
+/// [`FrameSink`] for devices (`&mut dyn CanBus` itself cannot be turned into one).
+impl<B: CanBus + ?Sized> CanBus for Box<B> {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        (**self).send(frame)
+    }
+    fn recv(&mut self) -> Result<Option<CanFrame>, BusError> {
+        (**self).recv()
+    }
+    fn recv_timeout(&mut self, timeout: Duration) -> Result<Option<CanFrame>, BusError> {
+        (**self).recv_timeout(timeout)
+    }
+    fn counters(&self) -> BusCounters {
+        (**self).counters()
+    }
+}
+
 /// Where a device puts the frames it transmits: the simulated bus, or a real socket in the
 /// `simdrive` process (every [`CanBus`] is one).
 pub trait FrameSink {
@@ -121,5 +138,30 @@ impl FrameSink for Vec<CanFrame> {
     fn transmit(&mut self, frame: &CanFrame, _now: Instant) -> Result<(), BusError> {
         self.push(*frame);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::sim::CanDevice;
+
+    struct Hello;
+    impl CanDevice for Hello {
+        fn on_frame(&mut self, _: &CanFrame, _: Instant, _: &mut dyn FrameSink) {}
+        fn poll(&mut self, now: Instant, tx: &mut dyn FrameSink) {
+            tx.transmit(&CanFrame::new(0x123, &[1]).unwrap(), now)
+                .unwrap();
+        }
+    }
+
+    #[test]
+    fn boxed_bus_and_vec_are_sinks() {
+        let mut boxed: Box<dyn CanBus> = Box::new(SimBus::<Hello>::new(0));
+        Hello.poll(Instant::ZERO, &mut boxed);
+        assert_eq!(boxed.counters().tx_frames, 1);
+        let mut v: Vec<CanFrame> = Vec::new();
+        Hello.poll(Instant::ZERO, &mut v);
+        assert_eq!(v.len(), 1);
     }
 }
