@@ -43,6 +43,9 @@ pub enum MotionErrorKind {
     },
     /// The axes' limits give no usable profile (a limit is zero or not finite).
     BadLimits,
+    /// The path length overflows, or the move would last more than 2^53 periods (an axis
+    /// asked to move absurdly far).
+    TooLong,
     /// `Interpolator::start` with a path move that does not begin where the last one ended.
     NotAtStart,
     /// `Interpolator::start` while a move is still running.
@@ -88,6 +91,7 @@ impl fmt::Display for MotionError {
                 "axis {axis} to {value} leaves its soft limits {min}..{max}"
             ),
             MotionErrorKind::BadLimits => write!(f, "axis limits give no usable profile"),
+            MotionErrorKind::TooLong => write!(f, "move too long (absurd distance or duration)"),
             MotionErrorKind::NotAtStart => {
                 write!(f, "move does not start where the previous one ended")
             }

@@ -8,7 +8,7 @@ use std::f64::consts::{PI, TAU};
 use cnc402_config::{AxisKind, MachineConfig};
 
 use crate::error::{MotionError, MotionErrorKind};
-use crate::profile::{JerkProfile, Limits, PathProfile, State, rest_to_rest};
+use crate::profile::{JerkProfile, Limits, PathProfile, ProfileError, State, rest_to_rest};
 use crate::segment::{
     ArcDir, AxisPos, MAX_AXES, Plane, Segment, SegmentKind, SpindleDir, StopKind,
 };
@@ -356,8 +356,16 @@ impl Planner {
         rapid: bool,
     ) -> Result<PathMove, MotionErrorKind> {
         let (profile, ticks) = if length > 0.0 {
-            let p = rest_to_rest(length, lim).map_err(|_| MotionErrorKind::BadLimits)?;
-            let ticks = ((p.duration() / self.period).ceil() as u64).max(1);
+            let p = rest_to_rest(length, lim).map_err(|e| match e {
+                ProfileError::BadDistance(_) => MotionErrorKind::TooLong,
+                ProfileError::BadLimits(_) => MotionErrorKind::BadLimits,
+            })?;
+            let n = (p.duration() / self.period).ceil();
+            // Beyond 2^53 periods (285,000 years at 1 ms) tick counts stop being exact.
+            if !(n <= 9_007_199_254_740_992.0) {
+                return Err(MotionErrorKind::TooLong);
+            }
+            let ticks = (n as u64).max(1);
             let k = ticks as f64 * self.period / p.duration();
             (p.time_scaled(k), ticks)
         } else {

@@ -465,3 +465,14 @@ fn zero_length_move_takes_one_tick() {
     assert!(ticks[1].finished);
     assert_eq!(ticks[1].pos, start);
 }
+
+/// Regression (found by `wild_segments_never_panic`): a rapid that moved Y a little and the
+/// spindle axis 1e300° planned a profile lasting 10^295 s, whose tick count saturated and
+/// "stretched" it by k ≪ 1: setpoints became NaN. Now it is refused.
+#[test]
+fn absurdly_long_move_is_refused_not_nan() {
+    let c = cfg();
+    let mut p = Planner::new(&c);
+    let e = p.plan(&rapid(xyzc(0.0, -6.5, 0.0, 1e300), 1)).unwrap_err();
+    assert_eq!(e.kind, MotionErrorKind::TooLong);
+}

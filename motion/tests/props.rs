@@ -336,3 +336,80 @@ proptest! {
         check_limits(&c, &ticks);
     }
 }
+
+/// Any f64 at all, weighted towards the troublesome ones. (A selector instead of
+/// `prop_oneof!` keeps proptest's value trees small: nested unions overflow a 2 MB test stack
+/// in debug builds.)
+fn wild() -> impl Strategy<Value = f64> {
+    (0u8..10, any::<f64>(), -1e3..1e3f64).prop_map(|(sel, any, small)| match sel {
+        0 => f64::NAN,
+        1 => f64::INFINITY,
+        2 => f64::NEG_INFINITY,
+        3 => 0.0,
+        4 => -0.0,
+        5 => 1e300,
+        6 => -1e300,
+        7 => f64::MIN_POSITIVE,
+        8 => any,
+        _ => small,
+    })
+}
+
+fn wild_segment() -> impl Strategy<Value = SegmentKind> {
+    let pos = || proptest::array::uniform8(wild()).prop_map(AxisPos);
+    prop_oneof![
+        pos().prop_map(|end| SegmentKind::Rapid { end }),
+        (pos(), wild()).prop_map(|(end, feed)| SegmentKind::Linear { end, feed }),
+        (
+            pos(),
+            proptest::array::uniform3(wild()),
+            0u8..3,
+            any::<bool>(),
+            any::<u32>(),
+            wild()
+        )
+            .prop_map(|(end, center, pl, ccw, turns, feed)| SegmentKind::Arc {
+                end,
+                center,
+                plane: [Plane::XY, Plane::ZX, Plane::YZ][pl as usize],
+                dir: if ccw { ArcDir::Ccw } else { ArcDir::Cw },
+                turns,
+                feed,
+            }),
+        wild().prop_map(|seconds| SegmentKind::Dwell { seconds }),
+        (wild(), 0u8..3).prop_map(|(rpm, d)| SegmentKind::Spindle {
+            rpm,
+            dir: [SpindleDir::Cw, SpindleDir::Ccw, SpindleDir::Stop][d as usize],
+        }),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+
+    /// Whatever the interpreter hands over, planning returns a value (never panics), and what
+    /// it accepts the interpolator runs with finite setpoints.
+    #[test]
+    fn wild_segments_never_panic(kinds in proptest::collection::vec(wild_segment(), 1..6), stop in any::<bool>()) {
+        let c = MachineConfig::default_machine();
+        let mut planner = Planner::new(&c);
+        let mut ip = Interpolator::new(&c, AxisPos::default());
+        for (i, k) in kinds.into_iter().enumerate() {
+            let Ok(mv) = planner.plan(&seg(k, i as u32 + 1)) else { continue };
+            prop_assert!(ip.start(mv).is_ok());
+            for n in 0..2000 {
+                if stop && n == 500 {
+                    ip.request_stop();
+                }
+                let t = ip.tick();
+                prop_assert!(t.pos.0.iter().all(|x| x.is_finite()), "{:?}", t.pos);
+                if t.finished || t.state == TickState::Held {
+                    break;
+                }
+            }
+            if !ip.is_idle() {
+                break; // a long move: enough was run
+            }
+        }
+    }
+}
