@@ -19,12 +19,49 @@
 //! stopped. (Hence the exact-end guarantee of a move holds bit-for-bit for C only while the
 //! offset is 0; otherwise the end is `end[C] + offset`.)
 //!
+//! # Limits
+//! Lines: each moving axis i bounds path speed, acceleration and jerk by its limit · L/|Δi|.
+//! Arcs and helices are bounded conservatively (see `Planner`'s arc code): centripetal
+//! acceleration ≤ a/2, tangential ≤ a·√3/2, and the three jerk terms of circular motion to
+//! j/4 + j/4 + j/2 of the plane axes' smaller limits. Because every trajectory is C² and
+//! piecewise cubic in time, the n-th finite difference of the sampled setpoints is an average
+//! of the n-th derivative, so sampled velocity, acceleration and jerk stay within the limits up
+//! to float rounding (tests allow 2ⁿ·64·ε·(max|x|+1)/Pⁿ).
+//!
 //! # Ticks
 //! A move of N ticks outputs samples at t = P, 2P, … NP; its profile is stretched (never
 //! sped up) so that NP is exactly its duration and the N-th sample is the end position,
 //! bit-for-bit. The sample at t = 0 is the previous move's last one, which is this move's
 //! start. Dwells, tool changes, program stops and messages pass through as ticks with a
 //! [`TickState`] and [`MoveEvent`].
+//!
+//! ```
+//! use std::sync::Arc;
+//! use cnc402_config::MachineConfig;
+//! use cnc402_motion::*;
+//!
+//! let cfg = MachineConfig::default_machine();
+//! let mut planner = Planner::new(&cfg);
+//! let mut ip = Interpolator::new(&cfg, AxisPos::default());
+//! let mut end = AxisPos::default();
+//! end[0] = 10.0; // X
+//! let seg = Segment {
+//!     kind: SegmentKind::Linear { end, feed: 1200.0 },
+//!     source: Source { file: Arc::from("demo.nc"), line: 1, n: Some(10) },
+//! };
+//! ip.start(planner.plan(&seg)?)?; // plan off the loop; start() and tick() never allocate
+//! let mut ticks = 0;
+//! loop {
+//!     let t = ip.tick(); // once per period: send t.pos to the drives
+//!     ticks += 1;
+//!     if t.finished {
+//!         assert_eq!(t.pos, end);
+//!         break;
+//!     }
+//! }
+//! assert!(ticks > 500); // 10 mm at 20 mm/s, plus the ramps
+//! # Ok::<(), MotionError>(())
+//! ```
 
 pub mod counts;
 pub mod error;
