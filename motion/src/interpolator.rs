@@ -182,6 +182,20 @@ impl Interpolator {
         self.offset
     }
 
+    /// Sets machine C − program C, e.g. at start-up so that the first setpoint equals the
+    /// drive's actual position (`actual C − program C`) whatever angle the spindle was left
+    /// at. Only while idle with the spindle at rest (else returns false and changes nothing).
+    pub fn set_spindle_offset(&mut self, offset: f64) -> bool {
+        if !self.is_idle() || !self.spindle_at_rest() || !offset.is_finite() {
+            return false;
+        }
+        self.offset = offset;
+        if let Some(sp) = self.spindle {
+            self.last.0[sp.index] = self.prog.0[sp.index] + offset;
+        }
+        true
+    }
+
     /// True while the spindle axis is in speed mode (turning or ramping).
     pub fn spindle_running(&self) -> bool {
         !self.spindle_at_rest()

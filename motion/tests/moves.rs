@@ -476,3 +476,23 @@ fn absurdly_long_move_is_refused_not_nan() {
     let e = p.plan(&rapid(xyzc(0.0, -6.5, 0.0, 1e300), 1)).unwrap_err();
     assert_eq!(e.kind, MotionErrorKind::TooLong);
 }
+
+#[test]
+fn spindle_offset_at_start_up_keeps_the_first_setpoint_on_the_actual_position() {
+    let c = cfg();
+    // The drive reports C at 1234.5° while the program starts at C = 0.
+    let mut ip = Interpolator::new(&c, AxisPos::default());
+    assert!(ip.set_spindle_offset(1234.5));
+    assert_eq!(ip.position().0[3], 1234.5);
+    assert_eq!(ip.tick().pos.0[3], 1234.5);
+    let mut p = Planner::new(&c);
+    ip.start(p.plan(&lin(xyzc(0.0, 0.0, -1.5, 360.0), 150.0, 1)).unwrap())
+        .unwrap();
+    let mut last = ip.tick();
+    assert!(!ip.set_spindle_offset(0.0), "not while moving");
+    while !last.finished {
+        last = ip.tick();
+    }
+    assert_eq!(last.pos.0[3], 360.0 + 1234.5);
+    assert!(!ip.set_spindle_offset(f64::NAN));
+}
