@@ -358,7 +358,7 @@ impl Planner {
         let (profile, ticks) = if length > 0.0 {
             let p = rest_to_rest(length, lim).map_err(|e| match e {
                 ProfileError::BadDistance(_) => MotionErrorKind::TooLong,
-                ProfileError::BadLimits(_) => MotionErrorKind::BadLimits,
+                _ => MotionErrorKind::BadLimits,
             })?;
             let n = (p.duration() / self.period).ceil();
             // Beyond 2^53 periods (285,000 years at 1 ms) tick counts stop being exact.

@@ -184,6 +184,10 @@ pub enum ProfileError {
     BadDistance(f64),
     /// A limit is zero, negative or not finite.
     BadLimits(Limits),
+    /// A boundary velocity that is negative, above the limit or not finite.
+    BadVelocity(f64),
+    /// The distance is shorter than the ramp between the boundary velocities needs.
+    TooShort { need: f64 },
 }
 
 /// The time-optimal jerk-limited profile from rest at s = 0 to rest at s = `distance`,
@@ -191,8 +195,8 @@ pub enum ProfileError {
 /// where the velocity limit, or also the acceleration limit, is not reached (short moves);
 /// `distance = 0` gives an empty profile. The final state is exactly `(distance, 0, 0)`.
 ///
-/// Blending (non-zero start/end velocity) would add the general B–M case here; the
-/// [`JerkProfile`] container already holds such profiles.
+/// Blending (non-zero start/end velocity) uses [`double_s`]; this closed form is the
+/// exact-stop case.
 pub fn rest_to_rest(distance: f64, lim: Limits) -> Result<JerkProfile, ProfileError> {
     if !(distance.is_finite() && distance >= 0.0) {
         return Err(ProfileError::BadDistance(distance));
@@ -235,6 +239,99 @@ pub fn rest_to_rest(distance: f64, lim: Limits) -> Result<JerkProfile, ProfileEr
     p.end = State {
         s: distance,
         v: 0.0,
+        a: 0.0,
+    };
+    Ok(p)
+}
+
+/// Distance covered by the symmetric jerk-limited ramp from `va` to `vb` (both with zero
+/// acceleration): (va + vb)/2 times its duration.
+fn ramp_distance(va: f64, vb: f64, lim: Limits) -> f64 {
+    let dv = (vb - va).abs();
+    let (a, j) = (lim.acceleration, lim.jerk);
+    let t = if dv * j >= a * a {
+        dv / a + a / j
+    } else {
+        2.0 * (dv / j).sqrt()
+    };
+    0.5 * (va + vb) * t
+}
+
+/// Appends `other`'s pieces (its start must be this profile's end).
+fn append(p: &mut JerkProfile, other: &JerkProfile) {
+    let n = other.len as usize;
+    for i in 0..n {
+        let end = if i + 1 < n {
+            other.pieces[i + 1].t0
+        } else {
+            other.duration
+        };
+        p.push(end - other.pieces[i].t0, other.pieces[i].j);
+    }
+}
+
+/// The time-optimal jerk-limited profile over `distance` that starts at velocity `v_start`
+/// and ends at `v_end` (0 ≤ both ≤ `lim.velocity`), with zero acceleration at both ends: a
+/// ramp up to a peak velocity, a cruise, a ramp down. The peak is `lim.velocity` when the
+/// distance allows, else found by bisection on the (monotone) ramp distance. This is the
+/// building block for lookahead blending (exact stop uses `v_start = v_end = 0`, where it
+/// equals [`rest_to_rest`]). Errors if the distance is too short to get from `v_start` to
+/// `v_end` at all ([`ProfileError::TooShort`]).
+pub fn double_s(
+    distance: f64,
+    v_start: f64,
+    v_end: f64,
+    lim: Limits,
+) -> Result<JerkProfile, ProfileError> {
+    if !(distance.is_finite() && distance >= 0.0) {
+        return Err(ProfileError::BadDistance(distance));
+    }
+    if !lim.is_valid() {
+        return Err(ProfileError::BadLimits(lim));
+    }
+    for v in [v_start, v_end] {
+        if !(v >= 0.0 && v <= lim.velocity) {
+            return Err(ProfileError::BadVelocity(v));
+        }
+    }
+    let total = |vp: f64| ramp_distance(v_start, vp, lim) + ramp_distance(vp, v_end, lim);
+    let low = v_start.max(v_end);
+    let need = total(low);
+    if distance < need * (1.0 - 1e-12) {
+        return Err(ProfileError::TooShort { need });
+    }
+    let peak = if total(lim.velocity) <= distance {
+        lim.velocity
+    } else {
+        // total() is increasing in the peak: keep the largest peak that fits.
+        let (mut lo, mut hi) = (low, lim.velocity);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if mid <= lo || mid >= hi {
+                break;
+            }
+            if total(mid) <= distance {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    };
+    let start = State {
+        s: 0.0,
+        v: v_start,
+        a: 0.0,
+    };
+    let mut p = velocity_change(start, peak, lim.acceleration, lim.jerk);
+    if peak > 0.0 {
+        p.push(((distance - total(peak)) / peak).max(0.0), 0.0);
+    }
+    let down = velocity_change(p.end, v_end, lim.acceleration, lim.jerk);
+    append(&mut p, &down);
+    p.end = State {
+        s: distance,
+        v: v_end,
         a: 0.0,
     };
     Ok(p)
@@ -442,6 +539,56 @@ mod tests {
                 }
             );
         }
+    }
+
+    #[test]
+    fn double_s_from_rest_to_rest_is_the_closed_form() {
+        for &(d, v, a, j) in &[
+            (300.0, 200.0, 1500.0, 40000.0),
+            (50.0, 10.0, 1500.0, 40000.0),
+            (5.0, 200.0, 1500.0, 40000.0),
+            (1e-4, 200.0, 1500.0, 40000.0),
+        ] {
+            let l = lim(v, a, j);
+            let (p, q) = (
+                rest_to_rest(d, l).unwrap(),
+                double_s(d, 0.0, 0.0, l).unwrap(),
+            );
+            assert!(
+                (p.duration() - q.duration()).abs() < 1e-9 * p.duration(),
+                "{d}"
+            );
+            for i in 0..=100 {
+                let t = p.duration() * i as f64 / 100.0;
+                assert!((p.sample(t).s - q.sample(t).s).abs() < 1e-9 * d.max(1.0));
+            }
+        }
+    }
+
+    #[test]
+    fn double_s_with_boundary_velocities() {
+        let l = lim(200.0, 1500.0, 40000.0);
+        // Enter at 100, leave at 50, long enough to reach 200.
+        let p = double_s(100.0, 100.0, 50.0, l).unwrap();
+        assert_eq!(p.sample(0.0).v, 100.0);
+        let e = p.sample(p.duration());
+        assert_eq!((e.s, e.v, e.a), (100.0, 50.0, 0.0));
+        let before = p.sample(p.duration() * (1.0 - 1e-12));
+        assert!((before.s - 100.0).abs() < 1e-9 && (before.v - 50.0).abs() < 1e-6);
+        assert!((p.sample(p.duration() / 2.0).v - 200.0).abs() < 1e-9);
+        // Too short to brake from 200 to 0: an error, not a violation.
+        assert!(matches!(
+            double_s(1.0, 200.0, 0.0, l),
+            Err(ProfileError::TooShort { .. })
+        ));
+        assert!(matches!(
+            double_s(1.0, 250.0, 0.0, l),
+            Err(ProfileError::BadVelocity(_))
+        ));
+        // Just long enough: a pure ramp, no cruise.
+        let need = ramp_distance(200.0, 0.0, l);
+        let q = double_s(need, 200.0, 0.0, l).unwrap();
+        assert!((q.duration() - (200.0 / 1500.0 + 1500.0 / 40000.0)).abs() < 1e-9);
     }
 
     #[test]

@@ -2,14 +2,20 @@
 //! time-optimal jerk-limited trajectory for the same distance and limits. Durations must agree
 //! and so must the sampled motion (the rest-to-rest time-optimal profile is unique).
 
-use cnc402_motion::profile::{Limits, PathProfile, rest_to_rest};
+use cnc402_motion::profile::{Limits, PathProfile, ProfileError, double_s, rest_to_rest};
 use proptest::prelude::*;
 use rsruckig::prelude::*;
 
 fn ruckig(dist: f64, l: Limits) -> Trajectory<1> {
+    ruckig_v(dist, 0.0, 0.0, l)
+}
+
+fn ruckig_v(dist: f64, v0: f64, v1: f64, l: Limits) -> Trajectory<1> {
     let mut otg = Ruckig::<1, ThrowErrorHandler>::new(None, 0.001);
     let mut input = InputParameter::new(None);
     input.current_position[0] = 0.0;
+    input.current_velocity[0] = v0;
+    input.target_velocity[0] = v1;
     input.target_position[0] = dist;
     input.max_velocity[0] = l.velocity;
     input.max_acceleration[0] = l.acceleration;
@@ -56,5 +62,41 @@ proptest! {
             prop_assert!((st.s - p).abs() <= 1e-6 * dist.max(1e-3), "t {}: {} vs {}", t, st.s, p);
             prop_assert!((st.v - vel).abs() <= 1e-5 * v, "t {}: v {} vs {}", t, st.v, vel);
         }
+    }
+
+    /// With boundary velocities (lookahead blending), where our ramp-cruise-ramp family is
+    /// feasible it must be as fast as Ruckig's time-optimal trajectory and reach the same end.
+    #[test]
+    fn double_s_with_boundary_velocities_matches_ruckig(
+        dist in 1e-3..500.0f64,
+        f0 in 0.0..1.0f64,
+        f1 in 0.0..1.0f64,
+        v in 1.0..500.0f64,
+        a in 10.0..20000.0f64,
+        j in 100.0..500000.0f64,
+    ) {
+        let l = Limits { velocity: v, acceleration: a, jerk: j };
+        let (v0, v1) = (f0 * v, f1 * v);
+        let ours = match double_s(dist, v0, v1, l) {
+            Ok(p) => p,
+            Err(ProfileError::TooShort { need }) => {
+                prop_assert!(need > dist);
+                return Ok(());
+            }
+            Err(e) => return Err(TestCaseError::fail(format!("{e:?}"))),
+        };
+        let traj = ruckig_v(dist, v0, v1, l);
+        let (t1, t2) = (ours.duration(), traj.get_duration());
+        prop_assert!((t1 - t2).abs() <= 1e-6 * t2.max(1e-3), "ours {} ruckig {}", t1, t2);
+        let e = ours.sample(t1);
+        prop_assert_eq!((e.s, e.v), (dist, v1));
+        prop_assert!(ours.max_jerk() <= j * (1.0 + 1e-12));
+        for i in 0..=200 {
+            let st = ours.sample(t1 * i as f64 / 200.0);
+            prop_assert!(st.v <= v * (1.0 + 1e-9) && st.v >= -1e-9 * v);
+            prop_assert!(st.a.abs() <= a * (1.0 + 1e-9));
+        }
+        let before = ours.sample(t1 * (1.0 - 1e-13));
+        prop_assert!((before.s - dist).abs() <= 1e-8 * dist.max(1.0), "{} {}", before.s, dist);
     }
 }
