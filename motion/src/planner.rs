@@ -362,7 +362,7 @@ impl Planner {
             })?;
             let n = (p.duration() / self.period).ceil();
             // Beyond 2^53 periods (285,000 years at 1 ms) tick counts stop being exact.
-            if !(n <= 9_007_199_254_740_992.0) {
+            if n.is_nan() || n > 9_007_199_254_740_992.0 {
                 return Err(MotionErrorKind::TooLong);
             }
             let ticks = (n as u64).max(1);
