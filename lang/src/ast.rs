@@ -84,13 +84,31 @@ pub enum LineKind {
     While { cond: Expr, id: u8 },
     /// `END 1`: loop end, paired with `WHILE … DO 1`.
     End { id: u8 },
-    // Later issues add C-like statements as new variants here.
+    /// Statements of the C-like language starting on this line: `int n = 2;`,
+    /// `Tapping("Z", "C", 200);`, `if (a > 1) { … } else { … }`. A statement may run over
+    /// several lines; those lines are [`LineKind::Continued`], and G-code lines inside it are
+    /// [`StmtKind::Gcode`]. Which lines are statements: see `parse::clike`.
+    Stmts(Vec<Stmt>),
+    /// A line that belongs to a statement begun on an earlier line (it is executed there).
+    Continued,
 }
 
 /// A block: the words of one line, in source order. Several G words may appear.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Block {
     pub words: Vec<Word>,
+    /// Axis words whose axis is named at run time (C-like language):
+    /// `AXSTR(strToolAx)=-(dStep1 + dSafeDist)`. Empty in ISO/Fanuc programs.
+    pub named_axes: Vec<NamedAxisWord>,
+}
+
+/// `AXSTR(name)=value`: a word for the axis whose name (a string expression) is `axis`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NamedAxisWord {
+    pub axis: Expr,
+    pub value: Expr,
+    /// The whole word, `AXSTR` through the value.
+    pub span: Span,
 }
 
 /// A word: an address letter and its value, e.g. `X-12.5`, `G01`, `F=100*2`, `Z[1+2]`.
@@ -146,8 +164,134 @@ pub enum ExprKind {
     Var(u32),
     /// A macro variable whose number is computed: `#[#1+2]`.
     IndirectVar(Box<Expr>),
-    // Later issues add: `@SYSVAR`, `$global`, C identifiers, string literals, array
-    // indexing, function calls by name.
+    /// C-like language: a local variable or parameter, `dDepth`.
+    Ident(String),
+    /// C-like language: a global shared by the programs of a run, `$dPerm` (name without `$`).
+    Global(String),
+    /// C-like language: a system variable, `@ITPPATH`, `@CH` (name without `@`).
+    SysVar(String),
+    /// C-like language: a string literal, escapes resolved: `"Z"`.
+    Str(String),
+    /// C-like language: `true` / `false`.
+    Bool(bool),
+    /// C-like language: indexing, `$dPerm[1]`, `chanProgs[i]`, `@CH[0]`.
+    Index(Box<Expr>, Box<Expr>),
+    /// C-like language: a field, `@CH[0].MODE`.
+    Field(Box<Expr>, String),
+    /// C-like language: a call by name, `fabs(x)`, `Tapping("Z", …)`.
+    CallNamed(String, Vec<Expr>),
+    /// C-like language: `&&` and `||`, which short-circuit (Fanuc `AND`/`OR` are bitwise
+    /// [`BinaryOp`]s and do not).
+    Logical(LogicalOp, Box<Expr>, Box<Expr>),
+    /// C-like language: `!x`.
+    Not(Box<Expr>),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LogicalOp {
+    And,
+    Or,
+}
+
+/// A statement of the C-like language (issue 6).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stmt {
+    pub kind: StmtKind,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum StmtKind {
+    /// `#use "metch_cycles.c"`: include a file once.
+    Use {
+        path: String,
+    },
+    /// `int n = 1;`, `string progs[n];`, `double a = 1, b;`
+    Decl {
+        ty: Type,
+        vars: Vec<Declarator>,
+    },
+    /// `x = e;`, `$d[1] += e;`, `i++;` (as `i += 1`), `--i;` (as `i -= 1`).
+    Assign {
+        target: Expr,
+        op: AssignOp,
+        value: Expr,
+    },
+    /// A call evaluated for its effect: `MSG("ok");`.
+    Call(Expr),
+    /// `if (c) s else s`.
+    If {
+        cond: Expr,
+        then: Box<Stmt>,
+        otherwise: Option<Box<Stmt>>,
+    },
+    /// `while (c) s`.
+    While {
+        cond: Expr,
+        body: Box<Stmt>,
+    },
+    /// `for (init; cond; step) s`; each part may be empty.
+    For {
+        init: Option<Box<Stmt>>,
+        cond: Option<Expr>,
+        step: Option<Box<Stmt>>,
+        body: Box<Stmt>,
+    },
+    /// `{ … }`.
+    Block(Vec<Stmt>),
+    Break,
+    Continue,
+    /// `return;`, `return e;`.
+    Return(Option<Expr>),
+    /// `double f(double a, string b) { … }` (top level only).
+    Function(Box<Function>),
+    /// A G-code line inside a statement (it has its own line number, N, comments).
+    Gcode(Line),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Type {
+    Int,
+    Double,
+    String,
+    Bool,
+    Void,
+}
+
+/// One variable of a declaration: `name`, `name[size]`, `name = init`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Declarator {
+    pub name: String,
+    pub size: Option<Expr>,
+    pub init: Option<Expr>,
+    pub span: Span,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AssignOp {
+    Set,
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Mod,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Function {
+    pub ret: Type,
+    pub name: String,
+    pub params: Vec<Param>,
+    pub body: Vec<Stmt>,
+    /// The header, type through `)`.
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Param {
+    pub ty: Type,
+    pub name: String,
+    pub span: Span,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -47,6 +47,11 @@ impl SourceFile {
         }
     }
 
+    /// Byte offsets of line starts (crate-internal, for the parser's line numbers).
+    pub(crate) fn line_starts(&self) -> &[u32] {
+        &self.line_starts
+    }
+
     /// Number of lines (a final line without a terminator counts; a trailing `\n` does not
     /// start a new one).
     pub fn line_count(&self) -> u32 {
@@ -157,7 +162,7 @@ impl NcError {
             block: src.line_text(line).to_string(),
             message: message.into(),
             expected: None,
-            source: NamedSource::new(src.name.to_string(), src.text.clone()),
+            source: NamedSource::new(&*src.name, src.text.clone()),
         }
     }
 

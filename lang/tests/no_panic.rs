@@ -44,19 +44,114 @@ fn check(text: &str) {
 /// Pieces that G-code is made of, to build near-valid programs that reach deep paths.
 fn piece() -> impl Strategy<Value = &'static str> {
     prop::sample::select(vec![
-        "G", "X", "Y", "Z", "F", "N", "O", "M", "E", "1", "0", "25", ".", "-", "+", " ", "\t",
-        "\n", "\r\n", "(", ")", "(c)", ";", "/", "%", "[", "]", "=", "*", "OR", "XOR", "AND",
-        "MOD", "EQ", "NE", "GT", "LE", "SIN", "ATAN", "POW", ",", "FUP", "#", "#1", "#[", "IF",
-        "THEN", "GOTO", "WHILE", "DO", "END", "全", "Ä", "\u{0}", ":",
+        "G",
+        "X",
+        "Y",
+        "Z",
+        "F",
+        "N",
+        "O",
+        "M",
+        "E",
+        "1",
+        "0",
+        "25",
+        ".",
+        "-",
+        "+",
+        " ",
+        "\t",
+        "\n",
+        "\r\n",
+        "(",
+        ")",
+        "(c)",
+        ";",
+        "/",
+        "%",
+        "[",
+        "]",
+        "=",
+        "*",
+        "OR",
+        "XOR",
+        "AND",
+        "MOD",
+        "EQ",
+        "NE",
+        "GT",
+        "LE",
+        "SIN",
+        "ATAN",
+        "POW",
+        ",",
+        "FUP",
+        "#",
+        "#1",
+        "#[",
+        "IF",
+        "THEN",
+        "GOTO",
+        "WHILE",
+        "DO",
+        "END",
+        "全",
+        "Ä",
+        "\u{0}",
+        ":",
+        "{",
+        "}",
+        "if (",
+        "while(",
+        "for (",
+        ";",
+        "int ",
+        "double dA",
+        "dA",
+        " = ",
+        "+=",
+        "++",
+        "\"",
+        "\"s\"",
+        "//",
+        "/*",
+        "*/",
+        "$g",
+        "@CH",
+        ".MODE",
+        "AXSTR(",
+        "&&",
+        "||",
+        "!",
+        "==",
+        "<",
+        "else",
+        "return",
+        "void f(",
+        "#use",
+        "MSG(",
+        "a",
     ])
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 2000, .. ProptestConfig::default() })]
+    // 2000 cases per property; more with PROPTEST_CASES=n.
+    #![proptest_config(ProptestConfig::with_cases(
+        std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(2000)
+    ))]
 
     #[test]
     fn random_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..200)) {
         check(&String::from_utf8_lossy(&bytes));
+    }
+
+    #[test]
+    fn deep_nesting_is_an_error_not_a_stack_overflow(
+        open in prop::sample::select(vec!["[", "(", "{", "!", "-", "a[", "#[", "if(1)", "SIN[", "f("]),
+        n in 1usize..2000,
+        prefix in prop::sample::select(vec!["", "int nn = 1;\n", "G1 X", "#1=", "dA = "]),
+    ) {
+        check(&format!("{prefix}{}1", open.repeat(n)));
     }
 
     #[test]

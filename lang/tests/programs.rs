@@ -120,6 +120,7 @@ fn ex(e: &Expr) -> String {
             format!("{f:?}").to_uppercase(),
             args.iter().map(ex).collect::<Vec<_>>().join(",")
         ),
+        other => format!("{other:?}"),
     }
 }
 
@@ -144,6 +145,7 @@ fn show(kind: &LineKind) -> String {
         LineKind::IfThen { cond, then } => format!("IF{} THEN {}", ex(cond), show(then)),
         LineKind::While { cond, id } => format!("WHILE{} DO{id}", ex(cond)),
         LineKind::End { id } => format!("END{id}"),
+        other => format!("{other:?}"),
     }
 }
 

@@ -424,11 +424,12 @@ mod tests {
             }
             ExprKind::Var(n) => format!("#{n}"),
             ExprKind::IndirectVar(e) => format!("#[{}]", show(e)),
+            other => format!("{other:?}"),
         }
     }
 
     fn p(s: &str) -> String {
-        let cx = Cx { text: s };
+        let cx = Cx::new(s);
         match cx.expr(s, 0) {
             Ok((rest, e)) => {
                 assert_eq!(rest.trim(), "", "unparsed rest in {s:?}");
@@ -521,7 +522,7 @@ mod tests {
     #[test]
     fn spans_cover_brackets_and_operands() {
         let s = "[1 + 2]*SIN[3]";
-        let cx = Cx { text: s };
+        let cx = Cx::new(s);
         let (_, e) = cx.expr(s, 0).unwrap();
         assert_eq!(e.span.range(), 0..s.len());
         let ExprKind::Binary(_, a, b) = &e.kind else {

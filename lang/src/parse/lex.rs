@@ -79,6 +79,10 @@ impl<'a> Cx<'a> {
                         }
                     }
                 }
+                Some(b'/') if self.c_like && i.as_bytes().get(1) == Some(&b'/') => {
+                    // A C comment at the end of a G-code line of a C-like program.
+                    i = &i[i.len()..];
+                }
                 Some(b';') => {
                     let body = &i[1..];
                     let text = body.trim_end_matches('\r');
@@ -190,8 +194,8 @@ impl<'a> Cx<'a> {
             );
         }
         let after = &i[digits..];
-        if after.starts_with('.') {
-            let frac = after[1..].bytes().take_while(u8::is_ascii_digit).count();
+        if let Some(frac) = after.strip_prefix('.') {
+            let frac = frac.bytes().take_while(u8::is_ascii_digit).count();
             return fail(
                 i,
                 digits + 1 + frac,
@@ -210,7 +214,7 @@ mod tests {
     use super::*;
 
     fn num(s: &str) -> Result<(f64, bool, usize), String> {
-        let cx = Cx { text: s };
+        let cx = Cx::new(s);
         match cx.number(s) {
             Ok((rest, n)) => Ok((n.value, n.has_point, s.len() - rest.len())),
             Err(nom::Err::Failure(e) | nom::Err::Error(e)) => Err(e.msg.to_string()),
@@ -253,7 +257,7 @@ mod tests {
     #[test]
     fn comments_between_words() {
         let s = "  (a(b)) ;rest\r";
-        let cx = Cx { text: s };
+        let cx = Cx::new(s);
         let mut c = Vec::new();
         let (rest, ()) = cx.trivia(s, &mut c).unwrap();
         assert_eq!(rest, "");
@@ -263,15 +267,13 @@ mod tests {
         assert_eq!(c[1].text, "rest");
         assert_eq!(c[1].span.range(), 9..14);
         let s = "(a(b)";
-        let cx = Cx { text: s };
+        let cx = Cx::new(s);
         assert!(cx.trivia(s, &mut c).is_err());
     }
 
     #[test]
     fn whole_numbers() {
-        let cx = Cx {
-            text: "123 4.5 99999999999",
-        };
+        let cx = Cx::new("123 4.5 99999999999");
         assert_eq!(cx.whole(cx.text, "x").unwrap().1, 123);
         assert!(cx.whole(&cx.text[4..], "x").is_err());
         assert!(cx.whole(&cx.text[8..], "x").is_err());

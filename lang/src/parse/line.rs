@@ -2,9 +2,22 @@
 //! Whitespace may stand anywhere between words and between an address letter and its value
 //! (`X 10` is `X10`, as Fanuc reads it), but not inside a number (`X1 0` is an error).
 
+use super::clike::ECx;
 use super::lex::{char_len, starts_with_kw, ws};
 use super::{Cx, PResult, fail, fail_exp};
-use crate::ast::{Block, Comment, Expr, ExprKind, Line, LineKind, SeqNo, UnaryOp, Value, Word};
+use crate::ast::{
+    Block, Comment, Expr, ExprKind, Line, LineKind, NamedAxisWord, SeqNo, UnaryOp, Value, Word,
+};
+
+/// A C expression as a word value: ends at the line end, names must not look like words.
+const IN_BLOCK: ECx = ECx {
+    nl: false,
+    in_block: true,
+};
+const IN_PARENS: ECx = ECx {
+    nl: true,
+    in_block: false,
+};
 
 impl<'a> Cx<'a> {
     /// Parses `i`, the text of line `line_no` without its `\n`, to the end.
@@ -277,15 +290,56 @@ impl<'a> Cx<'a> {
     /// Words (with comments between them) to the end of the line.
     fn block(&self, mut i: &'a str, comments: &mut Vec<Comment>) -> PResult<'a, Block> {
         let mut words = Vec::new();
+        let mut named_axes = Vec::new();
         loop {
             i = self.trivia(i, comments)?.0;
             if i.is_empty() {
-                return Ok((i, Block { words }));
+                return Ok((i, Block { words, named_axes }));
+            }
+            if self.c_like && starts_with_kw(i, "AXSTR") && ws(&i[5..]).starts_with('(') {
+                let (r, w) = self.named_axis_word(i)?;
+                named_axes.push(w);
+                i = r;
+                continue;
             }
             let (r, w) = self.word(i)?;
             words.push(w);
             i = r;
         }
+    }
+
+    /// `AXSTR(name)=value` (C-like programs).
+    fn named_axis_word(&self, i: &'a str) -> PResult<'a, NamedAxisWord> {
+        let open = ws(&i[5..]);
+        let inner = &open[1..];
+        let (r, axis) = self.c_expr_req(inner, IN_PARENS, "naming the axis")?;
+        let r = ws(r);
+        let Some(r) = r.strip_prefix(')') else {
+            return fail_exp(
+                open,
+                1,
+                "unbalanced bracket: `(` is not closed",
+                "`)` after the axis name",
+            );
+        };
+        let r = ws(r);
+        let Some(v) = r.strip_prefix('=') else {
+            return fail_exp(
+                r,
+                char_len(r),
+                "missing `=` after AXSTR(…)",
+                "`=` and the axis value",
+            );
+        };
+        let (rest, value) = self.c_expr_req(v, IN_BLOCK, "after `AXSTR(…)=`")?;
+        Ok((
+            rest,
+            NamedAxisWord {
+                axis,
+                value,
+                span: self.span(i, rest),
+            },
+        ))
     }
 
     /// One word: letter, optional whitespace, then a number, `[expr]` or `=expr`.
@@ -320,6 +374,10 @@ impl<'a> Cx<'a> {
             Some(b'[') => {
                 let (r, mut e) = self.bracketed(v, 1)?;
                 e.span = self.span(v, r);
+                (r, Value::Expr(e))
+            }
+            Some(b'=') if self.c_like => {
+                let (r, e) = self.c_expr_req(&v[1..], IN_BLOCK, &format!("after `{letter}=`"))?;
                 (r, Value::Expr(e))
             }
             Some(b'=') => {
@@ -409,6 +467,12 @@ impl<'a> Cx<'a> {
             }
             ']' => fail_exp(i, 1, "unbalanced bracket: `]` without `[`", expected),
             ')' => fail_exp(i, 1, "`)` without `(`", expected),
+            '{' | '}' => fail_exp(
+                i,
+                1,
+                format!("`{c}` in a G-code block: a block runs to the end of its line"),
+                "`{` and `}` on lines of their own",
+            ),
             '[' | '=' => fail_exp(i, 1, format!("`{c}` without an address letter"), expected),
             '/' => fail_exp(i, 1, "block delete `/` must start the block", expected),
             '%' => fail_exp(i, 1, "`%` must stand on its own line", expected),

@@ -3,6 +3,7 @@
 //! `line:col` is computed only when an error is reported. Submodules: `lex` (whitespace,
 //! comments, numbers), `expr` (the Fanuc expression grammar), `line` (blocks and statements).
 
+mod clike;
 mod expr;
 mod lex;
 mod line;
@@ -12,7 +13,7 @@ use std::borrow::Cow;
 use nom::error::{ErrorKind, ParseError};
 use nom::{IResult, Offset, Parser};
 
-use crate::ast::{Expr, Program, Span};
+use crate::ast::{Expr, Line, LineKind, Program, Span};
 use crate::diag::{NcError, SourceFile};
 
 /// Parses a whole NC program into one [`crate::ast::Line`] per physical line.
@@ -36,9 +37,19 @@ use crate::diag::{NcError, SourceFile};
 /// assert_eq!((err.line, err.col), (2, 4));
 /// assert_eq!(err.message, "no value after address Y");
 /// ```
+// NcError is big (it carries the block text and the source for miette); it is returned once
+// per parse, so boxing it would only make the API clumsier.
+#[allow(clippy::result_large_err)]
 pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
     let text: &str = &src.text;
-    let cx = Cx { text };
+    let c_like = text
+        .split('\n')
+        .any(|l| clike::classify(l.trim_start_matches([' ', '\t'])) == clike::Class::Statement);
+    let cx = Cx {
+        text,
+        line_starts: src.line_starts(),
+        c_like,
+    };
     let mut lines = Vec::with_capacity(text.len() / 24 + 1);
     let mut rest = text;
     let mut line_no: u32 = 1;
@@ -47,6 +58,69 @@ pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
             Some(i) => (&rest[..i], Some(&rest[i + 1..])),
             None => (rest, None),
         };
+        let start = line_text.trim_start_matches([' ', '\t']);
+        let class = if c_like {
+            clike::classify(start)
+        } else {
+            clike::Class::Gcode
+        };
+        if let clike::Class::Ambiguous(msg) = class {
+            let len = start.trim_end_matches('\r').len();
+            return Err(cx.error(
+                src,
+                PErr {
+                    at: start,
+                    len,
+                    msg: Cow::Borrowed(msg),
+                    expected: Some(Cow::Borrowed("a statement or a G-code block")),
+                },
+            ));
+        }
+        if class == clike::Class::Statement {
+            // A statement may run over several lines: it ends at the end of a line.
+            let parsed = (|i| cx.c_line(i)).parse_complete(rest);
+            let (end, stmts) = match parsed {
+                Ok(ok) => ok,
+                Err(nom::Err::Error(e) | nom::Err::Failure(e)) => return Err(cx.error(src, e)),
+                Err(nom::Err::Incomplete(_)) => {
+                    return Err(NcError::new(src, cx.span_at(rest, 0), "incomplete input"));
+                }
+            };
+            let consumed = &rest[..rest.len() - end.len()];
+            let extra = consumed.bytes().filter(|&b| b == b'\n').count() as u32;
+            let body = line_text.strip_suffix('\r').unwrap_or(line_text);
+            lines.push(Line {
+                line_no,
+                span: cx.span_at(line_text, body.len()),
+                block_delete: false,
+                n: None,
+                kind: if stmts.is_empty() {
+                    LineKind::Empty
+                } else {
+                    LineKind::Stmts(stmts)
+                },
+                comments: Vec::new(),
+            });
+            for k in 1..=extra {
+                let no = line_no + k;
+                let span = src.line_span(no);
+                lines.push(Line {
+                    line_no: no,
+                    span,
+                    block_delete: false,
+                    n: None,
+                    kind: LineKind::Continued,
+                    comments: Vec::new(),
+                });
+            }
+            line_no = line_no.saturating_add(extra);
+            match end.strip_prefix('\n') {
+                Some(a) if !a.is_empty() => rest = a,
+                _ => break,
+            }
+            line_no = line_no.saturating_add(1);
+            continue;
+        }
         let parsed = (|i| cx.line(line_no, i)).parse_complete(line_text);
         match parsed {
             Ok((_, line)) => lines.push(line),
@@ -78,9 +152,14 @@ pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
 /// assert!(matches!(e.kind, ExprKind::Binary(BinaryOp::Eq, _, _)));
 /// assert!(parse_expr(&SourceFile::new("expr", "1 +")).is_err());
 /// ```
+#[allow(clippy::result_large_err)]
 pub fn parse_expr(src: &SourceFile) -> Result<Expr, NcError> {
     let text: &str = &src.text;
-    let cx = Cx { text };
+    let cx = Cx {
+        text,
+        line_starts: src.line_starts(),
+        c_like: false,
+    };
     let r = (|i| {
         let (i, e) = cx.expr(i, 0)?;
         let i = lex::ws(i);
@@ -166,9 +245,38 @@ pub(crate) fn fail_exp<'a, T>(
 #[derive(Clone, Copy)]
 pub(crate) struct Cx<'a> {
     text: &'a str,
+    /// Line starts of `text` (empty: count newlines instead).
+    line_starts: &'a [u32],
+    /// The program uses the C-like language: G-code lines take C expressions after `=`,
+    /// `AXSTR(…)=` words and `//` comments.
+    c_like: bool,
 }
 
 impl<'a> Cx<'a> {
+    /// A context for ISO/Fanuc text without a line index (unit tests).
+    #[cfg(test)]
+    pub(crate) fn new(text: &'a str) -> Self {
+        Cx {
+            text,
+            line_starts: &[],
+            c_like: false,
+        }
+    }
+
+    /// 1-based line number of byte offset `off`.
+    fn line_no_at(&self, off: usize) -> u32 {
+        if self.line_starts.is_empty() {
+            return 1 + self.text.as_bytes()[..off.min(self.text.len())]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count() as u32;
+        }
+        match self.line_starts.binary_search(&(off as u32)) {
+            Ok(k) => k as u32 + 1,
+            Err(k) => k as u32,
+        }
+    }
+
     /// Byte offset of the sub-slice `s` in the whole text.
     #[inline]
     fn off(&self, s: &str) -> usize {

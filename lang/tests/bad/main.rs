@@ -103,9 +103,9 @@ const CASES: &[(&str, &str, u32, u32, &str)] = &[
     ),
     (
         "unknown_char_dollar",
-        "$X1",
+        "G1 $X1",
         1,
-        1,
+        4,
         "unknown address letter `$`",
     ),
     (
