@@ -133,6 +133,9 @@ fn drive_fault_with_emcy_stops_all_axes_naming_node_state_and_code() {
     );
     assert_eq!(stop.emcy.map(|e| e.code), Some(0x8611));
     assert!(stop.statusword.is_some());
+    // The tripping cycle's feedback is still available.
+    assert_eq!(rig.master.last_feedback().statusword[2], stop.statusword);
+    assert!(rig.master.last_feedback().stopping);
     let text = stop.at_line(17).to_string();
     for part in [
         "axis Z (node 3)",

@@ -44,6 +44,18 @@ pub struct Feedback {
 }
 
 impl Feedback {
+    /// Feedback with nothing in it (before the first cycle).
+    pub const EMPTY: Feedback = Feedback {
+        cycle: 0,
+        axis_count: 0,
+        actual: [0.0; MAX_AXES],
+        command: [0.0; MAX_AXES],
+        following_error: [0.0; MAX_AXES],
+        statusword: [None; MAX_AXES],
+        fresh: [false; MAX_AXES],
+        stopping: false,
+    };
+
     /// The CiA 402 state of axis `i`'s drive.
     pub fn state(&self, i: usize) -> Option<State> {
         self.statusword
@@ -398,6 +410,7 @@ impl Master {
             tripped = Some(s);
         }
         fb.stopping = self.phase == Phase::Stopping;
+        self.last_feedback = fb;
         match tripped {
             Some(s) => Err(s),
             None => Ok(fb),

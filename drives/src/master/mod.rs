@@ -16,11 +16,13 @@
 //! previous SYNC, EMCY, heartbeats, SDO responses), runs the safety monitors, then sends one
 //! RPDO1 per drive and a SYNC. Feedback is therefore one period old; the following error rule
 //! accounts for it (see [`cyclic`]). Modules: `sdo` (client), `boot`, `cyclic`, `stop`
-//! (safety stop values), `timed` (how blocking helpers wait).
+//! (safety stop values), `timed` (how blocking helpers wait), `service` (one-drive helpers
+//! for tools: NMT, the CiA 402 state machine over SDO).
 
 pub mod boot;
 pub mod cyclic;
 pub mod sdo;
+pub mod service;
 pub mod stop;
 pub mod timed;
 
@@ -36,6 +38,7 @@ use crate::wire::{NmtState, NodeId, frame_bits};
 pub use boot::{BootError, BootReport, DriveIdentity, InterpolationPeriod};
 pub use cyclic::Feedback;
 pub use sdo::{BlockingSdo, ProtocolViolation, SdoClient, SdoError, SdoErrorKind, SdoEvent};
+pub use service::{SequenceError, send_nmt, sequence_over_sdo};
 pub use stop::{Emcy, SafetyStop, StopReason, emcy_text};
 pub use timed::TimedBus;
 
@@ -253,6 +256,7 @@ pub struct Master {
     /// Bits per cycle the cyclic frames and heartbeats leave free on the bus.
     pub(crate) sdo_free_bits: f64,
     pub(crate) sdo_credit: f64,
+    pub(crate) last_feedback: Feedback,
     pub(crate) cyclic_bits: f64,
     pub(crate) bits_per_cycle: f64,
 }
@@ -327,6 +331,7 @@ impl Master {
         Ok(Master {
             sdo_free_bits: (bits_per_cycle - cyclic_bits).max(0.0),
             sdo_credit: 0.0,
+            last_feedback: Feedback::EMPTY,
             cyclic_bits,
             bits_per_cycle,
             axes,
@@ -373,6 +378,11 @@ impl Master {
                 0.0
             }
         })
+    }
+
+    /// The feedback of the last cycle — also of the one that returned a [`SafetyStop`].
+    pub fn last_feedback(&self) -> &Feedback {
+        &self.last_feedback
     }
 
     /// The latched safety stop, if one happened.

@@ -518,6 +518,25 @@ impl<'a, B: TimedBus + ?Sized> BlockingSdo<'a, B> {
         }
     }
 
+    /// The bus's time.
+    pub fn now(&self) -> Instant {
+        self.bus.now()
+    }
+
+    /// The bus (to send NMT or other frames between transfers).
+    pub fn bus(&mut self) -> &mut B {
+        self.bus
+    }
+
+    /// Lets `d` pass on the bus, handing every frame that arrives to `other`.
+    pub fn wait(&mut self, d: Duration) -> Result<(), BusError> {
+        let deadline = self.bus.now() + d;
+        while let Some(f) = self.bus.recv_until(deadline)? {
+            (self.other)(&f);
+        }
+        Ok(())
+    }
+
     fn run(&mut self, client: &mut SdoClient, first: CanFrame) -> Result<(), SdoError> {
         let bus_err = |c: &SdoClient, e: BusError, write: bool| SdoError {
             node: c.node.get(),
