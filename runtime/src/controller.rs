@@ -21,7 +21,7 @@ pub const SETTLE_TICKS: u32 = 50;
 pub const QUICK_STOP_TICKS: u32 = 500;
 
 /// What one [`CycleController::step`] left behind.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Step {
     /// Keep calling `step` every period.
     Continue,
@@ -75,11 +75,9 @@ pub struct CycleController<L: DriveLink> {
     phase_ticks: u32,
     input_done: bool,
     tap: Option<TapCoupling>,
+    commands: [f64; MAX_AXES],
     setpoints: [i32; MAX_AXES],
     feedback: [DriveFeedback; MAX_AXES],
-    /// Unwrapped actual counts, and the last wrapped value they were advanced from.
-    act_unwrapped: [i64; MAX_AXES],
-    act_last: [i32; MAX_AXES],
     /// The first stop and the line executing then.
     stop: Option<(DriveStop, u32)>,
     motion_error: Option<cnc402_motion::MotionError>,
@@ -89,22 +87,24 @@ pub struct CycleController<L: DriveLink> {
 }
 
 impl<L: DriveLink> CycleController<L> {
-    /// A controller holding `start` (machine position the drives reported at enable, in
-    /// counts), reading moves from `moves` and writing status to `status`. `stop_request` is
-    /// polled every tick (SIGINT).
+    /// A controller holding `start` (machine position the drives reported at enable, axis
+    /// units), so that the first setpoint is where each drive stands. It reads moves from
+    /// `moves` and writes status to `status`; `stop_request` is polled every tick (SIGINT).
     pub fn new(
         cfg: &MachineConfig,
-        start_counts: [i32; MAX_AXES],
+        start: [f64; MAX_AXES],
         link: L,
         moves: MoveConsumer,
         status: StatusProducer,
         stop_request: Arc<AtomicBool>,
     ) -> CycleController<L> {
         let axes = AxisTable::new(cfg);
-        let start = start_position(&axes, &start_counts);
-        let mut act_unwrapped = [0i64; MAX_AXES];
-        for i in 0..MAX_AXES {
-            act_unwrapped[i] = start_counts[i] as i64;
+        let start = start_position(&axes, &start);
+        let mut setpoints = [0; MAX_AXES];
+        let mut feedback = [DriveFeedback::default(); MAX_AXES];
+        for i in 0..axes.n {
+            setpoints[i] = to_counts_wrapping(start.0[i], axes.counts_per_unit[i]);
+            feedback[i].actual = start.0[i];
         }
         CycleController {
             interp: Interpolator::new(cfg, start),
@@ -118,10 +118,9 @@ impl<L: DriveLink> CycleController<L> {
             phase_ticks: 0,
             input_done: false,
             tap: None,
-            setpoints: start_counts,
-            feedback: [DriveFeedback::default(); MAX_AXES],
-            act_unwrapped,
-            act_last: start_counts,
+            commands: start.0,
+            setpoints,
+            feedback,
             stop: None,
             motion_error: None,
             starved: 0,
@@ -151,6 +150,11 @@ impl<L: DriveLink> CycleController<L> {
         &self.link
     }
 
+    /// The drive link, mutable (shutdown after the run).
+    pub fn link_mut(&mut self) -> &mut L {
+        &mut self.link
+    }
+
     /// Runs one period at `now`. Allocation-free.
     pub fn step(&mut self, now: Instant) -> Step {
         if self.phase == Phase::Running && self.stop_request.load(Ordering::Relaxed) {
@@ -167,6 +171,7 @@ impl<L: DriveLink> CycleController<L> {
 
         let t = self.interp.tick();
         self.last_line = t.line;
+        self.commands = t.pos.0;
         for i in 0..self.axes.n {
             self.setpoints[i] = to_counts_wrapping(t.pos.0[i], self.axes.counts_per_unit[i]);
         }
@@ -175,7 +180,7 @@ impl<L: DriveLink> CycleController<L> {
         let all_stopped = if self.phase == Phase::QuickStop {
             self.link.quick_stop(now, &mut self.feedback)
         } else {
-            if let Err(s) = self.link.cycle(now, &self.setpoints, &mut self.feedback) {
+            if let Err(s) = self.link.cycle(now, &self.commands, &mut self.feedback) {
                 raised = Some(s);
             }
             false
@@ -183,12 +188,6 @@ impl<L: DriveLink> CycleController<L> {
         if let Some(s) = raised {
             self.begin_stop(s);
         }
-        for i in 0..self.axes.n {
-            let p = self.feedback[i].position;
-            self.act_unwrapped[i] += p.wrapping_sub(self.act_last[i]) as i64;
-            self.act_last[i] = p;
-        }
-
         let mut st = Status {
             tick: self.tick,
             line: t.line,
@@ -196,7 +195,8 @@ impl<L: DriveLink> CycleController<L> {
             cmd: t.pos.0,
             cmd_counts: self.setpoints,
             act: [0.0; MAX_AXES],
-            act_counts: self.act_last,
+            act_counts: [0; MAX_AXES],
+            following_error: [0.0; MAX_AXES],
             statusword: [0; MAX_AXES],
             event: t.event,
             tap: if t.state == cnc402_motion::TickState::Moving || self.phase == Phase::Stopping {
@@ -207,8 +207,11 @@ impl<L: DriveLink> CycleController<L> {
             stop: raised,
         };
         for i in 0..self.axes.n {
-            st.act[i] = self.axes.counts_to_pos(i, self.act_unwrapped[i]);
-            st.statusword[i] = self.feedback[i].statusword;
+            let f = &self.feedback[i];
+            st.act[i] = f.actual;
+            st.act_counts[i] = to_counts_wrapping(f.actual, self.axes.counts_per_unit[i]);
+            st.following_error[i] = f.following_error;
+            st.statusword[i] = f.statusword;
         }
         if self.status.try_push(st).is_err() {
             self.dropped += 1;
@@ -261,9 +264,12 @@ impl<L: DriveLink> CycleController<L> {
         self.phase_ticks = 0;
     }
 
-    /// Every drive's actual position equals its last setpoint.
+    /// Every drive's actual position is within one count of its last setpoint.
     fn settled(&self) -> bool {
-        (0..self.axes.n).all(|i| self.feedback[i].position == self.setpoints[i])
+        (0..self.axes.n).all(|i| {
+            let a = to_counts_wrapping(self.feedback[i].actual, self.axes.counts_per_unit[i]);
+            a.wrapping_sub(self.setpoints[i]).abs() <= 1
+        })
     }
 
     fn begin_stop(&mut self, stop: DriveStop) {
@@ -301,12 +307,10 @@ impl<L: DriveLink> CycleController<L> {
     }
 }
 
-/// The machine position (mm / degrees) of start counts.
-pub fn start_position(axes: &AxisTable, counts: &[i32; MAX_AXES]) -> AxisPos {
+/// The start position of the configured axes (entries past them are 0).
+pub fn start_position(axes: &AxisTable, pos: &[f64; MAX_AXES]) -> AxisPos {
     let mut p = AxisPos::default();
-    for i in 0..axes.n {
-        p.0[i] = axes.counts_to_pos(i, counts[i] as i64);
-    }
+    p.0[..axes.n].copy_from_slice(&pos[..axes.n]);
     p
 }
 

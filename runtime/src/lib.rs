@@ -12,10 +12,12 @@ pub mod report;
 pub mod ring;
 pub mod rt;
 pub mod run;
+pub mod sim_link;
 pub mod status;
 
 pub use controller::{CycleController, Step};
 pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, ModelLink, Startup, StopCause};
 pub use report::{RunReport, write_plot};
+pub use sim_link::SimLink;
 pub use run::{Progress, RunError, RunOptions, Timing, make_link, run_program};
 pub use status::{Outcome, Phase, Status};

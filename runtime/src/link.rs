@@ -8,12 +8,15 @@ use cnc402_drives::Instant;
 use cnc402_drives::bus::BusCounters;
 
 /// What one drive reported in one cycle.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct DriveFeedback {
-    /// Position actual value 0x6064, INT32 counts (wrapping).
-    pub position: i32,
-    /// Statusword 0x6041.
+    /// Position actual value 0x6064 in axis units, unwrapped (the link follows INT32 wraps).
+    pub actual: f64,
+    /// Statusword 0x6041 (0 for an axis without a drive).
     pub statusword: u16,
+    /// The following error the link's monitor sees (command delayed by the drive's dead time
+    /// minus actual), axis units.
+    pub following_error: f64,
 }
 
 /// Why the machine must stop.
@@ -31,6 +34,10 @@ pub enum StopCause {
     FollowingError,
     /// The bus failed (bus-off, interface down, I/O error).
     Bus,
+    /// A drive left OPERATION ENABLED (or NMT OPERATIONAL) without a fault.
+    NotEnabled,
+    /// A commanded position was not finite.
+    BadSetpoint,
     /// The operator asked (SIGINT).
     Operator,
     /// A move could not be started (an interpreter/planner inconsistency).
@@ -47,6 +54,8 @@ impl StopCause {
             StopCause::TpdoMissing => "feedback PDO missing",
             StopCause::FollowingError => "following error beyond window",
             StopCause::Bus => "CAN bus error",
+            StopCause::NotEnabled => "drive left operation enabled",
+            StopCause::BadSetpoint => "commanded position not finite",
             StopCause::Operator => "operator stop (SIGINT)",
             StopCause::Motion => "motion error",
         }
@@ -66,15 +75,15 @@ pub struct DriveStop {
 }
 
 /// Progress of start-up, polled once per period.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Startup {
     /// Still booting / configuring / enabling.
     Pending,
-    /// Every drive is in OPERATION ENABLED, holding this actual position (counts, indexed like
-    /// the config's axes; axes without a drive report 0).
-    Ready([i32; MAX_AXES]),
-    /// Start-up failed.
-    Failed(DriveStop),
+    /// Every drive is in OPERATION ENABLED, holding this actual position (axis units, indexed
+    /// like the config's axes).
+    Ready([f64; MAX_AXES]),
+    /// Start-up failed (which drive, which object or state, and why).
+    Failed(String),
 }
 
 /// The drives as the loop sees them. Implementations must not allocate, log or lock in
@@ -83,13 +92,13 @@ pub trait DriveLink {
     /// One start-up step at `now` (boot, SDO configuration, enable). Called every period until
     /// it returns `Ready` or `Failed`; never from the cyclic part. May allocate and log.
     fn startup(&mut self, now: Instant) -> Startup;
-    /// One cycle at `now`: send `setpoints` (counts, config axis order) and SYNC, and fill
+    /// One cycle at `now`: send `commands` (axis units, config axis order) and SYNC, and fill
     /// `feedback` with what came back. Returns the first safety reaction the monitors
     /// raised; a stop is reported once, later cycles keep exchanging with the healthy drives.
     fn cycle(
         &mut self,
         now: Instant,
-        setpoints: &[i32; MAX_AXES],
+        commands: &[f64; MAX_AXES],
         feedback: &mut [DriveFeedback; MAX_AXES],
     ) -> Result<(), DriveStop>;
     /// Commands quick stop to every drive (one step per call, fills `feedback` like `cycle`).
@@ -99,6 +108,9 @@ pub trait DriveLink {
     fn counters(&self) -> BusCounters;
     /// Bit rate for bus load (0 for a bus-less link).
     fn bitrate(&self) -> u32;
+    /// After the cyclic phase: take the drives to a safe rest (power stage off). Blocking,
+    /// not real-time.
+    fn shutdown(&mut self) -> Result<(), String>;
 }
 
 /// A drive fault to inject into a simulated machine: `node` goes to FAULT with `emcy` at
@@ -117,17 +129,17 @@ pub const SW_FAULT: u16 = 0x0218;
 /// Statusword of a drive in QUICK STOP ACTIVE.
 pub const SW_QUICK_STOP_ACTIVE: u16 = 0x0217;
 
-/// A machine without a bus: each drive follows its setpoint after `delay` cycles, exactly.
+/// A machine without a bus: each drive follows its command after `delay` cycles, exactly.
 /// For loop tests and the bus-less benchmark peer; a [`FaultPlan`] makes one drive fault.
 #[derive(Clone, Debug)]
 pub struct ModelLink {
     n_axes: usize,
     nodes: [u8; MAX_AXES],
-    /// Delay line per axis, `delay` deep (ring, index `head`).
-    line: [[i32; 8]; MAX_AXES],
+    /// Delay line per axis, 8 deep (ring, index `head`).
+    line: [[f64; 8]; MAX_AXES],
     delay: usize,
     head: usize,
-    start: [i32; MAX_AXES],
+    start: [f64; MAX_AXES],
     sw: [u16; MAX_AXES],
     fault: Option<FaultPlan>,
     t0: Option<Instant>,
@@ -136,15 +148,15 @@ pub struct ModelLink {
 }
 
 impl ModelLink {
-    /// A model of `cfg`'s drives standing at `start` (counts), following with a pure delay of
-    /// `delay` cycles (0..=7), enabling after a few cycles.
-    pub fn new(cfg: &MachineConfig, start: [i32; MAX_AXES], delay: usize) -> ModelLink {
+    /// A model of `cfg`'s drives standing at `start` (axis units), following with a pure
+    /// delay of `delay` cycles (0..=7), enabling after a few cycles.
+    pub fn new(cfg: &MachineConfig, start: [f64; MAX_AXES], delay: usize) -> ModelLink {
         let n_axes = cfg.axes.len().min(MAX_AXES);
         let mut nodes = [0u8; MAX_AXES];
         for (n, a) in nodes.iter_mut().zip(&cfg.axes) {
             *n = a.node.unwrap_or(0);
         }
-        let mut line = [[0i32; 8]; MAX_AXES];
+        let mut line = [[0.0; 8]; MAX_AXES];
         for (l, s) in line.iter_mut().zip(start) {
             *l = [s; 8];
         }
@@ -173,8 +185,9 @@ impl ModelLink {
         let tail = (self.head + 8 - self.delay) % 8;
         for i in 0..self.n_axes {
             fb[i] = DriveFeedback {
-                position: self.line[i][tail],
+                actual: self.line[i][tail],
                 statusword: self.sw[i],
+                following_error: 0.0,
             };
         }
     }
@@ -194,15 +207,15 @@ impl DriveLink for ModelLink {
     fn cycle(
         &mut self,
         now: Instant,
-        setpoints: &[i32; MAX_AXES],
+        commands: &[f64; MAX_AXES],
         fb: &mut [DriveFeedback; MAX_AXES],
     ) -> Result<(), DriveStop> {
         let head = (self.head + 1) % 8;
         let tail = (self.head + 8 - self.delay) % 8;
         for i in 0..self.n_axes {
-            // A faulted or stopped drive ignores setpoints and holds (no brake model here).
+            // A faulted or stopped drive ignores commands and holds (no brake model here).
             self.line[i][head] = if self.sw[i] == SW_OPERATION_ENABLED {
-                setpoints[i]
+                commands[i]
             } else {
                 self.line[i][tail]
             };
@@ -214,10 +227,7 @@ impl DriveLink for ModelLink {
             && !self.reported
         {
             self.reported = true;
-            if let Some(i) = self.nodes[..self.n_axes]
-                .iter()
-                .position(|&n| n == plan.node)
-            {
+            if let Some(i) = self.nodes[..self.n_axes].iter().position(|&n| n == plan.node) {
                 self.sw[i] = SW_FAULT;
                 stop = Some(DriveStop {
                     cause: StopCause::DriveFault,
@@ -250,5 +260,10 @@ impl DriveLink for ModelLink {
 
     fn bitrate(&self) -> u32 {
         0
+    }
+
+    fn shutdown(&mut self) -> Result<(), String> {
+        self.sw = [0x0250; MAX_AXES];
+        Ok(())
     }
 }

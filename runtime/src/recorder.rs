@@ -54,7 +54,8 @@ pub struct Recorder {
     pub ticks: u64,
     /// Commanded path length over the linear axes (mm).
     pub path_length: f64,
-    /// Largest |setpoint − actual| per axis (mm / degrees).
+    /// Largest |following error| per axis as the drive link's monitor measures it (the
+    /// command delayed by the drive's dead time, minus actual; mm / degrees).
     pub max_following_error: [f64; MAX_AXES],
     /// The last record.
     pub last: Option<Status>,
@@ -137,8 +138,10 @@ impl Recorder {
             self.path_length += d2.sqrt();
         }
         for i in 0..self.n {
-            let fe = s.cmd_counts[i].wrapping_sub(s.act_counts[i]) as f64 / self.counts_per_unit[i];
-            self.max_following_error[i] = self.max_following_error[i].max(fe.abs());
+            let fe = s.following_error[i].abs();
+            if fe.is_finite() {
+                self.max_following_error[i] = self.max_following_error[i].max(fe);
+            }
         }
         let coupling = self.track_taps(s);
         if self.trace.is_some() && self.trace_error.is_none() {

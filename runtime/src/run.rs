@@ -16,7 +16,8 @@ use cnc402_motion::{AxisPos, MoveEvent};
 
 use crate::controller::{AxisTable, CycleController, Step, start_position};
 use crate::feeder::{Feeder, dry_run, motion_error_to_nc};
-use crate::link::{DriveLink, DriveStop, FaultPlan, ModelLink, Startup, StopCause};
+use crate::link::{DriveLink, DriveStop, FaultPlan, ModelLink, Startup};
+use crate::sim_link::SimLink;
 use crate::recorder::Recorder;
 use crate::report::{AxisReport, RunReport, StopReport};
 use crate::ring::{
@@ -92,15 +93,21 @@ pub fn make_link(
             cfg.bus.interface
         )));
     }
-    // Until the CANopen master lands, the simulated machine is the bus-less model: each
-    // drive follows after its configured delay.
-    let delay = cfg
-        .axes
-        .iter()
-        .map(|a| a.sim.delay_cycles as usize)
-        .max()
-        .unwrap_or(1);
-    let mut link = ModelLink::new(cfg, [0; MAX_AXES], delay);
+    if model {
+        // The bus-less model: each drive follows after its configured delay, exactly.
+        let delay = cfg
+            .axes
+            .iter()
+            .map(|a| a.sim.delay_cycles as usize)
+            .max()
+            .unwrap_or(1);
+        let mut link = ModelLink::new(cfg, [0.0; MAX_AXES], delay);
+        if let Some(f) = fault {
+            link = link.with_fault(f);
+        }
+        return Ok(Box::new(link));
+    }
+    let mut link = SimLink::new(cfg, None).map_err(|e| RunError::Io(format!("simulated bus: {}", e.0)))?;
     if let Some(f) = fault {
         link = link.with_fault(f);
     }
@@ -114,10 +121,10 @@ impl<L: DriveLink + ?Sized> DriveLink for Box<L> {
     fn cycle(
         &mut self,
         now: Instant,
-        setpoints: &[i32; MAX_AXES],
+        commands: &[f64; MAX_AXES],
         feedback: &mut [crate::link::DriveFeedback; MAX_AXES],
     ) -> Result<(), DriveStop> {
-        (**self).cycle(now, setpoints, feedback)
+        (**self).cycle(now, commands, feedback)
     }
     fn quick_stop(
         &mut self,
@@ -131,6 +138,9 @@ impl<L: DriveLink + ?Sized> DriveLink for Box<L> {
     }
     fn bitrate(&self) -> u32 {
         (**self).bitrate()
+    }
+    fn shutdown(&mut self) -> Result<(), String> {
+        (**self).shutdown()
     }
 }
 
@@ -149,6 +159,8 @@ struct LoopEnd {
     latency: Option<LatencySummary>,
     grant: Option<String>,
     wall: Duration,
+    /// The drives could not be taken to rest after the run.
+    shutdown_error: Option<String>,
 }
 
 /// The reporting side: feeder, recorder, progress callback.
@@ -262,8 +274,8 @@ pub fn run_program(
     if let Some(e) = side.program_error.take() {
         return Err(RunError::Program(e));
     }
-    if let Outcome::MotionFailed { error } = end.outcome {
-        return Err(RunError::Program(motion_error_to_nc(&src_keep, &error)));
+    if let Outcome::MotionFailed { error } = &end.outcome {
+        return Err(RunError::Program(motion_error_to_nc(&src_keep, error)));
     }
     trace_result.map_err(|e| RunError::Io(format!("trace: {e}")))?;
     Ok(build_report(cfg, &src_keep, &side, &end))
@@ -283,8 +295,9 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
             final_position: rec.last.map_or(0.0, |s| s.act[i]),
         })
         .collect();
-    let (ok, error, stop) = match end.outcome {
-        Outcome::Finished => (true, None, None),
+    let (ok, error, stop) = match end.outcome.clone() {
+        Outcome::Finished => (true, end.shutdown_error.clone(), None),
+        Outcome::StartupFailed(m) => (false, Some(format!("start-up failed: {m}")), None),
         Outcome::Stopped { stop, line } => {
             let axis = cfg
                 .axes
@@ -364,17 +377,12 @@ pub fn coupling_bound_um(axes: &AxisTable, taps: &[crate::recorder::TapWindow]) 
     tool_count.max(spindle_count * pitch / 360.0) * 1000.0
 }
 
-fn startup_failed(stop: DriveStop) -> Outcome {
-    Outcome::Stopped { stop, line: 0 }
+fn startup_failed(why: String) -> Outcome {
+    Outcome::StartupFailed(why)
 }
 
-fn startup_timeout() -> DriveStop {
-    DriveStop {
-        cause: StopCause::Bus,
-        node: 0,
-        statusword: 0,
-        emcy: None,
-    }
+fn startup_timeout() -> String {
+    format!("the drives were not enabled within {} s", STARTUP_LIMIT.as_secs())
 }
 
 fn run_virtual(
@@ -414,6 +422,8 @@ fn run_virtual(
     ));
     let (mut mprod, mcons) = move_ring(MOVE_RING);
     let (sprod, mut scons) = status_ring(STATUS_RING);
+    let c0 = link.counters();
+    let now0 = now;
     let mut ctrl = CycleController::new(cfg, start, link, mcons, sprod, stop_request.clone());
     side.fill(&mut mprod, &stop_request);
     let outcome = loop {
@@ -433,18 +443,21 @@ fn run_virtual(
         }
     };
     side.drain(&mut scons);
+    let wall = wall0.elapsed();
+    let shutdown_error = ctrl.link_mut().shutdown().err();
     let link = ctrl.link();
     Ok(LoopEnd {
         outcome,
         ticks: ctrl.ticks(),
         starved: ctrl.starved_ticks(),
         dropped: ctrl.dropped_status(),
-        counters: link.counters(),
+        counters: counters_since(link.counters(), c0),
         bitrate: link.bitrate(),
-        elapsed: Duration::from_nanos(now.nanos()),
+        elapsed: now.saturating_since(now0),
         latency: None,
         grant: None,
-        wall: wall0.elapsed(),
+        wall,
+        shutdown_error,
     })
 }
 
@@ -465,12 +478,27 @@ fn failed_end(
         latency: None,
         grant: None,
         wall: wall0.elapsed(),
+        shutdown_error: None,
+    }
+}
+
+/// Counters of the cyclic phase only (boot traffic left out of the bus load).
+fn counters_since(
+    end: cnc402_drives::bus::BusCounters,
+    start: cnc402_drives::bus::BusCounters,
+) -> cnc402_drives::bus::BusCounters {
+    cnc402_drives::bus::BusCounters {
+        tx_frames: end.tx_frames.saturating_sub(start.tx_frames),
+        rx_frames: end.rx_frames.saturating_sub(start.rx_frames),
+        bus_frames: end.bus_frames.saturating_sub(start.bus_frames),
+        bus_bits: end.bus_bits.saturating_sub(start.bus_bits),
+        dropped: end.dropped.saturating_sub(start.dropped),
     }
 }
 
 /// Messages from the loop thread before the cyclic phase.
 enum Hello {
-    Ready([i32; MAX_AXES]),
+    Ready([f64; MAX_AXES]),
 }
 
 fn run_realtime(
@@ -518,6 +546,8 @@ fn run_realtime(
                 sleep_until(next);
             };
             let _ = hello_tx.send(Hello::Ready(start));
+            let c0 = link.counters();
+            let t_cyclic = monotonic_ns();
             let mut ctrl = CycleController::new(&cfg_t, start, link, mcons, sprod, stop_t);
             let mut hist = LatencyHistogram::new(5000, period_ns / 2);
             let wall_cyclic = std::time::Instant::now();
@@ -532,18 +562,21 @@ fn run_realtime(
             };
             let now = monotonic_ns().saturating_sub(t0);
             let _ = wall0;
+            let wall = wall_cyclic.elapsed();
+            let shutdown_error = ctrl.link_mut().shutdown().err();
             let link = ctrl.link();
             Ok(LoopEnd {
                 outcome,
                 ticks: ctrl.ticks(),
                 starved: ctrl.starved_ticks(),
                 dropped: ctrl.dropped_status(),
-                counters: link.counters(),
+                counters: counters_since(link.counters(), c0),
                 bitrate: link.bitrate(),
-                elapsed: Duration::from_nanos(now),
+                elapsed: Duration::from_nanos((now + t0).saturating_sub(t_cyclic)),
                 latency: Some(hist.summary()),
                 grant: Some(grant.describe()),
-                wall: wall_cyclic.elapsed(),
+                wall,
+                shutdown_error,
             })
         })
         .map_err(|e| RunError::Io(format!("cannot start the loop thread: {e}")))?;

@@ -43,8 +43,10 @@ pub struct Status {
     pub cmd_counts: [i32; MAX_AXES],
     /// Actual position from 0x6064, unwrapped, in mm / degrees.
     pub act: [f64; MAX_AXES],
-    /// Actual position counts as received.
+    /// Actual position in counts (wrapping), as on the wire.
     pub act_counts: [i32; MAX_AXES],
+    /// Following error as the link's monitor sees it (dead time excluded), axis units.
+    pub following_error: [f64; MAX_AXES],
     pub statusword: [u16; MAX_AXES],
     /// Non-motion program event finished on this tick.
     pub event: Option<MoveEvent>,
@@ -54,8 +56,8 @@ pub struct Status {
     pub stop: Option<DriveStop>,
 }
 
-/// How the cyclic phase ended.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// How the run ended.
+#[derive(Clone, Debug, PartialEq)]
 pub enum Outcome {
     /// The program ran to its end.
     Finished,
@@ -64,4 +66,6 @@ pub enum Outcome {
     Stopped { stop: DriveStop, line: u32 },
     /// A move could not be started; the machine was stopped.
     MotionFailed { error: MotionError },
+    /// The drives could not be started (nothing moved).
+    StartupFailed(String),
 }

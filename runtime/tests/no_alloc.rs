@@ -1,0 +1,149 @@
+//! Proves the loop allocates nothing: a counting global allocator is armed around many ticks
+//! of the full per-tick path — interpolator, CANopen master cycle, SimBus with four simulated
+//! drives, status ring — through a rigid tap, an injected drive fault, the path-coupled stop
+//! and quick stop.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use cnc402_config::MachineConfig;
+use cnc402_drives::Instant;
+use cnc402_lang::SourceFile;
+use cnc402_runtime::controller::{CycleController, Step};
+use cnc402_runtime::feeder::Feeder;
+use cnc402_runtime::link::{DriveLink, FaultPlan, Startup};
+use cnc402_runtime::ring::{Consumer, LoopInput, Producer, move_ring, status_ring};
+use cnc402_runtime::{Outcome, SimLink};
+
+struct Counting;
+
+thread_local! {
+    static ARMED: Cell<bool> = const { Cell::new(false) };
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn note() {
+    // `try_with`: the thread-local may be gone while a thread shuts down.
+    let _ = ARMED.try_with(|a| {
+        if a.get() {
+            let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+        }
+    });
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        note();
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        note();
+        unsafe { System.dealloc(p, l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
+        note();
+        unsafe { System.realloc(p, l, n) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn arm(on: bool) {
+    ARMED.with(|a| a.set(on));
+}
+
+fn allocs() -> usize {
+    ALLOCS.with(|c| c.get())
+}
+
+const TAP: &str = "G21 G90 G17 G94 G54\nG0 X10. Y10. Z10.\nM29 S500\nG98 G84 X10. Y10. Z-16. R3. F750.\nX30.\nG80\nG2 X50. Y10. I10. J0 F1200.\nG0 Z20.\nM30\n";
+
+fn machine() -> MachineConfig {
+    MachineConfig::default_machine()
+}
+
+/// Runs TAP with the counter armed over every tick; returns (allocations, outcome, ticks).
+fn run_armed(fault: Option<FaultPlan>) -> (usize, Outcome, u64) {
+    let cfg = machine();
+    let mut link = SimLink::new(&cfg, None).expect("sim link");
+    if let Some(f) = fault {
+        link = link.with_fault(f);
+    }
+    let start = match link.startup(Instant::ZERO) {
+        Startup::Ready(p) => p,
+        other => panic!("startup: {other:?}"),
+    };
+    // Plan the whole program before arming: the feeder runs outside the loop.
+    let src = SourceFile::new("tap.nc", TAP);
+    let ast = cnc402_lang::parse(&src).expect("parse");
+    let axes = cnc402_runtime::controller::AxisTable::new(&cfg);
+    let mut feeder = Feeder::new(&cfg, src, ast, cnc402_runtime::controller::start_position(&axes, &start));
+    let (mut mp, mc) = move_ring(4096);
+    while let Some(mv) = feeder.next_move().expect("plan") {
+        assert!(mp.try_push(LoopInput::Move(mv)).is_ok());
+    }
+    assert!(mp.try_push(LoopInput::End).is_ok());
+    let (sp, mut sc) = status_ring(1 << 16);
+    let mut ctrl = CycleController::new(&cfg, start, link, mc, sp, Arc::new(AtomicBool::new(false)));
+
+    // A few ticks unarmed so that lazily sized buffers reach their working size.
+    let period = Duration::from_micros(cfg.bus.period_us as u64);
+    let mut now = Instant::ZERO;
+    for _ in 0..20 {
+        now += period;
+        assert_eq!(ctrl.step(now), Step::Continue);
+    }
+    let before = allocs();
+    arm(true);
+    let mut outcome = None;
+    for _ in 0..60_000 {
+        now += period;
+        if let Step::Done(o) = ctrl.step(now) {
+            outcome = Some(o);
+            break;
+        }
+        // Drain as the reporting side would, still armed (popping must not allocate either).
+        if sc.occupied_len() > 30_000 {
+            while sc.try_pop().is_some() {}
+        }
+    }
+    arm(false);
+    let n = allocs() - before;
+    (n, outcome.expect("the run ended"), ctrl.ticks())
+}
+
+use cnc402_runtime::ring::Observer;
+
+#[test]
+fn full_tick_path_allocates_nothing_through_a_tap() {
+    let (n, outcome, ticks) = run_armed(None);
+    assert_eq!(outcome, Outcome::Finished);
+    assert!(ticks > 3000, "{ticks}");
+    assert_eq!(n, 0, "allocations in {ticks} ticks");
+}
+
+#[test]
+fn full_tick_path_allocates_nothing_through_a_fault_and_stop() {
+    let plan = FaultPlan {
+        node: 3,
+        at: Duration::from_millis(1500),
+        emcy: 0x8611,
+    };
+    let (n, outcome, ticks) = run_armed(Some(plan));
+    assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
+    assert_eq!(n, 0, "allocations in {ticks} ticks");
+}
+
+#[test]
+fn the_counter_counts() {
+    arm(true);
+    let before = allocs();
+    let v: Vec<u8> = Vec::with_capacity(10);
+    drop(std::hint::black_box(v));
+    arm(false);
+    assert!(allocs() - before >= 2);
+}
