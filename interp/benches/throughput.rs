@@ -64,7 +64,11 @@ fn run_ours(cfg: &MachineConfig, text: &str) -> usize {
 fn bench(c: &mut Criterion) {
     let cfg = MachineConfig::default_machine();
     let text = program(BLOCKS);
-    assert_eq!(run_ours(&cfg, &text), BLOCKS + 1, "every block makes one segment, plus M2");
+    assert_eq!(
+        run_ours(&cfg, &text),
+        BLOCKS + 1,
+        "every block makes one segment, plus M2"
+    );
 
     let mut g = c.benchmark_group("throughput_200k_blocks");
     g.throughput(Throughput::Elements(BLOCKS as u64));
@@ -72,7 +76,9 @@ fn bench(c: &mut Criterion) {
     g.bench_function("cnc402_parse", |b| {
         b.iter(|| cnc402_lang::parse(&SourceFile::new("bench.nc", text.as_str())).unwrap())
     });
-    g.bench_function("cnc402_parse_interpret", |b| b.iter(|| run_ours(&cfg, &text)));
+    g.bench_function("cnc402_parse_interpret", |b| {
+        b.iter(|| run_ours(&cfg, &text))
+    });
 
     let rs274 = find_rs274();
     let file = std::env::temp_dir().join(format!("cnc402-bench-{}.ngc", std::process::id()));

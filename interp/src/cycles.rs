@@ -6,8 +6,8 @@
 //! positioning C to the nearest multiple of 360°, then shift by Q along +first plane axis
 //! (G17: +X, G18: +Z, G19: +Y; Fanuc RD2,RD1 = 0,0). G87 always returns to the initial level.
 
-use cnc402_lang::ast::Span;
 use cnc402_lang::NcError;
+use cnc402_lang::ast::Span;
 use cnc402_motion::segment::{AxisPos, SegmentKind, SpindleDir, StopKind};
 
 use crate::interp::Exec;
@@ -52,7 +52,10 @@ impl Exec<'_> {
                 && let Some(a) = self.w.peek(ax.name)
             {
                 return Err(self
-                    .err(a.span, format!("axis {} cannot move in a canned cycle ({name})", ax.name))
+                    .err(
+                        a.span,
+                        format!("axis {} cannot move in a canned cycle ({name})", ax.name),
+                    )
                     .with_expected(format!("{la}, {lb} (hole position) and {ld} (bottom)")));
             }
         }
@@ -70,7 +73,11 @@ impl Exec<'_> {
         if let Some(q) = self.w.take('Q') {
             let peck = matches!(cyc, Cycle::G73 | Cycle::G83 | Cycle::G74 | Cycle::G84);
             if q.v < 0.0 || (peck && q.v == 0.0) {
-                let what = if peck { "Q (peck depth) must be > 0" } else { "Q (shift) must be >= 0" };
+                let what = if peck {
+                    "Q (peck depth) must be > 0"
+                } else {
+                    "Q (shift) must be >= 0"
+                };
                 return Err(self.err(q.span, format!("{what}, not {}", fmt_num(q.v))));
             }
             self.st.cycle_data.q = Some(q.v * unit);
@@ -85,12 +92,18 @@ impl Exec<'_> {
         let data = self.st.cycle_data;
         let Some(r) = data.r else {
             return Err(self
-                .err(cyc_span, format!("canned cycle {name} needs R (the R level)"))
+                .err(
+                    cyc_span,
+                    format!("canned cycle {name} needs R (the R level)"),
+                )
                 .with_expected("an R word"));
         };
         let Some(z) = data.z else {
             return Err(self
-                .err(cyc_span, format!("canned cycle {name} needs {ld} (the bottom of the hole)"))
+                .err(
+                    cyc_span,
+                    format!("canned cycle {name} needs {ld} (the bottom of the hole)"),
+                )
                 .with_expected(format!("a {ld} word")));
         };
         if matches!(cyc, Cycle::G73 | Cycle::G83) && data.q.is_none() {
@@ -138,10 +151,17 @@ impl Exec<'_> {
             } else {
                 r + off[id]
             };
-            let bottom = if self.st.incremental { r_level + z } else { z + off[id] };
+            let bottom = if self.st.incremental {
+                r_level + z
+            } else {
+                z + off[id]
+            };
             if (bottom - r_level).abs() < EPS {
                 return Err(self
-                    .err(self.span_of(&[ld, 'R']), format!("{name}: the bottom equals the R level"))
+                    .err(
+                        self.span_of(&[ld, 'R']),
+                        format!("{name}: the bottom equals the R level"),
+                    )
                     .with_expected(format!("{ld} different from R")));
             }
             let ret = if self.st.return_to_r && cyc != Cycle::G87 {
@@ -179,7 +199,9 @@ impl Exec<'_> {
         let l = self.w.take('L');
         let a = match (k, l) {
             (Some(_), Some(l)) => {
-                return Err(self.err(l.span, "K and L both give the repeat count").with_expected("one of K or L"));
+                return Err(self
+                    .err(l.span, "K and L both give the repeat count")
+                    .with_expected("one of K or L"));
             }
             (Some(a), None) | (None, Some(a)) => a,
             (None, None) => return Ok(1),
@@ -205,18 +227,27 @@ impl Exec<'_> {
             return Err(self
                 .err(
                     span,
-                    format!("{name} with the spindle turning the wrong way ({} is active)", if want == "M3" { "M4" } else { "M3" }),
+                    format!(
+                        "{name} with the spindle turning the wrong way ({} is active)",
+                        if want == "M3" { "M4" } else { "M3" }
+                    ),
                 )
                 .with_expected(format!("{want} before {}", &name[..3])));
         }
         if self.st.spindle == SpindleDir::Stop && !self.st.rigid {
             return Err(self
-                .err(span, format!("{name} needs the spindle direction {want} or rigid mode M29"))
+                .err(
+                    span,
+                    format!("{name} needs the spindle direction {want} or rigid mode M29"),
+                )
                 .with_expected(format!("{want} S… or M29 S… before {}", &name[..3])));
         }
         if self.st.speed <= 0.0 {
             return Err(self
-                .err(self.w.peek('S').map_or(span, |a| a.span), format!("tapping with S = 0 ({})", &name[..3]))
+                .err(
+                    self.w.peek('S').map_or(span, |a| a.span),
+                    format!("tapping with S = 0 ({})", &name[..3]),
+                )
                 .with_expected("S > 0 (the pitch is F/S in G94)"));
         }
         let pitch = if self.st.feed_per_rev {
@@ -238,7 +269,11 @@ impl Exec<'_> {
     }
 
     fn rapid_to(&mut self, p: AxisPos, hint: &[char]) -> Result<(), NcError> {
-        if p.0.iter().zip(self.st.pos.0.iter()).any(|(a, b)| (a - b).abs() > EPS) {
+        if p.0
+            .iter()
+            .zip(self.st.pos.0.iter())
+            .any(|(a, b)| (a - b).abs() > EPS)
+        {
             self.rapid(p, hint)?;
         }
         Ok(())
@@ -247,7 +282,11 @@ impl Exec<'_> {
     /// Words to blame for a drilling-axis target out of limits: R for the R level.
     fn hint(&self, h: &Hole, level: f64) -> [char; 2] {
         let d = self.plane_letters().2;
-        if level == h.r_level { ['R', d] } else { [d, 'R'] }
+        if level == h.r_level {
+            ['R', d]
+        } else {
+            [d, 'R']
+        }
     }
 
     fn rapid_d(&mut self, h: &Hole, level: f64) -> Result<(), NcError> {
@@ -458,4 +497,3 @@ impl Exec<'_> {
         Ok(())
     }
 }
-

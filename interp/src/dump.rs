@@ -19,9 +19,7 @@
 use std::fmt::Write;
 
 use cnc402_config::MachineConfig;
-use cnc402_motion::segment::{
-    ArcDir, AxisPos, Plane, Segment, SegmentKind, SpindleDir, StopKind,
-};
+use cnc402_motion::segment::{ArcDir, AxisPos, Plane, Segment, SegmentKind, SpindleDir, StopKind};
 
 /// `v` rounded to 1e-6 in its shortest decimal form; `-0` prints as `0`, non-finite as `null`.
 ///
@@ -206,7 +204,9 @@ mod tests {
     fn every_kind_is_valid_json_with_its_keys() {
         let cfg = MachineConfig::default_machine();
         let kinds = [
-            SegmentKind::Rapid { end: AxisPos::default() },
+            SegmentKind::Rapid {
+                end: AxisPos::default(),
+            },
             SegmentKind::Arc {
                 end: AxisPos::default(),
                 center: [1.0, 2.0, 3.0],
@@ -216,10 +216,17 @@ mod tests {
                 feed: 100.0,
             },
             SegmentKind::Dwell { seconds: 0.5 },
-            SegmentKind::Spindle { rpm: 800.0, dir: SpindleDir::Ccw },
+            SegmentKind::Spindle {
+                rpm: 800.0,
+                dir: SpindleDir::Ccw,
+            },
             SegmentKind::ToolChange { tool: 4 },
-            SegmentKind::Stop { kind: StopKind::EndRewind },
-            SegmentKind::Message { text: "a\tb \"c\"\u{1}".into() },
+            SegmentKind::Stop {
+                kind: StopKind::EndRewind,
+            },
+            SegmentKind::Message {
+                text: "a\tb \"c\"\u{1}".into(),
+            },
         ];
         let want = [
             ("rapid", "end"),
@@ -232,7 +239,8 @@ mod tests {
         ];
         for (k, (name, key)) in kinds.into_iter().zip(want) {
             let j = segment_to_json(&seg(k), &cfg);
-            let v: serde_json::Value = serde_json::from_str(&j).unwrap_or_else(|e| panic!("{j}: {e}"));
+            let v: serde_json::Value =
+                serde_json::from_str(&j).unwrap_or_else(|e| panic!("{j}: {e}"));
             assert_eq!(v["kind"], name);
             assert_eq!(v["file"], "q\"x.nc");
             assert_eq!(v["line"], 7);

@@ -122,7 +122,8 @@ pub fn expr(src: &SourceFile, e: &Expr) -> Result<f64, NcError> {
                 Func::Exp => a.exp(),
                 Func::Pow => a.powf(v[1]),
                 Func::Bin => bcd_to_bin(a).ok_or_else(|| err(format!("BIN of {a}: not BCD")))?,
-                Func::Bcd => bin_to_bcd(a).ok_or_else(|| err(format!("BCD of {a}: not a whole number >= 0")))?,
+                Func::Bcd => bin_to_bcd(a)
+                    .ok_or_else(|| err(format!("BCD of {a}: not a whole number >= 0")))?,
             }
         }
         #[allow(unreachable_patterns)]

@@ -350,7 +350,10 @@ impl Exec<'_> {
     pub fn whole(&self, a: Arg, what: &str) -> Result<u32, NcError> {
         if a.v < 0.0 || a.v.fract() != 0.0 || a.v > 1e9 {
             return Err(self
-                .err(a.span, format!("{what} must be a whole number >= 0, not {}", fmt_num(a.v)))
+                .err(
+                    a.span,
+                    format!("{what} must be a whole number >= 0, not {}", fmt_num(a.v)),
+                )
                 .with_expected("a whole number"));
         }
         Ok(a.v as u32)
@@ -375,7 +378,10 @@ impl Exec<'_> {
             let later = if m.2.start > c.2.start { m } else { c };
             return Err(self.err(
                 later.2,
-                format!("G{} and G{} in one block: both set what the axis words do", m.0, c.0),
+                format!(
+                    "G{} and G{} in one block: both set what the axis words do",
+                    m.0, c.0
+                ),
             ));
         }
         if let Some(d) = g.iter().find(|x| x.0 == 4) {
@@ -447,7 +453,9 @@ impl Exec<'_> {
     fn feed_word(&mut self) -> Result<(), NcError> {
         if let Some(f) = self.w.take('F') {
             if f.v < 0.0 {
-                return Err(self.err(f.span, "F must not be negative").with_expected("F >= 0"));
+                return Err(self
+                    .err(f.span, "F must not be negative")
+                    .with_expected("F >= 0"));
             }
             self.st.feed = f.v * self.st.unit();
         }
@@ -459,7 +467,9 @@ impl Exec<'_> {
             return Ok(());
         };
         if s.v < 0.0 {
-            return Err(self.err(s.span, "S must not be negative").with_expected("S >= 0"));
+            return Err(self
+                .err(s.span, "S must not be negative")
+                .with_expected("S >= 0"));
         }
         if let Some(max) = self
             .cfg
@@ -469,7 +479,11 @@ impl Exec<'_> {
         {
             return Err(self.err(
                 s.span,
-                format!("S{} is above the spindle's max_rpm {}", fmt_num(s.v), fmt_num(max)),
+                format!(
+                    "S{} is above the spindle's max_rpm {}",
+                    fmt_num(s.v),
+                    fmt_num(max)
+                ),
             ));
         }
         let changed = s.v != self.st.speed;
@@ -504,7 +518,11 @@ impl Exec<'_> {
                         _ => SpindleDir::Stop,
                     };
                     self.st.spindle = dir;
-                    let rpm = if dir == SpindleDir::Stop { 0.0 } else { self.st.speed };
+                    let rpm = if dir == SpindleDir::Stop {
+                        0.0
+                    } else {
+                        self.st.speed
+                    };
                     self.push(SegmentKind::Spindle { rpm, dir });
                 }
                 _ => {}
@@ -557,7 +575,10 @@ impl Exec<'_> {
     pub fn dwell_p(&self, p: Arg) -> Result<f64, NcError> {
         if p.v < 0.0 || p.v.fract() != 0.0 {
             return Err(self
-                .err(p.span, format!("P{} is not a dwell: P is whole milliseconds", fmt_num(p.v)))
+                .err(
+                    p.span,
+                    format!("P{} is not a dwell: P is whole milliseconds", fmt_num(p.v)),
+                )
                 .with_expected("P as a whole number of milliseconds, e.g. P500 for 0.5 s"));
         }
         Ok(p.v / 1000.0)
@@ -565,9 +586,12 @@ impl Exec<'_> {
 
     /// Index of the configured axis `letter`, or an error naming what needs it.
     pub fn axis(&self, letter: char, span: Span, what: &str) -> Result<usize, NcError> {
-        self.cfg
-            .axis_index(letter)
-            .ok_or_else(|| self.err(span, format!("{what} needs axis {letter}, which is not configured")))
+        self.cfg.axis_index(letter).ok_or_else(|| {
+            self.err(
+                span,
+                format!("{what} needs axis {letter}, which is not configured"),
+            )
+        })
     }
 
     /// Feed rate in mm/min for a feed move (G94: F; G95: F × S).
@@ -575,7 +599,10 @@ impl Exec<'_> {
         let rate = if self.st.feed_per_rev {
             if self.st.speed <= 0.0 && self.st.feed > 0.0 {
                 return Err(self
-                    .err(self.w.peek('S').map_or(at, |a| a.span), "feed per revolution (G95) with S0")
+                    .err(
+                        self.w.peek('S').map_or(at, |a| a.span),
+                        "feed per revolution (G95) with S0",
+                    )
                     .with_expected("S > 0 for a G95 feed"));
             }
             self.st.feed * self.st.speed
@@ -595,7 +622,9 @@ impl Exec<'_> {
     /// axis whose own word is not in the block.
     pub fn check_limits(&self, end: &AxisPos, hint: &[char]) -> Result<(), NcError> {
         for (i, ax) in self.cfg.axes.iter().enumerate() {
-            let Some((lo, hi)) = ax.soft_limits else { continue };
+            let Some((lo, hi)) = ax.soft_limits else {
+                continue;
+            };
             let v = end[i];
             if v < lo - 1e-9 || v > hi + 1e-9 {
                 // A hint that names the axis itself gives the whole order of blame.
@@ -629,7 +658,10 @@ impl Exec<'_> {
         {
             let name = self.cfg.axes[c].name;
             return Err(self
-                .err(self.span_of(&[name]), format!("{name} positioning while the spindle turns"))
+                .err(
+                    self.span_of(&[name]),
+                    format!("{name} positioning while the spindle turns"),
+                )
                 .with_expected("M5 before positioning the spindle axis"));
         }
         Ok(())
@@ -784,7 +816,13 @@ impl Exec<'_> {
             None => {
                 if wa.is_none() && wb.is_none() {
                     return Err(self
-                        .err(span, format!("G{} needs the centre ({oa}, {ob}) or R", if cw { 2 } else { 3 }))
+                        .err(
+                            span,
+                            format!(
+                                "G{} needs the centre ({oa}, {ob}) or R",
+                                if cw { 2 } else { 3 }
+                            ),
+                        )
                         .with_expected(format!("{oa}/{ob} or R")));
                 }
                 let off = (
@@ -850,5 +888,106 @@ impl Exec<'_> {
         });
         self.st.pos = end;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg() -> MachineConfig {
+        MachineConfig::default_machine()
+    }
+
+    fn load(text: &str, opts: Options) -> Interpreter {
+        let src = SourceFile::new("t.nc", text);
+        let p = cnc402_lang::parse(&src).expect("parses");
+        let mut it = Interpreter::with_options(&cfg(), opts);
+        it.load(src, p);
+        it
+    }
+
+    #[test]
+    fn segments_come_one_at_a_time_with_their_source() {
+        let mut it = load("N5 G0 X1\n\nN7 G1 Y2 F50\n", Options::default());
+        let a = it.next_segment().unwrap().unwrap();
+        assert_eq!(
+            (a.source.line, a.source.n, &*a.source.file),
+            (1, Some(5), "t.nc")
+        );
+        // The interpreter has run only as far as it had to.
+        assert_eq!(it.state().pos[1], 0.0);
+        let b = it.next_segment().unwrap().unwrap();
+        assert_eq!((b.source.line, b.source.n), (3, Some(7)));
+        assert_eq!(it.state().pos[1], 2.0);
+        assert_eq!(it.next_segment().unwrap(), None);
+        assert_eq!(it.next_segment().unwrap(), None);
+        assert_eq!(it.label_line(7), Some(3));
+        assert_eq!(it.label_line(6), None);
+    }
+
+    #[test]
+    fn options_switch_m1_block_delete_and_start() {
+        let mut start = AxisPos::default();
+        start[2] = 30.0;
+        let opts = Options {
+            block_delete: false,
+            optional_stop: false,
+            start,
+        };
+        let segs: Vec<_> = load("/G0 X5\nM1\nG91 G0 Z-5\n", opts)
+            .collect::<Result<_, _>>()
+            .unwrap();
+        assert_eq!(segs.len(), 2, "M1 is skipped, the / block runs");
+        let SegmentKind::Rapid { end } = segs[1].kind else {
+            panic!()
+        };
+        assert_eq!((end[0], end[2]), (5.0, 25.0));
+    }
+
+    #[test]
+    fn s_change_while_turning_and_g95_feed() {
+        let segs: Vec<_> = load(
+            "M3 S100\nS200\nG95 G1 X1 F0.5\nM5\nS300\n",
+            Options::default(),
+        )
+        .collect::<Result<_, _>>()
+        .unwrap();
+        let kinds: Vec<_> = segs.iter().map(|s| s.kind.clone()).collect();
+        assert_eq!(
+            kinds[1],
+            SegmentKind::Spindle {
+                rpm: 200.0,
+                dir: SpindleDir::Cw
+            }
+        );
+        assert!(matches!(kinds[2], SegmentKind::Linear { feed, .. } if feed == 100.0));
+        assert_eq!(kinds.len(), 4, "S while stopped makes no segment");
+    }
+
+    #[test]
+    fn messages_percent_end_and_msg_parsing() {
+        let segs: Vec<_> = load(
+            "%\n(MSG, hello )\nG0 X1 (not a msg)\n%\nG0 X2\n",
+            Options::default(),
+        )
+        .collect::<Result<_, _>>()
+        .unwrap();
+        assert_eq!(segs.len(), 2);
+        assert_eq!(
+            segs[0].kind,
+            SegmentKind::Message {
+                text: "hello".into()
+            }
+        );
+    }
+
+    #[test]
+    fn an_error_ends_the_run() {
+        let mut it = load("G0 X1\nG7\nG0 X2\n", Options::default());
+        assert!(it.next_segment().unwrap().is_some());
+        let e = it.next_segment().unwrap_err();
+        assert_eq!(e.line, 2);
+        assert_eq!(it.next_segment().unwrap(), None);
     }
 }

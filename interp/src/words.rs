@@ -52,10 +52,26 @@ pub fn g_group(code: u32) -> Result<GGroup, String> {
         73 | 74 | 76 | 80..=89 => Cycle,
         98 | 99 => ReturnMode,
         54..=59 => WorkOffset,
-        10 | 11 => return Err(format!("G{code} (programmable data input) is not supported yet")),
-        27..=30 => return Err(format!("G{code} (reference position return) is not supported yet")),
-        40..=42 => return Err(format!("G{code} (cutter radius compensation) is not supported yet")),
-        43 | 44 | 49 => return Err(format!("G{code} (tool length compensation) is not supported yet")),
+        10 | 11 => {
+            return Err(format!(
+                "G{code} (programmable data input) is not supported yet"
+            ));
+        }
+        27..=30 => {
+            return Err(format!(
+                "G{code} (reference position return) is not supported yet"
+            ));
+        }
+        40..=42 => {
+            return Err(format!(
+                "G{code} (cutter radius compensation) is not supported yet"
+            ));
+        }
+        43 | 44 | 49 => {
+            return Err(format!(
+                "G{code} (tool length compensation) is not supported yet"
+            ));
+        }
         65..=67 => {
             return Err(format!(
                 "G{code} (macro call) is not supported yet: it comes with Custom Macro B"
@@ -189,7 +205,7 @@ impl Words {
 
 /// `v` as a whole code number, if it is one.
 fn whole_code(v: f64) -> Option<u32> {
-    if v >= 0.0 && v <= 9999.0 && v.fract() == 0.0 {
+    if (0.0..=9999.0).contains(&v) && v.fract() == 0.0 {
         Some(v as u32)
     } else {
         None
@@ -234,8 +250,21 @@ mod tests {
         let e = words("G1.5 X1").unwrap_err();
         assert!(e.message.contains("G1.5 is not a G code"), "{e}");
         let e = words("G1 X1 X2").unwrap_err();
-        assert_eq!((e.col, e.message.as_str()), (7, "address X given twice in one block (first at 1:4)"));
-        assert!(words("G7").unwrap_err().message.contains("unknown G code G7"));
-        assert!(words("G41 D1").unwrap_err().message.contains("not supported yet"));
+        assert_eq!(
+            (e.col, e.message.as_str()),
+            (7, "address X given twice in one block (first at 1:4)")
+        );
+        assert!(
+            words("G7")
+                .unwrap_err()
+                .message
+                .contains("unknown G code G7")
+        );
+        assert!(
+            words("G41 D1")
+                .unwrap_err()
+                .message
+                .contains("not supported yet")
+        );
     }
 }

@@ -22,9 +22,9 @@ fn run(text: &str) -> Vec<Segment> {
 
 fn end(s: &Segment) -> Option<AxisPos> {
     match &s.kind {
-        SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } | SegmentKind::Arc { end, .. } => {
-            Some(*end)
-        }
+        SegmentKind::Rapid { end }
+        | SegmentKind::Linear { end, .. }
+        | SegmentKind::Arc { end, .. } => Some(*end),
         _ => None,
     }
 }
@@ -91,8 +91,16 @@ fn taps_couple_c_to_z_one_turn_per_pitch() {
     for (prog, hand, pitch) in [
         ("M3 S400\nG0 Z10\nG84 X5 Y5 Z-12 R2 F600\nM30\n", 1.0, 1.5),
         ("M4 S400\nG0 Z10\nG74 X5 Y5 Z-12 R2 F400\nM30\n", -1.0, 1.0),
-        ("M3 S400\nG95\nG0 Z10\nG84 X5 Y5 Z-12 R2 Q4 F1.75\nM30\n", 1.0, 1.75),
-        ("G0 Z10\nM29 S300\nG74 X5 Y5 Z-12 R2 Q5 F375\nM30\n", -1.0, 1.25),
+        (
+            "M3 S400\nG95\nG0 Z10\nG84 X5 Y5 Z-12 R2 Q4 F1.75\nM30\n",
+            1.0,
+            1.75,
+        ),
+        (
+            "G0 Z10\nM29 S300\nG74 X5 Y5 Z-12 R2 Q5 F375\nM30\n",
+            -1.0,
+            1.25,
+        ),
     ] {
         let segs = run(prog);
         let taps: Vec<_> = segs
@@ -104,10 +112,25 @@ fn taps_couple_c_to_z_one_turn_per_pitch() {
             let e = end(s).unwrap();
             let want = hand * (2.0 - e[Z]) * 360.0 / pitch;
             assert!((e[C] - want).abs() < 1e-9, "{prog}: C {} want {want}", e[C]);
-            let SegmentKind::Linear { feed, .. } = s.kind else { unreachable!() };
-            assert!((feed - pitch * if prog.contains("M29 S300") { 300.0 } else { 400.0 }).abs() < 1e-9);
+            let SegmentKind::Linear { feed, .. } = s.kind else {
+                unreachable!()
+            };
+            assert!(
+                (feed
+                    - pitch
+                        * if prog.contains("M29 S300") {
+                            300.0
+                        } else {
+                            400.0
+                        })
+                .abs()
+                    < 1e-9
+            );
         }
-        let deepest = taps.iter().map(|s| end(s).unwrap()[Z]).fold(f64::MAX, f64::min);
+        let deepest = taps
+            .iter()
+            .map(|s| end(s).unwrap()[Z])
+            .fold(f64::MAX, f64::min);
         assert!((deepest + 12.0).abs() < 1e-9);
         let last = end(taps.last().unwrap()).unwrap();
         assert_eq!((last[Z], last[C]), (2.0, 0.0), "{prog}");
@@ -141,11 +164,31 @@ fn peck_tap_goes_in_by_q_and_out_by_d() {
 #[test]
 fn tap_stops_and_restarts_a_turning_spindle_only() {
     let segs = run("M3 S600\nG0 Z10\nG84 X0 Y0 Z-5 R2 F600\nM30\n");
-    let line3: Vec<_> = segs.iter().filter(|s| s.source.line == 3).map(|s| &s.kind).collect();
-    assert_eq!(line3.first(), Some(&&SegmentKind::Spindle { rpm: 0.0, dir: SpindleDir::Stop }));
-    assert_eq!(line3.last(), Some(&&SegmentKind::Spindle { rpm: 600.0, dir: SpindleDir::Cw }));
+    let line3: Vec<_> = segs
+        .iter()
+        .filter(|s| s.source.line == 3)
+        .map(|s| &s.kind)
+        .collect();
+    assert_eq!(
+        line3.first(),
+        Some(&&SegmentKind::Spindle {
+            rpm: 0.0,
+            dir: SpindleDir::Stop
+        })
+    );
+    assert_eq!(
+        line3.last(),
+        Some(&&SegmentKind::Spindle {
+            rpm: 600.0,
+            dir: SpindleDir::Cw
+        })
+    );
     let rigid = run("G0 Z10\nM29 S600\nG84 X0 Y0 Z-5 R2 F600\nM30\n");
-    assert!(!rigid.iter().any(|s| matches!(s.kind, SegmentKind::Spindle { .. })));
+    assert!(
+        !rigid
+            .iter()
+            .any(|s| matches!(s.kind, SegmentKind::Spindle { .. }))
+    );
 }
 
 /// Final drilling-axis level of every cycle under G98 (initial level 10) and G99 (R = 2).
@@ -165,10 +208,14 @@ fn every_cycle_returns_to_its_plane() {
                 .iter()
                 .filter(|s| s.source.line == 3)
                 .filter_map(end)
-                .last()
+                .next_back()
                 .unwrap();
             assert_eq!((last[X], last[Y], last[Z]), (5.0, 5.0, want), "{prog}");
-            let deepest = segs.iter().filter_map(end).map(|e| e[Z]).fold(f64::MAX, f64::min);
+            let deepest = segs
+                .iter()
+                .filter_map(end)
+                .map(|e| e[Z])
+                .fold(f64::MAX, f64::min);
             let want_deep = if cyc == 87 { -8.0 } else { -5.0 };
             assert!((deepest - want_deep).abs() < 1e-9, "{prog}: {deepest}");
         }
@@ -180,7 +227,9 @@ fn every_cycle_returns_to_its_plane() {
 #[test]
 fn g91_levels_and_repeats() {
     for rep in ["K3", "L3"] {
-        let segs = run(&format!("G0 X0 Y0 Z20\nG91 G99 G81 X10 Y5 Z-7 R-15 {rep} F100\nM30\n"));
+        let segs = run(&format!(
+            "G0 X0 Y0 Z20\nG91 G99 G81 X10 Y5 Z-7 R-15 {rep} F100\nM30\n"
+        ));
         let holes: Vec<_> = segs
             .iter()
             .filter_map(|s| match s.kind {
@@ -188,15 +237,21 @@ fn g91_levels_and_repeats() {
                 _ => None,
             })
             .collect();
-        assert_eq!(holes, vec![(10.0, 5.0, -2.0), (20.0, 10.0, -2.0), (30.0, 15.0, -2.0)]);
+        assert_eq!(
+            holes,
+            vec![(10.0, 5.0, -2.0), (20.0, 10.0, -2.0), (30.0, 15.0, -2.0)]
+        );
         // G99 in G91: R stays measured from the initial level (20), not from the R level.
-        let last = segs.iter().filter_map(end).last().unwrap();
+        let last = segs.iter().filter_map(end).next_back().unwrap();
         assert_eq!(last[Z], 5.0);
     }
     // K0: the data is stored, nothing moves; the next block with a position drills with it.
     let segs = run("G0 Z20\nG81 X1 Z-1 R2 K0 F100\nX2\nM30\n");
     assert!(segs.iter().all(|s| s.source.line != 2));
-    assert_eq!(moves(&segs, 3, Z), vec![('R', 20.0), ('R', 2.0), ('F', -1.0), ('R', 20.0)]);
+    assert_eq!(
+        moves(&segs, 3, Z),
+        vec![('R', 20.0), ('R', 2.0), ('F', -1.0), ('R', 20.0)]
+    );
 }
 
 /// G17 drills along Z, G18 along Y, G19 along X; the other two are the hole position.
@@ -208,7 +263,9 @@ fn cycles_drill_along_the_planes_normal() {
         ("G19", "Y5 Z6 X-3 R1", X, [(Y, 5.0), (Z, 6.0)]),
     ];
     for (plane, words, axis, pos) in cases {
-        let segs = run(&format!("G0 X10 Y10 Z10\n{plane} G99 G81 {words} F100\nM30\n"));
+        let segs = run(&format!(
+            "G0 X10 Y10 Z10\n{plane} G99 G81 {words} F100\nM30\n"
+        ));
         let feeds: Vec<_> = segs
             .iter()
             .filter_map(|s| match s.kind {
@@ -221,7 +278,7 @@ fn cycles_drill_along_the_planes_normal() {
         for (i, v) in pos {
             assert_eq!(feeds[0][i], v, "{plane}");
         }
-        assert_eq!(segs.iter().filter_map(end).last().unwrap()[axis], 1.0);
+        assert_eq!(segs.iter().filter_map(end).next_back().unwrap()[axis], 1.0);
     }
 }
 
@@ -240,17 +297,29 @@ fn g76_orients_and_shifts_by_q() {
         let l3: Vec<_> = segs.iter().filter(|s| s.source.line == 3).collect();
         let stop = l3
             .iter()
-            .position(|s| s.kind == SegmentKind::Spindle { rpm: 0.0, dir: SpindleDir::Stop })
+            .position(|s| {
+                s.kind
+                    == SegmentKind::Spindle {
+                        rpm: 0.0,
+                        dir: SpindleDir::Stop,
+                    }
+            })
             .unwrap();
         let orient = end(l3[stop + 1]).unwrap();
         assert_eq!(orient[C], 360.0, "{plane}: nearest multiple of 360 to 200");
         let shifted = end(l3[stop + 2]).unwrap();
-        assert!((shifted[shift_axis] - orient[shift_axis] - 0.4).abs() < 1e-9, "{plane}");
+        assert!(
+            (shifted[shift_axis] - orient[shift_axis] - 0.4).abs() < 1e-9,
+            "{plane}"
+        );
         let back = end(l3[stop + 4]).unwrap();
         assert_eq!(back[shift_axis], orient[shift_axis]);
         assert_eq!(
             l3.last().unwrap().kind,
-            SegmentKind::Spindle { rpm: 500.0, dir: SpindleDir::Cw }
+            SegmentKind::Spindle {
+                rpm: 500.0,
+                dir: SpindleDir::Cw
+            }
         );
     }
 }
@@ -285,10 +354,25 @@ fn g87_back_boring_sequence() {
 #[test]
 fn g88_stops_at_the_bottom() {
     let segs = run("M3 S500\nG0 X0 Y0 Z10\nG99 G88 X1 Z-4 R2 P250 F100\nM30\n");
-    let kinds: Vec<_> = segs.iter().filter(|s| s.source.line == 3).map(|s| &s.kind).collect();
+    let kinds: Vec<_> = segs
+        .iter()
+        .filter(|s| s.source.line == 3)
+        .map(|s| &s.kind)
+        .collect();
     assert!(matches!(kinds[3], SegmentKind::Dwell { seconds } if *seconds == 0.25));
-    assert_eq!(*kinds[4], SegmentKind::Spindle { rpm: 0.0, dir: SpindleDir::Stop });
-    assert_eq!(*kinds[5], SegmentKind::Stop { kind: StopKind::Program });
+    assert_eq!(
+        *kinds[4],
+        SegmentKind::Spindle {
+            rpm: 0.0,
+            dir: SpindleDir::Stop
+        }
+    );
+    assert_eq!(
+        *kinds[5],
+        SegmentKind::Stop {
+            kind: StopKind::Program
+        }
+    );
     assert!(matches!(kinds[6], SegmentKind::Rapid { end } if end[Z] == 2.0));
 }
 
@@ -308,5 +392,8 @@ fn cycle_data_is_modal_and_g80_clears_it() {
         &SourceFile::new("t.nc", "G0 Z10\nG81 X1 Z-3 R2 F100\nG80\nG81 X2 F100\n"),
     )
     .unwrap_err();
-    assert_eq!((e.line, e.message.as_str()), (4, "canned cycle G81 needs R (the R level)"));
+    assert_eq!(
+        (e.line, e.message.as_str()),
+        (4, "canned cycle G81 needs R (the R level)")
+    );
 }

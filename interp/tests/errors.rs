@@ -10,104 +10,434 @@ const CASES: &[(&str, u32, u32, &str)] = &[
     // Feed (seed 000: "zero feed in a motion block").
     ("G1 X10\n", 1, 1, "zero feed in a motion block"),
     ("G1 X10 F0\n", 1, 8, "zero feed in a motion block"),
-    ("G0 X1\nG3 X0 Y1 I-0.5 J0.5\n", 2, 1, "zero feed in a motion block"),
-    ("G0 Z10\nG81 X0 R2 Z-2\n", 2, 1, "zero feed in a motion block"),
-    ("M3 S500\nG0 Z10\nG84 X0 R2 Z-2\n", 3, 1, "zero feed in a motion block"),
+    (
+        "G0 X1\nG3 X0 Y1 I-0.5 J0.5\n",
+        2,
+        1,
+        "zero feed in a motion block",
+    ),
+    (
+        "G0 Z10\nG81 X0 R2 Z-2\n",
+        2,
+        1,
+        "zero feed in a motion block",
+    ),
+    (
+        "M3 S500\nG0 Z10\nG84 X0 R2 Z-2\n",
+        3,
+        1,
+        "zero feed in a motion block",
+    ),
     ("G1 X1 F-5\n", 1, 7, "F must not be negative"),
-    ("G95 G1 X1 F0.1\n", 1, 5, "feed per revolution (G95) with S0"),
+    (
+        "G95 G1 X1 F0.1\n",
+        1,
+        5,
+        "feed per revolution (G95) with S0",
+    ),
     // Arcs.
-    ("G2 X10 Y1 I5 F100\n", 1, 4, "arc end point is not on the circle: start radius 5, end radius 5.09902"),
-    ("G18 G2 X10 Z1 I5 F100\n", 1, 12, "arc end point is not on the circle"),
-    ("G2 X20 R5 F100\n", 1, 8, "R arc with impossible radius: R 5 but the end point is 20 away"),
-    ("G3 X-20 Y0 R-9.99 F100\n", 1, 12, "R arc with impossible radius"),
-    ("G2 X0 Y0 R5 F100\n", 1, 10, "R arc ending at its start point"),
+    (
+        "G2 X10 Y1 I5 F100\n",
+        1,
+        4,
+        "arc end point is not on the circle: start radius 5, end radius 5.09902",
+    ),
+    (
+        "G18 G2 X10 Z1 I5 F100\n",
+        1,
+        12,
+        "arc end point is not on the circle",
+    ),
+    (
+        "G2 X20 R5 F100\n",
+        1,
+        8,
+        "R arc with impossible radius: R 5 but the end point is 20 away",
+    ),
+    (
+        "G3 X-20 Y0 R-9.99 F100\n",
+        1,
+        12,
+        "R arc with impossible radius",
+    ),
+    (
+        "G2 X0 Y0 R5 F100\n",
+        1,
+        10,
+        "R arc ending at its start point",
+    ),
     ("G2 X10 F100\n", 1, 1, "G2 needs the centre (I, J) or R"),
     ("G19 G3 Y10 F100\n", 1, 5, "G3 needs the centre (J, K) or R"),
     ("G2 X0 Y0 I0 J0 F100\n", 1, 1, "arc radius is zero"),
     ("G2 X10 R0 F100\n", 1, 8, "arc radius is zero"),
-    ("G0 X290 Y0\nG2 X290 Y0 I8 F100\n", 2, 4, "X 306 is outside the soft limits -300..300"),
+    (
+        "G0 X290 Y0\nG2 X290 Y0 I8 F100\n",
+        2,
+        4,
+        "X 306 is outside the soft limits -300..300",
+    ),
     // Canned cycle data.
-    ("G0 Z10\nG81 X1 Y1 Z-5 F100\n", 2, 1, "canned cycle G81 needs R (the R level)"),
-    ("G0 Z10\nG81 X1 Y1 R2 F100\n", 2, 1, "canned cycle G81 needs Z (the bottom of the hole)"),
-    ("G0 Y10\nG18 G81 X1 Z1 R2 F100\n", 2, 5, "canned cycle G81 needs Y (the bottom of the hole)"),
-    ("G0 Z10\nG83 X1 R2 Z-5 F100\n", 2, 1, "G83 needs Q (the peck depth)"),
-    ("G0 Z10\nG73 X1 R2 Z-5 Q0 F100\n", 2, 15, "Q (peck depth) must be > 0, not 0"),
-    ("G0 Z10\nG76 X1 R2 Z-5 Q-1 F100\n", 2, 15, "Q (shift) must be >= 0, not -1"),
-    ("G0 Z10\nG81 X0 R2 Z2 F100\n", 2, 11, "G81: the bottom equals the R level"),
-    ("G0 Z10\nG81 X0 R2 Z-2 K2 L2 F100\n", 2, 18, "K and L both give the repeat count"),
-    ("G0 Z10\nG81 X0 R2 Z-2 K-1 F100\n", 2, 15, "the repeat count must be a whole number >= 0, not -1"),
-    ("G0 Z10\nG81 X0 R2 Z-2 L1.5 F100\n", 2, 15, "the repeat count must be a whole number >= 0, not 1.5"),
-    ("G0 Z10\nG82 X0 R2 Z-2 P1.5 F100\n", 2, 15, "P1.5 is not a dwell: P is whole milliseconds"),
-    ("G0 Z10\nG81 X0 R2 Z-2 C10 F100\n", 2, 15, "axis C cannot move in a canned cycle (G81)"),
-    ("G0 Z10\nG81 X0 R2 Z-2 F100\nG18\n", 3, 1, "G18 while a canned cycle is active"),
-    ("G0 Z10\nG81 X0 R2 Z-2 F100\nG53 X1\n", 3, 1, "G53 cannot be used in a canned cycle"),
-    ("G0 Z10\nG87 X0 R-20 Z-5 Q1 F100\n", 2, 1, "G87 (back boring) needs the spindle turning"),
+    (
+        "G0 Z10\nG81 X1 Y1 Z-5 F100\n",
+        2,
+        1,
+        "canned cycle G81 needs R (the R level)",
+    ),
+    (
+        "G0 Z10\nG81 X1 Y1 R2 F100\n",
+        2,
+        1,
+        "canned cycle G81 needs Z (the bottom of the hole)",
+    ),
+    (
+        "G0 Y10\nG18 G81 X1 Z1 R2 F100\n",
+        2,
+        5,
+        "canned cycle G81 needs Y (the bottom of the hole)",
+    ),
+    (
+        "G0 Z10\nG83 X1 R2 Z-5 F100\n",
+        2,
+        1,
+        "G83 needs Q (the peck depth)",
+    ),
+    (
+        "G0 Z10\nG73 X1 R2 Z-5 Q0 F100\n",
+        2,
+        15,
+        "Q (peck depth) must be > 0, not 0",
+    ),
+    (
+        "G0 Z10\nG76 X1 R2 Z-5 Q-1 F100\n",
+        2,
+        15,
+        "Q (shift) must be >= 0, not -1",
+    ),
+    (
+        "G0 Z10\nG81 X0 R2 Z2 F100\n",
+        2,
+        11,
+        "G81: the bottom equals the R level",
+    ),
+    (
+        "G0 Z10\nG81 X0 R2 Z-2 K2 L2 F100\n",
+        2,
+        18,
+        "K and L both give the repeat count",
+    ),
+    (
+        "G0 Z10\nG81 X0 R2 Z-2 K-1 F100\n",
+        2,
+        15,
+        "the repeat count must be a whole number >= 0, not -1",
+    ),
+    (
+        "G0 Z10\nG81 X0 R2 Z-2 L1.5 F100\n",
+        2,
+        15,
+        "the repeat count must be a whole number >= 0, not 1.5",
+    ),
+    (
+        "G0 Z10\nG82 X0 R2 Z-2 P1.5 F100\n",
+        2,
+        15,
+        "P1.5 is not a dwell: P is whole milliseconds",
+    ),
+    (
+        "G0 Z10\nG81 X0 R2 Z-2 C10 F100\n",
+        2,
+        15,
+        "axis C cannot move in a canned cycle (G81)",
+    ),
+    (
+        "G0 Z10\nG81 X0 R2 Z-2 F100\nG18\n",
+        3,
+        1,
+        "G18 while a canned cycle is active",
+    ),
+    (
+        "G0 Z10\nG81 X0 R2 Z-2 F100\nG53 X1\n",
+        3,
+        1,
+        "G53 cannot be used in a canned cycle",
+    ),
+    (
+        "G0 Z10\nG87 X0 R-20 Z-5 Q1 F100\n",
+        2,
+        1,
+        "G87 (back boring) needs the spindle turning",
+    ),
     // Rigid tapping.
-    ("M3\nG0 Z10\nG84 X1 R2 Z-5 F100\n", 3, 1, "tapping with S = 0 (G84)"),
-    ("M4 S500\nG0 Z10\nG84 X1 R2 Z-5 F500\n", 3, 1, "G84 (right-hand tap) with the spindle turning the wrong way (M4 is active)"),
-    ("M3 S500\nG0 Z10\nG74 X1 R2 Z-5 F500\n", 3, 1, "G74 (left-hand tap) with the spindle turning the wrong way (M3 is active)"),
-    ("S500\nG0 Z10\nG84 X1 R2 Z-5 F500\n", 3, 1, "G84 (right-hand tap) needs the spindle direction M3 or rigid mode M29"),
-    ("M3 S500\nM5\nG0 Z10\nG74 X1 R2 Z-5 F500\n", 4, 1, "G74 (left-hand tap) needs the spindle direction M4 or rigid mode M29"),
+    (
+        "M3\nG0 Z10\nG84 X1 R2 Z-5 F100\n",
+        3,
+        1,
+        "tapping with S = 0 (G84)",
+    ),
+    (
+        "M4 S500\nG0 Z10\nG84 X1 R2 Z-5 F500\n",
+        3,
+        1,
+        "G84 (right-hand tap) with the spindle turning the wrong way (M4 is active)",
+    ),
+    (
+        "M3 S500\nG0 Z10\nG74 X1 R2 Z-5 F500\n",
+        3,
+        1,
+        "G74 (left-hand tap) with the spindle turning the wrong way (M3 is active)",
+    ),
+    (
+        "S500\nG0 Z10\nG84 X1 R2 Z-5 F500\n",
+        3,
+        1,
+        "G84 (right-hand tap) needs the spindle direction M3 or rigid mode M29",
+    ),
+    (
+        "M3 S500\nM5\nG0 Z10\nG74 X1 R2 Z-5 F500\n",
+        4,
+        1,
+        "G74 (left-hand tap) needs the spindle direction M4 or rigid mode M29",
+    ),
     // Codes and groups.
     ("G7 X1\n", 1, 1, "unknown G code G7"),
     ("G0 X1\nG100\n", 2, 1, "unknown G code G100"),
     ("M8\n", 1, 1, "unknown M code M8"),
-    ("G1.5 X1\n", 1, 1, "G1.5 is not a G code: G codes here are whole numbers"),
+    (
+        "G1.5 X1\n",
+        1,
+        1,
+        "G1.5 is not a G code: G codes here are whole numbers",
+    ),
     ("M3.5\n", 1, 1, "M3.5 is not a M code"),
-    ("G0 G1 X1 F10\n", 1, 4, "G0 and G1 are both in modal group 01 (motion)"),
-    ("G90 G91\n", 1, 5, "G90 and G91 are both in modal group 03 (G90/G91)"),
-    ("G17 G18\n", 1, 5, "G17 and G18 are both in modal group 02 (plane)"),
-    ("G20 G21\n", 1, 5, "G20 and G21 are both in modal group 06 (units)"),
-    ("G54 G55\n", 1, 5, "G54 and G55 are both in modal group 14 (work offset)"),
-    ("G98 G99\n", 1, 5, "G98 and G99 are both in modal group 10 (cycle return)"),
-    ("G94 G95\n", 1, 5, "G94 and G95 are both in modal group 05 (feed mode)"),
-    ("G81 G83 X1 Z-1 R1 Q1 F1\n", 1, 5, "G81 and G83 are both in modal group 09 (canned cycle)"),
-    ("G4 G53 X1\n", 1, 4, "G4 and G53 are both in modal group 00 (one-shot)"),
+    (
+        "G0 G1 X1 F10\n",
+        1,
+        4,
+        "G0 and G1 are both in modal group 01 (motion)",
+    ),
+    (
+        "G90 G91\n",
+        1,
+        5,
+        "G90 and G91 are both in modal group 03 (G90/G91)",
+    ),
+    (
+        "G17 G18\n",
+        1,
+        5,
+        "G17 and G18 are both in modal group 02 (plane)",
+    ),
+    (
+        "G20 G21\n",
+        1,
+        5,
+        "G20 and G21 are both in modal group 06 (units)",
+    ),
+    (
+        "G54 G55\n",
+        1,
+        5,
+        "G54 and G55 are both in modal group 14 (work offset)",
+    ),
+    (
+        "G98 G99\n",
+        1,
+        5,
+        "G98 and G99 are both in modal group 10 (cycle return)",
+    ),
+    (
+        "G94 G95\n",
+        1,
+        5,
+        "G94 and G95 are both in modal group 05 (feed mode)",
+    ),
+    (
+        "G81 G83 X1 Z-1 R1 Q1 F1\n",
+        1,
+        5,
+        "G81 and G83 are both in modal group 09 (canned cycle)",
+    ),
+    (
+        "G4 G53 X1\n",
+        1,
+        4,
+        "G4 and G53 are both in modal group 00 (one-shot)",
+    ),
     ("G1 G81 X1 Z-1 R1 F1\n", 1, 4, "G1 and G81 in one block"),
-    ("G1 G4 X1\n", 1, 1, "G1 cannot share a block with G4 (dwell)"),
+    (
+        "G1 G4 X1\n",
+        1,
+        1,
+        "G1 cannot share a block with G4 (dwell)",
+    ),
     ("M3 M4 S100\n", 1, 4, "M3 and M4 in one block"),
     ("M2 M30\n", 1, 4, "M2 and M30 in one block"),
-    ("M98 P100\n", 1, 1, "M98 (sub-program call/return) is not supported yet"),
-    ("G65 P9001 A1\n", 1, 1, "G65 (macro call) is not supported yet"),
-    ("G41 D1\n", 1, 1, "G41 (cutter radius compensation) is not supported yet"),
-    ("G43 H1 Z10\n", 1, 1, "G43 (tool length compensation) is not supported yet"),
-    ("G28 Z0\n", 1, 1, "G28 (reference position return) is not supported yet"),
-    ("G92 X0\n", 1, 1, "G92 (coordinate system setting) is not supported yet"),
+    (
+        "M98 P100\n",
+        1,
+        1,
+        "M98 (sub-program call/return) is not supported yet",
+    ),
+    (
+        "G65 P9001 A1\n",
+        1,
+        1,
+        "G65 (macro call) is not supported yet",
+    ),
+    (
+        "G41 D1\n",
+        1,
+        1,
+        "G41 (cutter radius compensation) is not supported yet",
+    ),
+    (
+        "G43 H1 Z10\n",
+        1,
+        1,
+        "G43 (tool length compensation) is not supported yet",
+    ),
+    (
+        "G28 Z0\n",
+        1,
+        1,
+        "G28 (reference position return) is not supported yet",
+    ),
+    (
+        "G92 X0\n",
+        1,
+        1,
+        "G92 (coordinate system setting) is not supported yet",
+    ),
     // Words the block cannot use.
     ("G0 X1 Q5\n", 1, 7, "address Q is not used in this block"),
-    ("G1 X1 I5 F100\n", 1, 7, "address I is not used in this block"),
+    (
+        "G1 X1 I5 F100\n",
+        1,
+        7,
+        "address I is not used in this block",
+    ),
     ("G0 X1 R5\n", 1, 7, "address R is not used in this block"),
     ("M3 S100 P5\n", 1, 9, "address P is not used in this block"),
     ("G4 X1 Y1\n", 1, 7, "address Y is not used in this block"),
     ("G0 A10\n", 1, 4, "address A is not used in this block"),
-    ("G17 G2 X1 Y1 K1 I1 F10\n", 1, 14, "address K is not used in this block"),
-    ("G0 X1 X2\n", 1, 7, "address X given twice in one block (first at 1:4)"),
+    (
+        "G17 G2 X1 Y1 K1 I1 F10\n",
+        1,
+        14,
+        "address K is not used in this block",
+    ),
+    (
+        "G0 X1 X2\n",
+        1,
+        7,
+        "address X given twice in one block (first at 1:4)",
+    ),
     // Values of the wrong kind.
-    ("T1.5 M6\n", 1, 1, "T (tool number) must be a whole number >= 0, not 1.5"),
-    ("T-2\n", 1, 1, "T (tool number) must be a whole number >= 0, not -2"),
-    ("G4 P1.5\n", 1, 4, "P1.5 is not a dwell: P is whole milliseconds"),
+    (
+        "T1.5 M6\n",
+        1,
+        1,
+        "T (tool number) must be a whole number >= 0, not 1.5",
+    ),
+    (
+        "T-2\n",
+        1,
+        1,
+        "T (tool number) must be a whole number >= 0, not -2",
+    ),
+    (
+        "G4 P1.5\n",
+        1,
+        4,
+        "P1.5 is not a dwell: P is whole milliseconds",
+    ),
     ("G4 X-1\n", 1, 4, "dwell time must not be negative"),
-    ("G4 X1 P100\n", 1, 7, "G4 takes X (seconds) or P (milliseconds), not both"),
+    (
+        "G4 X1 P100\n",
+        1,
+        7,
+        "G4 takes X (seconds) or P (milliseconds), not both",
+    ),
     ("S-5\n", 1, 1, "S must not be negative"),
-    ("S7000 M3\n", 1, 1, "S7000 is above the spindle's max_rpm 6000"),
+    (
+        "S7000 M3\n",
+        1,
+        1,
+        "S7000 is above the spindle's max_rpm 6000",
+    ),
     ("G0 X[1/0]\n", 1, 5, "division by zero"),
     ("G0 X[SQRT[-1]]\n", 1, 5, "SQRT of a negative number (-1)"),
     // G53.
     ("G53 G2 X1 I1 F10\n", 1, 1, "G53 works only with G0 or G1"),
-    ("G91 G53 G0 X1\n", 1, 5, "G53 in G91 (Fanuc ignores it; cnc402 refuses)"),
+    (
+        "G91 G53 G0 X1\n",
+        1,
+        5,
+        "G53 in G91 (Fanuc ignores it; cnc402 refuses)",
+    ),
     // Soft limits: checked before any segment of the block exists.
-    ("G0 X400\n", 1, 4, "X 400 is outside the soft limits -300..300 (machine coordinates)"),
-    ("G20 G0 X12\n", 1, 8, "X 304.8 is outside the soft limits -300..300"),
-    ("G55 G0 X250\n", 1, 8, "X 350 is outside the soft limits -300..300"),
+    (
+        "G0 X400\n",
+        1,
+        4,
+        "X 400 is outside the soft limits -300..300 (machine coordinates)",
+    ),
+    (
+        "G20 G0 X12\n",
+        1,
+        8,
+        "X 304.8 is outside the soft limits -300..300",
+    ),
+    (
+        "G55 G0 X250\n",
+        1,
+        8,
+        "X 350 is outside the soft limits -300..300",
+    ),
     ("G0 Z60\n", 1, 4, "Z 60 is outside the soft limits -250..50"),
-    ("G53 G0 Y-201\n", 1, 8, "Y -201 is outside the soft limits -200..200"),
-    ("G0 Z10\nG81 X0 Y0 Z-300 R2 F100\n", 2, 11, "Z -300 is outside the soft limits -250..50"),
-    ("G0 Z10\nG81 X0 Y0 Z-5 R60 F100\n", 2, 15, "Z 60 is outside the soft limits -250..50"),
-    ("G0 X250 Z10\nG91 G81 X20 Z-5 R-5 K4 F100\n", 2, 9, "X 310 is outside the soft limits -300..300"),
-    ("M3 S100\nG0 X295 Z10\nG76 X299 R2 Z-5 Q2 F100\n", 3, 17, "X 301 is outside the soft limits -300..300"),
-    ("G91 G1 X200 F100\nX200\n", 2, 1, "X 400 is outside the soft limits -300..300"),
+    (
+        "G53 G0 Y-201\n",
+        1,
+        8,
+        "Y -201 is outside the soft limits -200..200",
+    ),
+    (
+        "G0 Z10\nG81 X0 Y0 Z-300 R2 F100\n",
+        2,
+        11,
+        "Z -300 is outside the soft limits -250..50",
+    ),
+    (
+        "G0 Z10\nG81 X0 Y0 Z-5 R60 F100\n",
+        2,
+        15,
+        "Z 60 is outside the soft limits -250..50",
+    ),
+    (
+        "G0 X250 Z10\nG91 G81 X20 Z-5 R-5 K4 F100\n",
+        2,
+        9,
+        "X 310 is outside the soft limits -300..300",
+    ),
+    (
+        "M3 S100\nG0 X295 Z10\nG76 X299 R2 Z-5 Q2 F100\n",
+        3,
+        17,
+        "X 301 is outside the soft limits -300..300",
+    ),
+    (
+        "G91 G1 X200 F100\nX200\n",
+        2,
+        1,
+        "X 400 is outside the soft limits -300..300",
+    ),
     // The spindle axis.
-    ("M3 S100\nG0 C90\n", 2, 4, "C positioning while the spindle turns"),
+    (
+        "M3 S100\nG0 C90\n",
+        2,
+        4,
+        "C positioning while the spindle turns",
+    ),
 ];
 
 #[test]
@@ -130,7 +460,13 @@ fn every_bad_program_is_refused_where_it_is_wrong() {
             }
         }
     }
-    assert!(bad.is_empty(), "{} of {} cases wrong:\n{}", bad.len(), CASES.len(), bad.join("\n"));
+    assert!(
+        bad.is_empty(),
+        "{} of {} cases wrong:\n{}",
+        bad.len(),
+        CASES.len(),
+        bad.join("\n")
+    );
 }
 
 /// A block that fails produces none of its segments: the cycle's first holes are inside the
@@ -146,7 +482,11 @@ fn a_failing_cycle_emits_nothing_of_its_block() {
     assert_eq!(first.source.line, 1);
     let e = it.next_segment().unwrap_err();
     assert_eq!(e.line, 2);
-    assert_eq!(it.next_segment().unwrap(), None, "the run ends at the error");
+    assert_eq!(
+        it.next_segment().unwrap(),
+        None,
+        "the run ends at the error"
+    );
 }
 
 /// Lines after M30 are not run (so their errors are never seen), and `/` lines are skipped with
@@ -160,7 +500,7 @@ fn nothing_runs_after_the_end_and_deleted_blocks_are_skipped() {
         block_delete: false,
         ..Default::default()
     };
-    let e = cnc402_interp::run_program_with(&cfg, opts, &SourceFile::new("p.nc", "/G7\n"))
-        .unwrap_err();
+    let e =
+        cnc402_interp::run_program_with(&cfg, opts, &SourceFile::new("p.nc", "/G7\n")).unwrap_err();
     assert_eq!((e.line, e.col), (1, 2));
 }

@@ -49,13 +49,20 @@ fn find_rs274() -> Option<PathBuf> {
 }
 
 fn nums(args: &str) -> Vec<f64> {
-    args.split(',').filter_map(|a| a.trim().parse().ok()).collect()
+    args.split(',')
+        .filter_map(|a| a.trim().parse().ok())
+        .collect()
 }
 
 /// Motion calls of `rs274 -g` output.
 fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
-    let out = Command::new(exe).arg("-g").arg(file).output().expect("rs274 runs");
-    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let out = Command::new(exe)
+        .arg("-g")
+        .arg(file)
+        .output()
+        .expect("rs274 runs");
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     assert!(
         text.contains("PROGRAM_END()"),
         "rs274 stopped before the end of {}:\n{}",
@@ -87,8 +94,16 @@ fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
             };
         } else if call.starts_with("STRAIGHT_TRAVERSE") || call.starts_with("STRAIGHT_FEED") {
             let n = nums(args);
-            let kind = if call.starts_with("STRAIGHT_T") { 'R' } else { 'F' };
-            v.push(Move { kind, end: [n[0], n[1], n[2]], arc: None });
+            let kind = if call.starts_with("STRAIGHT_T") {
+                'R'
+            } else {
+                'F'
+            };
+            v.push(Move {
+                kind,
+                end: [n[0], n[1], n[2]],
+                arc: None,
+            });
         } else if call.starts_with("ARC_FEED") {
             let n = nums(args);
             let (e1, e2, c1, c2, rot, en) = (n[0], n[1], n[2], n[3], n[4] as i32, n[5]);
@@ -97,7 +112,11 @@ fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
                 Plane::ZX => [e2, en, e1],
                 Plane::YZ => [en, e1, e2],
             };
-            v.push(Move { kind: 'A', end, arc: Some((c1, c2, rot.signum())) });
+            v.push(Move {
+                kind: 'A',
+                end,
+                arc: Some((c1, c2, rot.signum())),
+            });
         }
     }
     v
@@ -117,19 +136,39 @@ fn our_moves(cfg: &MachineConfig, file: &Path) -> Vec<Move> {
                     after_stop = false;
                     continue;
                 }
-                Move { kind: 'R', end: [end[0], end[1], end[2]], arc: None }
+                Move {
+                    kind: 'R',
+                    end: [end[0], end[1], end[2]],
+                    arc: None,
+                }
             }
-            SegmentKind::Linear { end, .. } => Move { kind: 'F', end: [end[0], end[1], end[2]], arc: None },
-            SegmentKind::Arc { end, center, plane, dir, .. } => {
+            SegmentKind::Linear { end, .. } => Move {
+                kind: 'F',
+                end: [end[0], end[1], end[2]],
+                arc: None,
+            },
+            SegmentKind::Arc {
+                end,
+                center,
+                plane,
+                dir,
+                ..
+            } => {
                 let (c1, c2) = match plane {
                     Plane::XY => (center[0], center[1]),
                     Plane::ZX => (center[2], center[0]),
                     Plane::YZ => (center[1], center[2]),
                 };
                 let rot = if *dir == ArcDir::Cw { -1 } else { 1 };
-                Move { kind: 'A', end: [end[0], end[1], end[2]], arc: Some((c1, c2, rot)) }
+                Move {
+                    kind: 'A',
+                    end: [end[0], end[1], end[2]],
+                    arc: Some((c1, c2, rot)),
+                }
             }
-            SegmentKind::Stop { kind: StopKind::Program } => {
+            SegmentKind::Stop {
+                kind: StopKind::Program,
+            } => {
                 after_stop = true;
                 continue;
             }
@@ -182,7 +221,9 @@ fn dir() -> PathBuf {
 #[test]
 fn same_end_points_as_linuxcnc() {
     let Some(exe) = find_rs274() else {
-        eprintln!("NOTICE: rs274 (LinuxCNC) is not installed; cross-check skipped. apt-get install linuxcnc-uspace");
+        eprintln!(
+            "NOTICE: rs274 (LinuxCNC) is not installed; cross-check skipped. apt-get install linuxcnc-uspace"
+        );
         return;
     };
     let cfg = config();
@@ -191,7 +232,11 @@ fn same_end_points_as_linuxcnc() {
         let file = dir().join(name);
         let theirs = dedup(rs274_moves(&exe, &file));
         let ours = dedup(our_moves(&cfg, &file));
-        assert!(theirs.len() > 10, "{name}: rs274 gave {} moves", theirs.len());
+        assert!(
+            theirs.len() > 10,
+            "{name}: rs274 gave {} moves",
+            theirs.len()
+        );
         for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
             if !close(a, b) {
                 report.push(format!("{name} move {i}: ours {a:?}\n    rs274 {b:?}"));
@@ -199,7 +244,11 @@ fn same_end_points_as_linuxcnc() {
             }
         }
         if ours.len() != theirs.len() {
-            report.push(format!("{name}: {} moves, rs274 {}", ours.len(), theirs.len()));
+            report.push(format!(
+                "{name}: {} moves, rs274 {}",
+                ours.len(),
+                theirs.len()
+            ));
         }
     }
     assert!(report.is_empty(), "{}", report.join("\n"));
@@ -220,14 +269,27 @@ fn g89_with_g98_differs_only_in_the_way_out() {
     let mut expect = Vec::new();
     for m in &theirs {
         if m.kind == 'F' && m.end[2] == 10.0 {
-            expect.push(Move { kind: 'F', end: [m.end[0], m.end[1], 2.0], arc: None });
-            expect.push(Move { kind: 'R', ..m.clone() });
+            expect.push(Move {
+                kind: 'F',
+                end: [m.end[0], m.end[1], 2.0],
+                arc: None,
+            });
+            expect.push(Move {
+                kind: 'R',
+                ..m.clone()
+            });
         } else {
             expect.push(m.clone());
         }
     }
     // G85's way out agrees; only G89's feed to the initial level is replaced.
-    assert_eq!(theirs.iter().filter(|m| m.kind == 'F' && m.end[2] == 10.0).count(), 1);
+    assert_eq!(
+        theirs
+            .iter()
+            .filter(|m| m.kind == 'F' && m.end[2] == 10.0)
+            .count(),
+        1
+    );
     assert_eq!(ours.len(), expect.len());
     for (a, b) in ours.iter().zip(&expect) {
         assert!(close(a, b), "ours {a:?} expected {b:?}");
