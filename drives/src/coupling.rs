@@ -17,6 +17,9 @@ pub struct CouplingSample {
     pub c_act: f64,
     /// The program line being executed.
     pub line: u32,
+    /// The actual positions are not a pair sampled at the same instant (e.g. one drive's
+    /// TPDO came a cycle late): this tick counts for the setpoints only.
+    pub actual_stale: bool,
 }
 
 /// One window of coupled Z and C motion.
@@ -48,6 +51,7 @@ struct Rel {
     dc_cmd: f64,
     dz_act: f64,
     dc_act: f64,
+    act_valid: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -137,6 +141,7 @@ impl CouplingChecker {
             // at the window's start is part of the coupling error, not a new zero.
             dz_act: s.z_act - o.z_cmd,
             dc_act: s.c_act - o.c_cmd,
+            act_valid: !s.actual_stale,
         });
         None
     }
@@ -159,7 +164,9 @@ impl CouplingChecker {
         let mut act: f64 = 0.0;
         for r in &self.samples {
             cmd = cmd.max((r.dz_cmd - k * r.dc_cmd).abs());
-            act = act.max((r.dz_act - k * r.dc_act).abs());
+            if r.act_valid {
+                act = act.max((r.dz_act - k * r.dc_act).abs());
+            }
         }
         let w = TapWindow {
             line: open.line,
@@ -240,6 +247,7 @@ mod tests {
                 c_cmd: c[i],
                 c_act: c[i.saturating_sub(lag)],
                 line,
+                actual_stale: false,
             });
         }
         // Rest before and after.
@@ -309,6 +317,33 @@ mod tests {
     }
 
     #[test]
+    fn stale_actuals_count_for_setpoints_only() {
+        let mut samples = tap(1.5, 20.0, 0, 3);
+        // A tick whose actual pair is not from one instant: garbage actuals, marked stale.
+        samples[100].z_act += 5.0;
+        samples[100].actual_stale = true;
+        let mut ch = CouplingChecker::new(Z_CPU, C_CPU);
+        for s in &samples {
+            ch.feed(*s);
+        }
+        ch.finish();
+        assert!(ch.windows().iter().all(|w| w.max_error_um_act < 0.1));
+        // Unmarked, the same garbage is reported.
+        samples[100].actual_stale = false;
+        let mut ch = CouplingChecker::new(Z_CPU, C_CPU);
+        for s in &samples {
+            ch.feed(*s);
+        }
+        ch.finish();
+        let worst = ch
+            .windows()
+            .iter()
+            .map(|w| w.max_error_um_act)
+            .fold(0.0, f64::max);
+        assert!((worst - 5000.0).abs() < 1e-6, "{worst}");
+    }
+
+    #[test]
     fn z_alone_or_c_alone_is_no_window() {
         let mut ch = CouplingChecker::new(Z_CPU, C_CPU);
         for i in 0..100 {
@@ -318,6 +353,7 @@ mod tests {
                 c_cmd: 0.0,
                 c_act: 0.0,
                 line: 1,
+                actual_stale: false,
             });
         }
         for i in 0..100 {
@@ -327,6 +363,7 @@ mod tests {
                 c_cmd: i as f64 * 36.0,
                 c_act: i as f64 * 36.0,
                 line: 2,
+                actual_stale: false,
             });
         }
         assert_eq!(ch.finish(), None);

@@ -39,6 +39,10 @@ pub struct Feedback {
     pub statusword: [Option<Statusword>; MAX_AXES],
     /// Whether the drive's TPDO1 arrived since the previous cycle.
     pub fresh: [bool; MAX_AXES],
+    /// How many SYNCs older than the last one the actual position is (0: it answers the
+    /// previous cycle's SYNC; more when TPDOs arrive late on a loaded bus). Compare actual
+    /// positions of different axes only at equal age (e.g. the coupling checker).
+    pub age: [u32; MAX_AXES],
     /// A stop reaction is running (the latched stop: [`Master::stop_reason`]).
     pub stopping: bool,
 }
@@ -53,6 +57,7 @@ impl Feedback {
         following_error: [0.0; MAX_AXES],
         statusword: [None; MAX_AXES],
         fresh: [false; MAX_AXES],
+        age: [0; MAX_AXES],
         stopping: false,
     };
 
@@ -269,6 +274,7 @@ impl Master {
             following_error: [0.0; MAX_AXES],
             statusword: [None; MAX_AXES],
             fresh: [false; MAX_AXES],
+            age: [0; MAX_AXES],
             stopping: false,
         };
         for i in 0..self.n_axes {
@@ -288,6 +294,7 @@ impl Master {
             a.last_command = cmd;
             a.history[k % COMMAND_HISTORY] = cmd;
             if a.node.is_some() {
+                fb.age[i] = syncs.saturating_sub(a.tpdos).min(u32::MAX as u64) as u32;
                 if sync_sent {
                     if a.tpdo_this_cycle {
                         a.tpdo_missing = 0;

@@ -1,0 +1,102 @@
+//! The master's per-cycle path (`Master::cycle`: taking in TPDOs/EMCY/heartbeats/SDO
+//! responses, the monitors, RPDOs + SYNC, an in-cycle SDO transfer, the tripping cycle of a
+//! safety stop and the stop reaction) allocates nothing: a counting global allocator counts
+//! allocations made on this thread while `cycle` runs.
+
+mod master_common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use cnc402_config::MachineConfig;
+use cnc402_drives::master::MasterOptions;
+use cnc402_drives::sim::{FaultKind, SimDriveOptions};
+use master_common::Rig;
+
+struct Counting;
+
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static ALLOCS: Cell<u64> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if COUNTING.with(|c| c.get()) {
+            ALLOCS.with(|a| a.set(a.get() + 1));
+        }
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if COUNTING.with(|c| c.get()) {
+            ALLOCS.with(|a| a.set(a.get() + 1));
+        }
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Runs one master cycle (the bus advance before it is not counted).
+fn counted_cycle(rig: &mut Rig, cmd: &[f64]) -> (u64, bool) {
+    rig.bus.advance(rig.next);
+    let before = ALLOCS.with(|a| a.get());
+    COUNTING.with(|c| c.set(true));
+    let r = rig.master.cycle(&mut rig.bus, rig.next, cmd);
+    COUNTING.with(|c| c.set(false));
+    rig.next += rig.master.period();
+    (ALLOCS.with(|a| a.get()) - before, r.is_err())
+}
+
+#[test]
+fn the_cycle_allocates_nothing_in_any_phase() {
+    // 2 ms so that an SDO transfer fits next to the PDOs.
+    let mut config = MachineConfig::default_machine();
+    config.bus.period_us = 2000;
+    let mut rig = Rig::with_config(
+        config,
+        |_| SimDriveOptions::default(),
+        MasterOptions::default(),
+    );
+    rig.boot();
+    let start = rig.master.positions();
+    let mut allocs = 0;
+    let mut cmd = [0.0; 4];
+    let mut k = 0u64;
+    let mut step = |rig: &mut Rig, k: &mut u64| {
+        let t = *k as f64 * 2e-3;
+        for i in 0..3 {
+            cmd[i] = start[i] + 10.0 * (t * 3.0).sin();
+        }
+        cmd[3] = start[3] + 1800.0 * t;
+        *k += 1;
+        counted_cycle(rig, &cmd)
+    };
+    for _ in 0..500 {
+        let (n, stopped) = step(&mut rig, &mut k);
+        assert!(!stopped);
+        allocs += n;
+    }
+    // An in-cycle SDO upload (segmented, 17 bytes) and a download.
+    let now = rig.next;
+    rig.master.start_sdo_upload(3, 0x1008, 0, now).unwrap();
+    for _ in 0..20 {
+        allocs += step(&mut rig, &mut k).0;
+    }
+    assert_eq!(rig.master.take_sdo_outcome(3), Some(Ok(())));
+    assert_eq!(rig.master.sdo_data(3), b"cnc402 simdrive C");
+    // A fault: the tripping cycle and the stop reaction.
+    rig.inject(1, FaultKind::Fault(0x8611));
+    let mut tripped = false;
+    for _ in 0..200 {
+        let (n, stopped) = step(&mut rig, &mut k);
+        allocs += n;
+        tripped |= stopped;
+    }
+    assert!(tripped);
+    assert_eq!(allocs, 0, "allocations inside Master::cycle");
+}
