@@ -240,7 +240,9 @@ pub(crate) struct Exec<'a> {
 /// `(MSG, text)` → `text`.
 fn msg_text(c: &Comment) -> Option<String> {
     let t = c.text.trim_start();
-    if t.len() >= 4 && t[..3].eq_ignore_ascii_case("MSG") && t.as_bytes()[3] == b',' {
+    // Byte-wise: the comment may hold any UTF-8, and `MSG,` is ASCII.
+    let head = t.as_bytes().get(..4)?;
+    if head[..3].eq_ignore_ascii_case(b"MSG") && head[3] == b',' {
         Some(t[4..].trim().to_string())
     } else {
         None
@@ -989,5 +991,20 @@ mod tests {
         let e = it.next_segment().unwrap_err();
         assert_eq!(e.line, 2);
         assert_eq!(it.next_segment().unwrap(), None);
+    }
+}
+
+#[cfg(test)]
+mod regressions {
+    use super::*;
+
+    /// Found by the proptest: `(MSG…` detection sliced a comment at byte 3, inside `Ä`.
+    #[test]
+    fn multibyte_comment_does_not_panic_msg_detection() {
+        let cfg = MachineConfig::default_machine();
+        for t in ["(ÄÖÜ)\n", "(MSÄ, x)\n", "(MS)\n", "(msg,lower)\n"] {
+            let segs = run_program(&cfg, &SourceFile::new("t.nc", t)).unwrap();
+            assert_eq!(segs.len(), usize::from(t.starts_with("(msg")), "{t}");
+        }
     }
 }
