@@ -1,6 +1,10 @@
 //! Parse + interpret throughput in blocks/s on a generated program of 200,000 G0/G1 blocks,
 //! against LinuxCNC's `rs274 -g` on the same file in the same run (skipped with a notice when
 //! `rs274` is not installed). `cargo bench -p cnc402-interp --bench throughput`.
+//!
+//! Measured on the shared 2-core development machine (criterion medians, one run): parse alone
+//! 1.21 M blocks/s, parse + interpret 0.81 M blocks/s, `rs274 -g` (LinuxCNC 2.9, a whole
+//! process writing canonical calls to /dev/null) 0.106 M blocks/s.
 
 use std::hint::black_box;
 use std::path::PathBuf;
