@@ -115,12 +115,82 @@ ensure_kernel() {
     rm -rf "$KDIR" && mv "$tmp" "$KDIR"
 }
 
+# unpack_debs DIR PKG...: apt-get download the named packages (exact names) into
+# $CACHE/debs unless a .deb of each is already there, then unpack them all into DIR.
+# Used for packages that must not be installed on the host: busybox-static would replace the
+# machine's busybox, and qemu-system-x86 7.2 would remove the machine's newer qemu-utils.
+unpack_debs() {
+    local dir="$1" p deb debs=()
+    shift
+    mkdir -p "$CACHE/debs"
+    for p in "$@"; do
+        deb=$(ls "$CACHE/debs/${p}_"*.deb 2>/dev/null | head -1 || true)
+        if [[ -z "$deb" ]]; then
+            apt-cache show "$p" >/dev/null 2>&1 || apt_update_once
+            say "downloading $p"
+            (cd "$CACHE/debs" && apt-get download -q "$p" >/dev/null 2>"$CACHE/apt-download.log") \
+                || { cat "$CACHE/apt-download.log" >&2; die "apt-get download $p failed"; }
+            deb=$(ls "$CACHE/debs/${p}_"*.deb 2>/dev/null | head -1 || true)
+            [[ -n "$deb" ]] || die "apt-get download $p left no .deb in $CACHE/debs"
+        fi
+        debs+=("$deb")
+    done
+    rm -rf "$dir.tmp" && mkdir -p "$dir.tmp"
+    for deb in "${debs[@]}"; do
+        dpkg-deb -x "$deb" "$dir.tmp" || die "unpacking $deb failed"
+        basename "$deb" >>"$dir.tmp/DEBS"
+    done
+    rm -rf "$dir" && mv "$dir.tmp" "$dir"
+}
+
+BUSYBOX="$CACHE/busybox/bin/busybox"
+ensure_busybox() {
+    [[ -x "$BUSYBOX" ]] || unpack_debs "$CACHE/busybox" busybox-static
+    file_is_static "$BUSYBOX" || die "$BUSYBOX is not a static binary"
+}
+
+# qemu: the host's qemu-system-x86_64 if it has one (or $HIL_QEMU), else Debian's unpacked
+# under $CACHE/qemu, its shared libraries installed with apt (libraries only: no conflicts).
+QEMU=""
+QEMU_DIRS=()
+ensure_qemu() {
+    if [[ -n "${HIL_QEMU:-}" ]]; then
+        QEMU="$HIL_QEMU"
+        return 0
+    fi
+    if command -v qemu-system-x86_64 >/dev/null; then
+        QEMU=$(command -v qemu-system-x86_64)
+        return 0
+    fi
+    local qdir="$CACHE/qemu"
+    if [[ ! -f "$qdir/DEBS" ]]; then
+        local libs
+        apt-cache show qemu-system-x86 >/dev/null 2>&1 || apt_update_once
+        # The qemu packages' own dependencies that are shared libraries (never qemu-*).
+        libs=$(apt-cache depends --no-recommends --no-suggests --no-conflicts --no-breaks \
+                --no-replaces --no-enhances qemu-system-x86 qemu-system-common \
+            | awk '$1 == "Depends:" && $2 ~ /^lib|^zlib/ { print $2 }' | sort -u)
+        [[ -n "$libs" ]] || die "apt-cache depends qemu-system-x86 listed no libraries"
+        # shellcheck disable=SC2086
+        ensure_packages $libs
+        unpack_debs "$qdir" qemu-system-x86 qemu-system-common qemu-system-data seabios
+    fi
+    QEMU="$qdir/usr/bin/qemu-system-x86_64"
+    # Debian's qemu loads TCG itself as a module (accel-tcg-x86_64.so) from its module dir.
+    export QEMU_MODULE_DIR="$qdir/usr/lib/x86_64-linux-gnu/qemu"
+    QEMU_DIRS=(-L "$qdir/usr/share/qemu" -L "$qdir/usr/share/seabios")
+    if ldd "$QEMU" "$QEMU_MODULE_DIR/accel-tcg-x86_64.so" 2>/dev/null | grep -q 'not found'; then
+        ldd "$QEMU" "$QEMU_MODULE_DIR/accel-tcg-x86_64.so" | grep 'not found' >&2
+        die "the unpacked qemu misses shared libraries (listed above)"
+    fi
+}
+
 INITRD="$CACHE/initramfs.cpio.gz"
 
 # The initramfs depends on busybox, the module set and guest/init: rebuilt when any changes.
 initramfs_key() {
     cat "$HIL_DIR/guest/init" "$HIL_DIR/guest/modules.list" "$KDIR/VERSION"
-    dpkg-query -W -f='${Version}' busybox-static 2>/dev/null
+    cat "$CACHE/busybox/DEBS"
 }
 
 ensure_initramfs() {
@@ -132,8 +202,7 @@ ensure_initramfs() {
     say "building the initramfs"
     local root="$CACHE/initramfs.tmp" m
     rm -rf "$root" && mkdir -p "$root"/{bin,dev,proc,sys,mnt,modules}
-    cp /bin/busybox "$root/bin/busybox"
-    file_is_static /bin/busybox || die "/bin/busybox is not static (install busybox-static)"
+    cp "$BUSYBOX" "$root/bin/busybox"
     cp "$HIL_DIR/guest/init" "$root/init" && chmod 755 "$root/init"
     cp "$HIL_DIR/guest/modules.list" "$root/modules.list"
     while read -r m; do
@@ -184,7 +253,9 @@ setup() {
     if [[ $MODE == native ]]; then
         ensure_packages can-utils
     else
-        ensure_packages qemu-system-x86 busybox-static cpio can-utils iproute2
+        ensure_packages cpio can-utils iproute2
+        ensure_qemu
+        ensure_busybox
         ensure_kernel
         ensure_initramfs
     fi
@@ -252,14 +323,15 @@ run_job() {
         [[ $(id -u) == 0 ]] || share_opts=security_model=none
         say "booting $(cat "$KDIR/PACKAGE") under qemu (TCG, ${GUEST_CPUS} vCPUs, ${GUEST_MEM}), limit ${limit} s"
         set +e
-        timeout -k 5 "$limit" qemu-system-x86_64 \
-            -accel tcg,thread=multi -cpu max -m "$GUEST_MEM" -smp "$GUEST_CPUS" \
+        timeout -k 5 "$limit" "$QEMU" "${QEMU_DIRS[@]}" \
+            -accel "${HIL_ACCEL:-tcg,thread=multi}" -cpu max -m "$GUEST_MEM" -smp "$GUEST_CPUS" \
             -nodefaults -no-user-config -display none -no-reboot \
             -chardev stdio,id=con,signal=off -serial chardev:con \
             -kernel "$KDIR/vmlinuz" -initrd "$INITRD" \
             -append "console=ttyS0 quiet loglevel=3 panic=-1 tsc=reliable ${HIL_KERNEL_ARGS:-} hiljob=$dir" \
             -fsdev "local,id=hostroot,path=/,$share_opts,multidevs=remap" \
             -device virtio-9p-pci,fsdev=hostroot,mount_tag=hostroot \
+            ${HIL_QEMU_ARGS:-} \
             </dev/null | grep -v --line-buffered -E '^\[ *[0-9.]+\] reboot: '
         rc=${PIPESTATUS[0]}
         set -e
