@@ -18,6 +18,6 @@ pub mod status;
 pub use controller::{CycleController, Step};
 pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, ModelLink, Startup, StopCause};
 pub use report::{RunReport, write_plot};
-pub use sim_link::SimLink;
 pub use run::{Progress, RunError, RunOptions, Timing, make_link, run_program};
+pub use sim_link::SimLink;
 pub use status::{Outcome, Phase, Status};

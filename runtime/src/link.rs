@@ -227,7 +227,10 @@ impl DriveLink for ModelLink {
             && !self.reported
         {
             self.reported = true;
-            if let Some(i) = self.nodes[..self.n_axes].iter().position(|&n| n == plan.node) {
+            if let Some(i) = self.nodes[..self.n_axes]
+                .iter()
+                .position(|&n| n == plan.node)
+            {
                 self.sw[i] = SW_FAULT;
                 stop = Some(DriveStop {
                     cause: StopCause::DriveFault,

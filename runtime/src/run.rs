@@ -17,7 +17,6 @@ use cnc402_motion::{AxisPos, MoveEvent};
 use crate::controller::{AxisTable, CycleController, Step, start_position};
 use crate::feeder::{Feeder, dry_run, motion_error_to_nc};
 use crate::link::{DriveLink, DriveStop, FaultPlan, ModelLink, Startup};
-use crate::sim_link::SimLink;
 use crate::recorder::Recorder;
 use crate::report::{AxisReport, RunReport, StopReport};
 use crate::ring::{
@@ -25,6 +24,7 @@ use crate::ring::{
     status_ring,
 };
 use crate::rt::{LatencyHistogram, LatencySummary, monotonic_ns, request_realtime, sleep_until};
+use crate::sim_link::SimLink;
 use crate::status::{Outcome, Status};
 
 /// How time advances.
@@ -107,7 +107,8 @@ pub fn make_link(
         }
         return Ok(Box::new(link));
     }
-    let mut link = SimLink::new(cfg, None).map_err(|e| RunError::Io(format!("simulated bus: {}", e.0)))?;
+    let mut link =
+        SimLink::new(cfg, None).map_err(|e| RunError::Io(format!("simulated bus: {}", e.0)))?;
     if let Some(f) = fault {
         link = link.with_fault(f);
     }
@@ -382,7 +383,10 @@ fn startup_failed(why: String) -> Outcome {
 }
 
 fn startup_timeout() -> String {
-    format!("the drives were not enabled within {} s", STARTUP_LIMIT.as_secs())
+    format!(
+        "the drives were not enabled within {} s",
+        STARTUP_LIMIT.as_secs()
+    )
 }
 
 fn run_virtual(

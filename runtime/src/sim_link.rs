@@ -40,7 +40,10 @@ pub struct SimLinkError(pub String);
 impl SimLink {
     /// Builds the bus and its drives from `cfg`; `initial` are the drives' positions at power-on
     /// (counts, config axis order; `None` = 0).
-    pub fn new(cfg: &MachineConfig, initial: Option<[i32; MAX_AXES]>) -> Result<SimLink, SimLinkError> {
+    pub fn new(
+        cfg: &MachineConfig,
+        initial: Option<[i32; MAX_AXES]>,
+    ) -> Result<SimLink, SimLinkError> {
         let options = MasterOptions {
             stop_mode: StopMode::FollowPath,
             ..MasterOptions::default()
@@ -71,7 +74,9 @@ impl SimLink {
             last: [0.0; MAX_AXES],
             quick_stop_sent: false,
             prev_actual: [f64::NAN; MAX_AXES],
-            counts_per_unit: core::array::from_fn(|i| cfg.axes.get(i).map_or(1.0, |a| a.counts_per_unit)),
+            counts_per_unit: core::array::from_fn(|i| {
+                cfg.axes.get(i).map_or(1.0, |a| a.counts_per_unit)
+            }),
         })
     }
 
@@ -105,7 +110,9 @@ impl SimLink {
         fb: &mut [DriveFeedback; MAX_AXES],
     ) -> Result<(), SafetyStop> {
         self.bus.advance(t);
-        let r = self.master.cycle(&mut self.bus, t, &commands[..self.n_axes]);
+        let r = self
+            .master
+            .cycle(&mut self.bus, t, &commands[..self.n_axes]);
         let f = match &r {
             Ok(f) => Some(*f),
             Err(_) => None,
@@ -203,7 +210,8 @@ impl DriveLink for SimLink {
         for i in 0..self.n_axes {
             if self.device_of_axis[i].is_some() {
                 let state = cia402::Statusword(fb[i].statusword).state();
-                let moved = (fb[i].actual - self.prev_actual[i]).abs() * self.counts_per_unit[i] >= 1.0;
+                let moved =
+                    (fb[i].actual - self.prev_actual[i]).abs() * self.counts_per_unit[i] >= 1.0;
                 stopped &= state != Some(State::OperationEnabled) && !moved;
             }
             self.prev_actual[i] = fb[i].actual;
@@ -220,6 +228,8 @@ impl DriveLink for SimLink {
     }
 
     fn shutdown(&mut self) -> Result<(), String> {
-        self.master.disable(&mut self.bus).map_err(|e| e.to_string())
+        self.master
+            .disable(&mut self.bus)
+            .map_err(|e| e.to_string())
     }
 }

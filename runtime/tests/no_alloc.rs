@@ -81,14 +81,20 @@ fn run_armed(fault: Option<FaultPlan>) -> (usize, Outcome, u64) {
     let src = SourceFile::new("tap.nc", TAP);
     let ast = cnc402_lang::parse(&src).expect("parse");
     let axes = cnc402_runtime::controller::AxisTable::new(&cfg);
-    let mut feeder = Feeder::new(&cfg, src, ast, cnc402_runtime::controller::start_position(&axes, &start));
+    let mut feeder = Feeder::new(
+        &cfg,
+        src,
+        ast,
+        cnc402_runtime::controller::start_position(&axes, &start),
+    );
     let (mut mp, mc) = move_ring(4096);
     while let Some(mv) = feeder.next_move().expect("plan") {
         assert!(mp.try_push(LoopInput::Move(mv)).is_ok());
     }
     assert!(mp.try_push(LoopInput::End).is_ok());
     let (sp, mut sc) = status_ring(1 << 16);
-    let mut ctrl = CycleController::new(&cfg, start, link, mc, sp, Arc::new(AtomicBool::new(false)));
+    let mut ctrl =
+        CycleController::new(&cfg, start, link, mc, sp, Arc::new(AtomicBool::new(false)));
 
     // A few ticks unarmed so that lazily sized buffers reach their working size.
     let period = Duration::from_micros(cfg.bus.period_us as u64);

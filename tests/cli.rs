@@ -1,0 +1,346 @@
+//! The `cnc402` binary end to end: `segments` and `run` on every shipped example, the report,
+//! trace and plot files, a drive fault injected mid-tap, and the documented exit codes.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+const EXAMPLES: [&str; 4] = [
+    "examples/m10x1.5-rigid-tap.nc",
+    "examples/peck-tap.nc",
+    "examples/bolt-circle-drilling.nc",
+    "examples/contour-arcs.nc",
+];
+
+fn cnc402(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("run cnc402")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("cnc402-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn read_json(p: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+#[test]
+fn segments_of_every_example_are_json_lines() {
+    for ex in EXAMPLES {
+        let o = cnc402(&["segments", ex]);
+        assert_eq!(o.status.code(), Some(0), "{ex}: {}", stderr(&o));
+        let text = String::from_utf8(o.stdout).unwrap();
+        let mut n = 0;
+        for line in text.lines() {
+            let v: Value =
+                serde_json::from_str(line).unwrap_or_else(|e| panic!("{ex}: {e}: {line}"));
+            assert!(v["kind"].is_string() && v["line"].is_u64(), "{line}");
+            n += 1;
+        }
+        assert!(n > 5, "{ex}: {n} segments");
+    }
+}
+
+/// One count of the tool axis or the tool-axis equivalent of one spindle count, in µm, from
+/// the shipped config: Z 10000 counts/mm, C 131072 counts/rev.
+fn coupling_bound_um(pitch_mm: f64) -> f64 {
+    let z: f64 = 1.0 / 10000.0;
+    let c = pitch_mm / 131072.0;
+    z.max(c) * 1000.0
+}
+
+#[test]
+fn run_every_example_ok_with_exact_report_keys_and_coupled_taps() {
+    for ex in EXAMPLES {
+        let report = tmp(&format!("{}.json", ex.replace('/', "_")));
+        let o = cnc402(&["run", ex, "--report", report.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{ex}: {}", stderr(&o));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(stdout.starts_with("ok:"), "{stdout}");
+        assert!(
+            stdout.contains("bus:") && stdout.contains("path length"),
+            "{stdout}"
+        );
+        let v = read_json(&report);
+        for key in [
+            "ok",
+            "error",
+            "period_us",
+            "ticks",
+            "program_time_s",
+            "path_length_mm",
+            "axes",
+            "tapping",
+            "bus",
+        ] {
+            assert!(v.get(key).is_some(), "{ex}: no key {key}");
+        }
+        assert_eq!(v["ok"], true);
+        assert!(v["error"].is_null());
+        assert_eq!(v["period_us"], 1000);
+        assert!(v["ticks"].as_u64().unwrap() > 1000);
+        assert!(v["program_time_s"].as_f64().unwrap() > 1.0);
+        assert!(v["path_length_mm"].as_f64().unwrap() > 10.0);
+        let axes = v["axes"].as_object().unwrap();
+        assert_eq!(
+            axes.keys().cloned().collect::<Vec<_>>(),
+            ["C", "X", "Y", "Z"]
+        );
+        for (name, a) in axes {
+            assert!(a["max_following_error"].as_f64().unwrap() >= 0.0, "{name}");
+            assert!(a["final_position"].as_f64().unwrap().is_finite(), "{name}");
+        }
+        // Every program ends with G0 Z50.
+        assert!((axes["Z"]["final_position"].as_f64().unwrap() - 50.0).abs() < 1e-4);
+        let bus = &v["bus"];
+        assert!(bus["frames"].as_u64().unwrap() > 1000);
+        let load = bus["load_percent"].as_f64().unwrap();
+        assert!(load > 50.0 && load <= 100.0, "{load}");
+
+        let taps = v["tapping"].as_array().unwrap();
+        let expected_taps = match ex {
+            "examples/m10x1.5-rigid-tap.nc" => 4,
+            "examples/peck-tap.nc" => 2,
+            _ => 0,
+        };
+        assert_eq!(taps.len(), expected_taps, "{ex}: {taps:?}");
+        for t in taps {
+            let pitch = t["pitch_mm"].as_f64().unwrap();
+            let want = if ex.contains("m10x1.5") { 1.5 } else { 1.25 };
+            assert!((pitch - want).abs() < 1e-9, "{pitch}");
+            let cmd = t["max_coupling_error_um_cmd"].as_f64().unwrap();
+            assert!(
+                cmd <= coupling_bound_um(pitch),
+                "{ex} line {}: {cmd} µm",
+                t["line"]
+            );
+            assert!(t["max_coupling_error_um_act"].as_f64().unwrap().is_finite());
+            assert!(t["line"].as_u64().unwrap() > 0);
+        }
+    }
+}
+
+#[test]
+fn trace_and_plot_are_well_formed() {
+    let trace = tmp("tap.csv");
+    let plot = tmp("tap.svg");
+    let report = tmp("tap-trace.json");
+    let o = cnc402(&[
+        "run",
+        "examples/peck-tap.nc",
+        "--trace",
+        trace.to_str().unwrap(),
+        "--plot",
+        plot.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let ticks = read_json(&report)["ticks"].as_u64().unwrap();
+    let csv = std::fs::read_to_string(&trace).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "t,line,X_cmd,X_act,Y_cmd,Y_act,Z_cmd,Z_act,C_cmd,C_act,X_sw,Y_sw,Z_sw,C_sw"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len() as u64, ticks, "one row per tick");
+    let mut t_prev = -1.0;
+    let mut z_min = f64::INFINITY;
+    for r in &rows {
+        assert_eq!(r.len(), 14);
+        let t: f64 = r[0].parse().unwrap();
+        assert!(
+            (t - t_prev - 0.001).abs() < 1e-9 || t_prev < 0.0,
+            "{t} after {t_prev}"
+        );
+        t_prev = t;
+        let _: u32 = r[1].parse().unwrap();
+        for v in &r[2..10] {
+            let x: f64 = v.parse().unwrap();
+            assert!(x.is_finite());
+        }
+        z_min = z_min.min(r[6].parse().unwrap());
+        for sw in &r[10..] {
+            assert!(
+                sw.starts_with("0x") && u16::from_str_radix(&sw[2..], 16).is_ok(),
+                "{sw}"
+            );
+        }
+    }
+    assert!(
+        (z_min - -20.0).abs() < 1e-6,
+        "the peck tap reaches Z-20: {z_min}"
+    );
+    // Operation enabled (0x0027 in the low bits) while running.
+    assert_eq!(
+        u16::from_str_radix(&rows[10][12][2..], 16).unwrap() & 0x6F,
+        0x27
+    );
+
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    assert!(
+        svg.trim_start().starts_with("<svg"),
+        "{}",
+        &svg[..100.min(svg.len())]
+    );
+    assert!(svg.trim_end().ends_with("</svg>"));
+    assert!(
+        svg.contains("<polyline") || svg.contains("<path"),
+        "has line series"
+    );
+    assert!(svg.contains("C setpoint") && svg.contains("coupling error"));
+}
+
+/// The time (s) of the first trace row with Z below `z` (inside the first hole).
+fn first_time_below(csv: &str, z: f64) -> f64 {
+    for l in csv.lines().skip(1) {
+        let r: Vec<&str> = l.split(',').collect();
+        if r[6].parse::<f64>().unwrap() < z {
+            return r[0].parse().unwrap();
+        }
+    }
+    panic!("Z never below {z}");
+}
+
+#[test]
+fn drive_fault_mid_tap_stops_all_axes_and_names_node_emcy_and_line() {
+    let trace = tmp("clean.csv");
+    let o = cnc402(&[
+        "run",
+        "examples/m10x1.5-rigid-tap.nc",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let t_in = first_time_below(&std::fs::read_to_string(&trace).unwrap(), -8.0);
+
+    let report = tmp("fault.json");
+    let trace = tmp("fault.csv");
+    let fault = format!("3:8611@{t_in:.3}");
+    let o = cnc402(&[
+        "run",
+        "examples/m10x1.5-rigid-tap.nc",
+        "--inject-fault",
+        &fault,
+        "--report",
+        report.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("node 3"), "{err}");
+    assert!(err.contains("EMCY 0x8611"), "{err}");
+    assert!(err.contains("statusword 0x"), "{err}");
+    assert!(
+        err.contains("examples/m10x1.5-rigid-tap.nc:11"),
+        "the first tap is on line 11: {err}"
+    );
+    let v = read_json(&report);
+    assert_eq!(v["ok"], false);
+    assert!(v["error"].as_str().unwrap().contains("node 3"));
+    assert_eq!(v["stop"]["node"], 3);
+    assert_eq!(v["stop"]["emcy"], "0x8611");
+
+    // All axes at rest at the end, none still enabled, and the setpoints stayed coupled
+    // through the stop.
+    let csv = std::fs::read_to_string(&trace).unwrap();
+    let rows: Vec<Vec<String>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    let last = rows.last().unwrap();
+    let prev = &rows[rows.len() - 2];
+    for k in [3, 5, 7, 9] {
+        let a: f64 = last[k].parse().unwrap();
+        let b: f64 = prev[k].parse().unwrap();
+        assert!(
+            (a - b).abs() < 1e-3,
+            "axis column {k} still moving: {b} -> {a}"
+        );
+    }
+    for sw in &last[10..] {
+        let w = u16::from_str_radix(&sw[2..], 16).unwrap();
+        assert_ne!(
+            w & 0x6F,
+            0x27,
+            "a drive is still in OPERATION ENABLED: {sw}"
+        );
+    }
+    let t_end: f64 = last[0].parse().unwrap();
+    assert!(
+        t_end < t_in + 1.0,
+        "stopped soon after the fault: {t_end} vs {t_in}"
+    );
+    for t in v["tapping"].as_array().unwrap() {
+        let cmd = t["max_coupling_error_um_cmd"].as_f64().unwrap();
+        assert!(
+            cmd <= coupling_bound_um(1.5),
+            "coupling during the stop: {cmd} µm"
+        );
+    }
+}
+
+#[test]
+fn program_error_exits_2_with_file_line_col() {
+    let p = tmp("bad.nc");
+    std::fs::write(&p, "G21 G90\nG0 X10.\nG1 X20. Y F\nM30\n").unwrap();
+    let o = cnc402(&["run", p.to_str().unwrap()]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains(&format!("{}:3:", p.display())), "{err}");
+
+    // Found by planning, before anything moves: a spindle speed above max_rpm.
+    std::fs::write(&p, "G21\nG0 X1.\nM3 S9000\nM30\n").unwrap();
+    let o = cnc402(&["run", p.to_str().unwrap()]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains(&format!("{}:3:", p.display())), "{err}");
+}
+
+#[test]
+fn config_error_exits_3_and_missing_file_4() {
+    let cfg = tmp("bad.toml");
+    std::fs::write(&cfg, "[bus]\ninterface = \"sim\"\nbogus = 1\n").unwrap();
+    let o = cnc402(&["run", EXAMPLES[0], "--config", cfg.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let o = cnc402(&["run", "examples/no-such-program.nc"]);
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+}
+
+#[test]
+fn a_can_interface_needs_socketcan_exit_4() {
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/machine.toml"))
+            .unwrap();
+    let text = text.replace("interface = \"sim\"", "interface = \"vcan0\"");
+    let cfg = tmp("vcan.toml");
+    std::fs::write(&cfg, text).unwrap();
+    let o = cnc402(&["run", EXAMPLES[0], "--config", cfg.to_str().unwrap()]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(4), "{err}");
+    assert!(
+        err.contains("SocketCAN transport not available yet"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bad_fault_option_is_a_usage_error() {
+    let o = cnc402(&["run", EXAMPLES[0], "--inject-fault", "banana"]);
+    assert_eq!(o.status.code(), Some(64), "{}", stderr(&o));
+}
