@@ -482,3 +482,93 @@ fn follow_path_stop_mode_keeps_healthy_drives_enabled() {
         );
     }
 }
+
+#[test]
+fn reenable_after_a_fault_stop_resumes_where_the_axes_stopped() {
+    let mut rig = booted();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 300).unwrap();
+    rig.inject(0, FaultKind::Fault(0x2310));
+    let (_, stop) = run(&mut rig, &start, 300, 10).unwrap_err();
+    assert_eq!(stop.node, Some(1));
+    let hold = rig.master.positions();
+    for _ in 0..300 {
+        rig.cycle(&hold[..4]).unwrap();
+    }
+    rig.bus.advance(rig.next);
+    let t = rig.master.reenable(&mut rig.bus).unwrap();
+    rig.next = t + rig.master.period();
+    assert_eq!(rig.master.phase(), Phase::Running);
+    assert!(rig.master.stop_reason().is_none());
+    let pos = rig.master.positions();
+    let before: Vec<i32> = (0..4).map(|i| rig.drive(i).position_actual()).collect();
+    for i in 0..4 {
+        let cpu = rig.config.axes[i].counts_per_unit;
+        assert!((pos[i] * cpu - before[i] as f64).abs() < 0.5, "axis {i}");
+    }
+    for _ in 0..100 {
+        let fb = rig.cycle(&pos[..4]).unwrap();
+        for i in 0..4 {
+            assert_eq!(fb.state(i), Some(State::OperationEnabled));
+        }
+    }
+    for i in 0..4 {
+        assert_eq!(rig.drive(i).position_actual(), before[i], "axis {i} moved");
+    }
+}
+
+#[test]
+fn a_failed_boot_can_be_retried() {
+    let mut rig = Rig::with_config(
+        MachineConfig::default_machine(),
+        |i| SimDriveOptions {
+            boot_delay: if i == 3 {
+                std::time::Duration::from_millis(2500)
+            } else {
+                std::time::Duration::from_millis(1)
+            },
+            ..SimDriveOptions::default()
+        },
+        MasterOptions {
+            boot_timeout: std::time::Duration::from_secs(1),
+            ..MasterOptions::default()
+        },
+    );
+    let mut failures = 0;
+    loop {
+        match rig.master.boot(&mut rig.bus) {
+            Ok(_) => break,
+            Err(cnc402_drives::master::BootError::NoBootUp { node: 4, .. }) => failures += 1,
+            Err(e) => panic!("{e}"),
+        }
+        assert_eq!(rig.master.phase(), Phase::Idle);
+        assert!(failures < 5);
+    }
+    assert!(failures >= 2, "{failures}");
+    assert_eq!(rig.master.phase(), Phase::Running);
+    assert_eq!(rig.drive(3).state(), State::OperationEnabled);
+}
+
+#[test]
+fn a_machine_without_drives_boots_and_echoes() {
+    let mut config = MachineConfig::default_machine();
+    for a in &mut config.axes {
+        a.node = None;
+    }
+    let mut rig = Rig::with_config(
+        config,
+        |_| SimDriveOptions::default(),
+        MasterOptions::default(),
+    );
+    let r = rig.boot();
+    assert!(r.drives.is_empty());
+    let start = rig.master.positions();
+    for k in 0..10 {
+        let fb = rig.cycle(&ramp(&start, k)).unwrap();
+        assert_eq!(fb.actual, {
+            let mut a = [0.0; cnc402_config::MAX_AXES];
+            a[..4].copy_from_slice(&ramp(&start, k));
+            a
+        });
+    }
+}

@@ -364,6 +364,16 @@ impl Master {
         if self.phase != Phase::Idle {
             return Err(BootError::WrongPhase(self.phase));
         }
+        let r = self.boot_inner(bus);
+        if r.is_err() {
+            // A failed boot can be retried from the start (it resets communication first).
+            self.phase = Phase::Idle;
+            self.stop = None;
+        }
+        r
+    }
+
+    fn boot_inner<B: TimedBus + ?Sized>(&mut self, bus: &mut B) -> Result<BootReport, BootError> {
         let t0 = bus.now();
         while let Some(f) = bus.recv()? {
             self.absorb(&f, t0);
@@ -477,17 +487,31 @@ impl Master {
             report.drives.push(ident);
         }
 
-        // Enable: cycles at the period, target held at the actual position.
+        let (enabled_at, cycles) = self.run_enable(bus)?;
+        report.enabled_at = enabled_at;
+        report.enable_cycles = cycles;
+        Ok(report)
+    }
+
+    /// The enable sequence: cycles at the period with every drive's target held at its
+    /// actual position until all are OPERATION ENABLED; then [`Phase::Running`]. Returns the
+    /// last enable cycle's time and the number of cycles.
+    fn run_enable<B: TimedBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+    ) -> Result<(Instant, u32), BootError> {
         self.start_enabling();
+        let drives: Vec<usize> = self.drive_indices().collect();
         let t_enable = bus.now();
         let deadline = t_enable + self.options.enable_timeout;
         let mut next = t_enable + self.period;
         let hold = self.positions();
         let mut stuck: [Option<Stuck>; cnc402_config::MAX_AXES] = [None; cnc402_config::MAX_AXES];
+        let mut cycles = 0u32;
         loop {
             self.wait_until(bus, next)?;
             let progress = self.enable_step(bus, next, &hold[..self.n_axes])?;
-            report.enable_cycles += 1;
+            cycles += 1;
             let mut all = true;
             for &i in &drives {
                 match progress[i] {
@@ -520,9 +544,36 @@ impl Master {
             }
             next += self.period;
         }
-        report.enabled_at = next;
         self.start_running(next);
-        Ok(report)
+        Ok((next, cycles))
+    }
+
+    /// Enables the drives again after a stop (or a disable) without booting: clears the
+    /// latched stop, holds each drive's target at its last reported actual position, runs the
+    /// enable sequence (fault reset included) and returns to [`Phase::Running`]. Start the
+    /// interpolator at [`positions`](Self::positions) afterwards. Returns the time of the last
+    /// enable cycle (the next cycle is one period later).
+    pub fn reenable<B: TimedBus + ?Sized>(&mut self, bus: &mut B) -> Result<Instant, BootError> {
+        if self.phase == Phase::Idle {
+            return Err(BootError::WrongPhase(self.phase));
+        }
+        self.stop = None;
+        for a in self.axes[..self.n_axes].iter_mut() {
+            if a.node.is_some() {
+                a.target = a.actual_raw;
+            } else {
+                a.actual = a.last_command;
+            }
+            a.emcy = None;
+        }
+        match self.run_enable(bus) {
+            Ok((t, _)) => Ok(t),
+            Err(e) => {
+                // Leave the drives held with power off rather than half-enabled.
+                self.request_disable();
+                Err(e)
+            }
+        }
     }
 
     /// Waits until `deadline`, taking in every frame that arrives.

@@ -201,13 +201,13 @@ impl Master {
         if a.tpdo_this_cycle && state != Some(State::OperationEnabled) {
             return Some(StopReason::NotEnabled);
         }
-        if let Some(t) = a.last_heartbeat {
-            let silent = now.saturating_since(t);
-            if silent > self.heartbeat_timeout {
-                return Some(StopReason::HeartbeatLost {
-                    silent_ms: silent.as_millis() as u64,
-                });
-            }
+        if let Some(t) = a.last_heartbeat
+            && self.heartbeat_ms > 0
+            && now.saturating_since(t) > self.heartbeat_timeout
+        {
+            return Some(StopReason::HeartbeatLost {
+                silent_ms: now.saturating_since(t).as_millis() as u64,
+            });
         }
         if let Some(s) = a.nmt
             && s != NmtState::Operational
