@@ -303,8 +303,8 @@ new_job() {
         done
         while read -r v; do
             printf 'export %s=%q\n' "$v" "${!v}"
-        done < <(compgen -e | grep -E '^(HIL_|RUST_)' | grep -vxE 'HIL_(MODE|IFACE|REPO|CWD|BIN|JOB)' || true)
-        printf 'export HIL_MODE=%q HIL_IFACE=%q HIL_REPO=%q HIL_CWD=%q HIL_JOB=%q\n' \
+        done < <(compgen -e | grep -E '^(HIL_|RUST_)' | grep -vxE 'HIL_(MODE|RUNNING_IN|IFACE|REPO|CWD|BIN|JOB|QEMU|ACCEL|QEMU_ARGS|KERNEL_ARGS|CACHE)' || true)
+        printf 'export HIL_RUNNING_IN=%q HIL_IFACE=%q HIL_REPO=%q HIL_CWD=%q HIL_JOB=%q\n' \
             "$MODE" "$IFACE" "$REPO" "$PWD" "$dir"
         printf 'export HIL_BIN=%q\n' "$TARGET_DIR/$PROFILE"
     } >"$dir/env"

@@ -21,7 +21,7 @@ if ! out=$("$HIL_REPO/vcan-setup.sh" "$HIL_IFACE" 2>&1); then
     echo "HIL: could not bring up $HIL_IFACE: $out"
     finish 125
 fi
-if [[ "$HIL_MODE" == qemu ]]; then
+if [[ "$HIL_RUNNING_IN" == qemu ]]; then
     read -r up _ </proc/uptime
     echo "HIL: guest kernel $(uname -r) ready after ${up} s of guest uptime; $HIL_IFACE up"
 fi
