@@ -72,16 +72,19 @@ pub enum LineKind {
     /// Fanuc Custom Macro B assignment: `#100=#4001`, `#[#1+2]=SIN[30]`, `#3000=12(TEXT)`
     /// (the comment is in [`Line::comments`]). `target` is an [`ExprKind::Var`] or
     /// [`ExprKind::IndirectVar`].
-    Assign { target: Expr, value: Expr },
+    Assign { target: Box<Expr>, value: Box<Expr> },
     /// `GOTO 100`, `GOTO #10`, `GOTO [#1+10]`: jump to the block with that N number.
-    Goto { target: Expr },
+    Goto { target: Box<Expr> },
     /// `IF [#1 EQ 2] GOTO 100`: conditional jump.
-    IfGoto { cond: Expr, target: Expr },
+    IfGoto { cond: Box<Expr>, target: Box<Expr> },
     /// `IF [#520 EQ 3] THEN #113=1`: conditional statement. `then` is an
     /// [`LineKind::Assign`] or a [`LineKind::Block`] (`IF[#1 GT 0]THEN G0 X#1`).
-    IfThen { cond: Expr, then: Box<LineKind> },
+    IfThen {
+        cond: Box<Expr>,
+        then: Box<LineKind>,
+    },
     /// `WHILE [#1 LT 10] DO 1`: loop head; `id` (1, 2 or 3) pairs it with its `END`.
-    While { cond: Expr, id: u8 },
+    While { cond: Box<Expr>, id: u8 },
     /// `END 1`: loop end, paired with `WHILE … DO 1`.
     End { id: u8 },
     /// Statements of the C-like language starting on this line: `int n = 2;`,
@@ -127,7 +130,7 @@ pub enum Value {
     Number(Number),
     /// A bracketed expression `X[1+2*3]`, one given with `=`: `F=100*2`, or a macro variable,
     /// possibly negated: `X#500`, `Z-#1`.
-    Expr(Expr),
+    Expr(Box<Expr>),
 }
 
 /// A literal number. `has_point` matters to Fanuc controls, which read `X10` as 10 least

@@ -6,6 +6,11 @@ use nom::bytes::complete::take_while;
 use super::{Cx, PResult, fail, fail_exp};
 use crate::ast::{Comment, Number};
 
+/// Exact powers of ten for the number fast path (15 digits at most after the point).
+const POW10: [f64; 16] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+];
+
 /// Whitespace inside a line: space, tab, and a stray carriage return.
 #[inline]
 pub(crate) fn is_ws(c: char) -> bool {
@@ -154,6 +159,7 @@ impl<'a> Cx<'a> {
             has_point = true;
             k += 1;
             while k < b.len() && b[k].is_ascii_digit() {
+                int = int.wrapping_mul(10).wrapping_add(u64::from(b[k] - b'0'));
                 k += 1;
                 frac_digits += 1;
             }
@@ -168,10 +174,11 @@ impl<'a> Cx<'a> {
             )));
         }
         let text = &i[..k];
-        // Up to 15 digits fit an f64 exactly; longer ones go through the correctly rounded
-        // std parser.
-        let value = if !has_point && int_digits <= 15 {
-            int as f64
+        // Up to 15 digits fit an f64 exactly, and so does 10^k for k <= 22: one IEEE division
+        // of two exact values is the correctly rounded result (Clinger's fast path). Longer
+        // numbers go through the std parser, also correctly rounded.
+        let value = if int_digits + frac_digits <= 15 {
+            int as f64 / POW10[frac_digits]
         } else {
             match text.parse::<f64>() {
                 Ok(v) => v,
@@ -236,6 +243,28 @@ mod tests {
             num("123456789012345678901"),
             Ok((123456789012345678901.0, false, 21))
         );
+    }
+
+    #[test]
+    fn fast_path_equals_std_parsing() {
+        for t in [
+            "0.1",
+            "0.2",
+            "0.3",
+            "1.005",
+            "123.456",
+            "99999.99999",
+            "0.000000000000001",
+            "12345678901234.5",
+            "1234567890123456.7",
+            "3.141592653589793",
+            ".333333333333333",
+            "1000000.0000001",
+            "7.",
+            "0.0",
+        ] {
+            assert_eq!(num(t).unwrap().0, t.parse::<f64>().unwrap(), "{t}");
+        }
     }
 
     #[test]

@@ -99,11 +99,22 @@ impl<'a> Cx<'a> {
                     );
                 }
                 let (r, id) = self.loop_id(&r[2..], "DO")?;
-                (r, LineKind::While { cond, id })
+                (
+                    r,
+                    LineKind::While {
+                        cond: Box::new(cond),
+                        id,
+                    },
+                )
             }
             Some(b'G' | b'g') if starts_with_kw(i, "GOTO") => {
                 let (r, target) = self.goto_target(&i[4..])?;
-                (r, LineKind::Goto { target })
+                (
+                    r,
+                    LineKind::Goto {
+                        target: Box::new(target),
+                    },
+                )
             }
             Some(b'E' | b'e') if starts_with_kw(i, "END") => {
                 let (r, id) = self.loop_id(&i[3..], "END")?;
@@ -137,7 +148,13 @@ impl<'a> Cx<'a> {
             );
         };
         match self.expr(after, 0) {
-            Ok((r, value)) => Ok((r, LineKind::Assign { target, value })),
+            Ok((r, value)) => Ok((
+                r,
+                LineKind::Assign {
+                    target: Box::new(target),
+                    value: Box::new(value),
+                },
+            )),
             Err(nom::Err::Error(_)) => {
                 let at = ws(after);
                 fail_exp(
@@ -173,7 +190,13 @@ impl<'a> Cx<'a> {
         let r = ws(r);
         if starts_with_kw(r, "GOTO") {
             let (r, target) = self.goto_target(&r[4..])?;
-            return Ok((r, LineKind::IfGoto { cond, target }));
+            return Ok((
+                r,
+                LineKind::IfGoto {
+                    cond: Box::new(cond),
+                    target: Box::new(target),
+                },
+            ));
         }
         if !starts_with_kw(r, "THEN") {
             return fail_exp(
@@ -215,7 +238,7 @@ impl<'a> Cx<'a> {
         Ok((
             then.0,
             LineKind::IfThen {
-                cond,
+                cond: Box::new(cond),
                 then: Box::new(then.1),
             },
         ))
@@ -289,7 +312,8 @@ impl<'a> Cx<'a> {
 
     /// Words (with comments between them) to the end of the line.
     fn block(&self, mut i: &'a str, comments: &mut Vec<Comment>) -> PResult<'a, Block> {
-        let mut words = Vec::new();
+        // One allocation for a typical block: words are rarely shorter than 4 bytes.
+        let mut words = Vec::with_capacity((i.len() / 4 + 1).min(16));
         let mut named_axes = Vec::new();
         loop {
             i = self.trivia(i, comments)?.0;
@@ -374,16 +398,16 @@ impl<'a> Cx<'a> {
             Some(b'[') => {
                 let (r, mut e) = self.bracketed(v, 1)?;
                 e.span = self.span(v, r);
-                (r, Value::Expr(e))
+                (r, Value::Expr(Box::new(e)))
             }
             Some(b'=') if self.c_like => {
                 let (r, e) = self.c_expr_req(&v[1..], IN_BLOCK, &format!("after `{letter}=`"))?;
-                (r, Value::Expr(e))
+                (r, Value::Expr(Box::new(e)))
             }
             Some(b'=') => {
                 let after = &v[1..];
                 match self.expr(after, 0) {
-                    Ok((r, e)) => (r, Value::Expr(e)),
+                    Ok((r, e)) => (r, Value::Expr(Box::new(e))),
                     Err(nom::Err::Error(_)) => {
                         let at = ws(after);
                         return fail_exp(
@@ -398,7 +422,7 @@ impl<'a> Cx<'a> {
             }
             Some(b'#') => {
                 let (r, e) = self.var(v, 0)?;
-                (r, Value::Expr(e))
+                (r, Value::Expr(Box::new(e)))
             }
             // `X-#1`, `Z-[#1+2]`: a signed variable or bracket is an expression.
             Some(b'+' | b'-') if matches!(ws(&v[1..]).as_bytes().first(), Some(b'#' | b'[')) => {
@@ -416,10 +440,10 @@ impl<'a> Cx<'a> {
                 e.span = self.span(inner, r);
                 (
                     r,
-                    Value::Expr(Expr {
+                    Value::Expr(Box::new(Expr {
                         kind: ExprKind::Unary(op, Box::new(e)),
                         span: self.span(v, r),
-                    }),
+                    })),
                 )
             }
             Some(b'+' | b'-' | b'.' | b'0'..=b'9') => {
