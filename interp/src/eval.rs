@@ -126,11 +126,15 @@ pub fn expr(src: &SourceFile, e: &Expr) -> Result<f64, NcError> {
                     .ok_or_else(|| err(format!("BCD of {a}: not a whole number >= 0")))?,
             }
         }
+        ExprKind::Var(_) | ExprKind::IndirectVar(_) => {
+            return Err(err(
+                "macro variables are not supported yet (they come with Custom Macro B)".into(),
+            ));
+        }
         #[allow(unreachable_patterns)]
         _ => {
             return Err(err(
-                "this expression is not supported yet (macro variables come with Custom Macro B)"
-                    .into(),
+                "this expression is not supported yet (it belongs to the C-like language)".into(),
             ));
         }
     };

@@ -149,15 +149,30 @@ impl Interpreter {
                 self.seen_block = true;
                 Some(b)
             }
+            LineKind::Continued => return Ok(()),
+            LineKind::Stmts(_) => {
+                return Err(NcError::new(
+                    &self.src,
+                    line.span,
+                    "C-like statements are not supported yet (they come with the C-like language)",
+                ));
+            }
             #[allow(unreachable_patterns)]
             _ => {
                 return Err(NcError::new(
                     &self.src,
                     line.span,
-                    "this statement is not supported yet (Custom Macro B comes in a later issue)",
+                    "Custom Macro B statements are not supported yet (assignment, GOTO, IF, WHILE)",
                 ));
             }
         };
+        if let Some(named) = block.and_then(|b| b.named_axes.first()) {
+            return Err(NcError::new(
+                &self.src,
+                named.span,
+                "AXSTR axis words are not supported yet (they come with the C-like language)",
+            ));
+        }
         let words = match block {
             Some(b) => Words::collect(&self.src, b)?,
             None => Words::collect(&self.src, &Default::default())?,

@@ -431,6 +431,44 @@ const CASES: &[(&str, u32, u32, &str)] = &[
         1,
         "X 400 is outside the soft limits -300..300",
     ),
+    // Later issues' constructs: refused where they are, not skipped.
+    (
+        "#1=5\n",
+        1,
+        1,
+        "Custom Macro B statements are not supported yet",
+    ),
+    (
+        "G0 X1\nGOTO 10\n",
+        2,
+        1,
+        "Custom Macro B statements are not supported yet",
+    ),
+    (
+        "WHILE [1 LT 2] DO 1\nEND 1\n",
+        1,
+        1,
+        "Custom Macro B statements are not supported yet",
+    ),
+    (
+        "IF [1 EQ 1] GOTO 5\n",
+        1,
+        1,
+        "Custom Macro B statements are not supported yet",
+    ),
+    ("G0 X#1\n", 1, 5, "macro variables are not supported yet"),
+    (
+        "G0 X1 Z-#[#1+2]\n",
+        1,
+        9,
+        "macro variables are not supported yet",
+    ),
+    (
+        "int n = 2;\n",
+        1,
+        1,
+        "C-like statements are not supported yet",
+    ),
     // The spindle axis.
     (
         "M3 S100\nG0 C90\n",
