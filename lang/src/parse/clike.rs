@@ -48,25 +48,9 @@ fn word_is(i: &str, kw: &str) -> bool {
             .is_some_and(|&b| is_ident_char(b))
 }
 
-/// The rule that tells G-code from statements, applied to the text at the start of a line
-/// (after leading whitespace) or at the start of a statement inside `{ }`:
-///
-/// * A **statement** starts with `{`, `}`, `$`, `@`, `"`, `//`, `/*`, `#use`, `++`, `--`, or
-///   with a name of two or more characters whose second character is a letter or `_` (or that
-///   starts with `_`): `int n`, `Tapping(…)`, `if (…)`, `dOst = …`, `MSG(…)`.
-/// * Everything else is **G-code**: an address letter followed by its value (`G1`, `X 10`,
-///   `F=dTapFeed`), `N`, `O`, `%`, `/`, `(`, `;`, `#100=…`. The Fanuc macro keywords stay
-///   G-code: `GOTO…`, `IF`/`WHILE` unless a round bracket follows (`IF[…]` is Fanuc,
-///   `if (…)` is a statement, in any case), `END`, `DO` (alone or with digits); so does
-///   `AXSTR(…)=…`. These names are therefore not variable names.
-/// * **Ambiguous** lines are errors: a single letter followed by `++`, `--`, `+=`, `-=`, `*=`,
-///   `/=`, `%=`, or by `[…]` and an assignment, or by `=` on a line whose code ends with `;`
-///   (`x = 5;` could be the word `X=5` with a `;` comment or an assignment to `x`); a letter
-///   and digits (`x1`) followed by an assignment or `++`/`--`. Start variable names with two
-///   letters.
-///
-/// A program is C-like when any of its lines is a statement; only then do G-code lines take C
-/// expressions after `=` and `//` comments.
+/// The rule that tells G-code from statements (documented on [`crate::parse`]), applied to
+/// the text at the start of a line (after leading whitespace) or at the start of a statement
+/// inside `{ }`.
 pub(crate) fn classify(i: &str) -> Class {
     let b = i.as_bytes();
     let Some(&c0) = b.first() else {

@@ -22,6 +22,29 @@ use crate::diag::{NcError, SourceFile};
 /// terminator does not start an empty last line (an empty text is one empty line). The first
 /// error ends the parse: the error points at the offending text and says what was expected.
 ///
+/// Choices where controls differ:
+/// * Whitespace may stand between words and between an address letter and its value
+///   (`X 10` is `X10`, `X - 5` is not a number: the sign belongs to the digits), never inside
+///   a number (`X1 0` is an error). Letters and keywords are case-insensitive.
+/// * Numbers have no exponent (`X1E2` is `X1 E2`); `has_point` records a decimal point.
+/// * `( … )` comments may nest (`(START(dòng) SPINDLE)` is one comment) and end at the end
+///   of their line; `;` comments to the end of the line (so a Fanuc end-of-block `;` is fine).
+/// * `N` must start the block; `O`/`:` and `%` stand on their own line with comments only.
+/// * `/` (block delete) only at the start; the Fanuc `/2`…`/9` levels are not supported.
+/// * Fanuc Custom Macro B: `#n`, `#[e]`, `#n=e`, `GOTO`, `IF[…]GOTO`, `IF[…]THEN`,
+///   `WHILE[…]DO m`, `END m` (keywords need no spaces: `IF[#1EQ2]GOTO5`).
+/// * The C-like language (source 000): a line is a *statement* when it starts with `{`, `}`,
+///   `$`, `@`, `"`, `//`, `/*`, `#use`, `++`/`--`, or with a name whose first two
+///   characters are letters or `_` (`int n`, `Tapping(…)`, `if (…)`, `dOst = …`); other
+///   lines are G-code. `GOTO`, `IF`/`WHILE` not followed by `(`, `END`, `DO` and
+///   `AXSTR(…)=` stay G-code. Lines that read both ways are errors: a single letter followed
+///   by `++ -- += -= *= /= %=` or by `[…] =`, a letter and digits (`x1`) followed by an
+///   assignment, and `x = …;` ending in `;`. A program with at least one statement is C-like:
+///   its G-code lines then take C expressions after `=` (`F=dTapFeed`, `X=(a+b)`),
+///   `AXSTR(name)=value` words and `//` comments. A statement may run over several lines
+///   (those become [`crate::ast::LineKind::Continued`]); G-code lines inside it must start
+///   their own line.
+///
 /// ```
 /// use cnc402_lang::{parse, SourceFile, ast::{LineKind, Value}};
 /// let src = SourceFile::new("demo.nc", "%\nO0001 (DEMO)\nN10 G0 X-1.5 Y.5\nN20 G1 Z[1+2*3] F=100*2\n%\n");
