@@ -253,3 +253,35 @@ fn mlt980_linear_holes_o9001_as_printed() {
         .count();
     assert_eq!(gotos, 5);
 }
+
+#[test]
+fn fanuc_bolt_circle_macro() {
+    let p = load("fanuc_bolt_circle.nc");
+    let shown: Vec<String> = p.lines.iter().map(|l| show(&l.kind)).collect();
+    assert_eq!(
+        shown,
+        [
+            "%",
+            "O9010",
+            "IF[#11 LE 0] GOTO 900",
+            "IF[#18 EQ #0] GOTO 901",
+            "#30=#1",
+            "#31=[360 DIV #11]",
+            "#32=1",
+            "WHILE[#32 LE #11] DO1",
+            "#33=[#24 ADD [#18 MUL COS[#30]]]",
+            "#34=[#25 ADD [#18 MUL SIN[#30]]]",
+            "G90 X#33 Y#34",
+            "#30=[#30 ADD #31]",
+            "#32=[#32 ADD 1]",
+            "END1",
+            "GOTO 999",
+            "#3000=101",
+            "#3000=102",
+            "M99",
+            "%",
+        ]
+    );
+    assert_eq!(p.lines[15].n.map(|n| n.value), Some(900));
+    assert_eq!(p.lines[15].comments[0].text, "NO HOLES");
+}

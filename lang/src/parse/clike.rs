@@ -779,7 +779,7 @@ impl<'a> Cx<'a> {
             i,
             e.span.range().len(),
             "a statement must be an assignment, a call or a declaration",
-            "`=`, `++`, `--` or a call",
+            "`=`, `++`, `--` or a call (as G-code: a value after every address letter)",
         )
     }
 
