@@ -9,6 +9,8 @@ pub mod coupling;
 pub mod master;
 pub mod od;
 pub mod sim;
+#[cfg(target_os = "linux")]
+pub mod socketcan;
 pub mod time;
 pub mod wire;
 
