@@ -397,3 +397,81 @@ fn cycle_data_is_modal_and_g80_clears_it() {
         (4, "canned cycle G81 needs R (the R level)")
     );
 }
+
+/// The whole matrix: every cycle × G17/G18/G19 × G98/G99 × G90/G91 with two repeats. For each
+/// hole the deepest point along the drilling axis is the bottom (the R level for G87, whose
+/// bore is cut upwards), the tool never goes past it or above the initial level, it ends at the
+/// return level, and the holes are where the (absolute or incremental) words put them.
+#[test]
+fn every_cycle_in_every_plane_mode_and_return() {
+    // (plane code, hole-position axes, drilling axis, letters)
+    let planes = [
+        ("G17", (X, Y), Z, ('X', 'Y', 'Z')),
+        ("G18", (Z, X), Y, ('Z', 'X', 'Y')),
+        ("G19", (Y, Z), X, ('Y', 'Z', 'X')),
+    ];
+    let initial = 20.0;
+    for (pcode, (ia, ib), id, (la, lb, ld)) in planes {
+        for cyc in [73, 74, 76, 81, 82, 83, 84, 85, 86, 87, 88, 89] {
+            for ret in [98, 99] {
+                for inc in [false, true] {
+                    let spindle = if cyc == 74 { "M4 S500" } else { "M3 S500" };
+                    // Absolute levels: R 2, bottom -6 (G87: R -6 below, Z 2 above).
+                    let (r_abs, z_abs) = if cyc == 87 { (-6.0, 2.0) } else { (2.0, -6.0) };
+                    let (r_w, z_w) = if inc { (r_abs - initial, z_abs - r_abs) } else { (r_abs, z_abs) };
+                    let (a_w, b_w) = if inc { (5.0, 3.0) } else { (15.0, 13.0) };
+                    let prog = format!(
+                        "{spindle}\nG0 X10 Y10 Z10\nG0 {ld}{initial}\n{pcode} {} G{ret} G{cyc} {la}{a_w} {lb}{b_w} {ld}{z_w} R{r_w} Q1.5 P100 K2 F500\nM30\n",
+                        if inc { "G91" } else { "G90" }
+                    );
+                    let segs = run(&prog);
+                    let hole_segs: Vec<_> = segs.iter().filter(|s| s.source.line == 4).collect();
+                    let ends: Vec<AxisPos> = hole_segs.iter().filter_map(|s| end(s)).collect();
+                    let lo = ends.iter().map(|e| e[id]).fold(f64::MAX, f64::min);
+                    let hi = ends.iter().map(|e| e[id]).fold(f64::MIN, f64::max);
+                    let deepest = if cyc == 87 { r_abs } else { z_abs };
+                    assert!((lo - deepest).abs() < 1e-9, "{prog}: deepest {lo}");
+                    assert!(hi <= initial + 1e-9, "{prog}: above the initial level: {hi}");
+                    let last = *ends.last().unwrap();
+                    let want_ret = if ret == 99 && cyc != 87 { r_abs } else { initial };
+                    assert!((last[id] - want_ret).abs() < 1e-9, "{prog}: ends at {}", last[id]);
+                    // Hole positions: the feed moves' plane coordinates.
+                    let mut holes: Vec<(f64, f64)> = hole_segs
+                        .iter()
+                        .filter_map(|s| match s.kind {
+                            SegmentKind::Linear { end, .. } => Some((end[ia], end[ib])),
+                            _ => None,
+                        })
+                        .collect();
+                    holes.dedup();
+                    let want: Vec<(f64, f64)> = if inc {
+                        let start = (10.0, 10.0);
+                        vec![(start.0 + 5.0, start.1 + 3.0), (start.0 + 10.0, start.1 + 6.0)]
+                    } else {
+                        vec![(15.0, 13.0)]
+                    };
+                    assert_eq!(holes, want, "{prog}");
+                    // Taps: C follows the drilling axis on every feed move.
+                    if cyc == 74 || cyc == 84 {
+                        let hand = if cyc == 84 { 1.0 } else { -1.0 };
+                        let pitch = 1.0; // F500 / S500
+                        for e in ends.iter().filter(|e| e[C] != 0.0) {
+                            let want_c = hand * (r_abs - e[id]) * 360.0 / pitch;
+                            assert!((e[C] - want_c).abs() < 1e-9, "{prog}");
+                        }
+                    }
+                    // The spindle ends as it started: turning at S500.
+                    let last_spindle = segs
+                        .iter()
+                        .filter_map(|s| match s.kind {
+                            SegmentKind::Spindle { rpm, dir } => Some((rpm, dir)),
+                            _ => None,
+                        })
+                        .next_back()
+                        .unwrap();
+                    assert_eq!(last_spindle.0, 500.0, "{prog}");
+                }
+            }
+        }
+    }
+}
