@@ -150,6 +150,11 @@ impl<L: DriveLink> CycleController<L> {
         &self.link
     }
 
+    /// Gives the drive link back (after the run).
+    pub fn into_link(self) -> L {
+        self.link
+    }
+
     /// The drive link, mutable (shutdown after the run).
     pub fn link_mut(&mut self) -> &mut L {
         &mut self.link

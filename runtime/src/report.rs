@@ -108,6 +108,9 @@ impl RunReport {
             "wall_time_s": self.wall_time_s,
             "realtime_factor": self.realtime_factor,
         });
+        if let Some(g) = &self.realtime_grant {
+            let _ = writeln!(s, "  {g}");
+        }
         if let Some(l) = &self.wakeup_latency {
             v["wakeup_latency_us"] = json!({
                 "p50": l.p50_us, "p99": l.p99_us, "max": l.max_us, "late": l.late,

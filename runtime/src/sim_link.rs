@@ -158,6 +158,10 @@ pub fn drive_stop(s: &SafetyStop) -> DriveStop {
 
 impl DriveLink for SimLink {
     fn startup(&mut self, _now: Instant) -> Startup {
+        if self.master.phase() == cnc402_drives::master::Phase::Running {
+            // Already started (a caller that asks twice): the drives hold where they are.
+            return Startup::Ready(self.master.positions());
+        }
         // Boot blocks in the bus's virtual time (SDO configuration, enable).
         match self.master.boot(&mut self.bus) {
             Ok(report) => {

@@ -1,0 +1,290 @@
+//! The cycle controller on the embedded simulated machine (master + SimBus + SimDrives):
+//! enabling never moves a drive, an operator stop mid-tap keeps Z and C coupled and quick-stops
+//! every drive, a drive fault names node/EMCY/line, coupling windows are measured (and would
+//! catch a decoupling), and the real-time driver runs with its latency figures.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use cnc402_config::{MAX_AXES, MachineConfig};
+use cnc402_drives::Instant;
+use cnc402_lang::SourceFile;
+use cnc402_runtime::controller::{AxisTable, CycleController, Step, start_position};
+use cnc402_runtime::feeder::Feeder;
+use cnc402_runtime::link::{DriveLink, FaultPlan, ModelLink, Startup, StopCause};
+use cnc402_runtime::recorder::Recorder;
+use cnc402_runtime::ring::{Consumer, move_ring, status_ring};
+use cnc402_runtime::status::TapCoupling;
+use cnc402_runtime::{Outcome, Phase, RunOptions, SimLink, Status, Timing, run_program};
+
+const TAP: &str = "%\nG21 G90 G17 G94 G54\nG0 X10. Y10. Z10.\nM29 S500\nG98 G84 X10. Y10. Z-16. R3. F750.\nG80\nG0 Z20.\nM30\n%\n";
+
+/// Runs `text` on `link` tick by tick; `hook` sees every status and may raise the stop flag.
+fn drive<L: DriveLink>(
+    cfg: &MachineConfig,
+    mut link: L,
+    text: &str,
+    mut hook: impl FnMut(&Status, &AtomicBool),
+) -> (Outcome, Vec<Status>, [f64; MAX_AXES], L) {
+    let period = Duration::from_micros(cfg.bus.period_us as u64);
+    let mut now = Instant::ZERO;
+    let start = loop {
+        match link.startup(now) {
+            Startup::Ready(p) => break p,
+            Startup::Pending if now < Instant::from_millis(100) => now += period,
+            other => panic!("startup: {other:?}"),
+        }
+    };
+    let src = SourceFile::new("t.nc", text);
+    let ast = cnc402_lang::parse(&src).expect("parse");
+    let axes = AxisTable::new(cfg);
+    let mut feeder = Feeder::new(cfg, src, ast, start_position(&axes, &start));
+    let (mut mp, mc) = move_ring(64);
+    let (sp, mut sc) = status_ring(1024);
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut ctrl = CycleController::new(cfg, start, link, mc, sp, stop.clone());
+    let mut out = Vec::new();
+    let outcome = loop {
+        feeder.fill(&mut mp).expect("program");
+        now += period;
+        let step = ctrl.step(now);
+        while let Some(s) = sc.try_pop() {
+            hook(&s, &stop);
+            out.push(s);
+        }
+        if let Step::Done(o) = step {
+            break o;
+        }
+        assert!(out.len() < 200_000, "runaway");
+    };
+    // The link is moved into the controller; hand it back through a swap-free path.
+    let link = into_link(ctrl);
+    (outcome, out, start, link)
+}
+
+fn into_link<L: DriveLink>(ctrl: CycleController<L>) -> L {
+    ctrl.into_link()
+}
+
+#[test]
+fn enabling_never_moves_a_drive() {
+    let cfg = MachineConfig::default_machine();
+    // Drives power on away from zero (C a quarter turn on).
+    let initial = [123_456, -50_000, 70_000, 32_768, 0, 0, 0, 0];
+    let mut link = SimLink::new(&cfg, Some(initial)).unwrap();
+    let pos = match link.startup(Instant::ZERO) {
+        Startup::Ready(p) => p,
+        other => panic!("{other:?}"),
+    };
+    for i in 0..4 {
+        let dev = link.bus().device(i).unwrap();
+        assert_eq!(
+            dev.position_actual(),
+            initial[i],
+            "drive {i} moved while enabling"
+        );
+        let cpu = cfg.axes[i].counts_per_unit;
+        assert_eq!((pos[i] * cpu).round() as i32, initial[i]);
+    }
+    let (outcome, st, start, _) = drive(&cfg, link, "G91 G0 X1.\nM30\n", |_, _| {});
+    assert_eq!(outcome, Outcome::Finished);
+    assert_eq!(start, pos);
+    // The first setpoint is where each drive stood.
+    assert_eq!(&st[0].cmd_counts[..4], &initial[..4]);
+    assert_eq!(&st[0].act_counts[..4], &initial[..4]);
+    // And the incremental move went from there.
+    let last = st.last().unwrap();
+    assert!(
+        (last.act[0] - (12.3456 + 1.0)).abs() < 1e-4,
+        "{}",
+        last.act[0]
+    );
+}
+
+#[test]
+fn operator_stop_mid_tap_keeps_z_and_c_coupled_and_quick_stops_every_drive() {
+    let cfg = MachineConfig::default_machine();
+    let link = SimLink::new(&cfg, None).unwrap();
+    let mut raised_at = None;
+    let (outcome, st, _, link) = drive(&cfg, link, TAP, |s, stop| {
+        if s.tap.is_some() && s.cmd[2] < -6.0 && raised_at.is_none() {
+            stop.store(true, Ordering::SeqCst);
+            raised_at = Some(s.tick);
+        }
+    });
+    let raised_at = raised_at.expect("the tap ran");
+    match outcome {
+        Outcome::Stopped { stop, line } => {
+            assert_eq!(stop.cause, StopCause::Operator);
+            assert_eq!(line, 5, "the G84 block");
+        }
+        other => panic!("{other:?}"),
+    }
+    // Decelerated along the tap: Z never reached the bottom, and every setpoint tick of the
+    // stop is coupled within one count.
+    let z_min = st.iter().map(|s| s.cmd[2]).fold(f64::INFINITY, f64::min);
+    assert!(z_min > -16.0 + 1e-3, "stopped before the bottom: {z_min}");
+    let mut rec = Recorder::new(&cfg, st.len() as u64);
+    for s in &st {
+        rec.record(s);
+    }
+    rec.finish().unwrap();
+    assert_eq!(rec.taps.len(), 1);
+    assert!(
+        rec.taps[0].max_coupling_error_um_cmd <= 0.1,
+        "{:?}",
+        rec.taps[0]
+    );
+    assert!(
+        rec.taps[0].ticks.1 > raised_at,
+        "the window covers the stop"
+    );
+    assert!(st.iter().any(|s| s.phase == Phase::Stopping));
+    assert!(st.iter().any(|s| s.phase == Phase::QuickStop));
+    // Every drive out of OPERATION ENABLED, at rest.
+    for d in link.bus().devices() {
+        assert_ne!(
+            d.state(),
+            cia402::State::OperationEnabled,
+            "node {}",
+            d.node().get()
+        );
+    }
+    let last = st.last().unwrap();
+    let prev = &st[st.len() - 2];
+    for i in 0..4 {
+        assert!(
+            (last.act[i] - prev.act[i]).abs() < 1e-4,
+            "axis {i} still moving"
+        );
+    }
+}
+
+#[test]
+fn drive_fault_names_node_emcy_and_line_and_stops_all_axes() {
+    let cfg = MachineConfig::default_machine();
+    let link = SimLink::new(&cfg, None).unwrap().with_fault(FaultPlan {
+        node: 4,
+        at: Duration::from_millis(2300),
+        emcy: 0x8611,
+    });
+    let (outcome, st, _, link) = drive(&cfg, link, TAP, |_, _| {});
+    let Outcome::Stopped { stop, line } = outcome else {
+        panic!("{outcome:?}")
+    };
+    assert_eq!(stop.node, 4);
+    assert_eq!(stop.emcy, Some(0x8611));
+    assert!(
+        matches!(stop.cause, StopCause::DriveFault | StopCause::Emergency),
+        "{stop:?}"
+    );
+    // The EMCY may arrive before the TPDO that shows the FAULT bit: the statusword named is
+    // the last one received.
+    assert_ne!(stop.statusword, 0);
+    assert_eq!(line, 5);
+    let t_fault = st.iter().find(|s| s.stop.is_some()).unwrap().tick;
+    assert!(st.len() as u64 - t_fault < 1000, "stopped within a second");
+    for d in link.bus().devices() {
+        assert_ne!(
+            d.state(),
+            cia402::State::OperationEnabled,
+            "node {}",
+            d.node().get()
+        );
+    }
+}
+
+#[test]
+fn model_link_fault_and_motion_are_reported_the_same_way() {
+    let cfg = MachineConfig::default_machine();
+    let link = ModelLink::new(&cfg, [0.0; MAX_AXES], 1).with_fault(FaultPlan {
+        node: 3,
+        at: Duration::from_millis(500),
+        emcy: 0x2310,
+    });
+    let (outcome, _, _, _) = drive(&cfg, link, TAP, |_, _| {});
+    let Outcome::Stopped { stop, .. } = outcome else {
+        panic!("{outcome:?}")
+    };
+    assert_eq!(
+        (stop.node, stop.emcy, stop.cause),
+        (3, Some(0x2310), StopCause::DriveFault)
+    );
+}
+
+fn status(tick: u64, z: f64, c: f64, tap: Option<TapCoupling>) -> Status {
+    let mut s = Status {
+        tick,
+        line: 7,
+        phase: Phase::Running,
+        cmd: [0.0; MAX_AXES],
+        cmd_counts: [0; MAX_AXES],
+        act: [0.0; MAX_AXES],
+        act_counts: [0; MAX_AXES],
+        following_error: [0.0; MAX_AXES],
+        statusword: [0x0237; MAX_AXES],
+        event: None,
+        tap,
+        stop: None,
+    };
+    s.cmd[2] = z;
+    s.cmd[3] = c;
+    s.cmd_counts[2] = (z * 10000.0).round() as i32;
+    s.cmd_counts[3] = (c * 131072.0 / 360.0).round() as i32;
+    s.act[2] = z;
+    s.act[3] = c;
+    s
+}
+
+#[test]
+fn recorder_measures_a_decoupled_tap() {
+    let cfg = MachineConfig::default_machine();
+    let coupling = TapCoupling {
+        tool: 2,
+        spindle: 3,
+        ratio: -1.5 / 360.0,
+    };
+    let mut rec = Recorder::new(&cfg, 100);
+    rec.record(&status(0, 3.0, 0.0, None));
+    for k in 1..=10 {
+        let c = 36.0 * k as f64;
+        // Z lags by 2 µm at tick 5.
+        let z = 3.0 - c * 1.5 / 360.0 + if k == 5 { 0.002 } else { 0.0 };
+        rec.record(&status(k, z, c, Some(coupling)));
+    }
+    rec.record(&status(11, 3.0 - 0.15 * 10.0 / 10.0 * 1.0, 360.0, None));
+    rec.finish().unwrap();
+    assert_eq!(rec.taps.len(), 1);
+    let w = &rec.taps[0];
+    assert_eq!(w.line, 7);
+    assert!((w.pitch_mm - 1.5).abs() < 1e-12);
+    assert!((w.max_coupling_error_um_cmd - 2.0).abs() < 0.06, "{w:?}");
+    assert!((w.max_coupling_error_um_act - 2.0).abs() < 1e-6, "{w:?}");
+    assert_eq!(w.ticks, (1, 10));
+}
+
+#[test]
+fn realtime_run_reports_wakeup_latency() {
+    let cfg = MachineConfig::default_machine();
+    let src = SourceFile::new("rt.nc", "G21 G90\nG0 X5. Y2.\nG1 X6. F600.\nM30\n");
+    let ast = cnc402_lang::parse(&src).unwrap();
+    let opts = RunOptions {
+        timing: Timing::RealTime,
+        ..RunOptions::default()
+    };
+    let wall = std::time::Instant::now();
+    let r = run_program(&cfg, src, ast, opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:?}"));
+    assert!(r.ok, "{:?}", r.error);
+    let lat = r.wakeup_latency.expect("latency figures");
+    assert!(lat.samples >= r.ticks - 1 && lat.samples > 100, "{lat:?}");
+    assert!(lat.p50_us <= lat.p99_us && lat.p99_us <= lat.max_us.max(lat.p99_us));
+    assert!(r.realtime_grant.as_deref().unwrap().contains("mlockall"));
+    // Against the clock: the run takes about its program time.
+    let program = r.ticks as f64 * 1e-3;
+    assert!(
+        wall.elapsed().as_secs_f64() >= program * 0.9,
+        "{program} s program"
+    );
+    assert!((r.axes[0].final_position - 6.0).abs() < 1e-4);
+}
