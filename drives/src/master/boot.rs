@@ -487,6 +487,11 @@ impl Master {
             report.drives.push(ident);
         }
 
+        // No drive has seen a SYNC yet: SYNC and TPDO counts start together.
+        self.syncs = 0;
+        for a in self.axes[..self.n_axes].iter_mut() {
+            a.tpdos = 0;
+        }
         let (enabled_at, cycles) = self.run_enable(bus)?;
         report.enabled_at = enabled_at;
         report.enable_cycles = cycles;
@@ -558,7 +563,13 @@ impl Master {
             return Err(BootError::WrongPhase(self.phase));
         }
         self.stop = None;
+        // One period without SYNC lets every TPDO in flight arrive; then the counts agree
+        // again (a drive that dropped TPDOs before the stop starts afresh).
+        let settle = bus.now() + self.period;
+        self.wait_until(bus, settle)?;
+        let syncs = self.syncs;
         for a in self.axes[..self.n_axes].iter_mut() {
+            a.tpdos = syncs;
             if a.node.is_some() {
                 a.target = a.actual_raw;
             } else {
@@ -596,10 +607,8 @@ impl Master {
             a.quick_stop = false;
             a.tpdo_missing = 0;
             a.tpdo_this_cycle = false;
-            a.tpdos = 0;
         }
         self.sync_sent = false;
-        self.syncs = 0;
     }
 
     /// One enable cycle: the cycle's send phase steps each drive's sequencer; returns each

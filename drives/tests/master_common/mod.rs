@@ -79,6 +79,15 @@ impl Rig {
         self.bus.device_mut(d).unwrap().inject(kind, now);
     }
 
+    /// Clears every condition injected into axis `axis`'s drive.
+    pub fn clear_injected(&mut self, axis: usize) {
+        let n = self.config.axes[axis].node.unwrap();
+        let d = (0..self.bus.devices().len())
+            .find(|&k| self.bus.device(k).unwrap().node().get() == n)
+            .unwrap();
+        self.bus.device_mut(d).unwrap().clear_injected();
+    }
+
     /// Advances the bus to the next cycle time and runs one master cycle there.
     pub fn cycle(&mut self, commands: &[f64]) -> Result<Feedback, SafetyStop> {
         self.bus.advance(self.next);
