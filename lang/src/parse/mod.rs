@@ -65,9 +65,12 @@ use crate::diag::{NcError, SourceFile};
 #[allow(clippy::result_large_err)]
 pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
     let text: &str = &src.text;
-    let c_like = text
+    let statement_lines = text
         .split('\n')
-        .any(|l| clike::classify(l.trim_start_matches([' ', '\t'])) == clike::Class::Statement);
+        .filter(|l| clike::classify(l.trim_start_matches([' ', '\t'])) == clike::Class::Statement)
+        .take(2)
+        .count();
+    let c_like = statement_lines > 0;
     let cx = Cx {
         text,
         line_starts: src.line_starts(),
@@ -104,7 +107,23 @@ pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
             let parsed = (|i| cx.c_line(i)).parse_complete(rest);
             let (end, stmts) = match parsed {
                 Ok(ok) => ok,
-                Err(nom::Err::Error(e) | nom::Err::Failure(e)) => return Err(cx.error(src, e)),
+                Err(nom::Err::Error(e) | nom::Err::Failure(e)) => {
+                    // A lone "statement" without C punctuation in a G-code program is far more
+                    // likely a G-code typo (`GG1`, `XY10`): report it as G-code.
+                    let c_punct = |b: u8| b"(){}=;\"$@/#".contains(&b);
+                    if statement_lines == 1 && !line_text.bytes().any(c_punct) {
+                        let g = Cx {
+                            c_like: false,
+                            ..cx
+                        };
+                        if let Err(nom::Err::Error(ge) | nom::Err::Failure(ge)) =
+                            (|i| g.line(line_no, i)).parse_complete(line_text)
+                        {
+                            return Err(g.error(src, ge));
+                        }
+                    }
+                    return Err(cx.error(src, e));
+                }
                 Err(nom::Err::Incomplete(_)) => {
                     return Err(NcError::new(src, cx.span_at(rest, 0), "incomplete input"));
                 }

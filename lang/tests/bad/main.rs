@@ -488,6 +488,28 @@ const CASES: &[(&str, &str, u32, u32, &str)] = &[
         8,
         "unknown function `FOO`",
     ),
+    // --- G-code typos that start like a statement name ---
+    (
+        "two_letters_typo",
+        "G0 X0\nGG1 X5\n",
+        2,
+        1,
+        "no value after address G",
+    ),
+    (
+        "letters_run_together",
+        "XY10\n",
+        1,
+        1,
+        "no value after address X",
+    ),
+    (
+        "lower_case_typo",
+        "g0\nmx3\n",
+        2,
+        1,
+        "no value after address M",
+    ),
     // --- Custom Macro B ---
     (
         "hash_without_number",
