@@ -306,6 +306,22 @@ fn statement_forms() {
             ..
         }
     ));
+    // C numbers take exponents; G-code values in the same program do not.
+    let prog = p("double dTol = 1e-3 + 2.5E2;\nG1 X=dTol E2\n");
+    let StmtKind::Decl { vars, .. } = &stmts(&prog.lines[0])[0].kind else {
+        panic!()
+    };
+    let ExprKind::Binary(BinaryOp::Add, a, b) = &vars[0].init.as_ref().unwrap().kind else {
+        panic!()
+    };
+    assert_eq!(
+        (&a.kind, &b.kind),
+        (&ExprKind::Number(1e-3), &ExprKind::Number(250.0))
+    );
+    let LineKind::Block(blk) = &prog.lines[1].kind else {
+        panic!()
+    };
+    assert_eq!(blk.words.len(), 3);
     // Several statements on one line.
     let prog = p("dX = 1; dY = 2;\n");
     assert_eq!(stmts(&prog.lines[0]).len(), 2);

@@ -1027,6 +1027,24 @@ impl<'a> Cx<'a> {
         match b.first() {
             Some(c) if c.is_ascii_digit() || *c == b'.' => {
                 let (r, (v, _)) = self.unsigned(i)?;
+                // Statements take C exponents (`1e-6`); G-code values do not (`E` is an
+                // address there).
+                let rb = r.as_bytes();
+                if !ecx.in_block && matches!(rb.first(), Some(b'e' | b'E')) {
+                    let k = 1 + usize::from(matches!(rb.get(1), Some(b'+' | b'-')));
+                    let digits = rb[k.min(rb.len())..]
+                        .iter()
+                        .take_while(|b| b.is_ascii_digit())
+                        .count();
+                    if digits > 0 {
+                        let end = self.off(r) + k + digits;
+                        let text = &self.text[self.off(i)..end];
+                        return match text.parse::<f64>() {
+                            Ok(v) => mk(&self.text[end..], ExprKind::Number(v)),
+                            Err(_) => fail(i, text.len(), "not a valid number"),
+                        };
+                    }
+                }
                 mk(r, ExprKind::Number(v))
             }
             Some(b'"') => {

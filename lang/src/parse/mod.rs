@@ -27,6 +27,7 @@ use crate::diag::{NcError, SourceFile};
 ///   (`X 10` is `X10`, `X - 5` is not a number: the sign belongs to the digits), never inside
 ///   a number (`X1 0` is an error). Letters and keywords are case-insensitive.
 /// * Numbers have no exponent (`X1E2` is `X1 E2`); `has_point` records a decimal point.
+///   Only C-like statements (not G-code values) take exponents: `double d = 1e-3;`.
 /// * `( … )` comments may nest (`(START(dòng) SPINDLE)` is one comment) and end at the end
 ///   of their line; `;` comments to the end of the line (so a Fanuc end-of-block `;` is fine).
 /// * `N` must start the block; `O`/`:` and `%` stand on their own line with comments only.
