@@ -574,4 +574,191 @@ mod tests {
         );
         assert_eq!(parse_tpdo1(&[0; 5]), None);
     }
+
+    use crate::bus::BusCounters;
+    use crate::wire::{EmcyRepr, HeartbeatRepr, NodeId};
+    use cnc402_config::MachineConfig;
+    use std::collections::VecDeque;
+
+    /// A bus the test scripts: frames to receive are queued by hand, sent frames recorded.
+    #[derive(Default)]
+    struct Script {
+        rx: VecDeque<CanFrame>,
+        tx: Vec<CanFrame>,
+        fail_send: Option<BusError>,
+    }
+
+    impl CanBus for Script {
+        fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+            if let Some(e) = self.fail_send {
+                return Err(e);
+            }
+            self.tx.push(*frame);
+            Ok(())
+        }
+        fn recv(&mut self) -> Result<Option<CanFrame>, BusError> {
+            Ok(self.rx.pop_front())
+        }
+        fn counters(&self) -> BusCounters {
+            BusCounters::default()
+        }
+    }
+
+    fn tpdo(node: u8, sw: u16, pos: i32) -> CanFrame {
+        let mut d = [0u8; 6];
+        d[..2].copy_from_slice(&sw.to_le_bytes());
+        d[2..].copy_from_slice(&pos.to_le_bytes());
+        CanFrame::new(0x180 + node as u16, &d).unwrap()
+    }
+
+    /// A master for the shipped machine put straight into Running, all drives enabled at 0.
+    fn running() -> (Master, Script, Instant) {
+        let mut m = Master::new(&MachineConfig::default_machine()).unwrap();
+        m.phase = Phase::Running;
+        let now = Instant::from_millis(100);
+        for a in m.axes[..4].iter_mut() {
+            a.statusword = Some(Statusword(0x1237));
+            a.last_heartbeat = Some(now);
+        }
+        (m, Script::default(), now)
+    }
+
+    /// One cycle with a TPDO from every drive (statusword OPERATION ENABLED, position 0)
+    /// plus `extra` frames.
+    fn step(
+        m: &mut Master,
+        bus: &mut Script,
+        now: Instant,
+        extra: &[CanFrame],
+    ) -> Result<Feedback, SafetyStop> {
+        for n in 1..=4 {
+            bus.rx.push_back(tpdo(n, 0x1237, 0));
+        }
+        bus.rx.extend(extra.iter().copied());
+        m.cycle(bus, now, &[0.0; 4])
+    }
+
+    #[test]
+    fn emcy_without_a_fault_state_is_an_emergency_stop() {
+        let (mut m, mut bus, now) = running();
+        step(&mut m, &mut bus, now, &[]).unwrap();
+        let e = EmcyRepr {
+            node: NodeId::new(2).unwrap(),
+            code: 0x4310,
+            register: 0x09,
+            manufacturer: [0; 5],
+        }
+        .emit();
+        let s = step(&mut m, &mut bus, now, &[e]).unwrap_err();
+        assert_eq!(s.reason, StopReason::Emergency);
+        assert_eq!((s.axis, s.node), (Some('Y'), Some(2)));
+        assert_eq!(
+            s.emcy.map(|e| (e.code, e.text())),
+            Some((0x4310, "temperature"))
+        );
+        // The stop reaction went out in the same cycle: quick stop to every drive, then SYNC.
+        let tail: Vec<String> = bus.tx[bus.tx.len() - 5..]
+            .iter()
+            .map(|f| f.to_string())
+            .collect();
+        assert_eq!(
+            tail,
+            [
+                "201#020000000000",
+                "202#020000000000",
+                "203#020000000000",
+                "204#020000000000",
+                "080#"
+            ]
+        );
+        // Reported once; later cycles carry on with the stop reaction.
+        assert!(step(&mut m, &mut bus, now, &[]).unwrap().stopping);
+    }
+
+    #[test]
+    fn error_reset_emcy_is_not_a_stop() {
+        let (mut m, mut bus, now) = running();
+        let e = EmcyRepr {
+            node: NodeId::new(1).unwrap(),
+            code: 0,
+            register: 0,
+            manufacturer: [0; 5],
+        }
+        .emit();
+        step(&mut m, &mut bus, now, &[e]).unwrap();
+    }
+
+    #[test]
+    fn a_drive_that_reboots_or_disables_mid_run_stops_the_machine() {
+        let (mut m, mut bus, now) = running();
+        let boot = HeartbeatRepr {
+            node: NodeId::new(3).unwrap(),
+            state: crate::wire::NmtState::BootUp,
+        }
+        .emit();
+        let s = step(&mut m, &mut bus, now, &[boot]).unwrap_err();
+        assert_eq!(
+            s.reason,
+            StopReason::NmtState(crate::wire::NmtState::BootUp)
+        );
+        assert_eq!(s.node, Some(3));
+
+        let (mut m, mut bus, now) = running();
+        bus.rx.push_back(tpdo(1, 0x1237, 0));
+        bus.rx.push_back(tpdo(2, 0x1237, 0));
+        bus.rx.push_back(tpdo(3, 0x0250, 0)); // SWITCH ON DISABLED
+        bus.rx.push_back(tpdo(4, 0x1237, 0));
+        let s = m.cycle(&mut bus, now, &[0.0; 4]).unwrap_err();
+        assert_eq!(s.reason, StopReason::NotEnabled);
+        assert!(s.to_string().contains("SWITCH ON DISABLED"), "{s}");
+    }
+
+    #[test]
+    fn non_finite_setpoint_and_bus_errors_stop() {
+        let (mut m, mut bus, now) = running();
+        let s = m
+            .cycle(&mut bus, now, &[0.0, f64::NAN, 0.0, 0.0])
+            .unwrap_err();
+        assert_eq!(s.reason, StopReason::BadSetpoint);
+        assert_eq!(s.axis, Some('Y'));
+        // The NaN never reached the wire: Y's target stayed at the last command (0).
+        assert!(bus.tx.iter().any(|f| f.to_string() == "202#020000000000"));
+
+        let (mut m, mut bus, now) = running();
+        bus.fail_send = Some(BusError::TxQueueFull);
+        let s = step(&mut m, &mut bus, now, &[]).unwrap_err();
+        assert_eq!(s.reason, StopReason::Bus(BusError::TxQueueFull));
+        assert_eq!(s.node, None);
+    }
+
+    #[test]
+    fn malformed_and_foreign_frames_are_counted_not_trusted() {
+        let (mut m, mut bus, now) = running();
+        let short = CanFrame::new(0x182, &[0x37, 0x12, 0, 0, 0]).unwrap();
+        let stranger = CanFrame::new(0x18A, &[0; 6]).unwrap();
+        bus.rx.extend([short, stranger]);
+        let fb = m.cycle(&mut bus, now, &[0.0; 4]).unwrap();
+        assert!(!fb.fresh[1]);
+        assert_eq!(m.unexpected_frames(), 2);
+    }
+
+    #[test]
+    fn position_unwraps_across_the_int32_limits_both_ways() {
+        let (mut m, mut bus, now) = running();
+        let cpu = m.axes[3].counts_per_unit;
+        for raw in [i32::MAX - 10, i32::MIN + 5, i32::MIN + 100, i32::MAX - 3] {
+            bus.rx.push_back(tpdo(4, 0x1237, raw));
+            m.cycle(&mut bus, now, &[0.0, 0.0, 0.0, m.axes[3].actual])
+                .unwrap_or_else(|s| {
+                    // Following error is irrelevant here; only the unwrapping is looked at.
+                    assert!(matches!(s.reason, StopReason::FollowingError { .. }));
+                    *m.last_feedback()
+                });
+        }
+        // +16 over the top, +95, then back over the limit by −104.
+        let expected = (i32::MAX as i64 - 10) + 16 + 95 - 104;
+        assert_eq!(expected, i32::MAX as i64 - 3);
+        assert_eq!(m.axes[3].actual_counts, expected);
+        assert!((m.axes[3].actual - expected as f64 / cpu).abs() < 1e-9);
+    }
 }
