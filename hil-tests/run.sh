@@ -247,6 +247,9 @@ decide_mode() {
 
 setup() {
     mkdir -p "$CACHE"
+    # One setup at a time per cache (several engineers, or CI, may start the runner at once).
+    exec 9>"$CACHE/setup.lock"
+    flock 9 || die "cannot lock $CACHE/setup.lock"
     decide_mode
     local t0
     t0=$(now)
@@ -262,6 +265,7 @@ setup() {
     local took
     took=$(elapsed "$t0")
     [[ "$took" == 0.* ]] || say "setup ($MODE) took ${took} s"
+    exec 9>&-
 }
 
 # ---------------------------------------------------------------------------------------------
@@ -380,6 +384,8 @@ run_cmd() {   # run_cmd DEFAULT_TIMEOUT BUILD_PACKAGES CMD...
     local dir rc=0
     dir=$(new_job "$@")
     run_job "$dir" "${TIMEOUT:-$def_timeout}" || rc=$?
+    # The suite's "N passed, N failed" goes last, where CI looks for it.
+    [[ -f "$dir/summary" ]] && cat "$dir/summary"
     [[ "${HIL_KEEP_JOBS:-0}" == 1 ]] || rm -rf "$dir"
     return "$rc"
 }

@@ -41,4 +41,5 @@ for s in "${scripts[@]}"; do
 done
 [[ $failed == 0 ]] || echo "failed: ${failed_names[*]}"
 echo "$passed passed, $failed failed"
+[[ -n "${HIL_JOB:-}" ]] && echo "$passed passed, $failed failed" >"$HIL_JOB/summary"
 [[ $failed == 0 && $passed -gt 0 ]]
