@@ -418,7 +418,11 @@ fn every_cycle_in_every_plane_mode_and_return() {
                     let spindle = if cyc == 74 { "M4 S500" } else { "M3 S500" };
                     // Absolute levels: R 2, bottom -6 (G87: R -6 below, Z 2 above).
                     let (r_abs, z_abs) = if cyc == 87 { (-6.0, 2.0) } else { (2.0, -6.0) };
-                    let (r_w, z_w) = if inc { (r_abs - initial, z_abs - r_abs) } else { (r_abs, z_abs) };
+                    let (r_w, z_w) = if inc {
+                        (r_abs - initial, z_abs - r_abs)
+                    } else {
+                        (r_abs, z_abs)
+                    };
                     let (a_w, b_w) = if inc { (5.0, 3.0) } else { (15.0, 13.0) };
                     let prog = format!(
                         "{spindle}\nG0 X10 Y10 Z10\nG0 {ld}{initial}\n{pcode} {} G{ret} G{cyc} {la}{a_w} {lb}{b_w} {ld}{z_w} R{r_w} Q1.5 P100 K2 F500\nM30\n",
@@ -431,10 +435,21 @@ fn every_cycle_in_every_plane_mode_and_return() {
                     let hi = ends.iter().map(|e| e[id]).fold(f64::MIN, f64::max);
                     let deepest = if cyc == 87 { r_abs } else { z_abs };
                     assert!((lo - deepest).abs() < 1e-9, "{prog}: deepest {lo}");
-                    assert!(hi <= initial + 1e-9, "{prog}: above the initial level: {hi}");
+                    assert!(
+                        hi <= initial + 1e-9,
+                        "{prog}: above the initial level: {hi}"
+                    );
                     let last = *ends.last().unwrap();
-                    let want_ret = if ret == 99 && cyc != 87 { r_abs } else { initial };
-                    assert!((last[id] - want_ret).abs() < 1e-9, "{prog}: ends at {}", last[id]);
+                    let want_ret = if ret == 99 && cyc != 87 {
+                        r_abs
+                    } else {
+                        initial
+                    };
+                    assert!(
+                        (last[id] - want_ret).abs() < 1e-9,
+                        "{prog}: ends at {}",
+                        last[id]
+                    );
                     // Hole positions: the feed moves' plane coordinates.
                     let mut holes: Vec<(f64, f64)> = hole_segs
                         .iter()
@@ -446,7 +461,10 @@ fn every_cycle_in_every_plane_mode_and_return() {
                     holes.dedup();
                     let want: Vec<(f64, f64)> = if inc {
                         let start = (10.0, 10.0);
-                        vec![(start.0 + 5.0, start.1 + 3.0), (start.0 + 10.0, start.1 + 6.0)]
+                        vec![
+                            (start.0 + 5.0, start.1 + 3.0),
+                            (start.0 + 10.0, start.1 + 6.0),
+                        ]
                     } else {
                         vec![(15.0, 13.0)]
                     };
