@@ -401,13 +401,13 @@ impl Exec<'_> {
                 ),
             ));
         }
-        if g.iter().any(|x| x.0 == 4) {
-            if let Some(o) = motion.or(cycle) {
-                return Err(self.err(
-                    o.2,
-                    format!("G{} cannot share a block with G4 (dwell)", o.0),
-                ));
-            }
+        if g.iter().any(|x| x.0 == 4)
+            && let Some(o) = motion.or(cycle)
+        {
+            return Err(self.err(
+                o.2,
+                format!("G{} cannot share a block with G4 (dwell)", o.0),
+            ));
         }
         let mut seen: [Option<u32>; 4] = [None; 4];
         for &(code, span) in &self.w.m {
