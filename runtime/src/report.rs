@@ -108,9 +108,6 @@ impl RunReport {
             "wall_time_s": self.wall_time_s,
             "realtime_factor": self.realtime_factor,
         });
-        if let Some(g) = &self.realtime_grant {
-            let _ = writeln!(s, "  {g}");
-        }
         if let Some(l) = &self.wakeup_latency {
             v["wakeup_latency_us"] = json!({
                 "p50": l.p50_us, "p99": l.p99_us, "max": l.max_us, "late": l.late,
@@ -179,6 +176,9 @@ impl RunReport {
             "  bus: {} frames, load {:.1} %",
             self.bus_frames, self.bus_load_percent
         );
+        if let Some(g) = &self.realtime_grant {
+            let _ = writeln!(s, "  {g}");
+        }
         if let Some(l) = &self.wakeup_latency {
             let _ = writeln!(
                 s,
