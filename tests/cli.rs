@@ -344,3 +344,40 @@ fn bad_fault_option_is_a_usage_error() {
     let o = cnc402(&["run", EXAMPLES[0], "--inject-fault", "banana"]);
     assert_eq!(o.status.code(), Some(64), "{}", stderr(&o));
 }
+
+#[test]
+fn sigint_stops_the_machine_like_a_fault_and_exits_cleanly() {
+    let report = tmp("sigint.json");
+    let child = Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args([
+            "run",
+            "examples/m10x1.5-rigid-tap.nc",
+            "--realtime",
+            "--report",
+            report.to_str().unwrap(),
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Well into the program (it takes ~16 s against the clock), then an operator's Ctrl-C.
+    std::thread::sleep(std::time::Duration::from_millis(2500));
+    let pid = child.id().to_string();
+    let k = Command::new("kill").args(["-INT", &pid]).status().unwrap();
+    assert!(k.success());
+    let o = child.wait_with_output().unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("operator stop (SIGINT)"), "{err}");
+    assert!(err.contains("examples/m10x1.5-rigid-tap.nc:"), "{err}");
+    let v = read_json(&report);
+    assert_eq!(v["ok"], false);
+    assert_eq!(v["stop"]["cause"], "operator stop (SIGINT)");
+    let t = v["program_time_s"].as_f64().unwrap();
+    assert!(t > 1.5 && t < 5.0, "stopped soon after the signal: {t} s");
+    assert!(v["wakeup_latency_us"]["p99"].as_f64().unwrap() >= 0.0);
+    for t in v["tapping"].as_array().unwrap() {
+        assert!(t["max_coupling_error_um_cmd"].as_f64().unwrap() <= coupling_bound_um(1.5));
+    }
+}
