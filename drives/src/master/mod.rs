@@ -5,19 +5,25 @@
 //! let mut m = Master::new(&config)?;            // per-axis state in fixed arrays
 //! let report = m.boot(&mut bus)?;               // blocking, over a TimedBus (see `boot`)
 //! let mut cmd = m.positions();                  // start the interpolator here: first setpoint = actual
+//! let mut now = report.enabled_at + m.period(); // the first cyclic SYNC
 //! loop {                                        // once per period, at absolute deadlines
-//!     let fb = m.cycle(&mut bus, now, &cmd[..m.axis_count()])?;  // no allocation, no clock
-//!     ...                                       // Err(SafetyStop): interpolator.request_stop()
+//!     match m.cycle(&mut bus, now, &cmd[..m.axis_count()]) {   // no allocation, no clock
+//!         Ok(fb) => ...,                        // fb.actual / following_error / statusword / age
+//!         Err(stop) => ...,                     // stop.at_line(line); interpolator.request_stop();
+//!     }                                         // keep cycling: fb.stopping, m.quick_stop()
+//!     now += m.period();
 //! }
 //! m.disable(&mut bus)?;                         // blocking: drives to SWITCH ON DISABLED
+//! m.reenable(&mut bus)?;                        // or: back to Running after a stop
 //! ```
 //!
 //! `cycle` first takes in everything received since the last call (TPDO1s answering the
 //! previous SYNC, EMCY, heartbeats, SDO responses), runs the safety monitors, then sends one
-//! RPDO1 per drive and a SYNC. Feedback is therefore one period old; the following error rule
-//! accounts for it (see [`cyclic`]). Modules: `sdo` (client), `boot`, `cyclic`, `stop`
-//! (safety stop values), `timed` (how blocking helpers wait), `service` (one-drive helpers
-//! for tools: NMT, the CiA 402 state machine over SDO).
+//! RPDO1 per drive, a SYNC, and SDO frames of an in-cycle transfer (`start_sdo_upload`,
+//! paced to the bus time the PDOs leave). Feedback is therefore one period old; the following
+//! error rule accounts for it (see [`cyclic`]). Modules: `sdo` (client), `boot`, `cyclic`,
+//! `stop` (safety stop values), `timed` (how blocking helpers wait), `service` (one-drive
+//! helpers for tools: NMT, the CiA 402 state machine over SDO).
 
 pub mod boot;
 pub mod cyclic;
