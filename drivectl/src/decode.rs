@@ -1,0 +1,272 @@
+//! Decoding bus traffic for `monitor` and `emcy`: every frame classified by the pre-defined
+//! connection set and turned into text and JSON (NMT, SYNC, PDOs by the mapping cnc402 sets,
+//! SDO with object names, EMCY with its text, heartbeats), with node names from the config.
+
+use std::collections::BTreeMap;
+
+use cia402::Statusword;
+use cnc402_config::MachineConfig;
+use cnc402_drives::master::emcy_text;
+use cnc402_drives::wire::{
+    CanFrame, EmcyRepr, Function, HeartbeatRepr, InitiateKind, NmtCommand, NmtRepr, NmtState,
+    NmtTarget, SdoRequest, SdoResponse, SyncRepr,
+};
+use serde_json::{Value as Json, json};
+
+use crate::dict::Dictionary;
+use crate::values::{ObjectAddr, hex};
+
+/// Node names (`X`, `Y` ...) from the machine config.
+#[derive(Clone, Debug, Default)]
+pub struct NodeNames(BTreeMap<u8, String>);
+
+impl NodeNames {
+    /// Axis letters by node id.
+    pub fn from_config(cfg: &MachineConfig) -> NodeNames {
+        NodeNames(
+            cfg.axes
+                .iter()
+                .filter_map(|a| a.node.map(|n| (n, a.name.to_string())))
+                .collect(),
+        )
+    }
+    /// `node 3 (Z)` or `node 9`.
+    pub fn label(&self, node: u8) -> String {
+        match self.0.get(&node) {
+            Some(n) => format!("node {node} ({n})"),
+            None => format!("node {node}"),
+        }
+    }
+    /// The axis name of a node.
+    pub fn get(&self, node: u8) -> Option<&str> {
+        self.0.get(&node).map(String::as_str)
+    }
+}
+
+/// The NMT state's name.
+pub fn nmt_state_name(s: NmtState) -> &'static str {
+    match s {
+        NmtState::BootUp => "BOOT-UP",
+        NmtState::Stopped => "STOPPED",
+        NmtState::Operational => "OPERATIONAL",
+        NmtState::PreOperational => "PRE-OPERATIONAL",
+    }
+}
+
+fn nmt_command_name(c: NmtCommand) -> &'static str {
+    match c {
+        NmtCommand::Start => "start",
+        NmtCommand::Stop => "stop",
+        NmtCommand::EnterPreOperational => "enter pre-operational",
+        NmtCommand::ResetNode => "reset node",
+        NmtCommand::ResetCommunication => "reset communication",
+    }
+}
+
+/// A decoded frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Decoded {
+    /// `nmt`, `sync`, `emcy`, `tpdo1`, `rpdo1`, `sdo_req`, `sdo_resp`, `heartbeat`, `boot_up`,
+    /// `time`, `other`.
+    pub kind: &'static str,
+    /// The node the frame is from / for.
+    pub node: Option<u8>,
+    /// Human text (without the node label).
+    pub text: String,
+    /// Fields for `--json`.
+    pub fields: Json,
+}
+
+/// Decodes one frame. PDO1s are decoded with cnc402's mapping (RPDO1 = controlword + target
+/// position, TPDO1 = statusword + position actual); other PDOs are shown as bytes.
+pub fn decode(frame: &CanFrame, dict: &Dictionary) -> Decoded {
+    let data = frame.data();
+    let raw = |kind: &'static str, node: Option<u8>, what: String| Decoded {
+        kind,
+        node,
+        text: what,
+        fields: json!({ "data": hex(data) }),
+    };
+    match Function::classify(frame.id()) {
+        Function::Nmt => match NmtRepr::parse(frame) {
+            Ok(r) => {
+                let (target, node) = match r.target {
+                    NmtTarget::All => ("all nodes".to_string(), None),
+                    NmtTarget::Node(n) => (format!("node {}", n.get()), Some(n.get())),
+                };
+                Decoded {
+                    kind: "nmt",
+                    node,
+                    text: format!("NMT {} → {target}", nmt_command_name(r.command)),
+                    fields: json!({ "command": nmt_command_name(r.command) }),
+                }
+            }
+            Err(e) => raw("nmt", None, format!("NMT malformed ({e}): {}", hex(data))),
+        },
+        Function::Sync => match SyncRepr::parse(frame) {
+            Ok(s) => Decoded {
+                kind: "sync",
+                node: None,
+                text: match s.counter {
+                    Some(c) => format!("SYNC counter {c}"),
+                    None => "SYNC".to_string(),
+                },
+                fields: json!({ "counter": s.counter }),
+            },
+            Err(e) => raw("sync", None, format!("SYNC malformed ({e})")),
+        },
+        Function::Time => raw("time", None, format!("TIME {}", hex(data))),
+        Function::Emcy(n) => match EmcyRepr::parse(frame) {
+            Ok(e) => Decoded {
+                kind: "emcy",
+                node: Some(n.get()),
+                text: format!(
+                    "EMCY {:#06x} {} (error register {:#04x}, manufacturer {})",
+                    e.code,
+                    emcy_text(e.code),
+                    e.register,
+                    hex(&e.manufacturer)
+                ),
+                fields: json!({
+                    "code": e.code, "text": emcy_text(e.code), "register": e.register,
+                    "manufacturer": hex(&e.manufacturer)
+                }),
+            },
+            Err(err) => raw("emcy", Some(n.get()), format!("EMCY malformed ({err})")),
+        },
+        Function::Tpdo(p, n) => {
+            if p == 1 && data.len() == 6 {
+                let sw = Statusword(u16::from_le_bytes([data[0], data[1]]));
+                let pos = i32::from_le_bytes([data[2], data[3], data[4], data[5]]);
+                Decoded {
+                    kind: "tpdo1",
+                    node: Some(n.get()),
+                    text: format!("TPDO1 statusword {sw} position actual {pos}"),
+                    fields: json!({ "statusword": sw.0, "state": sw.state().map(|s| s.name()), "position_actual": pos }),
+                }
+            } else {
+                raw(pdo_kind(true, p), Some(n.get()), format!("TPDO{p} {}", hex(data)))
+            }
+        }
+        Function::Rpdo(p, n) => {
+            if p == 1 && data.len() == 6 {
+                let cw = u16::from_le_bytes([data[0], data[1]]);
+                let pos = i32::from_le_bytes([data[2], data[3], data[4], data[5]]);
+                Decoded {
+                    kind: "rpdo1",
+                    node: Some(n.get()),
+                    text: format!("RPDO1 controlword {cw:#06x} target position {pos}"),
+                    fields: json!({ "controlword": cw, "target_position": pos }),
+                }
+            } else {
+                raw(pdo_kind(false, p), Some(n.get()), format!("RPDO{p} {}", hex(data)))
+            }
+        }
+        Function::SdoRx(n) => match SdoRequest::parse_bytes(data) {
+            Ok(r) => {
+                let text = match r {
+                    SdoRequest::InitiateUpload { index, sub } => {
+                        format!("SDO read {}", obj(dict, index, sub))
+                    }
+                    SdoRequest::InitiateDownload { index, sub, kind } => {
+                        format!("SDO write {} {}", obj(dict, index, sub), initiate(&kind))
+                    }
+                    SdoRequest::DownloadSegment(s) => {
+                        format!("SDO download segment t={} {}", s.toggle as u8, hex(s.data()))
+                    }
+                    SdoRequest::UploadSegment { toggle } => {
+                        format!("SDO upload segment request t={}", toggle as u8)
+                    }
+                    SdoRequest::Abort { index, sub, code } => {
+                        format!("SDO abort by client {}: {code}", obj(dict, index, sub))
+                    }
+                };
+                Decoded {
+                    kind: "sdo_req",
+                    node: Some(n.get()),
+                    text,
+                    fields: json!({ "data": hex(data) }),
+                }
+            }
+            Err(e) => raw("sdo_req", Some(n.get()), format!("SDO request malformed ({e})")),
+        },
+        Function::SdoTx(n) => match SdoResponse::parse_bytes(data) {
+            Ok(r) => {
+                let text = match r {
+                    SdoResponse::InitiateUpload { index, sub, kind } => {
+                        format!("SDO read {} → {}", obj(dict, index, sub), initiate(&kind))
+                    }
+                    SdoResponse::InitiateDownload { index, sub } => {
+                        format!("SDO write {} confirmed", obj(dict, index, sub))
+                    }
+                    SdoResponse::UploadSegment(s) => {
+                        format!("SDO upload segment t={} {}", s.toggle as u8, hex(s.data()))
+                    }
+                    SdoResponse::DownloadSegment { toggle } => {
+                        format!("SDO download segment confirmed t={}", toggle as u8)
+                    }
+                    SdoResponse::Abort { index, sub, code } => {
+                        format!("SDO abort by server {}: {code}", obj(dict, index, sub))
+                    }
+                };
+                Decoded {
+                    kind: "sdo_resp",
+                    node: Some(n.get()),
+                    text,
+                    fields: json!({ "data": hex(data) }),
+                }
+            }
+            Err(e) => raw("sdo_resp", Some(n.get()), format!("SDO response malformed ({e})")),
+        },
+        Function::Heartbeat(n) => {
+            if frame.is_remote() {
+                return raw("guard", Some(n.get()), "node guarding request".into());
+            }
+            match HeartbeatRepr::parse(frame) {
+                Ok(h) if h.state == NmtState::BootUp => Decoded {
+                    kind: "boot_up",
+                    node: Some(n.get()),
+                    text: "boot-up".into(),
+                    fields: json!({ "state": "BOOT-UP" }),
+                },
+                Ok(h) => Decoded {
+                    kind: "heartbeat",
+                    node: Some(n.get()),
+                    text: format!("heartbeat {}", nmt_state_name(h.state)),
+                    fields: json!({ "state": nmt_state_name(h.state) }),
+                },
+                Err(e) => raw("heartbeat", Some(n.get()), format!("heartbeat malformed ({e})")),
+            }
+        }
+        Function::Other(id) => raw("other", None, format!("{id:03X}#{}", hex(data))),
+    }
+}
+
+fn pdo_kind(tx: bool, p: u8) -> &'static str {
+    match (tx, p) {
+        (true, 1) => "tpdo1",
+        (true, 2) => "tpdo2",
+        (true, 3) => "tpdo3",
+        (true, _) => "tpdo4",
+        (false, 1) => "rpdo1",
+        (false, 2) => "rpdo2",
+        (false, 3) => "rpdo3",
+        (false, _) => "rpdo4",
+    }
+}
+
+fn obj(dict: &Dictionary, index: u16, sub: u8) -> String {
+    let a = ObjectAddr { index, sub };
+    match dict.name(a) {
+        Some(n) => format!("{a} {n}"),
+        None => a.to_string(),
+    }
+}
+
+fn initiate(k: &InitiateKind) -> String {
+    match k {
+        InitiateKind::Expedited(d) => format!("data {}", hex(d.bytes())),
+        InitiateKind::Segmented { size: Some(s) } => format!("segmented, {s} bytes"),
+        InitiateKind::Segmented { size: None } => "segmented".to_string(),
+    }
+}

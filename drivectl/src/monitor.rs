@@ -1,0 +1,360 @@
+//! `monitor` and `emcy`: receive everything on the bus, decode it, keep bus load and SYNC
+//! period statistics, and optionally log in can-utils `candump -l` format. On the simulator
+//! virtual time is paced to the wall clock, so the view is live there too.
+
+use core::time::Duration;
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+use std::time::{Instant as WallInstant, SystemTime, UNIX_EPOCH};
+
+use cnc402_drives::Instant;
+use cnc402_drives::master::TimedBus;
+use cnc402_drives::wire::CanFrame;
+use serde_json::json;
+
+use crate::Ctx;
+use crate::decode::decode;
+use crate::error::{CliError, Exit, Result};
+
+/// One line of a `candump -l` log: `(1700000000.123456) can0 601#4041600000000000`.
+///
+/// ```
+/// use cnc402_drives::wire::CanFrame;
+/// let f = CanFrame::new(0x601, &[0x40, 0x41, 0x60, 0]).unwrap();
+/// assert_eq!(drivectl::monitor::candump_line(12.5, "vcan0", &f), "(12.500000) vcan0 601#40416000");
+/// let r = CanFrame::new_remote(0x705, 1).unwrap();
+/// assert_eq!(drivectl::monitor::candump_line(0.0, "can0", &r), "(0.000000) can0 705#R1");
+/// ```
+pub fn candump_line(t: f64, iface: &str, f: &CanFrame) -> String {
+    let secs = t.max(0.0);
+    let whole = secs.trunc() as u64;
+    let usec = ((secs - secs.trunc()) * 1e6).round().min(999_999.0) as u64;
+    let data = if f.is_remote() {
+        if f.dlc() > 0 {
+            format!("R{}", f.dlc())
+        } else {
+            "R".to_string()
+        }
+    } else {
+        f.data().iter().map(|b| format!("{b:02X}")).collect()
+    };
+    format!("({whole}.{usec:06}) {iface} {:03X}#{data}", f.id())
+}
+
+/// Percentiles of SYNC periods.
+#[derive(Clone, Debug, Default)]
+pub struct PeriodStats {
+    samples_us: Vec<f64>,
+}
+
+impl PeriodStats {
+    /// Adds one period.
+    pub fn push(&mut self, us: f64) {
+        self.samples_us.push(us);
+    }
+    /// `(count, mean, p50, p99, max)` in µs.
+    pub fn summary(&self) -> Option<(usize, f64, f64, f64, f64)> {
+        if self.samples_us.is_empty() {
+            return None;
+        }
+        let mut v = self.samples_us.clone();
+        v.sort_by(|a, b| a.total_cmp(b));
+        let pct = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        Some((v.len(), mean, pct(0.5), pct(0.99), v[v.len() - 1]))
+    }
+}
+
+struct Clock {
+    wall0: WallInstant,
+    bus0: Instant,
+    sim: bool,
+}
+
+impl Clock {
+    /// On the simulator, sleep until the wall clock has caught up with bus time `t`.
+    fn pace(&self, t: Instant) {
+        if self.sim {
+            let target = t.saturating_since(self.bus0);
+            let wall = self.wall0.elapsed();
+            if target > wall {
+                std::thread::sleep(target - wall);
+            }
+        }
+    }
+}
+
+fn seconds(d: Option<f64>, what: &str) -> Result<Option<Duration>> {
+    match d {
+        None => Ok(None),
+        Some(s) if s.is_finite() && s >= 0.0 => Ok(Some(Duration::from_secs_f64(s))),
+        Some(s) => Err(CliError::usage(format!("{what} {s} is not a time in seconds"))),
+    }
+}
+
+/// What [`receive_loop`] reports.
+enum Event<'a> {
+    /// A frame received at this time.
+    Frame(Instant, &'a CanFrame),
+    /// A statistics boundary.
+    Tick(Instant),
+}
+
+/// Receives frames until `end` (or Ctrl-C), calling `on(ctx, Event::Frame)` per frame and
+/// `on(ctx, Event::Tick)` at every `tick` boundary.
+fn receive_loop(
+    ctx: &mut Ctx,
+    end: Option<Instant>,
+    tick: Duration,
+    on: &mut dyn FnMut(&mut Ctx, Event<'_>) -> Result<()>,
+) -> Result<Instant> {
+    let clock = Clock {
+        wall0: WallInstant::now(),
+        bus0: ctx.now(),
+        sim: ctx.link.sim().is_some(),
+    };
+    let chunk = Duration::from_millis(10);
+    let mut next_tick = ctx.now() + tick;
+    loop {
+        if ctx.interrupted() {
+            break;
+        }
+        let now = ctx.now();
+        if let Some(e) = end
+            && now >= e
+        {
+            break;
+        }
+        let mut deadline = (now + chunk).min(next_tick);
+        if let Some(e) = end {
+            deadline = deadline.min(e);
+        }
+        clock.pace(deadline);
+        while let Some(f) = ctx.link.recv_until(deadline)? {
+            let t = ctx.now();
+            on(ctx, Event::Frame(t, &f))?;
+        }
+        if ctx.now() >= next_tick {
+            let t = ctx.now();
+            on(ctx, Event::Tick(t))?;
+            next_tick += tick;
+        }
+    }
+    Ok(ctx.now())
+}
+
+/// `drivectl monitor`.
+pub fn monitor(
+    ctx: &mut Ctx,
+    log: Option<&Path>,
+    duration: Option<f64>,
+    stats_every: f64,
+    quiet: bool,
+) -> Result<()> {
+    let duration = seconds(duration, "--duration")?;
+    let every = seconds(Some(stats_every), "--stats-every")?
+        .unwrap_or(Duration::from_secs(1))
+        .max(Duration::from_millis(10));
+    let mut log = match log {
+        Some(p) => Some(BufWriter::new(File::create(p).map_err(|e| {
+            CliError::new(Exit::Other, format!("cannot create log {}: {e}", p.display()))
+        })?)),
+        None => None,
+    };
+    let iface = ctx.link.name().to_string();
+    let sim = ctx.link.sim().is_some();
+    let start = ctx.now();
+    let end = duration.map(|d| start + d);
+    let bitrate = ctx.cfg.bus.bitrate.max(1);
+    let wall0 = SystemTime::now();
+    let mut total_frames = 0u64;
+    let mut total_bits = 0u64;
+    let mut win_bits = 0u64;
+    let mut win_frames = 0u64;
+    let mut win_start = start;
+    let mut kinds: BTreeMap<&'static str, u64> = BTreeMap::new();
+    let mut sync = PeriodStats::default();
+    let mut last_sync: Option<Instant> = None;
+    let mut log_err: Option<std::io::Error> = None;
+    if !ctx.json {
+        ctx.say(format!(
+            "monitoring {iface} at {} kbit/s{} (Ctrl-C to stop)",
+            bitrate / 1000,
+            if sim { ", simulator paced to the wall clock" } else { "" }
+        ));
+    }
+    let stamp = |t: Instant| -> f64 {
+        if sim {
+            t.nanos() as f64 * 1e-9
+        } else {
+            wall0
+                .duration_since(UNIX_EPOCH)
+                .map(|d| d.as_secs_f64())
+                .unwrap_or(0.0)
+                + t.saturating_since(start).as_secs_f64()
+        }
+    };
+    let mut stats_lines: Vec<serde_json::Value> = Vec::new();
+    let mut on = |ctx: &mut Ctx, ev: Event<'_>| -> Result<()> {
+        let (t, f) = match ev {
+            Event::Frame(t, f) => (t, f),
+            Event::Tick(t) => {
+                tick(ctx, t, &mut win_start, &mut win_bits, &mut win_frames, bitrate, start, &sync, &mut stats_lines);
+                return Ok(());
+            }
+        };
+        total_frames += 1;
+        total_bits += f.bits() as u64;
+        win_bits += f.bits() as u64;
+        win_frames += 1;
+        let d = decode(f, &ctx.dict);
+        *kinds.entry(d.kind).or_default() += 1;
+        if d.kind == "sync" {
+            if let Some(prev) = last_sync {
+                sync.push(t.saturating_since(prev).as_nanos() as f64 / 1000.0);
+            }
+            last_sync = Some(t);
+        }
+        if let Some(w) = log.as_mut()
+            && log_err.is_none()
+            && let Err(e) = writeln!(w, "{}", candump_line(stamp(t), &iface, f))
+        {
+            log_err = Some(e);
+        }
+        if !quiet {
+            let rel = t.saturating_since(start).as_secs_f64();
+            if ctx.json {
+                ctx.emit_json(&json!({
+                    "t": rel, "id": f.id(), "data": crate::values::hex(f.data()), "kind": d.kind,
+                    "node": d.node, "axis": d.node.and_then(|n| ctx.names.get(n)),
+                    "text": d.text, "fields": d.fields,
+                }));
+            } else {
+                let who = d.node.map(|n| ctx.label(n)).unwrap_or_default();
+                ctx.say(format!("{rel:>10.6}  {:03X}  {:<16} {}", f.id(), who, d.text));
+            }
+        }
+        Ok(())
+    };
+    let stop = receive_loop(ctx, end, every, &mut on)?;
+    if let Some(mut w) = log {
+        if let Err(e) = w.flush() {
+            log_err.get_or_insert(e);
+        }
+    }
+    let span = stop.saturating_since(start);
+    let load = if span.is_zero() {
+        0.0
+    } else {
+        100.0 * total_bits as f64 / (bitrate as f64 * span.as_secs_f64())
+    };
+    let s = sync.summary();
+    if ctx.json {
+        ctx.emit_json(&json!({ "summary": {
+            "seconds": span.as_secs_f64(), "frames": total_frames, "load_percent": load,
+            "by_kind": kinds,
+            "sync_period_us": s.map(|(n, mean, p50, p99, max)| json!({ "n": n, "mean": mean, "p50": p50, "p99": p99, "max": max })),
+        }}));
+    } else {
+        ctx.say(format!(
+            "{total_frames} frames in {:.3} s, bus load {load:.1} % at {} kbit/s; {}",
+            span.as_secs_f64(),
+            bitrate / 1000,
+            kinds
+                .iter()
+                .map(|(k, n)| format!("{k} {n}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+        if let Some((n, mean, p50, p99, max)) = s {
+            ctx.say(format!(
+                "SYNC period: mean {mean:.1} µs, p50 {p50:.1}, p99 {p99:.1}, max {max:.1} (n={n})"
+            ));
+        }
+    }
+    if let Some(e) = log_err {
+        return Err(CliError::new(Exit::Other, format!("writing the log failed: {e}")));
+    }
+    Ok(())
+}
+
+/// `drivectl emcy`.
+pub fn emcy(ctx: &mut Ctx, duration: Option<f64>) -> Result<()> {
+    let duration = seconds(duration, "--duration")?;
+    let start = ctx.now();
+    let end = duration.map(|d| start + d);
+    let mut count = 0u64;
+    if !ctx.json {
+        ctx.say(format!("watching EMCY on {} (Ctrl-C to stop)", ctx.link.name()));
+    }
+    let mut on = |ctx: &mut Ctx, ev: Event<'_>| -> Result<()> {
+        let Event::Frame(t, f) = ev else {
+            return Ok(());
+        };
+        let d = decode(f, &ctx.dict);
+        if d.kind != "emcy" {
+            return Ok(());
+        }
+        count += 1;
+        let rel = t.saturating_since(start).as_secs_f64();
+        let n = d.node.unwrap_or(0);
+        if ctx.json {
+            ctx.emit_json(&json!({ "t": rel, "node": n, "axis": ctx.names.get(n), "emcy": d.fields, "text": d.text }));
+        } else {
+            ctx.say(format!("{rel:>10.6}  {}: {}", ctx.label(n), d.text));
+        }
+        Ok(())
+    };
+    receive_loop(ctx, end, Duration::from_secs(3600), &mut on)?;
+    if !ctx.json {
+        ctx.say(format!("{count} EMCY message(s)"));
+    }
+    Ok(())
+}
+
+/// One statistics line: frames and bus load since the last one, SYNC periods so far.
+#[allow(clippy::too_many_arguments)]
+fn tick(
+    ctx: &mut Ctx,
+    t: Instant,
+    win_start: &mut Instant,
+    win_bits: &mut u64,
+    win_frames: &mut u64,
+    bitrate: u32,
+    start: Instant,
+    sync: &PeriodStats,
+    lines: &mut Vec<serde_json::Value>,
+) {
+    let span = t.saturating_since(*win_start);
+    let load = if span.is_zero() {
+        0.0
+    } else {
+        100.0 * *win_bits as f64 / (bitrate as f64 * span.as_secs_f64())
+    };
+    let s = sync.summary();
+    let v = json!({ "stats": {
+        "t": t.saturating_since(start).as_secs_f64(), "frames": *win_frames,
+        "load_percent": load,
+        "sync_period_us": s.map(|(n, mean, p50, p99, max)| json!({ "n": n, "mean": mean, "p50": p50, "p99": p99, "max": max })),
+    }});
+    if ctx.json {
+        ctx.emit_json(&v);
+    } else {
+        ctx.say(format!(
+            "-- {} frames, bus load {load:.1} %{}",
+            *win_frames,
+            match s {
+                Some((n, mean, p50, p99, max)) => format!(
+                    ", SYNC period mean {mean:.1} µs p50 {p50:.1} p99 {p99:.1} max {max:.1} (n={n})"
+                ),
+                None => String::new(),
+            }
+        ));
+    }
+    lines.push(v);
+    *win_bits = 0;
+    *win_frames = 0;
+    *win_start = t;
+}
