@@ -67,7 +67,7 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
     let bar = if std::io::stderr().is_terminal() {
         let b = indicatif::ProgressBar::new(0);
         if let Ok(style) = indicatif::ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% {msg}",
+            "{spinner} [{elapsed_precise}] {msg} {wide_bar} {percent:>3}%",
         ) {
             b.set_style(style);
         }

@@ -151,7 +151,7 @@ impl Recorder {
             self.plot_coupling = coupling;
         }
         if let Some((z, c)) = self.plot_axes
-            && s.tick % self.plot_every == 0
+            && s.tick.is_multiple_of(self.plot_every)
         {
             // One point per interval; the coupling error keeps the interval's worst value.
             self.plot.push(PlotPoint {
@@ -254,10 +254,10 @@ impl Recorder {
     /// Closes the open window and flushes the trace; returns the first trace write error.
     pub fn finish(&mut self) -> Result<(), std::io::Error> {
         self.close_window();
-        if let Some(mut t) = self.trace.take() {
-            if let Err(e) = t.flush() {
-                self.trace_error.get_or_insert(e);
-            }
+        if let Some(mut t) = self.trace.take()
+            && let Err(e) = t.flush()
+        {
+            self.trace_error.get_or_insert(e);
         }
         match self.trace_error.take() {
             Some(e) => Err(e),
