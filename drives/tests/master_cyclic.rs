@@ -597,3 +597,33 @@ fn after_dropped_tpdos_a_reenabled_master_follows_without_false_errors() {
     let max = rig.master.max_following_errors();
     assert!(max[3] < 2.5, "{}", max[3]);
 }
+
+#[test]
+fn spindle_backwards_across_the_int32_wrap_keeps_counting() {
+    let start_counts = [0, 0, 0, i32::MIN + 300_000];
+    let mut rig = Rig::new(|i| SimDriveOptions {
+        initial_position: start_counts[i],
+        ..SimDriveOptions::default()
+    });
+    rig.boot();
+    let cpu = rig.config.axes[3].counts_per_unit;
+    let start = rig.master.positions();
+    let mut prev = start[3];
+    for k in 0..800u64 {
+        // M4: the same ramp mirrored.
+        let r = ramp(&start, k);
+        let cmd = [start[0], start[1], start[2], 2.0 * start[3] - r[3]];
+        let fb = rig.cycle(&cmd).unwrap_or_else(|s| panic!("cycle {k}: {s}"));
+        let a = fb.actual[3];
+        assert!(
+            a - prev <= 1e-9 && a - prev > -10.0,
+            "cycle {k}: {prev} → {a}"
+        );
+        prev = a;
+    }
+    assert!(prev * cpu < i32::MIN as f64 - 1000.0, "{}", prev * cpu);
+    assert!(
+        rig.drive(3).position_actual() > 0,
+        "the drive's counter wrapped"
+    );
+}
