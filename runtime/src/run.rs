@@ -193,10 +193,20 @@ impl Side<'_> {
     fn drain(&mut self, ring: &mut StatusConsumer) {
         let mut last: Option<Status> = None;
         while let Some(s) = ring.try_pop() {
-            if let Some(MoveEvent::Message) = s.event
-                && let Some(text) = self.feeder.as_mut().and_then(|f| f.take_message())
-            {
-                log::info!("line {}: {}", s.line, text);
+            match s.event {
+                Some(MoveEvent::Message) => {
+                    if let Some(text) = self.feeder.as_mut().and_then(|f| f.take_message()) {
+                        log::info!("line {}: {}", s.line, text);
+                    }
+                }
+                Some(MoveEvent::ProgramStop { kind }) => {
+                    // No operator panel yet: a program stop is reported and the run goes on.
+                    log::info!("line {}: program stop {kind:?} (continuing)", s.line);
+                }
+                Some(MoveEvent::ToolChange { tool }) => {
+                    log::info!("line {}: tool change to T{tool}", s.line);
+                }
+                None => {}
             }
             if s.phase != crate::status::Phase::Settling
                 && s.phase != crate::status::Phase::QuickStop
@@ -297,7 +307,16 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
         })
         .collect();
     let (ok, error, stop) = match end.outcome.clone() {
-        Outcome::Finished => (true, end.shutdown_error.clone(), None),
+        Outcome::Finished => match &end.shutdown_error {
+            None => (true, None, None),
+            Some(e) => (
+                false,
+                Some(format!(
+                    "the drives could not be disabled after the program: {e}"
+                )),
+                None,
+            ),
+        },
         Outcome::StartupFailed(m) => (false, Some(format!("start-up failed: {m}")), None),
         Outcome::Stopped { stop, line } => {
             let axis = cfg
