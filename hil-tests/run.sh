@@ -307,7 +307,7 @@ new_job() {
         done
         while read -r v; do
             printf 'export %s=%q\n' "$v" "${!v}"
-        done < <(compgen -e | grep -E '^(HIL_|RUST_)' | grep -vxE 'HIL_(MODE|RUNNING_IN|IFACE|REPO|CWD|BIN|JOB|QEMU|ACCEL|QEMU_ARGS|KERNEL_ARGS|CACHE)' || true)
+        done < <(compgen -e | grep -E '^(HIL_|RUST_)' | grep -vxE 'HIL_(MODE|RUNNING_IN|IFACE|REPO|CWD|BIN|JOB|QEMU|ACCEL|QEMU_ARGS|KERNEL_ARGS|CACHE|9P_OPTS)' || true)
         printf 'export HIL_RUNNING_IN=%q HIL_IFACE=%q HIL_REPO=%q HIL_CWD=%q HIL_JOB=%q\n' \
             "$MODE" "$IFACE" "$REPO" "$PWD" "$dir"
         printf 'export HIL_BIN=%q\n' "$TARGET_DIR/$PROFILE"
@@ -332,7 +332,7 @@ run_job() {
             -nodefaults -no-user-config -display none -no-reboot \
             -chardev stdio,id=con,signal=off -serial chardev:con \
             -kernel "$KDIR/vmlinuz" -initrd "$INITRD" \
-            -append "console=ttyS0 quiet loglevel=3 panic=-1 tsc=reliable ${HIL_KERNEL_ARGS:-} hiljob=$dir" \
+            -append "console=ttyS0 quiet loglevel=3 panic=-1 tsc=reliable hil9p=${HIL_9P_OPTS-cache=loose} ${HIL_KERNEL_ARGS:-} hiljob=$dir" \
             -fsdev "local,id=hostroot,path=/,$share_opts,multidevs=remap" \
             -device virtio-9p-pci,fsdev=hostroot,mount_tag=hostroot \
             ${HIL_QEMU_ARGS:-} \
