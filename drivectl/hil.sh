@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# drivectl/hil.sh: drivectl against real kernel CAN sockets. Runs where $HIL_IFACE (vcan0) is
+# up — inside the HIL guest or natively — with simulated drives hosted by a separate process
+# on the same interface (drivectl's `simpeer` example, or $DRIVECTL_PEER).
+#
+#   cargo build --release -p drivectl --bins --examples
+#   hil-tests/run.sh script --no-build drivectl/hil.sh
+#   (or, as a suite scenario: hil-tests/run.sh suite --no-build drivectl/hil.sh)
+#
+# Checks: scan finds the four drives of config/machine.toml; info; SDO read (expedited and
+# segmented), write, abort (exit 3) and absent node (exit 4); enable/state/disable step by
+# step; mode csp; a short CSP move; a drive faulted by the peer: EMCY seen by `emcy`, state
+# FAULT, enable refused (exit 5), fault-reset; `monitor --log` in candump format. Prints
+# "drivectl HIL: N passed, M failed" and exits 1 if any failed.
+set -u
+repo="${HIL_REPO:-$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)}"
+cd "$repo" || exit 125
+iface="${HIL_IFACE:-vcan0}"
+bin="${HIL_BIN:-$repo/target/release}"
+out="${HIL_OUT:-$(mktemp -d)}"
+mkdir -p "$out"
+dc="$bin/drivectl"
+peer="${DRIVECTL_PEER:-$bin/examples/simpeer}"
+for b in "$dc" "$peer"; do
+    [[ -x "$b" ]] || { echo "FAIL: $b not built (cargo build --release -p drivectl --bins --examples)"; exit 1; }
+done
+D=("$dc" --iface "$iface" --config config/machine.toml)
+
+passed=0
+failed=0
+ok() { passed=$((passed + 1)); echo "ok   $*"; }
+bad() { failed=$((failed + 1)); echo "FAIL $*"; }
+
+# expect NAME EXIT PATTERN -- CMD...: run, check the exit status and that the combined output
+# matches PATTERN (grep -E).
+expect() {
+    local name="$1" want="$2" pat="$3"
+    shift 4
+    local got=0
+    "$@" >"$out/$name.out" 2>&1 || got=$?
+    if [[ $got != "$want" ]]; then
+        bad "$name: exit $got, expected $want"
+        sed 's/^/     | /' "$out/$name.out" | head -20
+    elif ! grep -Eq "$pat" "$out/$name.out"; then
+        bad "$name: output does not match /$pat/"
+        sed 's/^/     | /' "$out/$name.out" | head -20
+    else
+        ok "$name"
+    fi
+}
+
+# The peer faults node 4 (EMCY 0x7300) 3 s after it starts.
+"$peer" --iface "$iface" --config config/machine.toml --for 60 --fault 4:fault:0x7300@3 \
+    2>"$out/peer.err" &
+peer_pid=$!
+sleep 0.5
+# Listeners in separate processes see everything the other commands put on the bus.
+"${D[@]}" --json emcy --duration 6 >"$out/emcy.jsonl" 2>&1 &
+emcy_pid=$!
+"${D[@]}" monitor --duration 6 --quiet --log "$out/monitor.log" >"$out/monitor.out" 2>&1 &
+mon_pid=$!
+sleep 0.3
+
+expect scan 0 'node 4 \(C\).*CiA 402' -- "${D[@]}" scan --listen-ms 100
+expect scan-json 0 '"nodes":\[\{"axis":"X"' -- "${D[@]}" --json scan --listen-ms 50
+expect info 0 'supported modes +0x00000080' -- "${D[@]}" info 3
+expect sdo-read-segmented 0 '"cnc402 simdrive Z"' -- "${D[@]}" sdo read 3 1008
+expect sdo-write 0 'expedited' -- "${D[@]}" sdo write 3 0x1017 u16 100
+expect sdo-readback 0 '= 100 ' -- "${D[@]}" sdo read 3 0x1017
+expect sdo-abort 3 '0x06020000' -- "${D[@]}" sdo read 3 0x2000
+expect sdo-absent 4 'node 9: SDO read of 0x1000:00: no response' -- "${D[@]}" sdo read 9 0x1000
+expect mode 0 'confirmed by 0x6061' -- "${D[@]}" mode 3 csp
+expect enable 0 'reached 0x[0-9a-f]{4} \(OPERATION ENABLED\)' -- "${D[@]}" enable 3
+expect state 0 'OPERATION ENABLED' -- "${D[@]}" state 3
+expect disable 0 'reached 0x0240 \(SWITCH ON DISABLED\)' -- "${D[@]}" disable 3
+expect move 0 'done from' -- "${D[@]}" move 1 2
+sleep 3   # the peer's fault on node 4 is due
+expect state-fault 0 'FAULT: error code 0x603F = 0x7300' -- "${D[@]}" state 4
+expect enable-fault 5 'drive in 0x0208 \(FAULT\)' -- "${D[@]}" enable 4
+expect fault-reset 0 'fault reset → 0x0240' -- "${D[@]}" fault-reset 4
+
+wait "$emcy_pid"
+if grep -q '"code":29440' "$out/emcy.jsonl"; then ok "emcy saw 0x7300 from node 4"; else bad "emcy: no EMCY 0x7300"; sed 's/^/     | /' "$out/emcy.jsonl" | head; fi
+wait "$mon_pid"
+if grep -Eq "^\([0-9]+\.[0-9]{6}\) $iface 603#40081000" "$out/monitor.log" \
+    && grep -Eq "^\([0-9]+\.[0-9]{6}\) $iface 583#" "$out/monitor.log"; then
+    ok "monitor --log: $(wc -l <"$out/monitor.log") frames in candump -l format"
+else
+    bad "monitor --log: SDO traffic of the other commands missing"; head -5 "$out/monitor.log"
+fi
+tail -2 "$out/monitor.out" | sed 's/^/     monitor: /'
+kill "$peer_pid" 2>/dev/null
+wait "$peer_pid" 2>/dev/null
+sed 's/^/     peer: /' "$out/peer.err" | tail -3
+echo "drivectl HIL: $passed passed, $failed failed (outputs in $out)"
+[[ $failed == 0 ]]
