@@ -22,7 +22,7 @@ fn parse_fault(s: &str) -> Result<FaultPlan, String> {
     let code = code.trim().trim_start_matches("0x");
     let emcy = u16::from_str_radix(code, 16).map_err(|_| bad())?;
     let secs: f64 = secs.trim().parse().map_err(|_| bad())?;
-    if !(secs.is_finite() && secs >= 0.0) || node == 0 || node > 127 {
+    if !(secs.is_finite() && (0.0..1e9).contains(&secs)) || node == 0 || node > 127 {
         return Err(bad());
     }
     Ok(FaultPlan {
@@ -108,5 +108,33 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         e => Err(CliError::Fault(
             e.unwrap_or_else(|| "the machine stopped".into()),
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fault_option_parses_and_rejects() {
+        let f = parse_fault("3:8611@0.5").unwrap();
+        assert_eq!(
+            (f.node, f.emcy, f.at),
+            (3, 0x8611, Duration::from_millis(500))
+        );
+        assert_eq!(parse_fault("4:0x2310@2").unwrap().emcy, 0x2310);
+        for bad in [
+            "",
+            "3",
+            "3:8611",
+            "0:8611@1",
+            "128:1@1",
+            "3:zz@1",
+            "3:1@-1",
+            "3:1@nan",
+            "3:1@1e300",
+        ] {
+            assert!(parse_fault(bad).is_err(), "{bad}");
+        }
     }
 }
