@@ -288,3 +288,38 @@ fn realtime_run_reports_wakeup_latency() {
     );
     assert!((r.axes[0].final_position - 6.0).abs() < 1e-4);
 }
+
+#[test]
+fn spindle_runs_across_the_int32_wrap_without_a_jump_or_fault() {
+    // 6000 rpm = 100 rev/s; 2^31 counts at 131072 counts/rev = 16384 rev ≈ 164 s.
+    let cfg = MachineConfig::default_machine();
+    let mut max_step = 0i64;
+    let mut prev: Option<Status> = None;
+    let mut wrapped = false;
+    let mut rec_steps = |s: &Status| {
+        if let Some(p) = prev {
+            let d = s.cmd_counts[3].wrapping_sub(p.cmd_counts[3]) as i64;
+            max_step = max_step.max(d.abs());
+            wrapped |= s.cmd_counts[3] < p.cmd_counts[3] && d > 0;
+        }
+        prev = Some(*s);
+    };
+    // Drive the loop directly so that every status is seen.
+    let (outcome, st, _, _) = drive(
+        &cfg,
+        SimLink::new(&cfg, None).unwrap(),
+        "G21 G90\nM3 S6000\nG4 X170.\nM5\nM30\n",
+        |s, _| rec_steps(s),
+    );
+    assert_eq!(outcome, Outcome::Finished);
+    assert!(wrapped, "the setpoint crossed i32::MAX");
+    // 36°/tick at 6000 rpm = 13107.2 counts: no jump anywhere.
+    assert!(max_step <= 13108, "{max_step}");
+    let last = st.last().unwrap();
+    let revs = last.act[3] / 360.0;
+    assert!(revs > 16384.0, "{revs} revolutions");
+    assert!(
+        (last.act[3] - last.cmd[3]).abs() < 0.01,
+        "actual unwrapped like the command"
+    );
+}
