@@ -134,6 +134,9 @@ pub struct InterpDefaults {
     pub program_dir: PathBuf,
     /// Blocks executed without motion before a program is called runaway.
     pub block_limit: u64,
+    /// The file of the non-volatile macro variables `#500–#999` (`None`: kept in memory for
+    /// one run). Relative paths resolve like `program_dir`; see [`MachineConfig::variables_file`].
+    pub variables_file: Option<PathBuf>,
 }
 
 impl MachineConfig {
@@ -210,6 +213,21 @@ impl MachineConfig {
             .map(Path::to_path_buf)
             .unwrap_or_default();
         base.join(&self.interp.program_dir)
+    }
+
+    /// `variables_file` resolved against the config file's location (as `program_dir`).
+    pub fn variables_file(&self) -> Option<PathBuf> {
+        let f = self.interp.variables_file.as_ref()?;
+        if f.is_absolute() {
+            return Some(f.clone());
+        }
+        let base = self
+            .path
+            .parent()
+            .and_then(|p| p.parent())
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        Some(base.join(f))
     }
 
     /// The built-in default machine (the shipped `config/machine.toml`).
@@ -359,6 +377,8 @@ struct RawInterp {
     program_dir: Spanned<String>,
     #[serde(default = "default_block_limit")]
     block_limit: Spanned<i64>,
+    #[serde(default)]
+    variables_file: Option<Spanned<String>>,
 }
 
 impl Default for RawInterp {
@@ -372,6 +392,7 @@ impl Default for RawInterp {
             arc_tolerance: default_arc_tol(),
             program_dir: default_program_dir(),
             block_limit: default_block_limit(),
+            variables_file: None,
         }
     }
 }
@@ -554,6 +575,18 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
         arc_tolerance: positive(&i.arc_tolerance, "interp.arc_tolerance")?,
         program_dir: PathBuf::from(i.program_dir.get_ref()),
         block_limit: int_in(&i.block_limit, "interp.block_limit", 1, i64::MAX)? as u64,
+        variables_file: match &i.variables_file {
+            None => None,
+            Some(f) if f.get_ref().trim().is_empty() => {
+                return Err((
+                    f.span(),
+                    "interp.variables_file".to_string(),
+                    "must not be empty (leave the key out to keep the variables in memory)"
+                        .to_string(),
+                ));
+            }
+            Some(f) => Some(PathBuf::from(f.get_ref())),
+        },
     };
 
     if raw.axis.is_empty() {
@@ -824,6 +857,32 @@ mod tests {
         assert_eq!(c.bus.period_us, 1000);
         assert_eq!(c.work_offsets[1][0], 100.0);
         assert_eq!(c.spindle_index(), Some(3));
+    }
+
+    #[test]
+    fn variables_file_key() {
+        let c = parse(SHIPPED).unwrap();
+        assert_eq!(
+            c.interp.variables_file.as_deref(),
+            Some(Path::new("var/macro_variables.txt"))
+        );
+        let text = SHIPPED.replace("variables_file = \"var/macro_variables.txt\"", "");
+        let c = parse(&text).unwrap();
+        assert_eq!(c.variables_file(), None);
+        let text = SHIPPED.replace(
+            "variables_file = \"var/macro_variables.txt\"",
+            "variables_file = \"/tmp/v.txt\"",
+        );
+        assert_eq!(
+            parse(&text).unwrap().variables_file(),
+            Some(PathBuf::from("/tmp/v.txt"))
+        );
+        let text = SHIPPED.replace(
+            "variables_file = \"var/macro_variables.txt\"",
+            "variables_file = \" \"",
+        );
+        let e = parse(&text).unwrap_err();
+        assert_eq!(e.key, "interp.variables_file");
     }
 
     #[test]
