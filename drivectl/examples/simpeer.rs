@@ -14,7 +14,9 @@ use cnc402_drives::socketcan::SocketCanBus;
 use cnc402_drives::wire::NodeId;
 
 fn usage(msg: &str) -> ! {
-    eprintln!("simpeer: {msg}\nusage: simpeer --iface NAME [--config PATH] [--for SECONDS] [--fault NODE:KIND@SECONDS]");
+    eprintln!(
+        "simpeer: {msg}\nusage: simpeer --iface NAME [--config PATH] [--for SECONDS] [--fault NODE:KIND@SECONDS]"
+    );
     std::process::exit(2);
 }
 
@@ -25,7 +27,10 @@ fn main() {
     let mut faults: Vec<(u8, FaultKind, f64)> = Vec::new();
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
-        let mut val = || args.next().unwrap_or_else(|| usage(&format!("{a} needs a value")));
+        let mut val = || {
+            args.next()
+                .unwrap_or_else(|| usage(&format!("{a} needs a value")))
+        };
         match a.as_str() {
             "--iface" => iface = Some(val()),
             "--config" => config = val(),

@@ -53,7 +53,12 @@ pub struct Global {
     #[arg(long, global = true, value_name = "NAME")]
     pub iface: Option<String>,
     /// Machine config: node ids, axis names, limits for jog/move
-    #[arg(long, global = true, value_name = "PATH", default_value = "config/machine.toml")]
+    #[arg(
+        long,
+        global = true,
+        value_name = "PATH",
+        default_value = "config/machine.toml"
+    )]
     pub config: PathBuf,
     /// Machine-readable output (one JSON document; streaming commands: one JSON object per
     /// line)
@@ -224,7 +229,8 @@ pub enum Command {
         #[command(flatten)]
         seq: SeqArgs,
     },
-    /// Set the mode of operation (0x6060), confirmed by 0x6061
+    /// Set the mode of operation (0x6060), confirmed by 0x6061; refused when 0x6502 does
+    /// not list it
     #[command(after_help = "Example: drivectl mode 3 csp")]
     Mode {
         /// Node id
@@ -232,6 +238,9 @@ pub enum Command {
         node: u8,
         /// The mode
         mode: ModeArg,
+        /// Write 0x6060 even if 0x6502 does not list the mode (the drive decides)
+        #[arg(long)]
+        force: bool,
     },
     /// Jog one axis at a velocity (CSP, jerk-limited ramps from the config); Ctrl-C stops
     /// with a ramp
@@ -265,7 +274,9 @@ pub enum Command {
         position: f64,
     },
     /// Decode all bus traffic live, with node names, bus load and SYNC period statistics
-    #[command(after_help = "Example: drivectl --iface vcan0 monitor --log capture.log --duration 10")]
+    #[command(
+        after_help = "Example: drivectl --iface vcan0 monitor --log capture.log --duration 10"
+    )]
     Monitor {
         /// Write the traffic in candump -l format `(sec.usec) iface ID#DATA`
         #[arg(long, value_name = "FILE")]
@@ -316,7 +327,9 @@ pub struct SeqArgs {
 #[derive(Debug, Subcommand)]
 pub enum SdoCmd {
     /// Read INDEX[:SUB]; TYPE from the command line, the EDS or the standard objects
-    #[command(after_help = "Examples:\n  drivectl sdo read 3 0x6064 i32\n  drivectl sdo read 3 1008      # device name, segmented\n  drivectl sdo read 3 1018:1 --json")]
+    #[command(
+        after_help = "Examples:\n  drivectl sdo read 3 0x6064 i32\n  drivectl sdo read 3 1008      # device name, segmented\n  drivectl sdo read 3 1018:1 --json"
+    )]
     Read {
         /// Node id
         #[arg(value_parser = parse_node)]

@@ -8,7 +8,9 @@ use std::path::Path;
 
 use cia402::{Goal, OperationMode, State, Statusword, objects as obj};
 use cnc402_drives::bus::CanBus;
-use cnc402_drives::master::{BlockingSdo, SdoError, SdoErrorKind, TimedBus, emcy_text, send_nmt, sequence_over_sdo};
+use cnc402_drives::master::{
+    BlockingSdo, SdoError, SdoErrorKind, TimedBus, emcy_text, send_nmt, sequence_over_sdo,
+};
 use cnc402_drives::wire::{
     CanFrame, Function, HeartbeatRepr, NmtCommand, NmtState, NmtTarget, SdoRequest, SdoResponse,
 };
@@ -47,7 +49,7 @@ pub fn dispatch(ctx: &mut Ctx, cmd: Command) -> Result<()> {
         Command::Disable { node, seq } => sequence(ctx, node, Goal::SwitchOnDisabled, seq),
         Command::QuickStop { node, seq } => sequence(ctx, node, Goal::QuickStop, seq),
         Command::FaultReset { node, seq } => fault_reset(ctx, node, seq),
-        Command::Mode { node, mode } => set_mode(ctx, node, mode),
+        Command::Mode { node, mode, force } => set_mode(ctx, node, mode, force),
         Command::Jog {
             node,
             velocity,
@@ -155,7 +157,10 @@ fn state_text(sw: Statusword) -> String {
 fn device_type_text(dt: u32) -> String {
     let profile = dt & 0xFFFF;
     if profile == 402 {
-        format!("{dt:#010x} (CiA 402 drive, additional info {:#06x})", dt >> 16)
+        format!(
+            "{dt:#010x} (CiA 402 drive, additional info {:#06x})",
+            dt >> 16
+        )
     } else {
         format!("{dt:#010x} (profile {profile}, not CiA 402)")
     }
@@ -181,9 +186,9 @@ fn mode_name(v: i8) -> String {
 
 fn heartbeat_of(f: &CanFrame) -> Option<(u8, NmtState)> {
     match Function::classify(f.id()) {
-        Function::Heartbeat(_) if !f.is_remote() => {
-            HeartbeatRepr::parse(f).ok().map(|h| (h.node.get(), h.state))
-        }
+        Function::Heartbeat(_) if !f.is_remote() => HeartbeatRepr::parse(f)
+            .ok()
+            .map(|h| (h.node.get(), h.state)),
         _ => None,
     }
 }
@@ -250,7 +255,9 @@ fn scan(ctx: &mut Ctx, listen: Duration, only: &[u8]) -> Result<()> {
             Some(s) => nmt_state_name(*s).to_string(),
             None => "PRE-OPERATIONAL or OPERATIONAL (answers SDO; no heartbeat heard)".into(),
         };
-        let dt_text = dt.map(device_type_text).unwrap_or_else(|| "— (read aborted)".into());
+        let dt_text = dt
+            .map(device_type_text)
+            .unwrap_or_else(|| "— (read aborted)".into());
         rows.push(format!(
             "{:<14} type {}  vendor {}  product {}  rev {}  serial {}  name {}  NMT {}",
             ctx.label(n),
@@ -402,14 +409,24 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
             pdos.push((
                 "RPDO",
                 i + 1,
-                read_pdo(sdo, node, obj::RPDO_COMMUNICATION + i, obj::RPDO_MAPPING + i)?,
+                read_pdo(
+                    sdo,
+                    node,
+                    obj::RPDO_COMMUNICATION + i,
+                    obj::RPDO_MAPPING + i,
+                )?,
             ));
         }
         for i in 0..4u16 {
             pdos.push((
                 "TPDO",
                 i + 1,
-                read_pdo(sdo, node, obj::TPDO_COMMUNICATION + i, obj::TPDO_MAPPING + i)?,
+                read_pdo(
+                    sdo,
+                    node,
+                    obj::TPDO_COMMUNICATION + i,
+                    obj::TPDO_MAPPING + i,
+                )?,
             ));
         }
         Ok((
@@ -465,7 +482,11 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
                     if entries.is_empty() {
                         "(nothing mapped)".to_string()
                     } else {
-                        entries.iter().map(|e| entry_text(*e)).collect::<Vec<_>>().join(", ")
+                        entries
+                            .iter()
+                            .map(|e| entry_text(*e))
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     }
                 ));
                 pdo_json.push(json!({
@@ -517,18 +538,33 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
         opt_text(&revision, |v| format!("{v:#010x}")),
         opt_text(&serial, |v| v.to_string())
     ));
-    ctx.say(format!("  name              {}", opt_text(&name, |v| format!("\"{v}\""))));
+    ctx.say(format!(
+        "  name              {}",
+        opt_text(&name, |v| format!("\"{v}\""))
+    ));
     ctx.say(format!(
         "  supported modes   {}",
-        opt_text(&modes, |m| format!("{m:#010x}: {}", modes_text(*m).join(", ")))
+        opt_text(&modes, |m| format!(
+            "{m:#010x}: {}",
+            modes_text(*m).join(", ")
+        ))
     ));
-    ctx.say(format!("  mode display      {}", opt_text(&display, |d| mode_name(*d))));
+    ctx.say(format!(
+        "  mode display      {}",
+        opt_text(&display, |d| mode_name(*d))
+    ));
     ctx.say(format!(
         "  statusword        {}",
         opt_text(&sw, |s| state_text(Statusword(*s)))
     ));
-    ctx.say(format!("  position actual   {}", opt_text(&pos, |p| format!("{p} counts"))));
-    ctx.say(format!("  following error   {}", opt_text(&fe, |p| format!("{p} counts"))));
+    ctx.say(format!(
+        "  position actual   {}",
+        opt_text(&pos, |p| format!("{p} counts"))
+    ));
+    ctx.say(format!(
+        "  following error   {}",
+        opt_text(&fe, |p| format!("{p} counts"))
+    ));
     ctx.say(format!(
         "  error register    {}",
         opt_text(&err_reg, |r| format!(
@@ -559,7 +595,11 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
     }
     ctx.say(format!(
         "  heartbeat         producer {}; consumers {}",
-        opt_text(&hb, |h| if *h == 0 { "off".to_string() } else { format!("{h} ms") }),
+        opt_text(&hb, |h| if *h == 0 {
+            "off".to_string()
+        } else {
+            format!("{h} ms")
+        }),
         if consumers.is_empty() {
             "none".to_string()
         } else {
@@ -596,9 +636,9 @@ fn sdo_read(ctx: &mut Ctx, n: u8, a: ObjectAddr, ty: Option<&str>) -> Result<()>
     let ty = type_for(ctx, a, ty)?;
     let data = ctx.with_sdo(|sdo| sdo.upload(node, a.index, a.sub))?;
     let (text, val) = match ty {
-        Some(t) => t.decode(&data).map_err(|e| {
-            e.context(format!("{}: SDO read of {a}", ctx.label(n)))
-        })?,
+        Some(t) => t
+            .decode(&data)
+            .map_err(|e| e.context(format!("{}: SDO read of {a}", ctx.label(n))))?,
         None => decode_untyped(&data),
     };
     let name = ctx.dict.name(a);
@@ -619,8 +659,11 @@ fn sdo_read(ctx: &mut Ctx, n: u8, a: ObjectAddr, ty: Option<&str>) -> Result<()>
             "{} {a}{} = {text}{}{}",
             ctx.label(n),
             name.map(|s| format!(" {s}")).unwrap_or_default(),
-            ty.map(|t| format!(" [{}]", t.cia_name())).unwrap_or_else(|| format!(" [{} bytes, type unknown]", data.len())),
-            extra.map(|s| format!(" — {}", state_text(s))).unwrap_or_default()
+            ty.map(|t| format!(" [{}]", t.cia_name()))
+                .unwrap_or_else(|| format!(" [{} bytes, type unknown]", data.len())),
+            extra
+                .map(|s| format!(" — {}", state_text(s)))
+                .unwrap_or_default()
         ));
     }
     Ok(())
@@ -657,7 +700,11 @@ fn sdo_write(ctx: &mut Ctx, n: u8, a: ObjectAddr, ty: &str, value: &str) -> Resu
             name.map(|s| format!(" {s}")).unwrap_or_default(),
             t.cia_name(),
             bytes.len(),
-            if bytes.len() > 4 { "segmented" } else { "expedited" }
+            if bytes.len() > 4 {
+                "segmented"
+            } else {
+                "expedited"
+            }
         ));
     }
     Ok(())
@@ -716,7 +763,9 @@ fn nmt(ctx: &mut Ctx, cmd: NmtCmd, target: NodeOrAll) -> Result<()> {
     } else {
         ctx.say(format!("NMT {cmd_name} sent to {who}"));
         if confirmations.is_empty() {
-            ctx.say("  no heartbeat seen to confirm it (drives with producer heartbeat 0 stay silent)");
+            ctx.say(
+                "  no heartbeat seen to confirm it (drives with producer heartbeat 0 stay silent)",
+            );
         }
         for c in confirmations {
             ctx.say(format!("  {c}"));
@@ -739,7 +788,9 @@ fn nmt(ctx: &mut Ctx, cmd: NmtCmd, target: NodeOrAll) -> Result<()> {
 
 fn read_sw(ctx: &mut Ctx, n: u8) -> Result<Statusword> {
     let node = node_id(n)?;
-    Ok(Statusword(ctx.with_sdo(|sdo| sdo.read_u16(node, obj::STATUSWORD, 0))?))
+    Ok(Statusword(
+        ctx.with_sdo(|sdo| sdo.read_u16(node, obj::STATUSWORD, 0))?,
+    ))
 }
 
 fn fault_detail(ctx: &mut Ctx, n: u8) -> String {
@@ -755,7 +806,8 @@ fn fault_detail(ctx: &mut Ctx, n: u8) -> String {
 fn state(ctx: &mut Ctx, n: u8) -> Result<()> {
     let sw = read_sw(ctx, n)?;
     let node = node_id(n)?;
-    let display = optional(ctx.with_sdo(|sdo| sdo.read_i8(node, obj::MODES_OF_OPERATION_DISPLAY, 0)))?;
+    let display =
+        optional(ctx.with_sdo(|sdo| sdo.read_i8(node, obj::MODES_OF_OPERATION_DISPLAY, 0)))?;
     let fault = if sw.state().is_some_and(State::is_fault) {
         Some(fault_detail(ctx, n))
     } else {
@@ -769,7 +821,10 @@ fn state(ctx: &mut Ctx, n: u8) -> Result<()> {
         ctx.emit_json(&v);
     } else {
         ctx.say(format!("{}: {}", ctx.label(n), state_text(sw)));
-        ctx.say(format!("  mode display {}", opt_text(&display, |d| mode_name(*d))));
+        ctx.say(format!(
+            "  mode display {}",
+            opt_text(&display, |d| mode_name(*d))
+        ));
         if let Some(f) = fault {
             ctx.say(format!("  FAULT: {f}"));
         }
@@ -799,7 +854,10 @@ fn run_sequence(ctx: &mut Ctx, n: u8, goal: Goal, seq: SeqArgs) -> Result<Status
                 } else {
                     cw.command().name().to_string()
                 };
-                println!("  step {polls:>3}: {sw} → controlword {:#06x} ({what})", cw.0);
+                println!(
+                    "  step {polls:>3}: {sw} → controlword {:#06x} ({what})",
+                    cw.0
+                );
             }
             steps.push(json!({
                 "step": polls, "statusword": sw.0, "state": sw.state().map(|s| s.name()),
@@ -830,11 +888,12 @@ fn run_sequence(ctx: &mut Ctx, n: u8, goal: Goal, seq: SeqArgs) -> Result<Status
                 ctx.emit_json(&json!({ "node": n, "goal": goal.to_string(), "reached": false, "error": err.message, "steps": steps }));
             }
             if err.exit == Exit::DriveState {
-                let detail = if read_sw(ctx, n).is_ok_and(|s| s.state().is_some_and(State::is_fault)) {
-                    format!("; {}", fault_detail(ctx, n))
-                } else {
-                    String::new()
-                };
+                let detail =
+                    if read_sw(ctx, n).is_ok_and(|s| s.state().is_some_and(State::is_fault)) {
+                        format!("; {}", fault_detail(ctx, n))
+                    } else {
+                        String::new()
+                    };
                 err.message = format!("{}{detail}", err.message);
             }
             Err(err)
@@ -875,7 +934,10 @@ fn fault_reset(ctx: &mut Ctx, n: u8, seq: SeqArgs) -> Result<()> {
         if ctx.json {
             ctx.emit_json(&json!({ "node": n, "was_fault": false, "statusword": sw.0, "state": sw.state().map(|s| s.name()) }));
         } else {
-            ctx.say(format!("{}: not in FAULT ({sw}); nothing to reset", ctx.label(n)));
+            ctx.say(format!(
+                "{}: not in FAULT ({sw}); nothing to reset",
+                ctx.label(n)
+            ));
         }
         return Ok(());
     }
@@ -916,7 +978,7 @@ fn fault_reset(ctx: &mut Ctx, n: u8, seq: SeqArgs) -> Result<()> {
 
 // ---- mode ------------------------------------------------------------------------------
 
-fn set_mode(ctx: &mut Ctx, n: u8, m: ModeArg) -> Result<()> {
+fn set_mode(ctx: &mut Ctx, n: u8, m: ModeArg, force: bool) -> Result<()> {
     let node = node_id(n)?;
     let mode = match m {
         ModeArg::Csp => OperationMode::CyclicSyncPosition,
@@ -925,9 +987,11 @@ fn set_mode(ctx: &mut Ctx, n: u8, m: ModeArg) -> Result<()> {
         ModeArg::Pv => OperationMode::ProfileVelocity,
         ModeArg::Homing => OperationMode::Homing,
     };
-    let supported = optional(ctx.with_sdo(|sdo| sdo.read_u32(node, obj::SUPPORTED_DRIVE_MODES, 0)))?;
+    let supported =
+        optional(ctx.with_sdo(|sdo| sdo.read_u32(node, obj::SUPPORTED_DRIVE_MODES, 0)))?;
     if let Ok(s) = supported
         && !mode.is_supported_by(s)
+        && !force
     {
         return Err(CliError::state(format!(
             "{}: the drive does not support {mode}: 0x6502 = {s:#010x} ({})",
@@ -999,7 +1063,12 @@ pub fn eds_list(path: &Path, json_out: bool) -> Result<()> {
         );
         return Ok(());
     }
-    let di = |k: &str| eds.device_info.get(k).cloned().unwrap_or_else(|| "?".into());
+    let di = |k: &str| {
+        eds.device_info
+            .get(k)
+            .cloned()
+            .unwrap_or_else(|| "?".into())
+    };
     println!(
         "{}: {} {} (vendor {}, product {}), {} objects",
         path.display(),

@@ -145,7 +145,11 @@ pub fn decode(frame: &CanFrame, dict: &Dictionary) -> Decoded {
                     fields: json!({ "statusword": sw.0, "state": sw.state().map(|s| s.name()), "position_actual": pos }),
                 }
             } else {
-                raw(pdo_kind(true, p), Some(n.get()), format!("TPDO{p} {}", hex(data)))
+                raw(
+                    pdo_kind(true, p),
+                    Some(n.get()),
+                    format!("TPDO{p} {}", hex(data)),
+                )
             }
         }
         Function::Rpdo(p, n) => {
@@ -159,7 +163,11 @@ pub fn decode(frame: &CanFrame, dict: &Dictionary) -> Decoded {
                     fields: json!({ "controlword": cw, "target_position": pos }),
                 }
             } else {
-                raw(pdo_kind(false, p), Some(n.get()), format!("RPDO{p} {}", hex(data)))
+                raw(
+                    pdo_kind(false, p),
+                    Some(n.get()),
+                    format!("RPDO{p} {}", hex(data)),
+                )
             }
         }
         Function::SdoRx(n) => match SdoRequest::parse_bytes(data) {
@@ -172,7 +180,11 @@ pub fn decode(frame: &CanFrame, dict: &Dictionary) -> Decoded {
                         format!("SDO write {} {}", obj(dict, index, sub), initiate(&kind))
                     }
                     SdoRequest::DownloadSegment(s) => {
-                        format!("SDO download segment t={} {}", s.toggle as u8, hex(s.data()))
+                        format!(
+                            "SDO download segment t={} {}",
+                            s.toggle as u8,
+                            hex(s.data())
+                        )
                     }
                     SdoRequest::UploadSegment { toggle } => {
                         format!("SDO upload segment request t={}", toggle as u8)
@@ -188,7 +200,11 @@ pub fn decode(frame: &CanFrame, dict: &Dictionary) -> Decoded {
                     fields: json!({ "data": hex(data) }),
                 }
             }
-            Err(e) => raw("sdo_req", Some(n.get()), format!("SDO request malformed ({e})")),
+            Err(e) => raw(
+                "sdo_req",
+                Some(n.get()),
+                format!("SDO request malformed ({e})"),
+            ),
         },
         Function::SdoTx(n) => match SdoResponse::parse_bytes(data) {
             Ok(r) => {
@@ -216,7 +232,11 @@ pub fn decode(frame: &CanFrame, dict: &Dictionary) -> Decoded {
                     fields: json!({ "data": hex(data) }),
                 }
             }
-            Err(e) => raw("sdo_resp", Some(n.get()), format!("SDO response malformed ({e})")),
+            Err(e) => raw(
+                "sdo_resp",
+                Some(n.get()),
+                format!("SDO response malformed ({e})"),
+            ),
         },
         Function::Heartbeat(n) => {
             if frame.is_remote() {
@@ -235,7 +255,11 @@ pub fn decode(frame: &CanFrame, dict: &Dictionary) -> Decoded {
                     text: format!("heartbeat {}", nmt_state_name(h.state)),
                     fields: json!({ "state": nmt_state_name(h.state) }),
                 },
-                Err(e) => raw("heartbeat", Some(n.get()), format!("heartbeat malformed ({e})")),
+                Err(e) => raw(
+                    "heartbeat",
+                    Some(n.get()),
+                    format!("heartbeat malformed ({e})"),
+                ),
             }
         }
         Function::Other(id) => raw("other", None, format!("{id:03X}#{}", hex(data))),

@@ -25,9 +25,9 @@ impl Dictionary {
     pub fn new(eds: Option<Eds>) -> Dictionary {
         let cfg = MachineConfig::default_machine();
         let builtin = match (cfg.axes.first(), NodeId::new(1)) {
-            (Some(axis), Ok(node)) => {
-                SimDrive::new(axis, node, Duration::from_millis(1)).od().clone()
-            }
+            (Some(axis), Ok(node)) => SimDrive::new(axis, node, Duration::from_millis(1))
+                .od()
+                .clone(),
             _ => ObjectDictionary::new(),
         };
         Dictionary { eds, builtin }

@@ -56,7 +56,10 @@ impl Eds {
     /// Reads and parses a file; errors name the file and line.
     pub fn load(path: &Path) -> Result<Eds> {
         let bytes = std::fs::read(path).map_err(|e| {
-            CliError::new(Exit::File, format!("cannot read EDS {}: {e}", path.display()))
+            CliError::new(
+                Exit::File,
+                format!("cannot read EDS {}: {e}", path.display()),
+            )
         })?;
         // EDS files are often Latin-1: decode lossily rather than refuse them.
         let text = String::from_utf8_lossy(&bytes);
@@ -133,9 +136,7 @@ impl Eds {
         for (index, line, kv) in headers {
             let e = entry(&kv, line)?;
             eds.object_names.insert(index, e.name.clone());
-            eds.objects
-                .entry(ObjectAddr { index, sub: 0 })
-                .or_insert(e);
+            eds.objects.entry(ObjectAddr { index, sub: 0 }).or_insert(e);
         }
         Ok(eds)
     }
@@ -162,23 +163,24 @@ fn entry(
     kv: &BTreeMap<String, String>,
     line: usize,
 ) -> core::result::Result<EdsEntry, (usize, String)> {
-    let num = |k: &str| -> core::result::Result<Option<u64>, (usize, String)> {
+    // Keys are stored lower-case; errors use CiA 306's spelling.
+    let num = |k: &str, shown: &str| -> core::result::Result<Option<u64>, (usize, String)> {
         match kv.get(k) {
             None => Ok(None),
             Some(v) if v.is_empty() => Ok(None),
             Some(v) => parse_uint(v)
                 .map(Some)
-                .ok_or((line, format!("{k}={v} is not a number"))),
+                .ok_or((line, format!("{shown}={v} is not a number"))),
         }
     };
     Ok(EdsEntry {
         name: kv.get("parametername").cloned().unwrap_or_default(),
-        object_type: num("objecttype")?.unwrap_or(7) as u8,
-        data_type_code: num("datatype")?.map(|v| v as u16),
+        object_type: num("objecttype", "ObjectType")?.unwrap_or(7) as u8,
+        data_type_code: num("datatype", "DataType")?.map(|v| v as u16),
         access: kv.get("accesstype").map(|s| s.to_ascii_lowercase()),
         default: kv.get("defaultvalue").cloned().filter(|s| !s.is_empty()),
         value: kv.get("parametervalue").cloned().filter(|s| !s.is_empty()),
-        pdo_mapping: num("pdomapping")?.unwrap_or(0) != 0,
+        pdo_mapping: num("pdomapping", "PDOMapping")?.unwrap_or(0) != 0,
         line,
     })
 }

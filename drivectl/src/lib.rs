@@ -53,10 +53,7 @@ pub struct Ctx {
 impl Ctx {
     /// Runs `f` with a blocking SDO client on the link; frames that are not the transfer's go
     /// to [`Ctx::other`].
-    pub fn with_sdo<T>(
-        &mut self,
-        f: impl FnOnce(&mut BlockingSdo<'_, Link>) -> T,
-    ) -> T {
+    pub fn with_sdo<T>(&mut self, f: impl FnOnce(&mut BlockingSdo<'_, Link>) -> T) -> T {
         let other = &mut self.other;
         let mut sink = |fr: &CanFrame| other.push(*fr);
         let mut sdo = BlockingSdo::new(&mut self.link, self.timeout, &mut sink);

@@ -194,7 +194,10 @@ impl TimedBus for Link {
             Link::Socket(s) => TimedBus::now(s),
         }
     }
-    fn recv_until(&mut self, deadline: Instant) -> core::result::Result<Option<CanFrame>, BusError> {
+    fn recv_until(
+        &mut self,
+        deadline: Instant,
+    ) -> core::result::Result<Option<CanFrame>, BusError> {
         match self {
             Link::Sim(b) => b.recv_until(deadline),
             Link::Socket(s) => s.recv_until(deadline),

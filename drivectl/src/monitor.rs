@@ -90,7 +90,9 @@ fn seconds(d: Option<f64>, what: &str) -> Result<Option<Duration>> {
     match d {
         None => Ok(None),
         Some(s) if s.is_finite() && s >= 0.0 => Ok(Some(Duration::from_secs_f64(s))),
-        Some(s) => Err(CliError::usage(format!("{what} {s} is not a time in seconds"))),
+        Some(s) => Err(CliError::usage(format!(
+            "{what} {s} is not a time in seconds"
+        ))),
     }
 }
 
@@ -159,7 +161,10 @@ pub fn monitor(
         .max(Duration::from_millis(10));
     let mut log = match log {
         Some(p) => Some(BufWriter::new(File::create(p).map_err(|e| {
-            CliError::new(Exit::Other, format!("cannot create log {}: {e}", p.display()))
+            CliError::new(
+                Exit::Other,
+                format!("cannot create log {}: {e}", p.display()),
+            )
         })?)),
         None => None,
     };
@@ -182,7 +187,11 @@ pub fn monitor(
         ctx.say(format!(
             "monitoring {iface} at {} kbit/s{} (Ctrl-C to stop)",
             bitrate / 1000,
-            if sim { ", simulator paced to the wall clock" } else { "" }
+            if sim {
+                ", simulator paced to the wall clock"
+            } else {
+                ""
+            }
         ));
     }
     let stamp = |t: Instant| -> f64 {
@@ -201,7 +210,17 @@ pub fn monitor(
         let (t, f) = match ev {
             Event::Frame(t, f) => (t, f),
             Event::Tick(t) => {
-                tick(ctx, t, &mut win_start, &mut win_bits, &mut win_frames, bitrate, start, &sync, &mut stats_lines);
+                tick(
+                    ctx,
+                    t,
+                    &mut win_start,
+                    &mut win_bits,
+                    &mut win_frames,
+                    bitrate,
+                    start,
+                    &sync,
+                    &mut stats_lines,
+                );
                 return Ok(());
             }
         };
@@ -233,7 +252,12 @@ pub fn monitor(
                 }));
             } else {
                 let who = d.node.map(|n| ctx.label(n)).unwrap_or_default();
-                ctx.say(format!("{rel:>10.6}  {:03X}  {:<16} {}", f.id(), who, d.text));
+                ctx.say(format!(
+                    "{rel:>10.6}  {:03X}  {:<16} {}",
+                    f.id(),
+                    who,
+                    d.text
+                ));
             }
         }
         Ok(())
@@ -275,7 +299,10 @@ pub fn monitor(
         }
     }
     if let Some(e) = log_err {
-        return Err(CliError::new(Exit::Other, format!("writing the log failed: {e}")));
+        return Err(CliError::new(
+            Exit::Other,
+            format!("writing the log failed: {e}"),
+        ));
     }
     Ok(())
 }
@@ -287,7 +314,10 @@ pub fn emcy(ctx: &mut Ctx, duration: Option<f64>) -> Result<()> {
     let end = duration.map(|d| start + d);
     let mut count = 0u64;
     if !ctx.json {
-        ctx.say(format!("watching EMCY on {} (Ctrl-C to stop)", ctx.link.name()));
+        ctx.say(format!(
+            "watching EMCY on {} (Ctrl-C to stop)",
+            ctx.link.name()
+        ));
     }
     let mut on = |ctx: &mut Ctx, ev: Event<'_>| -> Result<()> {
         let Event::Frame(t, f) = ev else {

@@ -8,7 +8,9 @@ use std::time::Instant as WallInstant;
 
 use cnc402_config::AxisConfig;
 use cnc402_drives::master::{Master, MasterOptions};
-use cnc402_motion::profile::{JerkProfile, Limits, PathProfile, State, rest_to_rest, velocity_change};
+use cnc402_motion::profile::{
+    JerkProfile, Limits, PathProfile, State, rest_to_rest, velocity_change,
+};
 use serde_json::json;
 
 use crate::Ctx;
@@ -90,8 +92,13 @@ fn check_soft(axis: &AxisConfig, p: f64) -> Result<()> {
 
 /// What to run: a move to a target, or a jog.
 enum Plan {
-    Move { target: f64 },
-    Jog { velocity: f64, duration: Option<f64> },
+    Move {
+        target: f64,
+    },
+    Jog {
+        velocity: f64,
+        duration: Option<f64>,
+    },
 }
 
 /// `drivectl jog NODE --velocity V [--for S]`.
@@ -107,7 +114,9 @@ pub fn jog(ctx: &mut Ctx, node: u8, velocity: f64, duration: Option<f64>) -> Res
     if let Some(d) = duration
         && !(d.is_finite() && d >= 0.0)
     {
-        return Err(CliError::usage(format!("--for {d} is not a time in seconds")));
+        return Err(CliError::usage(format!(
+            "--for {d} is not a time in seconds"
+        )));
     }
     run(ctx, node, axis, lim, Plan::Jog { velocity, duration })
 }
@@ -117,7 +126,9 @@ pub fn move_to(ctx: &mut Ctx, node: u8, target: f64) -> Result<()> {
     let axis = axis_of(ctx, node)?;
     let lim = limits(&axis)?;
     if !target.is_finite() {
-        return Err(CliError::usage(format!("position {target} is not a number")));
+        return Err(CliError::usage(format!(
+            "position {target} is not a number"
+        )));
     }
     check_soft(&axis, target)?;
     run(ctx, node, axis, lim, Plan::Move { target })
@@ -155,7 +166,16 @@ fn run(ctx: &mut Ctx, node: u8, axis: AxisConfig, lim: Limits, plan: Plan) -> Re
             }
         }
         Plan::Jog { velocity, .. } => Law {
-            profile: velocity_change(State { s: p0, v: 0.0, a: 0.0 }, velocity, lim.acceleration, lim.jerk),
+            profile: velocity_change(
+                State {
+                    s: p0,
+                    v: 0.0,
+                    a: 0.0,
+                },
+                velocity,
+                lim.acceleration,
+                lim.jerk,
+            ),
             t0: 0.0,
             p0: 0.0,
             sign: 1.0,
@@ -200,7 +220,10 @@ fn run(ctx: &mut Ctx, node: u8, axis: AxisConfig, lim: Limits, plan: Plan) -> Re
             }
             if let Some(w) = why {
                 if !ctx.json {
-                    ctx.say(format!("  {w}: ramp to standstill from v = {:.3}", now_state.v));
+                    ctx.say(format!(
+                        "  {w}: ramp to standstill from v = {:.3}",
+                        now_state.v
+                    ));
                 }
                 law = Law::stop_from(now_state, t, lim);
                 stopping = true;
@@ -229,7 +252,10 @@ fn run(ctx: &mut Ctx, node: u8, axis: AxisConfig, lim: Limits, plan: Plan) -> Re
                 }
             }
             Err(stop) => {
-                result = Err(CliError::state(format!("{}: safety stop: {stop}", ctx.label(node))));
+                result = Err(CliError::state(format!(
+                    "{}: safety stop: {stop}",
+                    ctx.label(node)
+                )));
                 break;
             }
         }

@@ -64,8 +64,8 @@ pub fn parse_object(s: &str) -> core::result::Result<ObjectAddr, String> {
     let sub = match sub {
         None => 0,
         Some(t) => {
-            let v = parse_uint(t)
-                .ok_or_else(|| format!("`{s}`: sub-index `{t}` is not a number"))?;
+            let v =
+                parse_uint(t).ok_or_else(|| format!("`{s}`: sub-index `{t}` is not a number"))?;
             u8::try_from(v).map_err(|_| format!("`{s}`: sub-index {v} above 255"))?
         }
     };
@@ -104,8 +104,7 @@ pub enum DataType {
 }
 
 /// The names `TYPE` accepts (for help texts).
-pub const TYPE_NAMES: &str =
-    "bool, u8, u16, u32, u64, i8, i16, i32, i64, f32, f64, string, bytes (CiA names too: unsigned16, integer32, real32, visible_string, octet_string, domain)";
+pub const TYPE_NAMES: &str = "bool, u8, u16, u32, u64, i8, i16, i32, i64, f32, f64, string, bytes (CiA names too: unsigned16, integer32, real32, visible_string, octet_string, domain)";
 
 impl DataType {
     /// Parses a type name: short (`u16`), CiA 301 (`unsigned16`, `visible_string`).
@@ -251,7 +250,9 @@ impl DataType {
                 .to_le_bytes()
                 .to_vec(),
             Str => text.as_bytes().to_vec(),
-            Bytes => parse_hex_bytes(text).ok_or_else(|| bad("expected hex bytes, e.g. 0011aabb"))?,
+            Bytes => {
+                parse_hex_bytes(text).ok_or_else(|| bad("expected hex bytes, e.g. 0011aabb"))?
+            }
         })
     }
 
@@ -274,10 +275,7 @@ impl DataType {
         b[..k].copy_from_slice(&data[..k]);
         let u = u64::from_le_bytes(b);
         Ok(match self {
-            Bool => (
-                (u != 0).to_string(),
-                json!(u != 0),
-            ),
+            Bool => ((u != 0).to_string(), json!(u != 0)),
             U8 | U16 | U32 | U64 => {
                 let w = 2 * data.len();
                 (format!("{u} ({u:#0w$x})", w = w + 2), json!(u))
@@ -350,13 +348,10 @@ pub fn decode_untyped(data: &[u8]) -> (String, Json) {
                 4 => DataType::U32,
                 _ => DataType::U64,
             };
-            t.decode(data).unwrap_or_else(|_| (hex(data), json!(hex(data))))
+            t.decode(data)
+                .unwrap_or_else(|_| (hex(data), json!(hex(data))))
         }
-        _ if !data.is_empty()
-            && data
-                .iter()
-                .all(|&c| c == 0 || (0x20..0x7f).contains(&c)) =>
-        {
+        _ if !data.is_empty() && data.iter().all(|&c| c == 0 || (0x20..0x7f).contains(&c)) => {
             DataType::Str
                 .decode(data)
                 .unwrap_or_else(|_| (hex(data), json!(hex(data))))
@@ -372,10 +367,22 @@ mod tests {
     #[test]
     fn encode_checks_range_and_decode_checks_size() {
         assert_eq!(DataType::U16.encode("0x1234").unwrap(), vec![0x34, 0x12]);
-        assert_eq!(DataType::I32.encode("-2").unwrap(), vec![0xfe, 0xff, 0xff, 0xff]);
-        assert!(DataType::U8.encode("256").unwrap_err().message.contains("0..=255"));
+        assert_eq!(
+            DataType::I32.encode("-2").unwrap(),
+            vec![0xfe, 0xff, 0xff, 0xff]
+        );
+        assert!(
+            DataType::U8
+                .encode("256")
+                .unwrap_err()
+                .message
+                .contains("0..=255")
+        );
         assert!(DataType::I8.encode("x").is_err());
-        assert_eq!(DataType::Bytes.encode("00 11 aa").unwrap(), vec![0, 0x11, 0xaa]);
+        assert_eq!(
+            DataType::Bytes.encode("00 11 aa").unwrap(),
+            vec![0, 0x11, 0xaa]
+        );
         let e = DataType::U32.decode(&[1, 2]).unwrap_err();
         assert!(e.message.contains("wrong data type"), "{e}");
         assert_eq!(DataType::I16.decode(&[0xff, 0xff]).unwrap().1, json!(-1));
