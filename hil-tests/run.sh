@@ -409,6 +409,12 @@ case "$cmd" in
         run_cmd 1200 "cnc402 cnc402-hil" bash "$HIL_DIR/guest/suite.sh" "${OPT_REST[@]}" ;;
     smoke)
         parse_opts "$@"
+        if [[ $(HIL_MODE="$MODE_WANTED" "$0" mode 2>/dev/null) == qemu ]]; then
+            # The host's own figures, as the peer of the guest's (same run, same load).
+            setup && build cnc402-hil
+            say "host peer (no CAN here): $("$TARGET_DIR/$PROFILE/cansmoke" --latency-only --cycles 2000 2>&1 | grep -E 'wake-up|mlockall' | sed 's/^cansmoke: //' | tr '\n' ' ')"
+            NO_BUILD=1
+        fi
         run_cmd 600 cnc402-hil bash "$HIL_DIR/guest/suite.sh" "$HIL_DIR"/smoke/*.sh ;;
     ''|-h|--help|help) usage ;;
     *) echo "HIL: unknown command '$cmd'" >&2; usage ;;

@@ -42,6 +42,10 @@ struct Args {
     /// SCHED_FIFO priority to ask for (1..=99).
     #[arg(long, default_value_t = 80, value_parser = clap::value_parser!(i32).range(1..=99))]
     fifo_priority: i32,
+    /// Only the periodic-loop probe, without CAN (for a host whose kernel has none: its figures
+    /// are the peer of the guest's).
+    #[arg(long)]
+    latency_only: bool,
     /// Write the figures as JSON here.
     #[arg(long)]
     report: Option<PathBuf>,
@@ -76,7 +80,7 @@ struct LoopReport {
 struct Report {
     iface: String,
     kernel: String,
-    exchange: ExchangeReport,
+    exchange: Option<ExchangeReport>,
     periodic_loop: Option<LoopReport>,
 }
 
@@ -160,12 +164,18 @@ fn grant(r: std::io::Result<()>) -> String {
     }
 }
 
-fn periodic_loop(args: &Args, tx: &CanSocket) -> Result<LoopReport, String> {
+/// The periodic loop; with `tx`, one SYNC frame per tick, counted by a reader thread.
+fn periodic_loop(args: &Args, tx: Option<&CanSocket>) -> Result<LoopReport, String> {
     let period_ns = args.period_us * 1000;
-    let rx = CanSocket::open(&args.iface).map_err(|e| format!("open {}: {e}", args.iface))?;
+    let rx = match tx {
+        Some(_) => {
+            Some(CanSocket::open(&args.iface).map_err(|e| format!("open {}: {e}", args.iface))?)
+        }
+        None => None,
+    };
     let stop = Arc::new(AtomicBool::new(false));
     let received = Arc::new(AtomicUsize::new(0));
-    let reader = {
+    let reader = rx.map(|rx| {
         let (stop, received) = (Arc::clone(&stop), Arc::clone(&received));
         std::thread::spawn(move || {
             while !stop.load(Ordering::Relaxed) {
@@ -183,7 +193,7 @@ fn periodic_loop(args: &Args, tx: &CanSocket) -> Result<LoopReport, String> {
                 }
             }
         })
-    };
+    });
 
     let mlock = grant(rt::lock_memory());
     let fifo = grant(rt::set_fifo(args.fifo_priority));
@@ -199,13 +209,17 @@ fn periodic_loop(args: &Args, tx: &CanSocket) -> Result<LoopReport, String> {
     let mut sent = 0usize;
     let mut send_errors = 0usize;
     let run = rt::measure_wakeups(period_ns, args.cycles, &mut samples, |_| {
-        match tx.write_frame(&sync) {
-            Ok(()) => sent += 1,
-            Err(_) => send_errors += 1,
+        if let Some(tx) = tx {
+            match tx.write_frame(&sync) {
+                Ok(()) => sent += 1,
+                Err(_) => send_errors += 1,
+            }
         }
     });
     stop.store(true, Ordering::Relaxed);
-    let _ = reader.join();
+    if let Some(reader) = reader {
+        let _ = reader.join();
+    }
     run.map_err(|e| format!("clock_nanosleep: {e}"))?;
     Ok(LoopReport {
         period_ns,
@@ -234,6 +248,17 @@ fn main() -> ExitCode {
             };
         }
     };
+    if args.latency_only {
+        let periodic = match periodic_loop(&args, None) {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("cansmoke: periodic loop: {e}");
+                return ExitCode::from(3);
+            }
+        };
+        print_loop(&args, &periodic, false);
+        return finish(&args, None, Some(periodic), false);
+    }
     let open = |what: &str| {
         CanSocket::open(&args.iface)
             .map_err(|e| format!("cannot open {} ({what} socket): {e}", args.iface))
@@ -273,24 +298,9 @@ fn main() -> ExitCode {
     }
 
     let periodic = if args.cycles > 0 && exchange.error.is_none() {
-        match periodic_loop(&args, &tx) {
+        match periodic_loop(&args, Some(&tx)) {
             Ok(r) => {
-                if let Some(l) = &r.wakeup_latency {
-                    println!(
-                        "cansmoke: {} us loop, {} cycles: wake-up latency p50 {} p99 {} max {} mean {}; {} wake-ups late by a whole period",
-                        args.period_us,
-                        l.samples,
-                        us(l.p50_ns),
-                        us(l.p99_ns),
-                        us(l.max_ns),
-                        us(l.mean_ns),
-                        l.late_by_a_period
-                    );
-                }
-                println!(
-                    "cansmoke: SYNC frames sent {} received {} (send errors {})",
-                    r.sync_frames_sent, r.sync_frames_received, r.send_errors
-                );
+                print_loop(&args, &r, true);
                 Some(r)
             }
             Err(e) => {
@@ -303,6 +313,37 @@ fn main() -> ExitCode {
     };
 
     let failed = exchange.error.is_some() || exchange.received_ok != args.frames;
+    finish(&args, Some(exchange), periodic, failed)
+}
+
+fn print_loop(args: &Args, r: &LoopReport, with_can: bool) {
+    if let Some(l) = &r.wakeup_latency {
+        println!(
+            "cansmoke: {} us loop, {} cycles: wake-up latency p50 {} p99 {} max {} mean {}; {} wake-ups late by a whole period",
+            args.period_us,
+            l.samples,
+            us(l.p50_ns),
+            us(l.p99_ns),
+            us(l.max_ns),
+            us(l.mean_ns),
+            l.late_by_a_period
+        );
+    }
+    if with_can {
+        println!(
+            "cansmoke: SYNC frames sent {} received {} (send errors {})",
+            r.sync_frames_sent, r.sync_frames_received, r.send_errors
+        );
+    }
+}
+
+/// Writes the JSON report (if asked) and turns the outcome into the exit code.
+fn finish(
+    args: &Args,
+    exchange: Option<ExchangeReport>,
+    periodic: Option<LoopReport>,
+    failed: bool,
+) -> ExitCode {
     let report = Report {
         iface: args.iface.clone(),
         kernel: std::fs::read_to_string("/proc/sys/kernel/osrelease")
