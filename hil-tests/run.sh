@@ -321,13 +321,20 @@ run_job() {
     local dir="$1" limit="$2" rc=0 t0
     t0=$(now)
     if [[ $MODE == native ]]; then
-        timeout -k 5 "$limit" bash "$dir/start" || rc=$?
+        # timeout puts the job in a process group of its own (so that the job's children are
+        # killed with it), out of reach of the terminal's Ctrl-C: forward INT/TERM by hand.
+        timeout -k 5 "$limit" bash "$dir/start" &
+        local tpid=$!
+        trap 'kill -TERM $tpid 2>/dev/null; wait $tpid; exit 130' INT TERM
+        wait $tpid || rc=$?
+        trap - INT TERM
     else
         local share_opts=security_model=passthrough
         [[ $(id -u) == 0 ]] || share_opts=security_model=none
         say "booting $(cat "$KDIR/PACKAGE") under qemu (TCG, ${GUEST_CPUS} vCPUs, ${GUEST_MEM}), limit ${limit} s"
         set +e
-        timeout -k 5 "$limit" "$QEMU" "${QEMU_DIRS[@]}" \
+        # --foreground: qemu stays in our process group, so Ctrl-C reaches it.
+        timeout --foreground -k 5 "$limit" "$QEMU" "${QEMU_DIRS[@]}" \
             -accel "${HIL_ACCEL:-tcg,thread=multi}" -cpu max -m "$GUEST_MEM" -smp "$GUEST_CPUS" \
             -nodefaults -no-user-config -display none -no-reboot \
             -chardev stdio,id=con,signal=off -serial chardev:con \
