@@ -1,3 +1,4 @@
+# shellcheck shell=bash
 # Helpers for HIL scenario scripts (bash): start the processes of a scenario in the
 # background, wait for them with a time limit, and never leave one running.
 #   source "$HIL_REPO/hil-tests/guest/lib.sh"
@@ -43,6 +44,8 @@ hil_wait_socket() {
     local deadline=$((SECONDS + limit))
     while ((SECONDS < deadline)); do
         kill -0 "$pid" 2>/dev/null || { echo "hil_wait_socket: $name exited early"; return 1; }
+        # One ls rather than a readlink per fd: starting a process is slow in the guest.
+        # shellcheck disable=SC2010
         if ls -l "/proc/$pid/fd" 2>/dev/null | grep -q 'socket:'; then
             sleep 0.1  # from socket() to bind()
             return 0

@@ -1,3 +1,4 @@
+#!/bin/bash
 # Two separate processes exchange frames over the real vcan interface: candump (can-utils)
 # logs what cansend puts on the bus; every frame must arrive intact and in order.
 set -euo pipefail

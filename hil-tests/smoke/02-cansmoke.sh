@@ -1,3 +1,4 @@
+#!/bin/bash
 # The Rust smoke binary (socketcan crate): frames between two sockets, then a 1 ms
 # clock_nanosleep loop's wake-up latency and the mlockall / SCHED_FIFO grants, as JSON.
 set -euo pipefail
