@@ -7,17 +7,19 @@
 pub mod controller;
 pub mod feeder;
 pub mod link;
+pub mod master_link;
 pub mod recorder;
 pub mod report;
 pub mod ring;
 pub mod rt;
 pub mod run;
-pub mod sim_link;
+pub mod sim_machine;
 pub mod status;
 
 pub use controller::{CycleController, Step};
 pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, ModelLink, Startup, StopCause};
+pub use master_link::{CycleBus, MasterLink};
 pub use report::{RunReport, write_plot};
 pub use run::{Progress, RunError, RunOptions, Timing, make_link, run_program};
-pub use sim_link::SimLink;
+pub use sim_machine::{SimLink, SimMachine};
 pub use status::{Outcome, Phase, Status};

@@ -24,7 +24,7 @@ use crate::ring::{
     status_ring,
 };
 use crate::rt::{LatencyHistogram, LatencySummary, monotonic_ns, request_realtime, sleep_until};
-use crate::sim_link::SimLink;
+use crate::sim_machine::SimLink;
 use crate::status::{Outcome, Status};
 
 /// How time advances.
@@ -108,7 +108,7 @@ pub fn make_link(
         return Ok(Box::new(link));
     }
     let mut link =
-        SimLink::new(cfg, None).map_err(|e| RunError::Io(format!("simulated bus: {}", e.0)))?;
+        SimLink::simulated(cfg, None).map_err(|e| RunError::Io(format!("simulated bus: {e}")))?;
     if let Some(f) = fault {
         link = link.with_fault(f);
     }

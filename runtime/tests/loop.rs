@@ -72,13 +72,13 @@ fn enabling_never_moves_a_drive() {
     let cfg = MachineConfig::default_machine();
     // Drives power on away from zero (C a quarter turn on).
     let initial = [123_456, -50_000, 70_000, 32_768, 0, 0, 0, 0];
-    let mut link = SimLink::new(&cfg, Some(initial)).unwrap();
+    let mut link = SimLink::simulated(&cfg, Some(initial)).unwrap();
     let pos = match link.startup(Instant::ZERO) {
         Startup::Ready(p) => p,
         other => panic!("{other:?}"),
     };
     for i in 0..4 {
-        let dev = link.bus().device(i).unwrap();
+        let dev = link.sim_bus().device(i).unwrap();
         assert_eq!(
             dev.position_actual(),
             initial[i],
@@ -105,7 +105,7 @@ fn enabling_never_moves_a_drive() {
 #[test]
 fn operator_stop_mid_tap_keeps_z_and_c_coupled_and_quick_stops_every_drive() {
     let cfg = MachineConfig::default_machine();
-    let link = SimLink::new(&cfg, None).unwrap();
+    let link = SimLink::simulated(&cfg, None).unwrap();
     let mut raised_at = None;
     let (outcome, st, _, link) = drive(&cfg, link, TAP, |s, stop| {
         if s.tap.is_some() && s.cmd[2] < -6.0 && raised_at.is_none() {
@@ -143,7 +143,7 @@ fn operator_stop_mid_tap_keeps_z_and_c_coupled_and_quick_stops_every_drive() {
     assert!(st.iter().any(|s| s.phase == Phase::Stopping));
     assert!(st.iter().any(|s| s.phase == Phase::QuickStop));
     // Every drive out of OPERATION ENABLED, at rest.
-    for d in link.bus().devices() {
+    for d in link.sim_bus().devices() {
         assert_ne!(
             d.state(),
             cia402::State::OperationEnabled,
@@ -164,11 +164,13 @@ fn operator_stop_mid_tap_keeps_z_and_c_coupled_and_quick_stops_every_drive() {
 #[test]
 fn drive_fault_names_node_emcy_and_line_and_stops_all_axes() {
     let cfg = MachineConfig::default_machine();
-    let link = SimLink::new(&cfg, None).unwrap().with_fault(FaultPlan {
-        node: 4,
-        at: Duration::from_millis(2300),
-        emcy: 0x8611,
-    });
+    let link = SimLink::simulated(&cfg, None)
+        .unwrap()
+        .with_fault(FaultPlan {
+            node: 4,
+            at: Duration::from_millis(2300),
+            emcy: 0x8611,
+        });
     let (outcome, st, _, link) = drive(&cfg, link, TAP, |_, _| {});
     let Outcome::Stopped { stop, line } = outcome else {
         panic!("{outcome:?}")
@@ -185,7 +187,7 @@ fn drive_fault_names_node_emcy_and_line_and_stops_all_axes() {
     assert_eq!(line, 5);
     let t_fault = st.iter().find(|s| s.stop.is_some()).unwrap().tick;
     assert!(st.len() as u64 - t_fault < 1000, "stopped within a second");
-    for d in link.bus().devices() {
+    for d in link.sim_bus().devices() {
         assert_ne!(
             d.state(),
             cia402::State::OperationEnabled,
@@ -307,7 +309,7 @@ fn spindle_runs_across_the_int32_wrap_without_a_jump_or_fault() {
     // Drive the loop directly so that every status is seen.
     let (outcome, st, _, _) = drive(
         &cfg,
-        SimLink::new(&cfg, None).unwrap(),
+        SimLink::simulated(&cfg, None).unwrap(),
         "G21 G90\nM3 S6000\nG4 X170.\nM5\nM30\n",
         |s, _| rec_steps(s),
     );

@@ -69,7 +69,7 @@ fn machine() -> MachineConfig {
 /// Runs TAP with the counter armed over every tick; returns (allocations, outcome, ticks).
 fn run_armed(fault: Option<FaultPlan>) -> (usize, Outcome, u64) {
     let cfg = machine();
-    let mut link = SimLink::new(&cfg, None).expect("sim link");
+    let mut link = SimLink::simulated(&cfg, None).expect("sim link");
     if let Some(f) = fault {
         link = link.with_fault(f);
     }

@@ -1,30 +1,38 @@
-//! The embedded simulated machine: the CANopen [`Master`] on an in-process [`SimBus`] with one
-//! [`SimDrive`] per configured drive node — the same frames a real bus carries, in the time the
-//! loop passes in. Boot runs in the bus's virtual time; the cyclic phase maps the loop's time
-//! onto the bus clock from there.
-
-use core::time::Duration;
+//! [`MasterLink`]: the CANopen [`Master`] on any bus with a clock, as the loop's
+//! [`DriveLink`]. Boot, SDO configuration, enable and disable run outside the loop on the
+//! bus's own clock ([`TimedBus`]); the cyclic phase maps the loop's time (deadlines) onto that
+//! clock from the first cyclic SYNC on. A transport only has to say what happens right before
+//! each cycle ([`CycleBus`]): the simulated bus advances its virtual time there; a SocketCAN
+//! transport does nothing.
 
 use cia402::State;
 use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
-use cnc402_drives::bus::{BusCounters, CanBus, SimBus};
-use cnc402_drives::master::{Master, MasterOptions, SafetyStop, StopMode, StopReason};
-use cnc402_drives::sim::{FaultKind, SimDrive, SimDriveOptions};
-use cnc402_drives::wire::NodeId;
+use cnc402_drives::bus::BusCounters;
+use cnc402_drives::master::{
+    Master, MasterConfigError, MasterOptions, Phase, SafetyStop, StopMode, StopReason, TimedBus,
+};
 
-use crate::link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, Startup, StopCause};
+use crate::link::{DriveFeedback, DriveLink, DriveStop, Startup, StopCause};
+
+/// A bus the master can run its cycles on.
+pub trait CycleBus: TimedBus {
+    /// Called right before the master's cycle at bus time `t`, `since_start` after the first
+    /// cyclic SYNC. Must not allocate, log or block.
+    fn before_cycle(&mut self, t: Instant, since_start: core::time::Duration) {
+        let _ = (t, since_start);
+    }
+    /// The bit rate, for bus load.
+    fn bitrate(&self) -> u32;
+}
 
 /// See the module doc.
-pub struct SimLink {
-    bus: SimBus<SimDrive>,
+pub struct MasterLink<B: CycleBus> {
+    pub(crate) bus: B,
     master: Master,
     n_axes: usize,
-    /// Device number on the bus of each axis's drive.
-    device_of_axis: [Option<usize>; MAX_AXES],
-    fault: Option<(FaultPlan, Option<usize>)>,
-    fault_done: bool,
-    /// Bus time when the cyclic phase began, and the loop time it corresponds to.
+    has_drive: [bool; MAX_AXES],
+    /// Bus time of the first cyclic SYNC, and the loop time it corresponds to.
     bus_base: Instant,
     loop_base: Option<Instant>,
     last: [f64; MAX_AXES],
@@ -33,42 +41,21 @@ pub struct SimLink {
     counts_per_unit: [f64; MAX_AXES],
 }
 
-/// Why the simulated machine could not be built.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct SimLinkError(pub String);
-
-impl SimLink {
-    /// Builds the bus and its drives from `cfg`; `initial` are the drives' positions at power-on
-    /// (counts, config axis order; `None` = 0).
-    pub fn new(
-        cfg: &MachineConfig,
-        initial: Option<[i32; MAX_AXES]>,
-    ) -> Result<SimLink, SimLinkError> {
+impl<B: CycleBus> MasterLink<B> {
+    /// A master for `cfg`'s drives on `bus`. Its stop reaction follows the path: healthy drives
+    /// keep taking the interpolator's (decelerating) setpoints so that a tap stays coupled,
+    /// and quick stop goes to every drive once the path is at rest.
+    pub fn new(cfg: &MachineConfig, bus: B) -> Result<MasterLink<B>, MasterConfigError> {
         let options = MasterOptions {
             stop_mode: StopMode::FollowPath,
             ..MasterOptions::default()
         };
-        let master = Master::with_options(cfg, options).map_err(|e| SimLinkError(e.to_string()))?;
-        let period = Duration::from_micros(cfg.bus.period_us as u64);
-        let mut bus: SimBus<SimDrive> = SimBus::new(cfg.bus.bitrate);
-        let mut device_of_axis = [None; MAX_AXES];
-        for (i, a) in cfg.axes.iter().enumerate().take(MAX_AXES) {
-            let Some(node) = a.node else { continue };
-            let node = NodeId::new(node)
-                .map_err(|e| SimLinkError(format!("axis {}: node {node}: {e:?}", a.name)))?;
-            let opts = SimDriveOptions {
-                initial_position: initial.map_or(0, |p| p[i]),
-                ..SimDriveOptions::default()
-            };
-            device_of_axis[i] = Some(bus.attach(SimDrive::with_options(a, node, period, opts)));
-        }
-        Ok(SimLink {
+        let master = Master::with_options(cfg, options)?;
+        Ok(MasterLink {
             bus,
             master,
             n_axes: cfg.axes.len().min(MAX_AXES),
-            device_of_axis,
-            fault: None,
-            fault_done: false,
+            has_drive: core::array::from_fn(|i| cfg.axes.get(i).is_some_and(|a| a.node.is_some())),
             bus_base: Instant::ZERO,
             loop_base: None,
             last: [0.0; MAX_AXES],
@@ -78,19 +65,6 @@ impl SimLink {
                 cfg.axes.get(i).map_or(1.0, |a| a.counts_per_unit)
             }),
         })
-    }
-
-    /// Arms a fault: drive `plan.node` goes to FAULT with EMCY `plan.emcy` at `plan.at` after
-    /// the cyclic phase began.
-    pub fn with_fault(mut self, plan: FaultPlan) -> SimLink {
-        let axis = (0..self.n_axes).find(|&i| self.master.axis_of_node(plan.node) == Some(i));
-        self.fault = Some((plan, axis.and_then(|i| self.device_of_axis[i])));
-        self
-    }
-
-    /// The simulated bus (drives' state, counters).
-    pub fn bus(&self) -> &SimBus<SimDrive> {
-        &self.bus
     }
 
     /// The master.
@@ -109,27 +83,27 @@ impl SimLink {
         commands: &[f64; MAX_AXES],
         fb: &mut [DriveFeedback; MAX_AXES],
     ) -> Result<(), SafetyStop> {
-        self.bus.advance(t);
+        self.bus.before_cycle(t, t.saturating_since(self.bus_base));
         let r = self
             .master
             .cycle(&mut self.bus, t, &commands[..self.n_axes]);
-        let f = match &r {
-            Ok(f) => Some(*f),
-            Err(_) => None,
-        };
-        if let Some(f) = f {
-            for i in 0..self.n_axes {
-                fb[i] = DriveFeedback {
-                    actual: f.actual[i],
-                    statusword: f.statusword[i].map_or(0, |s| s.0),
-                    following_error: f.following_error[i],
-                };
+        match &r {
+            Ok(f) => {
+                for i in 0..self.n_axes {
+                    fb[i] = DriveFeedback {
+                        actual: f.actual[i],
+                        statusword: f.statusword[i].map_or(0, |s| s.0),
+                        following_error: f.following_error[i],
+                    };
+                }
             }
-        } else {
-            // The tripping cycle gives no feedback: keep the last, with the latched positions.
-            let pos = self.master.positions();
-            for i in 0..self.n_axes {
-                fb[i].actual = pos[i];
+            Err(_) => {
+                // The tripping cycle gives no feedback: keep the last, with the latched
+                // positions.
+                let pos = self.master.positions();
+                for i in 0..self.n_axes {
+                    fb[i].actual = pos[i];
+                }
             }
         }
         r.map(|_| ())
@@ -156,13 +130,13 @@ pub fn drive_stop(s: &SafetyStop) -> DriveStop {
     }
 }
 
-impl DriveLink for SimLink {
+impl<B: CycleBus> DriveLink for MasterLink<B> {
     fn startup(&mut self, _now: Instant) -> Startup {
-        if self.master.phase() == cnc402_drives::master::Phase::Running {
+        if self.master.phase() == Phase::Running {
             // Already started (a caller that asks twice): the drives hold where they are.
             return Startup::Ready(self.master.positions());
         }
-        // Boot blocks in the bus's virtual time (SDO configuration, enable).
+        // Boot blocks on the bus's clock (SDO configuration, enable).
         match self.master.boot(&mut self.bus) {
             Ok(report) => {
                 log::info!(
@@ -187,15 +161,6 @@ impl DriveLink for SimLink {
         fb: &mut [DriveFeedback; MAX_AXES],
     ) -> Result<(), DriveStop> {
         let t = self.bus_time(now);
-        if let Some((plan, Some(dev))) = self.fault
-            && !self.fault_done
-            && t.saturating_since(self.bus_base) >= plan.at
-        {
-            self.fault_done = true;
-            if let Some(d) = self.bus.device_mut(dev) {
-                d.inject(FaultKind::Fault(plan.emcy), t);
-            }
-        }
         self.last = *commands;
         self.exchange(t, commands, fb).map_err(|s| drive_stop(&s))
     }
@@ -212,7 +177,7 @@ impl DriveLink for SimLink {
         // the last cycle (quick stop ramps take their time).
         let mut stopped = true;
         for i in 0..self.n_axes {
-            if self.device_of_axis[i].is_some() {
+            if self.has_drive[i] {
                 let state = cia402::Statusword(fb[i].statusword).state();
                 let moved =
                     (fb[i].actual - self.prev_actual[i]).abs() * self.counts_per_unit[i] >= 1.0;
