@@ -1,17 +1,49 @@
 //! Evaluation of address values: literal numbers and bracketed expressions (`X[1+2*3]`,
 //! `F=100*2`) with Fanuc Custom Macro B semantics (degrees, FIX/FUP/ROUND, MOD, bitwise
-//! AND/OR/XOR, comparisons giving 1 or 0). Variables come with the Macro B issue.
+//! AND/OR/XOR, comparisons giving 1 or 0). Variables are read through [`VarSource`]; a
+//! value is `Option<f64>` where `None` is Fanuc's vacant (`#0`, never-set variables).
 
 use cnc402_lang::ast::{BinaryOp, Expr, ExprKind, Func, UnaryOp, Value};
 use cnc402_lang::{NcError, SourceFile};
 
+/// Where expressions read macro variables from. `n` is the variable number as computed
+/// (indirect `#[…]` already evaluated and rounded); `Ok(None)` is vacant; `Err` is a message
+/// for the variable's place in the program (no such variable, a failed motion sync, …).
+pub trait VarSource {
+    fn get(&mut self, n: i64) -> Result<Option<f64>, String>;
+}
+
+/// No variables at all: every read is an error (plain expression evaluation).
+pub struct NoVars;
+
+impl VarSource for NoVars {
+    fn get(&mut self, _n: i64) -> Result<Option<f64>, String> {
+        Err("macro variables need the interpreter (no variables here)".into())
+    }
+}
+
 /// The number a word's value stands for. Errors (division by zero, SQRT of a negative, …)
 /// point at the sub-expression that failed.
 pub fn value(src: &SourceFile, v: &Value) -> Result<f64, NcError> {
+    Ok(value_in(src, v, &mut NoVars)?.unwrap_or(0.0))
+}
+
+/// A word's value with variables; `None` when it is vacant (`X#1` with `#1` vacant: Fanuc
+/// then ignores the whole word).
+pub fn value_in(
+    src: &SourceFile,
+    v: &Value,
+    vars: &mut dyn VarSource,
+) -> Result<Option<f64>, NcError> {
     match v {
-        Value::Number(n) => Ok(n.value),
-        Value::Expr(e) => expr(src, e),
+        Value::Number(n) => Ok(Some(n.value)),
+        Value::Expr(e) => eval(src, e, vars),
     }
+}
+
+/// A variable number from a computed value: rounded to the nearest whole number (Fanuc).
+pub fn var_number(v: f64) -> i64 {
+    v.round() as i64
 }
 
 /// Evaluates `e` with Fanuc semantics: angles in degrees, `ATAN[a]/[b]` in 0..360,
@@ -24,19 +56,54 @@ pub fn value(src: &SourceFile, v: &Value) -> Result<f64, NcError> {
 /// assert_eq!(cnc402_interp::eval::expr(&src, &e).unwrap(), -2.0 + 135.0);
 /// ```
 pub fn expr(src: &SourceFile, e: &Expr) -> Result<f64, NcError> {
+    Ok(eval(src, e, &mut NoVars)?.unwrap_or(0.0))
+}
+
+/// Evaluates `e` reading variables from `vars`, with Fanuc's vacant rules: a lone variable
+/// (or its negation) stays vacant; in arithmetic and functions vacant counts as 0; `EQ`/`NE`
+/// compare vacant as its own value (`#0 EQ 0` is false, `#0 EQ #0` true); `GT GE LT LE`
+/// count vacant as 0.
+///
+/// ```
+/// use cnc402_interp::eval::{eval, VarSource};
+/// use cnc402_lang::{SourceFile, parse_expr};
+/// struct One;
+/// impl VarSource for One {
+///     fn get(&mut self, n: i64) -> Result<Option<f64>, String> {
+///         Ok(if n == 1 { Some(2.0) } else { None })
+///     }
+/// }
+/// let src = SourceFile::new("e", "[#1*3+#2]");
+/// let e = parse_expr(&src).unwrap();
+/// assert_eq!(eval(&src, &e, &mut One).unwrap(), Some(6.0));
+/// ```
+pub fn eval(src: &SourceFile, e: &Expr, vars: &mut dyn VarSource) -> Result<Option<f64>, NcError> {
     let err = |m: String| NcError::new(src, e.span, m);
     let r = match &e.kind {
         ExprKind::Number(v) => *v,
+        ExprKind::Var(n) => return vars.get(i64::from(*n)).map_err(err),
+        ExprKind::IndirectVar(i) => {
+            let n = eval(src, i, vars)?.unwrap_or(0.0);
+            return vars.get(var_number(n)).map_err(err);
+        }
         ExprKind::Unary(op, a) => {
-            let a = expr(src, a)?;
+            let Some(a) = eval(src, a, vars)? else {
+                return Ok(None);
+            };
             match op {
                 UnaryOp::Neg => -a,
                 UnaryOp::Plus => a,
             }
         }
         ExprKind::Binary(op, a, b) => {
-            let x = expr(src, a)?;
-            let y = expr(src, b)?;
+            let xa = eval(src, a, vars)?;
+            let yb = eval(src, b, vars)?;
+            match op {
+                BinaryOp::Eq => return Ok(Some(bool01(xa == yb))),
+                BinaryOp::Ne => return Ok(Some(bool01(xa != yb))),
+                _ => {}
+            }
+            let (x, y) = (xa.unwrap_or(0.0), yb.unwrap_or(0.0));
             let int = |v: f64| v.round() as i64;
             match op {
                 BinaryOp::Add => x + y,
@@ -59,8 +126,7 @@ pub fn expr(src: &SourceFile, e: &Expr) -> Result<f64, NcError> {
                 BinaryOp::Or => (int(x) | int(y)) as f64,
                 BinaryOp::Xor => (int(x) ^ int(y)) as f64,
                 BinaryOp::And => (int(x) & int(y)) as f64,
-                BinaryOp::Eq => bool01(x == y),
-                BinaryOp::Ne => bool01(x != y),
+                BinaryOp::Eq | BinaryOp::Ne => bool01((x == y) == matches!(op, BinaryOp::Eq)),
                 BinaryOp::Gt => bool01(x > y),
                 BinaryOp::Ge => bool01(x >= y),
                 BinaryOp::Lt => bool01(x < y),
@@ -78,7 +144,7 @@ pub fn expr(src: &SourceFile, e: &Expr) -> Result<f64, NcError> {
             }
             let mut v = [0.0f64; 2];
             for (slot, a) in v.iter_mut().zip(args) {
-                *slot = expr(src, a)?;
+                *slot = eval(src, a, vars)?.unwrap_or(0.0);
             }
             let a = v[0];
             match f {
@@ -126,11 +192,6 @@ pub fn expr(src: &SourceFile, e: &Expr) -> Result<f64, NcError> {
                     .ok_or_else(|| err(format!("BCD of {a}: not a whole number >= 0")))?,
             }
         }
-        ExprKind::Var(_) | ExprKind::IndirectVar(_) => {
-            return Err(err(
-                "macro variables are not supported yet (they come with Custom Macro B)".into(),
-            ));
-        }
         #[allow(unreachable_patterns)]
         _ => {
             return Err(err(
@@ -139,7 +200,7 @@ pub fn expr(src: &SourceFile, e: &Expr) -> Result<f64, NcError> {
         }
     };
     if r.is_finite() {
-        Ok(r)
+        Ok(Some(r))
     } else {
         Err(err("the result is not a finite number".into()))
     }

@@ -7,13 +7,16 @@ use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 
 use cnc402_config::MachineConfig;
-use cnc402_lang::ast::{Comment, Line, LineKind, Program, Span};
+use cnc402_lang::ast::{Block, Comment, Line, Program, Span};
 use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{
     ArcDir, AxisPos, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind,
 };
 
 use crate::arc::{self, ArcError};
+use crate::host::{ExactStop, MotionSync, PersistentVars, ProgramDir, ProgramLibrary};
+use crate::macros::{Frame, ModalCall, Runaway, Unit, VarTable};
+use crate::nvfile::{FileVarStore, NvTable};
 use crate::state::{Cycle, CycleData, ModalState, Motion};
 use crate::words::{Arg, GGroup, Words, fmt_num};
 
@@ -42,20 +45,45 @@ impl Default for Options {
 /// Runs one program: `load` it, then pull segments with [`next_segment`](Self::next_segment)
 /// (or iterate). The first error ends the run; segments of the block that failed are never
 /// produced (a canned cycle is checked whole before any of it is given out).
+///
+/// Custom Macro B (see [`crate::macros`]): variables, GOTO/IF/WHILE, sub-programs (`M98`,
+/// `M99`, `G65`, `G66`/`G67`) looked up in the running file and then in the
+/// [`ProgramLibrary`] (default: the config's `program_dir`), non-volatile `#500–#999` kept by a
+/// [`PersistentVars`] (default: the config's `variables_file`, opened at [`load`](Self::load)),
+/// and position reads synchronised through a [`MotionSync`] (default: [`ExactStop`]).
 pub struct Interpreter {
-    cfg: MachineConfig,
-    opts: Options,
-    state: ModalState,
-    src: Arc<SourceFile>,
-    program: Arc<Program>,
-    /// N number → index into `program.lines` (first occurrence); GOTO targets for Macro B.
-    labels: HashMap<u32, usize>,
-    /// Index of the next line to execute.
-    pc: usize,
-    queue: VecDeque<Segment>,
+    pub(crate) cfg: MachineConfig,
+    pub(crate) opts: Options,
+    pub(crate) state: ModalState,
+    /// The main program's file (for errors that belong to no line).
+    pub(crate) main_src: Arc<SourceFile>,
+    /// The programs of the main file; `units[main_unit]` runs first.
+    pub(crate) units: Vec<Arc<Unit>>,
+    /// Programs found in the library, by number.
+    pub(crate) lib_cache: HashMap<u32, Arc<Unit>>,
+    /// The call stack; `frames[0]` is the main program. Empty before `load`.
+    pub(crate) frames: Vec<Frame>,
+    pub(crate) vars: VarTable,
+    pub(crate) sync: Box<dyn MotionSync>,
+    pub(crate) library: Option<Box<dyn ProgramLibrary>>,
+    pub(crate) nv_store: Option<Box<dyn PersistentVars>>,
+    /// Set explicitly (`set_persistent_vars`): `load` does not open the config's file.
+    pub(crate) nv_explicit: bool,
+    /// An error found at `load` (damaged variables file), given out by the first
+    /// `next_segment`.
+    pub(crate) load_error: Option<String>,
+    pub(crate) modal_call: Option<ModalCall>,
+    pub(crate) runaway: Runaway,
+    /// Last M code, N number (for `#4113`, `#4114`).
+    pub(crate) last_m: Option<f64>,
+    pub(crate) last_n: Option<f64>,
+    /// Length of every segment produced so far (mm), and where the last one ended.
+    pub(crate) path_len: f64,
+    pub(crate) path_end: AxisPos,
+    pub(crate) queue: VecDeque<Segment>,
     /// A `%` after the first block, M2/M30, an error, or the end of the text.
-    done: bool,
-    seen_block: bool,
+    pub(crate) done: bool,
+    pub(crate) seen_block: bool,
 }
 
 impl Interpreter {
@@ -69,31 +97,98 @@ impl Interpreter {
         Interpreter {
             state: ModalState::new(cfg, opts.start),
             cfg: cfg.clone(),
+            main_src: Arc::new(SourceFile::new("", "")),
+            units: Vec::new(),
+            lib_cache: HashMap::new(),
+            frames: Vec::new(),
+            vars: VarTable::default(),
+            sync: Box::new(ExactStop),
+            library: Some(Box::new(ProgramDir::new(cfg.program_dir()))),
+            nv_store: None,
+            nv_explicit: false,
+            load_error: None,
+            modal_call: None,
+            runaway: Runaway::default(),
+            last_m: None,
+            last_n: None,
+            path_len: 0.0,
+            path_end: opts.start,
             opts,
-            src: Arc::new(SourceFile::new("", "")),
-            program: Arc::new(Program { lines: Vec::new() }),
-            labels: HashMap::new(),
-            pc: 0,
             queue: VecDeque::new(),
             done: true,
             seen_block: false,
         }
     }
 
+    /// Replaces the motion sync used when a position variable is read (the runtime's feeder
+    /// gives one that waits until the loop is idle).
+    pub fn set_motion_sync(&mut self, sync: Box<dyn MotionSync>) {
+        self.sync = sync;
+    }
+
+    /// Replaces where sub-programs not in the running file are looked up (`None`: nowhere).
+    pub fn set_program_library(&mut self, lib: Option<Box<dyn ProgramLibrary>>) {
+        self.library = lib;
+    }
+
+    /// Sets the non-volatile variables `#500–#999` and where writes go (`None`: memory only).
+    /// After this, `load` no longer opens the config's `variables_file`.
+    pub fn set_persistent_vars(&mut self, table: NvTable, store: Option<Box<dyn PersistentVars>>) {
+        self.vars.nv.copy_from_slice(table.as_slice());
+        self.nv_store = store;
+        self.nv_explicit = true;
+    }
+
+    /// The non-volatile variables as they are now.
+    pub fn persistent_vars(&self) -> NvTable {
+        NvTable::from_slice(&self.vars.nv[..])
+    }
+
+    /// Macro variable `#n` as the program would read it (no motion sync: the programmed
+    /// position stands for the actual one). `None`: vacant or no such variable.
+    pub fn var(&mut self, n: u32) -> Option<f64> {
+        let saved = std::mem::replace(&mut self.sync, Box::new(ExactStop));
+        let v = self.read_var(i64::from(n)).ok().flatten();
+        self.sync = saved;
+        v
+    }
+
+    /// Path length (mm) of all segments produced so far: linear axes, arcs along the arc.
+    pub fn path_length(&self) -> f64 {
+        self.path_len
+    }
+
     /// Starts `program` (parsed from `src`) from its first line with the modal state of a fresh
-    /// start.
+    /// start. Common variables `#100–#199` are cleared (reset); locals start vacant;
+    /// non-volatile ones are read from the config's `variables_file` unless set explicitly.
     pub fn load(&mut self, src: SourceFile, program: Program) {
-        let mut labels = HashMap::new();
-        for (i, l) in program.lines.iter().enumerate() {
-            if let Some(n) = l.n {
-                labels.entry(n.value).or_insert(i);
+        let src = Arc::new(src);
+        let program = Arc::new(program);
+        let (units, main) = crate::macros::split_units(&src, &program);
+        self.state = ModalState::new(&self.cfg, self.opts.start);
+        self.main_src = src;
+        self.units = units;
+        self.lib_cache.clear();
+        self.frames = vec![Frame::new(self.units[main].clone(), false)];
+        self.vars.reset();
+        self.modal_call = None;
+        self.runaway = Runaway::default();
+        self.last_m = None;
+        self.last_n = None;
+        self.path_len = 0.0;
+        self.path_end = self.opts.start;
+        self.load_error = None;
+        if !self.nv_explicit
+            && let Some(path) = self.cfg.variables_file()
+        {
+            match FileVarStore::open(&path) {
+                Ok((store, table)) => {
+                    self.vars.nv.copy_from_slice(table.as_slice());
+                    self.nv_store = Some(Box::new(store));
+                }
+                Err(e) => self.load_error = Some(e.to_string()),
             }
         }
-        self.state = ModalState::new(&self.cfg, self.opts.start);
-        self.src = Arc::new(src);
-        self.program = Arc::new(program);
-        self.labels = labels;
-        self.pc = 0;
         self.queue.clear();
         self.done = false;
         self.seen_block = false;
@@ -101,8 +196,13 @@ impl Interpreter {
 
     /// The next segment, `Ok(None)` at the end of the program, or the error that ends it.
     pub fn next_segment(&mut self) -> Result<Option<Segment>, NcError> {
+        if let Some(e) = self.load_error.take() {
+            self.done = true;
+            return Err(NcError::new(&self.main_src, Span::default(), e));
+        }
         loop {
             if let Some(s) = self.queue.pop_front() {
+                self.account(&s);
                 return Ok(Some(s));
             }
             if self.done {
@@ -110,8 +210,73 @@ impl Interpreter {
             }
             if let Err(e) = self.step() {
                 self.done = true;
+                self.queue.clear();
                 return Err(e);
             }
+        }
+    }
+
+    /// Adds a handed-out segment's length to the path length.
+    fn account(&mut self, s: &Segment) {
+        let lin = |a: &AxisPos, b: &AxisPos, cfg: &MachineConfig| {
+            let mut d2 = 0.0;
+            let mut r2 = 0.0;
+            for (i, ax) in cfg.axes.iter().enumerate() {
+                let d = b[i] - a[i];
+                if ax.kind.is_rotary() {
+                    r2 += d * d;
+                } else {
+                    d2 += d * d;
+                }
+            }
+            if d2 > 0.0 { d2.sqrt() } else { r2.sqrt() }
+        };
+        match &s.kind {
+            SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => {
+                self.path_len += lin(&self.path_end, end, &self.cfg);
+                self.path_end = *end;
+            }
+            SegmentKind::Arc {
+                end,
+                center,
+                plane,
+                dir,
+                turns,
+                ..
+            } => {
+                let (a, b, n) = match plane {
+                    Plane::XY => ('X', 'Y', 'Z'),
+                    Plane::ZX => ('Z', 'X', 'Y'),
+                    Plane::YZ => ('Y', 'Z', 'X'),
+                };
+                let idx = |l: char| self.cfg.axis_index(l);
+                let c = |l: char| center[(l as u8 - b'X') as usize];
+                if let (Some(ia), Some(ib)) = (idx(a), idx(b)) {
+                    let (sa, sb) = (self.path_end[ia] - c(a), self.path_end[ib] - c(b));
+                    let (ea, eb) = (end[ia] - c(a), end[ib] - c(b));
+                    let r = sa.hypot(sb);
+                    let mut sweep = eb.atan2(ea) - sb.atan2(sa);
+                    let tau = std::f64::consts::TAU;
+                    if *dir == ArcDir::Ccw {
+                        if sweep <= 1e-12 {
+                            sweep += tau;
+                        }
+                    } else {
+                        sweep = -sweep;
+                        if sweep <= 1e-12 {
+                            sweep += tau;
+                        }
+                    }
+                    if *turns > 0 && sweep >= tau - 1e-12 {
+                        sweep = 0.0;
+                    }
+                    sweep += f64::from(*turns) * tau;
+                    let h = idx(n).map_or(0.0, |i| end[i] - self.path_end[i]);
+                    self.path_len += (r * sweep).hypot(h);
+                }
+                self.path_end = *end;
+            }
+            _ => {}
         }
     }
 
@@ -120,71 +285,51 @@ impl Interpreter {
         &self.state
     }
 
-    /// The 1-based line of the first block numbered `N n`, if any.
+    /// The 1-based line of the first block numbered `N n` in the main program, if any.
     pub fn label_line(&self, n: u32) -> Option<u32> {
-        self.labels.get(&n).map(|&i| self.program.lines[i].line_no)
+        let u = self.frames.first()?;
+        u.unit
+            .labels
+            .get(&n)
+            .map(|&i| u.unit.program.lines[i].line_no)
     }
 
-    /// Executes the line at the program counter, queueing its segments.
-    fn step(&mut self) -> Result<(), NcError> {
-        let program = self.program.clone();
-        let Some(line) = program.lines.get(self.pc) else {
-            self.done = true;
-            return Ok(());
-        };
-        self.pc += 1;
-        if line.block_delete && self.opts.block_delete {
-            return Ok(());
-        }
-        let block = match &line.kind {
-            LineKind::Percent => {
-                if self.seen_block {
-                    self.done = true;
-                }
-                return Ok(());
-            }
-            LineKind::ProgramNumber { .. } => return Ok(()),
-            LineKind::Empty => None,
-            LineKind::Block(b) => {
-                self.seen_block = true;
-                Some(b)
-            }
-            LineKind::Continued => return Ok(()),
-            LineKind::Stmts(_) => {
-                return Err(NcError::new(
-                    &self.src,
-                    line.span,
-                    "C-like statements are not supported yet (they come with the C-like language)",
-                ));
-            }
-            #[allow(unreachable_patterns)]
-            _ => {
-                return Err(NcError::new(
-                    &self.src,
-                    line.span,
-                    "Custom Macro B statements are not supported yet (assignment, GOTO, IF, WHILE)",
-                ));
-            }
-        };
-        if let Some(named) = block.and_then(|b| b.named_axes.first()) {
+    /// Runs one block of `unit` (the current frame's program), with words evaluated against
+    /// the variables. Returns whether it produced motion.
+    pub(crate) fn exec_block(
+        &mut self,
+        unit: &Arc<Unit>,
+        line: &Line,
+        block: Option<&Block>,
+    ) -> Result<(), NcError> {
+        let empty = Block::default();
+        let block = block.unwrap_or(&empty);
+        if let Some(named) = block.named_axes.first() {
             return Err(NcError::new(
-                &self.src,
+                &unit.src,
                 named.span,
                 "AXSTR axis words are not supported yet (they come with the C-like language)",
             ));
         }
-        let words = match block {
-            Some(b) => Words::collect(&self.src, b)?,
-            None => Words::collect(&self.src, &Default::default())?,
+        if crate::macros::is_g65_h(block) {
+            return self.g65_h(unit, line, block);
+        }
+        let mut words = Words::collect_with(&unit.src, block, self)?;
+        let Some(call) = self.take_calls(unit, &mut words)? else {
+            return Ok(());
         };
+        let has_axis = self.cfg.axes.iter().any(|a| words.peek(a.name).is_some());
+        if let Some(m) = words.m.last() {
+            self.last_m = Some(f64::from(m.0));
+        }
         let mut ex = Exec {
             cfg: &self.cfg,
             opts: &self.opts,
-            src: &self.src,
+            src: &unit.src,
             st: &mut self.state,
             w: words,
             source: Source {
-                file: self.src.name.clone(),
+                file: unit.src.name.clone(),
                 line: line.line_no,
                 n: line.n.map(|n| n.value),
             },
@@ -194,11 +339,23 @@ impl Interpreter {
         };
         ex.run(line)?;
         let Exec { out, end, .. } = ex;
+        if out.iter().any(|s| {
+            matches!(
+                s.kind,
+                SegmentKind::Rapid { .. }
+                    | SegmentKind::Linear { .. }
+                    | SegmentKind::Arc { .. }
+                    | SegmentKind::Dwell { .. }
+            )
+        }) {
+            self.runaway.reset();
+        }
         self.queue.extend(out);
         if end {
             self.done = true;
+            return Ok(());
         }
-        Ok(())
+        self.after_block(unit, line, call, has_axis)
     }
 }
 
@@ -275,6 +432,12 @@ fn group_name(g: GGroup) -> &'static str {
         GGroup::Cycle => "09 (canned cycle)",
         GGroup::ReturnMode => "10 (cycle return)",
         GGroup::WorkOffset => "14 (work offset)",
+        GGroup::MacroCall => "12 (macro call)",
+        GGroup::Cancel(7) => "07 (cutter compensation)",
+        GGroup::Cancel(8) => "08 (tool length compensation)",
+        GGroup::Cancel(11) => "11 (scaling)",
+        GGroup::Cancel(16) => "16 (coordinate rotation)",
+        GGroup::Cancel(_) => "17 (polar coordinates)",
     }
 }
 
@@ -285,11 +448,7 @@ fn m_group(code: u32) -> Result<u8, String> {
         3..=5 => 1,
         6 => 2,
         29 => 3,
-        98 | 99 => {
-            return Err(format!(
-                "M{code} (sub-program call/return) is not supported yet: it comes with Custom Macro B"
-            ));
-        }
+        98 | 99 => 4,
         _ => return Err(format!("unknown M code M{code}")),
     })
 }

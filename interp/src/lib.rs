@@ -32,10 +32,15 @@ pub mod arc;
 pub mod cycles;
 pub mod dump;
 pub mod eval;
+pub mod host;
 mod interp;
+pub mod macros;
+pub mod nvfile;
 pub mod state;
 pub mod words;
 
 pub use dump::segment_to_json;
+pub use host::{ExactStop, MotionSync, PersistentVars, ProgramDir, ProgramLibrary};
 pub use interp::{Interpreter, Options, run_program, run_program_with};
+pub use nvfile::{FileVarStore, NvTable, VarFileError};
 pub use state::ModalState;

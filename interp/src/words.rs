@@ -37,6 +37,12 @@ pub enum GGroup {
     ReturnMode,
     /// 14: G54-G59.
     WorkOffset,
+    /// 00/12: G65 (macro call), G66/G67 (modal macro call); the interpreter handles them.
+    MacroCall,
+    /// A cancel code of a group whose function cnc402 does not have, so it is never on:
+    /// G40 (07), G49 (08), G50 (11), G69 (16), G15 (17). Accepted as no-ops so that programs
+    /// restoring saved modal state (`G[FUP[#104]]`) run.
+    Cancel(u8),
 }
 
 /// The modal group of G code `code`, or the reason it cannot be run.
@@ -62,19 +68,20 @@ pub fn g_group(code: u32) -> Result<GGroup, String> {
                 "G{code} (reference position return) is not supported yet"
             ));
         }
-        40..=42 => {
+        40 => Cancel(7),
+        49 => Cancel(8),
+        50 => Cancel(11),
+        69 => Cancel(16),
+        15 => Cancel(17),
+        65..=67 => MacroCall,
+        41 | 42 => {
             return Err(format!(
                 "G{code} (cutter radius compensation) is not supported yet"
             ));
         }
-        43 | 44 | 49 => {
+        43 | 44 => {
             return Err(format!(
                 "G{code} (tool length compensation) is not supported yet"
-            ));
-        }
-        65..=67 => {
-            return Err(format!(
-                "G{code} (macro call) is not supported yet: it comes with Custom Macro B"
             ));
         }
         92 => return Err("G92 (coordinate system setting) is not supported yet".into()),
@@ -99,6 +106,16 @@ impl Words {
     /// Sorts `block`'s words; errors on a G/M value that is not a known code, a letter given
     /// twice, an `N` inside the block, and on expressions that fail to evaluate.
     pub fn collect(src: &SourceFile, block: &Block) -> Result<Words, NcError> {
+        Self::collect_with(src, block, &mut eval::NoVars)
+    }
+
+    /// [`collect`](Self::collect) reading macro variables from `vars`. A word whose value is
+    /// vacant (`X#1` with `#1` vacant) is left out, as on Fanuc.
+    pub fn collect_with(
+        src: &SourceFile,
+        block: &Block,
+        vars: &mut dyn eval::VarSource,
+    ) -> Result<Words, NcError> {
         let mut w = Words {
             g: Vec::new(),
             m: Vec::new(),
@@ -112,7 +129,9 @@ impl Words {
                 .unwrap_or_default(),
         };
         for word in &block.words {
-            let v = eval::value(src, &word.value)?;
+            let Some(v) = eval::value_in(src, &word.value, vars)? else {
+                continue;
+            };
             let has_point = match &word.value {
                 Value::Number(n) => n.has_point,
                 Value::Expr(_) => true,

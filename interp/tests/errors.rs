@@ -272,18 +272,8 @@ const CASES: &[(&str, u32, u32, &str)] = &[
     ),
     ("M3 M4 S100\n", 1, 4, "M3 and M4 in one block"),
     ("M2 M30\n", 1, 4, "M2 and M30 in one block"),
-    (
-        "M98 P100\n",
-        1,
-        1,
-        "M98 (sub-program call/return) is not supported yet",
-    ),
-    (
-        "G65 P9001 A1\n",
-        1,
-        1,
-        "G65 (macro call) is not supported yet",
-    ),
+    ("M98 P100\n", 1, 1, "program O0100 not found"),
+    ("G65 P9999 A1\n", 1, 1, "program O9999 not found"),
     (
         "G41 D1\n",
         1,
@@ -484,38 +474,29 @@ const CASES: &[(&str, u32, u32, &str)] = &[
         5,
         "G80 and G81 are both in modal group 09 (canned cycle)",
     ),
-    // Later issues' constructs: refused where they are, not skipped.
+    // Custom Macro B.
+    ("#0=5\n", 1, 1, "#0 is always vacant and cannot be written"),
+    ("G0 X1\nGOTO 10\n", 2, 6, "sequence number N10 not found"),
     (
-        "#1=5\n",
+        "WHILE [1 LT 2] DO 1\nEND 2\n",
         1,
         1,
-        "Custom Macro B statements are not supported yet",
-    ),
-    (
-        "G0 X1\nGOTO 10\n",
-        2,
-        1,
-        "Custom Macro B statements are not supported yet",
-    ),
-    (
-        "WHILE [1 LT 2] DO 1\nEND 1\n",
-        1,
-        1,
-        "Custom Macro B statements are not supported yet",
+        "WHILE … DO 1 has no END 1",
     ),
     (
         "IF [1 EQ 1] GOTO 5\n",
         1,
-        1,
-        "Custom Macro B statements are not supported yet",
+        18,
+        "sequence number N5 not found",
     ),
-    ("G0 X#1\n", 1, 5, "macro variables are not supported yet"),
+    ("G0 X#34\n", 1, 5, "#34 is not a variable of this control"),
     (
-        "G0 X1 Z-#[#1+2]\n",
+        "G0 X1 Z-#[#1+2000]\n",
         1,
         9,
-        "macro variables are not supported yet",
+        "#2000 is not a variable of this control",
     ),
+    // Later issues' constructs: refused where they are, not skipped.
     (
         "int n = 2;\n",
         1,

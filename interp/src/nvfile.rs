@@ -1,0 +1,346 @@
+//! The non-volatile macro variables `#500–#999` in a text file with a CRC-32, written durably:
+//! new file, fsync, rename over the old one, fsync the directory. A crash leaves the old or the
+//! new file, never a torn one; a damaged file is an error at load, never silent zeros.
+//! [`NvTable`] is the table; [`FileVarStore`] plugs it into the interpreter.
+
+use std::fmt;
+use std::fs::{self, File};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use crate::host::PersistentVars;
+
+/// First non-volatile variable number.
+pub const NV_FIRST: u32 = 500;
+/// Last non-volatile variable number.
+pub const NV_LAST: u32 = 999;
+const NV_COUNT: usize = (NV_LAST - NV_FIRST + 1) as usize;
+const MAGIC: &str = "cnc402-vars 1";
+
+/// `#500–#999`; `None` is vacant.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NvTable {
+    vals: Box<[Option<f64>; NV_COUNT]>,
+}
+
+impl Default for NvTable {
+    fn default() -> Self {
+        NvTable {
+            vals: Box::new([None; NV_COUNT]),
+        }
+    }
+}
+
+/// Why the variables file could not be read or written.
+#[derive(Debug)]
+pub enum VarFileError {
+    Io {
+        path: PathBuf,
+        err: std::io::Error,
+    },
+    /// The file exists but is not a valid table (checksum, syntax); `line` 0 = whole file.
+    Damaged {
+        path: PathBuf,
+        line: usize,
+        why: String,
+    },
+    /// A variable number outside `#500–#999`.
+    NotNonVolatile(u32),
+}
+
+impl fmt::Display for VarFileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            VarFileError::Io { path, err } => write!(f, "variables file {}: {err}", path.display()),
+            VarFileError::Damaged { path, line: 0, why } => write!(
+                f,
+                "variables file {} is damaged: {why} (restore it from a backup or clear it with `cnc402 vars clear`)",
+                path.display()
+            ),
+            VarFileError::Damaged { path, line, why } => write!(
+                f,
+                "variables file {}:{line} is damaged: {why} (restore it from a backup or clear it with `cnc402 vars clear`)",
+                path.display()
+            ),
+            VarFileError::NotNonVolatile(n) => write!(
+                f,
+                "#{n} is not a non-volatile variable (#{NV_FIRST}..#{NV_LAST})"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for VarFileError {}
+
+impl NvTable {
+    /// `#n`, `None` when vacant or not a non-volatile number.
+    pub fn get(&self, n: u32) -> Option<f64> {
+        Self::index(n).and_then(|i| self.vals[i])
+    }
+
+    /// Sets `#n` (`None` makes it vacant).
+    pub fn set(&mut self, n: u32, v: Option<f64>) -> Result<(), VarFileError> {
+        let i = Self::index(n).ok_or(VarFileError::NotNonVolatile(n))?;
+        self.vals[i] = v;
+        Ok(())
+    }
+
+    fn index(n: u32) -> Option<usize> {
+        (NV_FIRST..=NV_LAST)
+            .contains(&n)
+            .then(|| (n - NV_FIRST) as usize)
+    }
+
+    /// The whole table, `[0]` is `#500`.
+    pub fn as_slice(&self) -> &[Option<f64>] {
+        &self.vals[..]
+    }
+
+    /// A table from a slice as given to [`PersistentVars::store`].
+    pub fn from_slice(vals: &[Option<f64>]) -> Self {
+        let mut t = NvTable::default();
+        for (d, s) in t.vals.iter_mut().zip(vals) {
+            *d = *s;
+        }
+        t
+    }
+
+    /// The set variables, in order.
+    pub fn iter(&self) -> impl Iterator<Item = (u32, f64)> + '_ {
+        self.vals
+            .iter()
+            .enumerate()
+            .filter_map(|(i, v)| v.map(|v| (NV_FIRST + i as u32, v)))
+    }
+
+    /// The file text: magic line, `n value` lines, `crc32 xxxxxxxx` over everything before it.
+    pub fn to_text(&self) -> String {
+        let mut s = format!("{MAGIC}\n");
+        for (n, v) in self.iter() {
+            // `{:?}` of f64 prints the shortest text that reads back to the same bits.
+            s.push_str(&format!("{n} {v:?}\n"));
+        }
+        let c = crc32(s.as_bytes());
+        s.push_str(&format!("crc32 {c:08x}\n"));
+        s
+    }
+
+    /// Parses [`to_text`](Self::to_text)'s format; any damage is an error naming the line.
+    pub fn from_text(path: &Path, text: &str) -> Result<Self, VarFileError> {
+        let damaged = |line: usize, why: String| VarFileError::Damaged {
+            path: path.to_path_buf(),
+            line,
+            why,
+        };
+        let body_end = text
+            .rfind("crc32 ")
+            .filter(|&i| i == 0 || text.as_bytes()[i - 1] == b'\n')
+            .ok_or_else(|| damaged(0, "no checksum line (the file is cut short)".into()))?;
+        let (body, tail) = text.split_at(body_end);
+        let want = tail
+            .strip_prefix("crc32 ")
+            .and_then(|t| t.strip_suffix('\n'))
+            .and_then(|h| u32::from_str_radix(h, 16).ok())
+            .ok_or_else(|| damaged(0, "malformed checksum line".into()))?;
+        let got = crc32(body.as_bytes());
+        if got != want {
+            return Err(damaged(
+                0,
+                format!("checksum mismatch (file says {want:08x}, contents give {got:08x})"),
+            ));
+        }
+        let mut lines = body.lines().enumerate();
+        match lines.next() {
+            Some((_, l)) if l == MAGIC => {}
+            _ => return Err(damaged(1, format!("first line is not `{MAGIC}`"))),
+        }
+        let mut t = NvTable::default();
+        for (i, l) in lines {
+            let bad = || damaged(i + 1, format!("expected `number value`, found {l:?}"));
+            let (n, v) = l.split_once(' ').ok_or_else(bad)?;
+            let n: u32 = n.parse().map_err(|_| bad())?;
+            let v: f64 = v.parse().map_err(|_| bad())?;
+            if !v.is_finite() {
+                return Err(bad());
+            }
+            t.set(n, Some(v))
+                .map_err(|e| damaged(i + 1, e.to_string()))?;
+        }
+        Ok(t)
+    }
+
+    /// Reads `path`; a missing file is an empty table (a new machine), a damaged one an error.
+    pub fn load(path: &Path) -> Result<Self, VarFileError> {
+        let io = |err| VarFileError::Io {
+            path: path.to_path_buf(),
+            err,
+        };
+        match fs::read(path) {
+            Ok(b) => {
+                let text = String::from_utf8(b).map_err(|_| VarFileError::Damaged {
+                    path: path.to_path_buf(),
+                    line: 0,
+                    why: "not UTF-8 text".into(),
+                })?;
+                Self::from_text(path, &text)
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(NvTable::default()),
+            Err(e) => Err(io(e)),
+        }
+    }
+
+    /// Writes the table to `path` durably: a temporary file in the same directory, fsync,
+    /// rename over `path`, fsync the directory. Returns when the new contents would survive a
+    /// power cut.
+    pub fn save(&self, path: &Path) -> Result<(), VarFileError> {
+        let io = |err| VarFileError::Io {
+            path: path.to_path_buf(),
+            err,
+        };
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "vars".into());
+        let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
+        {
+            let mut f = File::create(&tmp).map_err(io)?;
+            f.write_all(self.to_text().as_bytes()).map_err(io)?;
+            f.sync_all().map_err(io)?;
+        }
+        fs::rename(&tmp, path).map_err(io)?;
+        File::open(&dir).and_then(|d| d.sync_all()).map_err(io)?;
+        Ok(())
+    }
+}
+
+/// The interpreter's [`PersistentVars`] on a file.
+#[derive(Clone, Debug)]
+pub struct FileVarStore {
+    pub path: PathBuf,
+}
+
+impl FileVarStore {
+    /// Opens the store and reads its table (missing file: empty; damaged: error).
+    pub fn open(path: impl Into<PathBuf>) -> Result<(Self, NvTable), VarFileError> {
+        let path = path.into();
+        let t = NvTable::load(&path)?;
+        Ok((FileVarStore { path }, t))
+    }
+}
+
+impl PersistentVars for FileVarStore {
+    fn store(&mut self, vars: &[Option<f64>]) -> Result<(), String> {
+        NvTable::from_slice(vars)
+            .save(&self.path)
+            .map_err(|e| e.to_string())
+    }
+}
+
+/// Sets variables in the file at `path` (load, change, durable save): the library call behind
+/// `cnc402 vars set 520=3 521=800`. Nothing is written if any number is out of range.
+pub fn set_vars(path: &Path, sets: &[(u32, Option<f64>)]) -> Result<NvTable, VarFileError> {
+    let mut t = NvTable::load(path)?;
+    for &(n, v) in sets {
+        t.set(n, v)?;
+    }
+    t.save(path)?;
+    Ok(t)
+}
+
+/// Makes `#from..=#to` vacant in the file (`cnc402 vars clear [N..M]`). A damaged file can be
+/// cleared as a whole (`from..=to` covering 500..=999) without reading it.
+pub fn clear_vars(path: &Path, from: u32, to: u32) -> Result<NvTable, VarFileError> {
+    for n in [from, to] {
+        if NvTable::index(n).is_none() {
+            return Err(VarFileError::NotNonVolatile(n));
+        }
+    }
+    let mut t = if from <= NV_FIRST && to >= NV_LAST {
+        NvTable::default()
+    } else {
+        NvTable::load(path)?
+    };
+    for n in from..=to {
+        t.set(n, None)?;
+    }
+    t.save(path)?;
+    Ok(t)
+}
+
+/// CRC-32 (IEEE 802.3, reflected, as zlib's `crc32`). Written out (twenty lines) rather than a
+/// dependency: it checks a few kilobytes at start and on each write.
+pub fn crc32(data: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in data {
+        c ^= u32::from(b);
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                (c >> 1) ^ 0xEDB8_8320
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crc32_check_value() {
+        // The standard check value of CRC-32/ISO-HDLC.
+        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
+    }
+
+    #[test]
+    fn round_trip_and_damage_detection() {
+        let p = Path::new("v.txt");
+        let mut t = NvTable::default();
+        t.set(520, Some(3.0)).unwrap();
+        t.set(999, Some(-0.1)).unwrap();
+        t.set(500, Some(1e-300)).unwrap();
+        let text = t.to_text();
+        assert_eq!(NvTable::from_text(p, &text).unwrap(), t);
+        // Every single-byte change and every truncation is detected.
+        for i in 0..text.len() {
+            let mut b = text.clone().into_bytes();
+            b[i] ^= 0x01;
+            if let Ok(s) = String::from_utf8(b) {
+                assert!(NvTable::from_text(p, &s).is_err(), "flip at {i}");
+            }
+            assert!(NvTable::from_text(p, &text[..i]).is_err(), "cut at {i}");
+        }
+        assert!(t.set(499, Some(1.0)).is_err());
+        assert!(t.set(1000, Some(1.0)).is_err());
+    }
+
+    #[test]
+    fn save_load_set_clear_on_disk() {
+        let dir = std::env::temp_dir().join(format!("cnc402-nv-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("vars.txt");
+        let _ = fs::remove_file(&p);
+        assert_eq!(NvTable::load(&p).unwrap(), NvTable::default());
+        set_vars(&p, &[(520, Some(3.0)), (521, Some(800.0))]).unwrap();
+        let t = NvTable::load(&p).unwrap();
+        assert_eq!(
+            (t.get(520), t.get(521), t.get(522)),
+            (Some(3.0), Some(800.0), None)
+        );
+        clear_vars(&p, 521, 530).unwrap();
+        let t = NvTable::load(&p).unwrap();
+        assert_eq!((t.get(520), t.get(521)), (Some(3.0), None));
+        fs::write(&p, "cnc402-vars 1\n520 3\ncrc32 00000000\n").unwrap();
+        let e = NvTable::load(&p).unwrap_err().to_string();
+        assert!(e.contains("checksum mismatch"), "{e}");
+        clear_vars(&p, 500, 999).unwrap();
+        assert_eq!(NvTable::load(&p).unwrap(), NvTable::default());
+        fs::remove_dir_all(&dir).unwrap();
+    }
+}
