@@ -6,7 +6,6 @@
 //! 0x06040041), reports a missing sub-index like a missing object (no 0x06090011), and caps
 //! strings at 32 bytes (datatypes.rs ~29).
 
-use std::collections::BTreeMap;
 use std::fmt;
 
 use crate::wire::AbortCode;
@@ -318,10 +317,23 @@ impl fmt::Display for OdError {
 
 impl std::error::Error for OdError {}
 
-/// The object dictionary.
+/// A remembered entry position, from [`ObjectDictionary::slot`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Slot {
+    pos: u32,
+    key: u32,
+}
+
+/// The object dictionary: entries sorted by (index, sub) in one vector, looked up by binary
+/// search (the simulated drive reads a dozen entries per SYNC; this keeps that cheap and
+/// allocation-free).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ObjectDictionary {
-    objects: BTreeMap<u16, BTreeMap<u8, Entry>>,
+    entries: Vec<(u32, Entry)>,
+}
+
+const fn key(index: u16, sub: u8) -> u32 {
+    (index as u32) << 8 | sub as u32
 }
 
 impl ObjectDictionary {
@@ -332,7 +344,11 @@ impl ObjectDictionary {
 
     /// Inserts (or replaces) an entry.
     pub fn insert(&mut self, index: u16, sub: u8, entry: Entry) {
-        self.objects.entry(index).or_default().insert(sub, entry);
+        let k = key(index, sub);
+        match self.entries.binary_search_by_key(&k, |e| e.0) {
+            Ok(i) => self.entries[i].1 = entry,
+            Err(i) => self.entries.insert(i, (k, entry)),
+        }
     }
 
     /// Inserts a variable at sub-index 0.
@@ -342,24 +358,33 @@ impl ObjectDictionary {
 
     /// Whether the object (any sub-index) exists.
     pub fn has_object(&self, index: u16) -> bool {
-        self.objects.contains_key(&index)
+        let i = self.entries.partition_point(|e| e.0 < key(index, 0));
+        self.entries
+            .get(i)
+            .is_some_and(|e| e.0 >> 8 == index as u32)
+    }
+
+    fn position(&self, index: u16, sub: u8) -> Result<usize, OdError> {
+        self.entries
+            .binary_search_by_key(&key(index, sub), |e| e.0)
+            .map_err(|_| {
+                if self.has_object(index) {
+                    OdError::NoSubIndex
+                } else {
+                    OdError::NoObject
+                }
+            })
     }
 
     /// The entry at (index, sub).
     pub fn entry(&self, index: u16, sub: u8) -> Result<&Entry, OdError> {
-        self.objects
-            .get(&index)
-            .ok_or(OdError::NoObject)?
-            .get(&sub)
-            .ok_or(OdError::NoSubIndex)
+        let i = self.position(index, sub)?;
+        Ok(&self.entries[i].1)
     }
 
     fn entry_mut(&mut self, index: u16, sub: u8) -> Result<&mut Entry, OdError> {
-        self.objects
-            .get_mut(&index)
-            .ok_or(OdError::NoObject)?
-            .get_mut(&sub)
-            .ok_or(OdError::NoSubIndex)
+        let i = self.position(index, sub)?;
+        Ok(&mut self.entries[i].1)
     }
 
     /// Reads as an SDO upload would: fails on write-only entries.
@@ -429,17 +454,63 @@ impl ObjectDictionary {
         Ok(())
     }
 
+    /// A handle to the entry at (index, sub) for repeated access without a search (the
+    /// device's per-SYNC objects). Stays valid across value changes and clones; after an
+    /// insert it falls back to a search.
+    pub fn slot(&self, index: u16, sub: u8) -> Option<Slot> {
+        let pos = self.position(index, sub).ok()?;
+        Some(Slot {
+            pos: pos as u32,
+            key: key(index, sub),
+        })
+    }
+
+    fn resolve(&self, s: Slot) -> Option<usize> {
+        match self.entries.get(s.pos as usize) {
+            Some(e) if e.0 == s.key => Some(s.pos as usize),
+            _ => self.entries.binary_search_by_key(&s.key, |e| e.0).ok(),
+        }
+    }
+
+    /// The value at a slot.
+    pub fn get_at(&self, s: Slot) -> Option<&Value> {
+        self.resolve(s).map(|i| &self.entries[i].1.value)
+    }
+
+    /// Raw bits at a slot (see [`Value::to_raw`]).
+    pub fn get_u64_at(&self, s: Slot) -> Option<u64> {
+        self.get_at(s)?.as_u64()
+    }
+
+    /// Device-internal store of raw bits at a slot (no search, no allocation).
+    pub fn set_raw_at(&mut self, s: Slot, raw: u64) -> Result<(), OdError> {
+        let i = self.resolve(s).ok_or(OdError::NoObject)?;
+        let e = &mut self.entries[i].1;
+        e.value = Value::from_raw(e.value.data_type(), raw).ok_or(OdError::LengthMismatch)?;
+        Ok(())
+    }
+
     /// Sub-indices of an object, ascending.
     pub fn subs(&self, index: u16) -> impl Iterator<Item = u8> + '_ {
-        self.objects
-            .get(&index)
-            .into_iter()
-            .flat_map(|m| m.keys().copied())
+        let from = self.entries.partition_point(|e| e.0 < key(index, 0));
+        self.entries[from..]
+            .iter()
+            .take_while(move |e| e.0 >> 8 == index as u32)
+            .map(|e| e.0 as u8)
     }
 
     /// All object indices, ascending.
     pub fn indices(&self) -> impl Iterator<Item = u16> + '_ {
-        self.objects.keys().copied()
+        let mut last = None;
+        self.entries.iter().filter_map(move |e| {
+            let index = (e.0 >> 8) as u16;
+            if last == Some(index) {
+                None
+            } else {
+                last = Some(index);
+                Some(index)
+            }
+        })
     }
 }
 
@@ -512,6 +583,14 @@ mod tests {
         assert!(od.entry(0x607A, 0).unwrap().pdo_mappable);
         assert!(!od.entry(0x1000, 0).unwrap().pdo_mappable);
         assert_eq!(od.subs(0x1018).collect::<Vec<_>>(), vec![0, 1]);
+        assert_eq!(od.subs(0x1019).count(), 0);
+        assert_eq!(
+            od.indices().collect::<Vec<_>>(),
+            vec![
+                0x1000, 0x1008, 0x1018, 0x2000, 0x6040, 0x6041, 0x6060, 0x607A
+            ]
+        );
+        assert!(od.has_object(0x1018) && !od.has_object(0x1019) && !od.has_object(0x0FFF));
     }
 
     #[test]
@@ -539,6 +618,15 @@ mod tests {
         assert_eq!(od.set_raw(0x607A, 0, 0xFFFF_FFFF), Ok(()));
         assert_eq!(od.get_i64(0x607A, 0), Some(-1));
         assert_eq!(od.set_raw(0x1008, 0, 1), Err(OdError::LengthMismatch));
+        // Slots: direct access, and still right after an insert moved the entries.
+        let s = od.slot(0x607A, 0).unwrap();
+        od.set_raw_at(s, 42).unwrap();
+        assert_eq!(od.get_i64(0x607A, 0), Some(42));
+        od.insert_var(0x0100, Entry::new("first", Access::ReadOnly, Value::U8(1)));
+        assert_eq!(od.get_u64_at(s), Some(42));
+        od.set_raw_at(s, 43).unwrap();
+        assert_eq!(od.get_i64(0x607A, 0), Some(43));
+        assert_eq!(od.slot(0x607A, 1), None);
     }
 
     #[test]

@@ -56,7 +56,7 @@ struct Pending {
 }
 
 struct Sink<'a> {
-    pending: &'a mut Vec<Pending>,
+    pending: &'a mut VecDeque<Pending>,
     seq: &'a mut u64,
     origin: Origin,
 }
@@ -64,7 +64,7 @@ struct Sink<'a> {
 impl FrameSink for Sink<'_> {
     fn transmit(&mut self, frame: &CanFrame, now: Instant) -> Result<(), BusError> {
         *self.seq += 1;
-        self.pending.push(Pending {
+        self.pending.push_back(Pending {
             ready: now,
             seq: *self.seq,
             frame: *frame,
@@ -81,7 +81,8 @@ pub struct SimBus<D: CanDevice = Box<dyn CanDevice>> {
     now: Instant,
     bus_free_at: Instant,
     seq: u64,
-    pending: Vec<Pending>,
+    /// Transmit queues, FIFO each: index 0 the master's, `n + 1` device `n`'s.
+    queues: Vec<VecDeque<Pending>>,
     master_rx: VecDeque<CanFrame>,
     master_rx_capacity: usize,
     devices: Vec<D>,
@@ -100,7 +101,7 @@ impl<D: CanDevice> SimBus<D> {
             now: Instant::ZERO,
             bus_free_at: Instant::ZERO,
             seq: 0,
-            pending: Vec::with_capacity(1024),
+            queues: vec![VecDeque::with_capacity(1024)],
             master_rx: VecDeque::with_capacity(Self::DEFAULT_RX_CAPACITY),
             master_rx_capacity: Self::DEFAULT_RX_CAPACITY,
             devices: Vec::new(),
@@ -112,6 +113,7 @@ impl<D: CanDevice> SimBus<D> {
     /// Attaches a device; returns its number (for [`Origin::Device`] and `device_mut`).
     pub fn attach(&mut self, device: D) -> usize {
         self.devices.push(device);
+        self.queues.push(VecDeque::with_capacity(256));
         self.devices.len() - 1
     }
 
@@ -152,7 +154,7 @@ impl<D: CanDevice> SimBus<D> {
 
     /// Frames waiting for the medium.
     pub fn pending(&self) -> usize {
-        self.pending.len()
+        self.queues.iter().map(VecDeque::len).sum()
     }
 
     fn frame_time(&self, frame: &CanFrame) -> core::time::Duration {
@@ -168,30 +170,35 @@ impl<D: CanDevice> SimBus<D> {
     /// Delivers every frame whose transmission ends at or before `now`.
     fn deliver_until(&mut self, now: Instant) {
         loop {
-            let Some(earliest) = self.pending.iter().map(|p| p.ready).min() else {
-                return;
-            };
-            let start = earliest.max(self.bus_free_at);
-            // Each node's transmit queue is FIFO (as a SocketCAN socket's is): only the oldest
-            // frame of each sender competes. Among those waiting when the bus goes idle,
+            // Each node's transmit queue is FIFO (as a SocketCAN socket's is): only the head
+            // of each queue competes. Among the heads waiting when the bus goes idle,
             // arbitration lets the lowest identifier win.
-            let pending = &self.pending;
-            let head_of_queue = |i: usize| {
-                !pending
-                    .iter()
-                    .any(|q| q.origin == pending[i].origin && q.seq < pending[i].seq)
-            };
-            let Some(i) = (0..pending.len())
-                .filter(|&i| pending[i].ready <= start && head_of_queue(i))
-                .min_by_key(|&i| (pending[i].frame.id(), pending[i].seq))
+            let Some(earliest) = self
+                .queues
+                .iter()
+                .filter_map(|q| q.front())
+                .map(|p| p.ready)
+                .min()
             else {
                 return;
             };
-            let end = start + self.frame_time(&self.pending[i].frame);
+            let start = earliest.max(self.bus_free_at);
+            let Some(qi) = (0..self.queues.len())
+                .filter(|&q| self.queues[q].front().is_some_and(|p| p.ready <= start))
+                .min_by_key(|&q| {
+                    let p = &self.queues[q][0];
+                    (p.frame.id(), p.seq)
+                })
+            else {
+                return;
+            };
+            let end = start + self.frame_time(&self.queues[qi][0].frame);
             if end > now {
                 return;
             }
-            let p = self.pending.swap_remove(i);
+            let Some(p) = self.queues[qi].pop_front() else {
+                return;
+            };
             self.bus_free_at = end;
             self.counters.bus_frames += 1;
             self.counters.bus_bits += p.frame.bits() as u64;
@@ -209,12 +216,17 @@ impl<D: CanDevice> SimBus<D> {
                     self.counters.dropped += 1;
                 }
             }
-            for (n, d) in self.devices.iter_mut().enumerate() {
+            for (n, (d, q)) in self
+                .devices
+                .iter_mut()
+                .zip(&mut self.queues[1..])
+                .enumerate()
+            {
                 if p.origin == Origin::Device(n) {
                     continue;
                 }
                 let mut sink = Sink {
-                    pending: &mut self.pending,
+                    pending: q,
                     seq: &mut self.seq,
                     origin: Origin::Device(n),
                 };
@@ -229,9 +241,14 @@ impl<D: CanDevice> SimBus<D> {
     pub fn advance(&mut self, now: Instant) {
         let now = now.max(self.now);
         self.deliver_until(now);
-        for (n, d) in self.devices.iter_mut().enumerate() {
+        for (n, (d, q)) in self
+            .devices
+            .iter_mut()
+            .zip(&mut self.queues[1..])
+            .enumerate()
+        {
             let mut sink = Sink {
-                pending: &mut self.pending,
+                pending: q,
                 seq: &mut self.seq,
                 origin: Origin::Device(n),
             };
@@ -246,7 +263,7 @@ impl<D: CanDevice> CanBus for SimBus<D> {
     /// Queues the master's frame at the current bus time.
     fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
         self.seq += 1;
-        self.pending.push(Pending {
+        self.queues[0].push_back(Pending {
             ready: self.now,
             seq: self.seq,
             frame: *frame,

@@ -18,7 +18,7 @@ use super::objects::{self, DriveParams};
 use super::pdo::{self, RpdoSlot, TpdoSlot};
 use super::sdo_server::{ObjectAccess, SdoServer};
 use crate::bus::{CanDevice, FrameSink};
-use crate::od::{ObjectDictionary, OdError, Value};
+use crate::od::{ObjectDictionary, OdError, Slot, Value};
 use crate::time::Instant;
 use crate::wire::{
     AbortCode, CanFrame, EmcyRepr, HeartbeatRepr, NmtCommand, NmtRepr, NmtState, NodeId,
@@ -157,6 +157,55 @@ pub struct SimDriveStats {
     pub max_following_error: u32,
 }
 
+/// Parameters read every SYNC, cached from the dictionary (refreshed after every SDO write,
+/// reset and RPDO that maps something else than controlword and target), and the slots of
+/// the objects the device writes every cycle.
+#[derive(Clone, Copy, Debug)]
+struct Hot {
+    mode: i8,
+    period_s: f64,
+    decel_per_cycle: f64,
+    window: u32,
+    timeout: Duration,
+    statusword: Option<Slot>,
+    target: Option<Slot>,
+    mode_display: Option<Slot>,
+    position_actual: Option<Slot>,
+    position_demand: Option<Slot>,
+    following_error: Option<Slot>,
+    velocity: Option<Slot>,
+}
+
+impl Hot {
+    fn load(od: &ObjectDictionary, nominal: Duration) -> Hot {
+        let v = od.get_u64(o::INTERPOLATION_TIME_PERIOD, 1).unwrap_or(0) as u8;
+        let e = od.get_i64(o::INTERPOLATION_TIME_PERIOD, 2).unwrap_or(-3) as i8;
+        let s = objects::interpolation_seconds(v, e);
+        let period_s = if s > 0.0 { s } else { nominal.as_secs_f64() };
+        let decel = od.get_u64(o::QUICK_STOP_DECELERATION, 0).unwrap_or(1) as f64;
+        Hot {
+            mode: od.get_i64(o::MODES_OF_OPERATION, 0).unwrap_or(0) as i8,
+            period_s,
+            decel_per_cycle: decel * period_s * period_s,
+            window: od.get_u64(o::FOLLOWING_ERROR_WINDOW, 0).unwrap_or(0) as u32,
+            timeout: Duration::from_millis(od.get_u64(o::FOLLOWING_ERROR_TIMEOUT, 0).unwrap_or(0)),
+            statusword: od.slot(o::STATUSWORD, 0),
+            target: od.slot(o::TARGET_POSITION, 0),
+            mode_display: od.slot(o::MODES_OF_OPERATION_DISPLAY, 0),
+            position_actual: od.slot(o::POSITION_ACTUAL, 0),
+            position_demand: od.slot(o::POSITION_DEMAND, 0),
+            following_error: od.slot(o::FOLLOWING_ERROR_ACTUAL, 0),
+            velocity: od.slot(o::VELOCITY_ACTUAL, 0),
+        }
+    }
+}
+
+fn set_at(od: &mut ObjectDictionary, s: Option<Slot>, raw: u64) {
+    if let Some(s) = s {
+        let _ = od.set_raw_at(s, raw);
+    }
+}
+
 /// The simulated CiA 402 drive.
 pub struct SimDrive {
     node: NodeId,
@@ -186,6 +235,9 @@ pub struct SimDrive {
     outbox: Vec<CanFrame>,
     stats: SimDriveStats,
     nominal_period: Duration,
+    /// 0x1005's identifier, cached: every frame on the bus is compared with it.
+    sync_id: u16,
+    hot: Hot,
 }
 
 impl fmt::Debug for SimDrive {
@@ -281,7 +333,10 @@ impl SimDrive {
             outbox: Vec::with_capacity(32),
             stats: SimDriveStats::default(),
             nominal_period: period,
+            sync_id: 0x80,
+            hot: Hot::load(&ObjectDictionary::new(), period),
         };
+        d.hot = Hot::load(&d.od, period);
         d.reload_pdos();
         d.publish();
         d
@@ -319,7 +374,10 @@ impl SimDrive {
     }
     /// Target position 0x607A as last received.
     pub fn target_position(&self) -> i32 {
-        self.od.get_i64(o::TARGET_POSITION, 0).unwrap_or(0) as i32
+        self.hot
+            .target
+            .and_then(|s| self.od.get_u64_at(s))
+            .unwrap_or(0) as u32 as i32
     }
     /// Following error 0x60F4 (counts).
     pub fn following_error(&self) -> i32 {
@@ -396,7 +454,7 @@ impl SimDrive {
     }
 
     fn mode(&self) -> Option<OperationMode> {
-        OperationMode::from_i8(self.od.get_i64(o::MODES_OF_OPERATION, 0).unwrap_or(0) as i8)
+        OperationMode::from_i8(self.hot.mode)
     }
 
     fn csp_active(&self) -> bool {
@@ -404,60 +462,41 @@ impl SimDrive {
             && self.mode() == Some(OperationMode::CyclicSyncPosition)
     }
 
-    /// Writes the device-produced objects into the dictionary (no allocation).
+    /// Writes the device-produced objects into the dictionary (no allocation, no search).
     fn publish(&mut self) {
         let mut sw = self.cia.statusword().with(Statusword::REMOTE, true);
         if self.csp_active() {
             sw = sw.with(Statusword::FOLLOWS_COMMAND, true);
         }
         sw = sw.with(Statusword::FOLLOWING_ERROR, self.fe_exceeded);
-        let mode = self.od.get_i64(o::MODES_OF_OPERATION, 0).unwrap_or(0);
-        let v = self.axis.velocity() / self.period_s().max(1e-9);
-        let set = |od: &mut ObjectDictionary, i, raw: u64| {
-            let _ = od.set_raw(i, 0, raw);
-        };
-        set(&mut self.od, o::STATUSWORD, sw.0 as u64);
-        set(&mut self.od, o::MODES_OF_OPERATION_DISPLAY, mode as u64);
-        set(
-            &mut self.od,
-            o::POSITION_ACTUAL,
-            self.axis.actual() as u32 as u64,
-        );
-        set(
-            &mut self.od,
-            o::POSITION_DEMAND,
-            self.axis.demand() as u32 as u64,
-        );
-        set(
-            &mut self.od,
-            o::FOLLOWING_ERROR_ACTUAL,
+        let h = self.hot;
+        let v = self.axis.velocity() / h.period_s.max(1e-9);
+        let v = v.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32;
+        let od = &mut self.od;
+        set_at(od, h.statusword, sw.0 as u64);
+        set_at(od, h.mode_display, h.mode as u8 as u64);
+        set_at(od, h.position_actual, self.axis.actual() as u32 as u64);
+        set_at(od, h.position_demand, self.axis.demand() as u32 as u64);
+        set_at(
+            od,
+            h.following_error,
             self.axis.following_error() as u32 as u64,
         );
-        set(
-            &mut self.od,
-            o::VELOCITY_ACTUAL,
-            (v.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32) as u32 as u64,
-        );
+        set_at(od, h.velocity, v as u32 as u64);
     }
 
     fn period_s(&self) -> f64 {
-        let v = self
-            .od
-            .get_u64(o::INTERPOLATION_TIME_PERIOD, 1)
-            .unwrap_or(0) as u8;
-        let e = self
-            .od
-            .get_i64(o::INTERPOLATION_TIME_PERIOD, 2)
-            .unwrap_or(-3) as i8;
-        let s = objects::interpolation_seconds(v, e);
-        if s > 0.0 {
-            s
-        } else {
-            self.nominal_period.as_secs_f64()
-        }
+        self.hot.period_s
+    }
+
+    /// Re-reads the cached parameters after the dictionary changed.
+    fn refresh(&mut self) {
+        self.hot = Hot::load(&self.od, self.nominal_period);
     }
 
     fn reload_pdos(&mut self) {
+        self.refresh();
+        self.sync_id = (self.od.get_u64(o::SYNC_COB_ID, 0).unwrap_or(0x80) & 0x7FF) as u16;
         for n in 0..4u16 {
             self.rpdo[n as usize] = pdo::load_rpdo(&self.od, n);
             self.tpdo[n as usize] = pdo::load_tpdo(&self.od, n);
@@ -654,16 +693,33 @@ impl SimDrive {
 
     fn apply_rpdo_data(&mut self, n: usize, data: &[u8]) {
         let map = self.rpdo[n].map;
-        let mut has_cw = false;
+        let slots = self.rpdo[n].slots;
+        let mut cw = None;
+        let mut other = false;
+        let mut k = 0;
         let od = &mut self.od;
         let res = map.unpack(data, |e, raw| {
-            has_cw |= e.index == o::CONTROLWORD && e.sub == 0;
-            let _ = od.set_raw(e.index, e.sub, raw);
+            match (e.index, e.sub) {
+                (o::CONTROLWORD, 0) => cw = Some(Controlword(raw as u16)),
+                (o::TARGET_POSITION, 0) => {}
+                _ => other = true,
+            }
+            match slots[k] {
+                Some(s) => {
+                    let _ = od.set_raw_at(s, raw);
+                }
+                None => {
+                    let _ = od.set_raw(e.index, e.sub, raw);
+                }
+            }
+            k += 1;
         });
         if res.is_ok() {
             self.stats.rpdos_applied += 1;
-            if has_cw {
-                let cw = Controlword(self.od.get_u64(o::CONTROLWORD, 0).unwrap_or(0) as u16);
+            if other {
+                self.refresh();
+            }
+            if let Some(cw) = cw {
                 self.apply_controlword(cw);
             }
         }
@@ -710,8 +766,8 @@ impl SimDrive {
             }
         }
         // 2. The motor moves one cycle.
-        let dt = self.period_s();
-        let decel = self.od.get_u64(o::QUICK_STOP_DECELERATION, 0).unwrap_or(1) as f64 * dt * dt;
+        let dt = self.hot.period_s;
+        let decel = self.hot.decel_per_cycle;
         match self.cia.state() {
             State::OperationEnabled if self.mode() == Some(OperationMode::CyclicSyncPosition) => {
                 self.axis.follow(self.target_position(), dt);
@@ -762,7 +818,7 @@ impl SimDrive {
         }
         let fe = self.axis.following_error().unsigned_abs();
         self.stats.max_following_error = self.stats.max_following_error.max(fe);
-        let window = self.od.get_u64(o::FOLLOWING_ERROR_WINDOW, 0).unwrap_or(0) as u32;
+        let window = self.hot.window;
         if window == 0 || window == u32::MAX || fe <= window {
             self.fe_since = None;
             self.fe_exceeded = false;
@@ -770,18 +826,23 @@ impl SimDrive {
         }
         self.fe_exceeded = true;
         let since = *self.fe_since.get_or_insert(self.now);
-        let timeout =
-            Duration::from_millis(self.od.get_u64(o::FOLLOWING_ERROR_TIMEOUT, 0).unwrap_or(0));
-        if self.now - since >= timeout {
+        if self.now - since >= self.hot.timeout {
             self.raise_fault(emcy_code::FOLLOWING_ERROR);
         }
     }
 
     fn pack_tpdo(&self, n: usize) -> ([u8; 8], usize) {
         let mut d = [0u8; 8];
-        let len = self.tpdo[n]
-            .map
-            .pack(&mut d, |e| self.od.get_u64(e.index, e.sub).unwrap_or(0));
+        let slots = self.tpdo[n].slots;
+        let mut k = 0;
+        let len = self.tpdo[n].map.pack(&mut d, |e| {
+            let v = match slots[k] {
+                Some(s) => self.od.get_u64_at(s),
+                None => self.od.get_u64(e.index, e.sub),
+            };
+            k += 1;
+            v.unwrap_or(0)
+        });
         (d, len)
     }
 
@@ -826,7 +887,7 @@ impl SimDrive {
 
     fn handle_frame(&mut self, frame: &CanFrame) {
         let id = frame.id();
-        let sync_id = (self.od.get_u64(o::SYNC_COB_ID, 0).unwrap_or(0x80) & 0x7FF) as u16;
+        let sync_id = self.sync_id;
         if id == 0 {
             self.on_nmt(frame);
             return;
@@ -974,6 +1035,7 @@ impl ObjectAccess for SimDrive {
         self.od
             .write(index, sub, data)
             .map_err(OdError::abort_code)?;
+        self.refresh();
         match index {
             o::CONTROLWORD => {
                 let cw = Controlword(value.as_u64().unwrap_or(0) as u16);
@@ -985,7 +1047,7 @@ impl ObjectAccess for SimDrive {
                     let _ = self.od.set_raw(index, s, 0);
                 }
             }
-            i if pdo::is_pdo_parameter(i) => self.reload_pdos(),
+            i if pdo::is_pdo_parameter(i) || i == o::SYNC_COB_ID => self.reload_pdos(),
             _ => {}
         }
         self.publish();
@@ -996,11 +1058,22 @@ impl ObjectAccess for SimDrive {
 impl CanDevice for SimDrive {
     fn on_frame(&mut self, frame: &CanFrame, now: Instant, tx: &mut dyn FrameSink) {
         self.now = self.now.max(now);
-        self.timers();
-        if self.nmt != NmtStatus::Booting {
+        if self.nmt == NmtStatus::Booting {
+            self.timers();
+        }
+        // Most frames on a busy bus are other nodes' PDOs: filter before any work, as a CAN
+        // controller's acceptance filter does. Timers run in `poll`.
+        let id = frame.id();
+        let mine = id == 0
+            || id == self.sync_id
+            || id == 0x600 + self.node.get() as u16
+            || self.rpdo.iter().any(|r| r.valid && r.cob_id == id);
+        if mine && self.nmt != NmtStatus::Booting {
             self.handle_frame(frame);
         }
-        self.flush(now, tx);
+        if !self.outbox.is_empty() {
+            self.flush(now, tx);
+        }
     }
 
     fn poll(&mut self, now: Instant, tx: &mut dyn FrameSink) {

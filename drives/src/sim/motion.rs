@@ -18,6 +18,8 @@ pub struct AxisModel {
     /// Counts per cycle moved in the last step.
     velocity: f64,
     demand: i32,
+    /// (dt, 1 − e^(−2π·f·dt)) of the last step: exp() once per period change, not per cycle.
+    gain: (f64, f64),
 }
 
 impl AxisModel {
@@ -36,6 +38,7 @@ impl AxisModel {
             frac: 0.0,
             velocity: 0.0,
             demand: position,
+            gain: (0.0, 1.0),
         };
         m.hold();
         m
@@ -80,7 +83,11 @@ impl AxisModel {
         let step = if self.bandwidth_hz == 0.0 || dt_s <= 0.0 {
             err
         } else {
-            err * (1.0 - (-2.0 * std::f64::consts::PI * self.bandwidth_hz * dt_s).exp())
+            if self.gain.0 != dt_s {
+                let alpha = 1.0 - (-2.0 * std::f64::consts::PI * self.bandwidth_hz * dt_s).exp();
+                self.gain = (dt_s, alpha);
+            }
+            err * self.gain.1
         };
         self.advance(step);
     }

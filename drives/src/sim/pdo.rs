@@ -5,7 +5,7 @@
 use cia402::objects as o;
 
 use super::objects::{COB_EXTENDED, COB_INVALID};
-use crate::od::ObjectDictionary;
+use crate::od::{ObjectDictionary, Slot};
 use crate::wire::{AbortCode, MappingEntry, PdoMap};
 
 /// One RPDO as the device applies it.
@@ -19,6 +19,8 @@ pub struct RpdoSlot {
     pub transmission_type: u8,
     /// Mapping.
     pub map: PdoMap,
+    /// Dictionary slots of the mapped entries, in mapping order.
+    pub slots: [Option<Slot>; 8],
     /// Synchronous data received since the last SYNC (applied at the next SYNC).
     pub pending: Option<([u8; 8], usize)>,
 }
@@ -38,6 +40,8 @@ pub struct TpdoSlot {
     pub event_timer_ms: u16,
     /// Mapping.
     pub map: PdoMap,
+    /// Dictionary slots of the mapped entries, in mapping order.
+    pub slots: [Option<Slot>; 8],
     /// SYNCs counted towards the next transmission.
     pub sync_count: u32,
     /// Data last sent.
@@ -55,6 +59,14 @@ fn u32_of(od: &ObjectDictionary, index: u16, sub: u8) -> u32 {
     od.get_u64(index, sub).unwrap_or(0) as u32
 }
 
+fn slots_of(od: &ObjectDictionary, map: &PdoMap) -> [Option<Slot>; 8] {
+    let mut s = [None; 8];
+    for (k, e) in map.entries().enumerate() {
+        s[k] = od.slot(e.index, e.sub);
+    }
+    s
+}
+
 fn load_map(od: &ObjectDictionary, index: u16) -> PdoMap {
     let n = od.get_u64(index, 0).unwrap_or(0).min(8) as u8;
     let mut map = PdoMap::new();
@@ -69,11 +81,13 @@ fn load_map(od: &ObjectDictionary, index: u16) -> PdoMap {
 /// Reloads RPDO slot `n` (0-based) from the dictionary, keeping no pending data.
 pub fn load_rpdo(od: &ObjectDictionary, n: u16) -> RpdoSlot {
     let cob = u32_of(od, o::RPDO_COMMUNICATION + n, 1);
+    let map = load_map(od, o::RPDO_MAPPING + n);
     RpdoSlot {
         valid: cob & COB_INVALID == 0,
         cob_id: (cob & 0x7FF) as u16,
         transmission_type: od.get_u64(o::RPDO_COMMUNICATION + n, 2).unwrap_or(255) as u8,
-        map: load_map(od, o::RPDO_MAPPING + n),
+        slots: slots_of(od, &map),
+        map,
         pending: None,
     }
 }
@@ -82,13 +96,15 @@ pub fn load_rpdo(od: &ObjectDictionary, n: u16) -> RpdoSlot {
 pub fn load_tpdo(od: &ObjectDictionary, n: u16) -> TpdoSlot {
     let c = o::TPDO_COMMUNICATION + n;
     let cob = u32_of(od, c, 1);
+    let map = load_map(od, o::TPDO_MAPPING + n);
     TpdoSlot {
         valid: cob & COB_INVALID == 0,
         cob_id: (cob & 0x7FF) as u16,
         transmission_type: od.get_u64(c, 2).unwrap_or(255) as u8,
         inhibit_100us: od.get_u64(c, 3).unwrap_or(0) as u16,
         event_timer_ms: od.get_u64(c, 5).unwrap_or(0) as u16,
-        map: load_map(od, o::TPDO_MAPPING + n),
+        slots: slots_of(od, &map),
+        map,
         sync_count: 0,
         last_data: None,
         last_tx_ns: None,
