@@ -1,6 +1,7 @@
 //! cnc402-drives: CAN frames and CANopen messages (`wire`), the bus abstraction with an
 //! in-process simulated bus and a fault injector (`bus`), a small object dictionary (`od`),
-//! and the simulated CiA 402 drive (`sim`). Time is always passed in ([`time::Instant`]).
+//! the simulated CiA 402 drive (`sim`), the CANopen master (`master`) and the rigid-tapping
+//! coupling checker (`coupling`). Time is always passed in ([`time::Instant`]).
 
 #![forbid(unsafe_code)]
 

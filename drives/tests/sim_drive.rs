@@ -915,3 +915,49 @@ fn garbage_frames_never_panic_and_the_drive_keeps_answering() {
     r.nmt(NmtCommand::EnterPreOperational);
     assert_eq!(r.read_u32(0x1000, 0), 0x0002_0192);
 }
+
+#[test]
+fn fault_injector_between_master_and_drive() {
+    use cnc402_drives::bus::{Action, Direction, FaultInjector, FaultRule, FrameFilter};
+    let mut r = Rig::operational();
+    r.enable();
+    // Move the rig's bus into a fault injector: TPDO1 of node 5 dropped on the way back,
+    // every RPDO truncated to 5 bytes on the way out.
+    let bus = std::mem::replace(&mut r.bus, SimBus::new(0));
+    let mut f = FaultInjector::new(bus);
+    let drop = f.add_rule(FaultRule::new(
+        FrameFilter::id(0x185),
+        Direction::Rx,
+        Action::Drop,
+    ));
+    let cut = f.add_rule(
+        FaultRule::new(
+            FrameFilter::class(0x200),
+            Direction::Tx,
+            Action::Truncate { len: 5 },
+        )
+        .limit(1),
+    );
+    let mut now = r.now;
+    let mut got = vec![];
+    for _ in 0..3 {
+        f.send(&CanFrame::new(0x205, &[0x0F, 0, 0, 0, 0, 0]).unwrap())
+            .unwrap();
+        f.send(&SyncRepr { counter: None }.emit()).unwrap();
+        now += Duration::from_millis(1);
+        f.inner_mut().advance(now);
+        while let Some(fr) = f.recv().unwrap() {
+            got.push(fr);
+        }
+    }
+    assert!(got.iter().all(|fr| fr.id() != 0x185), "TPDOs dropped");
+    assert_eq!(f.applied(drop), 3);
+    assert_eq!(f.applied(cut), 1);
+    let emcy: Vec<u16> = got
+        .iter()
+        .filter(|fr| fr.id() == 0x085)
+        .map(|fr| EmcyRepr::parse(fr).unwrap().code)
+        .collect();
+    assert_eq!(emcy, vec![0x8210], "the truncated RPDO is reported");
+    assert!(f.inner().device(0).unwrap().stats().tpdos_sent >= 3);
+}

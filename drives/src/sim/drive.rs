@@ -25,7 +25,9 @@ use crate::wire::{
     SdoRequest, WireError, emcy_code,
 };
 
-/// The drive's NMT state, including "not yet on the bus".
+/// The drive's NMT state, including "not yet on the bus". (canopen-rs's `NmtStateMachine`
+/// is not used: the simulated drive needs a timed boot, and reset node and reset
+/// communication restore different parts of the dictionary; the state itself is four values.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum NmtStatus {
     /// Powered but not booted yet (boot delay), silent.

@@ -1,6 +1,10 @@
 //! An SDO server (expedited and segmented, any length up to [`SdoServer::MAX_DOWNLOAD`]) over
 //! whatever answers [`ObjectAccess`]. Correct toggles, sizes and abort codes; block transfer
 //! is answered with abort 0x05040001.
+//!
+//! Not canopen-rs 0.6.1's `SdoServer`: its transfers are capped at 32 bytes (datatypes.rs
+//! ~29), it cannot answer the mapping codes 0x06040041/42/43 or 0x08000022 that the remap
+//! rules need, and it serves its own dictionary type rather than a device's rules.
 
 use crate::wire::{AbortCode, ExpeditedData, InitiateKind, SdoRequest, SdoResponse, SdoSegment};
 
