@@ -950,7 +950,8 @@ impl SimDrive {
         // stopped so that a fault reaction / quick stop still ends.
         let state = self.cia.state();
         if matches!(state, State::FaultReactionActive | State::QuickStopActive) {
-            let stale = Duration::from_secs_f64(self.period_s() * 10.0);
+            let stale = Duration::try_from_secs_f64(self.period_s() * 10.0)
+                .unwrap_or(Duration::from_millis(10));
             if self.last_sync.is_none_or(|t| now - t > stale) {
                 self.axis.hold();
                 if state == State::FaultReactionActive {
