@@ -310,7 +310,7 @@ new_job() {
         done < <(compgen -e | grep -E '^(HIL_|RUST_)' | grep -vxE 'HIL_(MODE|RUNNING_IN|IFACE|REPO|CWD|BIN|JOB|QEMU|ACCEL|QEMU_ARGS|KERNEL_ARGS|CACHE|9P_OPTS)' || true)
         printf 'export HIL_RUNNING_IN=%q HIL_IFACE=%q HIL_REPO=%q HIL_CWD=%q HIL_JOB=%q\n' \
             "$MODE" "$IFACE" "$REPO" "$PWD" "$dir"
-        printf 'export HIL_BIN=%q\n' "$TARGET_DIR/$PROFILE"
+        printf 'export HIL_BIN=%q HIL_OUT_ROOT=%q\n' "$TARGET_DIR/$PROFILE" "${HIL_OUT_ROOT:-$CACHE/out}"
     } >"$dir/env"
     printf 'exec /bin/bash %q %q\n' "$HIL_DIR/guest/job.sh" "$dir" >"$dir/start"
     echo "$dir"
