@@ -258,6 +258,9 @@ pub enum Command {
         /// Stop (with a ramp) after this many seconds; without it, jog until Ctrl-C
         #[arg(long = "for", value_name = "SECONDS")]
         duration: Option<f64>,
+        /// Tests: behave as if Ctrl-C came after this many seconds of motion
+        #[arg(long, hide = true, value_name = "SECONDS")]
+        interrupt_after: Option<f64>,
     },
     /// Move one axis to an absolute position (CSP, jerk-limited profile from the config);
     /// Ctrl-C stops with a ramp
@@ -272,6 +275,9 @@ pub enum Command {
         /// Target in axis units (mm, deg), machine coordinates
         #[arg(allow_negative_numbers = true)]
         position: f64,
+        /// Tests: behave as if Ctrl-C came after this many seconds of motion
+        #[arg(long, hide = true, value_name = "SECONDS")]
+        interrupt_after: Option<f64>,
     },
     /// Decode all bus traffic live, with node names, bus load and SYNC period statistics
     #[command(

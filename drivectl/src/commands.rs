@@ -54,8 +54,13 @@ pub fn dispatch(ctx: &mut Ctx, cmd: Command) -> Result<()> {
             node,
             velocity,
             duration,
-        } => crate::motion::jog(ctx, node, velocity, duration),
-        Command::Move { node, position } => crate::motion::move_to(ctx, node, position),
+            interrupt_after,
+        } => crate::motion::jog(ctx, node, velocity, duration, interrupt_after),
+        Command::Move {
+            node,
+            position,
+            interrupt_after,
+        } => crate::motion::move_to(ctx, node, position, interrupt_after),
         Command::Monitor {
             log,
             duration,

@@ -102,7 +102,13 @@ enum Plan {
 }
 
 /// `drivectl jog NODE --velocity V [--for S]`.
-pub fn jog(ctx: &mut Ctx, node: u8, velocity: f64, duration: Option<f64>) -> Result<()> {
+pub fn jog(
+    ctx: &mut Ctx,
+    node: u8,
+    velocity: f64,
+    duration: Option<f64>,
+    interrupt_after: Option<f64>,
+) -> Result<()> {
     let axis = axis_of(ctx, node)?;
     let lim = limits(&axis)?;
     if !velocity.is_finite() || velocity.abs() > lim.velocity {
@@ -118,11 +124,18 @@ pub fn jog(ctx: &mut Ctx, node: u8, velocity: f64, duration: Option<f64>) -> Res
             "--for {d} is not a time in seconds"
         )));
     }
-    run(ctx, node, axis, lim, Plan::Jog { velocity, duration })
+    run(
+        ctx,
+        node,
+        axis,
+        lim,
+        Plan::Jog { velocity, duration },
+        interrupt_after,
+    )
 }
 
 /// `drivectl move NODE POSITION`.
-pub fn move_to(ctx: &mut Ctx, node: u8, target: f64) -> Result<()> {
+pub fn move_to(ctx: &mut Ctx, node: u8, target: f64, interrupt_after: Option<f64>) -> Result<()> {
     let axis = axis_of(ctx, node)?;
     let lim = limits(&axis)?;
     if !target.is_finite() {
@@ -131,10 +144,17 @@ pub fn move_to(ctx: &mut Ctx, node: u8, target: f64) -> Result<()> {
         )));
     }
     check_soft(&axis, target)?;
-    run(ctx, node, axis, lim, Plan::Move { target })
+    run(ctx, node, axis, lim, Plan::Move { target }, interrupt_after)
 }
 
-fn run(ctx: &mut Ctx, node: u8, axis: AxisConfig, lim: Limits, plan: Plan) -> Result<()> {
+fn run(
+    ctx: &mut Ctx,
+    node: u8,
+    axis: AxisConfig,
+    lim: Limits,
+    plan: Plan,
+    interrupt_after: Option<f64>,
+) -> Result<()> {
     let mut one = ctx.cfg.clone();
     one.axes = vec![axis.clone()];
     let options = MasterOptions {
@@ -202,7 +222,7 @@ fn run(ctx: &mut Ctx, node: u8, axis: AxisConfig, lim: Limits, plan: Plan) -> Re
         if !stopping {
             let now_state = law.at(t);
             let mut why = None;
-            if ctx.interrupted() {
+            if ctx.interrupted() || interrupt_after.is_some_and(|s| t >= s) {
                 interrupted = true;
                 why = Some("Ctrl-C");
             } else if stop_at.is_some_and(|d| t >= d) {

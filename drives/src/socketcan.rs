@@ -69,7 +69,10 @@ impl fmt::Display for OpenError {
                 iface,
                 errno,
                 message,
-            } => write!(f, "cannot open CAN interface {iface}: {message} (errno {errno})"),
+            } => write!(
+                f,
+                "cannot open CAN interface {iface}: {message} (errno {errno})"
+            ),
         }
     }
 }
@@ -84,6 +87,10 @@ pub struct SocketCanOptions {
     pub send_budget: Duration,
     /// Pass CAN error frames to this socket (counted; bus-off becomes an error).
     pub error_frames: bool,
+    /// SO_RCVBUF to ask for: the kernel drops frames a full socket buffer cannot take (one
+    /// CAN frame costs ~1 KiB of buffer), so a reader that falls behind for a moment needs
+    /// room. The kernel caps it at net.core.rmem_max.
+    pub recv_buffer_bytes: usize,
 }
 
 impl Default for SocketCanOptions {
@@ -91,6 +98,7 @@ impl Default for SocketCanOptions {
         SocketCanOptions {
             send_budget: Duration::from_millis(2),
             error_frames: true,
+            recv_buffer_bytes: 1 << 20,
         }
     }
 }
@@ -193,9 +201,13 @@ impl SocketCanBus {
         // send longer than the budget. Reads use poll (recv) or SO_RCVTIMEO (recv_timeout).
         socket.set_nonblocking(false).map_err(|e| io_err(&e))?;
         let budget = options.send_budget.max(Duration::from_micros(1));
-        socket
-            .set_write_timeout(budget)
-            .map_err(|e| io_err(&e))?;
+        socket.set_write_timeout(budget).map_err(|e| io_err(&e))?;
+        if options.recv_buffer_bytes > 0 {
+            socket
+                .as_raw_socket()
+                .set_recv_buffer_size(options.recv_buffer_bytes)
+                .map_err(|e| io_err(&e))?;
+        }
         if options.error_frames {
             socket
                 .set_error_filter_accept_all()
@@ -291,9 +303,7 @@ impl SocketCanBus {
 
     fn set_read_timeout(&mut self, t: Duration) -> Result<(), BusError> {
         if self.read_timeout != Some(t) {
-            self.socket
-                .set_read_timeout(t)
-                .map_err(|e| bus_error(&e))?;
+            self.socket.set_read_timeout(t).map_err(|e| bus_error(&e))?;
             self.read_timeout = Some(t);
         }
         Ok(())
@@ -323,11 +333,12 @@ impl CanBus for SocketCanBus {
                     return Ok(());
                 }
                 Err(e) => {
-                    let full = matches!(os_errno(&e), errno::ENOBUFS | errno::EAGAIN | errno::EINTR)
-                        || matches!(
-                            e.kind(),
-                            io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
-                        );
+                    let full =
+                        matches!(os_errno(&e), errno::ENOBUFS | errno::EAGAIN | errno::EINTR)
+                            || matches!(
+                                e.kind(),
+                                io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+                            );
                     if !full {
                         return Err(bus_error(&e));
                     }
