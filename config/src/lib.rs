@@ -137,6 +137,9 @@ pub struct InterpDefaults {
     /// The file of the non-volatile macro variables `#500–#999` (`None`: kept in memory for
     /// one run). Relative paths resolve like `program_dir`; see [`MachineConfig::variables_file`].
     pub variables_file: Option<PathBuf>,
+    /// Where `#use "file"` of the C-like language looks after the including file's folder
+    /// (`None`: nowhere else). Relative paths resolve like `program_dir`.
+    pub library_dir: Option<PathBuf>,
 }
 
 impl MachineConfig {
@@ -218,6 +221,21 @@ impl MachineConfig {
     /// `variables_file` resolved against the config file's location (as `program_dir`).
     pub fn variables_file(&self) -> Option<PathBuf> {
         let f = self.interp.variables_file.as_ref()?;
+        if f.is_absolute() {
+            return Some(f.clone());
+        }
+        let base = self
+            .path
+            .parent()
+            .and_then(|p| p.parent())
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        Some(base.join(f))
+    }
+
+    /// `library_dir` resolved against the config file's location (as `program_dir`).
+    pub fn library_dir(&self) -> Option<PathBuf> {
+        let f = self.interp.library_dir.as_ref()?;
         if f.is_absolute() {
             return Some(f.clone());
         }
@@ -379,6 +397,8 @@ struct RawInterp {
     block_limit: Spanned<i64>,
     #[serde(default)]
     variables_file: Option<Spanned<String>>,
+    #[serde(default)]
+    library_dir: Option<Spanned<String>>,
 }
 
 impl Default for RawInterp {
@@ -393,6 +413,7 @@ impl Default for RawInterp {
             program_dir: default_program_dir(),
             block_limit: default_block_limit(),
             variables_file: None,
+            library_dir: None,
         }
     }
 }
@@ -582,6 +603,18 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
                     f.span(),
                     "interp.variables_file".to_string(),
                     "must not be empty (leave the key out to keep the variables in memory)"
+                        .to_string(),
+                ));
+            }
+            Some(f) => Some(PathBuf::from(f.get_ref())),
+        },
+        library_dir: match &i.library_dir {
+            None => None,
+            Some(f) if f.get_ref().trim().is_empty() => {
+                return Err((
+                    f.span(),
+                    "interp.library_dir".to_string(),
+                    "must not be empty (leave the key out to search only next to the program)"
                         .to_string(),
                 ));
             }
@@ -883,6 +916,27 @@ mod tests {
         );
         let e = parse(&text).unwrap_err();
         assert_eq!(e.key, "interp.variables_file");
+    }
+
+    #[test]
+    fn library_dir_key() {
+        let c = parse(SHIPPED).unwrap();
+        assert_eq!(
+            c.interp.library_dir.as_deref(),
+            Some(Path::new("examples/axioma"))
+        );
+        let text = SHIPPED.replace("library_dir = \"examples/axioma\"", "");
+        assert_eq!(parse(&text).unwrap().library_dir(), None);
+        let text = SHIPPED.replace(
+            "library_dir = \"examples/axioma\"",
+            "library_dir = \"/opt/cycles\"",
+        );
+        assert_eq!(
+            parse(&text).unwrap().library_dir(),
+            Some(PathBuf::from("/opt/cycles"))
+        );
+        let text = SHIPPED.replace("library_dir = \"examples/axioma\"", "library_dir = \"\"");
+        assert_eq!(parse(&text).unwrap_err().key, "interp.library_dir");
     }
 
     #[test]
