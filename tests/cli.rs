@@ -381,3 +381,41 @@ fn sigint_stops_the_machine_like_a_fault_and_exits_cleanly() {
         assert!(t["max_coupling_error_um_cmd"].as_f64().unwrap() <= coupling_bound_um(1.5));
     }
 }
+
+#[test]
+fn dry_run_does_not_write_non_volatile_variables() {
+    let vars = tmp("vars.dat");
+    let _ = std::fs::remove_file(&vars);
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/machine.toml"))
+            .unwrap();
+    let text: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("variables_file") {
+                format!("variables_file = {:?}\n", vars.to_str().unwrap())
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    assert!(
+        text.contains(vars.to_str().unwrap()),
+        "the shipped config names a variables file"
+    );
+    let cfg = tmp("vars.toml");
+    std::fs::write(&cfg, text).unwrap();
+    let prog = tmp("count.nc");
+    std::fs::write(&prog, "#500 = [#500 + 1]\nG0 X[#500]\nM30\n").unwrap();
+    for want in [1.0, 2.0] {
+        let o = cnc402(&[
+            "run",
+            prog.to_str().unwrap(),
+            "--config",
+            cfg.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let table = cnc402_interp::NvTable::load(&vars).unwrap();
+        assert_eq!(table.get(500), Some(want), "one increment per run");
+    }
+}

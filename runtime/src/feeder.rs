@@ -30,13 +30,36 @@ pub fn motion_error_to_nc(src: &SourceFile, e: &MotionError) -> NcError {
 }
 
 impl Feeder {
-    /// Loads `program` for a machine standing at `start` (machine coordinates).
+    /// Loads `program` for a machine standing at `start` (machine coordinates). Writes to the
+    /// non-volatile variables `#500–#999` go to the config's `variables_file`.
     pub fn new(cfg: &MachineConfig, src: SourceFile, program: Program, start: AxisPos) -> Feeder {
+        Feeder::with_interp(cfg, src, program, start, false)
+    }
+
+    /// As [`new`](Self::new), but `#500–#999` start from the variables file and writes stay
+    /// in memory: a dry run must not change what the real run will read.
+    pub fn dry(cfg: &MachineConfig, src: SourceFile, program: Program, start: AxisPos) -> Feeder {
+        Feeder::with_interp(cfg, src, program, start, true)
+    }
+
+    fn with_interp(
+        cfg: &MachineConfig,
+        src: SourceFile,
+        program: Program,
+        start: AxisPos,
+        dry: bool,
+    ) -> Feeder {
         let opts = Options {
             start,
             ..Options::default()
         };
-        let mut interp = Interpreter::with_options(cfg, opts);
+        let mut interp = Interpreter::with_options(cfg, opts.clone());
+        if dry {
+            // A throwaway interpreter reads the variables file the way the real run will.
+            let mut probe = Interpreter::with_options(cfg, opts);
+            probe.load(src.clone(), program.clone());
+            interp.set_persistent_vars(probe.persistent_vars(), None);
+        }
         interp.load(src.clone(), program);
         let mut planner = Planner::new(cfg);
         planner.set_position(start);
@@ -126,7 +149,7 @@ pub fn dry_run(
     program: &Program,
     start: AxisPos,
 ) -> Result<DryRun, NcError> {
-    let mut f = Feeder::new(cfg, src.clone(), program.clone(), start);
+    let mut f = Feeder::dry(cfg, src.clone(), program.clone(), start);
     let mut d = DryRun::default();
     while let Some(mv) = f.next_move()? {
         d.moves += 1;
