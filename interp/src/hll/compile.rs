@@ -1,0 +1,979 @@
+//! Loading and checking a C-like program before it runs: `#use` files are found and parsed,
+//! functions collected from every file, names resolved and types checked. Every error found
+//! here is reported at `file:line:col` before any motion.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use cnc402_config::MachineConfig;
+use cnc402_lang::ast::{
+    AssignOp, BinaryOp, Expr, ExprKind, Line, LineKind, LogicalOp, Program, Span, Stmt, StmtKind,
+    Type, UnaryOp, Value,
+};
+use cnc402_lang::{NcError, SourceFile};
+
+use super::ir::*;
+
+/// Names of the source's multi-channel functions (a later issue).
+const CHANNEL_FUNCS: [&str; 4] = [
+    "channel_load",
+    "channel_run",
+    "channel_wait",
+    "channel_reset",
+];
+
+struct File {
+    src: Arc<SourceFile>,
+    prog: Program,
+    /// `#use` statement span start → the file it names.
+    uses: HashMap<u32, FileId>,
+}
+
+/// Finds, parses and checks `main` and the files it uses. `library` is the config's
+/// `interp.library_dir`, searched after the including file's folder.
+pub(crate) fn compile(
+    cfg: &MachineConfig,
+    main: SourceFile,
+    program: Program,
+    library: Option<PathBuf>,
+) -> Result<Prog, NcError> {
+    let mut files: Vec<File> = Vec::new();
+    let mut keys: Vec<PathBuf> = Vec::new();
+    let main = Arc::new(main);
+    keys.push(key_of(Path::new(&*main.name)));
+    files.push(File {
+        src: main,
+        prog: program,
+        uses: HashMap::new(),
+    });
+    let mut stack = vec![0usize];
+    resolve_uses(0, &mut files, &mut keys, &mut stack, library.as_deref())?;
+
+    // Functions of every file, by name.
+    let mut sigs: HashMap<String, usize> = HashMap::new();
+    let mut defs: Vec<(FileId, &cnc402_lang::ast::Function)> = Vec::new();
+    for (fid, f) in files.iter().enumerate() {
+        for line in &f.prog.lines {
+            let LineKind::Stmts(stmts) = &line.kind else {
+                continue;
+            };
+            for s in stmts {
+                if let StmtKind::Function(fun) = &s.kind {
+                    let err = |m: String| Err(NcError::new(&f.src, fun.span, m));
+                    if Builtin::by_name(&fun.name).is_some()
+                        || CHANNEL_FUNCS.contains(&fun.name.as_str())
+                    {
+                        return err(format!("`{}` is a built-in function", fun.name));
+                    }
+                    if let Some(&k) = sigs.get(&fun.name) {
+                        let (of, odef) = defs[k];
+                        let (l, _) = files[of].src.line_col(odef.span.start as usize);
+                        return err(format!(
+                            "function `{}` is already defined at {}:{l}",
+                            fun.name, files[of].src.name
+                        ));
+                    }
+                    sigs.insert(fun.name.clone(), defs.len());
+                    defs.push((fid, fun));
+                }
+            }
+        }
+    }
+    let sig_list: Vec<(Ty, Vec<Ty>)> = defs
+        .iter()
+        .map(|(_, f)| (ty_of(f.ret), f.params.iter().map(|p| ty_of(p.ty)).collect()))
+        .collect();
+
+    let mut funcs = Vec::new();
+    for (fid, fun) in &defs {
+        let f = &files[*fid];
+        let mut cx = Cx::new(cfg, f, *fid, &sigs, &sig_list, ty_of(fun.ret), true);
+        cx.scopes.push(HashMap::new());
+        let mut params = Vec::new();
+        for p in &fun.params {
+            let ty = ty_of(p.ty);
+            if ty == Ty::Void {
+                return Err(cx.err(p.span, format!("parameter `{}` cannot be void", p.name)));
+            }
+            cx.declare(&p.name, ty, false, p.span)?;
+            params.push(ty);
+        }
+        let body = cx.stmts(&fun.body)?;
+        funcs.push(Func {
+            name: fun.name.clone(),
+            file: *fid,
+            ret: ty_of(fun.ret),
+            params,
+            slots: cx.next_slot,
+            body,
+            span: fun.span,
+        });
+    }
+    let mut bodies = Vec::new();
+    for (fid, f) in files.iter().enumerate() {
+        let mut cx = Cx::new(cfg, f, fid, &sigs, &sig_list, Ty::Void, false);
+        cx.scopes.push(HashMap::new());
+        let mut body = Vec::new();
+        for line in &f.prog.lines {
+            cx.top_line(line, &mut body)?;
+        }
+        bodies.push(funcs.len());
+        funcs.push(Func {
+            name: f.src.name.to_string(),
+            file: fid,
+            ret: Ty::Void,
+            params: Vec::new(),
+            slots: cx.next_slot,
+            body,
+            span: Span::default(),
+        });
+    }
+    Ok(Prog {
+        files: files.into_iter().map(|f| f.src).collect(),
+        funcs,
+        bodies,
+    })
+}
+
+fn key_of(p: &Path) -> PathBuf {
+    std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
+}
+
+/// Loads the files `files[id]` names with `#use` (depth first, in order), each once.
+fn resolve_uses(
+    id: FileId,
+    files: &mut Vec<File>,
+    keys: &mut Vec<PathBuf>,
+    stack: &mut Vec<FileId>,
+    library: Option<&Path>,
+) -> Result<(), NcError> {
+    let mut found = Vec::new();
+    for line in &files[id].prog.lines {
+        if let LineKind::Stmts(stmts) = &line.kind {
+            for s in stmts {
+                if let StmtKind::Use { path } = &s.kind {
+                    found.push((s.span, path.clone()));
+                }
+            }
+        }
+    }
+    for (span, path) in found {
+        let src = files[id].src.clone();
+        let here = Path::new(&*src.name)
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        let mut candidates = vec![here.join(&path)];
+        if let Some(lib) = library {
+            candidates.push(lib.join(&path));
+        }
+        let Some(p) = candidates.iter().find(|c| c.is_file()) else {
+            let mut m = format!("#use \"{path}\": no such file next to this program");
+            match library {
+                Some(l) => m += &format!(" nor in the library folder {}", l.display()),
+                None => m += " (and no interp.library_dir is configured)",
+            }
+            return Err(NcError::new(&src, span, m));
+        };
+        let key = key_of(p);
+        if let Some(k) = keys.iter().position(|x| *x == key) {
+            if let Some(pos) = stack.iter().position(|&s| s == k) {
+                let chain: Vec<String> = stack[pos..]
+                    .iter()
+                    .map(|&s| files[s].src.name.to_string())
+                    .chain(std::iter::once(p.display().to_string()))
+                    .collect();
+                return Err(NcError::new(
+                    &src,
+                    span,
+                    format!("#use cycle: {}", chain.join(" uses ")),
+                ));
+            }
+            files[id].uses.insert(span.start, k);
+            continue;
+        }
+        let text = std::fs::read(p)
+            .map_err(|e| NcError::new(&src, span, format!("#use \"{path}\": {e}")))?;
+        let sf = SourceFile::new(
+            p.display().to_string(),
+            String::from_utf8_lossy(&text).into_owned(),
+        );
+        let prog = cnc402_lang::parse(&sf)?;
+        let nid = files.len();
+        files.push(File {
+            src: Arc::new(sf),
+            prog,
+            uses: HashMap::new(),
+        });
+        keys.push(key);
+        files[id].uses.insert(span.start, nid);
+        stack.push(nid);
+        resolve_uses(nid, files, keys, stack, library)?;
+        stack.pop();
+    }
+    Ok(())
+}
+
+fn ty_of(t: Type) -> Ty {
+    match t {
+        Type::Int => Ty::Int,
+        Type::Double => Ty::Double,
+        Type::String => Ty::Str,
+        Type::Bool => Ty::Bool,
+        Type::Void => Ty::Void,
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Var {
+    slot: u32,
+    ty: Ty,
+    array: bool,
+}
+
+/// The checker of one function (or one file's top level).
+struct Cx<'a> {
+    cfg: &'a MachineConfig,
+    file: &'a File,
+    fid: FileId,
+    sigs: &'a HashMap<String, usize>,
+    sig_list: &'a [(Ty, Vec<Ty>)],
+    ret: Ty,
+    in_function: bool,
+    scopes: Vec<HashMap<String, Var>>,
+    next_slot: u32,
+    loops: u32,
+}
+
+impl<'a> Cx<'a> {
+    fn new(
+        cfg: &'a MachineConfig,
+        file: &'a File,
+        fid: FileId,
+        sigs: &'a HashMap<String, usize>,
+        sig_list: &'a [(Ty, Vec<Ty>)],
+        ret: Ty,
+        in_function: bool,
+    ) -> Self {
+        Cx {
+            cfg,
+            file,
+            fid,
+            sigs,
+            sig_list,
+            ret,
+            in_function,
+            scopes: Vec::new(),
+            next_slot: 0,
+            loops: 0,
+        }
+    }
+
+    fn err(&self, span: Span, m: impl Into<String>) -> NcError {
+        NcError::new(&self.file.src, span, m)
+    }
+
+    fn declare(&mut self, name: &str, ty: Ty, array: bool, span: Span) -> Result<u32, NcError> {
+        let scope = self.scopes.last_mut().expect("a scope is open");
+        if scope.contains_key(name) {
+            return Err(NcError::new(
+                &self.file.src,
+                span,
+                format!("`{name}` is already declared in this scope"),
+            ));
+        }
+        let slot = self.next_slot;
+        self.next_slot += 1;
+        scope.insert(name.to_string(), Var { slot, ty, array });
+        Ok(slot)
+    }
+
+    fn lookup(&self, name: &str) -> Option<Var> {
+        self.scopes.iter().rev().find_map(|s| s.get(name).copied())
+    }
+
+    /// One line of a file's top level.
+    fn top_line(&mut self, line: &Line, out: &mut Vec<St>) -> Result<(), NcError> {
+        match &line.kind {
+            LineKind::Empty | LineKind::Percent | LineKind::Continued => Ok(()),
+            LineKind::ProgramNumber { .. } => Ok(()),
+            LineKind::Block(_) => {
+                out.push(self.gcode(line)?);
+                Ok(())
+            }
+            LineKind::Stmts(stmts) => {
+                for s in stmts {
+                    match &s.kind {
+                        StmtKind::Function(_) => {}
+                        StmtKind::Use { .. } => {
+                            let id =
+                                self.file.uses.get(&s.span.start).copied().ok_or_else(|| {
+                                    self.err(s.span, "#use: the file was not loaded")
+                                })?;
+                            out.push(St::Use(id));
+                        }
+                        _ => out.push(self.stmt(s)?),
+                    }
+                }
+                Ok(())
+            }
+            _ => Err(self.err(
+                line.span,
+                "Macro B statements (#n=, GOTO, IF, WHILE, END) cannot be mixed with the C-like \
+                 language",
+            )),
+        }
+    }
+
+    fn stmts(&mut self, ss: &[Stmt]) -> Result<Vec<St>, NcError> {
+        ss.iter().map(|s| self.stmt(s)).collect()
+    }
+
+    /// A statement in its own scope (the body of `if`/`while`/`for`).
+    fn scoped(&mut self, s: &Stmt) -> Result<Vec<St>, NcError> {
+        self.scopes.push(HashMap::new());
+        let r = match &s.kind {
+            StmtKind::Block(b) => self.stmts(b),
+            _ => self.stmt(s).map(|x| vec![x]),
+        };
+        self.scopes.pop();
+        r
+    }
+
+    fn stmt(&mut self, s: &Stmt) -> Result<St, NcError> {
+        Ok(match &s.kind {
+            StmtKind::Use { .. } => {
+                return Err(self.err(s.span, "#use belongs at the top level of a file"));
+            }
+            StmtKind::Function(f) => {
+                return Err(self.err(
+                    f.span,
+                    "functions are defined at the top level of a file, not inside a statement",
+                ));
+            }
+            StmtKind::Decl { ty, vars } => {
+                let ty = ty_of(*ty);
+                if ty == Ty::Void {
+                    return Err(self.err(s.span, "a variable cannot be void"));
+                }
+                let mut out = Vec::new();
+                for d in vars {
+                    let size = match &d.size {
+                        Some(e) => {
+                            let (x, t) = self.expr(e)?;
+                            if !matches!(t, Ty::Int | Ty::Dyn) {
+                                return Err(self.err(
+                                    e.span,
+                                    format!("an array size must be an int, not {}", t.name()),
+                                ));
+                            }
+                            if d.init.is_some() {
+                                return Err(self.err(d.span, "an array cannot have an initialiser"));
+                            }
+                            Some(x)
+                        }
+                        None => None,
+                    };
+                    let init = match &d.init {
+                        Some(e) => {
+                            let (x, t) = self.expr(e)?;
+                            self.assignable(ty, t, e.span, &d.name)?;
+                            Some(x)
+                        }
+                        None => None,
+                    };
+                    // Declared after its initialiser is checked: `int a = a;` is an error.
+                    let slot = self.declare(&d.name, ty, size.is_some(), d.span)?;
+                    out.push(St::Decl {
+                        slot,
+                        ty,
+                        size,
+                        init,
+                        span: d.span,
+                    });
+                }
+                if out.len() == 1 {
+                    out.pop().expect("one")
+                } else {
+                    // Several declarators: keep them in the enclosing scope, in order.
+                    St::If(Ex::Lit(Val::Bool(true)), out, Vec::new())
+                }
+            }
+            StmtKind::Assign { target, op, value } => {
+                let (v, vt) = self.expr(value)?;
+                let (tg, tt, name) = self.target(target)?;
+                if *op == AssignOp::Set {
+                    self.assignable(tt, vt, value.span, &name)?;
+                } else {
+                    let bop = match op {
+                        AssignOp::Add => BinaryOp::Add,
+                        AssignOp::Sub => BinaryOp::Sub,
+                        AssignOp::Mul => BinaryOp::Mul,
+                        AssignOp::Div => BinaryOp::Div,
+                        _ => BinaryOp::Mod,
+                    };
+                    let rt = self.bin_type(bop, tt, vt, s.span)?;
+                    self.assignable(tt, rt, value.span, &name)?;
+                }
+                St::Set {
+                    target: tg,
+                    op: *op,
+                    value: v,
+                    span: s.span,
+                }
+            }
+            StmtKind::Call(e) => St::Eval(self.expr(e)?.0),
+            StmtKind::If {
+                cond,
+                then,
+                otherwise,
+            } => {
+                let c = self.cond(cond)?;
+                let t = self.scoped(then)?;
+                let o = match otherwise {
+                    Some(o) => self.scoped(o)?,
+                    None => Vec::new(),
+                };
+                St::If(c, t, o)
+            }
+            StmtKind::While { cond, body } => {
+                let c = self.cond(cond)?;
+                self.loops += 1;
+                let b = self.scoped(body);
+                self.loops -= 1;
+                St::While(c, b?)
+            }
+            StmtKind::For {
+                init,
+                cond,
+                step,
+                body,
+            } => {
+                self.scopes.push(HashMap::new());
+                let r = (|| {
+                    let i = match init {
+                        Some(i) => vec![self.stmt(i)?],
+                        None => Vec::new(),
+                    };
+                    let c = match cond {
+                        Some(c) => Some(self.cond(c)?),
+                        None => None,
+                    };
+                    let st = match step {
+                        Some(s) => vec![self.stmt(s)?],
+                        None => Vec::new(),
+                    };
+                    self.loops += 1;
+                    let b = self.scoped(body);
+                    self.loops -= 1;
+                    Ok(St::For(i, c, st, b?))
+                })();
+                self.scopes.pop();
+                r?
+            }
+            StmtKind::Block(b) => {
+                self.scopes.push(HashMap::new());
+                let r = self.stmts(b);
+                self.scopes.pop();
+                St::If(Ex::Lit(Val::Bool(true)), r?, Vec::new())
+            }
+            StmtKind::Break | StmtKind::Continue => {
+                if self.loops == 0 {
+                    return Err(self.err(s.span, "break/continue outside a loop"));
+                }
+                if s.kind == StmtKind::Break {
+                    St::Break
+                } else {
+                    St::Continue
+                }
+            }
+            StmtKind::Return(e) => {
+                if !self.in_function {
+                    return Err(self.err(
+                        s.span,
+                        "return outside a function (end the program with M02 or terminate())",
+                    ));
+                }
+                match (e, self.ret) {
+                    (None, Ty::Void) => St::Return(None),
+                    (None, t) => {
+                        return Err(self.err(
+                            s.span,
+                            format!("this function returns {}: `return` needs a value", t.name()),
+                        ));
+                    }
+                    (Some(e), Ty::Void) => {
+                        return Err(self.err(e.span, "a void function returns no value"));
+                    }
+                    (Some(e), t) => {
+                        let (x, xt) = self.expr(e)?;
+                        self.assignable(t, xt, e.span, "the return value")?;
+                        St::Return(Some(x))
+                    }
+                }
+            }
+            StmtKind::Gcode(line) => self.gcode(line)?,
+        })
+    }
+
+    /// Whether a value of type `src` may be stored where `dst` is declared.
+    fn assignable(&self, dst: Ty, src: Ty, span: Span, what: &str) -> Result<(), NcError> {
+        let ok = dst == src || dst == Ty::Dyn || src == Ty::Dyn || (dst.numeric() && src.numeric());
+        if ok {
+            Ok(())
+        } else {
+            Err(self.err(
+                span,
+                format!("cannot assign {} to {what} ({})", src.name(), dst.name()),
+            ))
+        }
+    }
+
+    fn cond(&mut self, e: &Expr) -> Result<Ex, NcError> {
+        let (x, t) = self.expr(e)?;
+        if matches!(t, Ty::Str | Ty::Void) {
+            return Err(self.err(e.span, format!("a condition cannot be {}", t.name())));
+        }
+        Ok(x)
+    }
+
+    fn target(&mut self, e: &Expr) -> Result<(Target, Ty, String), NcError> {
+        match &e.kind {
+            ExprKind::Ident(n) => {
+                let v = self
+                    .lookup(n)
+                    .ok_or_else(|| self.err(e.span, format!("undefined name `{n}`")))?;
+                if v.array {
+                    return Err(self.err(e.span, format!("`{n}` is an array: assign an element")));
+                }
+                Ok((Target::Local(v.slot, v.ty), v.ty, format!("`{n}`")))
+            }
+            ExprKind::Global(n) => {
+                Ok((Target::Global(n.as_str().into()), Ty::Dyn, format!("${n}")))
+            }
+            ExprKind::Index(a, i) => {
+                let (ix, it) = self.expr(i)?;
+                if !matches!(it, Ty::Int | Ty::Dyn | Ty::Double) {
+                    return Err(self.err(
+                        i.span,
+                        format!("an index must be an int, not {}", it.name()),
+                    ));
+                }
+                match &a.kind {
+                    ExprKind::Ident(n) => {
+                        let v = self
+                            .lookup(n)
+                            .ok_or_else(|| self.err(a.span, format!("undefined name `{n}`")))?;
+                        if !v.array {
+                            return Err(self.err(a.span, format!("`{n}` is not an array")));
+                        }
+                        Ok((Target::Elem(v.slot, v.ty, ix), v.ty, format!("`{n}[]`")))
+                    }
+                    ExprKind::Global(n) => Ok((
+                        Target::GlobalElem(n.as_str().into(), ix),
+                        Ty::Dyn,
+                        format!("${n}[]"),
+                    )),
+                    _ => Err(self.err(e.span, "only variables and their elements can be assigned")),
+                }
+            }
+            ExprKind::SysVar(n) => Err(self.err(e.span, format!("@{n} is read-only"))),
+            _ => Err(self.err(e.span, "only variables and their elements can be assigned")),
+        }
+    }
+
+    /// The type of `a op b`, or the type error.
+    fn bin_type(&self, op: BinaryOp, a: Ty, b: Ty, span: Span) -> Result<Ty, NcError> {
+        use BinaryOp::*;
+        let bad = || {
+            Err(self.err(
+                span,
+                format!(
+                    "{} {} {}: wrong operand types",
+                    a.name(),
+                    op_text(op),
+                    b.name()
+                ),
+            ))
+        };
+        if a == Ty::Void || b == Ty::Void {
+            return Err(self.err(span, "a void function call has no value"));
+        }
+        match op {
+            Add if a == Ty::Str || b == Ty::Str => Ok(Ty::Str),
+            Add | Sub | Mul | Div | Mod => {
+                if a == Ty::Dyn || b == Ty::Dyn {
+                    if a == Ty::Bool || b == Ty::Bool {
+                        return bad();
+                    }
+                    Ok(Ty::Dyn)
+                } else if !a.numeric() || !b.numeric() {
+                    bad()
+                } else if a == Ty::Int && b == Ty::Int {
+                    Ok(Ty::Int)
+                } else {
+                    Ok(Ty::Double)
+                }
+            }
+            Or | Xor | And => {
+                if matches!(a, Ty::Int | Ty::Dyn) && matches!(b, Ty::Int | Ty::Dyn) {
+                    Ok(Ty::Int)
+                } else {
+                    bad()
+                }
+            }
+            Eq | Ne | Gt | Ge | Lt | Le => {
+                let num = |t: Ty| matches!(t, Ty::Int | Ty::Double | Ty::Bool);
+                let ok = a == Ty::Dyn
+                    || b == Ty::Dyn
+                    || (a == Ty::Str && b == Ty::Str)
+                    || (num(a) && num(b));
+                if ok { Ok(Ty::Bool) } else { bad() }
+            }
+        }
+    }
+
+    fn expr(&mut self, e: &Expr) -> Result<(Ex, Ty), NcError> {
+        let sp = e.span;
+        Ok(match &e.kind {
+            ExprKind::Number(v) => {
+                let text = self.file.src.text.get(sp.range()).unwrap_or("");
+                let is_int = !text.contains(['.', 'e', 'E']) && v.fract() == 0.0 && v.abs() < 9e15;
+                if is_int {
+                    (Ex::Lit(Val::Int(*v as i64)), Ty::Int)
+                } else {
+                    (Ex::Lit(Val::Dbl(*v)), Ty::Double)
+                }
+            }
+            ExprKind::Str(s) => (Ex::Lit(Val::Str(Arc::from(s.as_str()))), Ty::Str),
+            ExprKind::Bool(b) => (Ex::Lit(Val::Bool(*b)), Ty::Bool),
+            ExprKind::Ident(n) => match self.lookup(n) {
+                Some(v) if v.array => {
+                    return Err(
+                        self.err(sp, format!("`{n}` is an array: use an element, `{n}[i]`"))
+                    );
+                }
+                Some(v) => (Ex::Local(v.slot), v.ty),
+                None if n == "M_PI" => (Ex::Lit(Val::Dbl(std::f64::consts::PI)), Ty::Double),
+                None => {
+                    let hint = if self.in_function {
+                        " (functions see only their parameters, their locals and $globals)"
+                    } else {
+                        ""
+                    };
+                    return Err(self.err(sp, format!("undefined name `{n}`{hint}")));
+                }
+            },
+            ExprKind::Global(n) => (Ex::Global(n.as_str().into(), None, sp), Ty::Dyn),
+            ExprKind::SysVar(n) => {
+                let u = n.to_ascii_uppercase();
+                if u == "ITPPATH" {
+                    (Ex::Sys(Sys::ItpPath, sp), Ty::Double)
+                } else if let Some(i) = (u.len() == 1)
+                    .then(|| u.chars().next().and_then(|c| self.cfg.axis_index(c)))
+                    .flatten()
+                {
+                    (Ex::Sys(Sys::Axis(i), sp), Ty::Double)
+                } else {
+                    return Err(self.err(
+                        sp,
+                        format!(
+                            "unknown system variable @{n} (known: @ITPPATH, @<axis> such as @{}, \
+                             @POS[name], @CH[n].MODE, @CH[n].STATE)",
+                            self.cfg.axes.first().map_or('X', |a| a.name)
+                        ),
+                    ));
+                }
+            }
+            ExprKind::Index(a, i) => {
+                let (ix, it) = self.expr(i)?;
+                match &a.kind {
+                    ExprKind::SysVar(n) if n.eq_ignore_ascii_case("POS") => {
+                        if !matches!(it, Ty::Str | Ty::Dyn) {
+                            return Err(self.err(i.span, "@POS[…] takes an axis name (a string)"));
+                        }
+                        (Ex::Sys(Sys::AxisByName(Box::new(ix)), sp), Ty::Double)
+                    }
+                    ExprKind::SysVar(n) if n.eq_ignore_ascii_case("CH") => {
+                        return Err(
+                            self.err(sp, "@CH[n] needs a field: @CH[n].MODE or @CH[n].STATE")
+                        );
+                    }
+                    _ => {
+                        if !matches!(it, Ty::Int | Ty::Dyn | Ty::Double) {
+                            return Err(self.err(
+                                i.span,
+                                format!("an index must be an int, not {}", it.name()),
+                            ));
+                        }
+                        match &a.kind {
+                            ExprKind::Ident(n) => {
+                                let v = self.lookup(n).ok_or_else(|| {
+                                    self.err(a.span, format!("undefined name `{n}`"))
+                                })?;
+                                if !v.array {
+                                    return Err(self.err(a.span, format!("`{n}` is not an array")));
+                                }
+                                (Ex::Elem(v.slot, Box::new(ix), sp), v.ty)
+                            }
+                            ExprKind::Global(n) => (
+                                Ex::Global(n.as_str().into(), Some(Box::new(ix)), sp),
+                                Ty::Dyn,
+                            ),
+                            _ => return Err(self.err(sp, "only arrays can be indexed")),
+                        }
+                    }
+                }
+            }
+            ExprKind::Field(base, field) => {
+                let ExprKind::Index(ch, n) = &base.kind else {
+                    return Err(self.err(sp, format!("unknown field .{field}")));
+                };
+                if !matches!(&ch.kind, ExprKind::SysVar(c) if c.eq_ignore_ascii_case("CH")) {
+                    return Err(self.err(sp, format!("unknown field .{field}")));
+                }
+                let (nx, nt) = self.expr(n)?;
+                if !nt.numeric() {
+                    return Err(self.err(n.span, "a channel number is an int"));
+                }
+                let f = field.to_ascii_uppercase();
+                let sys = match f.as_str() {
+                    "MODE" => Sys::ChMode(Box::new(nx)),
+                    "STATE" => Sys::ChState(Box::new(nx)),
+                    _ => {
+                        return Err(self.err(
+                            sp,
+                            format!("unknown channel field .{field} (known: .MODE, .STATE)"),
+                        ));
+                    }
+                };
+                (Ex::Sys(sys, sp), Ty::Int)
+            }
+            ExprKind::Unary(op, x) => {
+                let (v, t) = self.expr(x)?;
+                if !t.numeric() {
+                    return Err(
+                        self.err(sp, format!("a sign applies to numbers, not {}", t.name()))
+                    );
+                }
+                match op {
+                    UnaryOp::Plus => (v, t),
+                    UnaryOp::Neg => (Ex::Neg(Box::new(v), sp), t),
+                }
+            }
+            ExprKind::Binary(op, a, b) => {
+                let (x, xt) = self.expr(a)?;
+                let (y, yt) = self.expr(b)?;
+                let t = self.bin_type(*op, xt, yt, sp)?;
+                (Ex::Bin(*op, Box::new(x), Box::new(y), sp), t)
+            }
+            ExprKind::Logical(op, a, b) => {
+                let x = self.cond(a)?;
+                let y = self.cond(b)?;
+                match op {
+                    LogicalOp::And => (Ex::And(Box::new(x), Box::new(y)), Ty::Bool),
+                    LogicalOp::Or => (Ex::Or(Box::new(x), Box::new(y)), Ty::Bool),
+                }
+            }
+            ExprKind::Not(x) => (Ex::Not(Box::new(self.cond(x)?), sp), Ty::Bool),
+            ExprKind::CallNamed(name, args) => self.call(name, args, sp)?,
+            ExprKind::Var(_) | ExprKind::IndirectVar(_) => {
+                return Err(self.err(
+                    sp,
+                    "macro variables (#n) are not available in C-like programs: use a variable",
+                ));
+            }
+            ExprKind::Call(..) => {
+                return Err(self.err(
+                    sp,
+                    "Fanuc functions (SIN[…]) are not available in C-like programs: use sin(…)",
+                ));
+            }
+        })
+    }
+
+    fn call(&mut self, name: &str, args: &[Expr], sp: Span) -> Result<(Ex, Ty), NcError> {
+        let mut xs = Vec::with_capacity(args.len());
+        let mut ts = Vec::with_capacity(args.len());
+        for a in args {
+            let (x, t) = self.expr(a)?;
+            if t == Ty::Void {
+                return Err(self.err(a.span, "a void function call has no value"));
+            }
+            xs.push(x);
+            ts.push(t);
+        }
+        if let Some(&k) = self.sigs.get(name) {
+            let (ret, params) = &self.sig_list[k];
+            if params.len() != args.len() {
+                return Err(self.err(
+                    sp,
+                    format!(
+                        "`{name}` takes {} argument(s), not {}",
+                        params.len(),
+                        args.len()
+                    ),
+                ));
+            }
+            for (i, (p, t)) in params.iter().zip(&ts).enumerate() {
+                self.assignable(
+                    *p,
+                    *t,
+                    args[i].span,
+                    &format!("parameter {} of `{name}`", i + 1),
+                )?;
+            }
+            return Ok((Ex::Call(k, xs, sp), *ret));
+        }
+        if CHANNEL_FUNCS.contains(&name) {
+            return Err(self.err(
+                sp,
+                format!("{name}: not supported yet: multi-channel operation"),
+            ));
+        }
+        let Some(b) = Builtin::by_name(name) else {
+            return Err(self.err(sp, format!("undefined function `{name}`")));
+        };
+        use Builtin::*;
+        let (want, ret): (&[Ty], Ty) = match b {
+            Terminate => (&[Ty::Int, Ty::Str], Ty::Void),
+            Msg => (&[Ty::Str], Ty::Void),
+            Sleep => (&[Ty::Double], Ty::Void),
+            Fabs | Sqrt | Sin | Cos | Tan | Floor | Ceil | Round => (&[Ty::Double], Ty::Double),
+            Atan2 | Pow => (&[Ty::Double, Ty::Double], Ty::Double),
+            Min | Max => {
+                let r = if ts.iter().all(|t| *t == Ty::Int) {
+                    Ty::Int
+                } else {
+                    Ty::Double
+                };
+                (&[Ty::Double, Ty::Double], r)
+            }
+        };
+        if want.len() != args.len() {
+            return Err(self.err(
+                sp,
+                format!(
+                    "`{name}` takes {} argument(s), not {}",
+                    want.len(),
+                    args.len()
+                ),
+            ));
+        }
+        for (i, (w, t)) in want.iter().zip(&ts).enumerate() {
+            let ok = match (b, w) {
+                (Msg, _) => true, // MSG shows any value
+                (_, Ty::Str) => matches!(t, Ty::Str | Ty::Dyn),
+                _ => t.numeric(),
+            };
+            if !ok {
+                return Err(self.err(
+                    args[i].span,
+                    format!(
+                        "argument {} of `{name}` must be {}, not {}",
+                        i + 1,
+                        if *w == Ty::Str {
+                            "a string"
+                        } else {
+                            "a number"
+                        },
+                        t.name()
+                    ),
+                ));
+            }
+        }
+        Ok((Ex::Builtin(b, xs, sp), ret))
+    }
+
+    /// A G-code line: its word values checked, to be computed when the line runs.
+    fn gcode(&mut self, line: &Line) -> Result<St, NcError> {
+        let LineKind::Block(b) = &line.kind else {
+            return Err(self.err(line.span, "not a G-code block"));
+        };
+        let mut words = Vec::with_capacity(b.words.len());
+        for w in &b.words {
+            let v = match &w.value {
+                Value::Number(n) => WordVal::Num(*n),
+                Value::Expr(e) => {
+                    let (x, t) = self.expr(e)?;
+                    if !t.numeric() {
+                        return Err(self.err(
+                            e.span,
+                            format!("address {} needs a number, not {}", w.letter, t.name()),
+                        ));
+                    }
+                    WordVal::Ex(x)
+                }
+            };
+            words.push((w.letter, v, w.span));
+        }
+        let mut named = Vec::with_capacity(b.named_axes.len());
+        for n in &b.named_axes {
+            let (ax, at) = self.expr(&n.axis)?;
+            if !matches!(at, Ty::Str | Ty::Dyn) {
+                return Err(self.err(
+                    n.axis.span,
+                    format!("AXSTR takes an axis name (a string), not {}", at.name()),
+                ));
+            }
+            if let Ex::Lit(Val::Str(s)) = &ax {
+                axis_of(self.cfg, s).map_err(|m| self.err(n.axis.span, m))?;
+            }
+            let (v, vt) = self.expr(&n.value)?;
+            if !vt.numeric() {
+                return Err(self.err(
+                    n.value.span,
+                    format!("an axis value is a number, not {}", vt.name()),
+                ));
+            }
+            named.push((ax, v, n.span));
+        }
+        let _ = self.fid;
+        Ok(St::Gcode(Box::new(GLine {
+            line: Line {
+                kind: LineKind::Empty,
+                ..line.clone()
+            },
+            words,
+            named,
+        })))
+    }
+}
+
+/// The configured axis `name` names (one letter, any case).
+pub(crate) fn axis_of(cfg: &MachineConfig, name: &str) -> Result<char, String> {
+    let t = name.trim();
+    let mut cs = t.chars();
+    if let (Some(c), None) = (cs.next(), cs.next()) {
+        let c = c.to_ascii_uppercase();
+        if cfg.axis_index(c).is_some() {
+            return Ok(c);
+        }
+    }
+    let axes: Vec<String> = cfg.axes.iter().map(|a| a.name.to_string()).collect();
+    Err(format!(
+        "unknown axis name \"{name}\" (this machine has {})",
+        axes.join(" ")
+    ))
+}
+
+pub(crate) fn op_text(op: BinaryOp) -> &'static str {
+    use BinaryOp::*;
+    match op {
+        Add => "+",
+        Sub => "-",
+        Mul => "*",
+        Div => "/",
+        Mod => "%",
+        Or => "|",
+        Xor => "^",
+        And => "&",
+        Eq => "==",
+        Ne => "!=",
+        Gt => ">",
+        Ge => ">=",
+        Lt => "<",
+        Le => "<=",
+    }
+}

@@ -1,0 +1,806 @@
+//! The executor of a checked C-like program. It runs on its own thread and hands G-code
+//! blocks, messages and dwells to the interpreter through a channel; a motion-dependent
+//! system variable is a request answered only after every earlier segment was handed out.
+
+use std::collections::{BTreeMap, HashMap};
+use std::sync::mpsc::{Receiver, SyncSender};
+use std::sync::{Arc, Mutex};
+
+use cnc402_config::MachineConfig;
+use cnc402_lang::NcError;
+use cnc402_lang::ast::{AssignOp, BinaryOp, Block, LineKind, Number, Span, Value, Word};
+
+use super::compile::{axis_of, op_text};
+use super::ir::*;
+use super::{Read, Req};
+
+/// Deepest chain of user-function calls before the program is stopped.
+pub const MAX_CALL_DEPTH: u32 = 200;
+/// Largest local array.
+pub const MAX_ARRAY_LEN: i64 = 1_000_000;
+
+/// A `$` global: a scalar or a sparse array (`$dPerm[1]`).
+#[derive(Clone, Debug)]
+pub(crate) enum Global {
+    Scalar(Val),
+    Array(BTreeMap<i64, Val>),
+}
+
+/// The `$` globals of a run, shared by every program the interpreter runs.
+pub(crate) type Globals = Arc<Mutex<HashMap<String, Global>>>;
+
+/// Why execution stopped early.
+pub(crate) enum Stop {
+    Err(Box<NcError>),
+    /// The interpreter is gone (end of program, error there, or dropped).
+    Hangup,
+}
+
+type R<T> = Result<T, Stop>;
+
+enum Flow {
+    Next,
+    Break,
+    Continue,
+    Return(Option<Val>),
+}
+
+struct Frame {
+    file: FileId,
+    locals: Vec<Val>,
+}
+
+pub(crate) struct Executor {
+    pub prog: Arc<Prog>,
+    pub cfg: MachineConfig,
+    pub globals: Globals,
+    pub tx: SyncSender<Req>,
+    pub rx: Receiver<Result<f64, String>>,
+    ran: Vec<bool>,
+    depth: u32,
+    steps: u64,
+    limit: u64,
+}
+
+impl Executor {
+    pub(crate) fn new(
+        prog: Arc<Prog>,
+        cfg: MachineConfig,
+        globals: Globals,
+        tx: SyncSender<Req>,
+        rx: Receiver<Result<f64, String>>,
+    ) -> Self {
+        let n = prog.files.len();
+        let limit = cfg.interp.block_limit.max(1);
+        Executor {
+            prog,
+            cfg,
+            globals,
+            tx,
+            rx,
+            ran: vec![false; n],
+            depth: 0,
+            steps: 0,
+            limit,
+        }
+    }
+
+    /// Runs the main program to its end and tells the interpreter how it ended.
+    pub(crate) fn run(mut self) {
+        let r = self.run_file(0);
+        let last = match r {
+            Ok(()) => Req::End,
+            Err(Stop::Err(e)) => Req::Error(e),
+            Err(Stop::Hangup) => return,
+        };
+        let _ = self.tx.send(last);
+    }
+
+    fn run_file(&mut self, file: FileId) -> R<()> {
+        if self.ran[file] {
+            return Ok(());
+        }
+        self.ran[file] = true;
+        let prog = self.prog.clone();
+        let f = &prog.funcs[prog.bodies[file]];
+        let mut frame = Frame {
+            file,
+            locals: vec![Val::Int(0); f.slots as usize],
+        };
+        self.block(&mut frame, &f.body).map(|_| ())
+    }
+
+    fn err(&self, f: &Frame, span: Span, m: impl Into<String>) -> Stop {
+        Stop::Err(Box::new(NcError::new(&self.prog.files[f.file], span, m)))
+    }
+
+    fn send(&self, r: Req) -> R<()> {
+        self.tx.send(r).map_err(|_| Stop::Hangup)
+    }
+
+    fn read(&self, f: &Frame, what: Read, span: Span) -> R<f64> {
+        self.send(Req::Read(what))?;
+        match self.rx.recv() {
+            Ok(Ok(v)) => Ok(v),
+            Ok(Err(m)) => Err(self.err(f, span, m)),
+            Err(_) => Err(Stop::Hangup),
+        }
+    }
+
+    fn block(&mut self, f: &mut Frame, body: &[St]) -> R<Flow> {
+        for s in body {
+            match self.stmt(f, s)? {
+                Flow::Next => {}
+                other => return Ok(other),
+            }
+        }
+        Ok(Flow::Next)
+    }
+
+    fn tick(&mut self, f: &Frame, span: Span) -> R<()> {
+        self.steps += 1;
+        if self.steps > self.limit {
+            return Err(self.err(
+                f,
+                span,
+                format!(
+                    "runaway: {} statements without motion, a message or a dwell (config \
+                     interp.block_limit)",
+                    self.limit
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn stmt(&mut self, f: &mut Frame, s: &St) -> R<Flow> {
+        match s {
+            St::Decl {
+                slot,
+                ty,
+                size,
+                init,
+                span,
+            } => {
+                self.tick(f, *span)?;
+                let v = match (size, init) {
+                    (Some(n), _) => {
+                        let n = self.ev(f, n)?;
+                        let n = self.int(f, &n, *span, "an array size")?;
+                        if !(0..=MAX_ARRAY_LEN).contains(&n) {
+                            return Err(self.err(
+                                f,
+                                *span,
+                                format!("array size {n} is out of range 0..{MAX_ARRAY_LEN}"),
+                            ));
+                        }
+                        Val::Arr(Box::new(vec![Val::zero(*ty); n as usize]))
+                    }
+                    (None, Some(e)) => {
+                        let v = self.ev(f, e)?;
+                        self.coerce(f, *ty, v, *span)?
+                    }
+                    (None, None) => Val::zero(*ty),
+                };
+                f.locals[*slot as usize] = v;
+            }
+            St::Set {
+                target,
+                op,
+                value,
+                span,
+            } => {
+                self.tick(f, *span)?;
+                let v = self.ev(f, value)?;
+                self.assign(f, target, *op, v, *span)?;
+            }
+            St::Eval(e) => {
+                self.steps += 1;
+                self.ev(f, e)?;
+            }
+            St::If(c, t, o) => {
+                self.steps += 1;
+                let b = if self.truth(f, c)? { t } else { o };
+                return self.block(f, b);
+            }
+            St::While(c, body) => loop {
+                self.steps += 1;
+                if self.steps > self.limit {
+                    self.tick(f, Span::default())?;
+                }
+                if !self.truth(f, c)? {
+                    break;
+                }
+                match self.block(f, body)? {
+                    Flow::Break => break,
+                    r @ Flow::Return(_) => return Ok(r),
+                    Flow::Next | Flow::Continue => {}
+                }
+            },
+            St::For(init, c, step, body) => {
+                if let r @ Flow::Return(_) = self.block(f, init)? {
+                    return Ok(r);
+                }
+                loop {
+                    self.steps += 1;
+                    if let Some(c) = c
+                        && !self.truth(f, c)?
+                    {
+                        break;
+                    }
+                    match self.block(f, body)? {
+                        Flow::Break => break,
+                        r @ Flow::Return(_) => return Ok(r),
+                        Flow::Next | Flow::Continue => {}
+                    }
+                    self.block(f, step)?;
+                }
+            }
+            St::Break => return Ok(Flow::Break),
+            St::Continue => return Ok(Flow::Continue),
+            St::Return(e) => {
+                let v = match e {
+                    Some(e) => Some(self.ev(f, e)?),
+                    None => None,
+                };
+                return Ok(Flow::Return(v));
+            }
+            St::Gcode(g) => self.gcode(f, g)?,
+            St::Use(file) => self.run_file(*file)?,
+        }
+        if self.steps > self.limit {
+            self.tick(f, Span::default())?;
+        }
+        Ok(Flow::Next)
+    }
+
+    fn gcode(&mut self, f: &mut Frame, g: &GLine) -> R<()> {
+        let mut words = Vec::with_capacity(g.words.len() + g.named.len());
+        for (letter, v, span) in &g.words {
+            let n = match v {
+                WordVal::Num(n) => *n,
+                WordVal::Ex(x) => {
+                    let v = self.ev(f, x)?;
+                    Number {
+                        value: self.num(f, &v, *span, &format!("address {letter}"))?,
+                        has_point: true,
+                        span: *span,
+                    }
+                }
+            };
+            words.push(Word {
+                letter: *letter,
+                value: Value::Number(n),
+                span: *span,
+            });
+        }
+        for (ax, v, span) in &g.named {
+            let name = self.ev(f, ax)?;
+            let Val::Str(name) = name else {
+                return Err(self.err(f, *span, "AXSTR takes an axis name (a string)"));
+            };
+            let letter = axis_of(&self.cfg, &name).map_err(|m| self.err(f, *span, m))?;
+            let v = self.ev(f, v)?;
+            let value = self.num(f, &v, *span, &format!("axis {letter}"))?;
+            words.push(Word {
+                letter,
+                value: Value::Number(Number {
+                    value,
+                    has_point: true,
+                    span: *span,
+                }),
+                span: *span,
+            });
+        }
+        let mut line = g.line.clone();
+        line.kind = LineKind::Block(Block {
+            words,
+            named_axes: Vec::new(),
+        });
+        self.steps = 0;
+        self.send(Req::Block {
+            file: f.file,
+            line: Box::new(line),
+        })
+    }
+
+    fn assign(&mut self, f: &mut Frame, t: &Target, op: AssignOp, v: Val, span: Span) -> R<()> {
+        let combine = |me: &Self, f: &Frame, cur: Val, v: Val| -> R<Val> {
+            let bop = match op {
+                AssignOp::Set => return Ok(v),
+                AssignOp::Add => BinaryOp::Add,
+                AssignOp::Sub => BinaryOp::Sub,
+                AssignOp::Mul => BinaryOp::Mul,
+                AssignOp::Div => BinaryOp::Div,
+                AssignOp::Mod => BinaryOp::Mod,
+            };
+            bin(bop, cur, v).map_err(|m| me.err(f, span, m))
+        };
+        match t {
+            Target::Local(slot, ty) => {
+                let cur = std::mem::replace(&mut f.locals[*slot as usize], Val::Int(0));
+                let nv =
+                    combine(self, f, cur.clone(), v).and_then(|n| self.coerce(f, *ty, n, span));
+                match nv {
+                    Ok(n) => f.locals[*slot as usize] = n,
+                    Err(e) => {
+                        f.locals[*slot as usize] = cur;
+                        return Err(e);
+                    }
+                }
+            }
+            Target::Elem(slot, ty, ix) => {
+                let i = self.ev(f, ix)?;
+                let i = self.int(f, &i, span, "an index")?;
+                let cur = self.elem(f, *slot, i, span)?;
+                let nv = combine(self, f, cur, v)?;
+                let nv = self.coerce(f, *ty, nv, span)?;
+                if let Val::Arr(a) = &mut f.locals[*slot as usize] {
+                    a[i as usize] = nv;
+                }
+            }
+            Target::Global(name) => {
+                let nv = if op == AssignOp::Set {
+                    v
+                } else {
+                    let cur = self.global(f, name, None, span)?;
+                    combine(self, f, cur, v)?
+                };
+                let mut g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
+                if let Some(Global::Array(_)) = g.get(&**name) {
+                    drop(g);
+                    return Err(self.err(
+                        f,
+                        span,
+                        format!("${name} is an array: assign an element"),
+                    ));
+                }
+                g.insert(name.to_string(), Global::Scalar(nv));
+            }
+            Target::GlobalElem(name, ix) => {
+                let i = self.ev(f, ix)?;
+                let i = self.int(f, &i, span, "an index")?;
+                if i < 0 {
+                    return Err(self.err(f, span, format!("index {i} of ${name} is negative")));
+                }
+                let nv = if op == AssignOp::Set {
+                    v
+                } else {
+                    let cur = self.global(f, name, Some(i), span)?;
+                    combine(self, f, cur, v)?
+                };
+                let mut g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
+                let entry = g
+                    .entry(name.to_string())
+                    .or_insert_with(|| Global::Array(BTreeMap::new()));
+                match entry {
+                    Global::Array(a) => {
+                        a.insert(i, nv);
+                    }
+                    Global::Scalar(_) => {
+                        drop(g);
+                        return Err(self.err(f, span, format!("${name} is not an array")));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn elem(&self, f: &Frame, slot: u32, i: i64, span: Span) -> R<Val> {
+        match &f.locals[slot as usize] {
+            Val::Arr(a) => match usize::try_from(i).ok().and_then(|i| a.get(i)) {
+                Some(v) => Ok(v.clone()),
+                None => Err(self.err(
+                    f,
+                    span,
+                    format!(
+                        "index {i} is out of range (the array has {} elements)",
+                        a.len()
+                    ),
+                )),
+            },
+            _ => Err(self.err(f, span, "not an array")),
+        }
+    }
+
+    fn global(&self, f: &Frame, name: &str, i: Option<i64>, span: Span) -> R<Val> {
+        let g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
+        let v = match (g.get(name), i) {
+            (Some(Global::Scalar(v)), None) => Some(v.clone()),
+            (Some(Global::Array(a)), Some(i)) => a.get(&i).cloned(),
+            (Some(Global::Array(_)), None) => {
+                drop(g);
+                return Err(self.err(f, span, format!("${name} is an array: use an element")));
+            }
+            (Some(Global::Scalar(_)), Some(_)) => {
+                drop(g);
+                return Err(self.err(f, span, format!("${name} is not an array")));
+            }
+            (None, _) => None,
+        };
+        drop(g);
+        v.ok_or_else(|| {
+            let what = match i {
+                Some(i) => format!("${name}[{i}]"),
+                None => format!("${name}"),
+            };
+            self.err(f, span, format!("{what} has no value (never assigned)"))
+        })
+    }
+
+    fn coerce(&self, f: &Frame, ty: Ty, v: Val, span: Span) -> R<Val> {
+        Ok(match (ty, v) {
+            (Ty::Dyn, v) => v,
+            (Ty::Int, Val::Int(i)) => Val::Int(i),
+            (Ty::Int, Val::Dbl(d)) => {
+                if !d.is_finite() || d.abs() >= 9.2e18 {
+                    return Err(self.err(f, span, format!("{d} does not fit in an int")));
+                }
+                Val::Int(d.trunc() as i64)
+            }
+            (Ty::Double, Val::Int(i)) => Val::Dbl(i as f64),
+            (Ty::Double, Val::Dbl(d)) => Val::Dbl(d),
+            (Ty::Str, v @ Val::Str(_)) => v,
+            (Ty::Bool, v @ Val::Bool(_)) => v,
+            (t, v) => {
+                return Err(self.err(
+                    f,
+                    span,
+                    format!("cannot assign {} to {}", v.ty().name(), t.name()),
+                ));
+            }
+        })
+    }
+
+    fn int(&self, f: &Frame, v: &Val, span: Span, what: &str) -> R<i64> {
+        match v {
+            Val::Int(i) => Ok(*i),
+            Val::Dbl(d) if d.fract() == 0.0 && d.abs() < 9e15 => Ok(*d as i64),
+            v => Err(self.err(
+                f,
+                span,
+                format!("{what} must be a whole number, not {}", v.text()),
+            )),
+        }
+    }
+
+    fn num(&self, f: &Frame, v: &Val, span: Span, what: &str) -> R<f64> {
+        match v {
+            Val::Int(i) => Ok(*i as f64),
+            Val::Dbl(d) => Ok(*d),
+            v => Err(self.err(
+                f,
+                span,
+                format!("{what} needs a number, not {}", v.ty().name()),
+            )),
+        }
+    }
+
+    fn truth(&mut self, f: &mut Frame, c: &Ex) -> R<bool> {
+        match self.ev(f, c)? {
+            Val::Bool(b) => Ok(b),
+            Val::Int(i) => Ok(i != 0),
+            Val::Dbl(d) => Ok(d != 0.0),
+            v => Err(self.err(
+                f,
+                span_of(c),
+                format!("a condition cannot be {}", v.ty().name()),
+            )),
+        }
+    }
+
+    fn ev(&mut self, f: &mut Frame, e: &Ex) -> R<Val> {
+        Ok(match e {
+            Ex::Lit(v) => v.clone(),
+            Ex::Local(s) => f.locals[*s as usize].clone(),
+            Ex::Elem(s, ix, span) => {
+                let i = self.ev(f, ix)?;
+                let i = self.int(f, &i, *span, "an index")?;
+                self.elem(f, *s, i, *span)?
+            }
+            Ex::Global(n, ix, span) => {
+                let i = match ix {
+                    Some(ix) => {
+                        let i = self.ev(f, ix)?;
+                        Some(self.int(f, &i, *span, "an index")?)
+                    }
+                    None => None,
+                };
+                self.global(f, n, i, *span)?
+            }
+            Ex::Sys(s, span) => self.sys(f, s, *span)?,
+            Ex::Neg(x, span) => match self.ev(f, x)? {
+                Val::Int(i) => Val::Int(
+                    i.checked_neg()
+                        .ok_or_else(|| self.err(f, *span, "integer overflow"))?,
+                ),
+                Val::Dbl(d) => Val::Dbl(-d),
+                v => {
+                    return Err(self.err(
+                        f,
+                        *span,
+                        format!("a sign applies to numbers, not {}", v.ty().name()),
+                    ));
+                }
+            },
+            Ex::Bin(op, a, b, span) => {
+                let x = self.ev(f, a)?;
+                let y = self.ev(f, b)?;
+                bin(*op, x, y).map_err(|m| self.err(f, *span, m))?
+            }
+            Ex::And(a, b) => Val::Bool(self.truth(f, a)? && self.truth(f, b)?),
+            Ex::Or(a, b) => Val::Bool(self.truth(f, a)? || self.truth(f, b)?),
+            Ex::Not(x, _) => Val::Bool(!self.truth(f, x)?),
+            Ex::Call(k, args, span) => self.call(f, *k, args, *span)?,
+            Ex::Builtin(b, args, span) => self.builtin(f, *b, args, *span)?,
+        })
+    }
+
+    fn call(&mut self, f: &mut Frame, k: usize, args: &[Ex], span: Span) -> R<Val> {
+        let prog = self.prog.clone();
+        let func = &prog.funcs[k];
+        if self.depth >= MAX_CALL_DEPTH {
+            return Err(self.err(
+                f,
+                span,
+                format!(
+                    "recursion too deep: more than {MAX_CALL_DEPTH} nested calls (in `{}`)",
+                    func.name
+                ),
+            ));
+        }
+        let mut locals = vec![Val::Int(0); func.slots as usize];
+        for (i, (a, ty)) in args.iter().zip(&func.params).enumerate() {
+            let v = self.ev(f, a)?;
+            locals[i] = self.coerce(f, *ty, v, span_of(a))?;
+        }
+        let mut frame = Frame {
+            file: func.file,
+            locals,
+        };
+        self.depth += 1;
+        let r = self.block(&mut frame, &func.body);
+        self.depth -= 1;
+        match r? {
+            Flow::Return(Some(v)) => self.coerce(&frame, func.ret, v, func.span),
+            _ if func.ret != Ty::Void => Err(self.err(
+                f,
+                span,
+                format!(
+                    "function `{}` ended without returning a {}",
+                    func.name,
+                    func.ret.name()
+                ),
+            )),
+            _ => Ok(Val::Int(0)),
+        }
+    }
+
+    fn sys(&mut self, f: &mut Frame, s: &Sys, span: Span) -> R<Val> {
+        Ok(match s {
+            Sys::ItpPath => Val::Dbl(self.read(f, Read::ItpPath, span)?),
+            Sys::Axis(i) => Val::Dbl(self.read(f, Read::Axis(*i), span)?),
+            Sys::AxisByName(x) => {
+                let Val::Str(n) = self.ev(f, x)? else {
+                    return Err(self.err(f, span, "@POS[…] takes an axis name (a string)"));
+                };
+                let c = axis_of(&self.cfg, &n).map_err(|m| self.err(f, span, m))?;
+                let i = self.cfg.axis_index(c).unwrap_or(0);
+                Val::Dbl(self.read(f, Read::Axis(i), span)?)
+            }
+            Sys::ChMode(n) | Sys::ChState(n) => {
+                let v = self.ev(f, n)?;
+                let ch = self.int(f, &v, span, "a channel number")?;
+                if ch != 0 {
+                    return Err(self.err(
+                        f,
+                        span,
+                        format!(
+                            "@CH[{ch}]: not supported yet: multi-channel operation (channel 0 is \
+                             the one running this program)"
+                        ),
+                    ));
+                }
+                // The running channel: in Auto (1) and ready (2), the source's values.
+                Val::Int(if matches!(s, Sys::ChMode(_)) { 1 } else { 2 })
+            }
+        })
+    }
+
+    fn builtin(&mut self, f: &mut Frame, b: Builtin, args: &[Ex], span: Span) -> R<Val> {
+        let mut vs = Vec::with_capacity(args.len());
+        for a in args {
+            vs.push(self.ev(f, a)?);
+        }
+        let n = |me: &Self, i: usize| me.num(f, &vs[i], span_of(&args[i]), "this argument");
+        let real = |me: &Self, x: f64| -> R<Val> {
+            if x.is_finite() {
+                Ok(Val::Dbl(x))
+            } else {
+                Err(me.err(f, span, "the result is not a finite number"))
+            }
+        };
+        use Builtin::*;
+        match b {
+            Terminate => {
+                let code = self.int(f, &vs[0], span_of(&args[0]), "an error code")?;
+                let text = vs[1].text();
+                Err(self.err(f, span, format!("terminate {code}: {text}")))
+            }
+            Msg => {
+                self.steps = 0;
+                self.send(Req::Seg {
+                    file: f.file,
+                    span,
+                    kind: cnc402_motion::segment::SegmentKind::Message { text: vs[0].text() },
+                })?;
+                Ok(Val::Int(0))
+            }
+            Sleep => {
+                let ms = n(self, 0)?;
+                if !(0.0..=86_400_000.0).contains(&ms) {
+                    return Err(self.err(
+                        f,
+                        span,
+                        format!("sleep({ms}): the time must be 0..86400000 ms"),
+                    ));
+                }
+                self.steps = 0;
+                self.send(Req::Seg {
+                    file: f.file,
+                    span,
+                    kind: cnc402_motion::segment::SegmentKind::Dwell {
+                        seconds: ms / 1000.0,
+                    },
+                })?;
+                Ok(Val::Int(0))
+            }
+            Fabs => real(self, n(self, 0)?.abs()),
+            Sqrt => {
+                let x = n(self, 0)?;
+                if x < 0.0 {
+                    return Err(self.err(f, span, format!("sqrt of a negative number ({x})")));
+                }
+                real(self, x.sqrt())
+            }
+            Sin => real(self, n(self, 0)?.sin()),
+            Cos => real(self, n(self, 0)?.cos()),
+            Tan => real(self, n(self, 0)?.tan()),
+            Atan2 => real(self, n(self, 0)?.atan2(n(self, 1)?)),
+            Floor => real(self, n(self, 0)?.floor()),
+            Ceil => real(self, n(self, 0)?.ceil()),
+            Round => real(self, n(self, 0)?.round()),
+            Pow => real(self, n(self, 0)?.powf(n(self, 1)?)),
+            Min | Max => {
+                let is_min = b == Min;
+                match (&vs[0], &vs[1]) {
+                    (Val::Int(x), Val::Int(y)) => {
+                        Ok(Val::Int(if is_min { *x.min(y) } else { *x.max(y) }))
+                    }
+                    _ => {
+                        let (x, y) = (n(self, 0)?, n(self, 1)?);
+                        real(self, if is_min { x.min(y) } else { x.max(y) })
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The span of an expression, for errors about its value.
+fn span_of(e: &Ex) -> Span {
+    match e {
+        Ex::Elem(_, _, s)
+        | Ex::Global(_, _, s)
+        | Ex::Sys(_, s)
+        | Ex::Neg(_, s)
+        | Ex::Bin(_, _, _, s)
+        | Ex::Not(_, s)
+        | Ex::Call(_, _, s)
+        | Ex::Builtin(_, _, s) => *s,
+        Ex::And(a, b) | Ex::Or(a, b) => span_of(a).join(span_of(b)),
+        Ex::Lit(_) | Ex::Local(_) => Span::default(),
+    }
+}
+
+/// `a op b` on run-time values, with C's promotions; the message on a type or value error.
+pub(crate) fn bin(op: BinaryOp, a: Val, b: Val) -> Result<Val, String> {
+    use BinaryOp::*;
+    let bad = |a: &Val, b: &Val| {
+        format!(
+            "{} {} {}: wrong operand types",
+            a.ty().name(),
+            op_text(op),
+            b.ty().name()
+        )
+    };
+    let fin = |x: f64| {
+        if x.is_finite() {
+            Ok(Val::Dbl(x))
+        } else {
+            Err("the result is not a finite number".to_string())
+        }
+    };
+    match op {
+        Add if matches!(a, Val::Str(_)) || matches!(b, Val::Str(_)) => {
+            if matches!(a, Val::Arr(_)) || matches!(b, Val::Arr(_)) {
+                return Err(bad(&a, &b));
+            }
+            let mut s = a.text();
+            s.push_str(&b.text());
+            Ok(Val::Str(Arc::from(s)))
+        }
+        Add | Sub | Mul | Div | Mod => match (&a, &b) {
+            (Val::Int(x), Val::Int(y)) => {
+                let (x, y) = (*x, *y);
+                if matches!(op, Div | Mod) && y == 0 {
+                    return Err("division by zero".into());
+                }
+                let r = match op {
+                    Add => x.checked_add(y),
+                    Sub => x.checked_sub(y),
+                    Mul => x.checked_mul(y),
+                    Div => x.checked_div(y),
+                    _ => x.checked_rem(y),
+                };
+                r.map(Val::Int)
+                    .ok_or_else(|| "integer overflow".to_string())
+            }
+            (Val::Int(_) | Val::Dbl(_), Val::Int(_) | Val::Dbl(_)) => {
+                let x = as_f64(&a);
+                let y = as_f64(&b);
+                if matches!(op, Div | Mod) && y == 0.0 {
+                    return Err("division by zero".into());
+                }
+                fin(match op {
+                    Add => x + y,
+                    Sub => x - y,
+                    Mul => x * y,
+                    Div => x / y,
+                    _ => x % y,
+                })
+            }
+            _ => Err(bad(&a, &b)),
+        },
+        Or | Xor | And => match (&a, &b) {
+            (Val::Int(x), Val::Int(y)) => Ok(Val::Int(match op {
+                Or => x | y,
+                Xor => x ^ y,
+                _ => x & y,
+            })),
+            _ => Err(bad(&a, &b)),
+        },
+        Eq | Ne | Gt | Ge | Lt | Le => {
+            let ord = match (&a, &b) {
+                (Val::Str(x), Val::Str(y)) => x.cmp(y),
+                (Val::Int(x), Val::Int(y)) => x.cmp(y),
+                (
+                    Val::Int(_) | Val::Dbl(_) | Val::Bool(_),
+                    Val::Int(_) | Val::Dbl(_) | Val::Bool(_),
+                ) => as_f64(&a)
+                    .partial_cmp(&as_f64(&b))
+                    .unwrap_or(std::cmp::Ordering::Less),
+                _ => return Err(bad(&a, &b)),
+            };
+            use std::cmp::Ordering::*;
+            Ok(Val::Bool(match op {
+                Eq => ord == Equal,
+                Ne => ord != Equal,
+                Gt => ord == Greater,
+                Ge => ord != Less,
+                Lt => ord == Less,
+                _ => ord != Greater,
+            }))
+        }
+    }
+}
+
+fn as_f64(v: &Val) -> f64 {
+    match v {
+        Val::Int(i) => *i as f64,
+        Val::Dbl(d) => *d,
+        Val::Bool(b) => f64::from(u8::from(*b)),
+        _ => f64::NAN,
+    }
+}

@@ -1,0 +1,324 @@
+//! The C-like high-level language of source 000 (AxiOMA Control): a program with statement
+//! lines is checked whole at `load` ([`compile`]), then run by an executor thread ([`exec`])
+//! that hands its G-code blocks to the G-code core here, one request at a time, so that
+//! segments stay pull-based and `@ITPPATH`/axis reads wait for the motion before them.
+//! The language is documented in `docs/language.md`.
+
+mod compile;
+mod exec;
+mod ir;
+
+use std::collections::{HashMap, VecDeque};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::sync::{Arc, Mutex};
+
+use cnc402_config::MachineConfig;
+use cnc402_lang::ast::{Line, LineKind, Program, Span};
+use cnc402_lang::{NcError, SourceFile};
+use cnc402_motion::segment::{Segment, SegmentKind, Source};
+
+use crate::interp::{Exec, Interpreter};
+use crate::words::{GGroup, Words};
+
+pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
+
+/// How many requests the executor may run ahead of the segments handed out.
+const AHEAD: usize = 64;
+
+/// A motion-dependent system variable read (answered after the queue is drained).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Read {
+    ItpPath,
+    Axis(usize),
+}
+
+/// What the executor thread asks of the interpreter.
+pub(crate) enum Req {
+    /// A G-code block with every value computed, for the G-code core.
+    Block {
+        file: ir::FileId,
+        line: Box<Line>,
+    },
+    /// A segment made by a built-in (`MSG` → Message, `sleep` → Dwell).
+    Seg {
+        file: ir::FileId,
+        span: Span,
+        kind: SegmentKind,
+    },
+    Read(Read),
+    Error(Box<NcError>),
+    End,
+}
+
+struct Running {
+    prog: Arc<ir::Prog>,
+    chan: Option<(Receiver<Req>, SyncSender<Result<f64, String>>)>,
+    queue: VecDeque<Segment>,
+    error: Option<NcError>,
+    done: bool,
+}
+
+/// The C-like language's part of an [`Interpreter`]: the `$` globals (kept across the
+/// programs of one interpreter) and the program running now, if it is C-like.
+#[derive(Default)]
+pub(crate) struct Hll {
+    globals: exec::Globals,
+    run: Option<Running>,
+}
+
+impl std::fmt::Debug for Hll {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Hll")
+            .field("active", &self.run.is_some())
+            .finish()
+    }
+}
+
+/// Whether `program` is written in the C-like language (has at least one statement line).
+pub fn is_c_like(program: &Program) -> bool {
+    program
+        .lines
+        .iter()
+        .any(|l| matches!(l.kind, LineKind::Stmts(_)))
+}
+
+impl Hll {
+    /// Whether a C-like program is loaded (then [`next_segment`] runs it).
+    pub(crate) fn active(&self) -> bool {
+        self.run.is_some()
+    }
+
+    /// Prepares `program` if it is C-like: `#use` files, checks, executor thread. A check error
+    /// is kept and given out by the first `next_segment`. Not C-like: nothing is running.
+    pub(crate) fn load(&mut self, cfg: &MachineConfig, src: &SourceFile, program: &Program) {
+        self.run = None;
+        if !is_c_like(program) {
+            return;
+        }
+        let mut r = Running {
+            prog: Arc::new(ir::Prog {
+                files: vec![Arc::new(src.clone())],
+                funcs: Vec::new(),
+                bodies: Vec::new(),
+            }),
+            chan: None,
+            queue: VecDeque::new(),
+            error: None,
+            done: false,
+        };
+        match compile::compile(cfg, src.clone(), program.clone(), cfg.library_dir()) {
+            Ok(prog) => {
+                let prog = Arc::new(prog);
+                let (tx, rx) = sync_channel(AHEAD);
+                let (rtx, rrx) = sync_channel(1);
+                let ex =
+                    exec::Executor::new(prog.clone(), cfg.clone(), self.globals.clone(), tx, rrx);
+                let spawned = std::thread::Builder::new()
+                    .name("cnc402-hll".into())
+                    .stack_size(256 << 20)
+                    .spawn(move || ex.run());
+                match spawned {
+                    Ok(_) => r.chan = Some((rx, rtx)),
+                    Err(e) => {
+                        r.error = Some(NcError::new(
+                            src,
+                            Span::default(),
+                            format!("cannot start the C-like program's executor: {e}"),
+                        ))
+                    }
+                }
+                r.prog = prog;
+            }
+            Err(e) => r.error = Some(e),
+        }
+        self.run = Some(r);
+    }
+}
+
+/// The `$` global `name` (scalar, or element `index` of an array) as a number, for tests and
+/// tools: `None` if it has no value or is not a number.
+pub fn global_number(it: &Interpreter, name: &str, index: Option<i64>) -> Option<f64> {
+    let g = it.hll.globals.lock().unwrap_or_else(|p| p.into_inner());
+    let v = match (g.get(name)?, index) {
+        (exec::Global::Scalar(v), None) => v,
+        (exec::Global::Array(a), Some(i)) => a.get(&i)?,
+        _ => return None,
+    };
+    match v {
+        ir::Val::Int(i) => Some(*i as f64),
+        ir::Val::Dbl(d) => Some(*d),
+        _ => None,
+    }
+}
+
+/// [`Interpreter::next_segment`] for a C-like program.
+pub(crate) fn next_segment(it: &mut Interpreter) -> Result<Option<Segment>, NcError> {
+    let Some(mut r) = it.hll.run.take() else {
+        return Ok(None);
+    };
+    let out = r.next(it);
+    it.hll.run = Some(r);
+    out
+}
+
+impl Running {
+    fn stop(&mut self) {
+        self.done = true;
+        self.queue.clear();
+        // Dropping the channel ends the executor thread at its next request.
+        self.chan = None;
+    }
+
+    fn next(&mut self, it: &mut Interpreter) -> Result<Option<Segment>, NcError> {
+        loop {
+            if let Some(s) = self.queue.pop_front() {
+                it.account(&s);
+                return Ok(Some(s));
+            }
+            if let Some(e) = self.error.take() {
+                self.stop();
+                return Err(e);
+            }
+            if self.done {
+                return Ok(None);
+            }
+            let Some((rx, _)) = &self.chan else {
+                self.done = true;
+                return Ok(None);
+            };
+            let req = match rx.recv() {
+                Ok(r) => r,
+                Err(_) => {
+                    self.stop();
+                    return Err(NcError::new(
+                        &self.prog.files[0],
+                        Span::default(),
+                        "the C-like program's executor stopped unexpectedly",
+                    ));
+                }
+            };
+            match req {
+                Req::End => {
+                    self.done = true;
+                    self.chan = None;
+                }
+                Req::Error(e) => {
+                    self.stop();
+                    return Err(*e);
+                }
+                Req::Seg { file, span, kind } => {
+                    let src = &self.prog.files[file];
+                    let (line, _) = src.line_col(span.start as usize);
+                    self.queue.push_back(Segment {
+                        kind,
+                        source: Source {
+                            file: src.name.clone(),
+                            line,
+                            n: None,
+                        },
+                    });
+                }
+                Req::Read(what) => {
+                    // The queue is empty: every earlier segment has been handed out.
+                    let v = read(it, what);
+                    if let Some((_, reply)) = &self.chan {
+                        let _ = reply.send(v);
+                    }
+                }
+                Req::Block { file, line } => {
+                    if let Err(e) = self.block(it, file, &line) {
+                        self.stop();
+                        return Err(e);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Runs one computed G-code block through the G-code core.
+    fn block(
+        &mut self,
+        it: &mut Interpreter,
+        file: ir::FileId,
+        line: &Line,
+    ) -> Result<(), NcError> {
+        if line.block_delete && it.opts.block_delete {
+            return Ok(());
+        }
+        let src = self.prog.files[file].clone();
+        let LineKind::Block(b) = &line.kind else {
+            return Ok(());
+        };
+        let w = Words::collect(&src, b)?;
+        if let Some(g) = w.g.iter().find(|g| g.1 == GGroup::MacroCall) {
+            return Err(NcError::new(
+                &src,
+                g.2,
+                format!(
+                    "G{} is a Macro B call: a C-like program calls functions",
+                    g.0
+                ),
+            ));
+        }
+        if let Some(m) = w.m.iter().find(|m| matches!(m.0, 98 | 99)) {
+            return Err(NcError::new(
+                &src,
+                m.1,
+                format!(
+                    "M{} is a Macro B sub-program call: a C-like program calls functions",
+                    m.0
+                ),
+            ));
+        }
+        let mut ex = Exec {
+            cfg: &it.cfg,
+            opts: &it.opts,
+            src: &src,
+            st: &mut it.state,
+            w,
+            source: Source {
+                file: src.name.clone(),
+                line: line.line_no,
+                n: line.n.map(|n| n.value),
+            },
+            line_span: line.span,
+            out: Vec::new(),
+            end: false,
+        };
+        ex.run(line)?;
+        let Exec { out, end, .. } = ex;
+        self.queue.extend(out);
+        if end {
+            self.done = true;
+            self.chan = None;
+        }
+        Ok(())
+    }
+}
+
+/// Answers a system variable read after the motion before it (through the interpreter's
+/// [`crate::host::MotionSync`]).
+fn read(it: &mut Interpreter, what: Read) -> Result<f64, String> {
+    match what {
+        Read::ItpPath => Ok(it.sync.path_length_done(it.path_len)),
+        Read::Axis(i) => {
+            let programmed = it.state.pos;
+            let act = it.sync.wait_motion_done(&programmed)?;
+            let ax = it.cfg.axes.get(i).ok_or("no such axis")?;
+            let off = it.cfg.work_offsets[it.state.work_offset][i];
+            let v = act[i] - off;
+            Ok(if ax.kind.is_rotary() {
+                v
+            } else {
+                v / it.state.unit()
+            })
+        }
+    }
+}
+
+#[allow(dead_code)]
+fn _assert_send() {
+    fn s<T: Send>() {}
+    s::<Req>();
+    s::<Mutex<HashMap<String, exec::Global>>>();
+}
