@@ -351,12 +351,15 @@ fn take_probe_answer(
 
 // ---- info ------------------------------------------------------------------------------
 
+/// A PDO's COB-ID, transmission type and mapping entries, or why it could not be read.
+type PdoInfo = core::result::Result<(u32, u8, Vec<u32>), String>;
+
 fn read_pdo(
     sdo: &mut BlockingSdo<'_, Link>,
     node: cnc402_drives::wire::NodeId,
     comm: u16,
     map: u16,
-) -> Result<core::result::Result<(u32, u8, Vec<u32>), String>> {
+) -> Result<PdoInfo> {
     let cob = optional(sdo.read_u32(node, comm, 1))?;
     let cob = match cob {
         Ok(c) => c,

@@ -263,10 +263,10 @@ pub fn monitor(
         Ok(())
     };
     let stop = receive_loop(ctx, end, every, &mut on)?;
-    if let Some(mut w) = log {
-        if let Err(e) = w.flush() {
-            log_err.get_or_insert(e);
-        }
+    if let Some(mut w) = log
+        && let Err(e) = w.flush()
+    {
+        log_err.get_or_insert(e);
     }
     let span = stop.saturating_since(start);
     let load = if span.is_zero() {

@@ -457,3 +457,18 @@ fn help_has_examples_exit_codes_and_completions() {
     assert_eq!(dc(&["info", "300"]).code, 2);
     assert_eq!(dc(&["bogus"]).code, 2);
 }
+
+#[test]
+fn ctrl_c_during_a_move_ramps_to_standstill() {
+    // --interrupt-after stands in for Ctrl-C at a known time.
+    let j = sim(&["--json", "move", "1", "100", "--interrupt-after", "0.1"]).json();
+    assert_eq!(j["interrupted"], true, "{j}");
+    assert_eq!(j["error"], Value::Null, "{j}");
+    let end = j["command_end"].as_f64().unwrap();
+    // Well short of 100 mm, but past where it was at 0.1 s: it braked, it did not jump.
+    assert!(end > 2.0 && end < 60.0, "{j}");
+    assert!(
+        (j["actual_end"].as_f64().unwrap() - end).abs() < 1e-3,
+        "{j}"
+    );
+}
