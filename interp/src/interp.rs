@@ -84,6 +84,8 @@ pub struct Interpreter {
     /// A `%` after the first block, M2/M30, an error, or the end of the text.
     pub(crate) done: bool,
     pub(crate) seen_block: bool,
+    /// The C-like language (`$` globals, the running C-like program).
+    pub(crate) hll: crate::hll::Hll,
 }
 
 impl Interpreter {
@@ -117,6 +119,7 @@ impl Interpreter {
             queue: VecDeque::new(),
             done: true,
             seen_block: false,
+            hll: crate::hll::Hll::default(),
         }
     }
 
@@ -162,6 +165,7 @@ impl Interpreter {
     /// start. Common variables `#100–#199` are cleared (reset); locals start vacant;
     /// non-volatile ones are read from the config's `variables_file` unless set explicitly.
     pub fn load(&mut self, src: SourceFile, program: Program) {
+        self.hll.load(&self.cfg, &src, &program);
         let src = Arc::new(src);
         let program = Arc::new(program);
         let (units, main) = crate::macros::split_units(&src, &program);
@@ -200,6 +204,9 @@ impl Interpreter {
             self.done = true;
             return Err(NcError::new(&self.main_src, Span::default(), e));
         }
+        if self.hll.active() {
+            return crate::hll::next_segment(self);
+        }
         loop {
             if let Some(s) = self.queue.pop_front() {
                 self.account(&s);
@@ -217,7 +224,7 @@ impl Interpreter {
     }
 
     /// Adds a handed-out segment's length to the path length.
-    fn account(&mut self, s: &Segment) {
+    pub(crate) fn account(&mut self, s: &Segment) {
         let lin = |a: &AxisPos, b: &AxisPos, cfg: &MachineConfig| {
             let mut d2 = 0.0;
             let mut r2 = 0.0;
@@ -477,7 +484,7 @@ impl Exec<'_> {
         });
     }
 
-    fn run(&mut self, line: &Line) -> Result<(), NcError> {
+    pub(crate) fn run(&mut self, line: &Line) -> Result<(), NcError> {
         for c in &line.comments {
             if let Some(text) = msg_text(c) {
                 self.push(SegmentKind::Message { text });

@@ -32,6 +32,7 @@ pub mod arc;
 pub mod cycles;
 pub mod dump;
 pub mod eval;
+pub mod hll;
 pub mod host;
 mod interp;
 pub mod macros;
