@@ -91,11 +91,15 @@ impl Unit {
                     }
                     Some(&(top, w)) => {
                         let msg = if let Some(&(_, w2)) = open.iter().find(|o| o.0 == id) {
-                            format!(
-                                "END {id} closes DO {id} of line {} while DO {top} of line {} is still open: loops must not cross",
+                            let m = format!(
+                                "END {id} (line {}) closes DO {id} of line {} while DO {top} of line {} is still open: loops must not cross",
+                                line_of(i),
                                 line_of(w2),
                                 line_of(w)
-                            )
+                            );
+                            // The WHILE runs first: it carries the message too.
+                            loop_errors.insert(w2, m.clone());
+                            m
                         } else {
                             format!(
                                 "END {id} without a WHILE … DO {id} before it (DO {top} of line {} is open)",
@@ -285,13 +289,18 @@ pub fn arg_var(letter: char) -> Option<usize> {
     })
 }
 
-/// A `G65` block with an `H` word: an old-style macro instruction.
+/// A `G65` block that is an old-style macro instruction (`G65 H02 P#1 Q#2 R5`): it has an
+/// `H` word and no address besides G, H, P, Q and R. With any other address (`G65 P9 H11 A1`)
+/// H is argument `#11` of a macro call.
 pub fn is_g65_h(b: &Block) -> bool {
     let g65 = b
         .words
         .iter()
         .any(|w| w.letter == 'G' && matches!(&w.value, Value::Number(n) if n.value == 65.0));
     g65 && b.words.iter().any(|w| w.letter == 'H')
+        && b.words
+            .iter()
+            .all(|w| matches!(w.letter, 'G' | 'H' | 'P' | 'Q' | 'R'))
 }
 
 /// What a block asks for after its own words have run.
@@ -790,7 +799,7 @@ impl Interpreter {
         let here = std::path::Path::new(&*self.main_src.name)
             .parent()
             .filter(|d| !d.as_os_str().is_empty())
-            .map(|d| ProgramDir::new(d));
+            .map(ProgramDir::new);
         let mut found = match here {
             Some(mut d) => d
                 .find(number)
@@ -878,12 +887,14 @@ impl Interpreter {
                     format!("G{} cannot share a block with G{code}", other.0),
                 ));
             }
-            if let Some(m) = w.m.first() {
+            // With G65/G66, M is argument #13 (it is not executed).
+            if let Some(m) = w.m.get(1) {
                 return Err(err(
                     m.1,
-                    format!("M{} cannot share a block with G{code}", m.0),
+                    format!("address M given twice in a G{code} block"),
                 ));
             }
+            let m_arg = w.m.first().map(|m| f64::from(m.0));
             if code == 67 {
                 self.modal_call = None;
                 return match w.first_unused() {
@@ -911,6 +922,9 @@ impl Interpreter {
                 {
                     args[i - 1] = Some(a.v);
                 }
+            }
+            if m_arg.is_some() {
+                args[12] = m_arg;
             }
             if let Some((c, a)) = w.first_unused() {
                 return Err(
