@@ -300,7 +300,12 @@ impl Running {
 /// [`crate::host::MotionSync`]).
 fn read(it: &mut Interpreter, what: Read) -> Result<f64, String> {
     match what {
-        Read::ItpPath => Ok(it.sync.path_length_done(it.path_len)),
+        Read::ItpPath => {
+            // Wait for the motion first: `path_length_done` alone reports progress so far.
+            let programmed = it.state.pos;
+            it.sync.wait_motion_done(&programmed)?;
+            Ok(it.sync.path_length_done(it.path_len))
+        }
         Read::Axis(i) => {
             let programmed = it.state.pos;
             let act = it.sync.wait_motion_done(&programmed)?;
