@@ -13,6 +13,7 @@ use clap::{Parser, Subcommand};
 
 mod cli_error;
 mod run;
+mod vars;
 use cli_error::{CliError, exit};
 
 #[derive(Parser, Debug)]
@@ -43,6 +44,17 @@ enum Command {
     ///
     /// Example: cnc402 run examples/m10x1.5-rigid-tap.nc --report run.json
     Run(RunArgs),
+    /// List, set or clear the non-volatile macro variables #500-#999
+    /// (`interp.variables_file`), e.g. to fill the parameter pages of a macro program.
+    ///
+    /// Example: cnc402 vars set 520=3 521=800 · cnc402 vars clear 500..530 · cnc402 vars
+    Vars {
+        /// Use this variables file instead of the config's `interp.variables_file`.
+        #[arg(long, value_name = "FILE")]
+        file: Option<PathBuf>,
+        #[command(subcommand)]
+        command: Option<vars::VarsCommand>,
+    },
 }
 
 #[derive(clap::Args, Debug)]
@@ -91,6 +103,10 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Run(args) => {
             let cfg = load_config(&cli.config)?;
             run::run(&cfg, &args)
+        }
+        Command::Vars { file, command } => {
+            let cfg = load_config(&cli.config)?;
+            vars::vars(&cfg, file, command)
         }
     }
 }
