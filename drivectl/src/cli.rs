@@ -296,6 +296,9 @@ pub enum Command {
         /// Print only statistics, not every frame
         #[arg(long)]
         quiet: bool,
+        /// Full-screen view: one panel per drive, bus load, SYNC statistics, events (q quits)
+        #[arg(long, conflicts_with_all = ["quiet", "json"])]
+        tui: bool,
     },
     /// Watch and decode EMCY messages
     #[command(after_help = "Example: drivectl emcy --duration 60")]

@@ -66,7 +66,14 @@ pub fn dispatch(ctx: &mut Ctx, cmd: Command) -> Result<()> {
             duration,
             stats_every,
             quiet,
-        } => crate::monitor::monitor(ctx, log.as_deref(), duration, stats_every, quiet),
+            tui,
+        } => {
+            if tui {
+                crate::monitor::monitor_tui(ctx, log.as_deref(), duration)
+            } else {
+                crate::monitor::monitor(ctx, log.as_deref(), duration, stats_every, quiet)
+            }
+        }
         Command::Emcy { duration } => crate::monitor::emcy(ctx, duration),
         Command::Eds { file } => eds_list(&file, ctx.json),
         Command::Completions { shell } => completions(shell),

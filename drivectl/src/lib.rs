@@ -12,6 +12,7 @@ pub mod error;
 pub mod link;
 pub mod monitor;
 pub mod motion;
+pub mod tui;
 pub mod values;
 
 use core::time::Duration;

@@ -388,3 +388,84 @@ fn tick(
     *win_frames = 0;
     *win_start = t;
 }
+
+/// `drivectl monitor --tui`: the full-screen view until `q`, Esc, Ctrl-C or `--duration`.
+pub fn monitor_tui(ctx: &mut Ctx, log: Option<&Path>, duration: Option<f64>) -> Result<()> {
+    use ratatui::crossterm::event::{self, Event as TermEvent, KeyCode, KeyModifiers};
+    use std::io::IsTerminal;
+    use std::sync::atomic::Ordering;
+
+    if !std::io::stdout().is_terminal() {
+        return Err(CliError::usage(
+            "--tui needs a terminal (use `monitor` or `monitor --json` in scripts)",
+        ));
+    }
+    let duration = seconds(duration, "--duration")?;
+    let mut log = match log {
+        Some(p) => Some(BufWriter::new(File::create(p).map_err(|e| {
+            CliError::new(
+                Exit::Other,
+                format!("cannot create log {}: {e}", p.display()),
+            )
+        })?)),
+        None => None,
+    };
+    let iface = ctx.link.name().to_string();
+    let sim = ctx.link.sim().is_some();
+    let start = ctx.now();
+    let wall0 = SystemTime::now();
+    let nodes: Vec<u8> = ctx.cfg.axes.iter().filter_map(|a| a.node).collect();
+    let mut state = crate::tui::TuiState::new(
+        &iface,
+        ctx.names.clone(),
+        &nodes,
+        ctx.cfg.bus.bitrate,
+        start,
+    );
+    let end = duration.map(|d| start + d);
+    let mut terminal = ratatui::try_init()
+        .map_err(|e| CliError::new(Exit::Other, format!("cannot start the TUI: {e}")))?;
+    let ui_err = |e: std::io::Error| CliError::new(Exit::Other, format!("terminal: {e}"));
+    let mut on = |ctx: &mut Ctx, ev: Event<'_>| -> Result<()> {
+        match ev {
+            Event::Frame(t, f) => {
+                state.on_frame(t, f, &ctx.dict);
+                if let Some(w) = log.as_mut() {
+                    let ts = if sim {
+                        t.nanos() as f64 * 1e-9
+                    } else {
+                        wall0
+                            .duration_since(UNIX_EPOCH)
+                            .map(|d| d.as_secs_f64())
+                            .unwrap_or(0.0)
+                            + t.saturating_since(start).as_secs_f64()
+                    };
+                    writeln!(w, "{}", candump_line(ts, &iface, f)).map_err(|e| {
+                        CliError::new(Exit::Other, format!("writing the log failed: {e}"))
+                    })?;
+                }
+            }
+            Event::Tick(t) => {
+                state.on_tick(t);
+                terminal.draw(|fr| state.render(fr)).map_err(ui_err)?;
+                while event::poll(Duration::ZERO).map_err(ui_err)? {
+                    if let TermEvent::Key(k) = event::read().map_err(ui_err)? {
+                        let ctrl_c = k.code == KeyCode::Char('c')
+                            && k.modifiers.contains(KeyModifiers::CONTROL);
+                        if ctrl_c || matches!(k.code, KeyCode::Char('q') | KeyCode::Esc) {
+                            ctx.interrupted.store(true, Ordering::SeqCst);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    };
+    let r = receive_loop(ctx, end, Duration::from_millis(100), &mut on);
+    ratatui::restore();
+    if let Some(mut w) = log {
+        w.flush()
+            .map_err(|e| CliError::new(Exit::Other, format!("writing the log failed: {e}")))?;
+    }
+    r.map(|_| ())
+}
