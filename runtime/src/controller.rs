@@ -12,7 +12,7 @@ use cnc402_drives::Instant;
 use cnc402_motion::{AxisPos, Interpolator, MoveKind, PlannedMove, to_counts_wrapping};
 
 use crate::link::{DriveFeedback, DriveLink, DriveStop, StopCause};
-use crate::ring::{Consumer, LoopInput, MoveConsumer, Producer, StatusProducer};
+use crate::ring::{Consumer, LoopInput, MoveConsumer, Observer, Producer, StatusProducer};
 use crate::status::{Outcome, Phase, Status, TapCoupling};
 
 /// Ticks the drives get to come to rest after the last setpoint before the run ends.
@@ -84,6 +84,7 @@ pub struct CycleController<L: DriveLink> {
     starved: u64,
     dropped: u64,
     last_line: u32,
+    moves_started: u64,
 }
 
 impl<L: DriveLink> CycleController<L> {
@@ -126,6 +127,7 @@ impl<L: DriveLink> CycleController<L> {
             starved: 0,
             dropped: 0,
             last_line: 0,
+            moves_started: 0,
         }
     }
 
@@ -138,6 +140,18 @@ impl<L: DriveLink> CycleController<L> {
     /// Status records lost because the status ring was full.
     pub fn dropped_status(&self) -> u64 {
         self.dropped
+    }
+
+    /// Whether a tick now would do anything but hold position waiting for the feeder: a
+    /// move runs or is queued, the program is over, or a stop is under way or requested.
+    /// The virtual-time driver steps only then, so virtual time does not depend on how fast
+    /// the feeder thread is.
+    pub fn has_work(&self) -> bool {
+        self.phase != Phase::Running
+            || self.input_done
+            || !self.interp.is_idle()
+            || !self.moves.is_empty()
+            || self.stop_request.load(Ordering::Relaxed)
     }
 
     /// Ticks run so far.
@@ -210,6 +224,8 @@ impl<L: DriveLink> CycleController<L> {
                 None
             },
             stop: raised,
+            moves_started: self.moves_started,
+            idle: self.interp.is_idle(),
         };
         for i in 0..self.axes.n {
             let f = &self.feedback[i];
@@ -290,6 +306,7 @@ impl<L: DriveLink> CycleController<L> {
     fn next_move(&mut self) {
         match self.moves.try_pop() {
             Some(LoopInput::Move(mv)) => {
+                self.moves_started += 1;
                 self.tap = tap_coupling(&self.axes, &mv);
                 if let Err(e) = self.interp.start(mv) {
                     self.motion_error = Some(e);

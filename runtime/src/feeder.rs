@@ -125,6 +125,11 @@ impl Feeder {
         self.messages.pop_front()
     }
 
+    /// Replaces the interpreter's motion sync (see [`crate::sync`]).
+    pub fn set_motion_sync(&mut self, sync: Box<dyn cnc402_interp::MotionSync>) {
+        self.interp.set_motion_sync(sync);
+    }
+
     /// The program text.
     pub fn source(&self) -> &SourceFile {
         &self.src

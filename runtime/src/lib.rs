@@ -15,6 +15,7 @@ pub mod rt;
 pub mod run;
 pub mod sim_machine;
 pub mod status;
+pub mod sync;
 
 pub use controller::{CycleController, Step};
 pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, ModelLink, Startup, StopCause};

@@ -6,6 +6,7 @@
 use std::io::Write;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
 use std::time::Duration;
 
 use cnc402_config::{MAX_AXES, MachineConfig};
@@ -26,6 +27,7 @@ use crate::ring::{
 use crate::rt::{LatencyHistogram, LatencySummary, monotonic_ns, request_realtime, sleep_until};
 use crate::sim_machine::SimLink;
 use crate::status::{Outcome, Status};
+use crate::sync::{SyncShared, spawn_feeder};
 
 /// How time advances.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -164,10 +166,12 @@ struct LoopEnd {
     shutdown_error: Option<String>,
 }
 
-/// The reporting side: feeder, recorder, progress callback.
+/// The reporting side: recorder, progress callback, and what the feeder thread needs to know.
 struct Side<'a> {
     cfg: &'a MachineConfig,
-    feeder: Option<Feeder>,
+    shared: Arc<SyncShared>,
+    feeder: Option<JoinHandle<Option<NcError>>>,
+    idle_ticks: u32,
     recorder: Recorder,
     progress: &'a mut dyn FnMut(&Progress),
     expected: u64,
@@ -176,17 +180,32 @@ struct Side<'a> {
 }
 
 impl Side<'_> {
-    fn fill(&mut self, ring: &mut MoveProducer, stop: &AtomicBool) {
-        if self.program_error.is_some() {
-            return;
-        }
-        if let Some(f) = self.feeder.as_mut()
-            && let Err(e) = f.fill(ring)
-        {
-            // The program failed while running (the dry run should have caught it): stop the
-            // machine like a fault and report the program error.
-            self.program_error = Some(e);
-            stop.store(true, Ordering::SeqCst);
+    /// Starts the feeder thread for a machine standing at `start`.
+    fn start_feeder(
+        &mut self,
+        src: SourceFile,
+        program: Program,
+        start: &[f64; MAX_AXES],
+        ring: MoveProducer,
+        stop: &Arc<AtomicBool>,
+    ) -> Result<(), RunError> {
+        let axes = AxisTable::new(self.cfg);
+        let feeder = Feeder::new(self.cfg, src, program, start_position(&axes, start));
+        let h = spawn_feeder(feeder, ring, self.shared.clone(), stop.clone())
+            .map_err(|e| RunError::Io(format!("cannot start the feeder thread: {e}")))?;
+        self.feeder = Some(h);
+        Ok(())
+    }
+
+    /// Ends the feeder thread and keeps its program error, if any.
+    fn stop_feeder(&mut self) {
+        self.shared.end();
+        if let Some(h) = self.feeder.take() {
+            match h.join() {
+                Ok(Some(e)) => self.program_error = Some(e),
+                Ok(None) => {}
+                Err(_) => log::error!("the feeder thread panicked"),
+            }
         }
     }
 
@@ -195,7 +214,7 @@ impl Side<'_> {
         while let Some(s) = ring.try_pop() {
             match s.event {
                 Some(MoveEvent::Message) => {
-                    if let Some(text) = self.feeder.as_mut().and_then(|f| f.take_message()) {
+                    if let Some(text) = self.shared.take_message() {
                         log::info!("line {}: {}", s.line, text);
                     }
                 }
@@ -214,9 +233,17 @@ impl Side<'_> {
                 self.program_ticks = s.tick + 1;
             }
             self.recorder.record(&s);
+            self.idle_ticks = if s.idle {
+                self.idle_ticks.saturating_add(1)
+            } else {
+                0
+            };
             last = Some(s);
         }
         if let Some(s) = last {
+            let n = self.cfg.axes.len().min(MAX_AXES);
+            self.shared
+                .publish(&s, self.idle_ticks, n, self.recorder.path_length);
             (self.progress)(&Progress {
                 tick: s.tick,
                 expected_ticks: self.expected,
@@ -253,7 +280,9 @@ pub fn run_program(
     }
     let mut side = Side {
         cfg,
+        shared: Arc::new(SyncShared::default()),
         feeder: None,
+        idle_ticks: 0,
         recorder,
         progress,
         expected: dry.ticks,
@@ -281,6 +310,7 @@ pub fn run_program(
             &mut side,
         )?,
     };
+    side.stop_feeder();
     let trace_result = side.recorder.finish();
     if let Some(e) = side.program_error.take() {
         return Err(RunError::Program(e));
@@ -436,26 +466,38 @@ fn run_virtual(
             Startup::Failed(s) => return Ok(failed_end(startup_failed(s), &*link, now, wall0)),
         }
     };
-    let axes = AxisTable::new(cfg);
-    side.feeder = Some(Feeder::new(
-        cfg,
-        src,
-        program,
-        start_position(&axes, &start),
-    ));
-    let (mut mprod, mcons) = move_ring(MOVE_RING);
+    let (mprod, mcons) = move_ring(MOVE_RING);
     let (sprod, mut scons) = status_ring(STATUS_RING);
+    side.start_feeder(src, program, &start, mprod, &stop_request)?;
     let c0 = link.counters();
     let now0 = now;
     let mut ctrl = CycleController::new(cfg, start, link, mcons, sprod, stop_request.clone());
-    side.fill(&mut mprod, &stop_request);
+    let mut spins = 0u32;
     let outcome = loop {
-        if mprod.occupied_len() < MOVE_RING / 4 {
-            side.fill(&mut mprod, &stop_request);
+        // Virtual time only runs while there is something to do: a move, a stop, the end, or
+        // an interpreter waiting for the motion before a position read. Otherwise the feeder
+        // thread is still planning, and we wait for it (so results do not depend on speed).
+        let waiting = side.shared.waiting.load(Ordering::SeqCst);
+        if !ctrl.has_work() && !(waiting && !side.shared.motion_done()) {
+            if side.feeder.as_ref().is_some_and(|h| h.is_finished()) {
+                // The feeder ended without `End` (an error): stop the machine.
+                stop_request.store(true, Ordering::SeqCst);
+            }
+            spins += 1;
+            if spins > 64 {
+                std::thread::sleep(Duration::from_micros(50));
+            } else {
+                std::thread::yield_now();
+            }
+            if crate::rt::sigint_seen() {
+                stop_request.store(true, Ordering::SeqCst);
+            }
+            continue;
         }
+        spins = 0;
         now += period;
         let step = ctrl.step(now);
-        if scons.occupied_len() >= STATUS_RING / 2 || step != Step::Continue {
+        if waiting || scons.occupied_len() >= STATUS_RING / 2 || step != Step::Continue {
             side.drain(&mut scons);
             if crate::rt::sigint_seen() {
                 stop_request.store(true, Ordering::SeqCst);
@@ -533,7 +575,7 @@ fn run_realtime(
     stop_request: Arc<AtomicBool>,
     side: &mut Side,
 ) -> Result<LoopEnd, RunError> {
-    let (mut mprod, mcons) = move_ring(MOVE_RING);
+    let (mprod, mcons) = move_ring(MOVE_RING);
     let (sprod, mut scons) = status_ring(STATUS_RING);
     let (hello_tx, hello_rx) = std::sync::mpsc::sync_channel::<Hello>(1);
     let cfg_t = cfg.clone();
@@ -614,13 +656,11 @@ fn run_realtime(
 
     match hello_rx.recv() {
         Ok(Hello::Ready(start)) => {
-            let axes = AxisTable::new(cfg);
-            side.feeder = Some(Feeder::new(
-                cfg,
-                src,
-                program,
-                start_position(&axes, &start),
-            ));
+            if let Err(e) = side.start_feeder(src, program, &start, mprod, &stop_request) {
+                stop_request.store(true, Ordering::SeqCst);
+                let _ = handle.join();
+                return Err(e);
+            }
         }
         Err(_) => {
             // The thread ended during start-up; its result says why.
@@ -630,7 +670,6 @@ fn run_realtime(
         }
     }
     while !handle.is_finished() {
-        side.fill(&mut mprod, &stop_request);
         side.drain(&mut scons);
         if crate::rt::sigint_seen() {
             stop_request.store(true, Ordering::SeqCst);

@@ -54,6 +54,10 @@ pub struct Status {
     pub tap: Option<TapCoupling>,
     /// The safety reaction raised on this tick, if any.
     pub stop: Option<DriveStop>,
+    /// Moves taken from the move ring so far.
+    pub moves_started: u64,
+    /// The interpolator has nothing to do after this tick.
+    pub idle: bool,
 }
 
 /// How the run ended.

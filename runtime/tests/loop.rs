@@ -229,6 +229,8 @@ fn status(tick: u64, z: f64, c: f64, tap: Option<TapCoupling>) -> Status {
         event: None,
         tap,
         stop: None,
+        moves_started: tick,
+        idle: false,
     };
     s.cmd[2] = z;
     s.cmd[3] = c;
@@ -324,4 +326,46 @@ fn spindle_runs_across_the_int32_wrap_without_a_jump_or_fault() {
         (last.act[3] - last.cmd[3]).abs() < 0.01,
         "actual unwrapped like the command"
     );
+}
+
+fn run_text(cfg: &MachineConfig, text: &str) -> cnc402_runtime::RunReport {
+    let src = SourceFile::new("sync.nc", text);
+    let ast = cnc402_lang::parse(&src).unwrap();
+    run_program(cfg, src, ast, RunOptions::default(), &mut |_| {})
+        .unwrap_or_else(|e| panic!("{e:?}"))
+}
+
+#[test]
+fn a_position_read_waits_for_the_machine_to_settle() {
+    // A sluggish X drive (5 Hz tracking): after a slow feed move it needs a while to come
+    // within a count of its setpoint. Reading #5021 (actual X) is a sync point: the next move
+    // starts only once the drive has settled (or after SETTLE_LIMIT_TICKS idle ticks), so the
+    // run takes that much longer than the same program with a constant.
+    let mut cfg = MachineConfig::default_machine();
+    cfg.axes[0].sim.bandwidth_hz = 5.0;
+    let synced = run_text(
+        &cfg,
+        "G21 G90\nG1 X2. F60.\n#1 = #5021\nG0 X[#1 + 1.]\nM30\n",
+    );
+    let plain = run_text(&cfg, "G21 G90\nG1 X2. F60.\n#1 = 2.\nG0 X[#1 + 1.]\nM30\n");
+    assert!(
+        synced.ok && plain.ok,
+        "{:?} {:?}",
+        synced.error,
+        plain.error
+    );
+    // (The sluggish drive is still settling on X3 when the run ends.)
+    assert!(
+        (synced.axes[0].final_position - 3.0).abs() <= 0.1,
+        "{}",
+        synced.axes[0].final_position
+    );
+    assert!(
+        synced.ticks >= plain.ticks + 90,
+        "waited for the drive to settle: {} vs {} ticks",
+        synced.ticks,
+        plain.ticks
+    );
+    assert!(synced.starved_ticks >= 90, "{}", synced.starved_ticks);
+    assert_eq!(plain.starved_ticks, 0);
 }

@@ -1,0 +1,205 @@
+//! The feeder thread and motion sync: the interpreter and planner run on a thread of their own,
+//! pushing planned moves into the move ring, so that a read of an actual position (`#5021`,
+//! `@ITPPATH`) can block until the machine has executed every move before it — the
+//! [`MotionSync`] the interpreter calls — while the loop and the reporting side go on. The
+//! reporting side publishes what the loop did into [`SyncShared`] after each drained batch.
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use cnc402_interp::MotionSync;
+use cnc402_lang::NcError;
+use cnc402_motion::AxisPos;
+
+use crate::feeder::Feeder;
+use crate::ring::{LoopInput, MoveProducer, Producer};
+use crate::status::{Phase, Status};
+
+/// Idle ticks after which the machine counts as settled even if a drive has not come within
+/// one count of its setpoint.
+pub const SETTLE_LIMIT_TICKS: u32 = 100;
+
+/// What the loop has done, as last drained.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LoopProgress {
+    /// Moves the loop has taken from the ring.
+    pub moves_started: u64,
+    /// The interpolator had nothing to do after the last tick.
+    pub idle: bool,
+    /// Consecutive idle ticks.
+    pub idle_ticks: u32,
+    /// Every drive within one count of its setpoint.
+    pub settled: bool,
+    /// Actual positions of the last tick.
+    pub actual: AxisPos,
+    /// Commanded path length so far (mm over the linear axes).
+    pub path_length: f64,
+    /// The loop left the running phase (stop, fault, end).
+    pub ended: bool,
+}
+
+/// Shared between the feeder thread, the reporting side and the interpreter's motion sync.
+#[derive(Default)]
+pub struct SyncShared {
+    progress: Mutex<LoopProgress>,
+    changed: Condvar,
+    /// The interpreter waits for motion (so virtual time must keep running).
+    pub waiting: AtomicBool,
+    /// Moves pushed into the ring by the feeder.
+    pub pushed: AtomicU64,
+    /// The feeder must give up (the run is over).
+    pub abort: AtomicBool,
+    /// Operator messages in program order.
+    messages: Mutex<VecDeque<String>>,
+}
+
+impl SyncShared {
+    fn lock(&self) -> MutexGuard<'_, LoopProgress> {
+        self.progress.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Publishes the loop's progress: the last drained status, the consecutive idle ticks up
+    /// to it, and the commanded path length.
+    pub fn publish(&self, s: &Status, idle_ticks: u32, n_axes: usize, path_length: f64) {
+        let mut p = self.lock();
+        p.idle_ticks = idle_ticks;
+        p.moves_started = s.moves_started;
+        p.idle = s.idle;
+        p.settled = (0..n_axes).all(|i| s.act_counts[i].wrapping_sub(s.cmd_counts[i]).abs() <= 1);
+        p.actual = AxisPos(s.act);
+        p.path_length = path_length;
+        p.ended |= s.phase != Phase::Running;
+        drop(p);
+        self.changed.notify_all();
+    }
+
+    /// Marks the run over (wakes a waiting interpreter with an error).
+    pub fn end(&self) {
+        self.lock().ended = true;
+        self.abort.store(true, Ordering::SeqCst);
+        self.changed.notify_all();
+    }
+
+    /// True when every move pushed so far has run and the machine has settled.
+    pub fn motion_done(&self) -> bool {
+        Self::done(&self.lock(), self.pushed.load(Ordering::SeqCst))
+    }
+
+    fn done(p: &LoopProgress, pushed: u64) -> bool {
+        p.moves_started >= pushed && p.idle && (p.settled || p.idle_ticks >= SETTLE_LIMIT_TICKS)
+    }
+
+    /// The next operator message.
+    pub fn take_message(&self) -> Option<String> {
+        self.messages
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .pop_front()
+    }
+}
+
+/// The interpreter's [`MotionSync`] for a running machine.
+pub struct LoopSync {
+    pub shared: Arc<SyncShared>,
+}
+
+impl MotionSync for LoopSync {
+    fn wait_motion_done(&mut self, _programmed: &AxisPos) -> Result<AxisPos, String> {
+        let sh = &self.shared;
+        sh.waiting.store(true, Ordering::SeqCst);
+        let mut p = sh.lock();
+        let r = loop {
+            if Self::ready(&p, sh) {
+                break Ok(p.actual);
+            }
+            if p.ended {
+                break Err("the machine stopped before the motion finished".to_string());
+            }
+            p = match sh.changed.wait_timeout(p, Duration::from_millis(20)) {
+                Ok((g, _)) => g,
+                Err(e) => e.into_inner().0,
+            };
+        };
+        drop(p);
+        sh.waiting.store(false, Ordering::SeqCst);
+        r
+    }
+
+    fn path_length_done(&mut self, _produced: f64) -> f64 {
+        self.shared.lock().path_length
+    }
+}
+
+impl LoopSync {
+    fn ready(p: &LoopProgress, sh: &SyncShared) -> bool {
+        SyncShared::done(p, sh.pushed.load(Ordering::SeqCst))
+    }
+}
+
+/// Starts the feeder thread: it runs `feeder` to the end of the program, pushing every move
+/// (and `End`) into `ring`, waiting for room as needed. A program error raises `stop` and is
+/// the thread's result.
+pub fn spawn_feeder(
+    mut feeder: Feeder,
+    mut ring: MoveProducer,
+    shared: Arc<SyncShared>,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<JoinHandle<Option<NcError>>> {
+    feeder.set_motion_sync(Box::new(LoopSync {
+        shared: shared.clone(),
+    }));
+    std::thread::Builder::new()
+        .name("cnc402-feeder".into())
+        .spawn(move || {
+            let push = |ring: &mut MoveProducer, mut item: LoopInput| -> bool {
+                loop {
+                    match ring.try_push(item) {
+                        Ok(()) => return true,
+                        Err(back) => {
+                            if shared.abort.load(Ordering::SeqCst) {
+                                return false;
+                            }
+                            item = back;
+                            std::thread::sleep(Duration::from_micros(200));
+                        }
+                    }
+                }
+            };
+            loop {
+                if shared.abort.load(Ordering::SeqCst) {
+                    return None;
+                }
+                let next = feeder.next_move();
+                while let Some(t) = feeder.take_message() {
+                    shared
+                        .messages
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .push_back(t);
+                }
+                match next {
+                    Ok(Some(mv)) => {
+                        if !push(&mut ring, LoopInput::Move(mv)) {
+                            return None;
+                        }
+                        shared.pushed.fetch_add(1, Ordering::SeqCst);
+                    }
+                    Ok(None) => {
+                        push(&mut ring, LoopInput::End);
+                        return None;
+                    }
+                    Err(e) => {
+                        if shared.abort.load(Ordering::SeqCst) {
+                            // The machine stopped under a waiting read: not a program error.
+                            return None;
+                        }
+                        stop.store(true, Ordering::SeqCst);
+                        return Some(e);
+                    }
+                }
+            }
+        })
+}
