@@ -442,7 +442,7 @@ impl<'a> Cx<'a> {
                 self.loops += 1;
                 let b = self.scoped(body);
                 self.loops -= 1;
-                St::While(c, b?)
+                St::While(c, b?, s.span)
             }
             StmtKind::For {
                 init,
@@ -467,7 +467,7 @@ impl<'a> Cx<'a> {
                     self.loops += 1;
                     let b = self.scoped(body);
                     self.loops -= 1;
-                    Ok(St::For(i, c, st, b?))
+                    Ok(St::For(i, c, st, b?, s.span))
                 })();
                 self.scopes.pop();
                 r?

@@ -203,10 +203,10 @@ impl Executor {
                 let b = if self.truth(f, c)? { t } else { o };
                 return self.block(f, b);
             }
-            St::While(c, body) => loop {
+            St::While(c, body, span) => loop {
                 self.steps += 1;
                 if self.steps > self.limit {
-                    self.tick(f, Span::default())?;
+                    self.tick(f, *span)?;
                 }
                 if !self.truth(f, c)? {
                     break;
@@ -217,12 +217,15 @@ impl Executor {
                     Flow::Next | Flow::Continue => {}
                 }
             },
-            St::For(init, c, step, body) => {
+            St::For(init, c, step, body, span) => {
                 if let r @ Flow::Return(_) = self.block(f, init)? {
                     return Ok(r);
                 }
                 loop {
                     self.steps += 1;
+                    if self.steps > self.limit {
+                        self.tick(f, *span)?;
+                    }
                     if let Some(c) = c
                         && !self.truth(f, c)?
                     {
@@ -247,9 +250,6 @@ impl Executor {
             }
             St::Gcode(g) => self.gcode(f, g)?,
             St::Use(file) => self.run_file(*file)?,
-        }
-        if self.steps > self.limit {
-            self.tick(f, Span::default())?;
         }
         Ok(Flow::Next)
     }
