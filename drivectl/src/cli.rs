@@ -296,6 +296,10 @@ pub enum Command {
         /// Print only statistics, not every frame
         #[arg(long)]
         quiet: bool,
+        /// Read every configured drive's PDO mappings by SDO first and decode PDOs by them
+        /// (otherwise PDO1s are decoded with cnc402's mapping)
+        #[arg(long)]
+        read_mapping: bool,
         /// Full-screen view: one panel per drive, bus load, SYNC statistics, events (q quits)
         #[arg(long, conflicts_with_all = ["quiet", "json"])]
         tui: bool,

@@ -66,8 +66,12 @@ pub fn dispatch(ctx: &mut Ctx, cmd: Command) -> Result<()> {
             duration,
             stats_every,
             quiet,
+            read_mapping,
             tui,
         } => {
+            if read_mapping {
+                crate::monitor::read_mappings(ctx)?;
+            }
             if tui {
                 crate::monitor::monitor_tui(ctx, log.as_deref(), duration)
             } else {

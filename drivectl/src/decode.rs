@@ -9,7 +9,7 @@ use cnc402_config::MachineConfig;
 use cnc402_drives::master::emcy_text;
 use cnc402_drives::wire::{
     CanFrame, EmcyRepr, Function, HeartbeatRepr, InitiateKind, NmtCommand, NmtRepr, NmtState,
-    NmtTarget, SdoRequest, SdoResponse, SyncRepr,
+    NmtTarget, PdoMap, SdoRequest, SdoResponse, SyncRepr,
 };
 use serde_json::{Value as Json, json};
 
@@ -77,10 +77,85 @@ pub struct Decoded {
     pub fields: Json,
 }
 
-/// Decodes one frame. PDO1s are decoded with cnc402's mapping (RPDO1 = controlword + target
-/// position, TPDO1 = statusword + position actual); other PDOs are shown as bytes.
-pub fn decode(frame: &CanFrame, dict: &Dictionary) -> Decoded {
+/// PDO mappings read from the drives, by COB-ID (`monitor --read-mapping`).
+#[derive(Clone, Debug, Default)]
+pub struct PdoMaps(BTreeMap<u16, (&'static str, PdoMap)>);
+
+impl PdoMaps {
+    /// Adds the mapping of the PDO on `cob_id` (`kind`: `tpdo1` … `rpdo4`).
+    pub fn insert(&mut self, cob_id: u16, kind: &'static str, map: PdoMap) {
+        self.0.insert(cob_id, (kind, map));
+    }
+    /// Number of mappings.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+    /// No mappings.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+/// Decodes a PDO by a mapping read from the drive: each entry with its object name and its
+/// value, sign-extended where the dictionary says the object is signed.
+fn decode_mapped(frame: &CanFrame, kind: &'static str, map: &PdoMap, dict: &Dictionary) -> Decoded {
+    let node = Some((frame.id() & 0x7F) as u8);
+    let mut parts = Vec::new();
+    let mut fields = serde_json::Map::new();
+    let r = map.unpack(frame.data(), |e, raw| {
+        let a = ObjectAddr {
+            index: e.index,
+            sub: e.sub,
+        };
+        let signed = matches!(
+            dict.data_type(a),
+            Some(crate::values::DataType::I8)
+                | Some(crate::values::DataType::I16)
+                | Some(crate::values::DataType::I32)
+                | Some(crate::values::DataType::I64)
+        );
+        let v: Json = if signed && e.bits > 0 && e.bits < 64 {
+            let shift = 64 - e.bits as u32;
+            json!(((raw << shift) as i64) >> shift)
+        } else {
+            json!(raw)
+        };
+        let name = dict.name(a).unwrap_or_else(|| a.to_string());
+        parts.push(format!("{name} {v}"));
+        fields.insert(name, v);
+    });
+    let upper = kind.to_ascii_uppercase();
+    match r {
+        Ok(()) => Decoded {
+            kind,
+            node,
+            text: format!("{upper} {}", parts.join(", ")),
+            fields: Json::Object(fields),
+        },
+        Err(e) => Decoded {
+            kind,
+            node,
+            text: format!(
+                "{upper} does not fit its mapping ({e:?}): {}",
+                hex(frame.data())
+            ),
+            fields: json!({ "data": hex(frame.data()), "error": format!("{e:?}") }),
+        },
+    }
+}
+
+/// Decodes one frame. PDOs whose mapping was read from the drive (`maps`) are decoded by it;
+/// otherwise PDO1s are decoded with cnc402's mapping (RPDO1 = controlword + target
+/// position, TPDO1 = statusword + position actual) and other PDOs are shown as bytes.
+pub fn decode(frame: &CanFrame, dict: &Dictionary, maps: &PdoMaps) -> Decoded {
     let data = frame.data();
+    if matches!(
+        Function::classify(frame.id()),
+        Function::Tpdo(..) | Function::Rpdo(..)
+    ) && let Some((kind, map)) = maps.0.get(&frame.id())
+    {
+        return decode_mapped(frame, kind, map, dict);
+    }
     let raw = |kind: &'static str, node: Option<u8>, what: String| Decoded {
         kind,
         node,
@@ -292,5 +367,51 @@ fn initiate(k: &InitiateKind) -> String {
         InitiateKind::Expedited(d) => format!("data {}", hex(d.bytes())),
         InitiateKind::Segmented { size: Some(s) } => format!("segmented, {s} bytes"),
         InitiateKind::Segmented { size: None } => "segmented".to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cnc402_drives::wire::MappingEntry;
+
+    #[test]
+    fn pdos_decode_by_the_mapping_read_from_the_drive() {
+        let dict = Dictionary::new(None);
+        let mut maps = PdoMaps::default();
+        let m = PdoMap::from_entries(&[
+            MappingEntry::new(0x6041, 0, 16),
+            MappingEntry::new(0x6064, 0, 32),
+        ])
+        .unwrap();
+        maps.insert(0x182, "tpdo1", m);
+        let f = CanFrame::new(0x182, &[0x37, 0x12, 0xfe, 0xff, 0xff, 0xff]).unwrap();
+        let d = decode(&f, &dict, &maps);
+        assert_eq!(d.kind, "tpdo1");
+        assert_eq!(d.node, Some(2));
+        // 0x6064 is INTEGER32: sign-extended.
+        assert_eq!(d.text, "TPDO1 statusword 4663, position actual value -2");
+        // A frame of the wrong length is said to be so, not misread.
+        let short = CanFrame::new(0x182, &[0x37, 0x12]).unwrap();
+        assert!(
+            decode(&short, &dict, &maps)
+                .text
+                .contains("does not fit its mapping")
+        );
+        // Without a mapping, cnc402's PDO1 layout applies.
+        let d = decode(&f, &dict, &PdoMaps::default());
+        assert!(d.text.contains("position actual -2"), "{}", d.text);
+        // EMCY and SDO with names.
+        let e = CanFrame::new(0x083, &[0x11, 0x86, 0x80, 0, 0, 0, 0, 0]).unwrap();
+        assert!(
+            decode(&e, &dict, &maps)
+                .text
+                .contains("EMCY 0x8611 following error")
+        );
+        let r = CanFrame::new(0x603, &[0x40, 0x41, 0x60, 0, 0, 0, 0, 0]).unwrap();
+        assert_eq!(
+            decode(&r, &dict, &maps).text,
+            "SDO read 0x6041:00 statusword"
+        );
     }
 }

@@ -49,6 +49,8 @@ pub struct Ctx {
     pub other: Vec<CanFrame>,
     /// Set by Ctrl-C.
     pub interrupted: Arc<AtomicBool>,
+    /// PDO mappings read from the drives (`monitor --read-mapping`).
+    pub pdo_maps: decode::PdoMaps,
 }
 
 impl Ctx {
@@ -144,6 +146,7 @@ pub fn run(cli: Cli, interrupted: Arc<AtomicBool>) -> Result<()> {
         timeout,
         other: Vec::new(),
         interrupted,
+        pdo_maps: decode::PdoMaps::default(),
     };
     commands::dispatch(&mut ctx, cli.command)
 }

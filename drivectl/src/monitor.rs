@@ -147,6 +147,82 @@ fn receive_loop(
     Ok(ctx.now())
 }
 
+/// Reads the PDO mappings (communication COB-ID, mapping entries) of every configured drive
+/// by SDO, so `monitor` decodes PDOs by what the drives really send. Drives that do not
+/// answer are skipped with a note.
+pub fn read_mappings(ctx: &mut Ctx) -> Result<()> {
+    use cia402::objects as obj;
+    use cnc402_drives::wire::{MappingEntry, PdoMap};
+    let nodes: Vec<u8> = ctx.cfg.axes.iter().filter_map(|a| a.node).collect();
+    let mut maps = crate::decode::PdoMaps::default();
+    const KINDS: [[&str; 4]; 2] = [
+        ["rpdo1", "rpdo2", "rpdo3", "rpdo4"],
+        ["tpdo1", "tpdo2", "tpdo3", "tpdo4"],
+    ];
+    for n in nodes {
+        let node = crate::node_id(n)?;
+        let r = ctx.with_sdo(
+            |sdo| -> core::result::Result<
+                Vec<(u16, &'static str, PdoMap)>,
+                cnc402_drives::master::SdoError,
+            > {
+                let mut found = Vec::new();
+                for (t, (comm, mapping)) in [
+                    (obj::RPDO_COMMUNICATION, obj::RPDO_MAPPING),
+                    (obj::TPDO_COMMUNICATION, obj::TPDO_MAPPING),
+                ]
+                .into_iter()
+                .enumerate()
+                {
+                    for i in 0..4u16 {
+                        // A PDO the drive does not have aborts; silence is an error.
+                        let cob = match sdo.read_u32(node, comm + i, 1) {
+                            Ok(c) => c,
+                            Err(e) if e.abort_code().is_some() => continue,
+                            Err(e) => return Err(e),
+                        };
+                        if cob & 0x8000_0000 != 0 {
+                            continue;
+                        }
+                        let k = sdo.read_u8(node, mapping + i, 0)?;
+                        let mut entries = Vec::new();
+                        for s in 1..=k.min(8) {
+                            entries.push(MappingEntry::from_u32(sdo.read_u32(
+                                node,
+                                mapping + i,
+                                s,
+                            )?));
+                        }
+                        if let Ok(m) = PdoMap::from_entries(&entries)
+                            && !m.is_empty()
+                        {
+                            found.push(((cob & 0x7FF) as u16, KINDS[t][i as usize], m));
+                        }
+                    }
+                }
+                Ok(found)
+            },
+        );
+        match r {
+            Ok(found) => {
+                for (cob, kind, m) in found {
+                    maps.insert(cob, kind, m);
+                }
+            }
+            Err(e) => ctx.say(format!(
+                "note: PDO mapping of {} not read: {e}",
+                ctx.label(n)
+            )),
+        }
+    }
+    ctx.say(format!(
+        "{} PDO mapping(s) read from the drives",
+        maps.len()
+    ));
+    ctx.pdo_maps = maps;
+    Ok(())
+}
+
 /// `drivectl monitor`.
 pub fn monitor(
     ctx: &mut Ctx,
@@ -228,7 +304,7 @@ pub fn monitor(
         total_bits += f.bits() as u64;
         win_bits += f.bits() as u64;
         win_frames += 1;
-        let d = decode(f, &ctx.dict);
+        let d = decode(f, &ctx.dict, &ctx.pdo_maps);
         *kinds.entry(d.kind).or_default() += 1;
         if d.kind == "sync" {
             if let Some(prev) = last_sync {
@@ -323,7 +399,7 @@ pub fn emcy(ctx: &mut Ctx, duration: Option<f64>) -> Result<()> {
         let Event::Frame(t, f) = ev else {
             return Ok(());
         };
-        let d = decode(f, &ctx.dict);
+        let d = decode(f, &ctx.dict, &ctx.pdo_maps);
         if d.kind != "emcy" {
             return Ok(());
         }
@@ -429,7 +505,7 @@ pub fn monitor_tui(ctx: &mut Ctx, log: Option<&Path>, duration: Option<f64>) -> 
     let mut on = |ctx: &mut Ctx, ev: Event<'_>| -> Result<()> {
         match ev {
             Event::Frame(t, f) => {
-                state.on_frame(t, f, &ctx.dict);
+                state.on_frame(t, f, &ctx.dict, &ctx.pdo_maps);
                 if let Some(w) = log.as_mut() {
                     let ts = if sim {
                         t.nanos() as f64 * 1e-9

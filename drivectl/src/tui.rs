@@ -14,7 +14,7 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::Line;
 use ratatui::widgets::{Block, Paragraph};
 
-use crate::decode::{Decoded, NodeNames, decode};
+use crate::decode::{Decoded, NodeNames, PdoMaps, decode};
 use crate::dict::Dictionary;
 use crate::monitor::PeriodStats;
 
@@ -115,11 +115,11 @@ impl TuiState {
     }
 
     /// Takes in one frame received at `t`.
-    pub fn on_frame(&mut self, t: Instant, f: &CanFrame, dict: &Dictionary) {
+    pub fn on_frame(&mut self, t: Instant, f: &CanFrame, dict: &Dictionary, maps: &PdoMaps) {
         self.now = t;
         self.frames += 1;
         self.window_bits += f.bits() as u64;
-        let d: Decoded = decode(f, dict);
+        let d: Decoded = decode(f, dict, maps);
         if d.kind == "sync" {
             if let Some(prev) = self.last_sync {
                 self.sync
@@ -134,7 +134,11 @@ impl TuiState {
             match d.kind {
                 "tpdo1" => {
                     v.statusword = d.fields["statusword"].as_u64().map(|x| x as u16);
-                    v.position = d.fields["position_actual"].as_i64().map(|x| x as i32);
+                    // cnc402's TPDO1, or a mapping read from the drive (object names).
+                    v.position = d.fields["position_actual"]
+                        .as_i64()
+                        .or_else(|| d.fields["position actual value"].as_i64())
+                        .map(|x| x as i32);
                 }
                 "rpdo1" => {
                     v.controlword = d.fields["controlword"].as_u64().map(|x| x as u16);
@@ -330,20 +334,23 @@ mod tests {
         let cfg = cnc402_config::MachineConfig::default_machine();
         let names = NodeNames::from_config(&cfg);
         let dict = Dictionary::new(None);
+        let maps = PdoMaps::default();
         let mut s = TuiState::new("vcan0", names, &[1, 2], 1_000_000, Instant::ZERO);
         let t = |ms| Instant::from_millis(ms);
-        s.on_frame(t(1), &CanFrame::new(0x702, &[0x05]).unwrap(), &dict);
-        s.on_frame(t(2), &CanFrame::new(0x080, &[]).unwrap(), &dict);
+        s.on_frame(t(1), &CanFrame::new(0x702, &[0x05]).unwrap(), &dict, &maps);
+        s.on_frame(t(2), &CanFrame::new(0x080, &[]).unwrap(), &dict, &maps);
         s.on_frame(
             t(3),
             &CanFrame::new(0x181, &[0x37, 0x12, 0x10, 0x27, 0, 0]).unwrap(),
             &dict,
+            &maps,
         );
-        s.on_frame(t(3), &CanFrame::new(0x080, &[]).unwrap(), &dict);
+        s.on_frame(t(3), &CanFrame::new(0x080, &[]).unwrap(), &dict, &maps);
         s.on_frame(
             t(4),
             &CanFrame::new(0x082, &[0x10, 0x23, 0x03, 0, 0, 0, 0, 0]).unwrap(),
             &dict,
+            &maps,
         );
         s.on_tick(t(10));
         assert_eq!(s.drives[&1].position, Some(10000));

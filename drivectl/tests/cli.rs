@@ -472,3 +472,23 @@ fn ctrl_c_during_a_move_ramps_to_standstill() {
         "{j}"
     );
 }
+
+#[test]
+fn monitor_reads_pdo_mappings_from_the_drives() {
+    let o = sim(&["monitor", "--read-mapping", "--duration", "0.01"]);
+    // Each simulated drive has RPDO1 and TPDO1 valid at power-on.
+    check(&o, 0, "8 PDO mapping(s) read from the drives");
+    // The SDO traffic of reading them is not what monitor shows afterwards.
+    let o = sim(&[
+        "--sim-setup",
+        "sdo:3",
+        "--timeout-ms",
+        "20",
+        "monitor",
+        "--read-mapping",
+        "--duration",
+        "0.01",
+    ]);
+    check(&o, 0, "note: PDO mapping of node 3 (Z) not read");
+    assert!(o.stdout.contains("6 PDO mapping(s)"), "{}", o.stdout);
+}
