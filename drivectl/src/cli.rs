@@ -13,7 +13,7 @@ Examples:
   drivectl --iface can0 info 3
   drivectl sdo read 3 0x6041                     # type from the EDS / standard objects
   drivectl sdo write 3 0x6065 u32 5000
-  drivectl enable 3 && drivectl move 3 12.5
+  drivectl move 3 12.5                           # boots, enables in CSP, moves, disables
   drivectl --iface vcan0 monitor --log bus.log
 
 --iface sim runs the embedded simulator in-process: one simulated CiA 402 drive per axis of

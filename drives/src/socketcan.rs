@@ -18,6 +18,37 @@ use crate::master::TimedBus;
 use crate::time::Instant;
 use crate::wire::CanFrame;
 
+/// What one frame read from the socket is.
+#[derive(Debug)]
+enum Received {
+    /// A CANopen (11-bit) data or remote frame.
+    Frame(CanFrame),
+    /// A 29-bit frame: not CANopen CC, counted and skipped.
+    Extended,
+    /// An error frame, decoded; bus-off is reported to the caller.
+    Error { error: CanError, bus_off: bool },
+}
+
+/// Sorts a socket frame into what [`SocketCanBus`] does with it.
+fn classify(f: SkFrame) -> Received {
+    match f {
+        SkFrame::Error(e) => {
+            let error = e.into_error();
+            let bus_off = error.causes().any(|c| matches!(c, ErrorCause::BusOff));
+            Received::Error { error, bus_off }
+        }
+        f if f.is_extended() => Received::Extended,
+        SkFrame::Remote(r) => match CanFrame::new_remote(r.raw_id() as u16, r.dlc() as u8) {
+            Ok(frame) => Received::Frame(frame),
+            Err(_) => Received::Extended,
+        },
+        SkFrame::Data(d) => match CanFrame::new(d.raw_id() as u16, d.data()) {
+            Ok(frame) => Received::Frame(frame),
+            Err(_) => Received::Extended,
+        },
+    }
+}
+
 /// errno values this module interprets (Linux).
 mod errno {
     pub const ENODEV: i32 = 19;
@@ -83,7 +114,8 @@ impl std::error::Error for OpenError {}
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SocketCanOptions {
     /// How long one `send` may wait for room in the transmit queue (ENOBUFS / EAGAIN are
-    /// retried until then, then reported as [`BusError::TxQueueFull`]).
+    /// retried until then, then reported as [`BusError::TxQueueFull`]). The 1 ms cyclic loop
+    /// should use `Duration::ZERO` (one attempt, never sleeps); tools keep the default.
     pub send_budget: Duration,
     /// Pass CAN error frames to this socket (counted; bus-off becomes an error).
     pub error_frames: bool,
@@ -264,32 +296,21 @@ impl SocketCanBus {
     /// Takes in one frame from the socket: `Ok(Some)` for a CANopen frame, `Ok(None)` for one
     /// that was counted and skipped (error frame, 29-bit id), `Err` for bus-off.
     fn take(&mut self, f: SkFrame) -> Result<Option<CanFrame>, BusError> {
-        match f {
-            SkFrame::Error(e) => {
+        match classify(f) {
+            Received::Frame(frame) => Ok(Some(self.count_rx(frame))),
+            Received::Extended => {
+                self.extended_frames += 1;
+                self.counters.bus_frames += 1;
+                Ok(None)
+            }
+            Received::Error { error, bus_off } => {
                 self.error_frames += 1;
-                let err = e.into_error();
-                let bus_off = err.causes().any(|c| matches!(c, ErrorCause::BusOff));
-                self.last_error = Some(err);
+                self.last_error = Some(error);
                 if bus_off {
                     Err(BusError::BusOff)
                 } else {
                     Ok(None)
                 }
-            }
-            f if f.is_extended() => {
-                self.extended_frames += 1;
-                self.counters.bus_frames += 1;
-                Ok(None)
-            }
-            SkFrame::Remote(r) => {
-                let frame = CanFrame::new_remote(r.raw_id() as u16, r.dlc() as u8)
-                    .map_err(|_| BusError::Io(0))?;
-                Ok(Some(self.count_rx(frame)))
-            }
-            SkFrame::Data(d) => {
-                let frame =
-                    CanFrame::new(d.raw_id() as u16, d.data()).map_err(|_| BusError::Io(0))?;
-                Ok(Some(self.count_rx(frame)))
             }
         }
     }
@@ -463,18 +484,36 @@ mod tests {
     }
 
     #[test]
-    fn error_frames_are_counted_and_bus_off_is_an_error() {
-        // A socket is needed for `take` only through its fields; build the bus on a real
-        // socket where the kernel allows, else exercise the mapping on the decoded error.
-        let bus_off = ::socketcan::CanErrorFrame::new_error(0x40, &[]).unwrap(); // CAN_ERR_BUSOFF
-        let err = bus_off.into_error();
-        assert!(err.causes().any(|c| matches!(c, ErrorCause::BusOff)));
-        let ctrl = ::socketcan::CanErrorFrame::new_error(0x04, &[0, 0x20]).unwrap(); // error passive
-        assert!(
-            !ctrl
-                .into_error()
-                .causes()
-                .any(|c| matches!(c, ErrorCause::BusOff))
+    fn received_frames_are_sorted_and_bus_off_is_an_error() {
+        use ::socketcan::{CanErrorFrame, ExtendedId};
+        // CAN_ERR_BUSOFF (0x40 in the id) → bus-off.
+        let bus_off = SkFrame::Error(CanErrorFrame::new_error(0x40, &[]).unwrap());
+        assert!(matches!(
+            classify(bus_off),
+            Received::Error { bus_off: true, .. }
+        ));
+        // CAN_ERR_CRTL with "error passive" in data[1]: counted, not fatal.
+        let passive = SkFrame::Error(CanErrorFrame::new_error(0x04, &[0, 0x20]).unwrap());
+        assert!(matches!(
+            classify(passive),
+            Received::Error { bus_off: false, .. }
+        ));
+        let ext =
+            SkFrame::Data(CanDataFrame::new(ExtendedId::new(0x1ABC_0001).unwrap(), &[1]).unwrap());
+        assert!(matches!(classify(ext), Received::Extended));
+        let data = SkFrame::Data(
+            CanDataFrame::new(StandardId::new(0x181).unwrap(), &[0x37, 0x02]).unwrap(),
         );
+        match classify(data) {
+            Received::Frame(f) => assert_eq!(f.to_string(), "181#3702"),
+            other => panic!("{other:?}"),
+        }
+        let rtr = SkFrame::Remote(
+            CanRemoteFrame::new_remote(StandardId::new(0x703).unwrap(), 1).unwrap(),
+        );
+        match classify(rtr) {
+            Received::Frame(f) => assert!(f.is_remote() && f.id() == 0x703 && f.dlc() == 1),
+            other => panic!("{other:?}"),
+        }
     }
 }
