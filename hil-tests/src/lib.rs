@@ -1,7 +1,11 @@
-//! simdrive and the vcan hardware-in-the-loop suite (simdrive: filled in by the SocketCAN issue).
+//! simdrive and the vcan hardware-in-the-loop suite.
 //!
 //! `latency` summarises wake-up lateness of periodic loops; `rt` holds the real-time process
-//! settings (mlockall, SCHED_FIFO) and the absolute-deadline sleep the HIL binaries share.
+//! settings (mlockall, SCHED_FIFO) and the absolute-deadline sleep the HIL binaries share;
+//! `simdrive` hosts simulated drives on a bus and reports what it saw; `check` evaluates the
+//! assertions of `hilcheck` on JSON reports.
 
+pub mod check;
 pub mod latency;
 pub mod rt;
+pub mod simdrive;

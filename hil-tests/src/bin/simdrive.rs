@@ -1,0 +1,235 @@
+//! simdrive: simulated CiA 402 drives on a real CAN interface, one per configured node (the
+//! same `SimDrive` model as `cnc402 run` with `bus.interface = "sim"`), in real time. It checks
+//! rigid-tapping coupling from the bus, measures the SYNC period, counts protocol errors,
+//! injects faults on command and writes a JSON report when it ends (SIGTERM, SIGINT,
+//! `--duration`).
+//!
+//! Exit codes: 0 every check passed; 1 a check failed (see the report); 2 bad arguments or
+//! config; 6 the interface could not be opened or failed; 4 the report could not be written.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use clap::Parser;
+use cnc402_config::MachineConfig;
+use cnc402_drives::bus::{CanBus, CanDevice};
+use cnc402_drives::master::TimedBus;
+use cnc402_drives::socketcan::SocketCanBus;
+use cnc402_hil::rt;
+use cnc402_hil::simdrive::{
+    BusFigures, DriveHost, FaultClock, FaultSpec, HostOptions, parse_boot_delay,
+    parse_start_in_fault,
+};
+
+/// Command line of simdrive.
+#[derive(Parser, Debug)]
+#[command(
+    about = "Simulated CiA 402 drives on a CAN interface, with coupling, SYNC and protocol checks",
+    after_help = "Example:\n  simdrive --config config/machine.toml --iface vcan0 --report drive.json \\\n      --fault 3:fault:0x7300@2.5 --boot-delay 2:1.5 --start-in-fault 1"
+)]
+struct Args {
+    /// Machine description (one drive per axis with a node id).
+    #[arg(long, default_value = cnc402_config::DEFAULT_PATH)]
+    config: PathBuf,
+    /// CAN interface.
+    #[arg(long, default_value = "vcan0")]
+    iface: String,
+    /// Write the JSON report here on exit.
+    #[arg(long, value_name = "FILE.json")]
+    report: Option<PathBuf>,
+    /// Inject a fault: KIND = fault[:CODE] (FAULT + EMCY), fault-persistent[:CODE],
+    /// heartbeat (silence), sdo (no SDO answers), tpdo (drop TPDOs). SECONDS count from the
+    /// first SYNC (see --fault-clock). Repeatable.
+    #[arg(long, value_name = "NODE:KIND@SECONDS")]
+    fault: Vec<FaultSpec>,
+    /// Where --fault's SECONDS start: `sync` (first SYNC seen) or `start` (power-on).
+    #[arg(long, default_value = "sync", value_parser = ["sync", "start"])]
+    fault_clock: String,
+    /// A drive that boots late: its boot-up message comes SECONDS after power-on. Repeatable.
+    #[arg(long, value_name = "NODE:SECONDS", value_parser = parse_boot_delay)]
+    boot_delay: Vec<(u8, f64)>,
+    /// A drive in FAULT at power-on (EMCY CODE, default 0x1000). Repeatable.
+    #[arg(long, value_name = "NODE[:CODE]", value_parser = parse_start_in_fault)]
+    start_in_fault: Vec<(u8, u16)>,
+    /// Stop after this many seconds (default: run until SIGTERM/SIGINT).
+    #[arg(long, value_name = "S")]
+    duration: Option<f64>,
+    /// Do not ask for mlockall and SCHED_FIFO.
+    #[arg(long)]
+    no_rt: bool,
+    /// SCHED_FIFO priority (below the master's, which paces the bus).
+    #[arg(long, default_value_t = 70, value_parser = clap::value_parser!(i32).range(1..=99))]
+    fifo_priority: i32,
+}
+
+static STOP: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_signal(_: libc::c_int) {
+    STOP.store(true, Ordering::SeqCst);
+}
+
+fn install_signals() {
+    // SAFETY: the handler only stores to an atomic (async-signal-safe). No SA_RESTART, so a
+    // blocking receive returns EINTR and the loop sees STOP at once.
+    unsafe {
+        let mut sa: libc::sigaction = std::mem::zeroed();
+        sa.sa_sigaction = on_signal as *const () as usize;
+        libc::sigemptyset(&mut sa.sa_mask);
+        sa.sa_flags = 0;
+        libc::sigaction(libc::SIGTERM, &sa, std::ptr::null_mut());
+        libc::sigaction(libc::SIGINT, &sa, std::ptr::null_mut());
+    }
+}
+
+fn grants(no_rt: bool, prio: i32) -> String {
+    if no_rt {
+        return "not asked (--no-rt)".into();
+    }
+    let m = match rt::lock_memory() {
+        Ok(()) => "mlockall granted".to_string(),
+        Err(e) => format!("mlockall refused ({e})"),
+    };
+    let f = match rt::set_fifo(prio) {
+        Ok(()) => format!("SCHED_FIFO {prio} granted"),
+        Err(e) => format!("SCHED_FIFO refused ({e})"),
+    };
+    format!("{m}, {f}")
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let cfg = match MachineConfig::load(&args.config) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("simdrive: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let opts = HostOptions {
+        faults: args.fault.clone(),
+        fault_clock: if args.fault_clock == "start" {
+            FaultClock::Start
+        } else {
+            FaultClock::FirstSync
+        },
+        boot_delays: args.boot_delay.clone(),
+        start_in_fault: args.start_in_fault.clone(),
+    };
+    let mut host = match DriveHost::new(&cfg, &opts) {
+        Ok(h) => h,
+        Err(e) => {
+            eprintln!("simdrive: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    if let Some(d) = args.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        eprintln!("simdrive: --duration must be a positive number of seconds");
+        return ExitCode::from(2);
+    }
+    install_signals();
+    let mut bus = match SocketCanBus::open(&args.iface) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("simdrive: {e}");
+            return ExitCode::from(6);
+        }
+    };
+    let granted = grants(args.no_rt, args.fifo_priority);
+    eprintln!(
+        "simdrive: nodes {:?} on {} (period {} µs); {granted}",
+        host.nodes(),
+        args.iface,
+        cfg.bus.period_us
+    );
+    let end = args
+        .duration
+        .map(|s| TimedBus::now(&bus) + Duration::from_secs_f64(s));
+    // Timers (heartbeat, boot, following-error time-out) need a poll at least this often.
+    let tick = Duration::from_micros(250);
+    let mut failure: Option<String> = None;
+    host.poll(TimedBus::now(&bus), &mut bus);
+    while !STOP.load(Ordering::SeqCst) {
+        let now = TimedBus::now(&bus);
+        if end.is_some_and(|e| now >= e) {
+            break;
+        }
+        match bus.recv_timeout(tick) {
+            Ok(Some(frame)) => {
+                let now = TimedBus::now(&bus);
+                host.on_frame(&frame, now, &mut bus);
+                // Drain what is already queued before polling timers.
+                loop {
+                    match bus.recv() {
+                        Ok(Some(f)) => {
+                            let now = TimedBus::now(&bus);
+                            host.on_frame(&f, now, &mut bus);
+                        }
+                        Ok(None) => break,
+                        Err(e) => {
+                            failure = Some(format!("receive failed: {e}"));
+                            break;
+                        }
+                    }
+                }
+            }
+            Ok(None) => {}
+            Err(e) => failure = Some(format!("receive failed: {e}")),
+        }
+        if failure.is_some() {
+            break;
+        }
+        let now = TimedBus::now(&bus);
+        host.poll(now, &mut bus);
+    }
+    host.finish();
+    let elapsed = Duration::from_nanos(TimedBus::now(&bus).nanos());
+    let c = bus.counters();
+    let figures = BusFigures {
+        iface: args.iface.clone(),
+        seconds: elapsed.as_secs_f64(),
+        rx_frames: c.rx_frames,
+        tx_frames: c.tx_frames,
+        load_percent: c.load_percent(cfg.bus.bitrate, elapsed),
+        error_frames: bus.error_frames(),
+    };
+    let mut report = host.report(Some(&figures));
+    report["realtime_grant"] = granted.into();
+    if let Some(f) = &failure {
+        report["ok"] = false.into();
+        report["error"] = f.clone().into();
+    }
+    let ok = report["ok"].as_bool() == Some(true);
+    let s = &report["sync_period_us"];
+    eprintln!(
+        "simdrive: {}: {} frames in {:.1} s, bus load {:.1} %, SYNC {} (period p50 {} p99 {} max {} µs), protocol errors {}",
+        if ok { "ok" } else { "CHECK FAILED" },
+        c.rx_frames + c.tx_frames,
+        figures.seconds,
+        figures.load_percent,
+        s["count"],
+        s["p50"],
+        s["p99"],
+        s["max"],
+        report["protocol_errors"]["unexpected_frames"],
+    );
+    if let Some(path) = &args.report {
+        let text = serde_json::to_string_pretty(&report).unwrap_or_default();
+        if let Err(e) = std::fs::write(path, text + "\n") {
+            eprintln!("simdrive: cannot write {}: {e}", path.display());
+            return ExitCode::from(4);
+        }
+    }
+    if let Some(f) = failure {
+        eprintln!("simdrive: {f}");
+        return ExitCode::from(6);
+    }
+    if ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
