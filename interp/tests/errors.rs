@@ -497,12 +497,8 @@ const CASES: &[(&str, u32, u32, &str)] = &[
         "#2000 is not a variable of this control",
     ),
     // Later issues' constructs: refused where they are, not skipped.
-    (
-        "int n = 2;\n",
-        1,
-        1,
-        "C-like statements are not supported yet",
-    ),
+    // The C-like language runs now (interp/src/hll): its run-time errors are located too.
+    ("double d = 1 / 0;\n", 1, 12, "division by zero"),
     // The spindle axis.
     (
         "M3 S100\nG0 C90\n",
