@@ -24,6 +24,30 @@
 //!   (the operator's manual retract in Fanuc), then rapids out and restarts the spindle.
 //! - M1 stops only with [`Options::optional_stop`]; `/` blocks are skipped with
 //!   [`Options::block_delete`]; M2/M30 end the run; a `%` after the first block ends it.
+//!
+//! Custom Macro B ([`macros`]):
+//! - A file holds one or more programs (`O` lines). `M98 P`/`G65 P`/`G66 P` look in the
+//!   running file, then next to the main program (`O9001.nc`, `O9001.CNC`, … case-insensitive),
+//!   then in the [`ProgramLibrary`] (default: the config's `program_dir`). `M98 P30009001` =
+//!   3 × O9001 (Fanuc 0 prefix); `L` overrides. M98 shares the caller's locals; G65/G66 get a
+//!   new set (argument specification I; `M` is `#13`). Nesting: 15 programs, 4 macro levels.
+//!   A `G65` block with H and only P/Q/R besides is an old macro instruction (`G65 H02 P#1 Q#2
+//!   R3`); with any other address H is the argument `#11`.
+//! - `M99` returns (repeats first); `M99 P n` returns to `N n` of the caller, or jumps in a
+//!   main program. The end of a sub-program's text returns like M99.
+//! - Vacant: `#0`, unset variables; a word whose value is vacant is left out; arithmetic reads
+//!   0; `EQ`/`NE` compare vacant as a value of its own. Common `#100–#199` clear at `load`;
+//!   `#500–#999` persist through [`PersistentVars`] (default: `interp.variables_file`, written
+//!   durably before the next block runs; a damaged file is the first `next_segment` error).
+//! - System variables: `#3000=n(text)` alarm `3000+n`; `G65 H99 Pn` alarm `500+n`; `#3006`
+//!   message + program stop; `#4001–#4022` group codes (G40/G49/G50/G69/G15 read as the cancel
+//!   codes cnc402 accepts as no-ops; groups it lacks read vacant); `#4109 F #4113 M #4114 N
+//!   #4115 O #4119 S #4120 T` (`B D E H` vacant); `#5001+i` programmed block end (work
+//!   coordinates, no sync); `#5021+i` machine and `#5041+i` work position: sync points through
+//!   [`MotionSync`] (default [`ExactStop`]); `#5221+20k+i` work offsets G54–G59, read/write
+//!   (for the run only, the config file is not changed).
+//! - `interp.block_limit` blocks in a row without motion (feed, rapid, arc or dwell) end the
+//!   program as a runaway, naming the lines the loop ran over.
 
 // NcError (lang's) is large; an error ends the run, so its size costs nothing that matters.
 #![allow(clippy::result_large_err)]
