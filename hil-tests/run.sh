@@ -81,19 +81,41 @@ kernel_package_name() {
     echo "$name"
 }
 
+# cached_deb PKG: the cached .deb of PKG (exact name), if any.
+cached_deb() { ls "$CACHE/debs/${1}_"*.deb 2>/dev/null | head -1 || true; }
+
+# fetch_deb PKG: prints the path of PKG's .deb, downloading it into $CACHE/debs if needed.
+# A failed download is retried once after apt-get update (stale package lists name versions
+# the mirror no longer has). Dies on failure.
+fetch_deb() {
+    local p="$1" deb
+    mkdir -p "$CACHE/debs"
+    deb=$(cached_deb "$p")
+    if [[ -z "$deb" ]]; then
+        say "downloading $p"
+        if ! (cd "$CACHE/debs" && apt-get download -q "$p" >/dev/null 2>"$CACHE/apt-download.log"); then
+            [[ $apt_updated == 0 ]] || { cat "$CACHE/apt-download.log" >&2; die "apt-get download $p failed"; }
+            apt_update_once
+            (cd "$CACHE/debs" && apt-get download -q "$p" >/dev/null 2>"$CACHE/apt-download.log") \
+                || { cat "$CACHE/apt-download.log" >&2; die "apt-get download $p failed"; }
+        fi
+        deb=$(cached_deb "$p")
+        [[ -n "$deb" ]] || die "apt-get download $p left no .deb in $CACHE/debs"
+    fi
+    FETCHED_DEB="$deb"
+}
+
 ensure_kernel() {
     [[ -f "$KDIR/READY" ]] && return 0
     local pkg deb tmp
     pkg=$(kernel_package_name)
-    mkdir -p "$CACHE/debs"
-    deb=$(ls "$CACHE/debs/${pkg}_"*_amd64.deb 2>/dev/null | head -1 || true)
-    if [[ -z "$deb" ]]; then
-        say "downloading $pkg"
-        (cd "$CACHE/debs" && apt-get download -q "$pkg" >/dev/null 2>"$CACHE/apt-download.log") \
-            || { cat "$CACHE/apt-download.log" >&2; die "apt-get download $pkg failed"; }
-        deb=$(ls "$CACHE/debs/${pkg}_"*_amd64.deb 2>/dev/null | head -1 || true)
-        [[ -n "$deb" ]] || die "apt-get download $pkg left no .deb in $CACHE/debs"
+    if [[ -z "$(cached_deb "$pkg")" && $apt_updated == 0 ]]; then
+        # The name comes from the package lists: make sure they are current before fetching.
+        apt_update_once
+        pkg=$(kernel_package_name)
     fi
+    fetch_deb "$pkg"
+    deb="$FETCHED_DEB"
     say "unpacking vmlinuz and modules from $(basename "$deb")"
     tmp="$KDIR.tmp"
     rm -rf "$tmp" && mkdir -p "$tmp/x" "$tmp/modules"
@@ -122,18 +144,10 @@ ensure_kernel() {
 unpack_debs() {
     local dir="$1" p deb debs=()
     shift
-    mkdir -p "$CACHE/debs"
     for p in "$@"; do
-        deb=$(ls "$CACHE/debs/${p}_"*.deb 2>/dev/null | head -1 || true)
-        if [[ -z "$deb" ]]; then
-            apt-cache show "$p" >/dev/null 2>&1 || apt_update_once
-            say "downloading $p"
-            (cd "$CACHE/debs" && apt-get download -q "$p" >/dev/null 2>"$CACHE/apt-download.log") \
-                || { cat "$CACHE/apt-download.log" >&2; die "apt-get download $p failed"; }
-            deb=$(ls "$CACHE/debs/${p}_"*.deb 2>/dev/null | head -1 || true)
-            [[ -n "$deb" ]] || die "apt-get download $p left no .deb in $CACHE/debs"
-        fi
-        debs+=("$deb")
+        [[ -n "$(cached_deb "$p")" ]] || apt-cache show "$p" >/dev/null 2>&1 || apt_update_once
+        fetch_deb "$p"
+        debs+=("$FETCHED_DEB")
     done
     rm -rf "$dir.tmp" && mkdir -p "$dir.tmp"
     for deb in "${debs[@]}"; do
