@@ -159,7 +159,7 @@ pub fn spawn_feeder(
                     match ring.try_push(item) {
                         Ok(()) => return true,
                         Err(back) => {
-                            if shared.abort.load(Ordering::SeqCst) {
+                            if shared.abort.load(Ordering::SeqCst) || shared.lock().ended {
                                 return false;
                             }
                             item = back;
@@ -192,7 +192,7 @@ pub fn spawn_feeder(
                         return None;
                     }
                     Err(e) => {
-                        if shared.abort.load(Ordering::SeqCst) {
+                        if shared.abort.load(Ordering::SeqCst) || shared.lock().ended {
                             // The machine stopped under a waiting read: not a program error.
                             return None;
                         }

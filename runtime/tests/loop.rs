@@ -369,3 +369,26 @@ fn a_position_read_waits_for_the_machine_to_settle() {
     assert!(synced.starved_ticks >= 90, "{}", synced.starved_ticks);
     assert_eq!(plain.starved_ticks, 0);
 }
+
+#[test]
+fn a_fault_under_a_waiting_position_read_is_a_fault_not_a_program_error() {
+    let cfg = MachineConfig::default_machine();
+    let src = SourceFile::new(
+        "f.nc",
+        "G21 G90\nG1 X20. F600.\n#1 = #5021\nG0 X[#1 + 1.]\nM30\n",
+    );
+    let ast = cnc402_lang::parse(&src).unwrap();
+    let opts = RunOptions {
+        fault: Some(FaultPlan {
+            node: 1,
+            at: Duration::from_millis(500),
+            emcy: 0x2310,
+        }),
+        ..RunOptions::default()
+    };
+    let r = run_program(&cfg, src, ast, opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:?}"));
+    assert!(!r.ok);
+    let stop = r.stop.expect("a stop report");
+    assert_eq!((stop.stop.node, stop.stop.emcy), (1, Some(0x2310)));
+    assert_eq!(stop.location, "f.nc:2");
+}
