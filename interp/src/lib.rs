@@ -34,7 +34,8 @@
 //!   A `G65` block with H and only P/Q/R besides is an old macro instruction (`G65 H02 P#1 Q#2
 //!   R3`); with any other address H is the argument `#11`.
 //! - `M99` returns (repeats first); `M99 P n` returns to `N n` of the caller, or jumps in a
-//!   main program. The end of a sub-program's text returns like M99.
+//!   main program; `M99` alone in a main program ends it (Fanuc would restart it endlessly).
+//!   The end of a sub-program's text returns like M99.
 //! - Vacant: `#0`, unset variables; a word whose value is vacant is left out; arithmetic reads
 //!   0; `EQ`/`NE` compare vacant as a value of its own. Common `#100–#199` clear at `load`;
 //!   `#500–#999` persist through [`PersistentVars`] (default: `interp.variables_file`, written

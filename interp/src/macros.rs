@@ -743,12 +743,12 @@ impl Interpreter {
             return Ok(());
         }
         if self.frames.len() == 1 {
-            // M99 in the main program: jump to N seq, or start over.
+            // M99 in the main program: jump to N seq. Without P Fanuc starts the program over,
+            // endlessly; cnc402 ends it instead (a run must end without an operator).
             return match seq {
                 Some(n) => self.jump(unit, n, span),
                 None => {
-                    let s = unit.start;
-                    self.set_pc(s);
+                    self.done = true;
                     Ok(())
                 }
             };

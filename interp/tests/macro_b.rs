@@ -252,6 +252,9 @@ fn subprograms_in_the_file_m98_l_and_p_prefix_m99_p() {
     // M99 P in a main program jumps.
     let segs = drain(&mut start("G0 X1\nM99 P7\nG0 X2\nN7 G0 X3\n")).unwrap();
     assert_eq!(xs(&segs), vec![1.0, 3.0]);
+    // M99 alone in a main program ends it (no endless restart).
+    let segs = drain(&mut start("G0 X1\nM99\nG0 X2\n")).unwrap();
+    assert_eq!(xs(&segs), vec![1.0]);
     // M98 shares the locals of its caller.
     let mut it = ok("O1\n#1=4\nM98 P2\nM30\nO2\n#1=#1*2\nM99\n");
     assert_eq!(it.var(1), Some(8.0));
