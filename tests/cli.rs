@@ -419,3 +419,28 @@ fn dry_run_does_not_write_non_volatile_variables() {
         assert_eq!(table.get(500), Some(want), "one increment per run");
     }
 }
+
+#[test]
+fn faults_and_taps_in_an_included_file_name_that_file() {
+    // The AxiOMA program taps through `Tapping(...)` from `#use "metch_cycles.c"`, and checks
+    // @ITPPATH against its own path sum (the runtime's motion sync answers it).
+    let ex = "examples/axioma/multipass_tap.nc";
+    let report = tmp("axioma.json");
+    let o = cnc402(&["run", ex, "--report", report.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v = read_json(&report);
+    let taps = v["tapping"].as_array().unwrap();
+    assert!(!taps.is_empty());
+    for t in taps {
+        assert_eq!(t["file"], "examples/axioma/metch_cycles.c");
+        assert!(t["max_coupling_error_um_cmd"].as_f64().unwrap() <= coupling_bound_um(1.5));
+    }
+    let o = cnc402(&["run", ex, "--inject-fault", "4:8611@3"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("examples/axioma/metch_cycles.c:"), "{err}");
+    assert!(
+        err.contains("node 4") && err.contains("EMCY 0x8611"),
+        "{err}"
+    );
+}

@@ -78,8 +78,8 @@ pub struct CycleController<L: DriveLink> {
     commands: [f64; MAX_AXES],
     setpoints: [i32; MAX_AXES],
     feedback: [DriveFeedback; MAX_AXES],
-    /// The first stop and the line executing then.
-    stop: Option<(DriveStop, u32)>,
+    /// The first stop, the line executing then and its move number.
+    stop: Option<(DriveStop, u32, u64)>,
     motion_error: Option<cnc402_motion::MotionError>,
     starved: u64,
     dropped: u64,
@@ -275,7 +275,11 @@ impl<L: DriveLink> CycleController<L> {
             return Outcome::MotionFailed { error };
         }
         match self.stop {
-            Some((stop, line)) => Outcome::Stopped { stop, line },
+            Some((stop, line, move_index)) => Outcome::Stopped {
+                stop,
+                line,
+                move_index,
+            },
             None => Outcome::Finished,
         }
     }
@@ -295,7 +299,7 @@ impl<L: DriveLink> CycleController<L> {
 
     fn begin_stop(&mut self, stop: DriveStop) {
         if self.stop.is_none() && self.motion_error.is_none() {
-            self.stop = Some((stop, self.last_line));
+            self.stop = Some((stop, self.last_line, self.moves_started));
         }
         if matches!(self.phase, Phase::Running | Phase::Settling) {
             self.interp.request_stop();

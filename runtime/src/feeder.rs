@@ -22,11 +22,25 @@ pub struct Feeder {
     done: bool,
     /// Texts of `Message` moves sent, in order (the loop reports only that one finished).
     messages: VecDeque<String>,
+    /// The source file of the last move.
+    last_file: Option<std::sync::Arc<str>>,
 }
 
 /// A planner error as a program error at the block's line.
 pub fn motion_error_to_nc(src: &SourceFile, e: &MotionError) -> NcError {
     NcError::new(src, src.line_span(e.line), e.to_string())
+}
+
+/// The text of `file` for messages: `main` itself, or an included / sub-program file read
+/// again from disk (outside the loop); `main` if it cannot be read.
+pub fn source_for(file: &str, main: &SourceFile) -> SourceFile {
+    if &*main.name == file {
+        return main.clone();
+    }
+    match std::fs::read_to_string(file) {
+        Ok(text) => SourceFile::new(file, text),
+        Err(_) => main.clone(),
+    }
 }
 
 impl Feeder {
@@ -70,6 +84,7 @@ impl Feeder {
             held: None,
             done: false,
             messages: VecDeque::new(),
+            last_file: None,
         }
     }
 
@@ -81,7 +96,10 @@ impl Feeder {
         let mv = self
             .planner
             .plan(&seg)
-            .map_err(|e| motion_error_to_nc(&self.src, &e))?;
+            .map_err(|e| motion_error_to_nc(&source_for(&seg.source.file, &self.src), &e))?;
+        if self.last_file.as_ref() != Some(&seg.source.file) {
+            self.last_file = Some(seg.source.file.clone());
+        }
         if let (MoveKind::Message, SegmentKind::Message { text }) = (&mv.kind, seg.kind) {
             self.messages.push_back(text);
         }
@@ -128,6 +146,11 @@ impl Feeder {
     /// Replaces the interpreter's motion sync (see [`crate::sync`]).
     pub fn set_motion_sync(&mut self, sync: Box<dyn cnc402_interp::MotionSync>) {
         self.interp.set_motion_sync(sync);
+    }
+
+    /// The source file of the last move returned by [`next_move`](Self::next_move).
+    pub fn last_file(&self) -> Option<&std::sync::Arc<str>> {
+        self.last_file.as_ref()
     }
 
     /// The program text.

@@ -24,6 +24,10 @@ pub struct TapWindow {
     pub max_coupling_error_um_act: f64,
     /// First and last tick.
     pub ticks: (u64, u64),
+    /// Number of the window's first move (see [`Status::moves_started`]); names its file.
+    pub move_index: u64,
+    /// The file of `line` (filled in when the run is reported).
+    pub file: Option<String>,
 }
 
 struct OpenWindow {
@@ -219,6 +223,8 @@ impl Recorder {
                 max_coupling_error_um_cmd: 0.0,
                 max_coupling_error_um_act: 0.0,
                 ticks: (s.tick, s.tick),
+                move_index: s.moves_started,
+                file: None,
             },
             c,
             cmd0: (

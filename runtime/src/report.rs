@@ -85,6 +85,7 @@ impl RunReport {
             .iter()
             .map(|t| {
                 json!({
+                    "file": t.file,
                     "line": t.line,
                     "pitch_mm": t.pitch_mm,
                     "max_coupling_error_um_cmd": t.max_coupling_error_um_cmd,
@@ -155,8 +156,12 @@ impl RunReport {
         for t in &self.tapping {
             let _ = writeln!(
                 s,
-                "  tap at line {}: pitch {:.4} mm, coupling error {:.4} µm (setpoints), {:.4} µm (actual)",
-                t.line, t.pitch_mm, t.max_coupling_error_um_cmd, t.max_coupling_error_um_act
+                "  tap at {}:{}: pitch {:.4} mm, coupling error {:.4} µm (setpoints), {:.4} µm (actual)",
+                t.file.as_deref().unwrap_or("line"),
+                t.line,
+                t.pitch_mm,
+                t.max_coupling_error_um_cmd,
+                t.max_coupling_error_um_act
             );
         }
         if let Some(w) = self

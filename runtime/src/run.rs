@@ -16,7 +16,7 @@ use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::{AxisPos, MoveEvent};
 
 use crate::controller::{AxisTable, CycleController, Step, start_position};
-use crate::feeder::{Feeder, dry_run, motion_error_to_nc};
+use crate::feeder::{Feeder, dry_run, motion_error_to_nc, source_for};
 use crate::link::{DriveLink, DriveStop, FaultPlan, ModelLink, Startup};
 use crate::recorder::Recorder;
 use crate::report::{AxisReport, RunReport, StopReport};
@@ -348,14 +348,20 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
             ),
         },
         Outcome::StartupFailed(m) => (false, Some(format!("start-up failed: {m}")), None),
-        Outcome::Stopped { stop, line } => {
+        Outcome::Stopped {
+            stop,
+            line,
+            move_index,
+        } => {
             let axis = cfg
                 .axes
                 .iter()
                 .find(|a| stop.node != 0 && a.node == Some(stop.node))
                 .map(|a| a.name);
-            let location = format!("{}:{}", src.name, line);
-            let block = src.line_text(line).trim().to_string();
+            let file = side.shared.file_of(move_index);
+            let text = source_for(file.as_deref().unwrap_or(&src.name), src);
+            let location = format!("{}:{}", text.name, line);
+            let block = text.line_text(line).trim().to_string();
             let mut msg = stop.cause.describe().to_string();
             if stop.node != 0 {
                 msg.push_str(&format!(" on node {}", stop.node));
@@ -396,7 +402,16 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
         program_time_s,
         path_length_mm: rec.path_length,
         axes,
-        tapping: rec.taps.clone(),
+        tapping: rec
+            .taps
+            .iter()
+            .map(|t| {
+                let mut t = t.clone();
+                let file = side.shared.file_of(t.move_index);
+                t.file = Some(file.as_deref().unwrap_or(&src.name).to_string());
+                t
+            })
+            .collect(),
         bus_frames: end.counters.bus_frames,
         bus_load_percent: end.counters.load_percent(end.bitrate, end.elapsed),
         wakeup_latency: end.latency,

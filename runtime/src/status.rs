@@ -67,7 +67,13 @@ pub enum Outcome {
     Finished,
     /// A safety reaction or operator stop brought the machine to rest; `line` is the program
     /// line that was executing when it happened.
-    Stopped { stop: DriveStop, line: u32 },
+    Stopped {
+        stop: DriveStop,
+        line: u32,
+        /// Number of the move executing (1-based, as [`Status::moves_started`]): with the
+        /// feeder's file table it names the file when the line is in an included file.
+        move_index: u64,
+    },
     /// A move could not be started; the machine was stopped.
     MotionFailed { error: MotionError },
     /// The drives could not be started (nothing moved).

@@ -54,6 +54,9 @@ pub struct SyncShared {
     pub abort: AtomicBool,
     /// Operator messages in program order.
     messages: Mutex<VecDeque<String>>,
+    /// (first move number, file) wherever the source file of the moves changes (includes,
+    /// sub-programs in other files).
+    files: Mutex<Vec<(u64, Arc<str>)>>,
 }
 
 impl SyncShared {
@@ -90,6 +93,16 @@ impl SyncShared {
 
     fn done(p: &LoopProgress, pushed: u64) -> bool {
         p.moves_started >= pushed && p.idle && (p.settled || p.idle_ticks >= SETTLE_LIMIT_TICKS)
+    }
+
+    /// The file move number `index` (1-based) came from, if the feeder recorded one.
+    pub fn file_of(&self, index: u64) -> Option<Arc<str>> {
+        let files = self.files.lock().unwrap_or_else(|e| e.into_inner());
+        files
+            .iter()
+            .rev()
+            .find(|(i, _)| *i <= index)
+            .map(|(_, f)| f.clone())
     }
 
     /// The next operator message.
@@ -182,6 +195,13 @@ pub fn spawn_feeder(
                 }
                 match next {
                     Ok(Some(mv)) => {
+                        let index = shared.pushed.load(Ordering::SeqCst) + 1;
+                        if let Some(f) = feeder.last_file() {
+                            let mut files = shared.files.lock().unwrap_or_else(|e| e.into_inner());
+                            if files.last().is_none_or(|(_, last)| last != f) {
+                                files.push((index, f.clone()));
+                            }
+                        }
                         if !push(&mut ring, LoopInput::Move(mv)) {
                             return None;
                         }

@@ -115,7 +115,7 @@ fn operator_stop_mid_tap_keeps_z_and_c_coupled_and_quick_stops_every_drive() {
     });
     let raised_at = raised_at.expect("the tap ran");
     match outcome {
-        Outcome::Stopped { stop, line } => {
+        Outcome::Stopped { stop, line, .. } => {
             assert_eq!(stop.cause, StopCause::Operator);
             assert_eq!(line, 5, "the G84 block");
         }
@@ -172,7 +172,7 @@ fn drive_fault_names_node_emcy_and_line_and_stops_all_axes() {
             emcy: 0x8611,
         });
     let (outcome, st, _, link) = drive(&cfg, link, TAP, |_, _| {});
-    let Outcome::Stopped { stop, line } = outcome else {
+    let Outcome::Stopped { stop, line, .. } = outcome else {
         panic!("{outcome:?}")
     };
     assert_eq!(stop.node, 4);
