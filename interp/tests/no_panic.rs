@@ -7,7 +7,10 @@ use cnc402_lang::SourceFile;
 use proptest::prelude::*;
 
 fn check(text: &str) {
-    let cfg = MachineConfig::default_machine();
+    let mut cfg = MachineConfig::default_machine();
+    // Random programs may write #500-#999: keep them in memory. Loops stop sooner.
+    cfg.interp.variables_file = None;
+    cfg.interp.block_limit = 20_000;
     let src = SourceFile::new("p.nc", text);
     let Ok(program) = cnc402_lang::parse(&src) else {
         return;
@@ -55,6 +58,70 @@ fn block() -> impl Strategy<Value = String> {
     prop::collection::vec(word(), 0..7).prop_map(|w| w.join(" "))
 }
 
+/// A Custom Macro B line: assignments, jumps, loops, calls, H instructions, program numbers.
+fn macro_line() -> impl Strategy<Value = String> {
+    let var = prop::sample::select(vec![
+        "#0",
+        "#1",
+        "#2",
+        "#33",
+        "#100",
+        "#150",
+        "#500",
+        "#999",
+        "#3000",
+        "#3006",
+        "#4001",
+        "#4120",
+        "#5001",
+        "#5021",
+        "#5043",
+        "#5221",
+        "#34",
+        "#[#1]",
+        "#[#2+100]",
+    ]);
+    let val = prop_oneof![
+        (-50i32..50).prop_map(|v| v.to_string()),
+        (-50.0f64..50.0).prop_map(|v| format!("{v:.2}")),
+        Just("#1".to_string()),
+        Just("#[#1+1]".to_string()),
+        Just("SIN[#2]".to_string()),
+        Just("ATAN[#1]/[#2]".to_string()),
+        Just("[#1 MOD #2]".to_string()),
+        Just("SQRT[#1]".to_string()),
+        Just("[#1 EQ #0]".to_string()),
+        Just("FUP[#100/3]".to_string()),
+    ];
+    let n = 0u32..12;
+    prop_oneof![
+        (var.clone(), val.clone()).prop_map(|(v, e)| format!("{v}={e}")),
+        (val.clone(), n.clone()).prop_map(|(e, n)| format!("IF[{e} GT 0]GOTO{n}")),
+        (val.clone(), var.clone(), val.clone()).prop_map(|(c, v, e)| format!("IF[{c}]THEN{v}={e}")),
+        (1u8..5, val.clone()).prop_map(|(id, c)| format!("WHILE[{c} LT 3]DO{id}")),
+        (1u8..5).prop_map(|id| format!("END{id}")),
+        n.clone().prop_map(|n| format!("GOTO{n}")),
+        n.clone().prop_map(|n| format!("N{n}")),
+        (n.clone(), 0u32..3).prop_map(|(n, l)| format!("M98 P{n} L{l}")),
+        n.clone().prop_map(|n| format!("M99 P{n}")),
+        Just("M99".to_string()),
+        n.clone().prop_map(|n| format!("O{n}")),
+        (n.clone(), val.clone()).prop_map(|(n, a)| format!("G65 P{n} A{a} M3")),
+        (n.clone(), val.clone()).prop_map(|(n, a)| format!("G66 P{n} X{a}")),
+        Just("G67".to_string()),
+        (
+            prop::sample::select(vec![
+                1u32, 2, 5, 11, 21, 23, 24, 25, 26, 28, 34, 80, 86, 99, 7
+            ]),
+            var,
+            val.clone(),
+            val.clone()
+        )
+            .prop_map(|(h, v, q, r)| format!("G65 H{h} P{v} Q{q} R{r}")),
+        val.prop_map(|v| format!("G91 G1 X{v}")),
+    ]
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
 
@@ -67,6 +134,17 @@ proptest! {
     fn random_gcode_never_panics(blocks in prop::collection::vec(block(), 1..25)) {
         let mut text = String::from("M3 S500\nF100\nG0 Z20\n");
         text.push_str(&blocks.join("\n"));
+        check(&text);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 600, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_macro_programs_never_panic(lines in prop::collection::vec(macro_line(), 1..30)) {
+        let mut text = String::from("F100\n");
+        text.push_str(&lines.join("\n"));
         check(&text);
     }
 }
