@@ -1,9 +1,7 @@
-//! [`MasterLink`]: the CANopen [`Master`] on any bus with a clock, as the loop's
-//! [`DriveLink`]. Boot, SDO configuration, enable and disable run outside the loop on the
-//! bus's own clock ([`TimedBus`]); the cyclic phase maps the loop's time (deadlines) onto that
-//! clock from the first cyclic SYNC on. A transport only has to say what happens right before
-//! each cycle ([`CycleBus`]): the simulated bus advances its virtual time there; a SocketCAN
-//! transport does nothing.
+//! [`MasterLink`]: the CANopen [`Master`] on any bus with a clock, as the loop's [`DriveLink`].
+//! Boot, configuration, enable and disable run outside the loop on the bus's clock
+//! ([`TimedBus`]); cycles map the loop's deadlines onto that clock. A transport only says what
+//! happens right before each cycle ([`CycleBus`]): the simulated bus advances its time there.
 
 use cia402::State;
 use cnc402_config::{MAX_AXES, MachineConfig};

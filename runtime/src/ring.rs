@@ -1,11 +1,11 @@
 //! The two fixed-capacity SPSC rings between the loop and the rest of the program: planned
 //! moves in, status records out.
-//!
-//! `ringbuf` (0.6) rather than `rtrb` (0.4): both are lock-free single-producer single-consumer
-//! rings that allocate once at construction and whose `try_push`/`try_pop` never block,
-//! allocate or make a system call, which is all the loop needs. `ringbuf` is the design card's
-//! named choice and already a workspace dependency, so taking it adds no crate; `rtrb` would
-//! buy nothing measurable here (one move in per segment, one `Copy` record out per tick).
+
+// `ringbuf` (0.6) rather than `rtrb` (0.4): both are lock-free single-producer single-consumer
+// rings that allocate once at construction and whose `try_push`/`try_pop` never block,
+// allocate or make a system call, which is all the loop needs. `ringbuf` is the design card's
+// named choice and already a workspace dependency, so taking it adds no crate; `rtrb` would
+// buy nothing measurable here (one move in per segment, one `Copy` record out per tick).
 
 use ringbuf::HeapRb;
 use ringbuf::traits::Split;
