@@ -4,6 +4,8 @@
 //! hole positions, depths, return planes, spindle direction and speed, feeds, and that the
 //! modal state O0001 saves at its start is restored at its end. Bad pages end in the alarms.
 
+#![allow(clippy::type_complexity)]
+
 use std::path::{Path, PathBuf};
 
 use cnc402_config::MachineConfig;
