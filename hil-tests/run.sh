@@ -18,7 +18,7 @@ set -euo pipefail
 
 HIL_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 REPO="$(dirname "$HIL_DIR")"
-CACHE="${HIL_CACHE:-$HIL_DIR/.cache}"
+CACHE="$(realpath -m "${HIL_CACHE:-$HIL_DIR/.cache}")"   # absolute: the guest sees the same paths
 MODE_WANTED="${HIL_MODE:-auto}"          # auto | native | qemu
 GUEST_MEM="${HIL_GUEST_MEM:-2G}"
 GUEST_CPUS="${HIL_GUEST_CPUS:-2}"
@@ -199,6 +199,32 @@ ensure_qemu() {
     fi
 }
 
+# The kernel qemu boots: vmlinux, the ELF inside Debian's xz-compressed bzImage, which qemu
+# starts directly through its PVH entry (CONFIG_PVH=y); under TCG this skips seconds of BIOS
+# and decompression per boot (wall time to "ready" about 2 s shorter at low load, up to 10 s
+# at high load). Falls back to the bzImage if the ELF cannot be extracted.
+KIMAGE=""
+ensure_vmlinux() {
+    KIMAGE="$KDIR/vmlinuz"
+    if [[ ! -f "$KDIR/vmlinux" && ! -f "$KDIR/vmlinux.failed" ]]; then
+        local off
+        off=$(LC_ALL=C grep -obUaP '\xfd7zXZ\x00' "$KDIR/vmlinuz" 2>/dev/null | head -1 | cut -d: -f1 || true)
+        # xz stops with an error at the data that follows the stream: judge by the result.
+        if [[ -n "$off" ]] && command -v xz >/dev/null; then
+            tail -c +"$((off + 1))" "$KDIR/vmlinuz" | xz -dc >"$KDIR/vmlinux.tmp" 2>/dev/null || true
+        fi
+        if [[ -f "$KDIR/vmlinux.tmp" && "$(head -c 4 "$KDIR/vmlinux.tmp" | od -An -c | tr -d ' ')" == '177ELF' ]]; then
+            mv "$KDIR/vmlinux.tmp" "$KDIR/vmlinux"
+        else
+            rm -f "$KDIR/vmlinux.tmp"
+            touch "$KDIR/vmlinux.failed"
+            say "could not extract vmlinux from the bzImage; booting the bzImage (slower)"
+        fi
+    fi
+    [[ -f "$KDIR/vmlinux" ]] && KIMAGE="$KDIR/vmlinux"
+    return 0
+}
+
 INITRD="$CACHE/initramfs.cpio.gz"
 
 # The initramfs depends on busybox, the module set and guest/init: rebuilt when any changes.
@@ -270,10 +296,11 @@ setup() {
     if [[ $MODE == native ]]; then
         ensure_packages can-utils
     else
-        ensure_packages cpio can-utils iproute2
+        ensure_packages cpio can-utils iproute2 xz-utils
         ensure_qemu
         ensure_busybox
         ensure_kernel
+        ensure_vmlinux
         ensure_initramfs
     fi
     local took
@@ -352,7 +379,7 @@ run_job() {
             -accel "${HIL_ACCEL:-tcg,thread=multi}" -cpu max -m "$GUEST_MEM" -smp "$GUEST_CPUS" \
             -nodefaults -no-user-config -display none -no-reboot \
             -chardev stdio,id=con,signal=off -serial chardev:con \
-            -kernel "$KDIR/vmlinuz" -initrd "$INITRD" \
+            -kernel "$KIMAGE" -initrd "$INITRD" \
             -append "console=ttyS0 quiet loglevel=3 panic=-1 tsc=reliable hil9p=${HIL_9P_OPTS-cache=loose} ${HIL_KERNEL_ARGS:-} hiljob=$dir" \
             -fsdev "local,id=hostroot,path=/,$share_opts,multidevs=remap" \
             -device virtio-9p-pci,fsdev=hostroot,mount_tag=hostroot \
