@@ -33,9 +33,9 @@ fn var_file(tag: &str) -> PathBuf {
     p
 }
 
-/// The modal state the operator's machine is in before O0001 (restored at its end): G1, G18,
+/// The modal state the operator's machine is in before O0001 (restored at its end): G1, G18, G91,
 /// G55, F123, S456, T7. The driver calls O0001 as a sub-program; O0001's M30 ends the run.
-const DRIVER: &str = "G18 G55 G1 F123 S456 T7\nM98 P1\n";
+const DRIVER: &str = "G18 G55 G91 G1 F123 S456 T7\nM98 P1\n";
 
 struct Run {
     segs: Vec<Segment>,
@@ -346,7 +346,7 @@ fn check(
     let want = (
         cnc402_interp::state::Motion::Linear,
         Plane::ZX,
-        false,
+        true,
         1,
         123.0,
         456.0,
