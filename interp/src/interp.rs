@@ -302,7 +302,8 @@ impl Interpreter {
     }
 
     /// Runs one block of `unit` (the current frame's program), with words evaluated against
-    /// the variables. Returns whether it produced motion.
+    /// the variables (vacant words left out), then whatever the block asks for after its
+    /// words: an `M98` call, an `M99` return, or the `G66` modal call after a move.
     pub(crate) fn exec_block(
         &mut self,
         unit: &Arc<Unit>,
