@@ -212,6 +212,25 @@ fn compare(v: &Value, op: Op, rhs: &Value) -> bool {
     }
 }
 
+/// Checks `expr`: one assertion, or several joined by ` || ` (passes if any passes).
+///
+/// ```
+/// let v = serde_json::json!({"n": 3});
+/// assert!(cnc402_hil::check::check_expr("n == 2 || n == 3", &v).unwrap().is_ok());
+/// assert!(cnc402_hil::check::check_expr("n == 2 || n > 4", &v).unwrap().is_err());
+/// assert!(cnc402_hil::check::check_expr("n", &v).is_err());
+/// ```
+pub fn check_expr(expr: &str, doc: &Value) -> Result<Result<(), String>, String> {
+    let mut whys = Vec::new();
+    for part in expr.split(" || ") {
+        match Assertion::parse(part)?.check(doc) {
+            Ok(()) => return Ok(Ok(())),
+            Err(why) => whys.push(why),
+        }
+    }
+    Ok(Err(whys.join("; ")))
+}
+
 /// Fills `{PATH}` / `{PATH:.N}` (N decimals) placeholders from `doc`; several values are
 /// joined with `/`, none is `-`.
 ///

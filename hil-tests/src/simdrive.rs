@@ -25,6 +25,9 @@ const SYNC_ID: u16 = 0x80;
 /// SYNC intervals kept for the percentiles (about 17 minutes at 1 ms; later ones are
 /// counted in max/count only).
 const MAX_SYNC_SAMPLES: usize = 1 << 20;
+/// A window of Z+C motion that follows at least this many SYNCs of C turning alone is a
+/// drilling/milling move with the spindle running, not a tap (in a rigid tap C starts with Z).
+pub const SPINDLE_RUNNING_TICKS: u32 = 100;
 /// State changes kept per drive.
 const MAX_STATE_HISTORY: usize = 64;
 
@@ -256,7 +259,7 @@ pub struct HostCounters {
     pub syncs: u64,
     /// SYNC frames with data (a counter byte is allowed; more is an error).
     pub bad_syncs: u64,
-    /// RPDO- or SDO-request-range frames no hosted drive takes (wrong COB-ID, missing node).
+    /// RPDO- or SDO-request-range frames no hosted drive takes (wrong COB-ID, absent node).
     pub unaddressed: u64,
 }
 
@@ -277,6 +280,14 @@ pub struct DriveHost {
     fault_clock: FaultClock,
     coupling: CouplingChecker,
     coupling_samples: u64,
+    /// Previous (Z, C) setpoints in counts, for the window classification.
+    prev_zc: Option<(i64, i64)>,
+    /// Consecutive samples with C moving and Z not.
+    c_alone: u32,
+    /// Whether a window is open, and the `c_alone` run that preceded it.
+    open_after_c_alone: Option<u32>,
+    /// Per closed window: whether the spindle was running before it (not a tap).
+    spindle_running: Vec<bool>,
     counters: HostCounters,
     z_cpu: f64,
     c_cpu: f64,
@@ -357,6 +368,10 @@ impl DriveHost {
             fault_clock: opts.fault_clock,
             coupling: CouplingChecker::with_capacity(z_cpu, c_cpu, 1 << 16),
             coupling_samples: 0,
+            prev_zc: None,
+            c_alone: 0,
+            open_after_c_alone: None,
+            spindle_running: Vec::new(),
             counters: HostCounters::default(),
             z_cpu,
             c_cpu,
@@ -448,7 +463,18 @@ impl DriveHost {
         let (z_cmd, z_act) = (self.drives[zi].target.value, self.drives[zi].actual.value);
         let (c_cmd, c_act) = (self.drives[ci].target.value, self.drives[ci].actual.value);
         self.coupling_samples += 1;
-        self.coupling.feed(CouplingSample {
+        if let Some((pz, pc)) = self.prev_zc.replace((z_cmd, c_cmd)) {
+            let (zm, cm) = (z_cmd != pz, c_cmd != pc);
+            if zm && cm {
+                self.open_after_c_alone.get_or_insert(self.c_alone);
+            }
+            self.c_alone = if cm && !zm {
+                self.c_alone.saturating_add(1)
+            } else {
+                0
+            };
+        }
+        let closed = self.coupling.feed(CouplingSample {
             z_cmd: z_cmd as f64 / self.z_cpu,
             z_act: z_act as f64 / self.z_cpu,
             c_cmd: c_cmd as f64 / self.c_cpu,
@@ -456,6 +482,9 @@ impl DriveHost {
             line: 0,
             actual_stale: false,
         });
+        if closed.is_some() {
+            self.note_closed();
+        }
     }
 
     fn is_addressed(&self, frame: &CanFrame) -> bool {
@@ -478,15 +507,39 @@ impl DriveHost {
         })
     }
 
+    fn note_closed(&mut self) {
+        let before = self.open_after_c_alone.take().unwrap_or(0);
+        self.spindle_running.push(before >= SPINDLE_RUNNING_TICKS);
+    }
+
     /// Closes an open coupling window (call once at the end).
     pub fn finish(&mut self) {
-        self.coupling.finish();
+        if self.coupling.finish().is_some() {
+            self.note_closed();
+        }
     }
 
     /// The JSON report (see the crate README's "Scenarios" for the keys).
     pub fn report(&self, bus: Option<&BusFigures>) -> Value {
         let mut checks = Vec::new();
+        let mut taps = 0;
+        let mut others = 0;
         for (i, w) in self.coupling.windows().iter().enumerate() {
+            if self.spindle_running.get(i).copied().unwrap_or(false) {
+                // Z moving while the spindle turns (drilling): reported, not judged.
+                others += 1;
+                checks.push(json!({
+                    "name": format!("Z+C window {} (spindle running, not a tap)", i + 1),
+                    "value_um": w.max_error_um_cmd,
+                    "limit_um": Value::Null,
+                    "pitch_mm": w.pitch_mm,
+                    "ticks": w.ticks,
+                    "pass": true,
+                    "informational": true,
+                }));
+                continue;
+            }
+            taps += 1;
             // One count of Z, or the Z-equivalent of one C count, whichever is larger.
             let z_per_deg = w.pitch_mm / 360.0;
             let limit_um = (1.0 / self.z_cpu).max(z_per_deg / self.c_cpu) * 1000.0;
@@ -509,7 +562,9 @@ impl DriveHost {
                 "informational": true,
             }));
         }
-        let mut unexpected = self.counters.unaddressed + self.counters.bad_syncs;
+        // Frames to absent nodes (a scan probing every id) are counted apart: not a protocol
+        // error on a bus that may carry other devices; the scenarios assert them separately.
+        let mut unexpected = self.counters.bad_syncs;
         let mut pdo_len = 0;
         let mut sdo_aborts = 0;
         let mut tx_errors = 0;
@@ -607,6 +662,8 @@ impl DriveHost {
                 "max_deviation": us(jitter_ns),
             },
             "coupling_samples": self.coupling_samples,
+            "tap_windows": taps,
+            "spindle_windows": others,
             "protocol_errors": {
                 "unexpected_frames": unexpected,
                 "unaddressed_frames": self.counters.unaddressed,
@@ -783,6 +840,7 @@ mod tests {
         assert_eq!(r["ok"], true, "{r:#}");
         let w = host.windows();
         assert_eq!(w.len(), 1);
+        assert_eq!(r["tap_windows"], 1);
         assert!((w[0].pitch_mm - 1.5).abs() < 1e-3, "{:?}", w[0]);
         assert!(!w[0].same_sense);
         assert!(
@@ -820,6 +878,31 @@ mod tests {
         let c = &r["checks"][0];
         assert_eq!(c["pass"], false);
         assert!(c["value_um"].as_f64().unwrap() > c["limit_um"].as_f64().unwrap());
+    }
+
+    #[test]
+    fn drilling_with_the_spindle_running_is_reported_not_judged() {
+        let cfg = MachineConfig::default_machine();
+        let host = DriveHost::new(&cfg, &HostOptions::default()).unwrap();
+        let (mut bus, mut m) = boot(host);
+        // C turns at 10°/ms from the start; Z feeds down (not coupled) from tick 300 to 400.
+        run(&mut bus, &mut m, 500, |t| {
+            let z = -((t.clamp(300, 400) - 300) as f64).powi(2) * 1e-4;
+            [0.0, 0.0, z, t as f64 * 10.0]
+        })
+        .unwrap();
+        let host = bus.device_mut(0).unwrap();
+        host.finish();
+        let r = host.report(None);
+        assert_eq!(r["ok"], true, "{r:#}");
+        assert_eq!(r["tap_windows"], 0);
+        assert_eq!(r["spindle_windows"], 1);
+        assert!(
+            r["checks"][0]["name"]
+                .as_str()
+                .unwrap()
+                .contains("not a tap")
+        );
     }
 
     #[test]

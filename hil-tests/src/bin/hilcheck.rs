@@ -5,13 +5,14 @@
 //!            -f run.json 'ok == false' 'stop.node == 3'
 //!
 //! `-f FILE` selects the document the following assertions and `-p TEMPLATE` lines apply to;
-//! every other argument is an assertion `PATH OP VALUE` (see `cnc402_hil::check`). Prints
+//! every other argument is an assertion `PATH OP VALUE`, or several joined by ` || ` (see
+//! `cnc402_hil::check`). Prints
 //! `FAIL FILE: ASSERTION (why)` for each failed one. Exit 0 all passed, 1 one failed, 2 bad
 //! arguments or an unreadable file.
 
 use std::process::ExitCode;
 
-use cnc402_hil::check::{Assertion, render};
+use cnc402_hil::check::{check_expr, render};
 use serde_json::Value;
 
 fn main() -> ExitCode {
@@ -56,16 +57,16 @@ fn main() -> ExitCode {
                     eprintln!("hilcheck: `{a}` before any -f FILE");
                     return ExitCode::from(2);
                 };
-                let assertion = match Assertion::parse(&a) {
-                    Ok(x) => x,
+                match check_expr(&a, v) {
                     Err(e) => {
                         eprintln!("hilcheck: {e}");
                         return ExitCode::from(2);
                     }
-                };
-                if let Err(why) = assertion.check(v) {
-                    println!("FAIL {path}: {a} ({why})");
-                    failed += 1;
+                    Ok(Err(why)) => {
+                        println!("FAIL {path}: {a} ({why})");
+                        failed += 1;
+                    }
+                    Ok(Ok(())) => {}
                 }
             }
         }

@@ -1,0 +1,113 @@
+# shellcheck shell=bash
+# Shared by the scenario scripts (sourced; not itself a scenario: the suite runs *.sh only).
+# A scenario starts `simdrive` and `cnc402 run` as two processes on $HIL_IFACE, stops simdrive
+# with SIGTERM when the run has ended, then asserts on both JSON reports with one `hilcheck`
+# call and prints exactly one line `PASS NAME: figures` or `FAIL NAME: figures`, also kept in
+# $HIL_OUT/result.txt for hil-tests/suite.sh's summary.
+#
+#   source "$HIL_REPO/hil-tests/scenarios/common.bash"
+#   scenario_run CONFIG PROGRAM [SIMDRIVE_ARG...]   # sets RUN_RC, DRIVE_RC
+#   scenario_check 'drive-assertion'... -- 'run-assertion'...
+#   scenario_end "figures template"
+set -uo pipefail
+source "$HIL_REPO/hil-tests/guest/lib.sh"
+
+SCENARIO="$(basename "${BASH_SOURCE[1]:-$0}" .sh)"
+# shellcheck disable=SC2034 # used by the scenario scripts
+SC_DIR="hil-tests/scenarios"
+DRIVE_JSON="$HIL_OUT/simdrive.json"
+RUN_JSON="$HIL_OUT/run.json"
+SC_FAILS=()
+RUN_RC=-1
+DRIVE_RC=-1
+
+# The scenario configs name vcan0 (cnc402 run takes the interface from the config).
+if [[ "${HIL_IFACE:-}" != vcan0 ]]; then
+    echo "FAIL $SCENARIO: the scenario configs use vcan0, HIL_IFACE is '${HIL_IFACE:-}'"
+    exit 1
+fi
+
+sc_fail() { SC_FAILS+=("$*"); }
+
+# scenario_run CONFIG PROGRAM [SIMDRIVE_ARG...]: simdrive (same config) in the background,
+# then `cnc402 run PROGRAM` in the foreground (limit RUN_LIMIT s, default 150), then SIGTERM
+# to simdrive. RUN_RC / DRIVE_RC hold the exit statuses.
+scenario_run() {
+    local cfg="$1" prog="$2"
+    shift 2
+    SC_T0=$SECONDS
+    hil_bg drive "$HIL_BIN/simdrive" --config "$cfg" --iface "$HIL_IFACE" \
+        --report "$DRIVE_JSON" "$@"
+    if ! hil_wait_socket drive 20; then
+        hil_log drive
+        sc_fail "simdrive did not open its socket"
+        return 0
+    fi
+    RUN_RC=0
+    timeout -k 5 "${RUN_LIMIT:-150}" "$HIL_BIN/cnc402" --config "$cfg" run "$prog" \
+        --report "$RUN_JSON" >"$HIL_OUT/run.log" 2>&1 || RUN_RC=$?
+    kill -TERM "${HIL_PIDS[drive]}" 2>/dev/null
+    DRIVE_RC=0
+    hil_wait drive 20 || DRIVE_RC=$?
+    SC_SECONDS=$((SECONDS - SC_T0))
+    if [[ ! -s "$RUN_JSON" ]]; then
+        sc_fail "cnc402 run wrote no report (exit $RUN_RC): $(tail -n 3 "$HIL_OUT/run.log" | tr '\n' ' ')"
+    fi
+    if [[ ! -s "$DRIVE_JSON" ]]; then
+        sc_fail "simdrive wrote no report (exit $DRIVE_RC): $(tail -n 3 "$HIL_OUT/drive.log" | tr '\n' ' ')"
+    fi
+}
+
+# expect_rc WHAT GOT WANT
+expect_rc() {
+    [[ "$2" == "$3" ]] || sc_fail "$1 exited $2, expected $3"
+}
+
+# scenario_check DRIVE_ASSERTION... -- RUN_ASSERTION...: one hilcheck process for both files.
+scenario_check() {
+    local d=() r=() seen=0 a
+    for a in "$@"; do
+        if [[ $a == -- ]]; then seen=1; continue; fi
+        if [[ $seen == 0 ]]; then d+=("$a"); else r+=("$a"); fi
+    done
+    local args=()
+    [[ -s "$DRIVE_JSON" && ${#d[@]} -gt 0 ]] && args+=(-f "$DRIVE_JSON" "${d[@]}")
+    [[ -s "$RUN_JSON" && ${#r[@]} -gt 0 ]] && args+=(-f "$RUN_JSON" "${r[@]}")
+    [[ ${#args[@]} == 0 ]] && return 0
+    local out line
+    out=$("$HIL_BIN/hilcheck" "${args[@]}" 2>&1) && return 0
+    while IFS= read -r line; do
+        [[ -n "$line" ]] && sc_fail "${line/#FAIL $HIL_OUT\//}"
+    done <<<"$out"
+}
+
+# Figures every scenario reports: SYNC period seen by simdrive, bus load, the loop's wake-up
+# latency from cnc402's report.
+COMMON_FIGURES_DRIVE='SYNC {sync_period_us.count} p50/p99/max {sync_period_us.p50:.0}/{sync_period_us.p99:.0}/{sync_period_us.max:.0} us, bus load {bus.load_percent:.1} %, protocol errors {protocol_errors.unexpected_frames}'
+COMMON_FIGURES_RUN='wake-up p50/p99/max {wakeup_latency_us.p50:.0}/{wakeup_latency_us.p99:.0}/{wakeup_latency_us.max:.0} us, late {wakeup_latency_us.late}'
+
+# scenario_end [DRIVE_TEMPLATE [RUN_TEMPLATE]]: prints the PASS/FAIL line with the figures and
+# exits 0 / 1.
+scenario_end() {
+    local dt="${1:-$COMMON_FIGURES_DRIVE}" rt="${2:-$COMMON_FIGURES_RUN}" figs="" args=()
+    [[ -s "$DRIVE_JSON" ]] && args+=(-f "$DRIVE_JSON" -p "simdrive: $dt")
+    [[ -s "$RUN_JSON" ]] && args+=(-f "$RUN_JSON" -p "cnc402: $rt")
+    [[ ${#args[@]} -gt 0 ]] && figs=$("$HIL_BIN/hilcheck" "${args[@]}" 2>/dev/null | paste -sd'|')
+    figs="${figs//|/ | } (${SC_SECONDS:-?} s)"
+    local line
+    if [[ ${#SC_FAILS[@]} == 0 ]]; then
+        line="PASS $SCENARIO: $figs"
+    else
+        line="FAIL $SCENARIO: $figs"
+    fi
+    echo "$line" | tee "$HIL_OUT/result.txt"
+    if [[ ${#SC_FAILS[@]} != 0 ]]; then
+        local m
+        for m in "${SC_FAILS[@]}"; do echo "  - $m"; done | tee -a "$HIL_OUT/result.txt"
+        for m in drive run; do
+            [[ -s "$HIL_OUT/$m.log" ]] && tail -n 15 "$HIL_OUT/$m.log" | sed "s/^/  [$m] /"
+        done
+        exit 1
+    fi
+    exit 0
+}

@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# hil-tests/suite.sh: the whole HIL suite, as `.ci/run` calls it. Builds the binaries (release),
+# then runs, in ONE boot of the emulated guest (or natively where the kernel has CAN):
+# smoke/*.sh, scenarios/*.sh and drivectl/hil.sh — each scenario starts `simdrive` and
+# `cnc402 run` as separate processes on vcan0 and asserts on both JSON reports (hilcheck).
+# Prints each scenario's PASS/FAIL line with its figures, then a figures table, and ends with
+# the line "N passed, M failed"; exits non-zero if any failed.
+#
+#   hil-tests/suite.sh [--no-build] [SCRIPT...]     (default: all of the above)
+#
+# Environment: HIL_SUITE_TIMEOUT (whole guest run, s, default 1500), HIL_SCENARIO_TIMEOUT (per
+# script, default 300), and everything hil-tests/run.sh takes (HIL_MODE, HIL_CACHE, ...).
+set -uo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+repo="$(cd "$here/.." && pwd)"
+cd "$repo" || exit 2
+t0=$(date +%s)
+no_build=0
+if [[ "${1:-}" == --no-build ]]; then
+    no_build=1
+    shift
+fi
+scripts=("$@")
+if [[ ${#scripts[@]} == 0 ]]; then
+    scripts=(hil-tests/smoke/*.sh hil-tests/scenarios/*.sh)
+    [[ -f drivectl/hil.sh ]] && scripts+=(drivectl/hil.sh)
+fi
+
+if [[ $no_build == 0 ]]; then
+    echo "suite: cargo build --release (cnc402, cnc402-hil, drivectl + its examples)"
+    cargo build -q --release -p cnc402 -p cnc402-hil -p drivectl --bins || {
+        echo "suite: build failed"; echo "0 passed, ${#scripts[@]} failed"; exit 1; }
+    if [[ " ${scripts[*]} " == *drivectl/hil.sh* ]]; then
+        cargo build -q --release -p drivectl --examples || {
+            echo "suite: build of drivectl's examples failed"; echo "0 passed, ${#scripts[@]} failed"; exit 1; }
+    fi
+fi
+
+# The scenario config must be config/machine.toml on vcan0: warn when the two drift apart.
+norm() {
+    grep -v -E '^\s*(#|$)|^(interface|heartbeat_timeout_ms|tpdo_timeout_cycles|program_dir|variables_file|library_dir) =' "$1" |
+        sed 's/\s*#.*//'
+}
+if ! diff <(norm config/machine.toml) <(norm hil-tests/scenarios/machine-vcan.toml) >/dev/null; then
+    echo "suite: WARNING: hil-tests/scenarios/machine-vcan.toml no longer matches config/machine.toml (beyond the HIL keys):"
+    diff <(norm config/machine.toml) <(norm hil-tests/scenarios/machine-vcan.toml) | sed 's/^/suite:   /' | head -20
+fi
+
+cache="${HIL_CACHE:-$here/.cache}"
+log="$cache/suite.log"
+mkdir -p "$cache"
+HIL_SCENARIO_TIMEOUT="${HIL_SCENARIO_TIMEOUT:-300}" \
+    "$here/run.sh" suite --no-build --timeout "${HIL_SUITE_TIMEOUT:-1500}" "${scripts[@]}" 2>&1 | tee "$log"
+rc=${PIPESTATUS[0]}
+
+# Figures table: each scenario's PASS/FAIL line (also kept in its out dir).
+out_root="${HIL_OUT_ROOT:-$cache/out}"
+echo
+echo "=== HIL figures ($(date -u '+%Y-%m-%d %H:%M UTC'), mode $("$here/run.sh" mode 2>/dev/null))"
+for s in "${scripts[@]}"; do
+    name="$(basename "$s" .sh)"
+    if [[ -s "$out_root/$name/result.txt" ]]; then
+        head -n 1 "$out_root/$name/result.txt"
+    elif [[ -s "$out_root/$name/cansmoke.json" ]]; then
+        echo "smoke $name: $(grep -E '"(p50_ns|p99_ns|max_ns)"' "$out_root/$name/cansmoke.json" | tr -d ' \n')"
+    fi
+done
+took=$(($(date +%s) - t0))
+echo "suite: total ${took} s (build, guest boot, all scripts)"
+
+summary=$(grep -E '^[0-9]+ passed, [0-9]+ failed$' "$log" | tail -n 1)
+if [[ -z "$summary" ]]; then
+    echo "suite: the guest produced no result (run.sh exit $rc); see $log"
+    summary="0 passed, ${#scripts[@]} failed"
+fi
+echo "$summary"
+failed=${summary#* passed, }
+failed=${failed% failed}
+[[ $rc == 0 && $failed == 0 ]]
