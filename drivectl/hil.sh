@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # drivectl/hil.sh: drivectl against real kernel CAN sockets. Runs where $HIL_IFACE (vcan0) is
 # up — inside the HIL guest or natively — with simulated drives hosted by a separate process
-# on the same interface (drivectl's `simpeer` example, or $DRIVECTL_PEER).
+# on the same interface (drivectl's `simpeer` example, or $HIL_DRIVECTL_PEER, e.g.
+# HIL_DRIVECTL_PEER=$PWD/target/release/simdrive for hil-tests' simdrive).
 #
 #   cargo build --release -p drivectl --bins --examples
 #   hil-tests/run.sh script --no-build drivectl/hil.sh
@@ -20,7 +21,7 @@ bin="${HIL_BIN:-$repo/target/release}"
 out="${HIL_OUT:-$(mktemp -d)}"
 mkdir -p "$out"
 dc="$bin/drivectl"
-peer="${DRIVECTL_PEER:-$bin/examples/simpeer}"
+peer="${HIL_DRIVECTL_PEER:-${DRIVECTL_PEER:-$bin/examples/simpeer}}"
 sockcheck="$bin/examples/sockcheck"
 for b in "$dc" "$peer" "$sockcheck"; do
     [[ -x "$b" ]] || { echo "FAIL: $b not built (cargo build --release -p drivectl --bins --examples)"; exit 1; }
@@ -56,8 +57,15 @@ expect() {
 }
 
 # The peer faults node 4 (EMCY 0x7300) 3 s after it starts.
-"$peer" --iface "$iface" --config config/machine.toml --for 60 --fault 4:fault:0x7300@3 \
-    2>"$out/peer.err" &
+if [[ "$(basename "$peer")" == simdrive ]]; then
+    # hil-tests' simdrive: same drive model, its own options and a JSON report.
+    "$peer" --iface "$iface" --config config/machine.toml --duration 60 --no-rt \
+        --fault-clock start --fault 4:fault:0x7300@3 --report "$out/simdrive.json" \
+        2>"$out/peer.err" &
+else
+    "$peer" --iface "$iface" --config config/machine.toml --for 60 --fault 4:fault:0x7300@3 \
+        2>"$out/peer.err" &
+fi
 peer_pid=$!
 sleep 0.5
 # Listeners in separate processes see everything the other commands put on the bus.

@@ -49,8 +49,10 @@ fn classify(f: SkFrame) -> Received {
     }
 }
 
-/// errno values this module interprets (Linux).
+/// errno values this module interprets, and socket option numbers (Linux).
 mod errno {
+    pub const SOL_SOCKET: i32 = 1;
+    pub const SO_RCVBUFFORCE: i32 = 33;
     pub const ENODEV: i32 = 19;
     pub const EAFNOSUPPORT: i32 = 97;
     pub const ENETDOWN: i32 = 100;
@@ -119,9 +121,10 @@ pub struct SocketCanOptions {
     pub send_budget: Duration,
     /// Pass CAN error frames to this socket (counted; bus-off becomes an error).
     pub error_frames: bool,
-    /// SO_RCVBUF to ask for: the kernel drops frames a full socket buffer cannot take (one
-    /// CAN frame costs ~1 KiB of buffer), so a reader that falls behind for a moment needs
-    /// room. The kernel caps it at net.core.rmem_max.
+    /// Receive buffer to ask for: the kernel drops frames a full socket buffer cannot take
+    /// (one CAN frame costs ~1 KiB of buffer), so a reader that falls behind for a moment
+    /// needs room. Set with SO_RCVBUFFORCE where allowed (root / CAP_NET_ADMIN), else
+    /// SO_RCVBUF, which the kernel caps at net.core.rmem_max.
     pub recv_buffer_bytes: usize,
 }
 
@@ -235,10 +238,18 @@ impl SocketCanBus {
         let budget = options.send_budget.max(Duration::from_micros(1));
         socket.set_write_timeout(budget).map_err(|e| io_err(&e))?;
         if options.recv_buffer_bytes > 0 {
-            socket
-                .as_raw_socket()
-                .set_recv_buffer_size(options.recv_buffer_bytes)
-                .map_err(|e| io_err(&e))?;
+            // SO_RCVBUFFORCE passes net.core.rmem_max (~208 KiB, ~200 frames) where the
+            // process may (CAP_NET_ADMIN); otherwise SO_RCVBUF, capped by the kernel.
+            let bytes = i32::try_from(options.recv_buffer_bytes).unwrap_or(i32::MAX);
+            if socket
+                .set_socket_option_int(errno::SOL_SOCKET, errno::SO_RCVBUFFORCE, bytes)
+                .is_err()
+            {
+                socket
+                    .as_raw_socket()
+                    .set_recv_buffer_size(options.recv_buffer_bytes)
+                    .map_err(|e| io_err(&e))?;
+            }
         }
         if options.error_frames {
             socket
