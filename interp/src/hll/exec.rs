@@ -3,6 +3,7 @@
 //! system variable is a request answered only after every earlier segment was handed out.
 
 use std::collections::{BTreeMap, HashMap};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
 use std::sync::{Arc, Mutex};
 
@@ -16,6 +17,8 @@ use super::{Read, Req};
 
 /// Deepest chain of user-function calls before the program is stopped.
 pub const MAX_CALL_DEPTH: u32 = 200;
+/// Requests sent to the interpreter in one hand-off (fewer, when it is waiting for them).
+const BATCH: usize = 32;
 /// Largest local array.
 pub const MAX_ARRAY_LEN: i64 = 1_000_000;
 
@@ -56,6 +59,10 @@ pub(crate) struct Executor {
     pub globals: Globals,
     pub tx: SyncSender<Req>,
     pub rx: Receiver<Result<f64, String>>,
+    /// Set by the interpreter while it waits for requests: send what is pending now.
+    waiting: Arc<AtomicBool>,
+    /// Requests not sent yet (sent in batches: one channel hand-off per batch).
+    pending: Vec<Req>,
     ran: Vec<bool>,
     depth: u32,
     steps: u64,
@@ -69,6 +76,7 @@ impl Executor {
         globals: Globals,
         tx: SyncSender<Req>,
         rx: Receiver<Result<f64, String>>,
+        waiting: Arc<AtomicBool>,
     ) -> Self {
         let n = prog.files.len();
         let limit = cfg.interp.block_limit.max(1);
@@ -78,6 +86,8 @@ impl Executor {
             globals,
             tx,
             rx,
+            waiting,
+            pending: Vec::with_capacity(BATCH),
             ran: vec![false; n],
             depth: 0,
             steps: 0,
@@ -93,7 +103,8 @@ impl Executor {
             Err(Stop::Err(e)) => Req::Error(e),
             Err(Stop::Hangup) => return,
         };
-        let _ = self.tx.send(last);
+        self.pending.push(last);
+        let _ = self.flush();
     }
 
     fn run_file(&mut self, file: FileId) -> R<()> {
@@ -114,12 +125,25 @@ impl Executor {
         Stop::Err(Box::new(NcError::new(&self.prog.files[f.file], span, m)))
     }
 
-    fn send(&self, r: Req) -> R<()> {
-        self.tx.send(r).map_err(|_| Stop::Hangup)
+    fn send(&mut self, r: Req) -> R<()> {
+        self.pending.push(r);
+        if self.pending.len() >= BATCH || self.waiting.load(Ordering::Relaxed) {
+            self.flush()?;
+        }
+        Ok(())
     }
 
-    fn read(&self, f: &Frame, what: Read, span: Span) -> R<f64> {
-        self.send(Req::Read(what))?;
+    fn flush(&mut self) -> R<()> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let batch = std::mem::replace(&mut self.pending, Vec::with_capacity(BATCH));
+        self.tx.send(Req::Batch(batch)).map_err(|_| Stop::Hangup)
+    }
+
+    fn read(&mut self, f: &Frame, what: Read, span: Span) -> R<f64> {
+        self.pending.push(Req::Read(what));
+        self.flush()?;
         match self.rx.recv() {
             Ok(Ok(v)) => Ok(v),
             Ok(Err(m)) => Err(self.err(f, span, m)),
@@ -138,6 +162,9 @@ impl Executor {
     }
 
     fn tick(&mut self, f: &Frame, span: Span) -> R<()> {
+        if !self.pending.is_empty() && self.waiting.load(Ordering::Relaxed) {
+            self.flush()?;
+        }
         self.steps += 1;
         if self.steps > self.limit {
             return Err(self.err(
@@ -260,9 +287,13 @@ impl Executor {
             let n = match v {
                 WordVal::Num(n) => *n,
                 WordVal::Ex(x) => {
-                    let v = self.ev(f, x)?;
+                    let value = match self.ev(f, x)? {
+                        Val::Int(i) => i as f64,
+                        Val::Dbl(d) => d,
+                        v => self.num(f, &v, *span, &format!("address {letter}"))?,
+                    };
                     Number {
-                        value: self.num(f, &v, *span, &format!("address {letter}"))?,
+                        value,
                         has_point: true,
                         span: *span,
                     }
@@ -280,8 +311,11 @@ impl Executor {
                 return Err(self.err(f, *span, "AXSTR takes an axis name (a string)"));
             };
             let letter = axis_of(&self.cfg, &name).map_err(|m| self.err(f, *span, m))?;
-            let v = self.ev(f, v)?;
-            let value = self.num(f, &v, *span, &format!("axis {letter}"))?;
+            let value = match self.ev(f, v)? {
+                Val::Int(i) => i as f64,
+                Val::Dbl(d) => d,
+                v => self.num(f, &v, *span, &format!("axis {letter}"))?,
+            };
             words.push(Word {
                 letter,
                 value: Value::Number(Number {

@@ -9,6 +9,7 @@ mod exec;
 mod ir;
 
 use std::collections::{HashMap, VecDeque};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::sync::{Arc, Mutex};
 
@@ -22,8 +23,8 @@ use crate::words::{GGroup, Words};
 
 pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
 
-/// How many requests the executor may run ahead of the segments handed out.
-const AHEAD: usize = 64;
+/// How many batches (of up to 32 requests) the executor may run ahead of the interpreter.
+const AHEAD: usize = 4;
 
 /// A motion-dependent system variable read (answered after the queue is drained).
 #[derive(Clone, Copy, Debug)]
@@ -48,11 +49,16 @@ pub(crate) enum Req {
     Read(Read),
     Error(Box<NcError>),
     End,
+    /// Several of the above, in order.
+    Batch(Vec<Req>),
 }
 
 struct Running {
     prog: Arc<ir::Prog>,
     chan: Option<(Receiver<Req>, SyncSender<Result<f64, String>>)>,
+    /// Requests received in a batch, not handled yet.
+    inbox: VecDeque<Req>,
+    waiting: Arc<AtomicBool>,
     queue: VecDeque<Segment>,
     error: Option<NcError>,
     done: bool,
@@ -102,6 +108,8 @@ impl Hll {
                 bodies: Vec::new(),
             }),
             chan: None,
+            inbox: VecDeque::new(),
+            waiting: Arc::new(AtomicBool::new(false)),
             queue: VecDeque::new(),
             error: None,
             done: false,
@@ -111,8 +119,14 @@ impl Hll {
                 let prog = Arc::new(prog);
                 let (tx, rx) = sync_channel(AHEAD);
                 let (rtx, rrx) = sync_channel(1);
-                let ex =
-                    exec::Executor::new(prog.clone(), cfg.clone(), self.globals.clone(), tx, rrx);
+                let ex = exec::Executor::new(
+                    prog.clone(),
+                    cfg.clone(),
+                    self.globals.clone(),
+                    tx,
+                    rrx,
+                    r.waiting.clone(),
+                );
                 let spawned = std::thread::Builder::new()
                     .name("cnc402-hll".into())
                     .stack_size(256 << 20)
@@ -165,6 +179,7 @@ impl Running {
     fn stop(&mut self) {
         self.done = true;
         self.queue.clear();
+        self.inbox.clear();
         // Dropping the channel ends the executor thread at its next request.
         self.chan = None;
     }
@@ -182,11 +197,19 @@ impl Running {
             if self.done {
                 return Ok(None);
             }
-            let Some((rx, _)) = &self.chan else {
-                self.done = true;
-                return Ok(None);
+            let req = if let Some(r) = self.inbox.pop_front() {
+                Ok(r)
+            } else {
+                let Some((rx, _)) = &self.chan else {
+                    self.done = true;
+                    return Ok(None);
+                };
+                self.waiting.store(true, Ordering::Relaxed);
+                let r = rx.recv();
+                self.waiting.store(false, Ordering::Relaxed);
+                r
             };
-            let req = match rx.recv() {
+            let req = match req {
                 Ok(r) => r,
                 Err(_) => {
                     self.stop();
@@ -198,6 +221,7 @@ impl Running {
                 }
             };
             match req {
+                Req::Batch(v) => self.inbox.extend(v),
                 Req::End => {
                     self.done = true;
                     self.chan = None;
