@@ -2,6 +2,9 @@
 //! globals shared by the programs of one interpreter, the motion sync of `@ITPPATH`, error
 //! locations (checked before running and at run time), and segments of G-code lines.
 
+// NcError is large; these helpers only run in tests.
+#![allow(clippy::result_large_err)]
+
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};

@@ -201,7 +201,7 @@ impl Executor {
                                 format!("array size {n} is out of range 0..{MAX_ARRAY_LEN}"),
                             ));
                         }
-                        Val::Arr(Box::new(vec![Val::zero(*ty); n as usize]))
+                        Val::Arr(vec![Val::zero(*ty); n as usize])
                     }
                     (None, Some(e)) => {
                         let v = self.ev(f, e)?;

@@ -44,7 +44,7 @@ pub(crate) enum Val {
     Str(Arc<str>),
     Bool(bool),
     /// A local array (only ever in a slot, never the value of an expression).
-    Arr(Box<Vec<Val>>),
+    Arr(Vec<Val>),
 }
 
 impl Val {

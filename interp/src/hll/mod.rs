@@ -26,6 +26,9 @@ pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
 /// How many batches (of up to 32 requests) the executor may run ahead of the interpreter.
 const AHEAD: usize = 4;
 
+/// Where the answer to a [`Read`] goes.
+type ReplyTx = SyncSender<Result<f64, String>>;
+
 /// A motion-dependent system variable read (answered after the queue is drained).
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Read {
@@ -55,7 +58,7 @@ pub(crate) enum Req {
 
 struct Running {
     prog: Arc<ir::Prog>,
-    chan: Option<(Receiver<Req>, SyncSender<Result<f64, String>>)>,
+    chan: Option<(Receiver<Req>, ReplyTx)>,
     /// Requests received in a batch, not handled yet.
     inbox: VecDeque<Req>,
     waiting: Arc<AtomicBool>,
