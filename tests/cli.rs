@@ -126,7 +126,14 @@ fn run_every_example_ok_with_exact_report_keys_and_coupled_taps() {
                 "{ex} line {}: {cmd} µm",
                 t["line"]
             );
-            assert!(t["max_coupling_error_um_act"].as_f64().unwrap().is_finite());
+            // Actual positions, Z and C compared at equal sample age: both drives follow with
+            // the same dynamics, so the thread stays within a few counts.
+            let act = t["max_coupling_error_um_act"].as_f64().unwrap();
+            assert!(
+                act < 1.0,
+                "{ex} line {}: actual coupling {act} µm",
+                t["line"]
+            );
             assert!(t["line"].as_u64().unwrap() > 0);
         }
     }

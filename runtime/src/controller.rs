@@ -216,6 +216,7 @@ impl<L: DriveLink> CycleController<L> {
             act: [0.0; MAX_AXES],
             act_counts: [0; MAX_AXES],
             following_error: [0.0; MAX_AXES],
+            age: [0; MAX_AXES],
             statusword: [0; MAX_AXES],
             event: t.event,
             tap: if t.state == cnc402_motion::TickState::Moving || self.phase == Phase::Stopping {
@@ -232,6 +233,7 @@ impl<L: DriveLink> CycleController<L> {
             st.act[i] = f.actual;
             st.act_counts[i] = to_counts_wrapping(f.actual, self.axes.counts_per_unit[i]);
             st.following_error[i] = f.following_error;
+            st.age[i] = f.age;
             st.statusword[i] = f.statusword;
         }
         if self.status.try_push(st).is_err() {

@@ -17,6 +17,9 @@ pub struct DriveFeedback {
     /// The following error the link's monitor sees (command delayed by the drive's dead time
     /// minus actual), axis units.
     pub following_error: f64,
+    /// How many cycles older than the freshest possible sample `actual` is (a TPDO that came
+    /// late on a loaded bus); compare axes only at equal age.
+    pub age: u32,
 }
 
 /// Why the machine must stop.
@@ -188,6 +191,7 @@ impl ModelLink {
                 actual: self.line[i][tail],
                 statusword: self.sw[i],
                 following_error: 0.0,
+                age: 0,
             };
         }
     }

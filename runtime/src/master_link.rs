@@ -92,6 +92,7 @@ impl<B: CycleBus> MasterLink<B> {
                         actual: f.actual[i],
                         statusword: f.statusword[i].map_or(0, |s| s.0),
                         following_error: f.following_error[i],
+                        age: f.age[i],
                     };
                 }
             }

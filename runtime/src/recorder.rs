@@ -18,9 +18,8 @@ pub struct TapWindow {
     /// Worst deviation of the tool axis from spindle·pitch/360, setpoints (counts sent),
     /// in µm of the tool axis.
     pub max_coupling_error_um_cmd: f64,
-    /// The same from actual positions (0x6064 as received). On a bus loaded near 100 % a
-    /// drive's TPDO can arrive a cycle late, and that skew between Z and C feedback shows up
-    /// here (the shipped 4-axis, 1 ms, 1 Mbit/s machine: ~13 µm; at 2 ms: ~0.7 µm).
+    /// The same from actual positions (0x6064), Z and C compared at equal sample age (on a
+    /// bus loaded near 100 % a drive's TPDO can arrive a cycle late).
     pub max_coupling_error_um_act: f64,
     /// First and last tick.
     pub ticks: (u64, u64),
@@ -36,7 +35,12 @@ struct OpenWindow {
     /// Tool and spindle position at the window's start: setpoint level and actual.
     cmd0: (f64, f64),
     act0: (f64, f64),
+    /// Recent actual samples of the tool and spindle axis by the tick they were sampled at
+    /// (tick − age), so that they are compared at equal age.
+    hist: [[(u64, f64); HIST]; 2],
 }
+
+const HIST: usize = 16;
 
 /// One sample of the plot series.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -203,10 +207,23 @@ impl Recorder {
         let sp_cpu = self.counts_per_unit[o.c.spindle as usize];
         let spindle_set = (spindle * sp_cpu).round() / sp_cpu;
         let e_cmd = (tool - o.cmd0.0) - o.c.ratio * (spindle_set - o.cmd0.1);
-        let e_act = (s.act[o.c.tool as usize] - o.act0.0)
-            - o.c.ratio * (s.act[o.c.spindle as usize] - o.act0.1);
+        // Actual level: Z and C sampled at the same SYNC (a late TPDO is an older sample).
+        let (ti, si) = (o.c.tool as usize, o.c.spindle as usize);
+        let (at, asp) = (s.age[ti] as u64, s.age[si] as u64);
+        for (k, (i, age)) in [(ti, at), (si, asp)].into_iter().enumerate() {
+            let sampled = s.tick.saturating_sub(age);
+            o.hist[k][(sampled as usize) % HIST] = (sampled, s.act[i]);
+        }
+        let both = s.tick.saturating_sub(at.max(asp));
+        let (z, c) = (
+            o.hist[0][(both as usize) % HIST],
+            o.hist[1][(both as usize) % HIST],
+        );
+        if z.0 == both && c.0 == both {
+            let e_act = (z.1 - o.act0.0) - o.c.ratio * (c.1 - o.act0.1);
+            o.w.max_coupling_error_um_act = o.w.max_coupling_error_um_act.max(e_act.abs() * 1000.0);
+        }
         o.w.max_coupling_error_um_cmd = o.w.max_coupling_error_um_cmd.max(e_cmd.abs() * 1000.0);
-        o.w.max_coupling_error_um_act = o.w.max_coupling_error_um_act.max(e_act.abs() * 1000.0);
         o.w.ticks.1 = s.tick;
         e_cmd * 1000.0
     }
@@ -232,6 +249,7 @@ impl Recorder {
                 (base.cmd[sp] * sp_cpu).round() / sp_cpu,
             ),
             act0: (base.act[c.tool as usize], base.act[sp]),
+            hist: [[(u64::MAX, 0.0); HIST]; 2],
         });
     }
 

@@ -47,6 +47,8 @@ pub struct Status {
     pub act_counts: [i32; MAX_AXES],
     /// Following error as the link's monitor sees it (dead time excluded), axis units.
     pub following_error: [f64; MAX_AXES],
+    /// Age of each actual position in cycles (see [`crate::link::DriveFeedback::age`]).
+    pub age: [u32; MAX_AXES],
     pub statusword: [u16; MAX_AXES],
     /// Non-motion program event finished on this tick.
     pub event: Option<MoveEvent>,

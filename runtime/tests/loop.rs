@@ -225,6 +225,7 @@ fn status(tick: u64, z: f64, c: f64, tap: Option<TapCoupling>) -> Status {
         act: [0.0; MAX_AXES],
         act_counts: [0; MAX_AXES],
         following_error: [0.0; MAX_AXES],
+        age: [0; MAX_AXES],
         statusword: [0x0237; MAX_AXES],
         event: None,
         tap,
@@ -391,4 +392,33 @@ fn a_fault_under_a_waiting_position_read_is_a_fault_not_a_program_error() {
     let stop = r.stop.expect("a stop report");
     assert_eq!((stop.stop.node, stop.stop.emcy), (1, Some(0x2310)));
     assert_eq!(stop.location, "f.nc:2");
+}
+
+#[test]
+fn recorder_compares_actual_positions_at_equal_age() {
+    let cfg = MachineConfig::default_machine();
+    let coupling = TapCoupling {
+        tool: 2,
+        spindle: 3,
+        ratio: -1.5 / 360.0,
+    };
+    // C's feedback is one cycle older than Z's throughout: compared naively the thread looks
+    // off by one tick of motion (36° · 1.5/360 = 150 µm); at equal age it is exact.
+    let pos = |k: u64| {
+        let c = 36.0 * k as f64;
+        (3.0 - c * 1.5 / 360.0, c)
+    };
+    let mut rec = Recorder::new(&cfg, 100);
+    rec.record(&status(0, 3.0, 0.0, None));
+    for k in 1..=20u64 {
+        let (z, c) = pos(k);
+        let mut s = status(k, z, c, Some(coupling));
+        s.act[2] = z;
+        s.act[3] = pos(k - 1).1;
+        s.age[3] = 1;
+        rec.record(&s);
+    }
+    rec.finish().unwrap();
+    let w = &rec.taps[0];
+    assert!(w.max_coupling_error_um_act < 1e-6, "{w:?}");
 }
