@@ -903,9 +903,6 @@ fn run_sequence(ctx: &mut Ctx, n: u8, goal: Goal, seq: SeqArgs) -> Result<Status
         }
         Err(e) => {
             let mut err = CliError::from(e);
-            if ctx.json {
-                ctx.emit_json(&json!({ "node": n, "goal": goal.to_string(), "reached": false, "error": err.message, "steps": steps }));
-            }
             if err.exit == Exit::DriveState {
                 let detail =
                     if read_sw(ctx, n).is_ok_and(|s| s.state().is_some_and(State::is_fault)) {

@@ -298,7 +298,8 @@ fn run(
     let fe_max = m.max_following_errors()[0];
     let disabled = m.disable(&mut ctx.link);
     let elapsed = ctx.now().saturating_since(t_start).as_secs_f64();
-    if ctx.json {
+    // With --json an error is the one document main prints; the summary is for success.
+    if ctx.json && result.is_ok() {
         ctx.emit_json(&json!({
             "node": node, "axis": axis.name.to_string(), "start": p0, "command_end": cmd,
             "actual_end": actual, "max_following_error": fe_max, "seconds": elapsed,

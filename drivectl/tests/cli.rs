@@ -492,3 +492,60 @@ fn monitor_reads_pdo_mappings_from_the_drives() {
     check(&o, 0, "note: PDO mapping of node 3 (Z) not read");
     assert!(o.stdout.contains("6 PDO mapping(s)"), "{}", o.stdout);
 }
+
+#[test]
+fn json_errors_are_one_document_with_the_exit_code() {
+    let cases: [(&[&str], i32, &str); 6] = [
+        (&["--json", "--iface", "sim", "info", "9"], 4, "timeout"),
+        (
+            &["--json", "--iface", "sim", "sdo", "read", "3", "0x2000"],
+            3,
+            "sdo_abort",
+        ),
+        (
+            &[
+                "--json", "--iface", "sim", "sdo", "read", "3", "0x6041", "u32",
+            ],
+            7,
+            "protocol",
+        ),
+        (
+            &[
+                "--json",
+                "--iface",
+                "sim",
+                "--sim-setup",
+                "fault-persistent:2",
+                "enable",
+                "2",
+                "--fault-reset",
+                "--within-ms",
+                "50",
+            ],
+            5,
+            "drive_state",
+        ),
+        (
+            &[
+                "--json",
+                "--iface",
+                "sim",
+                "--sim-setup",
+                "tpdo:1",
+                "move",
+                "1",
+                "1",
+            ],
+            5,
+            "drive_state",
+        ),
+        (&["--json", "--iface", "nosuchcan0", "scan"], 6, "bus"),
+    ];
+    for (args, code, kind) in cases {
+        let o = dc(args);
+        assert_eq!(o.code, code, "{args:?}: {}", o.all());
+        let j = o.json();
+        assert_eq!(j["error"]["kind"], kind, "{args:?}");
+        assert_eq!(j["error"]["exit"], code, "{args:?}");
+    }
+}
