@@ -325,4 +325,38 @@ fn run_report_shows_the_coupling_within_one_count_at_every_tick() {
         );
     }
     assert!((r["path_length_mm"].as_f64().unwrap() - 192.0).abs() < 1e-6);
+
+    // terminate(): both commands print the code and the text and exit non-zero.
+    let bad = std::env::temp_dir().join(format!("cnc402-hll-bad-{}.nc", std::process::id()));
+    std::fs::write(
+        &bad,
+        "#use \"metch_cycles.c\"\nTapping(\"Z\", \"C\", 40, 0, 5, 30, 12, 2, 8, 0, 300, 600, 2, 40);\nM02\n",
+    )
+    .unwrap();
+    for cmd in ["run", "segments"] {
+        let out =
+            std::process::Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+                .current_dir(ROOT)
+                .args(["run", "-q", "--bin", "cnc402", "--", cmd])
+                .arg(&bad)
+                .output()
+                .unwrap();
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(!out.status.success(), "{cmd}: {text}");
+        // The report may wrap the message: compare without spaces and frame characters.
+        let squeeze = |t: &str| -> String {
+            t.chars()
+                .filter(|c| !c.is_whitespace() && *c != '│')
+                .collect()
+        };
+        assert!(
+            squeeze(&text).contains(&squeeze("terminate 5561: Tapping: dPitch must be > 0")),
+            "{cmd}: {text}"
+        );
+    }
+    let _ = std::fs::remove_file(&bad);
 }
