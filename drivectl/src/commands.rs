@@ -471,6 +471,19 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
         consumers,
         pdos,
     ) = r;
+    // NMT state: from heartbeats that came in while the objects were read (drives with a
+    // producer heartbeat), else from the fact that the drive answers SDO.
+    let nmt = ctx
+        .other
+        .iter()
+        .rev()
+        .filter_map(heartbeat_of)
+        .find(|(k, _)| *k == n)
+        .map(|(_, s)| match s {
+            NmtState::BootUp => "PRE-OPERATIONAL (boot-up seen)",
+            s => nmt_state_name(s),
+        });
+    ctx.other.clear();
     let entry_text = |e: u32| {
         let a = ObjectAddr {
             index: (e >> 16) as u16,
@@ -543,6 +556,7 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
             "error_code": opt_json(&err_code),
             "error_history": errors.iter().map(|e| json!({ "raw": e, "code": e & 0xFFFF, "text": emcy_text((e & 0xFFFF) as u16), "info": e >> 16 })).collect::<Vec<_>>(),
             "producer_heartbeat_ms": opt_json(&hb),
+            "nmt": nmt,
             "consumer_heartbeats": consumers.iter().map(|c| json!({ "node": (c >> 16) & 0x7F, "ms": c & 0xFFFF })).collect::<Vec<_>>(),
             "pdos": pdo_json,
         }));
@@ -628,6 +642,10 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
                 .collect::<Vec<_>>()
                 .join(", ")
         }
+    ));
+    ctx.say(format!(
+        "  NMT state         {}",
+        nmt.unwrap_or("PRE-OPERATIONAL or OPERATIONAL (answers SDO; no heartbeat seen)")
     ));
     ctx.say("  PDO mapping");
     for l in pdo_text {

@@ -108,6 +108,7 @@ fn info_decodes_identity_modes_state_and_pdos() {
     assert_eq!(j["supported_modes"]["raw"], 0x80);
     assert_eq!(j["statusword"]["state"], "SWITCH ON DISABLED");
     assert_eq!(j["pdos"][4]["mapping"][0]["index"], 0x6041);
+    assert_eq!(j["nmt"], "PRE-OPERATIONAL (boot-up seen)");
     // A faulted drive: error register, error code and history decoded.
     let j = sim(&["--json", "--sim-setup", "fault:3:0x7300", "info", "3"]).json();
     assert_eq!(j["statusword"]["state"], "FAULT");
