@@ -402,3 +402,28 @@ fn types_promote_like_c() {
     .unwrap();
     assert_eq!(msgs(&segs), vec!["3 3.5 x73 true -3 -1 2 -2 true true"]);
 }
+
+#[test]
+fn source_000_channel_program_stops_where_it_leaves_the_language_implemented_here() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../lang/tests/programs/axioma_channels.nc"
+    );
+    let text = std::fs::read_to_string(path).unwrap();
+    // As printed it uses `Iterator` and `msSleep` without declaring them.
+    let e =
+        cnc402_interp::run_program(&cfg(), &SourceFile::new("ch.nc", text.as_str())).unwrap_err();
+    assert_eq!(
+        (e.line, e.message.as_str()),
+        (16, "undefined name `Iterator`")
+    );
+    // Declared, it stops at the first channel function, before running anything.
+    let fixed = format!("int Iterator;\nint msSleep = 1;\n{text}");
+    let e = cnc402_interp::run_program(&cfg(), &SourceFile::new("ch.nc", fixed)).unwrap_err();
+    assert_eq!(e.line, 20);
+    assert!(
+        e.message
+            .contains("channel_load: not supported yet: multi-channel operation"),
+        "{e}"
+    );
+}
