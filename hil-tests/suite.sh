@@ -28,7 +28,7 @@ fi
 
 if [[ $no_build == 0 ]]; then
     echo "suite: cargo build --release (cnc402, cnc402-hil, drivectl + its examples)"
-    cargo build -q --release -p cnc402 -p cnc402-hil -p drivectl --bins || {
+    cargo build -q --release -p cnc402 -p cnc402-hil -p drivectl --bins && cargo build -q --release -p cnc402-hil --examples || {
         echo "suite: build failed"; echo "0 passed, ${#scripts[@]} failed"; exit 1; }
     if [[ " ${scripts[*]} " == *drivectl/hil.sh* ]]; then
         cargo build -q --release -p drivectl --examples || {

@@ -13,11 +13,11 @@ use cia402::State;
 use cnc402_config::{AxisConfig, AxisKind, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_drives::bus::{CanDevice, FrameSink};
-use cnc402_drives::coupling::{CouplingChecker, CouplingSample, TapWindow};
 use cnc402_drives::sim::{FaultKind, NmtStatus, SimDrive, SimDriveOptions};
 use cnc402_drives::wire::{CanFrame, NodeId};
 use serde_json::{Value, json};
 
+use crate::episodes::{CountSample, Episode, EpisodeChecker};
 use crate::latency::percentile;
 
 /// CANopen's default SYNC identifier (0x1005).
@@ -25,9 +25,6 @@ const SYNC_ID: u16 = 0x80;
 /// SYNC intervals kept for the percentiles (about 17 minutes at 1 ms; later ones are
 /// counted in max/count only).
 const MAX_SYNC_SAMPLES: usize = 1 << 20;
-/// A window of Z+C motion that follows at least this many SYNCs of C turning alone is a
-/// drilling/milling move with the spindle running, not a tap (in a rigid tap C starts with Z).
-pub const SPINDLE_RUNNING_TICKS: u32 = 100;
 /// State changes kept per drive.
 const MAX_STATE_HISTORY: usize = 64;
 
@@ -278,19 +275,9 @@ pub struct DriveHost {
     sync_min_ns: u64,
     faults: Vec<ScheduledFault>,
     fault_clock: FaultClock,
-    coupling: CouplingChecker,
+    coupling: EpisodeChecker,
     coupling_samples: u64,
-    /// Previous (Z, C) setpoints in counts, for the window classification.
-    prev_zc: Option<(i64, i64)>,
-    /// Consecutive samples with C moving and Z not.
-    c_alone: u32,
-    /// Whether a window is open, and the `c_alone` run that preceded it.
-    open_after_c_alone: Option<u32>,
-    /// Per closed window: whether the spindle was running before it (not a tap).
-    spindle_running: Vec<bool>,
     counters: HostCounters,
-    z_cpu: f64,
-    c_cpu: f64,
 }
 
 impl fmt::Debug for DriveHost {
@@ -366,15 +353,9 @@ impl DriveHost {
                 })
                 .collect(),
             fault_clock: opts.fault_clock,
-            coupling: CouplingChecker::with_capacity(z_cpu, c_cpu, 1 << 16),
+            coupling: EpisodeChecker::new(z_cpu, c_cpu),
             coupling_samples: 0,
-            prev_zc: None,
-            c_alone: 0,
-            open_after_c_alone: None,
-            spindle_running: Vec::new(),
             counters: HostCounters::default(),
-            z_cpu,
-            c_cpu,
         })
     }
 
@@ -397,8 +378,8 @@ impl DriveHost {
     }
 
     /// Coupling windows closed so far.
-    pub fn windows(&self) -> &[TapWindow] {
-        self.coupling.windows()
+    pub fn windows(&self) -> &[Episode] {
+        self.coupling.episodes()
     }
 
     fn power_on(&mut self, now: Instant) {
@@ -463,28 +444,12 @@ impl DriveHost {
         let (z_cmd, z_act) = (self.drives[zi].target.value, self.drives[zi].actual.value);
         let (c_cmd, c_act) = (self.drives[ci].target.value, self.drives[ci].actual.value);
         self.coupling_samples += 1;
-        if let Some((pz, pc)) = self.prev_zc.replace((z_cmd, c_cmd)) {
-            let (zm, cm) = (z_cmd != pz, c_cmd != pc);
-            if zm && cm {
-                self.open_after_c_alone.get_or_insert(self.c_alone);
-            }
-            self.c_alone = if cm && !zm {
-                self.c_alone.saturating_add(1)
-            } else {
-                0
-            };
-        }
-        let closed = self.coupling.feed(CouplingSample {
-            z_cmd: z_cmd as f64 / self.z_cpu,
-            z_act: z_act as f64 / self.z_cpu,
-            c_cmd: c_cmd as f64 / self.c_cpu,
-            c_act: c_act as f64 / self.c_cpu,
-            line: 0,
-            actual_stale: false,
+        self.coupling.feed(CountSample {
+            z_cmd,
+            c_cmd,
+            z_act,
+            c_act,
         });
-        if closed.is_some() {
-            self.note_closed();
-        }
     }
 
     fn is_addressed(&self, frame: &CanFrame) -> bool {
@@ -507,16 +472,9 @@ impl DriveHost {
         })
     }
 
-    fn note_closed(&mut self) {
-        let before = self.open_after_c_alone.take().unwrap_or(0);
-        self.spindle_running.push(before >= SPINDLE_RUNNING_TICKS);
-    }
-
     /// Closes an open coupling window (call once at the end).
     pub fn finish(&mut self) {
-        if self.coupling.finish().is_some() {
-            self.note_closed();
-        }
+        self.coupling.finish();
     }
 
     /// The JSON report (see the crate README's "Scenarios" for the keys).
@@ -524,8 +482,8 @@ impl DriveHost {
         let mut checks = Vec::new();
         let mut taps = 0;
         let mut others = 0;
-        for (i, w) in self.coupling.windows().iter().enumerate() {
-            if self.spindle_running.get(i).copied().unwrap_or(false) {
+        for (i, w) in self.coupling.episodes().iter().enumerate() {
+            if w.spindle_running {
                 // Z moving while the spindle turns (drilling): reported, not judged.
                 others += 1;
                 checks.push(json!({
@@ -540,10 +498,7 @@ impl DriveHost {
                 continue;
             }
             taps += 1;
-            // One count of Z, or the Z-equivalent of one C count, whichever is larger.
-            let z_per_deg = w.pitch_mm / 360.0;
-            let limit_um = (1.0 / self.z_cpu).max(z_per_deg / self.c_cpu) * 1000.0;
-            let limit_um = limit_um * (1.0 + 1e-9);
+            let limit_um = self.coupling.limit_um(w) * (1.0 + 1e-9);
             checks.push(json!({
                 "name": format!("tap coupling window {} (setpoints)", i + 1),
                 "value_um": w.max_error_um_cmd,

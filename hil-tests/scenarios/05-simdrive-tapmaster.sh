@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# simdrive against the drives crate's Master directly (hil-tests/examples/tapmaster.rs: boot,
+# a synthetic rigid tap of 4 revolutions at 1.5 mm pitch down and back out, disable) — tests
+# simdrive's own checks on a real socket independently of `cnc402 run`: two tap windows
+# (down, out) within one count at setpoint level, actual figure reported, SYNC period measured,
+# no protocol errors.
+source "$HIL_REPO/hil-tests/scenarios/common.bash"
+SC_T0=$SECONDS
+hil_bg drive "$HIL_BIN/simdrive" --config "$SC_DIR/machine-vcan.toml" --iface "$HIL_IFACE" \
+    --report "$DRIVE_JSON"
+hil_wait_socket drive 20 || sc_fail "simdrive did not open its socket"
+RUN_RC=0
+timeout -k 5 60 "$HIL_BIN/examples/tapmaster" --iface "$HIL_IFACE" \
+    --config "$SC_DIR/machine-vcan.toml" >"$HIL_OUT/run.log" 2>&1 || RUN_RC=$?
+kill -TERM "${HIL_PIDS[drive]}" 2>/dev/null
+DRIVE_RC=0
+hil_wait drive 20 || DRIVE_RC=$?
+SC_SECONDS=$((SECONDS - SC_T0))
+expect_rc tapmaster "$RUN_RC" 0
+expect_rc simdrive "$DRIVE_RC" 0
+RUN_JSON=/nonexistent
+scenario_check 'ok == true' 'tap_windows == 2' 'checks.*.pass == true' \
+    'checks.?name~(setpoints).pitch_mm > 1.4999' 'checks.?name~(setpoints).pitch_mm < 1.5001' \
+    'checks.?name~(actual).value_um > 0' 'sync_period_us.count > 3000' \
+    'protocol_errors.unexpected_frames == 0' 'protocol_errors.unaddressed_frames == 0' \
+    'protocol_errors.sdo_aborts_sent == 0' 'drives.*.reached_operation_enabled == true'
+scenario_end "taps {tap_windows}, coupling setpoints {checks.?name~(setpoints).value_um:.4} um (limit {checks.0.limit_um:.4}), actual {checks.?name~(actual).value_um:.1} um; $COMMON_FIGURES_DRIVE; tapmaster: $(grep -o 'wake-up.*' "$HIL_OUT/run.log" | head -1)"
