@@ -101,7 +101,7 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
     }
     if let Some(p) = &args.plot {
         let title = format!("{} — Z and C setpoints", args.program.display());
-        cnc402_runtime::write_plot(p, &report.plot, &title).map_err(CliError::Io)?;
+        cnc402_runtime::write_plot(p, &report, &title).map_err(CliError::Io)?;
     }
     match report.error {
         None if report.ok => Ok(()),

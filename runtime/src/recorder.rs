@@ -50,6 +50,8 @@ pub struct PlotPoint {
     pub c: f64,
     /// Coupling error of the setpoints in µm (0 outside tap windows).
     pub coupling_um: f64,
+    /// Coupling error of the actual positions in µm (equal sample age; 0 outside taps).
+    pub coupling_act_um: f64,
 }
 
 /// See the module doc.
@@ -78,6 +80,9 @@ pub struct Recorder {
     plot_axes: Option<(usize, usize)>,
     plot_every: u64,
     plot_coupling: f64,
+    plot_coupling_act: f64,
+    /// Actual-level coupling error of the last record (µm), for the plot.
+    last_act_error: f64,
 }
 
 impl Recorder {
@@ -113,6 +118,8 @@ impl Recorder {
             plot_axes: z.zip(c),
             plot_every: (expected_ticks / 4000).max(1),
             plot_coupling: 0.0,
+            plot_coupling_act: 0.0,
+            last_act_error: 0.0,
         }
     }
 
@@ -160,6 +167,9 @@ impl Recorder {
         if coupling.abs() > self.plot_coupling.abs() {
             self.plot_coupling = coupling;
         }
+        if self.last_act_error.abs() > self.plot_coupling_act.abs() {
+            self.plot_coupling_act = self.last_act_error;
+        }
         if let Some((z, c)) = self.plot_axes
             && s.tick.is_multiple_of(self.plot_every)
         {
@@ -169,8 +179,10 @@ impl Recorder {
                 z: s.cmd[z],
                 c: s.cmd[c],
                 coupling_um: self.plot_coupling,
+                coupling_act_um: self.plot_coupling_act,
             });
             self.plot_coupling = 0.0;
+            self.plot_coupling_act = 0.0;
         }
         self.ticks += 1;
         self.last = Some(*s);
@@ -197,6 +209,7 @@ impl Recorder {
             (None, true) => self.close_window(),
             (None, false) => {}
         }
+        self.last_act_error = 0.0;
         let Some(o) = self.open.as_mut() else {
             return 0.0;
         };
@@ -221,6 +234,7 @@ impl Recorder {
         );
         if z.0 == both && c.0 == both {
             let e_act = (z.1 - o.act0.0) - o.c.ratio * (c.1 - o.act0.1);
+            self.last_act_error = e_act * 1000.0;
             o.w.max_coupling_error_um_act = o.w.max_coupling_error_um_act.max(e_act.abs() * 1000.0);
         }
         o.w.max_coupling_error_um_cmd = o.w.max_coupling_error_um_cmd.max(e_cmd.abs() * 1000.0);
@@ -248,7 +262,9 @@ impl Recorder {
                 self.pos(c.tool, &base.cmd_counts),
                 (base.cmd[sp] * sp_cpu).round() / sp_cpu,
             ),
-            act0: (base.act[c.tool as usize], base.act[sp]),
+            // Actuals are measured from the setpoints' origin, as the bus-side checker does:
+            // an axis that has not settled when the tap starts is part of the error.
+            act0: (base.cmd[c.tool as usize], base.cmd[sp]),
             hist: [[(u64::MAX, 0.0); HIST]; 2],
         });
     }

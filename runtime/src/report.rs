@@ -203,10 +203,13 @@ impl RunReport {
     }
 }
 
-/// Draws Z and C setpoints against time (top, two y axes) and the setpoint coupling error in
-/// µm (bottom) into an SVG file.
-pub fn write_plot(path: &Path, points: &[PlotPoint], title: &str) -> Result<(), String> {
+/// Draws Z and C setpoints against time (top, two y axes) and the coupling error of the
+/// setpoints and of the actual positions in µm with the one-count bound (bottom) into an SVG
+/// file.
+pub fn write_plot(path: &Path, report: &RunReport, title: &str) -> Result<(), String> {
     use plotters::prelude::*;
+    let points: &[PlotPoint] = &report.plot;
+    let bound = report.coupling_bound_um;
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let root = SVGBackend::new(path, (1000, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
@@ -269,13 +272,13 @@ pub fn write_plot(path: &Path, points: &[PlotPoint], title: &str) -> Result<(), 
 
     let e_max = points
         .iter()
-        .map(|p| p.coupling_um.abs())
-        .fold(0.0, f64::max)
+        .map(|p| p.coupling_um.abs().max(p.coupling_act_um.abs()))
+        .fold(bound, f64::max)
         .max(0.1)
         * 1.1;
     let mut chart2 = ChartBuilder::on(&bottom)
         .caption(
-            "rigid-tap coupling error of the setpoints",
+            "rigid-tap coupling error: setpoints (green), actual (purple), one count (dashed)",
             ("sans-serif", 16),
         )
         .margin(10)
@@ -292,10 +295,26 @@ pub fn write_plot(path: &Path, points: &[PlotPoint], title: &str) -> Result<(), 
         .map_err(|e| err(&e))?;
     chart2
         .draw_series(LineSeries::new(
+            points.iter().map(|p| (p.t, p.coupling_act_um)),
+            &MAGENTA.mix(0.8),
+        ))
+        .map_err(|e| err(&e))?;
+    chart2
+        .draw_series(LineSeries::new(
             points.iter().map(|p| (p.t, p.coupling_um)),
             &GREEN.mix(0.9),
         ))
         .map_err(|e| err(&e))?;
+    for b in [bound, -bound] {
+        chart2
+            .draw_series(DashedLineSeries::new(
+                [(0.0, b), (t_max, b)],
+                6,
+                4,
+                BLACK.stroke_width(1),
+            ))
+            .map_err(|e| err(&e))?;
+    }
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
