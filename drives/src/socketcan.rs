@@ -145,8 +145,6 @@ pub struct SocketCanBus {
     epoch: StdInstant,
     options: SocketCanOptions,
     counters: BusCounters,
-    /// The SO_RCVTIMEO currently set (changed only when a different timeout is asked for).
-    read_timeout: Option<Duration>,
     error_frames: u64,
     last_error: Option<CanError>,
     extended_frames: u64,
@@ -233,7 +231,7 @@ impl SocketCanBus {
             }
         };
         // Blocking socket with a bounded SO_SNDTIMEO: a full socket buffer cannot stall a
-        // send longer than the budget. Reads use poll (recv) or SO_RCVTIMEO (recv_timeout).
+        // send longer than the budget. Reads only follow a poll that saw a frame.
         socket.set_nonblocking(false).map_err(|e| io_err(&e))?;
         let budget = options.send_budget.max(Duration::from_micros(1));
         socket.set_write_timeout(budget).map_err(|e| io_err(&e))?;
@@ -262,7 +260,6 @@ impl SocketCanBus {
             epoch: StdInstant::now(),
             options,
             counters: BusCounters::default(),
-            read_timeout: None,
             error_frames: 0,
             last_error: None,
             extended_frames: 0,
@@ -332,14 +329,6 @@ impl SocketCanBus {
         self.counters.bus_bits += frame.bits() as u64;
         frame
     }
-
-    fn set_read_timeout(&mut self, t: Duration) -> Result<(), BusError> {
-        if self.read_timeout != Some(t) {
-            self.socket.set_read_timeout(t).map_err(|e| bus_error(&e))?;
-            self.read_timeout = Some(t);
-        }
-        Ok(())
-    }
 }
 
 impl CanBus for SocketCanBus {
@@ -401,31 +390,33 @@ impl CanBus for SocketCanBus {
         }
     }
 
-    /// The next frame, waiting at most `timeout` (SO_RCVTIMEO: microsecond resolution).
+    /// The next frame, waiting at most `timeout`. Whole milliseconds wait in poll(2)
+    /// (never past the deadline); the sub-millisecond rest in short sleeps with a poll
+    /// between them, so the wait ends within ~0.1 ms of the deadline. (SO_RCVTIMEO is not
+    /// used: the kernel rounds it up to whole jiffies, 4 ms at HZ=250.)
     fn recv_timeout(&mut self, timeout: Duration) -> Result<Option<CanFrame>, BusError> {
-        if timeout < Duration::from_micros(1) {
-            return self.recv();
-        }
         let deadline = StdInstant::now() + timeout;
         loop {
-            let left = deadline.saturating_duration_since(StdInstant::now());
-            if left < Duration::from_micros(1) {
-                return self.recv();
+            if let Some(f) = self.recv()? {
+                return Ok(Some(f));
             }
-            // Whole microseconds only: a zero SO_RCVTIMEO would mean "wait forever".
-            self.set_read_timeout(Duration::from_micros(left.as_micros().max(1) as u64))?;
-            match self.socket.read_frame() {
-                Ok(f) => {
-                    if let Some(frame) = self.take(f)? {
-                        return Ok(Some(frame));
+            let left = deadline.saturating_duration_since(StdInstant::now());
+            if left.is_zero() {
+                return Ok(None);
+            }
+            if left >= Duration::from_millis(1) {
+                let whole = Duration::from_millis(left.as_millis() as u64);
+                match self.socket.read_frame_timeout(whole) {
+                    Ok(f) => {
+                        if let Some(frame) = self.take(f)? {
+                            return Ok(Some(frame));
+                        }
                     }
+                    Err(e) if is_would_block(&e) => {}
+                    Err(e) => return Err(bus_error(&e)),
                 }
-                Err(e) if is_would_block(&e) => {
-                    if StdInstant::now() >= deadline {
-                        return Ok(None);
-                    }
-                }
-                Err(e) => return Err(bus_error(&e)),
+            } else {
+                std::thread::sleep(left.min(Duration::from_micros(50)));
             }
         }
     }
@@ -449,7 +440,7 @@ impl TimedBus for SocketCanBus {
         match self.recv_timeout(deadline - now)? {
             Some(f) => Ok(Some(f)),
             None => {
-                // SO_RCVTIMEO may return a hair early: the contract is now() >= deadline.
+                // Clocks read at slightly different moments: the contract is now() >= deadline.
                 while TimedBus::now(self) < deadline {
                     std::hint::spin_loop();
                 }
