@@ -17,8 +17,11 @@ use super::{Read, Req};
 
 /// Deepest chain of user-function calls before the program is stopped.
 pub const MAX_CALL_DEPTH: u32 = 200;
-/// Requests sent to the interpreter in one hand-off (fewer, when it is waiting for them).
+/// Requests sent to the interpreter in one hand-off (fewer at the end, at a system variable
+/// read, or after [`FLUSH_AFTER`] statements while the interpreter waits).
 const BATCH: usize = 32;
+/// Statements after which pending requests go out if the interpreter is waiting for them.
+const FLUSH_AFTER: u32 = 64;
 /// Largest local array.
 pub const MAX_ARRAY_LEN: i64 = 1_000_000;
 
@@ -63,6 +66,8 @@ pub(crate) struct Executor {
     waiting: Arc<AtomicBool>,
     /// Requests not sent yet (sent in batches: one channel hand-off per batch).
     pending: Vec<Req>,
+    /// Statements since the last batch was sent.
+    since_flush: u32,
     ran: Vec<bool>,
     depth: u32,
     steps: u64,
@@ -88,6 +93,7 @@ impl Executor {
             rx,
             waiting,
             pending: Vec::with_capacity(BATCH),
+            since_flush: 0,
             ran: vec![false; n],
             depth: 0,
             steps: 0,
@@ -127,7 +133,7 @@ impl Executor {
 
     fn send(&mut self, r: Req) -> R<()> {
         self.pending.push(r);
-        if self.pending.len() >= BATCH || self.waiting.load(Ordering::Relaxed) {
+        if self.pending.len() >= BATCH {
             self.flush()?;
         }
         Ok(())
@@ -137,6 +143,7 @@ impl Executor {
         if self.pending.is_empty() {
             return Ok(());
         }
+        self.since_flush = 0;
         let batch = std::mem::replace(&mut self.pending, Vec::with_capacity(BATCH));
         self.tx.send(Req::Batch(batch)).map_err(|_| Stop::Hangup)
     }
@@ -162,7 +169,13 @@ impl Executor {
     }
 
     fn tick(&mut self, f: &Frame, span: Span) -> R<()> {
-        if !self.pending.is_empty() && self.waiting.load(Ordering::Relaxed) {
+        // A program that computes between blocks must not hold back the blocks it made
+        // while the interpreter waits for them.
+        self.since_flush += 1;
+        if self.since_flush >= FLUSH_AFTER
+            && !self.pending.is_empty()
+            && self.waiting.load(Ordering::Relaxed)
+        {
             self.flush()?;
         }
         self.steps += 1;
