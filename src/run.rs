@@ -32,6 +32,33 @@ fn parse_fault(s: &str) -> Result<FaultPlan, String> {
     })
 }
 
+/// The error of a run that could not go on; with `--report`, the report says why too (for
+/// scripts that read only the report).
+fn not_run(cfg: &MachineConfig, args: &RunArgs, e: RunError) -> CliError {
+    let (msg, err) = match e {
+        RunError::Program(e) => (
+            e.to_string().lines().next().unwrap_or("").to_string(),
+            CliError::Program(e),
+        ),
+        RunError::Io(m) => (m.clone(), CliError::Io(m)),
+    };
+    if let Some(p) = &args.report {
+        let axes: Vec<char> = cfg.axes.iter().map(|a| a.name).collect();
+        let r = cnc402_runtime::RunReport::not_run(cfg.bus.period_us, &axes, msg);
+        if let Err(e) = write_report(p, &r) {
+            return e;
+        }
+    }
+    err
+}
+
+fn write_report(p: &Path, report: &cnc402_runtime::RunReport) -> Result<(), CliError> {
+    let text = serde_json::to_string_pretty(&report.to_json())
+        .map_err(|e| CliError::Io(format!("{}: {e}", p.display())))?;
+    let mut f = create(p)?;
+    writeln!(f, "{text}").map_err(|e| CliError::Io(format!("{}: {e}", p.display())))
+}
+
 fn create(path: &Path) -> Result<std::fs::File, CliError> {
     std::fs::File::create(path).map_err(|e| CliError::Io(format!("{}: {e}", path.display())))
 }
@@ -43,7 +70,10 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         None => None,
     };
     let src = crate::load_program(&args.program)?;
-    let ast = cnc402_lang::parse(&src).map_err(CliError::Program)?;
+    let ast = match cnc402_lang::parse(&src) {
+        Ok(a) => a,
+        Err(e) => return Err(not_run(cfg, args, RunError::Program(e))),
+    };
     let trace: Option<Box<dyn Write>> = match &args.trace {
         Some(p) => Some(Box::new(std::io::BufWriter::new(create(p)?))),
         None => None,
@@ -89,15 +119,11 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
     }
     let report = match result {
         Ok(r) => r,
-        Err(RunError::Program(e)) => return Err(CliError::Program(e)),
-        Err(RunError::Io(m)) => return Err(CliError::Io(m)),
+        Err(e) => return Err(not_run(cfg, args, e)),
     };
     print!("{}", report.summary());
     if let Some(p) = &args.report {
-        let text = serde_json::to_string_pretty(&report.to_json())
-            .map_err(|e| CliError::Io(format!("{}: {e}", p.display())))?;
-        let mut f = create(p)?;
-        writeln!(f, "{text}").map_err(|e| CliError::Io(format!("{}: {e}", p.display())))?;
+        write_report(p, &report)?;
     }
     if let Some(p) = &args.plot {
         let title = format!("{} — Z and C setpoints", args.program.display());

@@ -306,10 +306,26 @@ fn drive_fault_mid_tap_stops_all_axes_and_names_node_emcy_and_line() {
 fn program_error_exits_2_with_file_line_col() {
     let p = tmp("bad.nc");
     std::fs::write(&p, "G21 G90\nG0 X10.\nG1 X20. Y F\nM30\n").unwrap();
-    let o = cnc402(&["run", p.to_str().unwrap()]);
+    let report = tmp("bad.json");
+    let o = cnc402(&[
+        "run",
+        p.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains(&format!("{}:3:", p.display())), "{err}");
+    let v = read_json(&report);
+    assert_eq!(v["ok"], false);
+    assert_eq!(v["ticks"], 0);
+    assert!(
+        v["error"]
+            .as_str()
+            .unwrap()
+            .starts_with(&format!("{}:3:", p.display())),
+        "{v}"
+    );
 
     // Found by planning, before anything moves: a spindle speed above max_rpm.
     std::fs::write(&p, "G21\nG0 X1.\nM3 S9000\nM30\n").unwrap();

@@ -68,6 +68,39 @@ pub struct RunReport {
 }
 
 impl RunReport {
+    /// The report of a run that never moved (a program error found before motion, an I/O
+    /// error): `ok` false, `error` the message, every figure zero.
+    pub fn not_run(period_us: u32, axes: &[char], error: String) -> RunReport {
+        RunReport {
+            ok: false,
+            error: Some(error),
+            stop: None,
+            period_us,
+            ticks: 0,
+            program_time_s: 0.0,
+            path_length_mm: 0.0,
+            axes: axes
+                .iter()
+                .map(|&name| AxisReport {
+                    name,
+                    max_following_error: 0.0,
+                    final_position: 0.0,
+                })
+                .collect(),
+            tapping: Vec::new(),
+            bus_frames: 0,
+            bus_load_percent: 0.0,
+            wakeup_latency: None,
+            realtime_grant: None,
+            starved_ticks: 0,
+            dropped_status: 0,
+            wall_time_s: 0.0,
+            realtime_factor: 0.0,
+            coupling_bound_um: 0.0,
+            plot: Vec::new(),
+        }
+    }
+
     /// The JSON report.
     pub fn to_json(&self) -> Value {
         let mut axes = serde_json::Map::new();
