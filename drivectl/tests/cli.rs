@@ -550,3 +550,22 @@ fn json_errors_are_one_document_with_the_exit_code() {
         assert_eq!(j["error"]["exit"], code, "{args:?}");
     }
 }
+
+#[test]
+fn unreadable_files_are_file_errors() {
+    check(
+        &sim(&["--config", "no/such/machine.toml", "scan"]),
+        8,
+        "no/such/machine.toml",
+    );
+    check(
+        &sim(&["--eds", "no/such.eds", "scan"]),
+        8,
+        "cannot read EDS no/such.eds",
+    );
+    check(
+        &sim(&["monitor", "--duration=-1"]),
+        2,
+        "--duration -1 is not a time",
+    );
+}
