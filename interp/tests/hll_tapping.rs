@@ -326,6 +326,39 @@ fn run_report_shows_the_coupling_within_one_count_at_every_tick() {
     }
     assert!((r["path_length_mm"].as_f64().unwrap() - 192.0).abs() < 1e-6);
 
+    // The source's main program as printed, on the machine with the longer Z travel: its
+    // @ITPPATH check passes against the path the simulated drives produced.
+    let out = std::process::Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .current_dir(ROOT)
+        .args([
+            "run",
+            "-q",
+            "--bin",
+            "cnc402",
+            "--",
+            "--config",
+            "examples/axioma/machine.toml",
+            "run",
+            "examples/axioma/source_000_main.nc",
+            "--report",
+        ])
+        .arg(&report)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let _ = std::fs::remove_file(&report);
+    let bound = r["coupling_bound_um"].as_f64().unwrap();
+    for t in r["tapping"].as_array().unwrap() {
+        assert!(t["max_coupling_error_um_cmd"].as_f64().unwrap() <= bound);
+    }
+    assert!((r["path_length_mm"].as_f64().unwrap() - 640.0).abs() < 1e-6);
+
     // terminate(): both commands print the code and the text and exit non-zero.
     let bad = std::env::temp_dir().join(format!("cnc402-hll-bad-{}.nc", std::process::id()));
     std::fs::write(
