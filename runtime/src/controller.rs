@@ -36,6 +36,11 @@ pub struct AxisTable {
     pub counts_per_unit: [f64; MAX_AXES],
     pub linear: [bool; MAX_AXES],
     pub spindle: Option<usize>,
+    /// CANopen node of each axis's drive (0: none).
+    pub nodes: [u8; MAX_AXES],
+    /// The drive's dead time in cycles (config `sim.delay_cycles`, which describes the real
+    /// drive too).
+    pub delay_cycles: [u32; MAX_AXES],
 }
 
 impl AxisTable {
@@ -44,15 +49,21 @@ impl AxisTable {
         let n = cfg.axes.len().min(MAX_AXES);
         let mut counts_per_unit = [1.0; MAX_AXES];
         let mut linear = [false; MAX_AXES];
+        let mut nodes = [0u8; MAX_AXES];
+        let mut delay_cycles = [0u32; MAX_AXES];
         for (i, a) in cfg.axes.iter().take(n).enumerate() {
             counts_per_unit[i] = a.counts_per_unit;
             linear[i] = a.kind == AxisKind::Linear;
+            nodes[i] = a.node.unwrap_or(0);
+            delay_cycles[i] = a.sim.delay_cycles.min(16);
         }
         AxisTable {
             n,
             counts_per_unit,
             linear,
             spindle: cfg.spindle_index().filter(|&i| i < n),
+            nodes,
+            delay_cycles,
         }
     }
 
@@ -85,6 +96,28 @@ pub struct CycleController<L: DriveLink> {
     dropped: u64,
     last_line: u32,
     moves_started: u64,
+    /// Tool and spindle command at the start of the current tap move.
+    tap_anchor: (f64, f64),
+    /// Set when the spindle drive itself faults during a tap: the tool axis follows the
+    /// spindle's actual position instead of the path (see `follow_spindle`).
+    follow: Option<SpindleFollow>,
+    spindle_track: SpindleTrack,
+}
+
+/// The tool axis slaved to the spindle's actual position after a spindle drive fault, so
+/// that the thread stays coupled while the spindle brakes on its own.
+#[derive(Clone, Copy, Debug)]
+struct SpindleFollow {
+    c: TapCoupling,
+    anchor: (f64, f64),
+}
+
+/// The spindle's actual motion as the feedback shows it: last sample, the tick it was taken
+/// at (tick − age), and its velocity in units per cycle.
+#[derive(Clone, Copy, Debug, Default)]
+struct SpindleTrack {
+    last: Option<(u64, f64)>,
+    velocity: f64,
 }
 
 impl<L: DriveLink> CycleController<L> {
@@ -128,6 +161,9 @@ impl<L: DriveLink> CycleController<L> {
             dropped: 0,
             last_line: 0,
             moves_started: 0,
+            tap_anchor: (0.0, 0.0),
+            follow: None,
+            spindle_track: SpindleTrack::default(),
         }
     }
 
@@ -191,8 +227,18 @@ impl<L: DriveLink> CycleController<L> {
         let t = self.interp.tick();
         self.last_line = t.line;
         self.commands = t.pos.0;
+        if let Some(f) = &self.follow {
+            let z = follow_spindle(
+                f,
+                &self.spindle_track,
+                &self.axes,
+                self.tick,
+                &self.feedback,
+            );
+            self.commands[f.c.tool as usize] = z;
+        }
         for i in 0..self.axes.n {
-            self.setpoints[i] = to_counts_wrapping(t.pos.0[i], self.axes.counts_per_unit[i]);
+            self.setpoints[i] = to_counts_wrapping(self.commands[i], self.axes.counts_per_unit[i]);
         }
 
         let mut raised = None;
@@ -204,6 +250,19 @@ impl<L: DriveLink> CycleController<L> {
             }
             false
         };
+        if let Some(sp) = self.axes.spindle {
+            let s = &self.feedback[sp];
+            let sampled = self.tick.saturating_sub(s.age as u64);
+            let tr = &mut self.spindle_track;
+            match tr.last {
+                Some((t0, c0)) if sampled > t0 => {
+                    tr.velocity = (s.actual - c0) / (sampled - t0) as f64;
+                    tr.last = Some((sampled, s.actual));
+                }
+                Some(_) => {}
+                None => tr.last = Some((sampled, s.actual)),
+            }
+        }
         if let Some(s) = raised {
             self.begin_stop(s);
         }
@@ -211,7 +270,7 @@ impl<L: DriveLink> CycleController<L> {
             tick: self.tick,
             line: t.line,
             phase: self.phase,
-            cmd: t.pos.0,
+            cmd: self.commands,
             cmd_counts: self.setpoints,
             act: [0.0; MAX_AXES],
             act_counts: [0; MAX_AXES],
@@ -227,6 +286,7 @@ impl<L: DriveLink> CycleController<L> {
             stop: raised,
             moves_started: self.moves_started,
             idle: self.interp.is_idle(),
+            spindle_follow: self.follow.is_some(),
         };
         for i in 0..self.axes.n {
             let f = &self.feedback[i];
@@ -303,6 +363,19 @@ impl<L: DriveLink> CycleController<L> {
         if self.stop.is_none() && self.motion_error.is_none() {
             self.stop = Some((stop, self.last_line, self.moves_started));
         }
+        // The spindle drive itself stopped following in the middle of a tap: its setpoints
+        // no longer move it, so the tool axis follows where the spindle actually is.
+        if let (Some(c), Some(sp)) = (self.tap, self.axes.spindle)
+            && self.follow.is_none()
+            && stop.node != 0
+            && stop.node == self.axes.nodes[sp]
+            && !self.interp.is_idle()
+        {
+            self.follow = Some(SpindleFollow {
+                c,
+                anchor: self.tap_anchor,
+            });
+        }
         if matches!(self.phase, Phase::Running | Phase::Settling) {
             self.interp.request_stop();
             self.enter(Phase::Stopping);
@@ -314,6 +387,12 @@ impl<L: DriveLink> CycleController<L> {
             Some(LoopInput::Move(mv)) => {
                 self.moves_started += 1;
                 self.tap = tap_coupling(&self.axes, &mv);
+                if let Some(c) = self.tap {
+                    self.tap_anchor = (
+                        self.commands[c.tool as usize],
+                        self.commands[c.spindle as usize],
+                    );
+                }
                 if let Err(e) = self.interp.start(mv) {
                     self.motion_error = Some(e);
                     self.last_line = e.line;
@@ -333,6 +412,26 @@ impl<L: DriveLink> CycleController<L> {
             }
         }
     }
+}
+
+/// The tool axis command that keeps the thread on the spindle's actual position: the last
+/// spindle sample extrapolated with its velocity over the feedback age, one period and the
+/// tool drive's dead time, so that the hand-over from the path is smooth and the tool meets
+/// the spindle where it will be when the command takes effect.
+fn follow_spindle(
+    f: &SpindleFollow,
+    track: &SpindleTrack,
+    axes: &AxisTable,
+    tick: u64,
+    fb: &[DriveFeedback; MAX_AXES],
+) -> f64 {
+    let ti = f.c.tool as usize;
+    let (sampled, c) = track
+        .last
+        .unwrap_or((tick, fb[f.c.spindle as usize].actual));
+    let lead = tick.saturating_sub(sampled) as f64 + 1.0 + axes.delay_cycles[ti] as f64;
+    let c = c + track.velocity * lead;
+    f.anchor.0 + f.c.ratio * (c - f.anchor.1)
 }
 
 /// The start position of the configured axes (entries past them are 0).

@@ -237,8 +237,12 @@ impl Recorder {
             self.last_act_error = e_act * 1000.0;
             o.w.max_coupling_error_um_act = o.w.max_coupling_error_um_act.max(e_act.abs() * 1000.0);
         }
-        o.w.max_coupling_error_um_cmd = o.w.max_coupling_error_um_cmd.max(e_cmd.abs() * 1000.0);
         o.w.ticks.1 = s.tick;
+        if s.spindle_follow {
+            // The spindle's setpoints no longer drive it; only the actual coupling counts.
+            return 0.0;
+        }
+        o.w.max_coupling_error_um_cmd = o.w.max_coupling_error_um_cmd.max(e_cmd.abs() * 1000.0);
         e_cmd * 1000.0
     }
 

@@ -232,6 +232,7 @@ fn status(tick: u64, z: f64, c: f64, tap: Option<TapCoupling>) -> Status {
         stop: None,
         moves_started: tick,
         idle: false,
+        spindle_follow: false,
     };
     s.cmd[2] = z;
     s.cmd[3] = c;
@@ -421,4 +422,45 @@ fn recorder_compares_actual_positions_at_equal_age() {
     rec.finish().unwrap();
     let w = &rec.taps[0];
     assert!(w.max_coupling_error_um_act < 1e-6, "{w:?}");
+}
+
+#[test]
+fn a_spindle_fault_mid_tap_slaves_the_tool_axis_to_the_spindle() {
+    // The spindle drive faults and brakes on its own: its setpoints no longer move it, so a
+    // path-coupled stop alone would drive Z 0.6 mm past the thread. Z follows C's actual
+    // position instead.
+    let cfg = MachineConfig::default_machine();
+    let link = SimLink::simulated(&cfg, None)
+        .unwrap()
+        .with_fault(FaultPlan {
+            node: 4,
+            at: Duration::from_millis(1800),
+            emcy: 0x8611,
+        });
+    let (outcome, st, _, _) = drive(&cfg, link, TAP, |_, _| {});
+    let Outcome::Stopped { stop, line, .. } = outcome else {
+        panic!("{outcome:?}")
+    };
+    assert_eq!((stop.node, line), (4, 5));
+    assert!(st.iter().any(|s| s.spindle_follow));
+    let mut rec = Recorder::new(&cfg, st.len() as u64);
+    for s in &st {
+        rec.record(s);
+    }
+    rec.finish().unwrap();
+    let w = &rec.taps[0];
+    assert!(w.max_coupling_error_um_act < 50.0, "{w:?}");
+    assert!(
+        w.max_coupling_error_um_cmd <= 0.1,
+        "before the fault: {w:?}"
+    );
+    // At rest, Z sits on the thread the spindle's final angle defines (R3, pitch 1.5).
+    let last = st.last().unwrap();
+    let want_z = 3.0 - last.act[3] * 1.5 / 360.0;
+    assert!(
+        (last.act[2] - want_z).abs() < 0.005,
+        "Z {} vs thread {}",
+        last.act[2],
+        want_z
+    );
 }

@@ -153,3 +153,16 @@ fn the_counter_counts() {
     arm(false);
     assert!(allocs() - before >= 2);
 }
+
+#[test]
+fn full_tick_path_allocates_nothing_when_the_spindle_faults_mid_tap() {
+    // The tool axis then follows the spindle's actual position (another code path).
+    let plan = FaultPlan {
+        node: 4,
+        at: Duration::from_millis(1500),
+        emcy: 0x8611,
+    };
+    let (n, outcome, ticks) = run_armed(Some(plan));
+    assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
+    assert_eq!(n, 0, "allocations in {ticks} ticks");
+}
