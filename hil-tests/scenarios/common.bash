@@ -30,8 +30,9 @@ fi
 sc_fail() { SC_FAILS+=("$*"); }
 
 # scenario_run CONFIG PROGRAM [SIMDRIVE_ARG...]: simdrive (same config) in the background,
-# then `cnc402 run PROGRAM` in the foreground (limit RUN_LIMIT s, default 150), then SIGTERM
-# to simdrive. RUN_RC / DRIVE_RC hold the exit statuses.
+# then `cnc402 run PROGRAM` in the foreground (limit RUN_LIMIT s, default 150; with
+# SIGINT_AFTER=S it gets SIGINT S seconds after its start), then SIGTERM to simdrive.
+# RUN_RC / DRIVE_RC hold the exit statuses.
 scenario_run() {
     local cfg="$1" prog="$2"
     shift 2
@@ -44,8 +45,16 @@ scenario_run() {
         return 0
     fi
     RUN_RC=0
-    timeout -k 5 "${RUN_LIMIT:-150}" "$HIL_BIN/cnc402" --config "$cfg" run "$prog" \
-        --report "$RUN_JSON" >"$HIL_OUT/run.log" 2>&1 || RUN_RC=$?
+    if [[ -n "${SIGINT_AFTER:-}" ]]; then
+        # Ctrl-C SIGINT_AFTER seconds after the run started.
+        hil_bg run "$HIL_BIN/cnc402" --config "$cfg" run "$prog" --report "$RUN_JSON"
+        sleep "$SIGINT_AFTER"
+        kill -INT "${HIL_PIDS[run]}" 2>/dev/null || sc_fail "cnc402 run had ended before SIGINT"
+        hil_wait run "${RUN_LIMIT:-150}" || RUN_RC=$?
+    else
+        timeout -k 5 "${RUN_LIMIT:-150}" "$HIL_BIN/cnc402" --config "$cfg" run "$prog" \
+            --report "$RUN_JSON" >"$HIL_OUT/run.log" 2>&1 || RUN_RC=$?
+    fi
     kill -TERM "${HIL_PIDS[drive]}" 2>/dev/null
     DRIVE_RC=0
     hil_wait drive 20 || DRIVE_RC=$?
