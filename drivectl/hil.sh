@@ -75,6 +75,8 @@ emcy_pid=$!
 mon_pid=$!
 sleep 0.3
 
+# The kernel has CAN here: a missing interface is named as such (exit 6), not errno 97.
+expect no-such-iface 6 'cannot open CAN interface nosuch0: no such interface' -- "$dc" --iface nosuch0 scan
 expect scan 0 'node 4 \(C\).*CiA 402' -- "${D[@]}" scan --listen-ms 100
 expect scan-json 0 '"nodes":\[\{"axis":"X"' -- "${D[@]}" --json scan --listen-ms 50
 expect info 0 'supported modes +0x00000080' -- "${D[@]}" info 3
