@@ -173,7 +173,10 @@ pub enum Command {
         node: u8,
     },
     /// Read or write an object by SDO (expedited or segmented)
-    #[command(subcommand)]
+    #[command(
+        subcommand,
+        after_help = "Examples:\n  drivectl sdo read 3 0x6041\n  drivectl sdo write 3 0x1017 u16 100"
+    )]
     Sdo(SdoCmd),
     /// Send an NMT command to a node or to all
     #[command(after_help = "Examples:\n  drivectl nmt start 3\n  drivectl nmt reset-comm all")]
