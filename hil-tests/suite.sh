@@ -28,8 +28,10 @@ fi
 
 if [[ $no_build == 0 ]]; then
     echo "suite: cargo build --release (cnc402, cnc402-hil, drivectl + its examples)"
-    cargo build -q --release -p cnc402 -p cnc402-hil -p drivectl --bins && cargo build -q --release -p cnc402-hil --examples || {
-        echo "suite: build failed"; echo "0 passed, ${#scripts[@]} failed"; exit 1; }
+    if ! cargo build -q --release -p cnc402 -p cnc402-hil -p drivectl --bins ||
+        ! cargo build -q --release -p cnc402-hil --examples; then
+        echo "suite: build failed"; echo "0 passed, ${#scripts[@]} failed"; exit 1
+    fi
     if [[ " ${scripts[*]} " == *drivectl/hil.sh* ]]; then
         cargo build -q --release -p drivectl --examples || {
             echo "suite: build of drivectl's examples failed"; echo "0 passed, ${#scripts[@]} failed"; exit 1; }
@@ -62,7 +64,9 @@ for s in "${scripts[@]}"; do
     if [[ -s "$out_root/$name/result.txt" ]]; then
         head -n 1 "$out_root/$name/result.txt"
     elif [[ -s "$out_root/$name/cansmoke.json" ]]; then
-        echo "smoke $name: $(grep -E '"(p50_ns|p99_ns|max_ns)"' "$out_root/$name/cansmoke.json" | tr -d ' \n')"
+        "$repo/target/release/hilcheck" -f "$out_root/$name/cansmoke.json" -p "smoke $name: socket-to-socket p50/p99/max {exchange.round_trip.p50_ns}/{exchange.round_trip.p99_ns}/{exchange.round_trip.max_ns} ns; 1 ms loop (mlockall {periodic_loop.mlockall}, SCHED_FIFO {periodic_loop.sched_fifo}) wake-up p50/p99/max {periodic_loop.wakeup_latency.p50_ns}/{periodic_loop.wakeup_latency.p99_ns}/{periodic_loop.wakeup_latency.max_ns} ns, {periodic_loop.wakeup_latency.late_by_a_period} of {periodic_loop.wakeup_latency.samples} late by a period; SYNC sent/received {periodic_loop.sync_frames_sent}/{periodic_loop.sync_frames_received}" 2>/dev/null
+    elif [[ "$name" == hil && -d "$out_root/hil" ]]; then
+        echo "drivectl/hil.sh: $(grep -hE '^drivectl HIL:' "$log" | tail -n 1)"
     fi
 done
 took=$(($(date +%s) - t0))
