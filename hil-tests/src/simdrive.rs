@@ -439,6 +439,8 @@ impl DriveHost {
             .iter()
             .all(|&i| self.drives[i].drive.nmt() == NmtStatus::Operational);
         if !both_running {
+            // Positions may jump across an NMT reset: do not take that for motion.
+            self.coupling.restart();
             return;
         }
         let (z_cmd, z_act) = (self.drives[zi].target.value, self.drives[zi].actual.value);
@@ -763,12 +765,8 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn coupled_tap_passes_and_sync_period_is_measured() {
-        let cfg = MachineConfig::default_machine();
-        let host = DriveHost::new(&cfg, &HostOptions::default()).unwrap();
-        let (mut bus, mut m) = boot(host);
-        // A 1.5 mm pitch tap: C turns 360° per 1.5 mm of Z, ramped in and out.
+    /// C positions of a tap: 3.6°/SYNC with linear ramps in and out, 420 SYNCs.
+    fn ramped_c() -> Vec<f64> {
         let speed = |t: u64| -> f64 {
             let t = t as f64;
             if t < 100.0 {
@@ -784,6 +782,16 @@ mod tests {
             let last = *c_pos.last().unwrap();
             c_pos.push(last + 3.6 * speed(t));
         }
+        c_pos
+    }
+
+    #[test]
+    fn coupled_tap_passes_and_sync_period_is_measured() {
+        let cfg = MachineConfig::default_machine();
+        let host = DriveHost::new(&cfg, &HostOptions::default()).unwrap();
+        let (mut bus, mut m) = boot(host);
+        // A 1.5 mm pitch tap: C turns 360° per 1.5 mm of Z, ramped in and out.
+        let c_pos = ramped_c();
         run(&mut bus, &mut m, 420, |t| {
             let c = c_pos[t as usize];
             [0.0, 0.0, -c / 360.0 * 1.5, c]
@@ -820,9 +828,10 @@ mod tests {
         let host = DriveHost::new(&cfg, &HostOptions::default()).unwrap();
         let (mut bus, mut m) = boot(host);
         // Z follows C at 1.5 mm/rev but with a 3-count hiccup in the middle.
-        run(&mut bus, &mut m, 200, |t| {
-            let c = t as f64 * 1.8;
-            let glitch = if t == 100 { 3e-4 } else { 0.0 };
+        let c_pos = ramped_c();
+        run(&mut bus, &mut m, 420, |t| {
+            let c = c_pos[t as usize];
+            let glitch = if t == 200 { 3e-4 } else { 0.0 };
             [0.0, 0.0, -c / 360.0 * 1.5 + glitch, c]
         })
         .unwrap();
