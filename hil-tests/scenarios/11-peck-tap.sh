@@ -5,7 +5,7 @@ source "$HIL_REPO/hil-tests/scenarios/common.bash"
 scenario_run "$SC_DIR/machine-vcan.toml" examples/peck-tap.nc
 expect_rc "cnc402 run" "$RUN_RC" 0
 expect_rc simdrive "$DRIVE_RC" 0
-scenario_check 'ok == true' 'tap_windows >= 4' 'spindle_windows == 0' \
+scenario_check 'ok == true' 'tap_windows == 24' 'spindle_windows == 0' \
     'checks.*.pass == true' 'checks.?name~(actual).value_um >= 0' \
     'protocol_errors.unexpected_frames == 0' 'protocol_errors.unaddressed_frames == 0' 'protocol_errors.pdo_length_errors == 0' \
     'drives.*.faults_entered == 0' \
