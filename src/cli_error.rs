@@ -4,10 +4,19 @@ use std::process::ExitCode;
 
 /// Documented exit codes (README.md, "Exit codes").
 pub mod exit {
+    /// The machine stopped during `run`: a drive fault or safety reaction, or the operator's
+    /// SIGINT (Ctrl-C). SIGINT is deliberately 1 and not the shell's 130: it is handled, not
+    /// fatal — the path decelerates (a tap stays coupled), every drive gets quick stop, the
+    /// drives are disabled and the report is written, exactly as for a fault.
     pub const FAULT: u8 = 1;
+    /// Parse, interpreter or planning error.
     pub const PROGRAM: u8 = 2;
+    /// The machine config is wrong.
     pub const CONFIG: u8 = 3;
+    /// A file cannot be read or written, or the CAN interface cannot be opened (missing
+    /// interface; a kernel without AF_CAN, errno 97).
     pub const IO: u8 = 4;
+    /// Bad command-line usage.
     pub const USAGE: u8 = 64;
 }
 

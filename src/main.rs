@@ -73,6 +73,14 @@ struct RunArgs {
     /// Run against the wall clock at the configured period (always so on a real CAN bus).
     #[arg(long)]
     realtime: bool,
+    /// On a CAN interface: how long to wait for every drive's boot-up after NMT reset
+    /// communication (default 30 s; drives that start late, a slow emulated guest).
+    #[arg(long, value_name = "SECONDS")]
+    boot_timeout: Option<f64>,
+    /// On a CAN interface: how long the enable sequence may take, fault reset included
+    /// (default 10 s).
+    #[arg(long, value_name = "SECONDS")]
+    enable_timeout: Option<f64>,
     /// Testing: make drive NODE fault with EMCY CODE (hex) SECONDS after enable.
     #[arg(long, hide = true, value_name = "NODE:CODE@SECONDS")]
     inject_fault: Option<String>,

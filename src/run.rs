@@ -8,7 +8,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use cnc402_config::MachineConfig;
-use cnc402_runtime::{FaultPlan, Progress, RunError, RunOptions, Timing};
+use cnc402_runtime::{FaultPlan, LinkTimeouts, Progress, RunError, RunOptions, Timing};
 
 use crate::RunArgs;
 use crate::cli_error::CliError;
@@ -30,6 +30,32 @@ fn parse_fault(s: &str) -> Result<FaultPlan, String> {
         at: Duration::from_secs_f64(secs),
         emcy,
     })
+}
+
+/// Parses a `--boot-timeout`/`--enable-timeout` value: seconds, more than 0 and at most a day.
+fn parse_timeout(option: &str, secs: f64) -> Result<Duration, String> {
+    if secs.is_finite() && secs > 0.0 && secs <= 86_400.0 {
+        Ok(Duration::from_secs_f64(secs))
+    } else {
+        Err(format!(
+            "--{option} {secs}: expected seconds, more than 0 and at most 86400"
+        ))
+    }
+}
+
+/// The start-up limits from the command line; `None` keeps the transport's defaults.
+fn timeouts(args: &RunArgs) -> Result<Option<LinkTimeouts>, String> {
+    if args.boot_timeout.is_none() && args.enable_timeout.is_none() {
+        return Ok(None);
+    }
+    let mut t = LinkTimeouts::real_bus();
+    if let Some(s) = args.boot_timeout {
+        t.boot = parse_timeout("boot-timeout", s)?;
+    }
+    if let Some(s) = args.enable_timeout {
+        t.enable = parse_timeout("enable-timeout", s)?;
+    }
+    Ok(Some(t))
 }
 
 /// The error of a run that could not go on; with `--report`, the report says why too (for
@@ -69,6 +95,14 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         Some(s) => Some(parse_fault(s).map_err(CliError::Usage)?),
         None => None,
     };
+    if fault.is_some() && !cfg.bus.is_sim() {
+        return Err(CliError::Usage(format!(
+            "--inject-fault needs the simulated drives (bus.interface = \"sim\", not {:?}); \
+             on a CAN bus inject faults with simdrive --fault",
+            cfg.bus.interface
+        )));
+    }
+    let timeouts = timeouts(args).map_err(CliError::Usage)?;
     let src = crate::load_program(&args.program)?;
     let ast = match cnc402_lang::parse(&src) {
         Ok(a) => a,
@@ -92,6 +126,7 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         trace,
         stop_request: Arc::new(AtomicBool::new(false)),
         model_link: false,
+        timeouts,
     };
 
     let bar = if std::io::stderr().is_terminal() {

@@ -14,13 +14,15 @@ pub mod ring;
 pub mod rt;
 pub mod run;
 pub mod sim_machine;
+pub mod socket_machine;
 pub mod status;
 pub mod sync;
 
 pub use controller::{CycleController, Step};
 pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, ModelLink, Startup, StopCause};
-pub use master_link::{CycleBus, MasterLink};
+pub use master_link::{CycleBus, LinkTimeouts, MasterLink};
 pub use report::{RunReport, write_plot};
 pub use run::{Progress, RunError, RunOptions, Timing, make_link, run_program};
 pub use sim_machine::{SimLink, SimMachine};
+pub use socket_machine::{SocketLink, SocketMachine};
 pub use status::{Outcome, Phase, Status};

@@ -24,6 +24,40 @@ pub trait CycleBus: TimedBus {
     fn bitrate(&self) -> u32;
 }
 
+/// How long start-up may take on a [`MasterLink`]; see [`MasterLink::with_timeouts`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LinkTimeouts {
+    /// Waiting for every drive's boot-up after NMT reset communication (a drive process that
+    /// starts late, a slow emulated guest).
+    pub boot: core::time::Duration,
+    /// The enable sequence, fault reset included.
+    pub enable: core::time::Duration,
+}
+
+impl Default for LinkTimeouts {
+    /// The master's defaults (10 s boot, 3 s enable): right for the embedded simulator.
+    fn default() -> Self {
+        let m = MasterOptions::default();
+        LinkTimeouts {
+            boot: m.boot_timeout,
+            enable: m.enable_timeout,
+        }
+    }
+}
+
+impl LinkTimeouts {
+    /// Generous limits for a real bus: 30 s for boot-up, 10 s for enable. In the HIL's
+    /// emulated guest a process starts in 0.1-0.7 s and a 1 ms loop misses deadlines by up to
+    /// ~100 ms, so the enable sequence's cycles (each waited for on the socket's clock) can
+    /// take far longer than on a real controller.
+    pub fn real_bus() -> LinkTimeouts {
+        LinkTimeouts {
+            boot: core::time::Duration::from_secs(30),
+            enable: core::time::Duration::from_secs(10),
+        }
+    }
+}
+
 /// See the module doc.
 pub struct MasterLink<B: CycleBus> {
     pub(crate) bus: B,
@@ -44,8 +78,19 @@ impl<B: CycleBus> MasterLink<B> {
     /// keep taking the interpolator's (decelerating) setpoints so that a tap stays coupled,
     /// and quick stop goes to every drive once the path is at rest.
     pub fn new(cfg: &MachineConfig, bus: B) -> Result<MasterLink<B>, MasterConfigError> {
+        MasterLink::with_timeouts(cfg, bus, LinkTimeouts::default())
+    }
+
+    /// As [`new`](Self::new), with the boot and enable limits given.
+    pub fn with_timeouts(
+        cfg: &MachineConfig,
+        bus: B,
+        timeouts: LinkTimeouts,
+    ) -> Result<MasterLink<B>, MasterConfigError> {
         let options = MasterOptions {
             stop_mode: StopMode::FollowPath,
+            boot_timeout: timeouts.boot,
+            enable_timeout: timeouts.enable,
             ..MasterOptions::default()
         };
         let master = Master::with_options(cfg, options)?;
@@ -71,8 +116,20 @@ impl<B: CycleBus> MasterLink<B> {
     }
 
     fn bus_time(&mut self, now: Instant) -> Instant {
-        let base = *self.loop_base.get_or_insert(now);
+        if self.loop_base.is_none() {
+            // A bus on the wall clock (SocketCAN) has gone on since the last enable cycle
+            // while the loop got ready: its first cycle is now, not in the past. (The
+            // simulated bus stands at the last enable cycle: it keeps enabled_at + period.)
+            self.bus_base = self.bus_base.max(self.bus.now());
+            self.loop_base = Some(now);
+        }
+        let base = self.loop_base.unwrap_or(now);
         self.bus_base + now.saturating_since(base)
+    }
+
+    /// The bus.
+    pub fn bus(&self) -> &B {
+        &self.bus
     }
 
     fn exchange(

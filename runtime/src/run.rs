@@ -18,6 +18,7 @@ use cnc402_motion::{AxisPos, MoveEvent};
 use crate::controller::{AxisTable, CycleController, Step, start_position};
 use crate::feeder::{Feeder, dry_run, motion_error_to_nc, source_for};
 use crate::link::{DriveLink, DriveStop, FaultPlan, ModelLink, Startup};
+use crate::master_link::{LinkTimeouts, MasterLink};
 use crate::recorder::Recorder;
 use crate::report::{AxisReport, RunReport, StopReport};
 use crate::ring::{
@@ -26,6 +27,7 @@ use crate::ring::{
 };
 use crate::rt::{LatencyHistogram, LatencySummary, monotonic_ns, request_realtime, sleep_until};
 use crate::sim_machine::SimLink;
+use crate::socket_machine::SocketLink;
 use crate::status::{Outcome, Status};
 use crate::sync::{SyncShared, spawn_feeder};
 
@@ -49,6 +51,9 @@ pub struct RunOptions {
     pub stop_request: Arc<AtomicBool>,
     /// Use the bus-less [`ModelLink`] (pure delay) instead of the configured bus.
     pub model_link: bool,
+    /// Boot and enable limits; `None`: [`LinkTimeouts::default`] on the simulator,
+    /// [`LinkTimeouts::real_bus`] on a CAN interface.
+    pub timeouts: Option<LinkTimeouts>,
 }
 
 impl Default for RunOptions {
@@ -59,6 +64,7 @@ impl Default for RunOptions {
             trace: None,
             stop_request: Arc::new(AtomicBool::new(false)),
             model_link: false,
+            timeouts: None,
         }
     }
 }
@@ -82,18 +88,26 @@ pub struct Progress {
     pub line: u32,
 }
 
-/// The drive link for `cfg`'s bus: the embedded simulated machine for `interface = "sim"`;
-/// any other interface needs the SocketCAN transport.
+/// The drive link for `cfg`'s bus: the embedded simulated machine for `interface = "sim"`,
+/// otherwise the master on that SocketCAN interface ([`SocketLink`]; an interface that cannot
+/// be opened is `RunError::Io` naming it and why). `fault` needs simulated drives.
 pub fn make_link(
     cfg: &MachineConfig,
     fault: Option<FaultPlan>,
     model: bool,
+    timeouts: Option<LinkTimeouts>,
 ) -> Result<Box<dyn DriveLink>, RunError> {
     if !cfg.bus.is_sim() && !model {
-        return Err(RunError::Io(format!(
-            "bus interface {:?}: SocketCAN transport not available yet",
-            cfg.bus.interface
-        )));
+        if fault.is_some() {
+            return Err(RunError::Io(format!(
+                "bus interface {:?}: faults can only be injected into the simulated drives \
+                 (interface = \"sim\"); on a CAN bus use simdrive --fault",
+                cfg.bus.interface
+            )));
+        }
+        let link = SocketLink::socket(cfg, timeouts.unwrap_or_else(LinkTimeouts::real_bus))
+            .map_err(RunError::Io)?;
+        return Ok(Box::new(link));
     }
     if model {
         // The bus-less model: each drive follows after its configured delay, exactly.
@@ -109,8 +123,10 @@ pub fn make_link(
         }
         return Ok(Box::new(link));
     }
-    let mut link =
-        SimLink::simulated(cfg, None).map_err(|e| RunError::Io(format!("simulated bus: {e}")))?;
+    let machine = crate::sim_machine::SimMachine::new(cfg, None)
+        .map_err(|e| RunError::Io(format!("simulated bus: {e}")))?;
+    let mut link: SimLink = MasterLink::with_timeouts(cfg, machine, timeouts.unwrap_or_default())
+        .map_err(|e| RunError::Io(format!("simulated bus: {e}")))?;
     if let Some(f) = fault {
         link = link.with_fault(f);
     }
@@ -264,8 +280,9 @@ pub fn run_program(
 ) -> Result<RunReport, RunError> {
     let dry = dry_run(cfg, &src, &program, AxisPos::default()).map_err(RunError::Program)?;
     if !cfg.bus.is_sim() && !opts.model_link {
-        // Fail before anything else when the transport cannot exist.
-        make_link(cfg, None, false)?;
+        // Fail before anything else when the interface cannot be opened (or a fault is asked
+        // of drives that are not simulated).
+        make_link(cfg, opts.fault, false, opts.timeouts)?;
     }
     let mut recorder = Recorder::new(cfg, dry.ticks);
     let RunOptions {
@@ -274,6 +291,7 @@ pub fn run_program(
         trace,
         stop_request,
         model_link,
+        timeouts,
     } = opts;
     if let Some(t) = trace {
         recorder = recorder.with_trace(t);
@@ -297,6 +315,7 @@ pub fn run_program(
             program,
             fault,
             model_link,
+            timeouts,
             stop_request,
             &mut side,
         )?,
@@ -306,6 +325,7 @@ pub fn run_program(
             program,
             fault,
             model_link,
+            timeouts,
             stop_request,
             &mut side,
         )?,
@@ -459,12 +479,13 @@ fn run_virtual(
     program: Program,
     fault: Option<FaultPlan>,
     model: bool,
+    timeouts: Option<LinkTimeouts>,
     stop_request: Arc<AtomicBool>,
     side: &mut Side,
 ) -> Result<LoopEnd, RunError> {
     let wall0 = std::time::Instant::now();
     let period = Duration::from_micros(cfg.bus.period_us as u64);
-    let mut link = make_link(cfg, fault, model)?;
+    let mut link = make_link(cfg, fault, model, timeouts)?;
     let mut now = Instant::ZERO;
     let start = loop {
         match link.startup(now) {
@@ -587,6 +608,7 @@ fn run_realtime(
     program: Program,
     fault: Option<FaultPlan>,
     model: bool,
+    timeouts: Option<LinkTimeouts>,
     stop_request: Arc<AtomicBool>,
     side: &mut Side,
 ) -> Result<LoopEnd, RunError> {
@@ -609,7 +631,7 @@ fn run_realtime(
                 );
             }
             let wall0 = std::time::Instant::now();
-            let mut link = make_link(&cfg_t, fault, model)?;
+            let mut link = make_link(&cfg_t, fault, model, timeouts)?;
             let t0 = monotonic_ns();
             let mut next = t0;
             let start = loop {
@@ -633,6 +655,9 @@ fn run_realtime(
                 sleep_until(next);
             };
             let _ = hello_tx.send(Hello::Ready(start));
+            // Start-up on a real bus blocks for seconds (boot, SDO, enable): the cyclic
+            // deadlines start from now, not from before it (no burst of catch-up ticks).
+            next = next.max(monotonic_ns());
             let c0 = link.counters();
             let t_cyclic = monotonic_ns();
             let mut ctrl = CycleController::new(&cfg_t, start, link, mcons, sprod, stop_t);
