@@ -120,6 +120,12 @@ fn run_every_example_ok_with_exact_report_keys_and_coupled_taps() {
             let pitch = t["pitch_mm"].as_f64().unwrap();
             let want = if ex.contains("m10x1.5") { 1.5 } else { 1.25 };
             assert!((pitch - want).abs() < 1e-9, "{pitch}");
+            // What the setpoints showed (the coupling checker's travel ratio over the window).
+            let observed = t["pitch_observed_mm"].as_f64().unwrap();
+            assert!(
+                (observed - want).abs() < 1e-4,
+                "{ex}: observed pitch {observed}"
+            );
             let cmd = t["max_coupling_error_um_cmd"].as_f64().unwrap();
             assert!(
                 cmd <= coupling_bound_um(pitch),

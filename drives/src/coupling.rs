@@ -2,7 +2,9 @@
 //! positions) and the program line, it finds each window in which both axes move and reports
 //! the pitch observed and the worst deviation from it, in µm of Z, for setpoints and for
 //! actual positions. Used by `cnc402 run` and by the `simdrive` process (which sees only what
-//! arrives on the bus, so it reports every window of coupled Z+C motion, taps or not).
+//! arrives on the bus, so it reports every window of coupled Z+C motion, taps or not). A
+//! caller that knows where the taps are (`cnc402 run`: the planned coupling of each move)
+//! delimits the windows itself with [`CouplingChecker::feed_marked`].
 
 /// One tick's positions: Z in mm, C in degrees (unwrapped), and the program line.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -35,14 +37,40 @@ pub struct TapWindow {
     pub z_travel_mm: f64,
     /// C path length (sum of |ΔC| of the setpoints), degrees.
     pub c_travel_deg: f64,
-    /// Pitch observed: Z travel per C revolution (mm/rev), always positive.
+    /// The pitch deviations are measured from (mm/rev, always positive): the observed one,
+    /// or for a window delimited with [`CouplingChecker::feed_marked`] the commanded one.
     pub pitch_mm: f64,
+    /// Pitch observed: Z travel per C revolution of the setpoints (mm/rev), always positive.
+    pub observed_pitch_mm: f64,
     /// Whether Z and C move in the same sense (Z+ with C+): the sign of the coupling.
     pub same_sense: bool,
     /// Worst |ΔZ − ΔC·pitch/360·sense| over the window, setpoints, µm of Z.
     pub max_error_um_cmd: f64,
     /// The same for actual positions (against the setpoints' pitch), µm of Z.
     pub max_error_um_act: f64,
+}
+
+/// A tick that belongs to a window the caller delimits (see
+/// [`CouplingChecker::feed_marked`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TapMark {
+    /// The window: consecutive marked ticks with the same id form one window.
+    pub id: u64,
+    /// The commanded coupling, ΔZ/ΔC in mm per degree (signed): deviations are measured
+    /// from it.
+    pub ratio: f64,
+    /// This tick's setpoints do not drive the spindle (its drive stopped following): they are
+    /// not scored and not counted in the observed pitch; the actual positions still are.
+    pub setpoints_ignored: bool,
+}
+
+/// One tick's deviations in a window with a commanded coupling, µm of Z, signed.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TickDeviation {
+    /// Setpoints (`None`: not scored on this tick).
+    pub cmd_um: Option<f64>,
+    /// Actual positions (`None`: stale pair).
+    pub act_um: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -52,6 +80,7 @@ struct Rel {
     dz_act: f64,
     dc_act: f64,
     act_valid: bool,
+    cmd_valid: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -62,6 +91,8 @@ struct Open {
     z_travel: f64,
     c_travel: f64,
     dot: f64,
+    /// Caller-delimited window: its id and commanded ratio.
+    mark: Option<(u64, f64)>,
 }
 
 /// Finds tapping windows in a stream of samples (see the module doc).
@@ -78,6 +109,7 @@ pub struct CouplingChecker {
     open: Option<Open>,
     samples: Vec<Rel>,
     windows: Vec<TapWindow>,
+    last_deviation: Option<TickDeviation>,
 }
 
 impl CouplingChecker {
@@ -108,6 +140,7 @@ impl CouplingChecker {
             open: None,
             samples: Vec::with_capacity(ticks),
             windows: Vec::new(),
+            last_deviation: None,
         }
     }
 
@@ -129,6 +162,7 @@ impl CouplingChecker {
             z_travel: 0.0,
             c_travel: 0.0,
             dot: 0.0,
+            mark: None,
         });
         open.z_travel += dz.abs();
         open.c_travel += dc.abs();
@@ -142,8 +176,83 @@ impl CouplingChecker {
             dz_act: s.z_act - o.z_cmd,
             dc_act: s.c_act - o.c_cmd,
             act_valid: !s.actual_stale,
+            cmd_valid: true,
         });
         None
+    }
+
+    /// Feeds one tick whose window the caller knows: `Some(mark)` while a tap runs (a new
+    /// `mark.id` closes the window and opens the next), `None` outside taps. The window is
+    /// measured from the sample before its first tick, every marked tick counts (also those
+    /// where one axis stands still, as at a reversal), and deviations are taken from the
+    /// commanded `mark.ratio` (the observed pitch is reported too). Do not mix with
+    /// [`feed`](Self::feed) in one checker. Returns the window this tick closed, if any.
+    pub fn feed_marked(&mut self, s: CouplingSample, mark: Option<TapMark>) -> Option<TapWindow> {
+        let tick = self.ticks;
+        self.ticks += 1;
+        let prev = self.prev.replace(s);
+        self.last_deviation = None;
+        let Some(m) = mark else {
+            return self.close();
+        };
+        let closed = match self.open {
+            Some(o) if o.mark.map(|(id, _)| id) != Some(m.id) => self.close(),
+            _ => None,
+        };
+        let before = prev.unwrap_or(s);
+        let open = self.open.get_or_insert(Open {
+            line: s.line,
+            first_tick: tick,
+            origin: before,
+            z_travel: 0.0,
+            c_travel: 0.0,
+            dot: 0.0,
+            mark: Some((m.id, m.ratio)),
+        });
+        if !m.setpoints_ignored {
+            let (dz, dc) = (s.z_cmd - before.z_cmd, s.c_cmd - before.c_cmd);
+            open.z_travel += dz.abs();
+            open.c_travel += dc.abs();
+            open.dot += dz * dc;
+        }
+        let o = open.origin;
+        let r = Rel {
+            dz_cmd: s.z_cmd - o.z_cmd,
+            dc_cmd: s.c_cmd - o.c_cmd,
+            dz_act: s.z_act - o.z_cmd,
+            dc_act: s.c_act - o.c_cmd,
+            act_valid: !s.actual_stale,
+            cmd_valid: !m.setpoints_ignored,
+        };
+        self.samples.push(r);
+        self.last_deviation = Some(TickDeviation {
+            cmd_um: r
+                .cmd_valid
+                .then(|| (r.dz_cmd - m.ratio * r.dc_cmd) * 1000.0),
+            act_um: r
+                .act_valid
+                .then(|| (r.dz_act - m.ratio * r.dc_act) * 1000.0),
+        });
+        closed
+    }
+
+    /// The last tick's deviations, if it was fed with [`feed_marked`](Self::feed_marked)
+    /// inside a window (for a live plot).
+    pub fn last_deviation(&self) -> Option<TickDeviation> {
+        self.last_deviation
+    }
+
+    /// The window open now: its line and the tick it started at.
+    pub fn open_window(&self) -> Option<(u32, u64)> {
+        self.open.map(|o| (o.line, o.first_tick))
+    }
+
+    /// Replaces the previous sample (the next window's origin) without counting a tick: for a
+    /// caller that switches the pair of axes it feeds between windows.
+    pub fn rebase(&mut self, prev: CouplingSample) {
+        if self.open.is_none() {
+            self.prev = Some(prev);
+        }
     }
 
     /// Closes the open window (end of the stream); returns it.
@@ -153,17 +262,23 @@ impl CouplingChecker {
 
     fn close(&mut self) -> Option<TapWindow> {
         let open = self.open.take()?;
-        let same_sense = open.dot >= 0.0;
+        let observed_same_sense = open.dot >= 0.0;
         // Z per degree of C, signed.
-        let k = if open.c_travel > 0.0 {
-            open.z_travel / open.c_travel * if same_sense { 1.0 } else { -1.0 }
+        let observed = if open.c_travel > 0.0 {
+            open.z_travel / open.c_travel * if observed_same_sense { 1.0 } else { -1.0 }
         } else {
             0.0
+        };
+        let (k, same_sense) = match open.mark {
+            Some((_, ratio)) => (ratio, ratio >= 0.0),
+            None => (observed, observed_same_sense),
         };
         let mut cmd: f64 = 0.0;
         let mut act: f64 = 0.0;
         for r in &self.samples {
-            cmd = cmd.max((r.dz_cmd - k * r.dc_cmd).abs());
+            if r.cmd_valid {
+                cmd = cmd.max((r.dz_cmd - k * r.dc_cmd).abs());
+            }
             if r.act_valid {
                 act = act.max((r.dz_act - k * r.dc_act).abs());
             }
@@ -175,6 +290,7 @@ impl CouplingChecker {
             z_travel_mm: open.z_travel,
             c_travel_deg: open.c_travel,
             pitch_mm: k.abs() * 360.0,
+            observed_pitch_mm: observed.abs() * 360.0,
             same_sense,
             max_error_um_cmd: cmd * 1000.0,
             max_error_um_act: act * 1000.0,
@@ -196,14 +312,21 @@ impl CouplingChecker {
         for w in &self.windows {
             match out.iter_mut().find(|o| o.line == w.line) {
                 Some(o) => {
+                    // Unmarked windows report the observed pitch (bit-identical to it);
+                    // marked ones keep the commanded pitch of the line's first window.
+                    let unmarked =
+                        o.pitch_mm == o.observed_pitch_mm && w.pitch_mm == w.observed_pitch_mm;
                     o.ticks += w.ticks;
                     o.z_travel_mm += w.z_travel_mm;
                     o.c_travel_deg += w.c_travel_deg;
-                    o.pitch_mm = if o.c_travel_deg > 0.0 {
+                    o.observed_pitch_mm = if o.c_travel_deg > 0.0 {
                         o.z_travel_mm / o.c_travel_deg * 360.0
                     } else {
                         0.0
                     };
+                    if unmarked {
+                        o.pitch_mm = o.observed_pitch_mm;
+                    }
                     o.max_error_um_cmd = o.max_error_um_cmd.max(w.max_error_um_cmd);
                     o.max_error_um_act = o.max_error_um_act.max(w.max_error_um_act);
                 }
@@ -368,5 +491,125 @@ mod tests {
         }
         assert_eq!(ch.finish(), None);
         assert!(ch.windows().is_empty());
+    }
+
+    fn marked(id: u64, pitch: f64) -> Option<TapMark> {
+        Some(TapMark {
+            id,
+            ratio: -pitch / 360.0,
+            setpoints_ignored: false,
+        })
+    }
+
+    #[test]
+    fn marked_tap_is_one_window_through_the_reversal_from_the_commanded_pitch() {
+        let samples = tap(1.5, 20.0, 0, 42);
+        let mut ch = CouplingChecker::new(Z_CPU, C_CPU);
+        for (i, s) in samples.iter().enumerate() {
+            // The caller knows the tap: every tick but the rest before and after.
+            let inside = (5..samples.len() - 5).contains(&i);
+            let closed = ch.feed_marked(*s, if inside { marked(1, 1.5) } else { None });
+            assert_eq!(closed.is_some(), i == samples.len() - 5, "tick {i}");
+            if inside {
+                let d = ch.last_deviation().expect("inside a window");
+                assert!(d.cmd_um.unwrap().abs() < 1e-6 && d.act_um.unwrap().abs() < 1e-6);
+            } else {
+                assert_eq!(ch.last_deviation(), None);
+            }
+        }
+        ch.finish();
+        let w = ch.windows();
+        // In, the still tick at the bottom, out: one window (unmarked it is two).
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert_eq!((w[0].line, w[0].first_tick), (42, 5));
+        assert_eq!(w[0].pitch_mm, 1.5);
+        assert!((w[0].observed_pitch_mm - 1.5).abs() < 1e-9);
+        assert!(w[0].max_error_um_cmd < 1e-6 && w[0].max_error_um_act < 1e-6);
+    }
+
+    #[test]
+    fn marked_windows_measure_from_the_commanded_pitch_and_a_new_id_splits() {
+        // Setpoints follow 1.5 mm but the program commanded 1.4: the deviation grows with
+        // the depth (20 mm · (1 − 1.4/1.5) = 1333 µm at the bottom) and the observed pitch
+        // says what happened.
+        let samples = tap(1.5, 20.0, 0, 9);
+        let mut ch = CouplingChecker::new(Z_CPU, C_CPU);
+        let half = samples.len() / 2;
+        let mut closed = vec![];
+        for (i, s) in samples.iter().enumerate() {
+            let id = if i < half { 1 } else { 2 };
+            closed.extend(ch.feed_marked(*s, marked(id, 1.4)));
+        }
+        closed.extend(ch.finish());
+        assert_eq!(closed.len(), 2, "{closed:?}");
+        assert_eq!(ch.windows().len(), 2);
+        let w = &closed[0];
+        assert!((w.pitch_mm - 1.4).abs() < 1e-12);
+        assert!((w.observed_pitch_mm - 1.5).abs() < 1e-9);
+        let want = 20.0 * (1.0 - 1.4 / 1.5) * 1000.0;
+        assert!((w.max_error_um_cmd - want).abs() < 1.0, "{w:?}");
+        // The second window is measured from its own origin.
+        assert!(closed[1].max_error_um_cmd < closed[0].max_error_um_cmd + 1.0);
+        // by_line keeps the commanded pitch for marked windows.
+        let merged = ch.by_line();
+        assert_eq!(merged.len(), 1);
+        assert!((merged[0].pitch_mm - 1.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_helix_with_the_spindle_running_is_no_tap_when_unmarked() {
+        // Z feeds down while C turns at speed (a helical move, the spindle merely running):
+        // both move every tick, so the unmarked checker reports a window; the caller that
+        // knows no tap is running reports none.
+        let samples: Vec<CouplingSample> = (0..200)
+            .map(|i| CouplingSample {
+                z_cmd: -0.001 * i as f64,
+                z_act: -0.001 * i as f64,
+                c_cmd: 36.0 * i as f64,
+                c_act: 36.0 * i as f64,
+                line: 3,
+                actual_stale: false,
+            })
+            .collect();
+        let mut plain = CouplingChecker::new(Z_CPU, C_CPU);
+        let mut marked_ch = CouplingChecker::new(Z_CPU, C_CPU);
+        for s in &samples {
+            plain.feed(*s);
+            marked_ch.feed_marked(*s, None);
+        }
+        plain.finish();
+        marked_ch.finish();
+        assert_eq!(plain.windows().len(), 1);
+        assert!(marked_ch.windows().is_empty());
+    }
+
+    #[test]
+    fn ignored_setpoints_are_not_scored_but_actuals_are() {
+        let mut samples = tap(1.5, 20.0, 0, 4);
+        // The spindle drive stopped following: its setpoints run away, Z follows C's actual.
+        for s in samples[300..320].iter_mut() {
+            s.c_cmd += 90.0;
+        }
+        samples[310].z_act += 0.01;
+        let run = |ignore: bool| {
+            let mut ch = CouplingChecker::new(Z_CPU, C_CPU);
+            for (i, s) in samples.iter().enumerate() {
+                let m = TapMark {
+                    id: 1,
+                    ratio: -1.5 / 360.0,
+                    setpoints_ignored: ignore && (300..320).contains(&i),
+                };
+                ch.feed_marked(*s, Some(m));
+            }
+            ch.finish().expect("one window")
+        };
+        let w = run(true);
+        assert!(w.max_error_um_cmd < 1e-6, "{w:?}");
+        assert!((w.max_error_um_act - 10.0).abs() < 1e-6, "{w:?}");
+        let w = run(false);
+        assert!(
+            (w.max_error_um_cmd - 90.0 * 1.5 / 360.0 * 1000.0).abs() < 1e-6,
+            "{w:?}"
+        );
     }
 }

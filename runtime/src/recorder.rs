@@ -1,10 +1,13 @@
 //! The reporting side of a run: consumes [`Status`] records (outside the loop) and keeps the
 //! summary figures — path length, following errors, final positions, rigid-tap coupling
-//! windows — plus an optional CSV trace and a decimated series for the plot.
+//! windows (measured by the drives crate's [`CouplingChecker`], the one `simdrive` uses, with
+//! the windows delimited by the planned coupling) — plus an optional CSV trace and a
+//! decimated series for the plot.
 
 use std::io::Write;
 
 use cnc402_config::{MAX_AXES, MachineConfig};
+use cnc402_drives::coupling::{CouplingChecker, CouplingSample, TapMark};
 
 use crate::status::{Status, TapCoupling};
 
@@ -13,8 +16,11 @@ use crate::status::{Status, TapCoupling};
 pub struct TapWindow {
     /// Program line of the first move of the window.
     pub line: u32,
-    /// Thread pitch the setpoints follow (mm per spindle turn).
+    /// Thread pitch the program commands (mm per spindle turn); deviations are measured
+    /// from it.
     pub pitch_mm: f64,
+    /// Pitch the setpoints showed: tool-axis travel per spindle turn over the window.
+    pub pitch_observed_mm: f64,
     /// Worst deviation of the tool axis from spindle·pitch/360, setpoints (counts sent),
     /// in µm of the tool axis.
     pub max_coupling_error_um_cmd: f64,
@@ -32,9 +38,8 @@ pub struct TapWindow {
 struct OpenWindow {
     w: TapWindow,
     c: TapCoupling,
-    /// Tool and spindle position at the window's start: setpoint level and actual.
-    cmd0: (f64, f64),
-    act0: (f64, f64),
+    /// The checker's id of this window.
+    id: u64,
     /// Recent actual samples of the tool and spindle axis by the tick they were sampled at
     /// (tick − age), so that they are compared at equal age.
     hist: [[(u64, f64); HIST]; 2],
@@ -74,6 +79,8 @@ pub struct Recorder {
     /// Closed tap windows.
     pub taps: Vec<TapWindow>,
     open: Option<OpenWindow>,
+    checker: CouplingChecker,
+    next_window: u64,
     trace: Option<Box<dyn Write>>,
     trace_error: Option<std::io::Error>,
     plot: Vec<PlotPoint>,
@@ -112,6 +119,11 @@ impl Recorder {
             last: None,
             taps: Vec::new(),
             open: None,
+            checker: CouplingChecker::new(
+                z.map_or(1.0, |i| counts_per_unit[i]),
+                c.map_or(1.0, |i| counts_per_unit[i]),
+            ),
+            next_window: 0,
             trace: None,
             trace_error: None,
             plot: Vec::new(),
@@ -188,38 +200,47 @@ impl Recorder {
         self.last = Some(*s);
     }
 
-    fn pos(&self, axis: u8, counts_basis: &[i32; MAX_AXES]) -> f64 {
-        counts_basis[axis as usize] as f64 / self.counts_per_unit[axis as usize]
+    /// The checker's sample of record `s` for tool axis `tool` and spindle `sp`: setpoints at
+    /// the counts that went on the wire (the spindle's unwrapped by its f64 command, which
+    /// never wraps), and the actual pair given.
+    fn sample(
+        &self,
+        s: &Status,
+        tool: usize,
+        sp: usize,
+        act: Option<(f64, f64)>,
+    ) -> CouplingSample {
+        let sp_cpu = self.counts_per_unit[sp];
+        let (z_act, c_act) = act.unwrap_or((s.act[tool], s.act[sp]));
+        CouplingSample {
+            z_cmd: s.cmd_counts[tool] as f64 / self.counts_per_unit[tool],
+            z_act,
+            c_cmd: (s.cmd[sp] * sp_cpu).round() / sp_cpu,
+            c_act,
+            line: s.line,
+            actual_stale: act.is_none(),
+        }
     }
 
     /// Tracks tap windows; returns the setpoint coupling error of this record in µm.
     fn track_taps(&mut self, s: &Status) -> f64 {
         let prev = self.last;
-        match (s.tap, self.open.is_some()) {
-            (Some(c), false) => self.open_window(s, c, prev),
-            (Some(c), true) => {
-                let same = self.open.as_ref().is_some_and(|o| {
-                    o.c.tool == c.tool && (o.c.ratio - c.ratio).abs() <= 1e-9 * c.ratio.abs()
-                });
-                if !same {
-                    self.close_window();
-                    self.open_window(s, c, prev);
-                }
+        let continues = match (s.tap, self.open.as_ref()) {
+            (Some(c), Some(o)) => {
+                o.c.tool == c.tool && (o.c.ratio - c.ratio).abs() <= 1e-9 * c.ratio.abs()
             }
-            (None, true) => self.close_window(),
-            (None, false) => {}
+            _ => false,
+        };
+        if !continues {
+            self.close_window();
+            if let Some(c) = s.tap {
+                self.open_window(s, c, prev);
+            }
         }
         self.last_act_error = 0.0;
         let Some(o) = self.open.as_mut() else {
             return 0.0;
         };
-        // Setpoint level: the counts that went on the wire, unwrapped against the start by
-        // the f64 command (which never wraps).
-        let tool = s.cmd_counts[o.c.tool as usize] as f64 / self.counts_per_unit[o.c.tool as usize];
-        let spindle = s.cmd[o.c.spindle as usize];
-        let sp_cpu = self.counts_per_unit[o.c.spindle as usize];
-        let spindle_set = (spindle * sp_cpu).round() / sp_cpu;
-        let e_cmd = (tool - o.cmd0.0) - o.c.ratio * (spindle_set - o.cmd0.1);
         // Actual level: Z and C sampled at the same SYNC (a late TPDO is an older sample).
         let (ti, si) = (o.c.tool as usize, o.c.spindle as usize);
         let (at, asp) = (s.age[ti] as u64, s.age[si] as u64);
@@ -232,29 +253,34 @@ impl Recorder {
             o.hist[0][(both as usize) % HIST],
             o.hist[1][(both as usize) % HIST],
         );
-        if z.0 == both && c.0 == both {
-            let e_act = (z.1 - o.act0.0) - o.c.ratio * (c.1 - o.act0.1);
-            self.last_act_error = e_act * 1000.0;
-            o.w.max_coupling_error_um_act = o.w.max_coupling_error_um_act.max(e_act.abs() * 1000.0);
-        }
+        let pair = (z.0 == both && c.0 == both).then_some((z.1, c.1));
         o.w.ticks.1 = s.tick;
-        if s.spindle_follow {
+        let mark = TapMark {
+            id: o.id,
+            ratio: o.c.ratio,
             // The spindle's setpoints no longer drive it; only the actual coupling counts.
-            return 0.0;
-        }
-        o.w.max_coupling_error_um_cmd = o.w.max_coupling_error_um_cmd.max(e_cmd.abs() * 1000.0);
-        e_cmd * 1000.0
+            setpoints_ignored: s.spindle_follow,
+        };
+        let sample = self.sample(s, ti, si, pair);
+        self.checker.feed_marked(sample, Some(mark));
+        let d = self.checker.last_deviation().unwrap_or_default();
+        self.last_act_error = d.act_um.unwrap_or(0.0);
+        d.cmd_um.unwrap_or(0.0)
     }
 
     fn open_window(&mut self, s: &Status, c: TapCoupling, prev: Option<Status>) {
-        // The window is anchored at the position before its first tick (the move's start).
+        // The window is anchored at the position before its first tick (the move's start);
+        // actuals are measured from the setpoints' origin, as on the bus side: an axis that
+        // has not settled when the tap starts is part of the error.
         let base = prev.unwrap_or(*s);
-        let sp = c.spindle as usize;
-        let sp_cpu = self.counts_per_unit[sp];
+        let origin = self.sample(&base, c.tool as usize, c.spindle as usize, None);
+        self.checker.rebase(origin);
+        self.next_window += 1;
         self.open = Some(OpenWindow {
             w: TapWindow {
                 line: s.line,
                 pitch_mm: (c.ratio * 360.0).abs(),
+                pitch_observed_mm: 0.0,
                 max_coupling_error_um_cmd: 0.0,
                 max_coupling_error_um_act: 0.0,
                 ticks: (s.tick, s.tick),
@@ -262,21 +288,22 @@ impl Recorder {
                 file: None,
             },
             c,
-            cmd0: (
-                self.pos(c.tool, &base.cmd_counts),
-                (base.cmd[sp] * sp_cpu).round() / sp_cpu,
-            ),
-            // Actuals are measured from the setpoints' origin, as the bus-side checker does:
-            // an axis that has not settled when the tap starts is part of the error.
-            act0: (base.cmd[c.tool as usize], base.cmd[sp]),
+            id: self.next_window,
             hist: [[(u64::MAX, 0.0); HIST]; 2],
         });
     }
 
     fn close_window(&mut self) {
-        if let Some(o) = self.open.take() {
-            self.taps.push(o.w);
+        let Some(mut o) = self.open.take() else {
+            return;
+        };
+        if let Some(w) = self.checker.finish() {
+            o.w.pitch_mm = w.pitch_mm;
+            o.w.pitch_observed_mm = w.observed_pitch_mm;
+            o.w.max_coupling_error_um_cmd = w.max_error_um_cmd;
+            o.w.max_coupling_error_um_act = w.max_error_um_act;
         }
+        self.taps.push(o.w);
     }
 
     fn write_trace(&mut self, s: &Status) {

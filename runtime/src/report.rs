@@ -121,6 +121,7 @@ impl RunReport {
                     "file": t.file,
                     "line": t.line,
                     "pitch_mm": t.pitch_mm,
+                    "pitch_observed_mm": t.pitch_observed_mm,
                     "max_coupling_error_um_cmd": t.max_coupling_error_um_cmd,
                     "max_coupling_error_um_act": t.max_coupling_error_um_act,
                 })

@@ -265,6 +265,9 @@ fn recorder_measures_a_decoupled_tap() {
     let w = &rec.taps[0];
     assert_eq!(w.line, 7);
     assert!((w.pitch_mm - 1.5).abs() < 1e-12);
+    // Z still moves down monotonically through the 2 µm bump: the travel ratio (observed
+    // pitch) is 1.5, the deviation is measured tick by tick.
+    assert!((w.pitch_observed_mm - 1.5).abs() < 1e-9, "{w:?}");
     assert!((w.max_coupling_error_um_cmd - 2.0).abs() < 0.06, "{w:?}");
     assert!((w.max_coupling_error_um_act - 2.0).abs() < 1e-6, "{w:?}");
     assert_eq!(w.ticks, (1, 10));
