@@ -129,6 +129,10 @@ pub struct InterpDefaults {
     pub peck_clearance: f64,
     /// Largest allowed difference between an arc's start and end radius (mm).
     pub arc_tolerance: f64,
+    /// The physical spindle angle (degrees, 0 ≤ angle < 360, in the spindle axis's machine
+    /// coordinate) that spindle orientation (G76/G87) turns C to: where the boring bar's
+    /// edge points away from the shift direction.
+    pub spindle_orient_angle: f64,
     /// Where sub-programs (`O9001.nc`, …) are looked up; relative to the config file's folder's
     /// parent when relative (so `examples` means `<repo>/examples`).
     pub program_dir: PathBuf,
@@ -391,6 +395,8 @@ struct RawInterp {
     peck_clearance: Spanned<f64>,
     #[serde(default = "default_arc_tol")]
     arc_tolerance: Spanned<f64>,
+    #[serde(default = "default_orient_angle")]
+    spindle_orient_angle: Spanned<f64>,
     #[serde(default = "default_program_dir")]
     program_dir: Spanned<String>,
     #[serde(default = "default_block_limit")]
@@ -410,6 +416,7 @@ impl Default for RawInterp {
             peck_retract: default_half(),
             peck_clearance: default_half(),
             arc_tolerance: default_arc_tol(),
+            spindle_orient_angle: default_orient_angle(),
             program_dir: default_program_dir(),
             block_limit: default_block_limit(),
             variables_file: None,
@@ -432,6 +439,9 @@ fn default_half() -> Spanned<f64> {
 }
 fn default_arc_tol() -> Spanned<f64> {
     sp(0.002)
+}
+fn default_orient_angle() -> Spanned<f64> {
+    sp(0.0)
 }
 fn default_program_dir() -> Spanned<String> {
     sp("examples".into())
@@ -502,6 +512,20 @@ fn positive(v: &Spanned<f64>, key: &str) -> Result<f64, Invalid> {
             v.span(),
             key.to_string(),
             format!("must be a positive number, got {x}"),
+        ))
+    }
+}
+
+/// An angle within one turn: 0 ≤ x < 360.
+fn angle_in_turn(v: &Spanned<f64>, key: &str) -> Result<f64, Invalid> {
+    let x = *v.get_ref();
+    if x.is_finite() && (0.0..360.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err((
+            v.span(),
+            key.to_string(),
+            format!("must be an angle in degrees with 0 <= angle < 360, got {x}"),
         ))
     }
 }
@@ -594,6 +618,10 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
         peck_retract: positive(&i.peck_retract, "interp.peck_retract")?,
         peck_clearance: positive(&i.peck_clearance, "interp.peck_clearance")?,
         arc_tolerance: positive(&i.arc_tolerance, "interp.arc_tolerance")?,
+        spindle_orient_angle: angle_in_turn(
+            &i.spindle_orient_angle,
+            "interp.spindle_orient_angle",
+        )?,
         program_dir: PathBuf::from(i.program_dir.get_ref()),
         block_limit: int_in(&i.block_limit, "interp.block_limit", 1, i64::MAX)? as u64,
         variables_file: match &i.variables_file {
@@ -916,6 +944,24 @@ mod tests {
         );
         let e = parse(&text).unwrap_err();
         assert_eq!(e.key, "interp.variables_file");
+    }
+
+    #[test]
+    fn spindle_orient_angle_key() {
+        assert_eq!(parse(SHIPPED).unwrap().interp.spindle_orient_angle, 0.0);
+        let text = SHIPPED.replace("spindle_orient_angle = 0.0", "");
+        assert_ne!(text, SHIPPED, "the shipped config sets the key");
+        assert_eq!(parse(&text).unwrap().interp.spindle_orient_angle, 0.0);
+        let text = SHIPPED.replace("spindle_orient_angle = 0.0", "spindle_orient_angle = 271.5");
+        assert_eq!(parse(&text).unwrap().interp.spindle_orient_angle, 271.5);
+        for bad in ["360.0", "-0.5", "nan", "inf"] {
+            let text = SHIPPED.replace(
+                "spindle_orient_angle = 0.0",
+                &format!("spindle_orient_angle = {bad}"),
+            );
+            let e = parse(&text).unwrap_err();
+            assert_eq!(e.key, "interp.spindle_orient_angle", "{bad}");
+        }
     }
 
     #[test]
