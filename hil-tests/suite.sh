@@ -40,7 +40,7 @@ fi
 
 # The scenario config must be config/machine.toml on vcan0: warn when the two drift apart.
 norm() {
-    grep -v -E '^\s*(#|$)|^(interface|heartbeat_timeout_ms|tpdo_timeout_cycles|program_dir|variables_file|library_dir) =' "$1" |
+    grep -v -E '^\s*(#|$)|^(interface|heartbeat_timeout_ms|tpdo_timeout_cycles|following_error_window|program_dir|variables_file|library_dir) =' "$1" |
         sed 's/\s*#.*//'
 }
 if ! diff <(norm config/machine.toml) <(norm hil-tests/scenarios/machine-vcan.toml) >/dev/null; then

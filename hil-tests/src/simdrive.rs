@@ -898,7 +898,9 @@ mod tests {
             ..HostOptions::default()
         };
         let host = DriveHost::new(&cfg, &opts).unwrap();
-        let (bus, _m) = boot(host);
+        let (mut bus, mut m) = boot(host);
+        // Cyclic operation right after a late boot (heartbeats seen during the wait count).
+        run(&mut bus, &mut m, 500, |_| [0.0; 4]).unwrap();
         let r = bus.device(0).unwrap().report(None);
         let d1 = &r["drives"]["1"];
         assert_eq!(d1["faults_entered"], 1, "{d1:#}");
