@@ -22,6 +22,8 @@ pub enum MotionErrorKind {
     BadDwell(f64),
     /// A spindle speed that is negative or not finite.
     BadRpm(f64),
+    /// A spindle orientation angle outside 0 ≤ angle < 360 or not finite.
+    BadOrientAngle(f64),
     /// A spindle speed above the axis' `max_rpm` / `max_velocity`.
     SpindleTooFast { rpm: f64, max_rpm: f64 },
     /// A spindle command on a machine without a spindle axis.
@@ -66,6 +68,12 @@ impl fmt::Display for MotionError {
             MotionErrorKind::NonFinite { axis } => write!(f, "axis {axis}: position not finite"),
             MotionErrorKind::BadDwell(s) => write!(f, "dwell of {s} s (must be ≥ 0)"),
             MotionErrorKind::BadRpm(r) => write!(f, "spindle speed {r} rpm (must be ≥ 0)"),
+            MotionErrorKind::BadOrientAngle(a) => {
+                write!(
+                    f,
+                    "spindle orientation angle {a}° (must be 0 ≤ angle < 360)"
+                )
+            }
             MotionErrorKind::SpindleTooFast { rpm, max_rpm } => {
                 write!(f, "spindle speed {rpm} rpm above the maximum {max_rpm} rpm")
             }

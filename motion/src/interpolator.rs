@@ -8,7 +8,7 @@ use cnc402_config::MachineConfig;
 
 use crate::error::{MotionError, MotionErrorKind};
 use crate::planner::{MoveKind, PathMove, PlannedMove};
-use crate::profile::{JerkProfile, PathProfile, State, velocity_change};
+use crate::profile::{JerkProfile, Limits, PathProfile, State, rest_to_rest, velocity_change};
 use crate::segment::{AxisPos, MAX_AXES, StopKind};
 
 /// What one tick produced.
@@ -79,7 +79,58 @@ enum Job {
         left: u64,
     },
     SpindleRamp,
+    Orient {
+        orient: OrientMove,
+        k: u64,
+        /// Stop profile (in the orient move's own distance) and the tick it starts at.
+        stop: Option<(JerkProfile, u64)>,
+    },
     Event(MoveEvent),
+}
+
+/// A spindle orientation resolved against machine C: C = `from` + `sign`·s(t), landing on
+/// `target` (≡ the angle mod 360, |target − from| ≤ 180) exactly on tick `ticks`.
+#[derive(Clone, Copy, Debug)]
+struct OrientMove {
+    from: f64,
+    target: f64,
+    sign: f64,
+    limits: Limits,
+    profile: JerkProfile,
+    ticks: u64,
+}
+
+impl OrientMove {
+    /// The nearest machine C ≡ `angle` (mod 360) to `from` (ties: forward), as `angle` + 360·n
+    /// so that it is exactly `angle` modulo 360 for any |n| below 2⁴³.
+    fn new(from: f64, angle: f64, limits: Limits, period: f64) -> Option<OrientMove> {
+        let n = ((from - angle) / 360.0).round();
+        let mut target = angle + 360.0 * n;
+        // `round` of the quotient can be off by one turn through rounding; fix the choice.
+        if target - from > 180.0 {
+            target -= 360.0;
+        } else if from - target > 180.0 {
+            target += 360.0;
+        }
+        let d = target - from;
+        let profile = rest_to_rest(d.abs(), limits).ok()?;
+        let (profile, ticks) = if profile.duration() > 0.0 {
+            let n = (profile.duration() / period).ceil().max(1.0);
+            // At most half a turn: far from any tick-count overflow.
+            let ticks = n as u64;
+            (profile.time_scaled(n * period / profile.duration()), ticks)
+        } else {
+            (profile, 1)
+        };
+        Some(OrientMove {
+            from,
+            target,
+            sign: if d < 0.0 { -1.0 } else { 1.0 },
+            limits,
+            profile,
+            ticks,
+        })
+    }
 }
 
 #[allow(clippy::large_enum_variant)]
@@ -253,6 +304,26 @@ impl Interpolator {
                 };
                 Job::SpindleRamp
             }
+            MoveKind::SpindleOrient { angle, limits } => {
+                let Some(sp) = self.spindle else {
+                    return Err(err(MotionErrorKind::NoSpindle));
+                };
+                if !self.spindle_at_rest() {
+                    return Err(err(MotionErrorKind::SpindleRunning));
+                }
+                if !(angle.is_finite() && (0.0..360.0).contains(&angle)) {
+                    return Err(err(MotionErrorKind::BadOrientAngle(angle)));
+                }
+                let from = self.prog.0[sp.index] + self.offset;
+                let Some(orient) = OrientMove::new(from, angle, limits, self.period) else {
+                    return Err(err(MotionErrorKind::BadLimits));
+                };
+                Job::Orient {
+                    orient,
+                    k: 0,
+                    stop: None,
+                }
+            }
             MoveKind::ToolChange { tool } => Job::Event(MoveEvent::ToolChange { tool }),
             MoveKind::ProgramStop { kind } => Job::Event(MoveEvent::ProgramStop { kind }),
             MoveKind::Message => Job::Event(MoveEvent::Message),
@@ -292,6 +363,15 @@ impl Interpolator {
                 // planned profile is itself the quickest stop. Same if it would overrun.
                 let reverses = -now.v - now.a * now.a.abs() / (2.0 * mv.limits.jerk) > 0.0;
                 if !reverses && sp.end().s <= mv.length {
+                    *stop = Some((sp, *k));
+                }
+            }
+            Job::Orient { orient, k, stop } => {
+                let now = orient.profile.sample(*k as f64 * self.period);
+                let lim = orient.limits;
+                let sp = velocity_change(now, 0.0, lim.acceleration, lim.jerk);
+                let reverses = -now.v - now.a * now.a.abs() / (2.0 * lim.jerk) > 0.0;
+                if !reverses && sp.end().s <= orient.profile.end().s {
                     *stop = Some((sp, *k));
                 }
             }
@@ -378,6 +458,38 @@ impl Interpolator {
                         let st = mv.profile.sample(*k as f64 * p);
                         self.prog = mv.point(st.s);
                         path_velocity = st.v;
+                    }
+                }
+            }
+            Job::Orient { orient, k, stop } => {
+                *k += 1;
+                state = TickState::Moving;
+                let o = *orient;
+                let (c, done) = match stop {
+                    Some((sp, k0)) => {
+                        let t = (*k - *k0) as f64 * p;
+                        let st = sp.sample(t);
+                        path_velocity = st.v;
+                        (o.from + o.sign * st.s, t >= sp.duration())
+                    }
+                    None if *k >= o.ticks => (o.target, true),
+                    None => {
+                        let st = o.profile.sample(*k as f64 * p);
+                        path_velocity = st.v;
+                        (o.from + o.sign * st.s, false)
+                    }
+                };
+                spindle_pos = Some(c);
+                if done {
+                    // Program C stays; the turn goes into the offset (as after a speed run).
+                    if let Some(sp) = self.spindle {
+                        self.offset = c - self.prog.0[sp.index];
+                    }
+                    if self.stopping {
+                        self.job = Job::Held;
+                    } else {
+                        finished = true;
+                        self.job = Job::Idle;
                     }
                 }
             }

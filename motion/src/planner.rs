@@ -41,6 +41,11 @@ pub enum MoveKind {
         acceleration: f64,
         jerk: f64,
     },
+    /// Spindle orientation: with the spindle at rest, turn it the shorter way to the nearest
+    /// machine C ≡ `angle` (mod 360) within `limits` (deg/s, deg/s², deg/s³). The interpolator
+    /// resolves the target against machine C when the move starts (only it knows the spindle
+    /// offset), so the duration is not known here; program C does not change.
+    SpindleOrient { angle: f64, limits: Limits },
     /// T with M6: reported to the caller in one tick.
     ToolChange { tool: u32 },
     /// M0/M1/M2/M30: reported to the caller in one tick; the caller decides whether to pause.
@@ -258,6 +263,33 @@ impl Planner {
                     velocity,
                     acceleration: ax.a,
                     jerk: ax.j,
+                }
+            }
+            SegmentKind::SpindleOrient { angle } => {
+                let si = self.spindle.ok_or(err(MotionErrorKind::NoSpindle))?;
+                if !(angle.is_finite() && (0.0..360.0).contains(angle)) {
+                    return Err(err(MotionErrorKind::BadOrientAngle(*angle)));
+                }
+                if self.spindle_running {
+                    return Err(err(MotionErrorKind::SpindleRunning));
+                }
+                let ax = self.axes[si];
+                let max_rpm = if ax.max_rpm > 0.0 {
+                    ax.max_rpm
+                } else {
+                    f64::INFINITY
+                };
+                let limits = Limits {
+                    velocity: ax.v.min(max_rpm * 6.0),
+                    acceleration: ax.a,
+                    jerk: ax.j,
+                };
+                if !limits.is_valid() {
+                    return Err(err(MotionErrorKind::BadLimits));
+                }
+                MoveKind::SpindleOrient {
+                    angle: *angle,
+                    limits,
                 }
             }
             SegmentKind::ToolChange { tool } => MoveKind::ToolChange { tool: *tool },

@@ -1,7 +1,7 @@
 //! `Segment`: the one type between the interpreter and motion. A segment says where every
-//! configured axis must end up and how to get there, plus the non-motion events that must be
-//! sequenced with motion (dwell, spindle, tool change, stop, message). Positions are absolute
-//! machine coordinates in each axis's unit (mm, degrees), indexed like `MachineConfig::axes`.
+//! configured axis must end up and how to get there, plus the events that must be sequenced
+//! with motion (dwell, spindle, spindle orientation, tool change, stop, message). Positions
+//! are absolute machine coordinates in each axis's unit (mm, degrees), indexed like `MachineConfig::axes`.
 
 use std::sync::Arc;
 
@@ -97,6 +97,14 @@ pub enum SegmentKind {
     Dwell { seconds: f64 },
     /// M3/M4/M5 with S: the spindle axis runs in speed mode. `rpm` ≥ 0.
     Spindle { rpm: f64, dir: SpindleDir },
+    /// Spindle orientation (G76/G87 before the shift; M19): with the spindle at rest, a
+    /// jerk-limited position move of the spindle axis the shorter way round to the nearest
+    /// physical angle ≡ `angle` (degrees, 0 ≤ angle < 360) mod 360. Physical means machine C,
+    /// i.e. program C plus the spindle offset that speed-mode runs leave (see the crate doc):
+    /// the interpreter cannot know it. The move turns the spindle without changing program C
+    /// (the turn goes into the offset, like a speed-mode run), so later C moves still turn by
+    /// exactly their programmed difference.
+    SpindleOrient { angle: f64 },
     /// T with M6.
     ToolChange { tool: u32 },
     /// M0/M1/M2/M30.
