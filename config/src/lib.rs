@@ -64,6 +64,9 @@ pub struct AxisConfig {
     pub following_error_timeout_ms: u32,
     /// Spindle only.
     pub max_rpm: Option<f64>,
+    /// The drive's dead time (cycles) between taking a setpoint and its position loop acting
+    /// on it; the master's following error rule does not count it as error. Default 1.
+    pub feedback_delay_cycles: u32,
     pub sim: SimDynamics,
 }
 
@@ -86,6 +89,9 @@ pub struct BusConfig {
     pub heartbeat_timeout_ms: u32,
     pub tpdo_timeout_cycles: u32,
     pub sdo_timeout_ms: u32,
+    /// The master's own node id: it produces its heartbeat on 0x700 + id and the drives
+    /// consume it (0x1016). No axis may use it. Default 127.
+    pub master_node_id: u8,
 }
 
 impl BusConfig {
@@ -356,6 +362,8 @@ struct RawBus {
     tpdo_timeout_cycles: Spanned<i64>,
     #[serde(default = "default_sdo_timeout")]
     sdo_timeout_ms: Spanned<i64>,
+    #[serde(default = "default_master_node_id")]
+    master_node_id: Spanned<i64>,
 }
 
 fn sp<T>(v: T) -> Spanned<T> {
@@ -378,6 +386,9 @@ fn default_tpdo_timeout() -> Spanned<i64> {
 }
 fn default_sdo_timeout() -> Spanned<i64> {
     sp(100)
+}
+fn default_master_node_id() -> Spanned<i64> {
+    sp(127)
 }
 
 #[derive(Deserialize)]
@@ -469,12 +480,17 @@ struct RawAxis {
     #[serde(default = "default_fe_timeout")]
     following_error_timeout_ms: Spanned<i64>,
     max_rpm: Option<Spanned<f64>>,
+    #[serde(default = "default_feedback_delay")]
+    feedback_delay_cycles: Spanned<i64>,
     #[serde(default)]
     sim: RawSim,
 }
 
 fn default_fe_timeout() -> Spanned<i64> {
     sp(10)
+}
+fn default_feedback_delay() -> Spanned<i64> {
+    sp(1)
 }
 
 #[derive(Deserialize)]
@@ -567,6 +583,7 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
         tpdo_timeout_cycles: int_in(&b.tpdo_timeout_cycles, "bus.tpdo_timeout_cycles", 1, 10_000)?
             as u32,
         sdo_timeout_ms: int_in(&b.sdo_timeout_ms, "bus.sdo_timeout_ms", 1, 60_000)? as u32,
+        master_node_id: int_in(&b.master_node_id, "bus.master_node_id", 1, 127)? as u8,
     };
     if bus.heartbeat_ms > 0 && bus.heartbeat_timeout_ms <= bus.heartbeat_ms as u32 {
         return Err((
@@ -713,6 +730,13 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
         let node = match (&a.node, is_virtual) {
             (Some(n), false) => {
                 let id = int_in(n, &key("node"), 1, 127)? as u8;
+                if id == bus.master_node_id {
+                    return Err((
+                        n.span(),
+                        key("node"),
+                        format!("node id {id} is the master's (bus.master_node_id)"),
+                    ));
+                }
                 if let Some(p) = axes.iter().find(|p| p.node == Some(id)) {
                     return Err((
                         n.span(),
@@ -839,6 +863,12 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
                 65535,
             )? as u32,
             max_rpm,
+            feedback_delay_cycles: int_in(
+                &a.feedback_delay_cycles,
+                &key("feedback_delay_cycles"),
+                0,
+                16,
+            )? as u32,
             sim: SimDynamics {
                 delay_cycles: int_in(&a.sim.delay_cycles, &key("sim.delay_cycles"), 0, 100)? as u32,
                 bandwidth_hz: bw,
@@ -1025,6 +1055,37 @@ mod tests {
         let e = parse(&text).unwrap_err();
         assert_eq!(e.key, "axis[1].node");
         assert!(e.message.contains("already used by axis X"), "{e}");
+    }
+
+    #[test]
+    fn master_node_id_defaults_to_127_and_no_drive_may_use_it() {
+        let c = parse(SHIPPED).unwrap();
+        assert_eq!(c.bus.master_node_id, 127);
+        let e = parse(&SHIPPED.replacen("node = 3", "node = 127", 1)).unwrap_err();
+        assert_eq!(e.key, "axis[2].node");
+        assert!(e.message.contains("master"), "{e}");
+        let text = SHIPPED.replacen("master_node_id = 127", "master_node_id = 3", 1);
+        assert_eq!(parse(&text).unwrap_err().key, "axis[2].node");
+        let text = SHIPPED.replacen("master_node_id = 127", "master_node_id = 100", 1);
+        assert_eq!(parse(&text).unwrap().bus.master_node_id, 100);
+        let text = SHIPPED.replacen("master_node_id = 127", "master_node_id = 0", 1);
+        assert_eq!(parse(&text).unwrap_err().key, "bus.master_node_id");
+    }
+
+    #[test]
+    fn feedback_delay_is_per_axis_and_independent_of_the_sim() {
+        let c = parse(SHIPPED).unwrap();
+        assert!(c.axes.iter().all(|a| a.feedback_delay_cycles == 1));
+        let text = SHIPPED.replacen("feedback_delay_cycles = 1", "feedback_delay_cycles = 3", 1);
+        let c = parse(&text).unwrap();
+        assert_eq!(c.axes[0].feedback_delay_cycles, 3);
+        assert_eq!(c.axes[0].sim.delay_cycles, 1);
+        assert_eq!(c.axes[1].feedback_delay_cycles, 1);
+        // Left out: 1.
+        let text = SHIPPED.replacen("feedback_delay_cycles = 1\n", "", 1);
+        assert_eq!(parse(&text).unwrap().axes[0].feedback_delay_cycles, 1);
+        let text = SHIPPED.replacen("feedback_delay_cycles = 1", "feedback_delay_cycles = 17", 1);
+        assert_eq!(parse(&text).unwrap_err().key, "axis[0].feedback_delay_cycles");
     }
 
     #[test]
