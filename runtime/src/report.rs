@@ -146,6 +146,7 @@ impl RunReport {
         if let Some(l) = &self.wakeup_latency {
             v["wakeup_latency_us"] = json!({
                 "p50": l.p50_us, "p99": l.p99_us, "max": l.max_us, "late": l.late,
+                "skipped": l.skipped,
                 "samples": l.samples,
             });
         }
@@ -221,8 +222,8 @@ impl RunReport {
         if let Some(l) = &self.wakeup_latency {
             let _ = writeln!(
                 s,
-                "  wake-up latency: p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs, {} late",
-                l.p50_us, l.p99_us, l.max_us, l.late
+                "  wake-up latency: p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs, {} late, {} deadlines skipped",
+                l.p50_us, l.p99_us, l.max_us, l.late, l.skipped
             );
         }
         let _ = writeln!(

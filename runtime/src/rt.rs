@@ -92,6 +92,11 @@ pub struct LatencySummary {
     pub max_us: f64,
     /// Wake-ups later than the late threshold (half a period).
     pub late: u64,
+    /// Deadlines the loop let pass: a wake-up a whole period or more late runs one tick and
+    /// starts the deadlines afresh from there instead of running the missed ticks in a burst
+    /// (a burst would put tens of SYNCs on the bus at once). The path advances one period
+    /// per tick either way, so it is stretched in time, not distorted.
+    pub skipped: u64,
 }
 
 /// A histogram of wake-up latency with 1 µs buckets up to its size and an exact maximum.
@@ -157,6 +162,7 @@ impl LatencyHistogram {
             p99_us: self.quantile_us(0.99),
             max_us: self.max_ns as f64 / 1000.0,
             late: self.late,
+            skipped: 0,
         }
     }
 }

@@ -663,11 +663,19 @@ fn run_realtime(
             let mut ctrl = CycleController::new(&cfg_t, start, link, mcons, sprod, stop_t);
             let mut hist = LatencyHistogram::new(5000, period_ns / 2);
             let wall_cyclic = std::time::Instant::now();
+            let mut skipped = 0u64;
             let outcome = loop {
                 next += period_ns;
                 sleep_until(next);
                 let woke = monotonic_ns();
-                hist.record(woke.saturating_sub(next));
+                let late = woke.saturating_sub(next);
+                hist.record(late);
+                if late >= period_ns {
+                    // Missed whole deadlines: this tick runs now and the next is a period
+                    // later (see LatencySummary::skipped).
+                    skipped += late / period_ns;
+                    next = woke;
+                }
                 // The cycle's time is its deadline (the master's contract); lateness is measured.
                 if let Step::Done(o) = ctrl.step(Instant::from_nanos(next.saturating_sub(t0))) {
                     break o;
@@ -686,7 +694,10 @@ fn run_realtime(
                 counters: counters_since(link.counters(), c0),
                 bitrate: link.bitrate(),
                 elapsed: Duration::from_nanos((now + t0).saturating_sub(t_cyclic)),
-                latency: Some(hist.summary()),
+                latency: Some(LatencySummary {
+                    skipped,
+                    ..hist.summary()
+                }),
                 grant: Some(grant.describe()),
                 wall,
                 shutdown_error,

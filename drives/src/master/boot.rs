@@ -461,6 +461,10 @@ impl Master {
             )?;
             // The NMT state is unknown until the next heartbeat (the boot-up is history).
             self.axes[i].nmt = None;
+            // The heartbeat producer was configured just now: the monitor's clock starts here,
+            // not at the boot-up (a drive seen long before the last one booted would otherwise
+            // count as silent since its boot-up).
+            self.axes[i].last_heartbeat = Some(bus.now());
             // The first setpoint is the actual position: 0x607A = 0x6064 before enabling.
             let mut push = |f: &CanFrame| queue.push(*f);
             let pos = {
@@ -491,6 +495,7 @@ impl Master {
         self.syncs = 0;
         for a in self.axes[..self.n_axes].iter_mut() {
             a.tpdos = 0;
+            a.owed = 0;
         }
         let (enabled_at, cycles) = self.run_enable(bus)?;
         report.enabled_at = enabled_at;
@@ -570,6 +575,7 @@ impl Master {
         let syncs = self.syncs;
         for a in self.axes[..self.n_axes].iter_mut() {
             a.tpdos = syncs;
+            a.owed = 0;
             if a.node.is_some() {
                 a.target = a.actual_raw;
             } else {
@@ -607,6 +613,11 @@ impl Master {
             a.quick_stop = false;
             a.tpdo_missing = 0;
             a.tpdo_this_cycle = false;
+            // The steady lateness is learnt again from this enable phase's TPDOs.
+            a.late_base = u32::MAX;
+            a.ambiguous_cycles = 0;
+            a.window_tpdos = 0;
+            a.age = 0;
         }
         self.sync_sent = false;
     }
