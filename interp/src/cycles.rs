@@ -3,7 +3,8 @@
 //! taps: the drilling axis and the spindle axis C move together, one turn per pitch.
 //!
 //! Conventions (documented in the crate docs): G76/G87 orient the spindle by stopping it and
-//! positioning C to the nearest multiple of 360°, then shift by Q along +first plane axis
+//! turning it to the physical angle `interp.spindle_orient_angle` (a `SpindleOrient` segment
+//! that motion resolves), then shift by Q along +first plane axis
 //! (G17: +X, G18: +Z, G19: +Y; Fanuc RD2,RD1 = 0,0). G87 always returns to the initial level.
 
 use cnc402_lang::NcError;
@@ -320,16 +321,19 @@ impl Exec<'_> {
         }
     }
 
-    /// Spindle orientation: stop, then C to the nearest multiple of 360° (the oriented angle).
+    /// Spindle orientation: stop, then turn the spindle to the physical angle
+    /// `interp.spindle_orient_angle`. Only motion knows the physical angle (program C plus
+    /// the offset that speed-mode runs leave), so this emits `SpindleOrient` and leaves the
+    /// program's C unchanged (motion puts the turn into the offset).
     fn orient(&mut self) -> Result<(), NcError> {
         self.push(SegmentKind::Spindle {
             rpm: 0.0,
             dir: SpindleDir::Stop,
         });
-        if let Some(ic) = self.cfg.spindle_index() {
-            let mut p = self.st.pos;
-            p[ic] = (p[ic] / 360.0).round() * 360.0;
-            self.rapid_to(p, &[])?;
+        if self.cfg.spindle_index().is_some() {
+            self.push(SegmentKind::SpindleOrient {
+                angle: self.cfg.interp.spindle_orient_angle,
+            });
         }
         Ok(())
     }

@@ -3,18 +3,20 @@
 //! to 1e-6 and printed in their shortest form (`10`, `-2.5`, `0.000001`); keys come in a fixed
 //! order.
 //!
-//! Keys: `kind` (`rapid` `linear` `arc` `dwell` `spindle` `tool_change` `stop` `message`),
+//! Keys: `kind` (`rapid` `linear` `arc` `dwell` `spindle` `spindle_orient` `tool_change`
+//! `stop` `message`),
 //! `file`, `line`, `n` (N number or null); motion kinds add `end` (axis name → absolute machine
 //! position of every configured axis, mm or degrees); `linear` and `arc` add `feed` (mm/min);
 //! `arc` adds `center` (`X` `Y` `Z`, machine coordinates; the normal axis holds the start's
 //! value), `plane` (`XY` `ZX` `YZ`), `dir` (`cw` `ccw`) and `turns` (1 = full circle);
-//! `dwell` adds `seconds`; `spindle` adds `rpm` and `dir` (`cw` `ccw` `stop`); `tool_change`
+//! `dwell` adds `seconds`; `spindle` adds `rpm` and `dir` (`cw` `ccw` `stop`);
+//! `spindle_orient` adds `angle` (the physical spindle angle in degrees); `tool_change`
 //! adds `tool`; `stop` adds `stop` (`program` `optional` `end` `end_rewind`); `message` adds
 //! `text`.
 //!
-//! The spindle axis C is the program's view: it starts at 0 and moves only with rigid taps,
-//! orientation and C words; speed-mode runs (M3/M4) do not change it, because the motion layer
-//! re-bases C when the spindle returns to position control.
+//! The spindle axis C is the program's view: it starts at 0 and moves only with rigid taps
+//! and C words; speed-mode runs (M3/M4) and orientation do not change it, because the motion
+//! layer keeps their turn in the spindle offset (machine C − program C).
 
 use std::fmt::Write;
 
@@ -94,6 +96,7 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
         SegmentKind::Arc { .. } => "arc",
         SegmentKind::Dwell { .. } => "dwell",
         SegmentKind::Spindle { .. } => "spindle",
+        SegmentKind::SpindleOrient { .. } => "spindle_orient",
         SegmentKind::ToolChange { .. } => "tool_change",
         SegmentKind::Stop { .. } => "stop",
         SegmentKind::Message { .. } => "message",
@@ -153,6 +156,9 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
                 SpindleDir::Stop => "stop",
             };
             let _ = write!(o, ",\"rpm\":{},\"dir\":\"{dir}\"", num(*rpm));
+        }
+        SegmentKind::SpindleOrient { angle } => {
+            let _ = write!(o, ",\"angle\":{}", num(*angle));
         }
         SegmentKind::ToolChange { tool } => {
             let _ = write!(o, ",\"tool\":{tool}");
@@ -220,6 +226,7 @@ mod tests {
                 rpm: 800.0,
                 dir: SpindleDir::Ccw,
             },
+            SegmentKind::SpindleOrient { angle: 271.5 },
             SegmentKind::ToolChange { tool: 4 },
             SegmentKind::Stop {
                 kind: StopKind::EndRewind,
@@ -233,6 +240,7 @@ mod tests {
             ("arc", "center"),
             ("dwell", "seconds"),
             ("spindle", "rpm"),
+            ("spindle_orient", "angle"),
             ("tool_change", "tool"),
             ("stop", "stop"),
             ("message", "text"),
@@ -255,5 +263,15 @@ mod tests {
         assert_eq!(num(-1e-7), "0");
         assert_eq!(num(123456.0000004), "123456");
         assert_eq!(num(f64::NAN), "null");
+    }
+
+    #[test]
+    fn spindle_orient_has_its_angle() {
+        let cfg = MachineConfig::default_machine();
+        let j = segment_to_json(&seg(SegmentKind::SpindleOrient { angle: 90.25 }), &cfg);
+        assert_eq!(
+            j,
+            r#"{"kind":"spindle_orient","file":"q\"x.nc","line":7,"n":null,"angle":90.25}"#
+        );
     }
 }

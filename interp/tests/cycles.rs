@@ -282,18 +282,22 @@ fn cycles_drill_along_the_planes_normal() {
     }
 }
 
-/// G76: at the bottom the spindle stops, C goes to the oriented angle (nearest multiple of
-/// 360°), the tool shifts +Q along the plane's first axis, retracts, shifts back, restarts.
+/// G76: at the bottom the spindle stops and is oriented to the configured physical angle (a
+/// `SpindleOrient` that motion resolves; program C stays where it was), the tool shifts +Q
+/// along the plane's first axis, retracts, shifts back, restarts.
 #[test]
 fn g76_orients_and_shifts_by_q() {
-    for (plane, words, shift_axis) in [
-        ("G17", "X0 Y0 Z-5 R2", X),
-        ("G18", "Z0 X0 Y-5 R2", Z),
-        ("G19", "Y0 Z0 X-5 R2", Y),
+    let mut cfg = MachineConfig::default_machine();
+    for (angle, plane, words, shift_axis) in [
+        (0.0, "G17", "X0 Y0 Z-5 R2", X),
+        (90.0, "G18", "Z0 X0 Y-5 R2", Z),
+        (271.5, "G19", "Y0 Z0 X-5 R2", Y),
     ] {
-        let segs = run(&format!(
-            "G0 X10 Y10 Z10 C200\nM3 S500\n{plane} G98 G76 {words} Q0.4 F100\nM30\n"
-        ));
+        cfg.interp.spindle_orient_angle = angle;
+        let segs = run_cfg(
+            &cfg,
+            &format!("G0 X10 Y10 Z10 C200\nM3 S500\n{plane} G98 G76 {words} Q0.4 F100\nM30\n"),
+        );
         let l3: Vec<_> = segs.iter().filter(|s| s.source.line == 3).collect();
         let stop = l3
             .iter()
@@ -305,15 +309,23 @@ fn g76_orients_and_shifts_by_q() {
                     }
             })
             .unwrap();
-        let orient = end(l3[stop + 1]).unwrap();
-        assert_eq!(orient[C], 360.0, "{plane}: nearest multiple of 360 to 200");
+        assert_eq!(
+            l3[stop + 1].kind,
+            SegmentKind::SpindleOrient { angle },
+            "{plane}"
+        );
+        let bottom = end(l3[stop - 1]).unwrap();
         let shifted = end(l3[stop + 2]).unwrap();
+        assert_eq!(
+            shifted[C], 200.0,
+            "{plane}: program C unchanged by the orientation"
+        );
         assert!(
-            (shifted[shift_axis] - orient[shift_axis] - 0.4).abs() < 1e-9,
+            (shifted[shift_axis] - bottom[shift_axis] - 0.4).abs() < 1e-9,
             "{plane}"
         );
         let back = end(l3[stop + 4]).unwrap();
-        assert_eq!(back[shift_axis], orient[shift_axis]);
+        assert_eq!(back[shift_axis], bottom[shift_axis]);
         assert_eq!(
             l3.last().unwrap().kind,
             SegmentKind::Spindle {
@@ -337,14 +349,15 @@ fn g87_back_boring_sequence() {
             SegmentKind::Rapid { end } => format!("R{},{}", end[X], end[Z]),
             SegmentKind::Linear { end, .. } => format!("F{},{}", end[X], end[Z]),
             SegmentKind::Spindle { rpm, .. } => format!("S{rpm}"),
+            SegmentKind::SpindleOrient { angle } => format!("O{angle}"),
             k => format!("{k:?}"),
         })
         .collect();
     assert_eq!(
         seq,
         [
-            "R5,10", "S0", "R6.5,10", "R6.5,-20", "R5,-20", "S500", "F5,-4", "S0", "R6.5,-4",
-            "R6.5,10", "R5,10", "S500"
+            "R5,10", "S0", "O0", "R6.5,10", "R6.5,-20", "R5,-20", "S500", "F5,-4", "S0", "O0",
+            "R6.5,-4", "R6.5,10", "R5,10", "S500"
         ]
     );
 }
