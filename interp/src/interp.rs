@@ -14,9 +14,9 @@ use cnc402_motion::segment::{
 };
 
 use crate::arc::{self, ArcError};
-use crate::host::{ExactStop, MotionSync, PersistentVars, ProgramDir, ProgramLibrary};
+use crate::host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary};
 use crate::macros::{Frame, ModalCall, Runaway, Unit, VarTable};
-use crate::nvfile::{FileVarStore, NvTable};
+use crate::nvfile::NvTable;
 use crate::state::{Cycle, CycleData, ModalState, Motion};
 use crate::words::{Arg, GGroup, Words, fmt_num};
 
@@ -47,10 +47,11 @@ impl Default for Options {
 /// produced (a canned cycle is checked whole before any of it is given out).
 ///
 /// Custom Macro B (see [`crate::macros`]): variables, GOTO/IF/WHILE, sub-programs (`M98`,
-/// `M99`, `G65`, `G66`/`G67`) looked up in the running file and then in the
-/// [`ProgramLibrary`] (default: the config's `program_dir`), non-volatile `#500–#999` kept by a
-/// [`PersistentVars`] (default: the config's `variables_file`, opened at [`load`](Self::load)),
-/// and position reads synchronised through a [`MotionSync`] (default: [`ExactStop`]).
+/// `M99`, `G65`, `G66`/`G67`) looked up in the running file and then in the injected
+/// [`ProgramLibrary`] (default: none), non-volatile `#500–#999` kept by an injected
+/// [`PersistentVars`] (default: memory only), and position reads synchronised through a
+/// [`MotionSync`] (default: [`ExactStop`]). The defaults do no I/O; the file system comes in
+/// through [`crate::host_fs`].
 pub struct Interpreter {
     pub(crate) cfg: MachineConfig,
     pub(crate) opts: Options,
@@ -67,8 +68,9 @@ pub struct Interpreter {
     pub(crate) sync: Box<dyn MotionSync>,
     pub(crate) library: Option<Box<dyn ProgramLibrary>>,
     pub(crate) nv_store: Option<Box<dyn PersistentVars>>,
-    /// Set explicitly (`set_persistent_vars`): `load` does not open the config's file.
-    pub(crate) nv_explicit: bool,
+    /// The injected variables could not be read (`set_persistent_vars_error`): every `load`
+    /// fails with this at the first `next_segment`.
+    pub(crate) nv_error: Option<String>,
     /// An error found at `load` (damaged variables file), given out by the first
     /// `next_segment`.
     pub(crate) load_error: Option<String>,
@@ -105,9 +107,9 @@ impl Interpreter {
             frames: Vec::new(),
             vars: VarTable::default(),
             sync: Box::new(ExactStop),
-            library: Some(Box::new(ProgramDir::new(cfg.program_dir()))),
+            library: None,
             nv_store: None,
-            nv_explicit: false,
+            nv_error: None,
             load_error: None,
             modal_call: None,
             runaway: Runaway::default(),
@@ -129,17 +131,25 @@ impl Interpreter {
         self.sync = sync;
     }
 
-    /// Replaces where sub-programs not in the running file are looked up (`None`: nowhere).
+    /// Sets where sub-programs not in the running file and `#use` files are looked up
+    /// (default and `None`: nowhere, so such a call or `#use` is a not-found error).
     pub fn set_program_library(&mut self, lib: Option<Box<dyn ProgramLibrary>>) {
         self.library = lib;
     }
 
-    /// Sets the non-volatile variables `#500–#999` and where writes go (`None`: memory only).
-    /// After this, `load` no longer opens the config's `variables_file`.
+    /// Sets the non-volatile variables `#500–#999` and where writes go (`None`: memory only,
+    /// the default). They keep their values across `load`s of this interpreter.
     pub fn set_persistent_vars(&mut self, table: NvTable, store: Option<Box<dyn PersistentVars>>) {
         self.vars.nv.copy_from_slice(table.as_slice());
         self.nv_store = store;
-        self.nv_explicit = true;
+        self.nv_error = None;
+    }
+
+    /// The non-volatile variables could not be read (e.g. a damaged file): every program
+    /// loaded from now on ends with `why` at its first `next_segment`, at the main file.
+    pub fn set_persistent_vars_error(&mut self, why: String) {
+        self.nv_store = None;
+        self.nv_error = Some(why);
     }
 
     /// The non-volatile variables as they are now.
@@ -163,9 +173,14 @@ impl Interpreter {
 
     /// Starts `program` (parsed from `src`) from its first line with the modal state of a fresh
     /// start. Common variables `#100–#199` are cleared (reset); locals start vacant;
-    /// non-volatile ones are read from the config's `variables_file` unless set explicitly.
+    /// non-volatile ones keep their values (see [`set_persistent_vars`](Self::set_persistent_vars)).
+    /// A C-like program is checked here (its `#use` files come from the program library).
     pub fn load(&mut self, src: SourceFile, program: Program) {
-        self.hll.load(&self.cfg, &src, &program);
+        let library: Option<&mut dyn ProgramLibrary> = match &mut self.library {
+            Some(l) => Some(l.as_mut()),
+            None => None,
+        };
+        self.hll.load(&self.cfg, &src, &program, library);
         let src = Arc::new(src);
         let program = Arc::new(program);
         let (units, main) = crate::macros::split_units(&src, &program);
@@ -181,18 +196,7 @@ impl Interpreter {
         self.last_n = None;
         self.path_len = 0.0;
         self.path_end = self.opts.start;
-        self.load_error = None;
-        if !self.nv_explicit
-            && let Some(path) = self.cfg.variables_file()
-        {
-            match FileVarStore::open(&path) {
-                Ok((store, table)) => {
-                    self.vars.nv.copy_from_slice(table.as_slice());
-                    self.nv_store = Some(Box::new(store));
-                }
-                Err(e) => self.load_error = Some(e.to_string()),
-            }
-        }
+        self.load_error = self.nv_error.clone();
         self.queue.clear();
         self.done = false;
         self.seen_block = false;

@@ -27,8 +27,9 @@
 //!
 //! Custom Macro B ([`macros`]):
 //! - A file holds one or more programs (`O` lines). `M98 P`/`G65 P`/`G66 P` look in the
-//!   running file, then next to the main program (`O9001.nc`, `O9001.CNC`, … case-insensitive),
-//!   then in the [`ProgramLibrary`] (default: the config's `program_dir`). `M98 P30009001` =
+//!   running file, then in the injected [`ProgramLibrary`] (none by default: not found;
+//!   [`host_fs::FsLibrary`] looks next to the main program, `O9001.nc`, `O9001.CNC`, …
+//!   case-insensitive, then in the config's `program_dir`). `M98 P30009001` =
 //!   3 × O9001 (Fanuc 0 prefix); `L` overrides. M98 shares the caller's locals; G65/G66 get a
 //!   new set (argument specification I; `M` is `#13`). Nesting: 15 programs, 4 macro levels.
 //!   A `G65` block with H and only P/Q/R besides is an old macro instruction (`G65 H02 P#1 Q#2
@@ -38,8 +39,11 @@
 //!   The end of a sub-program's text returns like M99.
 //! - Vacant: `#0`, unset variables; a word whose value is vacant is left out; arithmetic reads
 //!   0; `EQ`/`NE` compare vacant as a value of its own. Common `#100–#199` clear at `load`;
-//!   `#500–#999` persist through [`PersistentVars`] (default: `interp.variables_file`, written
-//!   durably before the next block runs; a damaged file is the first `next_segment` error).
+//!   `#500–#999` persist through an injected [`PersistentVars`] (default: memory only;
+//!   [`host_fs::attach_variables_file`] reads `interp.variables_file` and, if writable, writes
+//!   it durably before the next block runs; a damaged file is the first `next_segment` error).
+//! - No I/O by default: the file system comes in only through [`host_fs`], which the binaries
+//!   construct and inject.
 //! - System variables: `#3000=n(text)` alarm `3000+n`; `G65 H99 Pn` alarm `500+n`; `#3006`
 //!   message + program stop; `#4001–#4022` group codes (G40/G49/G50/G69/G15 read as the cancel
 //!   codes cnc402 accepts as no-ops; groups it lacks read vacant); `#4109 F #4113 M #4114 N
@@ -59,6 +63,7 @@ pub mod dump;
 pub mod eval;
 pub mod hll;
 pub mod host;
+pub mod host_fs;
 mod interp;
 pub mod macros;
 pub mod nvfile;
@@ -66,7 +71,7 @@ pub mod state;
 pub mod words;
 
 pub use dump::segment_to_json;
-pub use host::{ExactStop, MotionSync, PersistentVars, ProgramDir, ProgramLibrary};
+pub use host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary, UsedFile};
 pub use interp::{Interpreter, Options, run_program, run_program_with};
-pub use nvfile::{FileVarStore, NvTable, VarFileError};
+pub use nvfile::{NvTable, VarFileError};
 pub use state::ModalState;

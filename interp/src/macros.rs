@@ -11,7 +11,6 @@ use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{Plane, SegmentKind, Source, StopKind};
 
 use crate::eval::{self, VarSource, var_number};
-use crate::host::{ProgramDir, ProgramLibrary};
 use crate::interp::Interpreter;
 use crate::nvfile::{NV_FIRST, NV_LAST};
 use crate::state::Motion;
@@ -795,28 +794,20 @@ impl Interpreter {
             return Ok(u.clone());
         }
         let not_found = |why: String| NcError::new(src, span, why);
-        // The main program's own folder first, then the library (program_dir).
-        let here = std::path::Path::new(&*self.main_src.name)
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .map(ProgramDir::new);
-        let mut found = match here {
-            Some(mut d) => d
-                .find(number)
-                .map_err(|e| not_found(format!("program O{number:04}: {e}")))?,
-            None => None,
-        };
-        if found.is_none()
-            && let Some(lib) = self.library.as_mut()
-        {
-            found = lib
-                .find(number)
-                .map_err(|e| not_found(format!("program O{number:04}: {e}")))?;
-        }
-        let Some(file) = found else {
+        // The injected library only: the interpreter itself reads no files.
+        let Some(lib) = self.library.as_mut() else {
             return Err(not_found(format!(
-                "program O{number:04} not found (not in this file, nor as O{number:04}.nc/.CNC/… next to it or in the program directory {})",
-                self.cfg.program_dir().display()
+                "program O{number:04} not found: not in this file, and no program directory is configured"
+            )));
+        };
+        let main = self.main_src.name.clone();
+        let Some(file) = lib
+            .find(number, &main)
+            .map_err(|e| not_found(format!("program O{number:04}: {e}")))?
+        else {
+            return Err(not_found(format!(
+                "program O{number:04} not found (not in this file, nor as O{number:04}.nc/.CNC/… {})",
+                lib.describe()
             )));
         };
         let program = Arc::new(cnc402_lang::parse(&file)?);

@@ -1,14 +1,12 @@
 //! The non-volatile macro variables `#500–#999` in a text file with a CRC-32, written durably:
 //! new file, fsync, rename over the old one, fsync the directory. A crash leaves the old or the
 //! new file, never a torn one; a damaged file is an error at load, never silent zeros.
-//! [`NvTable`] is the table; [`FileVarStore`] plugs it into the interpreter.
+//! [`NvTable`] is the table; [`crate::host_fs::FileVarStore`] plugs it into the interpreter.
 
 use std::fmt;
 use std::fs::{self, File};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-
-use crate::host::PersistentVars;
 
 /// First non-volatile variable number.
 pub const NV_FIRST: u32 = 500;
@@ -96,7 +94,7 @@ impl NvTable {
         &self.vals[..]
     }
 
-    /// A table from a slice as given to [`PersistentVars::store`].
+    /// A table from a slice as given to [`crate::host::PersistentVars::store`].
     pub fn from_slice(vals: &[Option<f64>]) -> Self {
         let mut t = NvTable::default();
         for (d, s) in t.vals.iter_mut().zip(vals) {
@@ -214,29 +212,6 @@ impl NvTable {
         fs::rename(&tmp, path).map_err(io)?;
         File::open(&dir).and_then(|d| d.sync_all()).map_err(io)?;
         Ok(())
-    }
-}
-
-/// The interpreter's [`PersistentVars`] on a file.
-#[derive(Clone, Debug)]
-pub struct FileVarStore {
-    pub path: PathBuf,
-}
-
-impl FileVarStore {
-    /// Opens the store and reads its table (missing file: empty; damaged: error).
-    pub fn open(path: impl Into<PathBuf>) -> Result<(Self, NvTable), VarFileError> {
-        let path = path.into();
-        let t = NvTable::load(&path)?;
-        Ok((FileVarStore { path }, t))
-    }
-}
-
-impl PersistentVars for FileVarStore {
-    fn store(&mut self, vars: &[Option<f64>]) -> Result<(), String> {
-        NvTable::from_slice(vars)
-            .save(&self.path)
-            .map_err(|e| e.to_string())
     }
 }
 

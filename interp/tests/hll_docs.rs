@@ -37,7 +37,7 @@ fn every_example_in_the_language_reference_runs_as_documented() {
         }
         // Named as if it stood in docs/ (so `#use` looks there, then in the library folder).
         let src = SourceFile::new(format!("{ROOT}/docs/example-{line}.nc"), body.clone());
-        let r = cnc402_interp::run_program(&cfg, &src);
+        let r = cnc402_interp::host_fs::run_program(&cfg, &src);
         let want = |tag: &str| -> Vec<String> {
             body.lines()
                 .filter_map(|l| l.trim().strip_prefix(tag).map(|t| t.trim().to_string()))

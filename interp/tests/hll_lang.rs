@@ -49,7 +49,7 @@ fn run_file(
     path: &std::path::Path,
 ) -> Result<Vec<Segment>, cnc402_lang::NcError> {
     let text = std::fs::read_to_string(path).unwrap();
-    cnc402_interp::run_program(cfg, &SourceFile::new(path.display().to_string(), text))
+    cnc402_interp::host_fs::run_program(cfg, &SourceFile::new(path.display().to_string(), text))
 }
 
 #[test]

@@ -27,6 +27,10 @@ fn run_text(
     let src = SourceFile::new(format!("{ROOT}/examples/axioma/{name}"), text);
     let prog = cnc402_lang::parse(&src).unwrap_or_else(|e| panic!("{e}"));
     let mut it = Interpreter::new(cfg);
+    // `#use` files come from the file system (next to the file, then library_dir).
+    it.set_program_library(Some(Box::new(
+        cnc402_interp::host_fs::FsLibrary::from_config(cfg),
+    )));
     it.load(src, prog);
     let mut out = Vec::new();
     loop {

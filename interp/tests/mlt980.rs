@@ -9,7 +9,8 @@
 use std::path::{Path, PathBuf};
 
 use cnc402_config::MachineConfig;
-use cnc402_interp::{Interpreter, ProgramDir, nvfile};
+use cnc402_interp::host_fs::{self, ProgramDir, VarsAccess};
+use cnc402_interp::{Interpreter, nvfile};
 use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{Plane, Segment, SegmentKind, SpindleDir, StopKind};
 
@@ -50,6 +51,7 @@ fn run(tag: &str, vars: &[(u32, f64)]) -> Run {
     let mut cfg = MachineConfig::default_machine();
     cfg.interp.variables_file = Some(path.clone());
     let mut it = Interpreter::new(&cfg);
+    host_fs::attach_variables_file(&mut it, &cfg, VarsAccess::Write);
     it.set_program_library(Some(Box::new(ProgramDir::new(examples()))));
     let src = SourceFile::new("driver.nc", DRIVER);
     it.load(src.clone(), cnc402_lang::parse(&src).unwrap());
@@ -478,6 +480,7 @@ fn damaged_variables_file_is_an_error_at_start() {
     let mut cfg = MachineConfig::default_machine();
     cfg.interp.variables_file = Some(path.clone());
     let mut it = Interpreter::new(&cfg);
+    host_fs::attach_variables_file(&mut it, &cfg, VarsAccess::Write);
     let src = SourceFile::new("t.nc", "G0 X#520\n");
     it.load(src.clone(), cnc402_lang::parse(&src).unwrap());
     let e = it.next_segment().unwrap_err();

@@ -3,7 +3,6 @@
 //! here is reported at `file:line:col` before any motion.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use cnc402_config::MachineConfig;
@@ -14,6 +13,7 @@ use cnc402_lang::ast::{
 use cnc402_lang::{NcError, SourceFile};
 
 use super::ir::*;
+use crate::host::{ProgramLibrary, UsedFile};
 
 /// Names of the source's multi-channel functions (a later issue).
 const CHANNEL_FUNCS: [&str; 4] = [
@@ -30,25 +30,28 @@ struct File {
     uses: HashMap<u32, FileId>,
 }
 
-/// Finds, parses and checks `main` and the files it uses. `library` is the config's
-/// `interp.library_dir`, searched after the including file's folder.
+/// Finds, parses and checks `main` and the files it uses. `library` resolves `#use` (none:
+/// every `#use` is a not-found error).
 pub(crate) fn compile(
     cfg: &MachineConfig,
     main: SourceFile,
     program: Program,
-    library: Option<PathBuf>,
+    mut library: Option<&mut dyn ProgramLibrary>,
 ) -> Result<Prog, NcError> {
     let mut files: Vec<File> = Vec::new();
-    let mut keys: Vec<PathBuf> = Vec::new();
+    let mut keys: Vec<String> = Vec::new();
     let main = Arc::new(main);
-    keys.push(key_of(Path::new(&*main.name)));
+    keys.push(match library.as_deref_mut() {
+        Some(l) => l.key_of(&main.name),
+        None => main.name.to_string(),
+    });
     files.push(File {
         src: main,
         prog: program,
         uses: HashMap::new(),
     });
     let mut stack = vec![0usize];
-    resolve_uses(0, &mut files, &mut keys, &mut stack, library.as_deref())?;
+    resolve_uses(0, &mut files, &mut keys, &mut stack, &mut library)?;
 
     // Functions of every file, by name.
     let mut sigs: HashMap<String, usize> = HashMap::new();
@@ -136,17 +139,13 @@ pub(crate) fn compile(
     })
 }
 
-fn key_of(p: &Path) -> PathBuf {
-    std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
-}
-
 /// Loads the files `files[id]` names with `#use` (depth first, in order), each once.
 fn resolve_uses(
     id: FileId,
     files: &mut Vec<File>,
-    keys: &mut Vec<PathBuf>,
+    keys: &mut Vec<String>,
     stack: &mut Vec<FileId>,
-    library: Option<&Path>,
+    library: &mut Option<&mut dyn ProgramLibrary>,
 ) -> Result<(), NcError> {
     let mut found = Vec::new();
     for line in &files[id].prog.lines {
@@ -160,29 +159,29 @@ fn resolve_uses(
     }
     for (span, path) in found {
         let src = files[id].src.clone();
-        let here = Path::new(&*src.name)
-            .parent()
-            .map(Path::to_path_buf)
-            .unwrap_or_default();
-        let mut candidates = vec![here.join(&path)];
-        if let Some(lib) = library {
-            candidates.push(lib.join(&path));
-        }
-        let Some(p) = candidates.iter().find(|c| c.is_file()) else {
-            let mut m = format!("#use \"{path}\": no such file next to this program");
-            match library {
-                Some(l) => m += &format!(" nor in the library folder {}", l.display()),
-                None => m += " (and no interp.library_dir is configured)",
+        let used = match library.as_deref_mut() {
+            Some(l) => {
+                let u = l
+                    .resolve_use(&path, &src.name)
+                    .map_err(|e| NcError::new(&src, span, e))?;
+                u.ok_or_else(|| {
+                    format!(
+                        "#use \"{path}\": no such file next to this program ({})",
+                        l.describe()
+                    )
+                })
             }
-            return Err(NcError::new(&src, span, m));
+            None => Err(format!(
+                "#use \"{path}\": no such file (no program library is configured)"
+            )),
         };
-        let key = key_of(p);
+        let UsedFile { key, file: sf } = used.map_err(|m| NcError::new(&src, span, m))?;
         if let Some(k) = keys.iter().position(|x| *x == key) {
             if let Some(pos) = stack.iter().position(|&s| s == k) {
                 let chain: Vec<String> = stack[pos..]
                     .iter()
                     .map(|&s| files[s].src.name.to_string())
-                    .chain(std::iter::once(p.display().to_string()))
+                    .chain(std::iter::once(sf.name.to_string()))
                     .collect();
                 return Err(NcError::new(
                     &src,
@@ -193,12 +192,6 @@ fn resolve_uses(
             files[id].uses.insert(span.start, k);
             continue;
         }
-        let text = std::fs::read(p)
-            .map_err(|e| NcError::new(&src, span, format!("#use \"{path}\": {e}")))?;
-        let sf = SourceFile::new(
-            p.display().to_string(),
-            String::from_utf8_lossy(&text).into_owned(),
-        );
         let prog = cnc402_lang::parse(&sf)?;
         let nid = files.len();
         files.push(File {

@@ -99,7 +99,13 @@ impl Hll {
 
     /// Prepares `program` if it is C-like: `#use` files, checks, executor thread. A check error
     /// is kept and given out by the first `next_segment`. Not C-like: nothing is running.
-    pub(crate) fn load(&mut self, cfg: &MachineConfig, src: &SourceFile, program: &Program) {
+    pub(crate) fn load(
+        &mut self,
+        cfg: &MachineConfig,
+        src: &SourceFile,
+        program: &Program,
+        library: Option<&mut dyn crate::host::ProgramLibrary>,
+    ) {
         self.run = None;
         if !is_c_like(program) {
             return;
@@ -117,7 +123,7 @@ impl Hll {
             error: None,
             done: false,
         };
-        match compile::compile(cfg, src.clone(), program.clone(), cfg.library_dir()) {
+        match compile::compile(cfg, src.clone(), program.clone(), library) {
             Ok(prog) => {
                 let prog = Arc::new(prog);
                 let (tx, rx) = sync_channel(AHEAD);

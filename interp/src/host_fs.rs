@@ -1,0 +1,260 @@
+//! The file-system implementations of the [`crate::host`] traits, for binaries to construct and
+//! inject: [`FsLibrary`] (programs and `#use` files from folders), [`ProgramDir`] (one folder of
+//! `O<number>` files) and [`FileVarStore`] (the durable variables file). The interpreter never
+//! constructs these itself: its defaults do no I/O.
+
+use std::path::{Path, PathBuf};
+
+use cnc402_config::MachineConfig;
+use cnc402_lang::SourceFile;
+
+use crate::host::{PersistentVars, ProgramLibrary, UsedFile};
+use crate::nvfile::{NvTable, VarFileError};
+
+/// Extensions a program file may have (compared case-insensitively).
+pub const PROGRAM_EXTENSIONS: &[&str] = &["nc", "cnc", "ngc", "tap", "txt", "mpf", "spf"];
+
+/// A directory of program files named after their number: `O9001.CNC`, `o9001.nc`, `O1.nc`
+/// (with or without leading zeros to four digits), extension case-insensitive. As a
+/// [`ProgramLibrary`] it finds programs in this folder only and resolves no `#use`.
+#[derive(Clone, Debug)]
+pub struct ProgramDir {
+    pub dir: PathBuf,
+}
+
+impl ProgramDir {
+    pub fn new(dir: impl Into<PathBuf>) -> Self {
+        ProgramDir { dir: dir.into() }
+    }
+
+    /// The path of program `number`'s file, if the directory has one.
+    pub fn path_of(&self, number: u32) -> Result<Option<PathBuf>, String> {
+        let names = [format!("o{number:04}"), format!("o{number}")];
+        let rd = match std::fs::read_dir(&self.dir) {
+            Ok(rd) => rd,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(format!("program directory {}: {e}", self.dir.display())),
+        };
+        let mut found: Vec<PathBuf> = Vec::new();
+        for ent in rd.flatten() {
+            let p = ent.path();
+            if matches_name(&p, &names) {
+                found.push(p);
+            }
+        }
+        found.sort();
+        Ok(found.into_iter().next())
+    }
+
+    /// Program `number`'s file, read (`Ok(None)`: the folder has none).
+    pub fn read(&self, number: u32) -> Result<Option<SourceFile>, String> {
+        let Some(p) = self.path_of(number)? else {
+            return Ok(None);
+        };
+        read_source(&p).map(Some)
+    }
+}
+
+fn read_source(p: &Path) -> Result<SourceFile, String> {
+    let bytes = std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()))?;
+    let text = String::from_utf8_lossy(&bytes).into_owned();
+    Ok(SourceFile::new(p.display().to_string(), text))
+}
+
+fn matches_name(p: &Path, names: &[String]) -> bool {
+    let (Some(stem), Some(ext)) = (
+        p.file_stem().and_then(|s| s.to_str()),
+        p.extension().and_then(|s| s.to_str()),
+    ) else {
+        return false;
+    };
+    names.iter().any(|n| stem.eq_ignore_ascii_case(n))
+        && PROGRAM_EXTENSIONS
+            .iter()
+            .any(|e| ext.eq_ignore_ascii_case(e))
+}
+
+impl ProgramLibrary for ProgramDir {
+    fn find(&mut self, number: u32, _main: &str) -> Result<Option<SourceFile>, String> {
+        self.read(number)
+    }
+
+    fn resolve_use(&mut self, _path: &str, _including: &str) -> Result<Option<UsedFile>, String> {
+        Ok(None)
+    }
+
+    fn describe(&self) -> String {
+        format!("in the program directory {}", self.dir.display())
+    }
+}
+
+/// Programs and `#use` files from the file system, the way `cnc402 run` and `cnc402 segments`
+/// find them: `O<number>` in the main program's folder, then in `program_dir`; `#use "f"` next
+/// to the including file, then in `library_dir`.
+#[derive(Clone, Debug, Default)]
+pub struct FsLibrary {
+    pub program_dir: Option<PathBuf>,
+    pub library_dir: Option<PathBuf>,
+}
+
+impl FsLibrary {
+    /// The config's `interp.program_dir` and `interp.library_dir` (resolved against the config
+    /// file's folder).
+    pub fn from_config(cfg: &MachineConfig) -> Self {
+        FsLibrary {
+            program_dir: Some(cfg.program_dir()),
+            library_dir: cfg.library_dir(),
+        }
+    }
+}
+
+fn canonical(p: &Path) -> String {
+    std::fs::canonicalize(p)
+        .unwrap_or_else(|_| p.to_path_buf())
+        .display()
+        .to_string()
+}
+
+/// The folder of the file named `name` (`None` for a bare name: the caller decides).
+fn folder_of(name: &str) -> Option<PathBuf> {
+    Path::new(name)
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .map(Path::to_path_buf)
+}
+
+impl ProgramLibrary for FsLibrary {
+    fn find(&mut self, number: u32, main: &str) -> Result<Option<SourceFile>, String> {
+        if let Some(here) = folder_of(main)
+            && let Some(f) = ProgramDir::new(here).read(number)?
+        {
+            return Ok(Some(f));
+        }
+        match &self.program_dir {
+            Some(d) => ProgramDir::new(d).read(number),
+            None => Ok(None),
+        }
+    }
+
+    fn resolve_use(&mut self, path: &str, including: &str) -> Result<Option<UsedFile>, String> {
+        let here = folder_of(including).unwrap_or_default();
+        let mut candidates = vec![here.join(path)];
+        if let Some(lib) = &self.library_dir {
+            candidates.push(lib.join(path));
+        }
+        let Some(p) = candidates.iter().find(|c| c.is_file()) else {
+            return Ok(None);
+        };
+        Ok(Some(UsedFile {
+            key: canonical(p),
+            file: read_source(p).map_err(|e| format!("#use \"{path}\": {e}"))?,
+        }))
+    }
+
+    fn key_of(&mut self, name: &str) -> String {
+        canonical(Path::new(name))
+    }
+
+    fn describe(&self) -> String {
+        let mut s = "next to the main program".to_string();
+        if let Some(d) = &self.program_dir {
+            s += &format!(" or in the program directory {}", d.display());
+        }
+        if let Some(d) = &self.library_dir {
+            s += &format!(" (#use: or in the library folder {})", d.display());
+        }
+        s
+    }
+}
+
+/// The interpreter's [`PersistentVars`] on a file.
+#[derive(Clone, Debug)]
+pub struct FileVarStore {
+    pub path: PathBuf,
+}
+
+impl FileVarStore {
+    /// Opens the store and reads its table (missing file: empty; damaged: error).
+    pub fn open(path: impl Into<PathBuf>) -> Result<(Self, NvTable), VarFileError> {
+        let path = path.into();
+        let t = NvTable::load(&path)?;
+        Ok((FileVarStore { path }, t))
+    }
+}
+
+impl PersistentVars for FileVarStore {
+    fn store(&mut self, vars: &[Option<f64>]) -> Result<(), String> {
+        NvTable::from_slice(vars)
+            .save(&self.path)
+            .map_err(|e| e.to_string())
+    }
+}
+
+/// How a run may use the config's variables file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VarsAccess {
+    /// Read at start, every write stored durably (`cnc402 run`).
+    Write,
+    /// Read at start, writes stay in memory (`cnc402 segments`, dry runs): repeatable.
+    ReadOnly,
+}
+
+/// Gives `it` the non-volatile variables of the config's `interp.variables_file` (nothing if
+/// the config names none). A damaged file is not an error here: it becomes the first
+/// `next_segment` error of every program `it` loads, at the main file.
+pub fn attach_variables_file(it: &mut crate::Interpreter, cfg: &MachineConfig, access: VarsAccess) {
+    let Some(path) = cfg.variables_file() else {
+        return;
+    };
+    match FileVarStore::open(&path) {
+        Ok((store, table)) => {
+            let store: Option<Box<dyn PersistentVars>> = match access {
+                VarsAccess::Write => Some(Box::new(store)),
+                VarsAccess::ReadOnly => None,
+            };
+            it.set_persistent_vars(table, store);
+        }
+        Err(e) => it.set_persistent_vars_error(e.to_string()),
+    }
+}
+
+/// An interpreter for `cfg` with the file system injected: [`FsLibrary::from_config`] and the
+/// variables file with `access`. What the `cnc402` binaries use.
+pub fn interpreter(
+    cfg: &MachineConfig,
+    opts: crate::Options,
+    access: VarsAccess,
+) -> crate::Interpreter {
+    let mut it = crate::Interpreter::with_options(cfg, opts);
+    it.set_program_library(Some(Box::new(FsLibrary::from_config(cfg))));
+    attach_variables_file(&mut it, cfg, access);
+    it
+}
+
+/// [`crate::run_program`] with the file system injected, variables read-only (for tests and
+/// tools that run a program file: sub-programs and `#use` files are found next to it).
+pub fn run_program(
+    cfg: &MachineConfig,
+    src: &SourceFile,
+) -> Result<Vec<cnc402_motion::segment::Segment>, cnc402_lang::NcError> {
+    let program = cnc402_lang::parse(src)?;
+    let mut it = interpreter(cfg, crate::Options::default(), VarsAccess::ReadOnly);
+    it.load(src.clone(), program);
+    it.collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn program_files_match_case_insensitively() {
+        let n = |s: &str| matches_name(Path::new(s), &["o9001".into(), "o9001".into()]);
+        assert!(n("/x/O9001.CNC"));
+        assert!(n("/x/o9001.nc"));
+        assert!(n("O9001.Nc"));
+        assert!(!n("O9001"));
+        assert!(!n("O9001.bak"));
+        assert!(!n("O90011.nc"));
+    }
+}
