@@ -99,6 +99,19 @@ pub struct LatencySummary {
     pub skipped: u64,
 }
 
+/// The deadline a tick runs at, given its scheduled deadline `next` and the time it `woke`
+/// (ns, CLOCK_MONOTONIC): `next` itself when the wake-up was less than a period late,
+/// otherwise `woke` (the deadlines start afresh there) and the number of whole periods let
+/// pass. The caller's next deadline is the returned one plus a period.
+pub fn tick_deadline(next: u64, woke: u64, period_ns: u64) -> (u64, u64) {
+    let late = woke.saturating_sub(next);
+    if period_ns > 0 && late >= period_ns {
+        (woke, late / period_ns)
+    } else {
+        (next, 0)
+    }
+}
+
 /// A histogram of wake-up latency with 1 µs buckets up to its size and an exact maximum.
 /// `record` is allocation-free.
 #[derive(Clone, Debug)]
@@ -217,5 +230,28 @@ mod tests {
         let t0 = monotonic_ns();
         sleep_until(t0 + 2_000_000);
         assert!(monotonic_ns() >= t0 + 2_000_000);
+    }
+
+    #[test]
+    fn late_wake_ups_restart_the_deadlines_instead_of_bursting() {
+        let p = 1_000_000;
+        // On time or late by less than a period: the schedule holds.
+        assert_eq!(tick_deadline(5 * p, 5 * p, p), (5 * p, 0));
+        assert_eq!(tick_deadline(5 * p, 5 * p + p - 1, p), (5 * p, 0));
+        // Woken early (cannot happen with TIMER_ABSTIME, but harmless).
+        assert_eq!(tick_deadline(5 * p, 4 * p, p), (5 * p, 0));
+        // 2.5 periods late: two deadlines skipped, the tick runs at the wake-up.
+        assert_eq!(tick_deadline(5 * p, 7 * p + p / 2, p), (7 * p + p / 2, 2));
+        // 100 ms late in the emulated guest: one tick, not a burst of 100.
+        let mut next = 10 * p;
+        let mut ticks = 0;
+        let mut skipped = 0;
+        for woke in [10 * p, 11 * p + 100 * p, 11 * p + 100 * p + p] {
+            let (at, s) = tick_deadline(next, woke, p);
+            ticks += 1;
+            skipped += s;
+            next = at + p;
+        }
+        assert_eq!((ticks, skipped), (3, 100));
     }
 }

@@ -25,7 +25,9 @@ use crate::ring::{
     Consumer, MOVE_RING, MoveProducer, Observer, STATUS_RING, StatusConsumer, move_ring,
     status_ring,
 };
-use crate::rt::{LatencyHistogram, LatencySummary, monotonic_ns, request_realtime, sleep_until};
+use crate::rt::{
+    LatencyHistogram, LatencySummary, monotonic_ns, request_realtime, sleep_until, tick_deadline,
+};
 use crate::sim_machine::SimLink;
 use crate::socket_machine::SocketLink;
 use crate::status::{Outcome, Status};
@@ -668,14 +670,12 @@ fn run_realtime(
                 next += period_ns;
                 sleep_until(next);
                 let woke = monotonic_ns();
-                let late = woke.saturating_sub(next);
-                hist.record(late);
-                if late >= period_ns {
-                    // Missed whole deadlines: this tick runs now and the next is a period
-                    // later (see LatencySummary::skipped).
-                    skipped += late / period_ns;
-                    next = woke;
-                }
+                hist.record(woke.saturating_sub(next));
+                // Missed whole deadlines: this tick runs now and the next is a period later
+                // (see LatencySummary::skipped).
+                let (at, missed) = tick_deadline(next, woke, period_ns);
+                next = at;
+                skipped += missed;
                 // The cycle's time is its deadline (the master's contract); lateness is measured.
                 if let Step::Done(o) = ctrl.step(Instant::from_nanos(next.saturating_sub(t0))) {
                     break o;
