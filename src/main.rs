@@ -136,7 +136,13 @@ fn segments(cfg: &cnc402_config::MachineConfig, program: &std::path::Path) -> Re
     use std::io::Write;
     let src = load_program(program)?;
     let ast = cnc402_lang::parse(&src).map_err(CliError::Program)?;
-    let mut interp = cnc402_interp::Interpreter::new(cfg);
+    // The interpreter does no I/O: sub-programs, `#use` files and the variables file come
+    // from the file system through host_fs. Segments never write the variables file.
+    let mut interp = cnc402_interp::host_fs::interpreter(
+        cfg,
+        cnc402_interp::Options::default(),
+        cnc402_interp::host_fs::VarsAccess::ReadOnly,
+    );
     interp.load(src, ast);
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
