@@ -5,6 +5,7 @@
 use std::collections::VecDeque;
 
 use cnc402_config::MachineConfig;
+use cnc402_interp::host_fs::{self, VarsAccess};
 use cnc402_interp::{Interpreter, Options};
 use cnc402_lang::ast::Program;
 use cnc402_lang::{NcError, SourceFile};
@@ -67,13 +68,15 @@ impl Feeder {
             start,
             ..Options::default()
         };
-        let mut interp = Interpreter::with_options(cfg, opts.clone());
-        if dry {
-            // A throwaway interpreter reads the variables file the way the real run will.
-            let mut probe = Interpreter::with_options(cfg, opts);
-            probe.load(src.clone(), program.clone());
-            interp.set_persistent_vars(probe.persistent_vars(), None);
-        }
+        // The interpreter does no I/O itself: the file system (sub-programs, `#use` files,
+        // the non-volatile variables file) is injected here. The dry run reads the variables
+        // the way the real run will but keeps its writes in memory.
+        let access = if dry {
+            VarsAccess::ReadOnly
+        } else {
+            VarsAccess::Write
+        };
+        let mut interp = host_fs::interpreter(cfg, opts, access);
         interp.load(src.clone(), program);
         let mut planner = Planner::new(cfg);
         planner.set_position(start);
