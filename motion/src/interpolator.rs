@@ -104,12 +104,12 @@ impl OrientMove {
     /// The nearest machine C ≡ `angle` (mod 360) to `from` (ties: forward), as `angle` + 360·n
     /// so that it is exactly `angle` modulo 360 for any |n| below 2⁴³.
     fn new(from: f64, angle: f64, limits: Limits, period: f64) -> Option<OrientMove> {
-        let n = ((from - angle) / 360.0).round();
+        let n = ((from - angle) / 360.0 + 0.5).floor();
         let mut target = angle + 360.0 * n;
-        // `round` of the quotient can be off by one turn through rounding; fix the choice.
+        // The quotient's rounding can put the choice one turn off; fix it (ties forward).
         if target - from > 180.0 {
             target -= 360.0;
-        } else if from - target > 180.0 {
+        } else if from - target >= 180.0 {
             target += 360.0;
         }
         let d = target - from;

@@ -97,6 +97,8 @@ fn ticks_and_starts_allocate_nothing() {
             },
             7,
         ),
+        // G76-style orientation from wherever the M3 … M5 run stopped.
+        seg(SegmentKind::SpindleOrient { angle: 271.5 }, 7),
         lin(xyzc(40.0, 15.0, -16.0, 15.0 / 1.5 * 360.0), 600.0 * 1.5, 8),
         lin(xyzc(40.0, 15.0, -1.0, 0.0), 600.0 * 1.5, 9),
         seg(
@@ -117,10 +119,12 @@ fn ticks_and_starts_allocate_nothing() {
 
     let before = allocs();
     arm(true);
+    let mut started = 0;
     for (i, mv) in planned.iter().enumerate() {
         if ip.start(*mv).is_err() {
             break;
         }
+        started += 1;
         loop {
             let t = ip.tick();
             ticks += 1;
@@ -141,6 +145,7 @@ fn ticks_and_starts_allocate_nothing() {
     arm(false);
 
     assert!(ip.is_held());
+    assert_eq!(started, planned.len(), "every move ran");
     assert!(ticks > 3000, "{ticks}");
     assert!(sum.is_finite());
     assert_eq!(

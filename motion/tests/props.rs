@@ -381,6 +381,7 @@ fn wild_segment() -> impl Strategy<Value = SegmentKind> {
             rpm,
             dir: [SpindleDir::Cw, SpindleDir::Ccw, SpindleDir::Stop][d as usize],
         }),
+        wild().prop_map(|angle| SegmentKind::SpindleOrient { angle }),
     ]
 }
 
