@@ -89,6 +89,7 @@ fn a_slower_spindle_loop_shows_as_coupling_error() {
         delay_cycles: 2,
         bandwidth_hz: 60.0,
     };
+    config.axes[3].feedback_delay_cycles = 2;
     let w = tap(config);
     assert_eq!(w.len(), 2);
     let act = w.iter().map(|w| w.max_error_um_act).fold(0.0, f64::max);

@@ -5,11 +5,14 @@
 //!
 //! Following error rule: the TPDO read in cycle k was sampled at SYNC k−1, where the drive
 //! took the command sent in cycle k−1; a drive with a pure delay of d cycles (the axis's
-//! `sim.delay_cycles`, which describes the real drive too) tracks the command of cycle
-//! k−1−d. So the monitor compares the fresh actual with the command sent `1 + d` cycles
-//! earlier — dead time is not counted as error, tracking lag is. A TPDO that arrives a cycle
-//! late (a loaded bus: 4 axes at 1 ms use ~97 % of 1 Mbit/s) is recognised by counting SYNCs
-//! sent against TPDOs received, and compared with a command older by as many cycles.
+//! `feedback_delay_cycles`) tracks the command of cycle k−1−d. So the monitor compares the
+//! fresh actual with the command sent `1 + d + age` cycles earlier — dead time is not error.
+//! Age: per drive the master counts SYNCs still owed a TPDO (+1 per SYNC, −1 per TPDO). A
+//! drive's steady lateness is the lowest count seen since enabling (a drive whose TPDO always
+//! misses the cycle edge shows 1 from its first answer on); a count above it is either a late
+//! TPDO (the backlog drains: a later cycle brings two) or a lost one. While undecided the
+//! sample's age is the reading whose error continues the last one (they differ by a cycle's
+//! travel); after `RESYNC_CYCLES` cycles with exactly one TPDO each, the excess is written off.
 
 use cia402::{Controlword, Goal, Progress, State, Statusword};
 use cnc402_config::MAX_AXES;
@@ -94,6 +97,43 @@ fn rpdo1(cob_id: u16, cw: Controlword, target: i32) -> CanFrame {
     CanFrame::new(cob_id, &d).unwrap_or_else(|_| SyncRepr { counter: None }.emit())
 }
 
+/// Cycles in a row with exactly one TPDO1 each after which SYNCs still owed beyond a drive's
+/// steady lateness are written off as lost TPDOs (a merely late TPDO is followed sooner by a
+/// cycle that brings two: the backlog drains).
+pub const RESYNC_CYCLES: u32 = 8;
+
+impl super::AxisSlot {
+    /// The age of the sample just taken in (cycle `k`), by the rule in the module doc; updates
+    /// the steady lateness and writes off lost TPDOs.
+    fn sample_age(&mut self, k: usize) -> u32 {
+        self.late_base = self.late_base.min(self.owed);
+        if self.owed > self.late_base && self.window_tpdos == 1 {
+            self.ambiguous_cycles += 1;
+        } else {
+            self.ambiguous_cycles = 0;
+        }
+        if self.ambiguous_cycles >= RESYNC_CYCLES {
+            self.owed = self.late_base;
+            self.ambiguous_cycles = 0;
+        }
+        if self.owed <= self.late_base {
+            return self.owed;
+        }
+        // Late (answers an older SYNC) or on time after a loss: the tracking lag changes
+        // little from one cycle to the next, the two readings differ by a cycle's travel.
+        let error_at = |age: u32| {
+            let lag = (self.fe_lag + age as usize).min(COMMAND_HISTORY - 1);
+            self.history[(k + COMMAND_HISTORY - lag) % COMMAND_HISTORY] - self.actual
+        };
+        let (late, lost) = (error_at(self.owed), error_at(self.late_base));
+        if (lost - self.following_error).abs() < (late - self.following_error).abs() {
+            self.late_base
+        } else {
+            self.owed
+        }
+    }
+}
+
 impl Master {
     fn slot_of(&self, node: crate::wire::NodeId) -> Option<usize> {
         self.axes[..self.n_axes]
@@ -117,6 +157,8 @@ impl Master {
                         a.set_actual_raw(pos);
                         a.tpdo_this_cycle = true;
                         a.tpdos = a.tpdos.wrapping_add(1);
+                        a.owed = a.owed.saturating_sub(1);
+                        a.window_tpdos = a.window_tpdos.saturating_add(1);
                     }
                     None => self.unexpected_frames += 1,
                 }
@@ -289,12 +331,10 @@ impl Master {
                 cmd = self.axes[i].last_command;
             }
             let sync_sent = self.sync_sent;
-            let syncs = self.syncs;
             let a = &mut self.axes[i];
             a.last_command = cmd;
             a.history[k % COMMAND_HISTORY] = cmd;
             if a.node.is_some() {
-                fb.age[i] = syncs.saturating_sub(a.tpdos).min(u32::MAX as u64) as u32;
                 if sync_sent {
                     if a.tpdo_this_cycle {
                         a.tpdo_missing = 0;
@@ -303,17 +343,19 @@ impl Master {
                     }
                 }
                 if a.tpdo_this_cycle {
-                    // Every SYNC makes each drive send one TPDO1 (type 1): if fewer arrived
-                    // than SYNCs went out, the newest one answers an older SYNC (a late frame
-                    // on a loaded bus), and the reference command is that much older too.
-                    let late = syncs.saturating_sub(a.tpdos) as usize;
-                    let lag = (a.fe_lag + late).min(COMMAND_HISTORY - 1);
+                    a.age = a.sample_age(k);
+                    let lag = (a.fe_lag + a.age as usize).min(COMMAND_HISTORY - 1);
                     let reference = a.history[(k + COMMAND_HISTORY - lag) % COMMAND_HISTORY];
                     a.following_error = reference - a.actual;
                     if running {
                         a.max_following_error = a.max_following_error.max(a.following_error.abs());
                     }
+                } else {
+                    // The held sample is one SYNC older than it was.
+                    a.age = a.age.saturating_add(1);
                 }
+                a.window_tpdos = 0;
+                fb.age[i] = a.age;
             } else {
                 a.actual = cmd;
                 a.following_error = 0.0;
@@ -384,6 +426,11 @@ impl Master {
             }
             self.sync_sent = true;
             self.syncs = self.syncs.wrapping_add(1);
+            for a in self.axes[..self.n_axes].iter_mut() {
+                if a.node.is_some() {
+                    a.owed = a.owed.saturating_add(1);
+                }
+            }
         }
         // SDO frames use the bus time the cyclic frames leave free (a request and its
         // response per 270 bits of credit), so they delay no PDO by more than that.

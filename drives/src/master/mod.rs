@@ -164,8 +164,18 @@ pub(crate) struct AxisSlot {
     pub actual: f64,
     pub tpdo_this_cycle: bool,
     pub tpdo_missing: u32,
-    /// TPDO1s received since boot (compared with SYNCs sent: late frames).
+    /// TPDO1s received since boot (a statistic; ages come from `owed`).
     pub tpdos: u64,
+    /// SYNCs whose TPDO1 has neither arrived nor been written off as lost.
+    pub owed: u32,
+    /// TPDO1s taken in since the last cycle.
+    pub window_tpdos: u32,
+    /// The drive's steady lateness (cycles), learnt in the enable phase; `u32::MAX` = unknown.
+    pub late_base: u32,
+    /// Consecutive cycles with exactly one TPDO1 while `owed` was above `late_base`.
+    pub ambiguous_cycles: u32,
+    /// Age of the sample in `actual` (cycles older than the last SYNC's answer).
+    pub age: u32,
     pub last_heartbeat: Option<Instant>,
     pub nmt: Option<NmtState>,
     pub booted: bool,
@@ -206,6 +216,11 @@ impl AxisSlot {
             tpdo_this_cycle: false,
             tpdo_missing: 0,
             tpdos: 0,
+            owed: 0,
+            window_tpdos: 0,
+            late_base: u32::MAX,
+            ambiguous_cycles: 0,
+            age: 0,
             last_heartbeat: None,
             nmt: None,
             booted: false,
@@ -314,7 +329,7 @@ impl Master {
                 u32::MAX // 0xFFFF_FFFF: monitoring off in the drive
             };
             s.fe_timeout_ms = a.following_error_timeout_ms.min(u16::MAX as u32) as u16;
-            s.fe_lag = (1 + a.sim.delay_cycles as usize).min(COMMAND_HISTORY - 1);
+            s.fe_lag = (1 + a.feedback_delay_cycles as usize).min(COMMAND_HISTORY - 1);
             if let Some(n) = node {
                 s.sdo = Some(SdoClient::new(
                     n,
