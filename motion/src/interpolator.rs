@@ -25,9 +25,10 @@ pub struct Tick {
     pub finished: bool,
     /// A non-motion event of the program, reported once (on the tick that finishes it).
     pub event: Option<MoveEvent>,
-    /// Path speed (path units/s) of this sample.
+    /// Path speed (path units/s) of this sample; during a spindle orientation, its speed
+    /// (deg/s, unsigned).
     pub path_velocity: f64,
-    /// Spindle speed in deg/s (0 in position mode).
+    /// Spindle speed in deg/s (0 in position mode, which includes orientation).
     pub spindle_velocity: f64,
 }
 
@@ -36,7 +37,7 @@ pub struct Tick {
 pub enum TickState {
     /// No move; holding position.
     Idle,
-    /// Moving along a path.
+    /// Moving along a path, or orienting the spindle.
     Moving,
     /// Holding position for a dwell; `remaining` periods after this one.
     Dwelling { remaining: u64 },
