@@ -99,6 +99,9 @@ pub struct LatencySummary {
     pub skipped: u64,
 }
 
+/// Range of a [`LatencyHistogram`]'s 1 ms buckets (above its 1 µs ones).
+pub const COARSE_RANGE_MS: usize = 2000;
+
 /// The deadline a tick runs at, given its scheduled deadline `next` and the time it `woke`
 /// (ns, CLOCK_MONOTONIC): `next` itself when the wake-up was less than a period late,
 /// otherwise `woke` (the deadlines start afresh there) and the number of whole periods let
@@ -112,11 +115,13 @@ pub fn tick_deadline(next: u64, woke: u64, period_ns: u64) -> (u64, u64) {
     }
 }
 
-/// A histogram of wake-up latency with 1 µs buckets up to its size and an exact maximum.
+/// A histogram of wake-up latency with 1 µs buckets up to its size, 1 ms buckets from there
+/// up to [`COARSE_RANGE_MS`] (an emulated guest's p99 is tens of ms), and an exact maximum.
 /// `record` is allocation-free.
 #[derive(Clone, Debug)]
 pub struct LatencyHistogram {
     buckets: Vec<u64>,
+    coarse: Vec<u64>,
     overflow: u64,
     samples: u64,
     max_ns: u64,
@@ -129,6 +134,7 @@ impl LatencyHistogram {
     pub fn new(range_us: usize, late_threshold_ns: u64) -> LatencyHistogram {
         LatencyHistogram {
             buckets: vec![0; range_us.max(1)],
+            coarse: vec![0; COARSE_RANGE_MS],
             overflow: 0,
             samples: 0,
             max_ns: 0,
@@ -145,9 +151,13 @@ impl LatencyHistogram {
         if latency_ns > self.late_threshold_ns {
             self.late += 1;
         }
-        match self.buckets.get_mut((latency_ns / 1000) as usize) {
+        let us = (latency_ns / 1000) as usize;
+        match self.buckets.get_mut(us) {
             Some(b) => *b += 1,
-            None => self.overflow += 1,
+            None => match self.coarse.get_mut((us - self.buckets.len()) / 1000) {
+                Some(b) => *b += 1,
+                None => self.overflow += 1,
+            },
         }
     }
 
@@ -158,13 +168,21 @@ impl LatencyHistogram {
         }
         let rank = ((q * self.samples as f64).ceil() as u64).clamp(1, self.samples);
         let mut seen = 0;
+        let max_us = self.max_ns as f64 / 1000.0;
         for (i, &n) in self.buckets.iter().enumerate() {
             seen += n;
             if seen >= rank {
-                return ((i + 1) as f64).min(self.max_ns as f64 / 1000.0);
+                return ((i + 1) as f64).min(max_us);
             }
         }
-        self.max_ns as f64 / 1000.0
+        let fine = self.buckets.len() as f64;
+        for (i, &n) in self.coarse.iter().enumerate() {
+            seen += n;
+            if seen >= rank {
+                return (fine + (i + 1) as f64 * 1000.0).min(max_us);
+            }
+        }
+        max_us
     }
 
     /// p50/p99/max/late.
@@ -253,5 +271,28 @@ mod tests {
             next = at + p;
         }
         assert_eq!((ticks, skipped), (3, 100));
+    }
+
+    #[test]
+    fn quantiles_beyond_the_fine_range_are_not_the_maximum() {
+        let mut h = LatencyHistogram::new(5000, 500_000);
+        // 90 on time, 9 at 20.3 ms, one at 150 ms: p99 is 21 ms (the bucket's upper edge),
+        // not the 150 ms maximum.
+        for _ in 0..90 {
+            h.record(10_000);
+        }
+        for _ in 0..9 {
+            h.record(20_300_000);
+        }
+        h.record(150_000_000);
+        let s = h.summary();
+        assert_eq!(s.p50_us, 11.0);
+        assert_eq!(s.p99_us, 21_000.0);
+        assert_eq!(s.max_us, 150_000.0);
+        assert_eq!(s.late, 10);
+        // Beyond the coarse range: the maximum.
+        let mut h = LatencyHistogram::new(10, 0);
+        h.record(5_000_000_000);
+        assert_eq!(h.summary().p99_us, 5_000_000.0);
     }
 }
