@@ -22,9 +22,9 @@
 //! `SpindleOrient { angle }` (G76/G87) is resolved here for the same reason: with the spindle
 //! at rest, a jerk-limited position move (the axis's velocity capped at `max_rpm`, its
 //! acceleration and jerk) turns machine C the shorter way (≤ 180°, ties forward) to the
-//! nearest value `angle + 360·n`, exactly, on its last tick. Program C does not change; the
-//! turn goes into the offset, so a later tap from program C0 to C1 still turns exactly
-//! C1 − C0, now starting at the oriented angle.
+//! nearest `angle + 360·n` (one rounding), exactly on its last tick. Program C does not
+//! change; the turn goes into the offset, so a later tap from program C0 to C1 still turns
+//! exactly C1 − C0, now starting at the oriented angle.
 //!
 //! # Limits
 //! Lines: each moving axis i bounds path speed, acceleration and jerk by its limit · L/|Δi|.

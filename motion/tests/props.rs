@@ -1,8 +1,9 @@
 //! Property tests: random machines (random per-axis limits) run random programs of lines,
-//! rapids, arcs/helices, taps and dwells, optionally with a stop at a random tick. From the
-//! sampled trace, by finite differences, no axis exceeds its velocity, acceleration or jerk
-//! limit (tolerance: see `common::check_limits`); every move ends bit-for-bit on its end
-//! point; every tap keeps Z and C within one count of the ideal coupling.
+//! rapids, arcs/helices, taps, dwells and spindle orientations, optionally with a stop at a
+//! random tick. From the sampled trace, by finite differences, no axis exceeds its velocity,
+//! acceleration or jerk limit (tolerance: see `common::check_limits`); every move ends
+//! bit-for-bit on its end point (C: plus the spindle offset); every orientation lands on its
+//! angle; every tap keeps Z and C within one count of the ideal coupling.
 
 mod common;
 
@@ -41,6 +42,9 @@ enum Spec {
     Dwell {
         ms: f64,
     },
+    Orient {
+        angle: f64,
+    },
 }
 
 fn spec() -> impl Strategy<Value = Spec> {
@@ -78,6 +82,7 @@ fn spec() -> impl Strategy<Value = Spec> {
             }
         ),
         (0.0..30.0f64).prop_map(|ms| Spec::Dwell { ms }),
+        (0.0..360.0f64).prop_map(|angle| Spec::Orient { angle }),
     ]
 }
 
@@ -187,12 +192,15 @@ fn build(specs: &[Spec], start: AxisPos) -> (Vec<Segment>, Vec<TapCheck>) {
                 taps.push((line, z0, c0, pitch, dir));
             }
             Spec::Dwell { ms } => segs.push(seg(SegmentKind::Dwell { seconds: ms * 1e-3 }, line)),
+            Spec::Orient { angle } => segs.push(seg(SegmentKind::SpindleOrient { angle }, line)),
         }
     }
     (segs, taps)
 }
 
-/// Runs the program, stopping after `stop_at` ticks if given; checks exact ends on the way.
+/// Runs the program, stopping after `stop_at` ticks if given; checks exact ends on the way
+/// (machine C = program C + the spindle offset that orientations leave) and that every
+/// finished orientation puts machine C on its angle.
 fn run_checked(c: &MachineConfig, segs: &[Segment], stop_at: Option<usize>) -> Vec<Tick> {
     let mut planner = Planner::new(c);
     let mut ip = Interpolator::new(c, AxisPos::default());
@@ -208,12 +216,17 @@ fn run_checked(c: &MachineConfig, segs: &[Segment], stop_at: Option<usize>) -> V
     }];
     let mut next = 0;
     let mut end = None;
+    let mut angle = None;
     loop {
         if ip.is_idle() {
             let Some(s) = segs.get(next) else { break };
             let mv = planner.plan(s).expect("plans");
             end = match mv.kind {
                 MoveKind::Path(m) => Some(m.end),
+                _ => None,
+            };
+            angle = match mv.kind {
+                MoveKind::SpindleOrient { angle, .. } => Some(angle),
                 _ => None,
             };
             ip.start(mv).expect("starts");
@@ -225,9 +238,22 @@ fn run_checked(c: &MachineConfig, segs: &[Segment], stop_at: Option<usize>) -> V
         let t = ip.tick();
         out.push(t);
         if t.finished
-            && let Some(e) = end
+            && let Some(mut e) = end
         {
+            e.0[3] += ip.spindle_offset();
             assert_eq!(t.pos, e, "line {}: end not exact", t.line);
+        }
+        if t.finished
+            && let Some(a) = angle
+        {
+            // Within rounding of angle + 360·n (far below a count).
+            let d = (t.pos.0[3] - a).rem_euclid(360.0);
+            assert!(
+                d.min(360.0 - d) < 1e-9,
+                "line {}: orientation {}",
+                t.line,
+                t.pos.0[3]
+            );
         }
         if t.state == TickState::Held {
             break;
@@ -237,9 +263,16 @@ fn run_checked(c: &MachineConfig, segs: &[Segment], stop_at: Option<usize>) -> V
     out
 }
 
+/// The coupling is checked from the tap's machine start: the sample before its first tick
+/// (machine C = program `c0` + the offset an orientation left).
 fn check_taps(ticks: &[Tick], taps: &[TapCheck]) {
     let (zc, cc) = (10000.0, 131072.0 / 360.0);
-    for &(line, z0, c0, pitch, dir) in taps {
+    for &(line, z0, _c0_program, pitch, dir) in taps {
+        let Some(first) = ticks.iter().position(|t| t.line == line) else {
+            continue; // stopped before the tap
+        };
+        let c0 = ticks[first - 1].pos.0[3];
+        assert_eq!(ticks[first - 1].pos.0[2], z0, "tap start Z");
         for t in ticks.iter().filter(|t| t.line == line) {
             let (z, c) = (t.pos.0[2], t.pos.0[3]);
             let c_ideal = c0 + (z0 - z) * 360.0 / pitch * dir;
