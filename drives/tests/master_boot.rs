@@ -50,6 +50,8 @@ fn full_boot_of_the_shipped_machine() {
             Some(format!("cnc402 simdrive {}", a.name).as_str())
         );
         assert!(d.fault_at_power_on.is_none());
+        // The simulated drive has no 0x1016/0x6007: reported, not refused.
+        assert!(!d.supervises_master && !d.abort_connection_quick_stop);
         let drive = rig.drive(i);
         assert_eq!(drive.state(), State::OperationEnabled, "{}", a.name);
         let od = drive.od();

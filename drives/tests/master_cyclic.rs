@@ -336,8 +336,9 @@ fn pdos_keep_flowing_while_an_sdo_transfer_runs() {
 #[test]
 fn sdo_during_cyclic_operation_is_refused_when_the_bus_is_full() {
     let mut rig = booted();
+    // SYNC, 4 RPDO1, 4 TPDO1 per ms, and 5 heartbeats (4 drives, the master) per 50 ms.
     assert!(
-        (rig.master.cyclic_load_percent() - 98.02).abs() < 0.01,
+        (rig.master.cyclic_load_percent() - 98.15).abs() < 0.01,
         "{}",
         rig.master.cyclic_load_percent()
     );
@@ -350,7 +351,7 @@ fn sdo_during_cyclic_operation_is_refused_when_the_bus_is_full() {
         ),
         "{e}"
     );
-    assert!(e.to_string().contains("98.0 %"), "{e}");
+    assert!(e.to_string().contains("98.2 %"), "{e}");
     // Nothing was sent; cyclic operation goes on.
     let start = rig.master.positions();
     run(&mut rig, &start, 0, 100).unwrap();
@@ -635,4 +636,84 @@ fn spindle_backwards_across_the_int32_wrap_keeps_counting() {
         rig.drive(3).position_actual() > 0,
         "the drive's counter wrapped"
     );
+}
+
+#[test]
+fn the_master_produces_its_heartbeat_every_heartbeat_period() {
+    let mut rig = booted();
+    let id = 0x700 + rig.config.bus.master_node_id as u16;
+    assert_eq!(id, 0x77F);
+    rig.bus.start_trace();
+    let start = rig.master.positions();
+    let sent = rig.master.heartbeats_sent();
+    run(&mut rig, &start, 0, 500).unwrap();
+    let beats: Vec<_> = rig
+        .bus
+        .take_trace()
+        .into_iter()
+        .filter(|t| t.frame.id() == id)
+        .collect();
+    // 500 ms at 50 ms: 10 heartbeats, "operational", all from the master, 50 ms apart.
+    assert_eq!(beats.len(), 10);
+    assert_eq!(rig.master.heartbeats_sent() - sent, 10);
+    for w in beats.windows(2) {
+        let gap = w[1].at.saturating_since(w[0].at);
+        assert!(
+            gap >= std::time::Duration::from_micros(49_500)
+                && gap <= std::time::Duration::from_micros(50_500),
+            "{gap:?}"
+        );
+    }
+    for b in &beats {
+        assert_eq!(b.origin, Origin::Master);
+        assert_eq!(b.frame.data(), &[0x05]);
+    }
+}
+
+#[test]
+fn no_master_heartbeat_when_heartbeats_are_off() {
+    let mut config = MachineConfig::default_machine();
+    config.bus.heartbeat_ms = 0;
+    let mut rig = Rig::with_config(
+        config,
+        |_| SimDriveOptions::default(),
+        MasterOptions::default(),
+    );
+    let report = rig.boot();
+    assert!(report.drives.iter().all(|d| !d.supervises_master));
+    rig.bus.start_trace();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 200).unwrap();
+    assert!(rig.bus.take_trace().iter().all(|t| t.frame.id() != 0x77F));
+    assert_eq!(rig.master.heartbeats_sent(), 0);
+}
+
+#[test]
+fn the_following_error_allows_the_configured_feedback_delay_not_the_sims() {
+    // Same simulated drives, X told it has no dead time: every X error is then larger by one
+    // cycle's command travel (the reference is one cycle newer).
+    let run_with = |delay: u32| {
+        let mut config = MachineConfig::default_machine();
+        config.axes[0].feedback_delay_cycles = delay;
+        let mut rig = Rig::with_config(
+            config,
+            |_| SimDriveOptions::default(),
+            MasterOptions::default(),
+        );
+        rig.boot();
+        let start = rig.master.positions();
+        run(&mut rig, &start, 0, 400).unwrap()
+    };
+    let (one, zero) = (run_with(1), run_with(0));
+    let mut compared = 0;
+    for k in 3..400 {
+        if !(one[k].fresh[0] && zero[k].fresh[0] && one[k].age[0] == 0 && zero[k].age[0] == 0) {
+            continue;
+        }
+        let travel = one[k - 1].command[0] - one[k - 2].command[0];
+        let d = zero[k].following_error[0] - one[k].following_error[0];
+        assert!((d - travel).abs() < 1e-9, "cycle {k}: {d} vs {travel}");
+        compared += 1;
+    }
+    assert!(compared > 350, "{compared}");
 }

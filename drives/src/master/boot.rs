@@ -1,9 +1,10 @@
 //! Boot and configuration of the drives (blocking, over a [`TimedBus`]): wait for each
 //! drive's boot-up (after NMT reset communication), check 0x1000 is CiA 402, read 0x1018 and
 //! 0x1008 for the report, map RPDO1 = 0x6040 + 0x607A and TPDO1 = 0x6041 + 0x6064
-//! (synchronous) in the CiA 301 remap sequence, set CSP, 0x60C2, 0x6065/0x6066 and the
-//! heartbeat, NMT start, write 0x607A = 0x6064, then run the CiA 402 enable sequence
-//! cyclically with the target held at the actual position (enabling never moves an axis).
+//! (synchronous) in the CiA 301 remap sequence, set CSP, 0x60C2, 0x6065/0x6066, the
+//! heartbeat, the master's heartbeat as consumer (0x1016) with quick stop on its loss (0x6007
+//! = 3), NMT start, write 0x607A = 0x6064, then run the CiA 402 enable sequence cyclically
+//! with the target held at the actual position (enabling never moves an axis).
 
 use core::fmt;
 use core::time::Duration;
@@ -72,7 +73,19 @@ pub struct DriveIdentity {
     pub position_counts: i32,
     /// The same in axis units.
     pub position: f64,
+    /// The drive watches the master's heartbeat (0x1016:1 written). `false`: it has no
+    /// consumer heartbeat object (or heartbeats are off), so a dead master leaves it enabled.
+    pub supervises_master: bool,
+    /// 0x6007 written to [`ABORT_CONNECTION_QUICK_STOP`]; `false`: the drive has no 0x6007
+    /// and takes its own default reaction when the master falls silent.
+    pub abort_connection_quick_stop: bool,
 }
+
+/// 0x6007 abort connection option code written at boot: 3 = quick stop (CiA 402: 0 no
+/// action, 1 fault signal, 2 disable voltage, 3 quick stop). A CNC axis losing its master
+/// brakes on its quick stop ramp rather than coasting with the power stage off (2) or going
+/// on holding the last target (0).
+pub const ABORT_CONNECTION_QUICK_STOP: i16 = 3;
 
 /// What boot did.
 #[derive(Clone, Debug, PartialEq)]
@@ -258,6 +271,9 @@ struct DriveSetup {
     fe_timeout_ms: u16,
     heartbeat_ms: u16,
     counts_per_unit: f64,
+    /// The master's node id and the drive's consumer timeout for it (0: no supervision).
+    master_node: NodeId,
+    master_timeout_ms: u16,
 }
 
 /// Identity, checks and configuration of one drive, up to NMT start (exclusive).
@@ -328,6 +344,24 @@ fn configure<B: TimedBus + ?Sized>(
     sdo.write_u32(n, obj::FOLLOWING_ERROR_WINDOW, 0, d.window_counts)?;
     sdo.write_u16(n, obj::FOLLOWING_ERROR_TIMEOUT, 0, d.fe_timeout_ms)?;
     sdo.write_u16(n, obj::PRODUCER_HEARTBEAT_TIME, 0, d.heartbeat_ms)?;
+    // The drive watches the master: 0x1016:1 = node << 16 | timeout ms (0 = off), and quick
+    // stops when it misses it (0x6007). Both optional in CiA 301/402: a drive without them is
+    // reported, not refused.
+    let consumer = if d.master_timeout_ms > 0 {
+        (d.master_node.get() as u32) << 16 | d.master_timeout_ms as u32
+    } else {
+        0
+    };
+    let supervises_master = optional(sdo.write_u32(n, obj::CONSUMER_HEARTBEAT_TIME, 1, consumer))?
+        .is_some()
+        && consumer != 0;
+    let abort_connection_quick_stop = optional(sdo.write_i16(
+        n,
+        obj::ABORT_CONNECTION_OPTION,
+        0,
+        ABORT_CONNECTION_QUICK_STOP,
+    ))?
+    .is_some();
     let initial_statusword = Statusword(sdo.read_u16(n, obj::STATUSWORD, 0)?);
     Ok(DriveIdentity {
         axis: d.axis,
@@ -343,6 +377,8 @@ fn configure<B: TimedBus + ?Sized>(
         fault_at_power_on: None,
         position_counts: 0,
         position: 0.0,
+        supervises_master,
+        abort_connection_quick_stop,
     })
 }
 
@@ -445,6 +481,13 @@ impl Master {
                 fe_timeout_ms: a.fe_timeout_ms,
                 heartbeat_ms: self.heartbeat_ms,
                 counts_per_unit: a.counts_per_unit,
+                master_node: self.master_node,
+                // Off with heartbeats off: the master then produces none.
+                master_timeout_ms: if self.heartbeat_ms > 0 {
+                    self.heartbeat_timeout.as_millis().min(u16::MAX as u128) as u16
+                } else {
+                    0
+                },
             };
             let mut push = |f: &CanFrame| queue.push(*f);
             let mut sdo = BlockingSdo::new(&mut *bus, self.sdo_timeout, &mut push);

@@ -432,6 +432,25 @@ impl Master {
                 }
             }
         }
+        // The master's own heartbeat (the drives' 0x1016 consumer watches it): a master that
+        // stops cycling falls silent, and each drive takes its 0x6007 reaction (quick stop).
+        if self.phase != Phase::Idle && self.heartbeat_ms > 0 {
+            let period = core::time::Duration::from_millis(self.heartbeat_ms as u64);
+            let due = self.next_heartbeat.is_none_or(|t| now >= t);
+            if due {
+                let hb = HeartbeatRepr {
+                    node: self.master_node,
+                    state: NmtState::Operational,
+                };
+                if let Err(e) = bus.send(&hb.emit()) {
+                    send_err = send_err.or(Some(e));
+                }
+                self.heartbeats_sent = self.heartbeats_sent.wrapping_add(1);
+                // On the producer's grid; after a gap, restart from now rather than burst.
+                let next = self.next_heartbeat.map_or(now + period, |t| t + period);
+                self.next_heartbeat = Some(if next <= now { now + period } else { next });
+            }
+        }
         // SDO frames use the bus time the cyclic frames leave free (a request and its
         // response per 270 bits of credit), so they delay no PDO by more than that.
         let cap = self.sdo_free_bits.max(2.0 * SDO_EXCHANGE_BITS);

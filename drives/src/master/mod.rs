@@ -19,7 +19,8 @@
 //!
 //! `cycle` first takes in everything received since the last call (TPDO1s answering the
 //! previous SYNC, EMCY, heartbeats, SDO responses), runs the safety monitors, then sends one
-//! RPDO1 per drive, a SYNC, and SDO frames of an in-cycle transfer (`start_sdo_upload`,
+//! RPDO1 per drive, a SYNC, the master's heartbeat when due (drives quick-stop when it
+//! stops: 0x1016/0x6007, set at boot), and SDO frames of an in-cycle transfer (`start_sdo_upload`,
 //! paced to the bus time the PDOs leave). Feedback is therefore one period old; the following
 //! error rule accounts for it (see [`cyclic`]). Modules: `sdo` (client), `boot`, `cyclic`,
 //! `stop` (safety stop values), `timed` (how blocking helpers wait), `service` (one-drive
@@ -103,6 +104,13 @@ pub enum MasterConfigError {
     },
     /// Two axes on one node.
     DuplicateNode(u8),
+    /// An axis on the master's own node id (`bus.master_node_id`).
+    MasterNode {
+        /// Axis letter.
+        axis: char,
+        /// The id.
+        node: u8,
+    },
     /// `period_us` has no 0x60C2 representation (value 1..=255 × 10^exp s, exp −6..=−3).
     UnsupportedPeriod(u32),
 }
@@ -115,6 +123,10 @@ impl fmt::Display for MasterConfigError {
                 write!(f, "axis {axis}: node id {node} outside 1..=127")
             }
             MasterConfigError::DuplicateNode(n) => write!(f, "two axes on node {n}"),
+            MasterConfigError::MasterNode { axis, node } => write!(
+                f,
+                "axis {axis}: node id {node} is the master's own (bus.master_node_id)"
+            ),
             MasterConfigError::UnsupportedPeriod(p) => write!(
                 f,
                 "bus.period_us = {p} cannot be written to 0x60C2 (value 1..=255 × 10^-3..-6 s)"
@@ -264,6 +276,12 @@ pub struct Master {
     pub(crate) period_us: u32,
     pub(crate) heartbeat_ms: u16,
     pub(crate) heartbeat_timeout: Duration,
+    /// The master's node id: its heartbeat goes out on 0x700 + id, the drives consume it.
+    pub(crate) master_node: NodeId,
+    /// When the master's next heartbeat is due (`None`: at the next cycle).
+    pub(crate) next_heartbeat: Option<Instant>,
+    /// Heartbeats the master sent.
+    pub(crate) heartbeats_sent: u64,
     pub(crate) tpdo_timeout_cycles: u32,
     pub(crate) sdo_timeout: Duration,
     pub(crate) interpolation: InterpolationPeriod,
@@ -313,6 +331,14 @@ impl Master {
             {
                 return Err(MasterConfigError::DuplicateNode(n.get()));
             }
+            if let Some(n) = node
+                && n.get() == config.bus.master_node_id
+            {
+                return Err(MasterConfigError::MasterNode {
+                    axis: a.name,
+                    node: n.get(),
+                });
+            }
             let s = &mut axes[i];
             s.name = a.name;
             s.node = node;
@@ -342,8 +368,14 @@ impl Master {
             .filter(|a| a.node.is_some())
             .count() as f64;
         let bits_per_cycle = config.bus.bitrate as f64 * config.bus.period_us as f64 * 1e-6;
+        let master_node =
+            NodeId::new(config.bus.master_node_id).map_err(|_| MasterConfigError::BadNode {
+                axis: ' ',
+                node: config.bus.master_node_id,
+            })?;
+        // The drives' heartbeats and the master's own.
         let heartbeats = if config.bus.heartbeat_ms > 0 {
-            drives * frame_bits(1) as f64 * config.bus.period_us as f64
+            (drives + 1.0) * frame_bits(1) as f64 * config.bus.period_us as f64
                 / (config.bus.heartbeat_ms as f64 * 1000.0)
         } else {
             0.0
@@ -362,6 +394,9 @@ impl Master {
             period_us: config.bus.period_us,
             heartbeat_ms: config.bus.heartbeat_ms,
             heartbeat_timeout: Duration::from_millis(config.bus.heartbeat_timeout_ms as u64),
+            master_node,
+            next_heartbeat: None,
+            heartbeats_sent: 0,
             tpdo_timeout_cycles: config.bus.tpdo_timeout_cycles.max(1),
             sdo_timeout: Duration::from_millis(config.bus.sdo_timeout_ms as u64),
             interpolation,
@@ -434,6 +469,16 @@ impl Master {
         } else {
             100.0
         }
+    }
+
+    /// The master's node id (heartbeat COB-ID 0x700 + id; what the drives' 0x1016 watches).
+    pub fn master_node(&self) -> u8 {
+        self.master_node.get()
+    }
+
+    /// Heartbeats the master has sent (one per `bus.heartbeat_ms` while it cycles).
+    pub fn heartbeats_sent(&self) -> u64 {
+        self.heartbeats_sent
     }
 
     /// SYNCs sent since boot (enable sequence included).

@@ -661,6 +661,10 @@ impl<'a, B: TimedBus + ?Sized> BlockingSdo<'a, B> {
     pub fn write_u16(&mut self, node: NodeId, index: u16, sub: u8, v: u16) -> Result<(), SdoError> {
         self.download(node, index, sub, &v.to_le_bytes())
     }
+    /// Writes an INTEGER16.
+    pub fn write_i16(&mut self, node: NodeId, index: u16, sub: u8, v: i16) -> Result<(), SdoError> {
+        self.download(node, index, sub, &v.to_le_bytes())
+    }
     /// Writes an UNSIGNED32.
     pub fn write_u32(&mut self, node: NodeId, index: u16, sub: u8, v: u32) -> Result<(), SdoError> {
         self.download(node, index, sub, &v.to_le_bytes())
