@@ -1,5 +1,5 @@
 //! `SimDrive`: a CiA 402 servo drive on CANopen, driven only by frames and time — NMT slave
-//! with boot-up and heartbeat, SDO server, PDOs with the remap rules, the device state
+//! with boot-up, heartbeat and a heartbeat consumer (0x1016, 0x6007 reaction), SDO server, PDOs with the remap rules, the device state
 //! machine, CSP following with configurable dynamics, following-error monitoring, and a
 //! fault injection API. Works on [`crate::bus::SimBus`] and on any frame source with a clock.
 
@@ -226,6 +226,10 @@ pub struct SimDrive {
     rpdo: [RpdoSlot; 4],
     tpdo: [TpdoSlot; 4],
     next_heartbeat: Option<Instant>,
+    /// The consumed heartbeat (0x1016:1): its COB-ID and timeout; active from its first beat.
+    consumer: Option<(u16, Duration)>,
+    master_seen: Option<Instant>,
+    master_lost: bool,
     fe_since: Option<Instant>,
     fe_exceeded: bool,
     last_sync: Option<Instant>,
@@ -324,6 +328,9 @@ impl SimDrive {
             rpdo: [RpdoSlot::default(); 4],
             tpdo: [TpdoSlot::default(); 4],
             next_heartbeat: None,
+            consumer: None,
+            master_seen: None,
+            master_lost: false,
             fe_since: None,
             fe_exceeded: false,
             last_sync: None,
@@ -496,7 +503,38 @@ impl SimDrive {
         self.hot = Hot::load(&self.od, self.nominal_period);
     }
 
+    /// Re-reads 0x1016:1; a changed entry waits for its producer's first heartbeat again.
+    fn load_consumer(&mut self) {
+        let v = self.od.get_u64(o::CONSUMER_HEARTBEAT_TIME, 1).unwrap_or(0) as u32;
+        let (node, ms) = ((v >> 16) & 0xFF, v & 0xFFFF);
+        let consumer = ((1..=127).contains(&node) && ms > 0)
+            .then(|| (0x700 + node as u16, Duration::from_millis(ms as u64)));
+        if consumer != self.consumer {
+            self.consumer = consumer;
+            self.master_seen = None;
+            self.master_lost = false;
+        }
+    }
+
+    /// The consumed heartbeat timed out: EMCY 0x8130 and the 0x6007 reaction.
+    fn on_master_lost(&mut self) {
+        self.master_lost = true;
+        match self.od.get_i64(o::ABORT_CONNECTION_OPTION, 0).unwrap_or(1) {
+            1 => self.raise_fault(emcy_code::HEARTBEAT),
+            2 => {
+                self.emcy(emcy_code::HEARTBEAT);
+                self.apply_controlword(Controlword::DISABLE_VOLTAGE);
+            }
+            3 => {
+                self.emcy(emcy_code::HEARTBEAT);
+                self.apply_controlword(Controlword::QUICK_STOP_CMD);
+            }
+            _ => self.emcy(emcy_code::HEARTBEAT),
+        }
+    }
+
     fn reload_pdos(&mut self) {
+        self.load_consumer();
         self.refresh();
         self.sync_id = (self.od.get_u64(o::SYNC_COB_ID, 0).unwrap_or(0x80) & 0x7FF) as u16;
         for n in 0..4u16 {
@@ -897,6 +935,13 @@ impl SimDrive {
         if self.nmt == NmtStatus::Stopped {
             return;
         }
+        if self.consumer.is_some_and(|(cid, _)| cid == id) {
+            if frame.dlc() == 1 && !frame.is_remote() {
+                self.master_seen = Some(self.now);
+                self.master_lost = false;
+            }
+            return;
+        }
         if id == 0x600 + self.node.get() as u16 {
             self.on_sdo(frame);
         } else if id == sync_id {
@@ -945,6 +990,12 @@ impl SimDrive {
                 n = now + period;
             }
             self.next_heartbeat = Some(n);
+        }
+        if let (Some((_, timeout)), Some(seen)) = (self.consumer, self.master_seen)
+            && !self.master_lost
+            && now.saturating_since(seen) > timeout
+        {
+            self.on_master_lost();
         }
         // Without SYNCs a ramp cannot run: after 10 missed periods the motor is taken as
         // stopped so that a fault reaction / quick stop still ends.
@@ -1045,6 +1096,7 @@ impl ObjectAccess for SimDrive {
                 self.apply_controlword(cw);
             }
             o::PRODUCER_HEARTBEAT_TIME => self.schedule_heartbeat(),
+            o::CONSUMER_HEARTBEAT_TIME => self.load_consumer(),
             o::PREDEFINED_ERROR_FIELD => {
                 for s in 1..=8 {
                     let _ = self.od.set_raw(index, s, 0);
@@ -1070,6 +1122,7 @@ impl CanDevice for SimDrive {
         let mine = id == 0
             || id == self.sync_id
             || id == 0x600 + self.node.get() as u16
+            || self.consumer.is_some_and(|(cid, _)| cid == id)
             || self.rpdo.iter().any(|r| r.valid && r.cob_id == id);
         if mine && self.nmt != NmtStatus::Booting {
             self.handle_frame(frame);

@@ -98,6 +98,22 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         o::PRODUCER_HEARTBEAT_TIME,
         Entry::new("producer heartbeat time", ReadWrite, Value::U16(0)),
     );
+    // Heartbeat consumer (one entry: the master) and what the drive does when it misses it.
+    od.insert(
+        o::CONSUMER_HEARTBEAT_TIME,
+        0,
+        Entry::new("consumer heartbeat entries", Const, Value::U8(1)),
+    );
+    od.insert(
+        o::CONSUMER_HEARTBEAT_TIME,
+        1,
+        Entry::new("consumer heartbeat time 1", ReadWrite, Value::U32(0)),
+    );
+    var(
+        &mut od,
+        o::ABORT_CONNECTION_OPTION,
+        Entry::new("abort connection option code", ReadWrite, Value::I16(1)).range(0, 3),
+    );
     od.insert(
         o::IDENTITY,
         0,
