@@ -50,11 +50,16 @@ fn full_boot_of_the_shipped_machine() {
             Some(format!("cnc402 simdrive {}", a.name).as_str())
         );
         assert!(d.fault_at_power_on.is_none());
-        // The simulated drive has no 0x1016/0x6007: reported, not refused.
-        assert!(!d.supervises_master && !d.abort_connection_quick_stop);
+        assert!(d.supervises_master && d.abort_connection_quick_stop);
         let drive = rig.drive(i);
         assert_eq!(drive.state(), State::OperationEnabled, "{}", a.name);
         let od = drive.od();
+        // Watches node 127's heartbeat with the configured timeout, quick stop on its loss.
+        assert_eq!(
+            od.get_u64(obj::CONSUMER_HEARTBEAT_TIME, 1),
+            Some(127 << 16 | 200)
+        );
+        assert_eq!(od.get_i64(obj::ABORT_CONNECTION_OPTION, 0), Some(3));
         assert_eq!(od.get_i64(obj::MODES_OF_OPERATION, 0), Some(8));
         assert_eq!(od.get_u64(obj::INTERPOLATION_TIME_PERIOD, 1), Some(1));
         assert_eq!(od.get_i64(obj::INTERPOLATION_TIME_PERIOD, 2), Some(-3));

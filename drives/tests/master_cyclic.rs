@@ -9,7 +9,7 @@ mod master_common;
 
 use cia402::State;
 use cnc402_config::{AxisKind, MachineConfig};
-use cnc402_drives::bus::Origin;
+use cnc402_drives::bus::{CanBus, Origin};
 use cnc402_drives::master::{Feedback, MasterOptions, Phase, SafetyStop, StopMode, StopReason};
 use cnc402_drives::sim::{FaultKind, SimDriveOptions};
 use cnc402_drives::wire::Function;
@@ -716,4 +716,61 @@ fn the_following_error_allows_the_configured_feedback_delay_not_the_sims() {
         compared += 1;
     }
     assert!(compared > 350, "{compared}");
+}
+
+#[test]
+fn drives_quick_stop_when_the_master_stops_cycling() {
+    let mut rig = booted();
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, 300).unwrap();
+    let t_dead = rig.next;
+    // The master dies: no more cycles, no SYNC, no RPDO, no heartbeat. Its last heartbeat
+    // went out at most 50 ms ago; the drives wait 200 ms (bus.heartbeat_timeout_ms).
+    let mut emcys = Vec::new();
+    let mut at = t_dead;
+    let mut stopped_at = None;
+    while at < t_dead + std::time::Duration::from_millis(400) {
+        at += rig.master.period();
+        rig.bus.advance(at);
+        while let Some(f) = rig.bus.recv().unwrap() {
+            if let Function::Emcy(n) = f.function() {
+                emcys.push((at, n.get(), u16::from_le_bytes([f.data()[0], f.data()[1]])));
+            }
+        }
+        if stopped_at.is_none() && (0..4).all(|i| rig.drive(i).state() != State::OperationEnabled) {
+            stopped_at = Some(at);
+        }
+        if at < t_dead + std::time::Duration::from_millis(150) {
+            for i in 0..4 {
+                assert_eq!(rig.drive(i).state(), State::OperationEnabled, "{at:?}");
+            }
+        }
+    }
+    let stopped = stopped_at.expect("the drives stayed enabled without a master");
+    let silent = stopped.saturating_since(t_dead);
+    assert!(
+        silent >= std::time::Duration::from_millis(150)
+            && silent <= std::time::Duration::from_millis(252),
+        "{silent:?}"
+    );
+    // Each drive reports the lost heartbeat (0x8130) once and took its quick stop: the
+    // quick stop ramp (0x605A = 2) ends in SWITCH ON DISABLED.
+    for n in 1..=4u8 {
+        assert_eq!(
+            emcys.iter().filter(|e| e.1 == n && e.2 == 0x8130).count(),
+            1,
+            "{emcys:?}"
+        );
+    }
+    for i in 0..4 {
+        assert!(
+            matches!(
+                rig.drive(i).state(),
+                State::QuickStopActive | State::SwitchOnDisabled
+            ),
+            "{:?}",
+            rig.drive(i).state()
+        );
+        assert!(rig.drive(i).fault_code().is_none());
+    }
 }
