@@ -361,3 +361,65 @@ fn segmented_upload_of_the_device_name_and_other_frames_kept() {
     );
     let _ = rig.bus.counters();
 }
+
+/// A simulated drive without 0x1016 (and, if `no_6007`, without 0x6007; otherwise one whose
+/// 0x6007 refuses quick stop): SDO requests for them get an abort.
+struct Unsupervised {
+    drive: cnc402_drives::sim::SimDrive,
+    no_6007: bool,
+}
+
+impl cnc402_drives::bus::CanDevice for Unsupervised {
+    fn on_frame(
+        &mut self,
+        frame: &CanFrame,
+        now: cnc402_drives::Instant,
+        tx: &mut dyn cnc402_drives::bus::FrameSink,
+    ) {
+        let n = self.drive.node().get() as u16;
+        let d = frame.data();
+        if frame.id() == 0x600 + n && d.len() == 8 {
+            let index = u16::from_le_bytes([d[1], d[2]]);
+            let abort: Option<u32> = match index {
+                0x1016 => Some(0x0602_0000),
+                0x6007 if self.no_6007 => Some(0x0602_0000),
+                0x6007 => Some(0x0609_0030),
+                _ => None,
+            };
+            if let Some(code) = abort {
+                let mut r = [0x80, d[1], d[2], d[3], 0, 0, 0, 0];
+                r[4..].copy_from_slice(&code.to_le_bytes());
+                tx.transmit(&CanFrame::new(0x580 + n, &r).unwrap(), now)
+                    .unwrap();
+                return;
+            }
+        }
+        self.drive.on_frame(frame, now, tx);
+    }
+    fn poll(&mut self, now: cnc402_drives::Instant, tx: &mut dyn cnc402_drives::bus::FrameSink) {
+        self.drive.poll(now, tx);
+    }
+}
+
+#[test]
+fn a_drive_that_cannot_watch_the_master_is_reported_not_refused() {
+    let config = cnc402_config::MachineConfig::default_machine();
+    let period = Duration::from_micros(config.bus.period_us as u64);
+    let mut bus = cnc402_drives::bus::SimBus::new(config.bus.bitrate);
+    for (i, a) in config.axes.iter().enumerate() {
+        let drive = cnc402_drives::sim::SimDrive::new(a, node(a.node.unwrap()), period);
+        bus.attach(Unsupervised {
+            drive,
+            no_6007: i % 2 == 0,
+        });
+    }
+    let mut master = cnc402_drives::master::Master::new(&config).unwrap();
+    let report = master
+        .boot(&mut bus)
+        .unwrap_or_else(|e| panic!("boot: {e}"));
+    assert_eq!(master.phase(), Phase::Running);
+    for d in &report.drives {
+        assert!(!d.supervises_master, "{}", d.axis);
+        assert!(!d.abort_connection_quick_stop, "{}", d.axis);
+    }
+}

@@ -355,13 +355,25 @@ fn configure<B: TimedBus + ?Sized>(
     let supervises_master = optional(sdo.write_u32(n, obj::CONSUMER_HEARTBEAT_TIME, 1, consumer))?
         .is_some()
         && consumer != 0;
-    let abort_connection_quick_stop = optional(sdo.write_i16(
+    // A drive with 0x6007 but without the quick stop reaction refuses the value: also
+    // reported, it keeps its own reaction.
+    let abort_connection_quick_stop = match sdo.write_i16(
         n,
         obj::ABORT_CONNECTION_OPTION,
         0,
         ABORT_CONNECTION_QUICK_STOP,
-    ))?
-    .is_some();
+    ) {
+        Ok(()) => true,
+        Err(e)
+            if matches!(
+                e.abort_code(),
+                Some(AbortCode::InvalidValue | AbortCode::ValueTooHigh | AbortCode::ValueTooLow)
+            ) =>
+        {
+            false
+        }
+        Err(e) => optional::<()>(Err(e))?.is_some(),
+    };
     let initial_statusword = Statusword(sdo.read_u16(n, obj::STATUSWORD, 0)?);
     Ok(DriveIdentity {
         axis: d.axis,
