@@ -321,11 +321,11 @@ impl Exec<'_> {
         }
     }
 
-    /// Spindle orientation: stop, then turn the spindle to the physical angle
+    /// Spindle orientation (G76, G87, M19): stop, then turn the spindle to the physical angle
     /// `interp.spindle_orient_angle`. Only motion knows the physical angle (program C plus
     /// the offset that speed-mode runs leave), so this emits `SpindleOrient` and leaves the
     /// program's C unchanged (motion puts the turn into the offset).
-    fn orient(&mut self) -> Result<(), NcError> {
+    pub(crate) fn orient(&mut self) -> Result<(), NcError> {
         self.push(SegmentKind::Spindle {
             rpm: 0.0,
             dir: SpindleDir::Stop,

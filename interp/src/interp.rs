@@ -457,7 +457,7 @@ fn group_name(g: GGroup) -> &'static str {
 fn m_group(code: u32) -> Result<u8, String> {
     Ok(match code {
         0 | 1 | 2 | 30 => 0,
-        3..=5 => 1,
+        3..=5 | 19 => 1,
         6 => 2,
         29 => 3,
         98 | 99 => 4,
@@ -711,6 +711,13 @@ impl Exec<'_> {
                         self.st.speed
                     };
                     self.push(SegmentKind::Spindle { rpm, dir });
+                }
+                19 => {
+                    if self.cfg.spindle_index().is_none() {
+                        return Err(self.err(span, "no spindle axis is configured"));
+                    }
+                    self.st.spindle = SpindleDir::Stop;
+                    self.orient()?;
                 }
                 _ => {}
             }

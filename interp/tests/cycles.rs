@@ -506,3 +506,37 @@ fn every_cycle_in_every_plane_mode_and_return() {
         }
     }
 }
+
+/// M19 orients the spindle like G76/G87 do (stop, then `SpindleOrient` to the configured
+/// angle), leaves it stopped and program C where it was; it shares the spindle M group.
+#[test]
+fn m19_stops_and_orients_the_spindle() {
+    let mut cfg = MachineConfig::default_machine();
+    cfg.interp.spindle_orient_angle = 123.25;
+    let segs = run_cfg(&cfg, "G0 C30\nM3 S800\nM19\nG0 X5\nM30\n");
+    let l3: Vec<_> = segs.iter().filter(|s| s.source.line == 3).collect();
+    assert_eq!(l3.len(), 2);
+    assert_eq!(
+        l3[0].kind,
+        SegmentKind::Spindle {
+            rpm: 0.0,
+            dir: SpindleDir::Stop
+        }
+    );
+    assert_eq!(l3[1].kind, SegmentKind::SpindleOrient { angle: 123.25 });
+    let after = segs.iter().find(|s| s.source.line == 4).unwrap();
+    assert_eq!(end(after).unwrap()[C], 30.0);
+    // The spindle stays stopped: a tap needs M3 (or M29) again.
+    let e = run_program(
+        &cfg,
+        &SourceFile::new("t.nc", "M3 S500\nM19\nG0 Z10\nG84 Z-5 R2 F750\n"),
+    )
+    .unwrap_err();
+    assert!(e.line == 4 && e.message.contains("M3"), "{e}");
+    let e = run_program(&cfg, &SourceFile::new("t.nc", "M3 M19 S500\n")).unwrap_err();
+    assert!(e.message.contains("M3 and M19"), "{e}");
+    let mut no_c = cfg.clone();
+    no_c.axes.truncate(3);
+    let e = run_program(&no_c, &SourceFile::new("t.nc", "M19\n")).unwrap_err();
+    assert!(e.message.contains("no spindle axis"), "{e}");
+}
