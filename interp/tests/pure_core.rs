@@ -42,7 +42,9 @@ fn default_interpreter_reads_no_program_files() {
         let mut it = Interpreter::new(&cfg);
         let e = run(&mut it, &format!("{dir}/main.nc"), "M98 P9001\nM30\n").unwrap_err();
         assert!(
-            e.contains("program O9001 not found: not in this file, and no program directory is configured"),
+            e.contains(
+                "program O9001 not found: not in this file, and no program directory is configured"
+            ),
             "{e}"
         );
         // set_program_library(None) is the default: the main file's folder is not searched.

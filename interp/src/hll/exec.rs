@@ -64,6 +64,8 @@ pub(crate) struct Executor {
     pub rx: Receiver<Result<f64, String>>,
     /// Set by the interpreter while it waits for requests: send what is pending now.
     waiting: Arc<AtomicBool>,
+    /// Set when the interpreter drops the program: stop at the next statement or loop turn.
+    halt: Arc<AtomicBool>,
     /// Requests not sent yet (sent in batches: one channel hand-off per batch).
     pending: Vec<Req>,
     /// Statements since the last batch was sent.
@@ -82,6 +84,7 @@ impl Executor {
         tx: SyncSender<Req>,
         rx: Receiver<Result<f64, String>>,
         waiting: Arc<AtomicBool>,
+        halt: Arc<AtomicBool>,
     ) -> Self {
         let n = prog.files.len();
         let limit = cfg.interp.block_limit.max(1);
@@ -92,6 +95,7 @@ impl Executor {
             tx,
             rx,
             waiting,
+            halt,
             pending: Vec::with_capacity(BATCH),
             since_flush: 0,
             ran: vec![false; n],
@@ -178,6 +182,9 @@ impl Executor {
         {
             self.flush()?;
         }
+        if self.halt.load(Ordering::Relaxed) {
+            return Err(Stop::Hangup);
+        }
         self.steps += 1;
         if self.steps > self.limit {
             return Err(self.err(
@@ -245,7 +252,7 @@ impl Executor {
             }
             St::While(c, body, span) => loop {
                 self.steps += 1;
-                if self.steps > self.limit {
+                if self.steps > self.limit || self.halt.load(Ordering::Relaxed) {
                     self.tick(f, *span)?;
                 }
                 if !self.truth(f, c)? {
@@ -263,7 +270,7 @@ impl Executor {
                 }
                 loop {
                     self.steps += 1;
-                    if self.steps > self.limit {
+                    if self.steps > self.limit || self.halt.load(Ordering::Relaxed) {
                         self.tick(f, *span)?;
                     }
                     if let Some(c) = c

@@ -23,6 +23,13 @@ use crate::words::{GGroup, Words};
 
 pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
 
+/// The executor thread's stack. The deepest program the parser and the checker allow
+/// (`MAX_CALL_DEPTH` nested calls, each from 15 nested blocks and 31 nested parentheses, see
+/// `tests/hll_stack.rs`) needs 11–12 MiB in a debug build and 2–3 MiB optimised (measured);
+/// the depth limits, not luck, keep a program inside this. Kept small because a runtime that
+/// locks its memory (mlockall MCL_FUTURE) locks the whole stack.
+const EXECUTOR_STACK: usize = 16 << 20;
+
 /// How many batches (of up to 32 requests) the executor may run ahead of the interpreter.
 const AHEAD: usize = 4;
 
@@ -65,6 +72,23 @@ struct Running {
     queue: VecDeque<Segment>,
     error: Option<NcError>,
     done: bool,
+    /// The executor thread, joined on drop (after `halt` is set and the channels are gone).
+    thread: Option<std::thread::JoinHandle<()>>,
+    /// Tells the executor to stop at its next statement or loop turn.
+    halt: Arc<AtomicBool>,
+}
+
+impl Drop for Running {
+    /// Ends the executor thread and waits for it: a blocked send or reply wait fails when the
+    /// channels go, a computing loop sees `halt`. Never hangs on a running program.
+    fn drop(&mut self) {
+        self.halt.store(true, Ordering::Relaxed);
+        self.chan = None;
+        self.inbox.clear();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
 }
 
 /// The C-like language's part of an [`Interpreter`]: the `$` globals (kept across the
@@ -122,6 +146,8 @@ impl Hll {
             queue: VecDeque::new(),
             error: None,
             done: false,
+            thread: None,
+            halt: Arc::new(AtomicBool::new(false)),
         };
         match compile::compile(cfg, src.clone(), program.clone(), library) {
             Ok(prog) => {
@@ -135,13 +161,17 @@ impl Hll {
                     tx,
                     rrx,
                     r.waiting.clone(),
+                    r.halt.clone(),
                 );
                 let spawned = std::thread::Builder::new()
                     .name("cnc402-hll".into())
-                    .stack_size(256 << 20)
+                    .stack_size(EXECUTOR_STACK)
                     .spawn(move || ex.run());
                 match spawned {
-                    Ok(_) => r.chan = Some((rx, rtx)),
+                    Ok(t) => {
+                        r.chan = Some((rx, rtx));
+                        r.thread = Some(t);
+                    }
                     Err(e) => {
                         r.error = Some(NcError::new(
                             src,
