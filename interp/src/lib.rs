@@ -16,9 +16,11 @@
 //! - G74/G84 are rigid taps: feed moves of the drilling axis with the spindle axis C,
 //!   C = C0 + depth·360/pitch (negative for G74), pitch = F/S (G94) or F (G95). They need M3
 //!   (G84) or M4 (G74) or M29; a turning spindle is stopped before and restarted after the
-//!   block. With Q, peck tapping: in by Q, out by `peck_retract`, every move coupled.
-//! - G76/G87 orientation = spindle stop + C rapid to the nearest multiple of 360°; the shift is
-//!   +Q along the plane's first axis (G17 +X, G18 +Z, G19 +Y). G87 always returns to the
+//!   block. With Q, peck tapping: in by Q, out by `tap_peck_retract` (Fanuc No. 5213; default
+//!   `peck_retract`), every move coupled.
+//! - G76/G87 (and M19) orientation = spindle stop + `SpindleOrient` to the physical angle
+//!   `interp.spindle_orient_angle` (motion resolves it against the spindle offset; program C
+//!   does not change); the shift is +Q along the plane's first axis (G17 +X, G18 +Z, G19 +Y). G87 always returns to the
 //!   initial level (Fanuc: G99 is not used with G87). G86 stops the spindle at the bottom and
 //!   restarts it after the rapid out; G88 dwells, stops the spindle, emits a program stop
 //!   (the operator's manual retract in Fanuc), then rapids out and restarts the spindle.
