@@ -22,8 +22,9 @@
 //!   `interp.spindle_orient_angle` (motion resolves it against the spindle offset; program C
 //!   does not change); the shift is +Q along the plane's first axis (G17 +X, G18 +Z, G19
 //!   +Y). G87 always returns to the initial level (Fanuc: G99 is not used with G87). G86
-//!   stops the spindle at the bottom and restarts it after the rapid out; G88 dwells, stops the spindle, emits a program stop
-//!   (the operator's manual retract in Fanuc), then rapids out and restarts the spindle.
+//!   stops the spindle at the bottom and restarts it after the rapid out; G88 dwells, stops
+//!   the spindle, emits a program stop (the operator's manual retract in Fanuc), then rapids
+//!   out and restarts the spindle.
 //! - M1 stops only with [`Options::optional_stop`]; `/` blocks are skipped with
 //!   [`Options::block_delete`]; M2/M30 end the run; a `%` after the first block ends it.
 //!
