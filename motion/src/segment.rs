@@ -1,7 +1,8 @@
 //! `Segment`: the one type between the interpreter and motion. A segment says where every
 //! configured axis must end up and how to get there, plus the events that must be sequenced
 //! with motion (dwell, spindle, spindle orientation, tool change, stop, message). Positions
-//! are absolute machine coordinates in each axis's unit (mm, degrees), indexed like `MachineConfig::axes`.
+//! are absolute machine coordinates in each axis's unit (mm, degrees), indexed like
+//! `MachineConfig::axes`.
 
 use std::sync::Arc;
 
