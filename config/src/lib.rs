@@ -133,6 +133,9 @@ pub struct InterpDefaults {
     pub peck_retract: f64,
     /// G83 re-entry clearance d (mm).
     pub peck_clearance: f64,
+    /// G84/G74 peck tapping: how far the tap backs out after each peck (mm; Fanuc parameter
+    /// No. 5213, the return amount of peck tapping). Default: `peck_retract`'s value.
+    pub tap_peck_retract: f64,
     /// Largest allowed difference between an arc's start and end radius (mm).
     pub arc_tolerance: f64,
     /// The physical spindle angle (degrees, 0 ≤ angle < 360, in the spindle axis's machine
@@ -404,6 +407,8 @@ struct RawInterp {
     peck_retract: Spanned<f64>,
     #[serde(default = "default_half")]
     peck_clearance: Spanned<f64>,
+    #[serde(default)]
+    tap_peck_retract: Option<Spanned<f64>>,
     #[serde(default = "default_arc_tol")]
     arc_tolerance: Spanned<f64>,
     #[serde(default = "default_orient_angle")]
@@ -426,6 +431,7 @@ impl Default for RawInterp {
             return_plane: default_return(),
             peck_retract: default_half(),
             peck_clearance: default_half(),
+            tap_peck_retract: None,
             arc_tolerance: default_arc_tol(),
             spindle_orient_angle: default_orient_angle(),
             program_dir: default_program_dir(),
@@ -634,6 +640,10 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
         },
         peck_retract: positive(&i.peck_retract, "interp.peck_retract")?,
         peck_clearance: positive(&i.peck_clearance, "interp.peck_clearance")?,
+        tap_peck_retract: match &i.tap_peck_retract {
+            Some(v) => positive(v, "interp.tap_peck_retract")?,
+            None => positive(&i.peck_retract, "interp.peck_retract")?,
+        },
         arc_tolerance: positive(&i.arc_tolerance, "interp.arc_tolerance")?,
         spindle_orient_angle: angle_in_turn(
             &i.spindle_orient_angle,
@@ -974,6 +984,27 @@ mod tests {
         );
         let e = parse(&text).unwrap_err();
         assert_eq!(e.key, "interp.variables_file");
+    }
+
+    #[test]
+    fn tap_peck_retract_key() {
+        let c = parse(SHIPPED).unwrap();
+        assert_eq!(c.interp.tap_peck_retract, 0.5);
+        let text = SHIPPED.replace("tap_peck_retract = 0.5", "");
+        assert_ne!(text, SHIPPED, "the shipped config sets the key");
+        // Left out: G73's peck_retract.
+        let c = parse(&text.replace("peck_retract = 0.5", "peck_retract = 0.3")).unwrap();
+        assert_eq!((c.interp.peck_retract, c.interp.tap_peck_retract), (0.3, 0.3));
+        let text = SHIPPED.replace("tap_peck_retract = 0.5", "tap_peck_retract = 2.5");
+        assert_eq!(parse(&text).unwrap().interp.tap_peck_retract, 2.5);
+        for bad in ["0.0", "-1.0", "nan"] {
+            let text = SHIPPED.replace(
+                "tap_peck_retract = 0.5",
+                &format!("tap_peck_retract = {bad}"),
+            );
+            let e = parse(&text).unwrap_err();
+            assert_eq!(e.key, "interp.tap_peck_retract", "{bad}");
+        }
     }
 
     #[test]
