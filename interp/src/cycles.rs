@@ -408,7 +408,7 @@ impl Exec<'_> {
                 let t_ = tap.expect("tap set up for G74/G84");
                 match q {
                     Some(q) => {
-                        let d = self.cfg.interp.peck_retract;
+                        let d = self.cfg.interp.tap_peck_retract;
                         let mut t = 0.0;
                         loop {
                             let mut nt = (t + q).min(depth);

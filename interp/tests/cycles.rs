@@ -138,11 +138,13 @@ fn taps_couple_c_to_z_one_turn_per_pitch() {
 }
 
 /// Fanuc high-speed peck tapping: each peck goes Q deeper than the last depth (as G73),
-/// backing out by the configured d between pecks; every move is a coupled tap move.
+/// backing out by the configured d between pecks (`tap_peck_retract`, Fanuc No. 5213, not
+/// G73's `peck_retract`); every move is a coupled tap move.
 #[test]
 fn peck_tap_goes_in_by_q_and_out_by_d() {
     let mut cfg = MachineConfig::default_machine();
-    cfg.interp.peck_retract = 1.0;
+    cfg.interp.tap_peck_retract = 1.0;
+    cfg.interp.peck_retract = 0.3;
     let segs = run_cfg(&cfg, "M3 S500\nG0 Z5\nG99 G84 X0 Y0 Z-8 R0 Q3 F500\nM30\n");
     assert_eq!(
         moves(&segs, 3, Z),
@@ -155,6 +157,27 @@ fn peck_tap_goes_in_by_q_and_out_by_d() {
             ('F', -8.0),
             ('F', 0.0)
         ]
+    );
+}
+
+/// G84 and G73 pecks in one program back out by their own amounts: the tap by
+/// `tap_peck_retract` (Fanuc No. 5213), the drill by `peck_retract` (No. 5114).
+#[test]
+fn peck_tap_and_g73_use_separate_retracts() {
+    let mut cfg = MachineConfig::default_machine();
+    cfg.interp.tap_peck_retract = 1.5;
+    cfg.interp.peck_retract = 0.25;
+    let segs = run_cfg(
+        &cfg,
+        "M3 S500\nG0 Z5\nG99 G84 X0 Y0 Z-6 R0 Q4 F500\nG80\nG99 G73 X10 Y0 Z-6 R0 Q4 F100\nM30\n",
+    );
+    assert_eq!(
+        moves(&segs, 3, Z),
+        vec![('R', 0.0), ('F', -4.0), ('F', -2.5), ('F', -6.0), ('F', 0.0)]
+    );
+    assert_eq!(
+        moves(&segs, 5, Z),
+        vec![('R', 0.0), ('F', -4.0), ('R', -3.75), ('F', -6.0), ('R', 0.0)]
     );
 }
 
