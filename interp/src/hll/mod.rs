@@ -216,6 +216,8 @@ pub(crate) fn next_segment(it: &mut Interpreter) -> Result<Option<Segment>, NcEr
 
 impl Running {
     fn stop(&mut self) {
+        // A computing executor stops at its next statement; the drop joins it.
+        self.halt.store(true, Ordering::Relaxed);
         self.done = true;
         self.queue.clear();
         self.inbox.clear();
