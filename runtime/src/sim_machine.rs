@@ -31,17 +31,25 @@ impl SimMachine {
         cfg: &MachineConfig,
         initial: Option<[i32; MAX_AXES]>,
     ) -> Result<SimMachine, String> {
+        SimMachine::with_drive_options(cfg, |i, _| SimDriveOptions {
+            initial_position: initial.map_or(0, |p| p[i]),
+            ..SimDriveOptions::default()
+        })
+    }
+
+    /// Builds the bus and its drives from `cfg`, each drive with the options `options(axis
+    /// index, node id)` gives (a drive that boots late, one in FAULT at power-on).
+    pub fn with_drive_options(
+        cfg: &MachineConfig,
+        options: impl Fn(usize, u8) -> SimDriveOptions,
+    ) -> Result<SimMachine, String> {
         let period = Duration::from_micros(cfg.bus.period_us as u64);
         let mut bus: SimBus<SimDrive> = SimBus::new(cfg.bus.bitrate);
         for (i, a) in cfg.axes.iter().enumerate().take(MAX_AXES) {
             let Some(node) = a.node else { continue };
             let id =
                 NodeId::new(node).map_err(|e| format!("axis {}: node {node}: {e:?}", a.name))?;
-            let opts = SimDriveOptions {
-                initial_position: initial.map_or(0, |p| p[i]),
-                ..SimDriveOptions::default()
-            };
-            bus.attach(SimDrive::with_options(a, id, period, opts));
+            bus.attach(SimDrive::with_options(a, id, period, options(i, node)));
         }
         Ok(SimMachine {
             bus,

@@ -467,3 +467,29 @@ fn a_spindle_fault_mid_tap_slaves_the_tool_axis_to_the_spindle() {
         want_z
     );
 }
+
+/// Regression (found on vcan0 with simdrive --boot-delay 2:3): a drive that boots seconds
+/// after the others made the master call the first ones silent at the first cycle, because
+/// their heartbeat clock ran from their boot-up, not from when their heartbeat was set up.
+#[test]
+fn a_drive_booting_late_does_not_make_the_others_look_silent() {
+    use cnc402_drives::sim::SimDriveOptions;
+    use cnc402_runtime::{MasterLink, SimMachine};
+    let cfg = MachineConfig::default_machine();
+    // Node 2 boots 3 s late: 15× the 200 ms heartbeat timeout.
+    let machine = SimMachine::with_drive_options(&cfg, |_, node| SimDriveOptions {
+        boot_delay: if node == 2 {
+            Duration::from_secs(3)
+        } else {
+            Duration::ZERO
+        },
+        ..SimDriveOptions::default()
+    })
+    .unwrap();
+    assert!(cfg.bus.heartbeat_timeout_ms < 3000);
+    let link: SimLink = MasterLink::new(&cfg, machine).unwrap();
+    let (outcome, st, _, link) = drive(&cfg, link, "G21 G90\nG1 X2. Y1. F600.\nM30\n", |_, _| {});
+    assert_eq!(outcome, Outcome::Finished, "{outcome:?}");
+    assert!(link.sim_bus().now() > Instant::from_millis(3000));
+    assert!((st.last().unwrap().cmd[0] - 2.0).abs() < 1e-9);
+}
