@@ -228,10 +228,10 @@ impl CouplingChecker {
         self.last_deviation = Some(TickDeviation {
             cmd_um: r
                 .cmd_valid
-                .then(|| (r.dz_cmd - m.ratio * r.dc_cmd) * 1000.0),
+                .then_some((r.dz_cmd - m.ratio * r.dc_cmd) * 1000.0),
             act_um: r
                 .act_valid
-                .then(|| (r.dz_act - m.ratio * r.dc_act) * 1000.0),
+                .then_some((r.dz_act - m.ratio * r.dc_act) * 1000.0),
         });
         closed
     }
