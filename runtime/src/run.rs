@@ -165,6 +165,14 @@ impl<L: DriveLink + ?Sized> DriveLink for Box<L> {
     }
 }
 
+/// Which drive link a run uses (see [`make_link`]).
+#[derive(Clone, Copy, Debug)]
+struct LinkSpec {
+    fault: Option<FaultPlan>,
+    model: bool,
+    timeouts: Option<LinkTimeouts>,
+}
+
 /// Start-up may take this long (boot, SDO configuration, enable) before it is a fault.
 const STARTUP_LIMIT: Duration = Duration::from_secs(10);
 
@@ -315,9 +323,11 @@ pub fn run_program(
             cfg,
             src,
             program,
-            fault,
-            model_link,
-            timeouts,
+            LinkSpec {
+                fault,
+                model: model_link,
+                timeouts,
+            },
             stop_request,
             &mut side,
         )?,
@@ -325,9 +335,11 @@ pub fn run_program(
             cfg,
             src,
             program,
-            fault,
-            model_link,
-            timeouts,
+            LinkSpec {
+                fault,
+                model: model_link,
+                timeouts,
+            },
             stop_request,
             &mut side,
         )?,
@@ -479,15 +491,13 @@ fn run_virtual(
     cfg: &MachineConfig,
     src: SourceFile,
     program: Program,
-    fault: Option<FaultPlan>,
-    model: bool,
-    timeouts: Option<LinkTimeouts>,
+    spec: LinkSpec,
     stop_request: Arc<AtomicBool>,
     side: &mut Side,
 ) -> Result<LoopEnd, RunError> {
     let wall0 = std::time::Instant::now();
     let period = Duration::from_micros(cfg.bus.period_us as u64);
-    let mut link = make_link(cfg, fault, model, timeouts)?;
+    let mut link = make_link(cfg, spec.fault, spec.model, spec.timeouts)?;
     let mut now = Instant::ZERO;
     let start = loop {
         match link.startup(now) {
@@ -608,9 +618,7 @@ fn run_realtime(
     cfg: &MachineConfig,
     src: SourceFile,
     program: Program,
-    fault: Option<FaultPlan>,
-    model: bool,
-    timeouts: Option<LinkTimeouts>,
+    spec: LinkSpec,
     stop_request: Arc<AtomicBool>,
     side: &mut Side,
 ) -> Result<LoopEnd, RunError> {
@@ -633,7 +641,7 @@ fn run_realtime(
                 );
             }
             let wall0 = std::time::Instant::now();
-            let mut link = make_link(&cfg_t, fault, model, timeouts)?;
+            let mut link = make_link(&cfg_t, spec.fault, spec.model, spec.timeouts)?;
             let t0 = monotonic_ns();
             let mut next = t0;
             let start = loop {
