@@ -165,6 +165,17 @@ impl Exec<'_> {
                     )
                     .with_expected(format!("{ld} different from R")));
             }
+            // Fanuc: back boring starts below the part (R) and bores up to Z.
+            if cyc == Cycle::G87 && r_level > bottom {
+                return Err(self
+                    .err(
+                        self.span_of(&[ld, 'R']),
+                        format!(
+                            "G87 (back boring) starts below the part: the R level must be below {ld}"
+                        ),
+                    )
+                    .with_expected(format!("R below {ld} (R is the bottom of the bore)")));
+            }
             let ret = if self.st.return_to_r && cyc != Cycle::G87 {
                 r_level
             } else {

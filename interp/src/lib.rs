@@ -21,7 +21,8 @@
 //! - G76/G87 (and M19) orientation = spindle stop + `SpindleOrient` to the physical angle
 //!   `interp.spindle_orient_angle` (motion resolves it against the spindle offset; program C
 //!   does not change); the shift is +Q along the plane's first axis (G17 +X, G18 +Z, G19
-//!   +Y). G87 always returns to the initial level (Fanuc: G99 is not used with G87). G86
+//!   +Y). G87 always returns to the initial level (Fanuc: G99 is not used with G87) and
+//!   needs R below Z (it starts below the part; otherwise an error at the Z word). G86
 //!   stops the spindle at the bottom and restarts it after the rapid out; G88 dwells, stops
 //!   the spindle, emits a program stop (the operator's manual retract in Fanuc), then rapids
 //!   out and restarts the spindle.

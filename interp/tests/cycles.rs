@@ -173,11 +173,23 @@ fn peck_tap_and_g73_use_separate_retracts() {
     );
     assert_eq!(
         moves(&segs, 3, Z),
-        vec![('R', 0.0), ('F', -4.0), ('F', -2.5), ('F', -6.0), ('F', 0.0)]
+        vec![
+            ('R', 0.0),
+            ('F', -4.0),
+            ('F', -2.5),
+            ('F', -6.0),
+            ('F', 0.0)
+        ]
     );
     assert_eq!(
         moves(&segs, 5, Z),
-        vec![('R', 0.0), ('F', -4.0), ('R', -3.75), ('F', -6.0), ('R', 0.0)]
+        vec![
+            ('R', 0.0),
+            ('F', -4.0),
+            ('R', -3.75),
+            ('F', -6.0),
+            ('R', 0.0)
+        ]
     );
 }
 
@@ -383,6 +395,46 @@ fn g87_back_boring_sequence() {
             "R6.5,-4", "R6.5,10", "R5,10", "S500"
         ]
     );
+}
+
+/// G87 starts below the part: an R level above Z is an error at the Z word (at the block when
+/// both are modal), in G90 and G91 and in every plane, before any of the hole's motion.
+#[test]
+fn g87_with_r_above_z_is_a_located_error() {
+    let cfg = MachineConfig::default_machine();
+    for (text, line, col) in [
+        (
+            "M3 S500\nG0 X0 Y0 Z10\nG87 X5 Y5 Z-20 R-4 Q1.5 F100\nM30\n",
+            3,
+            11,
+        ),
+        // G91: R -20 from the initial 10 is -10, Z -3 from there is -13, below R.
+        (
+            "M3 S500\nG0 X0 Y0 Z10\nG91 G87 X5 Y5 Z-3 R-20 Q1.5 F100\nM30\n",
+            3,
+            15,
+        ),
+        // G18 drills along Y.
+        (
+            "M3 S500\nG18 G0 X0 Z0 Y10\nG87 X5 Z5 Y-20 R-4 Q1 F100\nM30\n",
+            3,
+            11,
+        ),
+        // Modal data, a later hole: the error is at that block.
+        (
+            "M3 S500\nG0 X0 Y0 Z10\nG87 X5 Y5 Z-4 R-20 Q1.5 F100\nR0\nM30\n",
+            4,
+            1,
+        ),
+    ] {
+        let e = run_program(&cfg, &SourceFile::new("t.nc", text)).unwrap_err();
+        assert_eq!((e.line, e.col), (line, col), "{text}: {e}");
+        assert!(
+            e.message
+                .contains("G87 (back boring) starts below the part: the R level must be below"),
+            "{e}"
+        );
+    }
 }
 
 /// G88: feed, dwell, spindle stop, program stop (Fanuc: the operator retracts by hand), then on
