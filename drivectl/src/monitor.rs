@@ -43,27 +43,128 @@ pub fn candump_line(t: f64, iface: &str, f: &CanFrame) -> String {
     format!("({whole}.{usec:06}) {iface} {:03X}#{data}", f.id())
 }
 
-/// Percentiles of SYNC periods.
-#[derive(Clone, Debug, Default)]
+/// Width of [`PeriodStats`]' fine buckets: 1 µs.
+const FINE_US: f64 = 1.0;
+/// Fine buckets cover 0..5 ms (SYNC periods of a few ms at most, jitter in µs).
+const FINE_BUCKETS: usize = 5_000;
+/// Width of the coarse buckets above the fine ones: 1 ms.
+const COARSE_US: f64 = 1_000.0;
+/// Coarse buckets cover 5 ms..1 s; longer periods (a bus pause) count only in the max.
+const COARSE_BUCKETS: usize = 995;
+
+/// SYNC period statistics in bounded memory: a fixed-bucket histogram (allocated once,
+/// ~47 KiB, whatever the number of samples) with exact count, min, max and mean beside it.
+///
+/// Percentile resolution: p50/p99 are the midpoint of the bucket holding the nearest-rank
+/// sample, clamped to the exact min/max, so they are within 0.5 µs of the exact value below
+/// 5 ms and within 0.5 ms from 5 ms to 1 s; a percentile that falls above 1 s is the max.
+/// The lowest and highest ranks (p0, p100, and p99 of fewer than 51 samples) are exact.
+#[derive(Clone, Debug)]
 pub struct PeriodStats {
-    samples_us: Vec<f64>,
+    /// `FINE_BUCKETS` 1 µs buckets, then `COARSE_BUCKETS` 1 ms buckets.
+    buckets: Box<[u64]>,
+    /// Samples of 1 s or more.
+    overflow: u64,
+    n: u64,
+    sum_us: f64,
+    min_us: f64,
+    max_us: f64,
+}
+
+impl Default for PeriodStats {
+    fn default() -> Self {
+        PeriodStats {
+            buckets: vec![0; FINE_BUCKETS + COARSE_BUCKETS].into_boxed_slice(),
+            overflow: 0,
+            n: 0,
+            sum_us: 0.0,
+            min_us: f64::INFINITY,
+            max_us: 0.0,
+        }
+    }
 }
 
 impl PeriodStats {
-    /// Adds one period.
+    /// Adds one period (µs); a negative one counts as 0, a non-finite one is ignored.
     pub fn push(&mut self, us: f64) {
-        self.samples_us.push(us);
+        if !us.is_finite() {
+            return;
+        }
+        let us = us.max(0.0);
+        self.n += 1;
+        self.sum_us += us;
+        self.min_us = self.min_us.min(us);
+        self.max_us = self.max_us.max(us);
+        let fine_end = FINE_BUCKETS as f64 * FINE_US;
+        let i = if us < fine_end {
+            (us / FINE_US) as usize
+        } else {
+            FINE_BUCKETS + ((us - fine_end) / COARSE_US) as usize
+        };
+        match self.buckets.get_mut(i) {
+            Some(b) => *b += 1,
+            None => self.overflow += 1,
+        }
     }
-    /// `(count, mean, p50, p99, max)` in µs.
-    pub fn summary(&self) -> Option<(usize, f64, f64, f64, f64)> {
-        if self.samples_us.is_empty() {
+
+    /// Number of periods pushed.
+    pub fn count(&self) -> u64 {
+        self.n
+    }
+
+    /// The exact shortest period (µs), if any.
+    pub fn min(&self) -> Option<f64> {
+        (self.n > 0).then_some(self.min_us)
+    }
+
+    /// Lower edge and width (µs) of bucket `i`.
+    fn bucket(i: usize) -> (f64, f64) {
+        if i < FINE_BUCKETS {
+            (i as f64 * FINE_US, FINE_US)
+        } else {
+            let fine_end = FINE_BUCKETS as f64 * FINE_US;
+            (fine_end + (i - FINE_BUCKETS) as f64 * COARSE_US, COARSE_US)
+        }
+    }
+
+    /// Percentile `p` (0..=1) in µs: the sample of nearest rank `round((n-1)·p)` (0-based),
+    /// to the resolution given on the type. `None` without samples.
+    pub fn percentile(&self, p: f64) -> Option<f64> {
+        if self.n == 0 {
             return None;
         }
-        let mut v = self.samples_us.clone();
-        v.sort_by(|a, b| a.total_cmp(b));
-        let pct = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
-        let mean = v.iter().sum::<f64>() / v.len() as f64;
-        Some((v.len(), mean, pct(0.5), pct(0.99), v[v.len() - 1]))
+        let rank = ((self.n - 1) as f64 * p.clamp(0.0, 1.0)).round() as u64;
+        // The first and last ranks are the exact min and max.
+        if rank == 0 {
+            return Some(self.min_us);
+        }
+        if rank == self.n - 1 {
+            return Some(self.max_us);
+        }
+        let mut seen = 0u64;
+        for (i, &c) in self.buckets.iter().enumerate() {
+            seen += c;
+            if seen > rank {
+                let (lo, w) = Self::bucket(i);
+                return Some((lo + w / 2.0).clamp(self.min_us, self.max_us));
+            }
+        }
+        Some(self.max_us)
+    }
+
+    /// `(count, mean, p50, p99, max)` in µs; mean and max exact, p50/p99 bucketed.
+    pub fn summary(&self) -> Option<(u64, f64, f64, f64, f64)> {
+        if self.n == 0 {
+            return None;
+        }
+        let mean = self.sum_us / self.n as f64;
+        Some((
+            self.n,
+            mean,
+            self.percentile(0.5)?,
+            self.percentile(0.99)?,
+            self.max_us,
+        ))
     }
 }
 
@@ -546,4 +647,82 @@ pub fn monitor_tui(ctx: &mut Ctx, log: Option<&Path>, duration: Option<f64>) -> 
             .map_err(|e| CliError::new(Exit::Other, format!("writing the log failed: {e}")))?;
     }
     r.map(|_| ())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The old exact definition: nearest rank `round((n-1)·p)` of the sorted samples.
+    fn exact(v: &[f64], p: f64) -> f64 {
+        let mut v = v.to_vec();
+        v.sort_by(|a, b| a.total_cmp(b));
+        v[((v.len() - 1) as f64 * p).round() as usize]
+    }
+
+    fn stats(v: &[f64]) -> PeriodStats {
+        let mut s = PeriodStats::default();
+        for &x in v {
+            s.push(x);
+        }
+        s
+    }
+
+    #[test]
+    fn percentiles_within_half_a_bucket_of_exact() {
+        // 1 ms SYNC with a deterministic ±40 µs jitter and a few late ones.
+        let mut v: Vec<f64> = (0..10_000u32)
+            .map(|i| 1000.0 + ((i * 7919) % 81) as f64 - 40.0 + 0.37)
+            .collect();
+        v.extend([1480.2, 2210.9, 3999.5]);
+        let s = stats(&v);
+        for p in [0.0, 0.5, 0.9, 0.99, 0.999, 1.0] {
+            let (h, e) = (s.percentile(p).unwrap(), exact(&v, p));
+            assert!((h - e).abs() <= 0.5, "p{p}: {h} vs exact {e}");
+        }
+        let (n, mean, p50, p99, max) = s.summary().unwrap();
+        assert_eq!(n, v.len() as u64);
+        assert!((mean - v.iter().sum::<f64>() / v.len() as f64).abs() < 1e-9);
+        assert_eq!(max, 3999.5);
+        assert!((s.min().unwrap() - 960.37).abs() < 1e-9);
+        assert!((p50 - exact(&v, 0.5)).abs() <= 0.5);
+        assert!((p99 - exact(&v, 0.99)).abs() <= 0.5);
+    }
+
+    #[test]
+    fn coarse_buckets_overflow_and_edges() {
+        // Above 5 ms the buckets are 1 ms wide.
+        let v: Vec<f64> = (0..100).map(|i| 5_000.0 + i as f64 * 97.0).collect();
+        let s = stats(&v);
+        for p in [0.1, 0.5, 0.99] {
+            let (h, e) = (s.percentile(p).unwrap(), exact(&v, p));
+            assert!((h - e).abs() <= 500.0, "p{p}: {h} vs exact {e}");
+        }
+        // One value only: every percentile is that value exactly (clamped to min/max).
+        let s = stats(&[1234.56]);
+        assert_eq!(s.summary(), Some((1, 1234.56, 1234.56, 1234.56, 1234.56)));
+        // Beyond 1 s: counted, reported through the exact max.
+        let s = stats(&[1000.0, 5_000_000.0, 7_000_000.0]);
+        assert_eq!(s.percentile(0.99), Some(7_000_000.0));
+        assert_eq!(s.percentile(0.5), Some(7_000_000.0)); // above 1 s: the max
+        assert_eq!(s.percentile(0.0), Some(1000.0));
+        // Bad input neither panics nor counts; negative counts as 0.
+        let mut s = stats(&[f64::NAN, f64::INFINITY]);
+        assert_eq!(s.summary(), None);
+        s.push(-3.0);
+        assert_eq!(s.summary(), Some((1, 0.0, 0.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn memory_is_bounded() {
+        let mut s = PeriodStats::default();
+        let len = s.buckets.len();
+        for i in 0..1_000_000u32 {
+            s.push(900.0 + (i % 200) as f64);
+        }
+        assert_eq!(s.buckets.len(), len);
+        assert_eq!(s.count(), 1_000_000);
+        let p50 = s.percentile(0.5).unwrap();
+        assert!((p50 - 1000.0).abs() <= 0.5, "{p50}");
+    }
 }
