@@ -994,7 +994,10 @@ mod tests {
         assert_ne!(text, SHIPPED, "the shipped config sets the key");
         // Left out: G73's peck_retract.
         let c = parse(&text.replace("peck_retract = 0.5", "peck_retract = 0.3")).unwrap();
-        assert_eq!((c.interp.peck_retract, c.interp.tap_peck_retract), (0.3, 0.3));
+        assert_eq!(
+            (c.interp.peck_retract, c.interp.tap_peck_retract),
+            (0.3, 0.3)
+        );
         let text = SHIPPED.replace("tap_peck_retract = 0.5", "tap_peck_retract = 2.5");
         assert_eq!(parse(&text).unwrap().interp.tap_peck_retract, 2.5);
         for bad in ["0.0", "-1.0", "nan"] {
@@ -1116,7 +1119,10 @@ mod tests {
         let text = SHIPPED.replacen("feedback_delay_cycles = 1\n", "", 1);
         assert_eq!(parse(&text).unwrap().axes[0].feedback_delay_cycles, 1);
         let text = SHIPPED.replacen("feedback_delay_cycles = 1", "feedback_delay_cycles = 17", 1);
-        assert_eq!(parse(&text).unwrap_err().key, "axis[0].feedback_delay_cycles");
+        assert_eq!(
+            parse(&text).unwrap_err().key,
+            "axis[0].feedback_delay_cycles"
+        );
     }
 
     #[test]
