@@ -165,8 +165,7 @@ impl MachineConfig {
             col: 0,
             key: String::new(),
             message: format!("cannot read: {e}"),
-            source_text: String::new(),
-            span: None,
+            located: None,
         })?;
         Self::parse(&text, path)
     }
@@ -185,8 +184,7 @@ impl MachineConfig {
                 col,
                 key,
                 message,
-                source_text: text.to_string(),
-                span,
+                located: span.map(|span| Box::new((text.to_string(), span))),
             }
         };
         let de = toml::Deserializer::parse(text)
@@ -279,8 +277,9 @@ pub struct ConfigError {
     /// Dotted key path, e.g. `axis[2].max_velocity`; empty when the error is not at a key.
     pub key: String,
     pub message: String,
-    source_text: String,
-    span: Option<std::ops::Range<usize>>,
+    /// The config text and the span of the offending text, for the caret rendering (boxed:
+    /// errors travel through every `Result` of the loaders and should stay small).
+    located: Option<Box<(String, std::ops::Range<usize>)>>,
 }
 
 impl fmt::Display for ConfigError {
@@ -303,12 +302,12 @@ impl miette::Diagnostic for ConfigError {
         Some(Box::new("cnc402::config"))
     }
     fn source_code(&self) -> Option<&dyn miette::SourceCode> {
-        self.span
+        self.located
             .as_ref()
-            .map(|_| &self.source_text as &dyn miette::SourceCode)
+            .map(|l| &l.0 as &dyn miette::SourceCode)
     }
     fn labels(&self) -> Option<Box<dyn Iterator<Item = miette::LabeledSpan> + '_>> {
-        let span = self.span.clone()?;
+        let span = self.located.as_ref()?.1.clone();
         let label = if self.key.is_empty() {
             self.message.clone()
         } else {
