@@ -20,6 +20,7 @@ use crate::cli::{Command, ModeArg, NmtCmd, NodeOrAll, SdoCmd, SeqArgs, ShellArg}
 use crate::decode::nmt_state_name;
 use crate::error::{CliError, Exit, Result};
 use crate::link::Link;
+use crate::values;
 use crate::values::{DataType, ObjectAddr, decode_untyped, hex};
 use crate::{Ctx, node_id};
 
@@ -658,7 +659,7 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
 
 fn type_for(ctx: &Ctx, a: ObjectAddr, given: Option<&str>) -> Result<Option<DataType>> {
     match given {
-        Some(t) => DataType::parse(t).map(Some).ok_or_else(|| {
+        Some(t) => values::parse_type(t).map(Some).ok_or_else(|| {
             CliError::usage(format!(
                 "unknown data type `{t}`; expected one of {}",
                 crate::values::TYPE_NAMES
@@ -673,8 +674,7 @@ fn sdo_read(ctx: &mut Ctx, n: u8, a: ObjectAddr, ty: Option<&str>) -> Result<()>
     let ty = type_for(ctx, a, ty)?;
     let data = ctx.with_sdo(|sdo| sdo.upload(node, a.index, a.sub))?;
     let (text, val) = match ty {
-        Some(t) => t
-            .decode(&data)
+        Some(t) => values::decode(t, &data)
             .map_err(|e| e.context(format!("{}: SDO read of {a}", ctx.label(n))))?,
         None => decode_untyped(&data),
     };
@@ -708,8 +708,8 @@ fn sdo_read(ctx: &mut Ctx, n: u8, a: ObjectAddr, ty: Option<&str>) -> Result<()>
 
 fn sdo_write(ctx: &mut Ctx, n: u8, a: ObjectAddr, ty: &str, value: &str) -> Result<()> {
     let node = node_id(n)?;
-    let t = type_for(ctx, a, Some(ty))?.unwrap_or(DataType::Bytes);
-    let bytes = t.encode(value)?;
+    let t = type_for(ctx, a, Some(ty))?.unwrap_or(DataType::OctetString);
+    let bytes = values::encode(t, value)?;
     if let Some(known) = ctx.dict.data_type(a)
         && known.size().is_some()
         && known.size() != t.size()

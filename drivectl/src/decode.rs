@@ -107,13 +107,7 @@ fn decode_mapped(frame: &CanFrame, kind: &'static str, map: &PdoMap, dict: &Dict
             index: e.index,
             sub: e.sub,
         };
-        let signed = matches!(
-            dict.data_type(a),
-            Some(crate::values::DataType::I8)
-                | Some(crate::values::DataType::I16)
-                | Some(crate::values::DataType::I32)
-                | Some(crate::values::DataType::I64)
-        );
+        let signed = dict.data_type(a).is_some_and(|t| t.is_signed());
         let v: Json = if signed && e.bits > 0 && e.bits < 64 {
             let shift = 64 - e.bits as u32;
             json!(((raw << shift) as i64) >> shift)

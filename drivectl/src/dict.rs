@@ -57,7 +57,7 @@ impl Dictionary {
         self.builtin
             .entry(a.index, a.sub)
             .ok()
-            .map(|e| DataType::from_od(e.value.data_type()))
+            .map(|e| e.value.data_type())
     }
 
     /// Where the name/type come from: `eds`, `standard` or `unknown`.

@@ -32,7 +32,7 @@ pub struct EdsEntry {
 impl EdsEntry {
     /// The data type, if the code is one drivectl knows.
     pub fn data_type(&self) -> Option<DataType> {
-        self.data_type_code.and_then(DataType::from_eds_code)
+        self.data_type_code.and_then(DataType::from_code)
     }
 }
 
@@ -76,7 +76,7 @@ impl Eds {
     /// ).unwrap();
     /// let e = &eds.objects[&drivectl::values::ObjectAddr { index: 0x6041, sub: 0 }];
     /// assert_eq!(e.name, "Statusword");
-    /// assert_eq!(e.data_type(), Some(drivectl::values::DataType::U16));
+    /// assert_eq!(e.data_type(), Some(drivectl::values::DataType::Unsigned16));
     /// ```
     pub fn parse(text: &str) -> core::result::Result<Eds, (usize, String)> {
         let mut eds = Eds::default();
@@ -227,14 +227,14 @@ PDOMapping=1
             sub: 1,
         };
         assert_eq!(eds.name(v).unwrap(), "Identity Object / Vendor-ID");
-        assert_eq!(eds.get(v).unwrap().data_type(), Some(DataType::U32));
+        assert_eq!(eds.get(v).unwrap().data_type(), Some(DataType::Unsigned32));
         let m = eds
             .get(ObjectAddr {
                 index: 0x6060,
                 sub: 0,
             })
             .unwrap();
-        assert_eq!(m.data_type(), Some(DataType::I8));
+        assert_eq!(m.data_type(), Some(DataType::Integer8));
         assert!(m.pdo_mapping);
         // [1018sub0] wins over the record header for sub 0.
         assert_eq!(

@@ -72,239 +72,140 @@ pub fn parse_object(s: &str) -> core::result::Result<ObjectAddr, String> {
     Ok(ObjectAddr { index, sub })
 }
 
-/// A CANopen data type as named on the command line or in an EDS.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum DataType {
-    /// BOOLEAN.
-    Bool,
-    /// UNSIGNED8..64.
-    U8,
-    /// UNSIGNED16.
-    U16,
-    /// UNSIGNED32.
-    U32,
-    /// UNSIGNED64.
-    U64,
-    /// INTEGER8..64.
-    I8,
-    /// INTEGER16.
-    I16,
-    /// INTEGER32.
-    I32,
-    /// INTEGER64.
-    I64,
-    /// REAL32.
-    F32,
-    /// REAL64.
-    F64,
-    /// VISIBLE_STRING.
-    Str,
-    /// OCTET_STRING / DOMAIN (hex bytes).
-    Bytes,
-}
+/// The CANopen data type: the object dictionary's (`cnc402_drives::od`), one type for the
+/// simulator, the EDS reader and the command line.
+pub use cnc402_drives::od::DataType;
+use cnc402_drives::od::{OdError, Value};
 
 /// The names `TYPE` accepts (for help texts).
 pub const TYPE_NAMES: &str = "bool, u8, u16, u32, u64, i8, i16, i32, i64, f32, f64, string, bytes (CiA names too: unsigned16, integer32, real32, visible_string, octet_string, domain)";
 
-impl DataType {
-    /// Parses a type name: short (`u16`), CiA 301 (`unsigned16`, `visible_string`).
-    pub fn parse(s: &str) -> Option<DataType> {
-        use DataType::*;
-        Some(match s.to_ascii_lowercase().as_str() {
-            "bool" | "boolean" => Bool,
-            "u8" | "uint8" | "unsigned8" => U8,
-            "u16" | "uint16" | "unsigned16" => U16,
-            "u32" | "uint32" | "unsigned32" => U32,
-            "u64" | "uint64" | "unsigned64" => U64,
-            "i8" | "int8" | "integer8" => I8,
-            "i16" | "int16" | "integer16" => I16,
-            "i32" | "int32" | "integer32" => I32,
-            "i64" | "int64" | "integer64" => I64,
-            "f32" | "real32" | "float" => F32,
-            "f64" | "real64" | "double" => F64,
-            "string" | "str" | "vs" | "visible_string" => Str,
-            "bytes" | "hex" | "domain" | "octet_string" | "os" => Bytes,
-            _ => return None,
-        })
-    }
-
-    /// From a CiA 306 `DataType=` code (0x0001 BOOLEAN ... 0x001B UNSIGNED64).
-    pub fn from_eds_code(code: u16) -> Option<DataType> {
-        use DataType::*;
-        Some(match code {
-            0x0001 => Bool,
-            0x0002 => I8,
-            0x0003 => I16,
-            0x0004 => I32,
-            0x0005 => U8,
-            0x0006 => U16,
-            0x0007 => U32,
-            0x0008 => F32,
-            0x0009 => Str,
-            0x000A | 0x000F => Bytes,
-            0x0011 => F64,
-            0x0015 => I64,
-            0x001B => U64,
-            _ => return None,
-        })
-    }
-
-    /// From the drives crate's object dictionary type.
-    pub fn from_od(t: cnc402_drives::od::DataType) -> DataType {
-        use cnc402_drives::od::DataType as T;
-        match t {
-            T::Boolean => DataType::Bool,
-            T::Integer8 => DataType::I8,
-            T::Integer16 => DataType::I16,
-            T::Integer32 => DataType::I32,
-            T::Integer64 => DataType::I64,
-            T::Unsigned8 => DataType::U8,
-            T::Unsigned16 => DataType::U16,
-            T::Unsigned32 => DataType::U32,
-            T::Unsigned64 => DataType::U64,
-            T::VisibleString => DataType::Str,
-            T::OctetString | T::Domain => DataType::Bytes,
-        }
-    }
-
-    /// Bytes of a fixed-size type.
-    pub fn size(self) -> Option<usize> {
-        use DataType::*;
-        match self {
-            Bool | U8 | I8 => Some(1),
-            U16 | I16 => Some(2),
-            U32 | I32 | F32 => Some(4),
-            U64 | I64 | F64 => Some(8),
-            Str | Bytes => None,
-        }
-    }
-
-    /// The CiA 301 name.
-    pub fn cia_name(self) -> &'static str {
-        use DataType::*;
-        match self {
-            Bool => "BOOLEAN",
-            U8 => "UNSIGNED8",
-            U16 => "UNSIGNED16",
-            U32 => "UNSIGNED32",
-            U64 => "UNSIGNED64",
-            I8 => "INTEGER8",
-            I16 => "INTEGER16",
-            I32 => "INTEGER32",
-            I64 => "INTEGER64",
-            F32 => "REAL32",
-            F64 => "REAL64",
-            Str => "VISIBLE_STRING",
-            Bytes => "OCTET_STRING",
-        }
-    }
-
-    /// Encodes a value typed by the user. Errors name the type and its range.
-    pub fn encode(self, text: &str) -> Result<Vec<u8>> {
-        use DataType::*;
-        let bad = |why: &str| {
-            CliError::usage(format!(
-                "value `{text}` is not a valid {}: {why}",
-                self.cia_name()
-            ))
-        };
-        let int = |min: i128, max: i128| -> Result<i128> {
-            let v = parse_int(text).ok_or_else(|| bad("not an integer"))?;
-            if v < min || v > max {
-                return Err(bad(&format!("outside {min}..={max}")));
-            }
-            Ok(v)
-        };
-        Ok(match self {
-            Bool => match text.trim().to_ascii_lowercase().as_str() {
-                "1" | "true" | "on" => vec![1],
-                "0" | "false" | "off" => vec![0],
-                _ => return Err(bad("expected true/false/1/0")),
-            },
-            U8 => vec![int(0, u8::MAX as i128)? as u8],
-            U16 => (int(0, u16::MAX as i128)? as u16).to_le_bytes().to_vec(),
-            U32 => (int(0, u32::MAX as i128)? as u32).to_le_bytes().to_vec(),
-            U64 => (int(0, u64::MAX as i128)? as u64).to_le_bytes().to_vec(),
-            I8 => (int(i8::MIN as i128, i8::MAX as i128)? as i8)
-                .to_le_bytes()
-                .to_vec(),
-            I16 => (int(i16::MIN as i128, i16::MAX as i128)? as i16)
-                .to_le_bytes()
-                .to_vec(),
-            I32 => (int(i32::MIN as i128, i32::MAX as i128)? as i32)
-                .to_le_bytes()
-                .to_vec(),
-            I64 => (int(i64::MIN as i128, i64::MAX as i128)? as i64)
-                .to_le_bytes()
-                .to_vec(),
-            F32 => text
-                .trim()
-                .parse::<f32>()
-                .map_err(|_| bad("not a number"))?
-                .to_le_bytes()
-                .to_vec(),
-            F64 => text
-                .trim()
-                .parse::<f64>()
-                .map_err(|_| bad("not a number"))?
-                .to_le_bytes()
-                .to_vec(),
-            Str => text.as_bytes().to_vec(),
-            Bytes => {
-                parse_hex_bytes(text).ok_or_else(|| bad("expected hex bytes, e.g. 0011aabb"))?
-            }
-        })
-    }
-
-    /// Decodes SDO data as this type: `(text, json)`. A size that does not fit the type is a
-    /// protocol error naming both sizes.
-    pub fn decode(self, data: &[u8]) -> Result<(String, Json)> {
-        use DataType::*;
-        if let Some(n) = self.size()
-            && data.len() != n
-        {
-            return Err(CliError::protocol(format!(
-                "wrong data type: the drive returned {} byte(s) ({}), {} needs {n}",
-                data.len(),
-                hex(data),
-                self.cia_name()
-            )));
-        }
-        let mut b = [0u8; 8];
-        let k = data.len().min(8);
-        b[..k].copy_from_slice(&data[..k]);
-        let u = u64::from_le_bytes(b);
-        Ok(match self {
-            Bool => ((u != 0).to_string(), json!(u != 0)),
-            U8 | U16 | U32 | U64 => {
-                let w = 2 * data.len();
-                (format!("{u} ({u:#0w$x})", w = w + 2), json!(u))
-            }
-            I8 => signed(data[0] as i8 as i64, data),
-            I16 => signed(i16::from_le_bytes([b[0], b[1]]) as i64, data),
-            I32 => signed(i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as i64, data),
-            I64 => signed(i64::from_le_bytes(b), data),
-            F32 => {
-                let v = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-                (v.to_string(), json!(v))
-            }
-            F64 => {
-                let v = f64::from_le_bytes(b);
-                (v.to_string(), json!(v))
-            }
-            Str => {
-                let s = String::from_utf8_lossy(data)
-                    .trim_end_matches('\0')
-                    .to_string();
-                (format!("\"{s}\""), json!(s))
-            }
-            Bytes => (hex(data), json!(hex(data))),
-        })
-    }
+/// Parses a type name as typed on the command line: short (`u16`, `f32`, `bytes`) or CiA 301
+/// (`unsigned16`, `real32`, `visible_string`), any case; `None` for an unknown name.
+pub fn parse_type(s: &str) -> Option<DataType> {
+    use DataType::*;
+    Some(match s.to_ascii_lowercase().as_str() {
+        "bool" | "boolean" => Boolean,
+        "u8" | "uint8" | "unsigned8" => Unsigned8,
+        "u16" | "uint16" | "unsigned16" => Unsigned16,
+        "u32" | "uint32" | "unsigned32" => Unsigned32,
+        "u64" | "uint64" | "unsigned64" => Unsigned64,
+        "i8" | "int8" | "integer8" => Integer8,
+        "i16" | "int16" | "integer16" => Integer16,
+        "i32" | "int32" | "integer32" => Integer32,
+        "i64" | "int64" | "integer64" => Integer64,
+        "f32" | "real32" | "float" => Real32,
+        "f64" | "real64" | "double" => Real64,
+        "string" | "str" | "vs" | "visible_string" => VisibleString,
+        "bytes" | "hex" | "octet_string" | "os" => OctetString,
+        "domain" => Domain,
+        _ => return None,
+    })
 }
 
-fn signed(v: i64, data: &[u8]) -> (String, Json) {
-    (format!("{v} ({})", hex_le(data)), json!(v))
+/// Parses a value typed by the user as type `t`: integers in decimal or (`-`)`0x` hex,
+/// range-checked; reals (`3.5`); booleans (`true`/`false`/`on`/`off`/`1`/`0`); strings as
+/// given; octet strings and domains as hex bytes. Errors (usage) name the type and range.
+pub fn parse_value(t: DataType, text: &str) -> Result<Value> {
+    let bad = |why: &str| {
+        CliError::usage(format!(
+            "value `{text}` is not a valid {}: {why}",
+            t.cia_name()
+        ))
+    };
+    Ok(match t {
+        DataType::Boolean => match text.trim().to_ascii_lowercase().as_str() {
+            "1" | "true" | "on" => Value::Boolean(true),
+            "0" | "false" | "off" => Value::Boolean(false),
+            _ => return Err(bad("expected true/false/1/0")),
+        },
+        DataType::Real32 => Value::Real32(text.trim().parse().map_err(|_| bad("not a number"))?),
+        DataType::Real64 => Value::Real64(text.trim().parse().map_err(|_| bad("not a number"))?),
+        DataType::VisibleString => Value::VisibleString(text.to_string()),
+        DataType::OctetString | DataType::Domain => {
+            let b =
+                parse_hex_bytes(text).ok_or_else(|| bad("expected hex bytes, e.g. 0011aabb"))?;
+            if t == DataType::Domain {
+                Value::Domain(b)
+            } else {
+                Value::OctetString(b)
+            }
+        }
+        _ => {
+            let v = parse_int(text).ok_or_else(|| bad("not an integer"))?;
+            Value::from_int(t, v).map_err(|_| match t.int_range() {
+                Some((min, max)) => bad(&format!("outside {min}..={max}")),
+                None => bad("not an integer type"),
+            })?
+        }
+    })
+}
+
+/// Encodes a value typed by the user as type `t` into the little-endian bytes SDO carries
+/// ([`parse_value`], then the dictionary's codec).
+///
+/// ```
+/// use drivectl::values::{DataType, encode};
+/// assert_eq!(encode(DataType::Unsigned16, "0x1234").unwrap(), vec![0x34, 0x12]);
+/// assert!(encode(DataType::Unsigned8, "256").is_err());
+/// ```
+pub fn encode(t: DataType, text: &str) -> Result<Vec<u8>> {
+    Ok(parse_value(t, text)?.to_bytes())
+}
+
+/// Decodes SDO data as type `t` (the dictionary's codec) into `(text, json)`: unsigned as
+/// `5000 (0x00001388)`, signed as `-2 (0xfffffffe)`, reals, strings without trailing NULs
+/// (invalid UTF-8 shown with U+FFFD), bytes as hex. A size that does not fit the type is a
+/// protocol error naming both sizes.
+pub fn decode(t: DataType, data: &[u8]) -> Result<(String, Json)> {
+    if let Some(n) = t.size()
+        && data.len() != n
+    {
+        return Err(CliError::protocol(format!(
+            "wrong data type: the drive returned {} byte(s) ({}), {} needs {n}",
+            data.len(),
+            hex(data),
+            t.cia_name()
+        )));
+    }
+    let value = match Value::from_bytes(t, data) {
+        Ok(v) => v,
+        // Not UTF-8: still shown (a diagnostic tool prints what it got).
+        Err(OdError::InvalidValue) if t == DataType::VisibleString => {
+            Value::VisibleString(String::from_utf8_lossy(data).into_owned())
+        }
+        Err(e) => {
+            return Err(CliError::protocol(format!(
+                "{} {} ({})",
+                t.cia_name(),
+                e,
+                hex(data)
+            )));
+        }
+    };
+    Ok(match value {
+        // Any non-zero byte is true (CiA 301 allows only 0 and 1; a drive may send more).
+        Value::Boolean(_) => {
+            let b = data.iter().any(|&c| c != 0);
+            (b.to_string(), json!(b))
+        }
+        Value::U8(_) | Value::U16(_) | Value::U32(_) | Value::U64(_) => {
+            let u = value.as_u64().unwrap_or(0);
+            let w = 2 * data.len();
+            (format!("{u} ({u:#0w$x})", w = w + 2), json!(u))
+        }
+        Value::I8(_) | Value::I16(_) | Value::I32(_) | Value::I64(_) => {
+            let v = value.as_i64().unwrap_or(0);
+            (format!("{v} ({})", hex_le(data)), json!(v))
+        }
+        Value::Real32(v) => (v.to_string(), json!(v)),
+        Value::Real64(v) => (v.to_string(), json!(v)),
+        Value::VisibleString(s) => {
+            let s = s.trim_end_matches('\0').to_string();
+            (format!("\"{s}\""), json!(s))
+        }
+        Value::OctetString(_) | Value::Domain(_) => (hex(data), json!(hex(data))),
+    })
 }
 
 /// Hex digits of bytes in wire order (`0011aabb`).
@@ -343,18 +244,15 @@ pub fn decode_untyped(data: &[u8]) -> (String, Json) {
     match data.len() {
         1 | 2 | 4 | 8 => {
             let t = match data.len() {
-                1 => DataType::U8,
-                2 => DataType::U16,
-                4 => DataType::U32,
-                _ => DataType::U64,
+                1 => DataType::Unsigned8,
+                2 => DataType::Unsigned16,
+                4 => DataType::Unsigned32,
+                _ => DataType::Unsigned64,
             };
-            t.decode(data)
-                .unwrap_or_else(|_| (hex(data), json!(hex(data))))
+            decode(t, data).unwrap_or_else(|_| (hex(data), json!(hex(data))))
         }
         _ if !data.is_empty() && data.iter().all(|&c| c == 0 || (0x20..0x7f).contains(&c)) => {
-            DataType::Str
-                .decode(data)
-                .unwrap_or_else(|_| (hex(data), json!(hex(data))))
+            decode(DataType::VisibleString, data).unwrap_or_else(|_| (hex(data), json!(hex(data))))
         }
         _ => (hex(data), json!(hex(data))),
     }
@@ -366,27 +264,87 @@ mod tests {
 
     #[test]
     fn encode_checks_range_and_decode_checks_size() {
-        assert_eq!(DataType::U16.encode("0x1234").unwrap(), vec![0x34, 0x12]);
+        use DataType::*;
+        assert_eq!(encode(Unsigned16, "0x1234").unwrap(), vec![0x34, 0x12]);
         assert_eq!(
-            DataType::I32.encode("-2").unwrap(),
+            encode(Integer32, "-2").unwrap(),
             vec![0xfe, 0xff, 0xff, 0xff]
         );
         assert!(
-            DataType::U8
-                .encode("256")
+            encode(Unsigned8, "256")
                 .unwrap_err()
                 .message
                 .contains("0..=255")
         );
-        assert!(DataType::I8.encode("x").is_err());
+        assert!(encode(Integer8, "x").is_err());
         assert_eq!(
-            DataType::Bytes.encode("00 11 aa").unwrap(),
+            encode(OctetString, "00 11 aa").unwrap(),
             vec![0, 0x11, 0xaa]
         );
-        let e = DataType::U32.decode(&[1, 2]).unwrap_err();
+        let e = decode(Unsigned32, &[1, 2]).unwrap_err();
         assert!(e.message.contains("wrong data type"), "{e}");
-        assert_eq!(DataType::I16.decode(&[0xff, 0xff]).unwrap().1, json!(-1));
-        assert_eq!(DataType::Str.decode(b"ab\0").unwrap().1, json!("ab"));
+        assert_eq!(decode(Integer16, &[0xff, 0xff]).unwrap().1, json!(-1));
+        assert_eq!(decode(VisibleString, b"ab\0").unwrap().1, json!("ab"));
+    }
+
+    #[test]
+    fn text_forms_of_every_kind() {
+        use DataType::*;
+        assert_eq!(parse_type("U32"), Some(Unsigned32));
+        assert_eq!(parse_type("real64"), Some(Real64));
+        assert_eq!(parse_type("bytes"), Some(OctetString));
+        assert_eq!(parse_type("domain"), Some(Domain));
+        assert_eq!(parse_type("u128"), None);
+        assert_eq!(
+            encode(Real32, "3.5").unwrap(),
+            3.5f32.to_le_bytes().to_vec()
+        );
+        assert_eq!(
+            decode(Real32, &3.5f32.to_le_bytes()).unwrap(),
+            ("3.5".into(), json!(3.5))
+        );
+        assert_eq!(
+            decode(Real64, &(-0.25f64).to_le_bytes()).unwrap().1,
+            json!(-0.25)
+        );
+        assert!(
+            encode(Real64, "abc")
+                .unwrap_err()
+                .message
+                .contains("REAL64")
+        );
+        assert_eq!(encode(Boolean, "on").unwrap(), vec![1]);
+        assert_eq!(decode(Boolean, &[2]).unwrap().1, json!(true));
+        assert_eq!(
+            decode(Unsigned32, &[0x88, 0x13, 0, 0]).unwrap().0,
+            "5000 (0x00001388)"
+        );
+        assert_eq!(
+            decode(Integer32, &[0xfe, 0xff, 0xff, 0xff]).unwrap().0,
+            "-2 (0xfffffffe)"
+        );
+        assert_eq!(
+            encode(Unsigned64, "18446744073709551615").unwrap(),
+            vec![0xff; 8]
+        );
+        assert_eq!(
+            encode(Integer64, "-0x10").unwrap(),
+            (-16i64).to_le_bytes().to_vec()
+        );
+        assert!(
+            encode(Integer16, "-32769")
+                .unwrap_err()
+                .message
+                .contains("-32768..=32767")
+        );
+        assert_eq!(
+            decode(VisibleString, &[b'a', 0xff]).unwrap().1,
+            json!("a\u{fffd}")
+        );
+        assert_eq!(encode(Domain, "0xbeef").unwrap(), vec![0xbe, 0xef]);
+        assert_eq!(decode(Domain, &[0xbe, 0xef]).unwrap().0, "beef");
+        assert_eq!(decode_untyped(&[1, 0]).0, "1 (0x0001)");
+        assert_eq!(decode_untyped(b"abc").1, json!("abc"));
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! bytes; and what `encode` accepts, `decode` gives back.
 
 use drivectl::eds::Eds;
-use drivectl::values::{DataType, parse_hex_bytes, parse_object};
+use drivectl::values::{DataType, decode, encode, parse_hex_bytes, parse_object, parse_type};
 use proptest::prelude::*;
 
 const TYPES: [&str; 13] = [
@@ -20,17 +20,17 @@ proptest! {
         let _ = parse_object(&s);
         let _ = parse_hex_bytes(&s);
         for t in TYPES {
-            let _ = DataType::parse(t).map(|ty| ty.encode(&s));
+            let _ = parse_type(t).map(|ty| encode(ty, &s));
         }
     }
 
     #[test]
     fn integers_round_trip(v in any::<i32>(), u in any::<u16>()) {
-        let t = DataType::I32;
-        let bytes = t.encode(&v.to_string()).unwrap();
-        prop_assert_eq!(t.decode(&bytes).unwrap().1, serde_json::json!(v));
-        let t = DataType::U16;
-        let bytes = t.encode(&format!("{u:#x}")).unwrap();
-        prop_assert_eq!(t.decode(&bytes).unwrap().1, serde_json::json!(u));
+        let t = DataType::Integer32;
+        let bytes = encode(t, &v.to_string()).unwrap();
+        prop_assert_eq!(decode(t, &bytes).unwrap().1, serde_json::json!(v));
+        let t = DataType::Unsigned16;
+        let bytes = encode(t, &format!("{u:#x}")).unwrap();
+        prop_assert_eq!(decode(t, &bytes).unwrap().1, serde_json::json!(u));
     }
 }

@@ -1,12 +1,13 @@
 //! A small object dictionary: (index, sub-index) → typed value with access rights, a
 //! PDO-mappable flag and an optional value range; errors map to SDO abort codes. Used by the
-//! simulated drive's SDO server.
+//! simulated drive's SDO server, and by drivectl for its data types and value codec.
 //!
 //! Not canopen-rs 0.6.1's `ObjectDictionary`: it has no PDO-mappable flag (needed for abort
 //! 0x06040041), reports a missing sub-index like a missing object (no 0x06090011), and caps
 //! strings at 32 bytes (datatypes.rs ~29).
 
 use std::fmt;
+use std::hash::{Hash, Hasher};
 
 use crate::wire::AbortCode;
 
@@ -31,6 +32,10 @@ pub enum DataType {
     Unsigned32,
     /// UNSIGNED64.
     Unsigned64,
+    /// REAL32 (IEEE 754 single).
+    Real32,
+    /// REAL64 (IEEE 754 double).
+    Real64,
     /// VISIBLE_STRING.
     VisibleString,
     /// OCTET_STRING.
@@ -45,8 +50,8 @@ impl DataType {
         match self {
             DataType::Boolean | DataType::Integer8 | DataType::Unsigned8 => Some(1),
             DataType::Integer16 | DataType::Unsigned16 => Some(2),
-            DataType::Integer32 | DataType::Unsigned32 => Some(4),
-            DataType::Integer64 | DataType::Unsigned64 => Some(8),
+            DataType::Integer32 | DataType::Unsigned32 | DataType::Real32 => Some(4),
+            DataType::Integer64 | DataType::Unsigned64 | DataType::Real64 => Some(8),
             DataType::VisibleString | DataType::OctetString | DataType::Domain => None,
         }
     }
@@ -60,16 +65,101 @@ impl DataType {
             },
         }
     }
-    const fn signed(self) -> bool {
+    /// Whether it is a signed integer type (INTEGER8..64).
+    pub const fn is_signed(self) -> bool {
         matches!(
             self,
             DataType::Integer8 | DataType::Integer16 | DataType::Integer32 | DataType::Integer64
         )
     }
+
+    /// The inclusive value range of an integer type; `None` for the others.
+    pub const fn int_range(self) -> Option<(i128, i128)> {
+        Some(match self {
+            DataType::Integer8 => (i8::MIN as i128, i8::MAX as i128),
+            DataType::Integer16 => (i16::MIN as i128, i16::MAX as i128),
+            DataType::Integer32 => (i32::MIN as i128, i32::MAX as i128),
+            DataType::Integer64 => (i64::MIN as i128, i64::MAX as i128),
+            DataType::Unsigned8 => (0, u8::MAX as i128),
+            DataType::Unsigned16 => (0, u16::MAX as i128),
+            DataType::Unsigned32 => (0, u32::MAX as i128),
+            DataType::Unsigned64 => (0, u64::MAX as i128),
+            _ => return None,
+        })
+    }
+
+    /// From a CiA 301 data type index, as in an EDS `DataType=` (0x0001 BOOLEAN ..
+    /// 0x001B UNSIGNED64); `None` for the types this dictionary does not have.
+    pub const fn from_code(code: u16) -> Option<DataType> {
+        Some(match code {
+            0x0001 => DataType::Boolean,
+            0x0002 => DataType::Integer8,
+            0x0003 => DataType::Integer16,
+            0x0004 => DataType::Integer32,
+            0x0005 => DataType::Unsigned8,
+            0x0006 => DataType::Unsigned16,
+            0x0007 => DataType::Unsigned32,
+            0x0008 => DataType::Real32,
+            0x0009 => DataType::VisibleString,
+            0x000A => DataType::OctetString,
+            0x000F => DataType::Domain,
+            0x0011 => DataType::Real64,
+            0x0015 => DataType::Integer64,
+            0x001B => DataType::Unsigned64,
+            _ => return None,
+        })
+    }
+
+    /// The CiA 301 data type index (inverse of [`DataType::from_code`]).
+    pub const fn code(self) -> u16 {
+        match self {
+            DataType::Boolean => 0x0001,
+            DataType::Integer8 => 0x0002,
+            DataType::Integer16 => 0x0003,
+            DataType::Integer32 => 0x0004,
+            DataType::Unsigned8 => 0x0005,
+            DataType::Unsigned16 => 0x0006,
+            DataType::Unsigned32 => 0x0007,
+            DataType::Real32 => 0x0008,
+            DataType::VisibleString => 0x0009,
+            DataType::OctetString => 0x000A,
+            DataType::Domain => 0x000F,
+            DataType::Real64 => 0x0011,
+            DataType::Integer64 => 0x0015,
+            DataType::Unsigned64 => 0x001B,
+        }
+    }
+
+    /// The CiA 301 name (`UNSIGNED16`, `VISIBLE_STRING`).
+    pub const fn cia_name(self) -> &'static str {
+        match self {
+            DataType::Boolean => "BOOLEAN",
+            DataType::Integer8 => "INTEGER8",
+            DataType::Integer16 => "INTEGER16",
+            DataType::Integer32 => "INTEGER32",
+            DataType::Integer64 => "INTEGER64",
+            DataType::Unsigned8 => "UNSIGNED8",
+            DataType::Unsigned16 => "UNSIGNED16",
+            DataType::Unsigned32 => "UNSIGNED32",
+            DataType::Unsigned64 => "UNSIGNED64",
+            DataType::Real32 => "REAL32",
+            DataType::Real64 => "REAL64",
+            DataType::VisibleString => "VISIBLE_STRING",
+            DataType::OctetString => "OCTET_STRING",
+            DataType::Domain => "DOMAIN",
+        }
+    }
 }
 
-/// A typed value.
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+impl fmt::Display for DataType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.cia_name())
+    }
+}
+
+/// A typed value. Equality and hashing compare type and bits (so a REAL NaN equals itself
+/// and 0.0 differs from -0.0).
+#[derive(Clone, Debug)]
 pub enum Value {
     /// BOOLEAN.
     Boolean(bool),
@@ -89,6 +179,10 @@ pub enum Value {
     U32(u32),
     /// UNSIGNED64.
     U64(u64),
+    /// REAL32.
+    Real32(f32),
+    /// REAL64.
+    Real64(f64),
     /// VISIBLE_STRING.
     VisibleString(String),
     /// OCTET_STRING.
@@ -110,6 +204,8 @@ impl Value {
             Value::U16(_) => DataType::Unsigned16,
             Value::U32(_) => DataType::Unsigned32,
             Value::U64(_) => DataType::Unsigned64,
+            Value::Real32(_) => DataType::Real32,
+            Value::Real64(_) => DataType::Real64,
             Value::VisibleString(_) => DataType::VisibleString,
             Value::OctetString(_) => DataType::OctetString,
             Value::Domain(_) => DataType::Domain,
@@ -128,6 +224,8 @@ impl Value {
             Value::U16(v) => v as u64,
             Value::U32(v) => v as u64,
             Value::U64(v) => v,
+            Value::Real32(v) => v.to_bits() as u64,
+            Value::Real64(v) => v.to_bits(),
             _ => return None,
         })
     }
@@ -144,16 +242,21 @@ impl Value {
             DataType::Unsigned16 => Value::U16(raw as u16),
             DataType::Unsigned32 => Value::U32(raw as u32),
             DataType::Unsigned64 => Value::U64(raw),
+            DataType::Real32 => Value::Real32(f32::from_bits(raw as u32)),
+            DataType::Real64 => Value::Real64(f64::from_bits(raw)),
             _ => return None,
         })
     }
 
-    /// As a signed number (integers and booleans), sign-extended.
+    /// As a signed number (integers and booleans), sign-extended; `None` for reals and strings.
     pub fn as_i64(&self) -> Option<i64> {
         let t = self.data_type();
+        if matches!(t, DataType::Real32 | DataType::Real64) {
+            return None;
+        }
         let raw = self.to_raw()?;
         let bits = t.size()? * 8;
-        Some(if t.signed() && bits < 64 {
+        Some(if t.is_signed() && bits < 64 {
             let shift = 64 - bits;
             ((raw << shift) as i64) >> shift
         } else {
@@ -161,7 +264,7 @@ impl Value {
         })
     }
 
-    /// As an unsigned number (raw bits of integers and booleans).
+    /// As an unsigned number: the raw bits of a fixed-size value (a REAL's IEEE bits).
     pub fn as_u64(&self) -> Option<u64> {
         self.to_raw()
     }
@@ -176,6 +279,21 @@ impl Value {
                 v.to_raw().unwrap_or(0).to_le_bytes()[..n].to_vec()
             }
         }
+    }
+
+    /// An integer value of type `t` from `v`, range-checked against the type
+    /// ([`OdError::ValueTooHigh`]/[`OdError::ValueTooLow`]); [`OdError::InvalidValue`] if `t`
+    /// is not an integer type.
+    pub fn from_int(t: DataType, v: i128) -> Result<Value, OdError> {
+        let (min, max) = t.int_range().ok_or(OdError::InvalidValue)?;
+        if v > max {
+            return Err(OdError::ValueTooHigh);
+        }
+        if v < min {
+            return Err(OdError::ValueTooLow);
+        }
+        // In range, so the low 64 bits are the two's complement of the value.
+        Value::from_raw(t, v as u64).ok_or(OdError::InvalidValue)
     }
 
     /// Decodes SDO bytes as type `t`; fixed-size types need exactly their size.
@@ -199,6 +317,34 @@ impl Value {
                 DataType::OctetString => Value::OctetString(bytes.to_vec()),
                 _ => Value::Domain(bytes.to_vec()),
             }),
+        }
+    }
+}
+
+impl PartialEq for Value {
+    fn eq(&self, other: &Value) -> bool {
+        match (self, other) {
+            (Value::VisibleString(a), Value::VisibleString(b)) => a == b,
+            (Value::OctetString(a), Value::OctetString(b))
+            | (Value::Domain(a), Value::Domain(b)) => a == b,
+            _ => {
+                self.data_type() == other.data_type()
+                    && self.to_raw().is_some()
+                    && self.to_raw() == other.to_raw()
+            }
+        }
+    }
+}
+
+impl Eq for Value {}
+
+impl Hash for Value {
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        self.data_type().hash(h);
+        match self {
+            Value::VisibleString(s) => s.hash(h),
+            Value::OctetString(b) | Value::Domain(b) => b.hash(h),
+            v => v.to_raw().hash(h),
         }
     }
 }
@@ -518,6 +664,77 @@ impl ObjectDictionary {
 mod tests {
     use super::*;
 
+    const ALL: [DataType; 14] = [
+        DataType::Boolean,
+        DataType::Integer8,
+        DataType::Integer16,
+        DataType::Integer32,
+        DataType::Integer64,
+        DataType::Unsigned8,
+        DataType::Unsigned16,
+        DataType::Unsigned32,
+        DataType::Unsigned64,
+        DataType::Real32,
+        DataType::Real64,
+        DataType::VisibleString,
+        DataType::OctetString,
+        DataType::Domain,
+    ];
+
+    #[test]
+    fn type_codes_names_and_ranges() {
+        for t in ALL {
+            assert_eq!(DataType::from_code(t.code()), Some(t), "{t}");
+        }
+        assert_eq!(DataType::from_code(0x0007), Some(DataType::Unsigned32));
+        assert_eq!(DataType::from_code(0x0008), Some(DataType::Real32));
+        assert_eq!(DataType::from_code(0x0011), Some(DataType::Real64));
+        assert_eq!(DataType::from_code(0x000C), None); // TIME_OF_DAY: not here
+        assert_eq!(DataType::Real64.cia_name(), "REAL64");
+        assert_eq!(DataType::Unsigned16.to_string(), "UNSIGNED16");
+        assert_eq!(DataType::Integer8.int_range(), Some((-128, 127)));
+        assert_eq!(
+            DataType::Unsigned64.int_range(),
+            Some((0, u64::MAX as i128))
+        );
+        assert_eq!(DataType::Real32.int_range(), None);
+        assert!(DataType::Integer64.is_signed() && !DataType::Unsigned8.is_signed());
+        assert!(!DataType::Real32.is_signed());
+    }
+
+    #[test]
+    fn integers_from_i128_are_range_checked() {
+        assert_eq!(Value::from_int(DataType::Integer32, -2), Ok(Value::I32(-2)));
+        assert_eq!(
+            Value::from_int(DataType::Integer32, -2).unwrap().to_bytes(),
+            vec![0xfe, 0xff, 0xff, 0xff]
+        );
+        assert_eq!(
+            Value::from_int(DataType::Unsigned64, u64::MAX as i128),
+            Ok(Value::U64(u64::MAX))
+        );
+        assert_eq!(
+            Value::from_int(DataType::Integer64, i64::MIN as i128),
+            Ok(Value::I64(i64::MIN))
+        );
+        assert_eq!(
+            Value::from_int(DataType::Unsigned8, 256),
+            Err(OdError::ValueTooHigh)
+        );
+        assert_eq!(
+            Value::from_int(DataType::Unsigned8, -1),
+            Err(OdError::ValueTooLow)
+        );
+        assert_eq!(
+            Value::from_int(DataType::Integer16, -32769),
+            Err(OdError::ValueTooLow)
+        );
+        assert_eq!(
+            Value::from_int(DataType::Real32, 1),
+            Err(OdError::InvalidValue)
+        );
+    }
+
     fn od() -> ObjectDictionary {
         let mut od = ObjectDictionary::new();
         od.insert_var(
@@ -641,6 +858,9 @@ mod tests {
             Value::U16(0xBEEF),
             Value::U32(0xDEAD_BEEF),
             Value::U64(u64::MAX),
+            Value::Real32(-3.5),
+            Value::Real64(1e-300),
+            Value::Real32(f32::NAN),
             Value::VisibleString("héllo".into()),
             Value::OctetString(vec![0, 1, 2]),
             Value::Domain(vec![]),
@@ -658,6 +878,15 @@ mod tests {
             }
         }
         assert_eq!(Value::I16(-300).as_i64(), Some(-300));
+        assert_eq!(Value::Real32(3.5).to_bytes(), 3.5f32.to_le_bytes().to_vec());
+        assert_eq!(
+            Value::from_bytes(DataType::Real64, &2.25f64.to_le_bytes()),
+            Ok(Value::Real64(2.25))
+        );
+        assert_eq!(Value::Real32(3.0).as_i64(), None);
+        assert_ne!(Value::Real32(0.0), Value::Real32(-0.0));
+        assert_ne!(Value::Real32(1.0), Value::U32(1.0f32.to_bits()));
+        assert_ne!(Value::U8(1), Value::I8(1));
         assert_eq!(Value::U32(0xFFFF_FFFF).as_i64(), Some(0xFFFF_FFFF));
         assert_eq!(
             Value::from_bytes(DataType::VisibleString, &[0xFF]),
