@@ -65,6 +65,8 @@ pub struct PeriodStats {
     buckets: Box<[u64]>,
     /// Samples of 1 s or more.
     overflow: u64,
+    /// The last SYNC seen by [`PeriodStats::on_sync`].
+    last_sync: Option<Instant>,
     n: u64,
     sum_us: f64,
     min_us: f64,
@@ -76,6 +78,7 @@ impl Default for PeriodStats {
         PeriodStats {
             buckets: vec![0; FINE_BUCKETS + COARSE_BUCKETS].into_boxed_slice(),
             overflow: 0,
+            last_sync: None,
             n: 0,
             sum_us: 0.0,
             min_us: f64::INFINITY,
@@ -105,6 +108,14 @@ impl PeriodStats {
             Some(b) => *b += 1,
             None => self.overflow += 1,
         }
+    }
+
+    /// A SYNC received at `t`: pushes the period since the previous one (none for the first).
+    pub fn on_sync(&mut self, t: Instant) {
+        if let Some(prev) = self.last_sync {
+            self.push(t.saturating_since(prev).as_nanos() as f64 / 1000.0);
+        }
+        self.last_sync = Some(t);
     }
 
     /// Number of periods pushed.
@@ -166,6 +177,33 @@ impl PeriodStats {
             self.max_us,
         ))
     }
+}
+
+/// The `--log` timestamp (s) of bus time `t`: virtual bus time from power-on on the
+/// simulator, else wall-clock epoch seconds (`wall0` was taken at bus time `start`).
+fn log_time(sim: bool, wall0: SystemTime, start: Instant, t: Instant) -> f64 {
+    if sim {
+        t.nanos() as f64 * 1e-9
+    } else {
+        wall0
+            .duration_since(UNIX_EPOCH)
+            .map(|d| d.as_secs_f64())
+            .unwrap_or(0.0)
+            + t.saturating_since(start).as_secs_f64()
+    }
+}
+
+/// Creates the `--log` file (buffered); an error is exit 1 naming the path.
+fn create_log(log: Option<&Path>) -> Result<Option<BufWriter<File>>> {
+    log.map(|p| {
+        File::create(p).map(BufWriter::new).map_err(|e| {
+            CliError::new(
+                Exit::Other,
+                format!("cannot create log {}: {e}", p.display()),
+            )
+        })
+    })
+    .transpose()
 }
 
 struct Clock {
@@ -338,15 +376,7 @@ pub fn monitor(
     let every = seconds(Some(stats_every), "--stats-every")?
         .unwrap_or(Duration::from_secs(1))
         .max(Duration::from_millis(10));
-    let mut log = match log {
-        Some(p) => Some(BufWriter::new(File::create(p).map_err(|e| {
-            CliError::new(
-                Exit::Other,
-                format!("cannot create log {}: {e}", p.display()),
-            )
-        })?)),
-        None => None,
-    };
+    let mut log = create_log(log)?;
     let iface = ctx.link.name().to_string();
     let sim = ctx.link.sim().is_some();
     let start = ctx.now();
@@ -360,7 +390,6 @@ pub fn monitor(
     let mut win_start = start;
     let mut kinds: BTreeMap<&'static str, u64> = BTreeMap::new();
     let mut sync = PeriodStats::default();
-    let mut last_sync: Option<Instant> = None;
     let mut log_err: Option<std::io::Error> = None;
     if !ctx.json {
         ctx.say(format!(
@@ -373,17 +402,7 @@ pub fn monitor(
             }
         ));
     }
-    let stamp = |t: Instant| -> f64 {
-        if sim {
-            t.nanos() as f64 * 1e-9
-        } else {
-            wall0
-                .duration_since(UNIX_EPOCH)
-                .map(|d| d.as_secs_f64())
-                .unwrap_or(0.0)
-                + t.saturating_since(start).as_secs_f64()
-        }
-    };
+    let stamp = |t: Instant| log_time(sim, wall0, start, t);
     let mut stats_lines: Vec<serde_json::Value> = Vec::new();
     let mut on = |ctx: &mut Ctx, ev: Event<'_>| -> Result<()> {
         let (t, f) = match ev {
@@ -410,10 +429,7 @@ pub fn monitor(
         let d = decode(f, &ctx.dict, &ctx.pdo_maps);
         *kinds.entry(d.kind).or_default() += 1;
         if d.kind == "sync" {
-            if let Some(prev) = last_sync {
-                sync.push(t.saturating_since(prev).as_nanos() as f64 / 1000.0);
-            }
-            last_sync = Some(t);
+            sync.on_sync(t);
         }
         if let Some(w) = log.as_mut()
             && log_err.is_none()
@@ -580,15 +596,7 @@ pub fn monitor_tui(ctx: &mut Ctx, log: Option<&Path>, duration: Option<f64>) -> 
         ));
     }
     let duration = seconds(duration, "--duration")?;
-    let mut log = match log {
-        Some(p) => Some(BufWriter::new(File::create(p).map_err(|e| {
-            CliError::new(
-                Exit::Other,
-                format!("cannot create log {}: {e}", p.display()),
-            )
-        })?)),
-        None => None,
-    };
+    let mut log = create_log(log)?;
     let iface = ctx.link.name().to_string();
     let sim = ctx.link.sim().is_some();
     let start = ctx.now();
@@ -610,15 +618,7 @@ pub fn monitor_tui(ctx: &mut Ctx, log: Option<&Path>, duration: Option<f64>) -> 
             Event::Frame(t, f) => {
                 state.on_frame(t, f, &ctx.dict, &ctx.pdo_maps);
                 if let Some(w) = log.as_mut() {
-                    let ts = if sim {
-                        t.nanos() as f64 * 1e-9
-                    } else {
-                        wall0
-                            .duration_since(UNIX_EPOCH)
-                            .map(|d| d.as_secs_f64())
-                            .unwrap_or(0.0)
-                            + t.saturating_since(start).as_secs_f64()
-                    };
+                    let ts = log_time(sim, wall0, start, t);
                     writeln!(w, "{}", candump_line(ts, &iface, f)).map_err(|e| {
                         CliError::new(Exit::Other, format!("writing the log failed: {e}"))
                     })?;
@@ -711,6 +711,19 @@ mod tests {
         assert_eq!(s.summary(), None);
         s.push(-3.0);
         assert_eq!(s.summary(), Some((1, 0.0, 0.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn periods_between_syncs() {
+        let mut s = PeriodStats::default();
+        let t0 = Instant::from_nanos(5_000_000);
+        s.on_sync(t0);
+        assert_eq!(s.summary(), None);
+        s.on_sync(t0 + Duration::from_micros(1000));
+        s.on_sync(t0 + Duration::from_micros(2003));
+        assert_eq!(s.count(), 2);
+        assert_eq!(s.min(), Some(1000.0));
+        assert_eq!(s.summary().unwrap().4, 1003.0);
     }
 
     #[test]

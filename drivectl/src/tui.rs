@@ -64,7 +64,6 @@ pub struct TuiState {
     pub load_percent: f64,
     bitrate: u32,
     sync: PeriodStats,
-    last_sync: Option<Instant>,
     /// The latest events that are not cyclic (NMT, SDO, EMCY, boot-ups), newest last.
     pub events: VecDeque<String>,
 }
@@ -100,7 +99,6 @@ impl TuiState {
             load_percent: 0.0,
             bitrate: bitrate.max(1),
             sync: PeriodStats::default(),
-            last_sync: None,
             events: VecDeque::with_capacity(Self::EVENTS),
         }
     }
@@ -121,11 +119,7 @@ impl TuiState {
         self.window_bits += f.bits() as u64;
         let d: Decoded = decode(f, dict, maps);
         if d.kind == "sync" {
-            if let Some(prev) = self.last_sync {
-                self.sync
-                    .push(t.saturating_since(prev).as_nanos() as f64 / 1000.0);
-            }
-            self.last_sync = Some(t);
+            self.sync.on_sync(t);
             return;
         }
         if let Some(n) = d.node {
