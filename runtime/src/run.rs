@@ -557,6 +557,8 @@ fn run_virtual(
     };
     side.drain(&mut scons);
     let wall = wall0.elapsed();
+    // The cyclic phase's traffic only: disabling afterwards is not part of the bus load.
+    let counters = counters_since(ctrl.link().counters(), c0);
     let shutdown_error = ctrl.link_mut().shutdown().err();
     let link = ctrl.link();
     Ok(LoopEnd {
@@ -564,7 +566,7 @@ fn run_virtual(
         ticks: ctrl.ticks(),
         starved: ctrl.starved_ticks(),
         dropped: ctrl.dropped_status(),
-        counters: counters_since(link.counters(), c0),
+        counters,
         bitrate: link.bitrate(),
         elapsed: now.saturating_since(now0),
         latency: None,
@@ -695,6 +697,8 @@ fn run_realtime(
             let now = monotonic_ns().saturating_sub(t0);
             let _ = wall0;
             let wall = wall_cyclic.elapsed();
+            // The cyclic phase's traffic only (see run_virtual).
+            let counters = counters_since(ctrl.link().counters(), c0);
             let shutdown_error = ctrl.link_mut().shutdown().err();
             let link = ctrl.link();
             Ok(LoopEnd {
@@ -702,7 +706,7 @@ fn run_realtime(
                 ticks: ctrl.ticks(),
                 starved: ctrl.starved_ticks(),
                 dropped: ctrl.dropped_status(),
-                counters: counters_since(link.counters(), c0),
+                counters,
                 bitrate: link.bitrate(),
                 elapsed: Duration::from_nanos((now + t0).saturating_sub(t_cyclic)),
                 latency: Some(LatencySummary {
