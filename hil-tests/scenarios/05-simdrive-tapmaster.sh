@@ -24,4 +24,4 @@ scenario_check 'ok == true' 'tap_windows == 2' 'checks.*.pass == true' \
     'checks.?name~(actual).value_um > 0' 'sync_period_us.count > 3000' \
     'protocol_errors.unexpected_frames == 0' 'protocol_errors.unaddressed_frames == 0' \
     'protocol_errors.sdo_aborts_sent == 0' 'drives.*.reached_operation_enabled == true'
-scenario_end "taps {tap_windows}, coupling setpoints {checks.?name~(setpoints).value_um:.4} um (limit {checks.0.limit_um:.4}), actual {checks.?name~(actual).value_um:.1} um; $COMMON_FIGURES_DRIVE; tapmaster: $(grep -o 'wake-up.*' "$HIL_OUT/run.log" | head -1)"
+scenario_end "taps {tap_windows}, coupling setpoints max {max:checks.?name~(setpoints).value_um:.4} um (limit {min:checks.?name~(setpoints).limit_um:.4}), actual max {max:checks.?name~(actual).value_um:.1} um; $COMMON_FIGURES_DRIVE; tapmaster: $(grep -o 'wake-up.*' "$HIL_OUT/run.log" | head -1)"

@@ -11,5 +11,5 @@ scenario_check 'ok == true' 'tap_windows == 24' 'spindle_windows == 0' \
     'drives.*.faults_entered == 0' \
     -- 'ok == true' 'tapping.# >= 2' 'tapping.*.pitch_mm > 1.2499' 'tapping.*.pitch_mm < 1.2501' \
     'tapping.*.max_coupling_error_um_cmd <= @coupling_bound_um'
-scenario_end "taps {tap_windows}, coupling setpoints max {checks.?name~(setpoints).value_um:.4} um (limit {checks.0.limit_um:.4}), actual {checks.?name~(actual).value_um:.1} um; $COMMON_FIGURES_DRIVE" \
-    "coupling setpoints {tapping.*.max_coupling_error_um_cmd:.4} um (bound {coupling_bound_um:.4}), actual {tapping.*.max_coupling_error_um_act:.1} um; $COMMON_FIGURES_RUN"
+scenario_end "taps {tap_windows}, coupling setpoints max {max:checks.?name~(setpoints).value_um:.4} um (limit {min:checks.?name~(setpoints).limit_um:.4}), actual max {max:checks.?name~(actual).value_um:.1} um; $COMMON_FIGURES_DRIVE" \
+    "coupling setpoints max {max:tapping.*.max_coupling_error_um_cmd:.4} um (bound {coupling_bound_um:.4}), actual {tapping.*.max_coupling_error_um_act:.1} um; $COMMON_FIGURES_RUN"

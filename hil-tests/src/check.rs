@@ -232,12 +232,14 @@ pub fn check_expr(expr: &str, doc: &Value) -> Result<Result<(), String>, String>
 }
 
 /// Fills `{PATH}` / `{PATH:.N}` (N decimals) placeholders from `doc`; several values are
-/// joined with `/`, none is `-`.
+/// joined with `/`, none is `-`. `{max:PATH}` / `{min:PATH}` take the largest / smallest of
+/// the numbers selected.
 ///
 /// ```
 /// use cnc402_hil::check::render;
-/// let v = serde_json::json!({"s": {"p50": 1000.25}, "n": "x"});
+/// let v = serde_json::json!({"s": {"p50": 1000.25}, "n": "x", "a": [3, 1.5, 2]});
 /// assert_eq!(render(&v, "p50 {s.p50:.1} µs {n} {nope}"), "p50 1000.2 µs x -");
+/// assert_eq!(render(&v, "{a.*} {max:a.*:.1} {min:a.*}"), "3/1.5/2 3.0 1.5");
 /// ```
 pub fn render(doc: &Value, template: &str) -> String {
     let mut out = String::new();
@@ -253,7 +255,24 @@ pub fn render(doc: &Value, template: &str) -> String {
             Some((p, n)) => (p, n.parse::<usize>().ok()),
             None => (inner, None),
         };
-        let vals = select(doc, path);
+        let (agg, path) = match path.split_once(':') {
+            Some((a @ ("max" | "min"), p)) => (Some(a), p),
+            _ => (None, path),
+        };
+        let mut vals = select(doc, path);
+        if let Some(a) = agg {
+            let nums = vals.iter().filter_map(Value::as_f64);
+            let pick = if a == "max" {
+                nums.reduce(f64::max)
+            } else {
+                nums.reduce(f64::min)
+            };
+            vals = pick
+                .and_then(serde_json::Number::from_f64)
+                .map(Value::Number)
+                .into_iter()
+                .collect();
+        }
         if vals.is_empty() {
             out.push('-');
         } else {
