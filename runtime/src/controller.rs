@@ -13,7 +13,7 @@ use cnc402_motion::{AxisPos, Interpolator, MoveKind, PlannedMove, to_counts_wrap
 
 use crate::link::{DriveFeedback, DriveLink, DriveStop, StopCause};
 use crate::ring::{Consumer, LoopInput, MoveConsumer, Observer, Producer, StatusProducer};
-use crate::status::{Outcome, Phase, Status, TapCoupling};
+use crate::status::{Outcome, Phase, Status, TapCoupling, within_one_count};
 
 /// Ticks the drives get to come to rest after the last setpoint before the run ends.
 pub const SETTLE_TICKS: u32 = 50;
@@ -355,7 +355,7 @@ impl<L: DriveLink> CycleController<L> {
     fn settled(&self) -> bool {
         (0..self.axes.n).all(|i| {
             let a = to_counts_wrapping(self.feedback[i].actual, self.axes.counts_per_unit[i]);
-            a.wrapping_sub(self.setpoints[i]).abs() <= 1
+            within_one_count(a, self.setpoints[i])
         })
     }
 

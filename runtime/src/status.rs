@@ -65,6 +65,13 @@ pub struct Status {
     pub spindle_follow: bool,
 }
 
+/// Whether two wrapping INT32 positions are within one count of each other. The difference
+/// wraps and is compared by `unsigned_abs`, so `i32::MIN` (whose `abs` panics in debug and
+/// stays negative, "settled", in release) reads as far apart.
+pub fn within_one_count(a: i32, b: i32) -> bool {
+    a.wrapping_sub(b).unsigned_abs() <= 1
+}
+
 /// How the run ended.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Outcome {
@@ -83,4 +90,22 @@ pub enum Outcome {
     MotionFailed { error: MotionError },
     /// The drives could not be started (nothing moved).
     StartupFailed(String),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::within_one_count;
+
+    #[test]
+    fn within_one_count_extreme_difference_is_not_settled() {
+        // 0 - i32::MIN wraps to i32::MIN: `.abs()` panicked in debug and gave a negative
+        // number (<= 1, "settled") in release.
+        assert!(!within_one_count(0, i32::MIN));
+        assert!(!within_one_count(i32::MIN, 0));
+        assert!(!within_one_count(i32::MAX, -1));
+        assert!(within_one_count(i32::MAX, i32::MIN)); // one count apart across the wrap
+        assert!(within_one_count(5, 4));
+        assert!(within_one_count(-7, -7));
+        assert!(!within_one_count(5, 3));
+    }
 }

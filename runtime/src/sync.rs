@@ -16,7 +16,7 @@ use cnc402_motion::AxisPos;
 
 use crate::feeder::Feeder;
 use crate::ring::{LoopInput, MoveProducer, Producer};
-use crate::status::{Phase, Status};
+use crate::status::{Phase, Status, within_one_count};
 
 /// Idle ticks after which the machine counts as settled even if a drive has not come within
 /// one count of its setpoint.
@@ -71,7 +71,7 @@ impl SyncShared {
         p.idle_ticks = idle_ticks;
         p.moves_started = s.moves_started;
         p.idle = s.idle;
-        p.settled = (0..n_axes).all(|i| s.act_counts[i].wrapping_sub(s.cmd_counts[i]).abs() <= 1);
+        p.settled = (0..n_axes).all(|i| within_one_count(s.act_counts[i], s.cmd_counts[i]));
         p.actual = AxisPos(s.act);
         p.path_length = path_length;
         p.ended |= s.phase != Phase::Running;
