@@ -24,6 +24,50 @@ pub trait CycleBus: TimedBus {
     fn bitrate(&self) -> u32;
 }
 
+/// Implements [`CanBus`](cnc402_drives::bus::CanBus) and [`TimedBus`] for a machine type by
+/// forwarding every call to its field `$field` (the machines wrap a bus and add only
+/// [`CycleBus`] behaviour). A macro because a blanket impl of the drives crate's traits over
+/// a local "wrapper" trait is not allowed by the orphan rule.
+macro_rules! forward_timed_bus {
+    ($machine:ty, $field:ident) => {
+        impl cnc402_drives::bus::CanBus for $machine {
+            fn send(
+                &mut self,
+                frame: &cnc402_drives::wire::CanFrame,
+            ) -> Result<(), cnc402_drives::bus::BusError> {
+                cnc402_drives::bus::CanBus::send(&mut self.$field, frame)
+            }
+            fn recv(
+                &mut self,
+            ) -> Result<Option<cnc402_drives::wire::CanFrame>, cnc402_drives::bus::BusError> {
+                cnc402_drives::bus::CanBus::recv(&mut self.$field)
+            }
+            fn recv_timeout(
+                &mut self,
+                timeout: core::time::Duration,
+            ) -> Result<Option<cnc402_drives::wire::CanFrame>, cnc402_drives::bus::BusError> {
+                cnc402_drives::bus::CanBus::recv_timeout(&mut self.$field, timeout)
+            }
+            fn counters(&self) -> cnc402_drives::bus::BusCounters {
+                cnc402_drives::bus::CanBus::counters(&self.$field)
+            }
+        }
+
+        impl cnc402_drives::master::TimedBus for $machine {
+            fn now(&self) -> cnc402_drives::Instant {
+                cnc402_drives::master::TimedBus::now(&self.$field)
+            }
+            fn recv_until(
+                &mut self,
+                deadline: cnc402_drives::Instant,
+            ) -> Result<Option<cnc402_drives::wire::CanFrame>, cnc402_drives::bus::BusError> {
+                cnc402_drives::master::TimedBus::recv_until(&mut self.$field, deadline)
+            }
+        }
+    };
+}
+pub(crate) use forward_timed_bus;
+
 /// How long start-up may take on a [`MasterLink`]; see [`MasterLink::with_timeouts`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LinkTimeouts {

@@ -6,13 +6,13 @@ use core::time::Duration;
 
 use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
-use cnc402_drives::bus::{BusCounters, BusError, CanBus, SimBus};
-use cnc402_drives::master::TimedBus;
+use cnc402_drives::bus::SimBus;
+
 use cnc402_drives::sim::{FaultKind, SimDrive, SimDriveOptions};
-use cnc402_drives::wire::{CanFrame, NodeId};
+use cnc402_drives::wire::NodeId;
 
 use crate::link::FaultPlan;
-use crate::master_link::{CycleBus, MasterLink};
+use crate::master_link::{CycleBus, MasterLink, forward_timed_bus};
 
 /// The simulated bus and drives; see the module doc.
 pub struct SimMachine {
@@ -64,26 +64,7 @@ impl SimMachine {
     }
 }
 
-impl CanBus for SimMachine {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        self.bus.send(frame)
-    }
-    fn recv(&mut self) -> Result<Option<CanFrame>, BusError> {
-        self.bus.recv()
-    }
-    fn counters(&self) -> BusCounters {
-        self.bus.counters()
-    }
-}
-
-impl TimedBus for SimMachine {
-    fn now(&self) -> Instant {
-        self.bus.now()
-    }
-    fn recv_until(&mut self, deadline: Instant) -> Result<Option<CanFrame>, BusError> {
-        self.bus.recv_until(deadline)
-    }
-}
+forward_timed_bus!(SimMachine, bus);
 
 impl CycleBus for SimMachine {
     /// Injects the scheduled fault when its time has come, then runs the bus and the drives

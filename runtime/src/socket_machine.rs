@@ -5,13 +5,10 @@
 //! boot's blocking SDO hands non-SDO frames back to it (`BlockingSdo`'s callback).
 
 use cnc402_config::MachineConfig;
-use cnc402_drives::Instant;
-use cnc402_drives::bus::{BusCounters, BusError, CanBus};
-use cnc402_drives::master::TimedBus;
-use cnc402_drives::socketcan::{OpenError, SocketCanBus, SocketCanOptions};
-use cnc402_drives::wire::CanFrame;
 
-use crate::master_link::{CycleBus, LinkTimeouts, MasterLink};
+use cnc402_drives::socketcan::{OpenError, SocketCanBus, SocketCanOptions};
+
+use crate::master_link::{CycleBus, LinkTimeouts, MasterLink, forward_timed_bus};
 
 /// A SocketCAN interface with the configured bit rate (the socket cannot tell it: a vcan has
 /// none, a real controller's is set with `ip link`).
@@ -47,32 +44,7 @@ impl SocketMachine {
     }
 }
 
-impl CanBus for SocketMachine {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        self.bus.send(frame)
-    }
-    fn recv(&mut self) -> Result<Option<CanFrame>, BusError> {
-        self.bus.recv()
-    }
-    fn recv_timeout(
-        &mut self,
-        timeout: core::time::Duration,
-    ) -> Result<Option<CanFrame>, BusError> {
-        self.bus.recv_timeout(timeout)
-    }
-    fn counters(&self) -> BusCounters {
-        self.bus.counters()
-    }
-}
-
-impl TimedBus for SocketMachine {
-    fn now(&self) -> Instant {
-        TimedBus::now(&self.bus)
-    }
-    fn recv_until(&mut self, deadline: Instant) -> Result<Option<CanFrame>, BusError> {
-        self.bus.recv_until(deadline)
-    }
-}
+forward_timed_bus!(SocketMachine, bus);
 
 impl CycleBus for SocketMachine {
     /// Nothing to do before a cycle: the drives run on their own, and the master's cycle
