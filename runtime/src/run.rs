@@ -557,23 +557,40 @@ fn run_virtual(
     };
     side.drain(&mut scons);
     let wall = wall0.elapsed();
-    // The cyclic phase's traffic only: disabling afterwards is not part of the bus load.
+    Ok(cyclic_end(
+        &mut ctrl,
+        outcome,
+        c0,
+        now.saturating_since(now0),
+        wall,
+    ))
+}
+
+/// The end of a cyclic phase that ran: the controller's counters, the cyclic phase's bus
+/// traffic since `c0` (disabling afterwards is not part of the bus load), then the drives
+/// disabled. `latency` and `grant` are the real-time loop's to fill in.
+fn cyclic_end(
+    ctrl: &mut CycleController<Box<dyn DriveLink>>,
+    outcome: Outcome,
+    c0: cnc402_drives::bus::BusCounters,
+    elapsed: Duration,
+    wall: Duration,
+) -> LoopEnd {
     let counters = counters_since(ctrl.link().counters(), c0);
     let shutdown_error = ctrl.link_mut().shutdown().err();
-    let link = ctrl.link();
-    Ok(LoopEnd {
+    LoopEnd {
         outcome,
         ticks: ctrl.ticks(),
         starved: ctrl.starved_ticks(),
         dropped: ctrl.dropped_status(),
         counters,
-        bitrate: link.bitrate(),
-        elapsed: now.saturating_since(now0),
+        bitrate: ctrl.link().bitrate(),
+        elapsed,
         latency: None,
         grant: None,
         wall,
         shutdown_error,
-    })
+    }
 }
 
 fn failed_end(
@@ -697,25 +714,14 @@ fn run_realtime(
             let now = monotonic_ns().saturating_sub(t0);
             let _ = wall0;
             let wall = wall_cyclic.elapsed();
-            // The cyclic phase's traffic only (see run_virtual).
-            let counters = counters_since(ctrl.link().counters(), c0);
-            let shutdown_error = ctrl.link_mut().shutdown().err();
-            let link = ctrl.link();
+            let elapsed = Duration::from_nanos((now + t0).saturating_sub(t_cyclic));
             Ok(LoopEnd {
-                outcome,
-                ticks: ctrl.ticks(),
-                starved: ctrl.starved_ticks(),
-                dropped: ctrl.dropped_status(),
-                counters,
-                bitrate: link.bitrate(),
-                elapsed: Duration::from_nanos((now + t0).saturating_sub(t_cyclic)),
                 latency: Some(LatencySummary {
                     skipped,
                     ..hist.summary()
                 }),
                 grant: Some(grant.describe()),
-                wall,
-                shutdown_error,
+                ..cyclic_end(&mut ctrl, outcome, c0, elapsed, wall)
             })
         })
         .map_err(|e| RunError::Io(format!("cannot start the loop thread: {e}")))?;
