@@ -287,6 +287,21 @@ impl SocketCanBus {
         self.extended_frames
     }
 
+    /// The current send budget (see [`SocketCanOptions::send_budget`]).
+    pub fn send_budget(&self) -> Duration {
+        self.options.send_budget
+    }
+
+    /// Changes the send budget (see [`SocketCanOptions::send_budget`]): a generous one while
+    /// booting, `Duration::ZERO` for the 1 ms cyclic loop. The budget applies at once; an
+    /// error means the socket's write timeout could not be changed (the budget is set anyway).
+    pub fn set_send_budget(&mut self, budget: Duration) -> Result<(), BusError> {
+        self.options.send_budget = budget;
+        self.socket
+            .set_write_timeout(budget.max(Duration::from_micros(1)))
+            .map_err(|e| bus_error(&e))
+    }
+
     /// Sends that found the transmit queue full at least once and were retried.
     pub fn tx_retries(&self) -> u64 {
         self.tx_retries

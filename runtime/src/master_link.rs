@@ -22,6 +22,11 @@ pub trait CycleBus: TimedBus {
     }
     /// The bit rate, for bus load.
     fn bitrate(&self) -> u32;
+    /// Called with `true` once boot succeeded (the cyclic phase begins: sends must not wait)
+    /// and with `false` before the blocking shutdown.
+    fn set_cyclic(&mut self, cyclic: bool) {
+        let _ = cyclic;
+    }
 }
 
 /// Implements [`CanBus`](cnc402_drives::bus::CanBus) and [`TimedBus`] for a machine type by
@@ -248,6 +253,7 @@ impl<B: CycleBus> DriveLink for MasterLink<B> {
                 // The first cyclic SYNC follows the last enable cycle by one period.
                 self.bus_base = report.enabled_at + self.master.period();
                 self.last = self.master.positions();
+                self.bus.set_cyclic(true);
                 Startup::Ready(self.last)
             }
             Err(e) => Startup::Failed(format!("{e}")),
@@ -297,8 +303,59 @@ impl<B: CycleBus> DriveLink for MasterLink<B> {
     }
 
     fn shutdown(&mut self) -> Result<(), String> {
+        self.bus.set_cyclic(false);
         self.master
             .disable(&mut self.bus)
             .map_err(|e| e.to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim_machine::SimMachine;
+
+    /// The simulated machine, recording the `set_cyclic` calls.
+    struct Recording {
+        bus: SimMachine,
+        calls: Vec<bool>,
+    }
+
+    forward_timed_bus!(Recording, bus);
+
+    impl CycleBus for Recording {
+        fn before_cycle(&mut self, t: Instant, since_start: core::time::Duration) {
+            self.bus.before_cycle(t, since_start);
+        }
+        fn bitrate(&self) -> u32 {
+            self.bus.bitrate()
+        }
+        fn set_cyclic(&mut self, cyclic: bool) {
+            self.calls.push(cyclic);
+        }
+    }
+
+    #[test]
+    fn blocking_sends_inside_the_loop_cyclic_phase_is_announced_after_boot_only() {
+        let cfg = MachineConfig::default_machine();
+        let bus = Recording {
+            bus: SimMachine::new(&cfg, None).expect("sim machine"),
+            calls: Vec::new(),
+        };
+        let mut link = MasterLink::new(&cfg, bus).expect("master");
+        assert!(link.bus().calls.is_empty(), "nothing before boot");
+        let start = match link.startup(Instant::ZERO) {
+            Startup::Ready(p) => p,
+            other => panic!("start-up: {other:?}"),
+        };
+        // Boot's blocking SDO ran with the boot budget; the cyclic phase starts now.
+        assert_eq!(link.bus().calls, [true]);
+        let mut fb = [DriveFeedback::default(); MAX_AXES];
+        let period = link.master().period();
+        link.cycle(Instant::ZERO + period, &start, &mut fb)
+            .expect("a healthy cycle");
+        assert_eq!(link.bus().calls, [true], "cycles do not switch the budget");
+        link.shutdown().expect("disable");
+        assert_eq!(link.bus().calls, [true, false], "shutdown may wait again");
     }
 }

@@ -24,11 +24,10 @@ impl SocketMachine {
     /// Opens `cfg.bus.interface`. A kernel without CAN (errno 97) and a missing interface
     /// are told apart in the error, which says what to do about either.
     pub fn open(cfg: &MachineConfig) -> Result<SocketMachine, OpenError> {
-        // Sends during the cyclic phase must not stall the loop: a frame that finds the
-        // transmit queue full after 0.5 ms is reported (BusError::TxQueueFull → the master's
-        // bus safety stop) rather than waited for.
+        // Boot and shutdown (blocking SDO, NMT) may wait for room in the transmit queue;
+        // the cyclic phase switches to `send_budget(true)` (see CycleBus::set_cyclic).
         let options = SocketCanOptions {
-            send_budget: core::time::Duration::from_micros(500),
+            send_budget: send_budget(false),
             ..SocketCanOptions::default()
         };
         let bus = SocketCanBus::open_with(&cfg.bus.interface, options)?;
@@ -52,6 +51,28 @@ impl CycleBus for SocketMachine {
     fn bitrate(&self) -> u32 {
         self.bitrate
     }
+
+    /// The cyclic phase sends with a zero budget: one attempt, never a sleep, so five frames
+    /// a cycle cannot block the 1 ms loop; a full queue is `TxQueueFull`, which the master
+    /// turns into the bus safety stop.
+    fn set_cyclic(&mut self, cyclic: bool) {
+        if let Err(e) = self.bus.set_send_budget(send_budget(cyclic)) {
+            log::warn!(
+                "{}: cannot change the socket's write timeout: {e:?}",
+                self.bus.iface()
+            );
+        }
+    }
+}
+
+/// How long one send may wait for room in the transmit queue: the socket layer's default
+/// (2 ms) while booting or shutting down, zero in the cyclic phase.
+pub fn send_budget(cyclic: bool) -> core::time::Duration {
+    if cyclic {
+        core::time::Duration::ZERO
+    } else {
+        SocketCanOptions::default().send_budget
+    }
 }
 
 impl MasterLink<SocketMachine> {
@@ -66,6 +87,12 @@ impl MasterLink<SocketMachine> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn blocking_sends_inside_the_loop_cyclic_budget_is_zero() {
+        assert_eq!(send_budget(true), core::time::Duration::ZERO);
+        assert!(send_budget(false) >= core::time::Duration::from_millis(1));
+    }
 
     #[test]
     fn opening_a_missing_interface_says_why() {
