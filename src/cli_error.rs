@@ -7,7 +7,8 @@ pub mod exit {
     /// The machine stopped during `run`: a drive fault or safety reaction, or the operator's
     /// SIGINT (Ctrl-C). SIGINT is deliberately 1 and not the shell's 130: it is handled, not
     /// fatal — the path decelerates (a tap stays coupled), every drive gets quick stop, the
-    /// drives are disabled and the report is written, exactly as for a fault.
+    /// drives are disabled and the report is written, exactly as for a fault. Also when the
+    /// real-time loop's clock fails ("real-time clock failed: …"; the drives are disabled).
     pub const FAULT: u8 = 1;
     /// Parse, interpreter or planning error.
     pub const PROGRAM: u8 = 2;

@@ -67,6 +67,8 @@ fn not_run(cfg: &MachineConfig, args: &RunArgs, e: RunError) -> CliError {
             CliError::Program(e),
         ),
         RunError::Io(m) => (m.clone(), CliError::Io(m)),
+        // The loop stopped the machine: exit 1, as for any stop during a run.
+        RunError::Clock(m) => (m.clone(), CliError::Fault(m)),
     };
     if let Some(p) = &args.report {
         let axes: Vec<char> = cfg.axes.iter().map(|a| a.name).collect();

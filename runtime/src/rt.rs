@@ -66,19 +66,34 @@ pub fn monotonic_ns() -> u64 {
 }
 
 /// Sleeps until CLOCK_MONOTONIC reaches `deadline_ns` (absolute; a signal does not shorten it).
-pub fn sleep_until(deadline_ns: u64) {
+/// Any other error of `clock_nanosleep` is returned: ignoring it would turn the loop into a
+/// busy spin (at SCHED_FIFO 80, one that starves the rest of the machine).
+pub fn sleep_until(deadline_ns: u64) -> Result<(), nix::errno::Errno> {
+    sleep_until_with(deadline_ns, |ts| {
+        clock_nanosleep(
+            ClockId::CLOCK_MONOTONIC,
+            ClockNanosleepFlags::TIMER_ABSTIME,
+            ts,
+        )
+        .map(|_| ())
+    })
+}
+
+/// [`sleep_until`] with the sleep call given (tests): EINTR repeats it, any other error is
+/// returned at once.
+fn sleep_until_with(
+    deadline_ns: u64,
+    mut sleep: impl FnMut(&TimeSpec) -> Result<(), nix::errno::Errno>,
+) -> Result<(), nix::errno::Errno> {
     let ts = TimeSpec::new(
         (deadline_ns / 1_000_000_000) as _,
         (deadline_ns % 1_000_000_000) as _,
     );
     loop {
-        match clock_nanosleep(
-            ClockId::CLOCK_MONOTONIC,
-            ClockNanosleepFlags::TIMER_ABSTIME,
-            &ts,
-        ) {
+        match sleep(&ts) {
             Err(nix::errno::Errno::EINTR) => continue,
-            _ => return,
+            Err(e) => return Err(e),
+            Ok(()) => return Ok(()),
         }
     }
 }
@@ -244,9 +259,29 @@ mod tests {
     }
 
     #[test]
+    fn sleep_until_ignores_errors_other_than_eintr_busy_spin() {
+        use nix::errno::Errno;
+        // A clock error is returned after one call, not retried (or ignored) forever.
+        let mut calls = 0;
+        let r = sleep_until_with(1_500_000_000, |ts| {
+            calls += 1;
+            assert_eq!((ts.tv_sec(), ts.tv_nsec()), (1, 500_000_000));
+            Err(Errno::EINVAL)
+        });
+        assert_eq!((r, calls), (Err(Errno::EINVAL), 1));
+        // A signal repeats the sleep.
+        let mut calls = 0;
+        let r = sleep_until_with(0, |_| {
+            calls += 1;
+            if calls < 3 { Err(Errno::EINTR) } else { Ok(()) }
+        });
+        assert_eq!((r, calls), (Ok(()), 3));
+    }
+
+    #[test]
     fn absolute_sleep_reaches_its_deadline() {
         let t0 = monotonic_ns();
-        sleep_until(t0 + 2_000_000);
+        assert_eq!(sleep_until(t0 + 2_000_000), Ok(()));
         assert!(monotonic_ns() >= t0 + 2_000_000);
     }
 

@@ -79,6 +79,15 @@ pub enum RunError {
     Program(NcError),
     /// A file or device could not be used.
     Io(String),
+    /// The real-time loop's clock failed (`clock_nanosleep` returned an error other than
+    /// EINTR): the run was stopped and the drives disabled. The text says why.
+    Clock(String),
+}
+
+impl RunError {
+    fn clock(e: nix::errno::Errno) -> RunError {
+        RunError::Clock(format!("real-time clock failed: clock_nanosleep: {e}"))
+    }
 }
 
 /// Progress as the reporting side sees it.
@@ -330,7 +339,7 @@ pub fn run_program(
             },
             stop_request,
             &mut side,
-        )?,
+        ),
         Timing::RealTime => run_realtime(
             cfg,
             src,
@@ -342,9 +351,10 @@ pub fn run_program(
             },
             stop_request,
             &mut side,
-        )?,
+        ),
     };
     side.stop_feeder();
+    let end = end?;
     let trace_result = side.recorder.finish();
     if let Some(e) = side.program_error.take() {
         return Err(RunError::Program(e));
@@ -684,7 +694,10 @@ fn run_realtime(
                     }
                 }
                 next += period_ns;
-                sleep_until(next);
+                if let Err(e) = sleep_until(next) {
+                    let _ = link.shutdown();
+                    return Err(RunError::clock(e));
+                }
             };
             let _ = hello_tx.send(Hello::Ready(start));
             // Start-up on a real bus blocks for seconds (boot, SDO, enable): the cyclic
@@ -698,7 +711,12 @@ fn run_realtime(
             let mut skipped = 0u64;
             let outcome = loop {
                 next += period_ns;
-                sleep_until(next);
+                if let Err(e) = sleep_until(next) {
+                    // No clock, no ticks: nothing can be timed, so the drives are disabled
+                    // at once (they stop on their own disable reaction) and the run ends.
+                    let _ = ctrl.link_mut().shutdown();
+                    return Err(RunError::clock(e));
+                }
                 let woke = monotonic_ns();
                 hist.record(woke.saturating_sub(next));
                 // Missed whole deadlines: this tick runs now and the next is a period later
@@ -754,4 +772,20 @@ fn run_realtime(
     side.drain(&mut scons);
     let _ = side.cfg;
     Ok(end)
+}
+
+#[cfg(test)]
+mod clock_tests {
+    use super::RunError;
+
+    #[test]
+    fn a_failing_real_time_clock_says_so() {
+        match RunError::clock(nix::errno::Errno::EINVAL) {
+            RunError::Clock(m) => {
+                assert!(m.starts_with("real-time clock failed: "), "{m}");
+                assert!(m.contains("EINVAL"), "{m}");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
 }
