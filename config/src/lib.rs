@@ -215,48 +215,37 @@ impl MachineConfig {
         self.axes.iter().position(|a| a.kind == AxisKind::Spindle)
     }
 
-    /// `program_dir` resolved against the config file's location.
+    /// `program_dir` resolved against the config's base folder (see [`Self::resolve`]).
     pub fn program_dir(&self) -> PathBuf {
-        if self.interp.program_dir.is_absolute() {
-            return self.interp.program_dir.clone();
-        }
-        let base = self
-            .path
-            .parent()
-            .and_then(|p| p.parent())
-            .map(Path::to_path_buf)
-            .unwrap_or_default();
-        base.join(&self.interp.program_dir)
+        self.resolve(&self.interp.program_dir)
     }
 
-    /// `variables_file` resolved against the config file's location (as `program_dir`).
+    /// `variables_file` resolved as `program_dir` is.
     pub fn variables_file(&self) -> Option<PathBuf> {
-        let f = self.interp.variables_file.as_ref()?;
-        if f.is_absolute() {
-            return Some(f.clone());
-        }
-        let base = self
-            .path
-            .parent()
-            .and_then(|p| p.parent())
-            .map(Path::to_path_buf)
-            .unwrap_or_default();
-        Some(base.join(f))
+        self.interp
+            .variables_file
+            .as_deref()
+            .map(|f| self.resolve(f))
     }
 
-    /// `library_dir` resolved against the config file's location (as `program_dir`).
+    /// `library_dir` resolved as `program_dir` is.
     pub fn library_dir(&self) -> Option<PathBuf> {
-        let f = self.interp.library_dir.as_ref()?;
-        if f.is_absolute() {
-            return Some(f.clone());
+        self.interp.library_dir.as_deref().map(|f| self.resolve(f))
+    }
+
+    /// A path from the config, made usable: absolute paths stay; relative ones are taken from
+    /// the parent of the config file's folder, so that `config/machine.toml`'s `examples`
+    /// means `<repository>/examples` whatever the working directory.
+    pub fn resolve(&self, p: &Path) -> PathBuf {
+        if p.is_absolute() {
+            return p.to_path_buf();
         }
         let base = self
             .path
             .parent()
-            .and_then(|p| p.parent())
-            .map(Path::to_path_buf)
-            .unwrap_or_default();
-        Some(base.join(f))
+            .and_then(Path::parent)
+            .unwrap_or(Path::new(""));
+        base.join(p)
     }
 
     /// The built-in default machine (the shipped `config/machine.toml`).
