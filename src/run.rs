@@ -127,8 +127,8 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         fault,
         trace,
         stop_request: Arc::new(AtomicBool::new(false)),
-        model_link: false,
         timeouts,
+        ..RunOptions::default()
     };
 
     let bar = if std::io::stderr().is_terminal() {

@@ -17,9 +17,11 @@ pub mod sim_machine;
 pub mod socket_machine;
 pub mod status;
 pub mod sync;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
 
 pub use controller::{CycleController, Step};
-pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, ModelLink, Startup, StopCause};
+pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, Startup, StopCause};
 pub use master_link::{CycleBus, LinkTimeouts, MasterLink};
 pub use report::{RunReport, write_plot};
 pub use run::{Progress, RunError, RunOptions, Timing, make_link, run_program};

@@ -17,7 +17,7 @@ use cnc402_motion::{AxisPos, MoveEvent};
 
 use crate::controller::{AxisTable, CycleController, Step, start_position};
 use crate::feeder::{Feeder, dry_run, motion_error_to_nc, source_for};
-use crate::link::{DriveLink, DriveStop, FaultPlan, ModelLink, Startup};
+use crate::link::{DriveLink, DriveStop, FaultPlan, Startup};
 use crate::master_link::{LinkTimeouts, MasterLink};
 use crate::recorder::Recorder;
 use crate::report::{AxisReport, RunReport, StopReport};
@@ -51,7 +51,9 @@ pub struct RunOptions {
     pub trace: Option<Box<dyn Write>>,
     /// Raised by the caller (SIGINT) to stop the machine the way a fault does.
     pub stop_request: Arc<AtomicBool>,
-    /// Use the bus-less [`ModelLink`] (pure delay) instead of the configured bus.
+    /// Use the bus-less `testing::ModelLink` (pure delay) instead of the configured bus: a
+    /// test and benchmark double, only with the `testing` feature.
+    #[cfg(any(test, feature = "testing"))]
     pub model_link: bool,
     /// Boot and enable limits; `None`: [`LinkTimeouts::default`] on the simulator,
     /// [`LinkTimeouts::real_bus`] on a CAN interface.
@@ -65,6 +67,7 @@ impl Default for RunOptions {
             fault: None,
             trace: None,
             stop_request: Arc::new(AtomicBool::new(false)),
+            #[cfg(any(test, feature = "testing"))]
             model_link: false,
             timeouts: None,
         }
@@ -105,10 +108,9 @@ pub struct Progress {
 pub fn make_link(
     cfg: &MachineConfig,
     fault: Option<FaultPlan>,
-    model: bool,
     timeouts: Option<LinkTimeouts>,
 ) -> Result<Box<dyn DriveLink>, RunError> {
-    if !cfg.bus.is_sim() && !model {
+    if !cfg.bus.is_sim() {
         if fault.is_some() {
             return Err(RunError::Io(format!(
                 "bus interface {:?}: faults can only be injected into the simulated drives \
@@ -118,20 +120,6 @@ pub fn make_link(
         }
         let link = SocketLink::socket(cfg, timeouts.unwrap_or_else(LinkTimeouts::real_bus))
             .map_err(RunError::Io)?;
-        return Ok(Box::new(link));
-    }
-    if model {
-        // The bus-less model: each drive follows after its configured delay, exactly.
-        let delay = cfg
-            .axes
-            .iter()
-            .map(|a| a.sim.delay_cycles as usize)
-            .max()
-            .unwrap_or(1);
-        let mut link = ModelLink::new(cfg, [0.0; MAX_AXES], delay);
-        if let Some(f) = fault {
-            link = link.with_fault(f);
-        }
         return Ok(Box::new(link));
     }
     let machine = crate::sim_machine::SimMachine::new(cfg, None)
@@ -178,8 +166,19 @@ impl<L: DriveLink + ?Sized> DriveLink for Box<L> {
 #[derive(Clone, Copy, Debug)]
 struct LinkSpec {
     fault: Option<FaultPlan>,
+    /// The bus-less test double (only ever set with the `testing` feature).
+    #[cfg(any(test, feature = "testing"))]
     model: bool,
     timeouts: Option<LinkTimeouts>,
+}
+
+/// The link of a run: [`make_link`], or the test double when asked for (feature `testing`).
+fn link_for(cfg: &MachineConfig, spec: &LinkSpec) -> Result<Box<dyn DriveLink>, RunError> {
+    #[cfg(any(test, feature = "testing"))]
+    if spec.model {
+        return Ok(Box::new(crate::testing::model_link(cfg, spec.fault)));
+    }
+    make_link(cfg, spec.fault, spec.timeouts)
 }
 
 /// Start-up may take this long (boot, SDO configuration, enable) before it is a fault.
@@ -298,19 +297,27 @@ pub fn run_program(
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<RunReport, RunError> {
     let dry = dry_run(cfg, &src, &program, AxisPos::default()).map_err(RunError::Program)?;
-    if !cfg.bus.is_sim() && !opts.model_link {
+    let spec = LinkSpec {
+        fault: opts.fault,
+        #[cfg(any(test, feature = "testing"))]
+        model: opts.model_link,
+        timeouts: opts.timeouts,
+    };
+    #[cfg(any(test, feature = "testing"))]
+    let model = spec.model;
+    #[cfg(not(any(test, feature = "testing")))]
+    let model = false;
+    if !cfg.bus.is_sim() && !model {
         // Fail before anything else when the interface cannot be opened (or a fault is asked
         // of drives that are not simulated).
-        make_link(cfg, opts.fault, false, opts.timeouts)?;
+        make_link(cfg, opts.fault, opts.timeouts)?;
     }
     let mut recorder = Recorder::new(cfg, dry.ticks);
     let RunOptions {
         timing,
-        fault,
         trace,
         stop_request,
-        model_link,
-        timeouts,
+        ..
     } = opts;
     if let Some(t) = trace {
         recorder = recorder.with_trace(t);
@@ -328,30 +335,8 @@ pub fn run_program(
     };
     let src_keep = src.clone();
     let end = match timing {
-        Timing::Virtual => run_virtual(
-            cfg,
-            src,
-            program,
-            LinkSpec {
-                fault,
-                model: model_link,
-                timeouts,
-            },
-            stop_request,
-            &mut side,
-        ),
-        Timing::RealTime => run_realtime(
-            cfg,
-            src,
-            program,
-            LinkSpec {
-                fault,
-                model: model_link,
-                timeouts,
-            },
-            stop_request,
-            &mut side,
-        ),
+        Timing::Virtual => run_virtual(cfg, src, program, spec, stop_request, &mut side),
+        Timing::RealTime => run_realtime(cfg, src, program, spec, stop_request, &mut side),
     };
     side.stop_feeder();
     let end = end?;
@@ -507,7 +492,7 @@ fn run_virtual(
 ) -> Result<LoopEnd, RunError> {
     let wall0 = std::time::Instant::now();
     let period = Duration::from_micros(cfg.bus.period_us as u64);
-    let mut link = make_link(cfg, spec.fault, spec.model, spec.timeouts)?;
+    let mut link = link_for(cfg, &spec)?;
     let mut now = Instant::ZERO;
     let start = loop {
         match link.startup(now) {
@@ -670,7 +655,7 @@ fn run_realtime(
                 );
             }
             let wall0 = std::time::Instant::now();
-            let mut link = make_link(&cfg_t, spec.fault, spec.model, spec.timeouts)?;
+            let mut link = link_for(&cfg_t, &spec)?;
             let t0 = monotonic_ns();
             let mut next = t0;
             let start = loop {

@@ -13,8 +13,8 @@ use cnc402_drives::Instant;
 use cnc402_lang::SourceFile;
 use cnc402_runtime::controller::{AxisTable, CycleController, Step, start_position};
 use cnc402_runtime::feeder::Feeder;
-use cnc402_runtime::link::ModelLink;
 use cnc402_runtime::ring::{Consumer, move_ring, status_ring};
+use cnc402_runtime::testing::ModelLink;
 use cnc402_runtime::{Outcome, Status};
 
 const PROGRAM: &str = "%

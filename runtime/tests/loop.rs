@@ -12,10 +12,11 @@ use cnc402_drives::Instant;
 use cnc402_lang::SourceFile;
 use cnc402_runtime::controller::{AxisTable, CycleController, Step, start_position};
 use cnc402_runtime::feeder::Feeder;
-use cnc402_runtime::link::{DriveLink, FaultPlan, ModelLink, Startup, StopCause};
+use cnc402_runtime::link::{DriveLink, FaultPlan, Startup, StopCause};
 use cnc402_runtime::recorder::Recorder;
 use cnc402_runtime::ring::{Consumer, move_ring, status_ring};
 use cnc402_runtime::status::TapCoupling;
+use cnc402_runtime::testing::ModelLink;
 use cnc402_runtime::{Outcome, Phase, RunOptions, SimLink, Status, Timing, run_program};
 
 const TAP: &str = "%\nG21 G90 G17 G94 G54\nG0 X10. Y10. Z10.\nM29 S500\nG98 G84 X10. Y10. Z-16. R3. F750.\nG80\nG0 Z20.\nM30\n%\n";
