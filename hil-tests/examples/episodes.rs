@@ -1,11 +1,12 @@
-//! episodes: runs simdrive's Z+C episode checker over a `cnc402 run --trace` CSV (setpoints and
+//! episodes: runs simdrive's Z+C coupling checker (`cnc402_drives::coupling::CouplingChecker`,
+//! fed with counts) over a `cnc402 run --trace` CSV (setpoints and
 //! actual positions rounded to drive counts as the master sends them), to see offline what
 //! simdrive will judge for a program.
 //!
 //!   cnc402 run PROGRAM --trace t.csv && episodes t.csv [--config PATH]
 
 use cnc402_config::MachineConfig;
-use cnc402_hil::episodes::{CountSample, EpisodeChecker};
+use cnc402_drives::coupling::{CountSample, CouplingChecker};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -42,14 +43,14 @@ fn main() {
         eprintln!("episodes: {path}: no Z_cmd/Z_act/C_cmd/C_act columns");
         std::process::exit(2)
     };
-    let mut ch = EpisodeChecker::new(zc, cc);
+    let mut ch = CouplingChecker::new(zc, cc);
     for l in lines {
         let f: Vec<f64> = l
             .split(',')
             .map(|x| x.parse().unwrap_or(f64::NAN))
             .collect();
         let get = |i: usize, k: f64| (f.get(i).copied().unwrap_or(0.0) * k).round() as i64;
-        ch.feed(CountSample {
+        ch.feed_counts(CountSample {
             z_cmd: get(z, zc),
             c_cmd: get(c, cc),
             z_act: get(za, zc),
@@ -57,7 +58,7 @@ fn main() {
         });
     }
     ch.finish();
-    for (i, e) in ch.episodes().iter().enumerate() {
+    for (i, e) in ch.windows().iter().enumerate() {
         println!(
             "{:3} tick {:6} +{:5}  Z {:8.3} mm  C {:9.1}°  pitch {:8.4}  cmd {:8.4} µm (limit {:.4})  act {:8.2} µm  {}",
             i + 1,

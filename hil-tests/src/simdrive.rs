@@ -13,11 +13,11 @@ use cia402::State;
 use cnc402_config::{AxisConfig, AxisKind, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_drives::bus::{CanDevice, FrameSink};
+use cnc402_drives::coupling::{CountSample, CouplingChecker, TapWindow};
 use cnc402_drives::sim::{FaultKind, NmtStatus, SimDrive, SimDriveOptions};
 use cnc402_drives::wire::{CanFrame, NodeId};
 use serde_json::{Value, json};
 
-use crate::episodes::{CountSample, Episode, EpisodeChecker};
 use crate::latency::percentile;
 
 /// CANopen's default SYNC identifier (0x1005).
@@ -275,7 +275,7 @@ pub struct DriveHost {
     sync_min_ns: u64,
     faults: Vec<ScheduledFault>,
     fault_clock: FaultClock,
-    coupling: EpisodeChecker,
+    coupling: CouplingChecker,
     coupling_samples: u64,
     counters: HostCounters,
 }
@@ -353,7 +353,7 @@ impl DriveHost {
                 })
                 .collect(),
             fault_clock: opts.fault_clock,
-            coupling: EpisodeChecker::new(z_cpu, c_cpu),
+            coupling: CouplingChecker::with_capacity(z_cpu, c_cpu, 1 << 14),
             coupling_samples: 0,
             counters: HostCounters::default(),
         })
@@ -378,8 +378,8 @@ impl DriveHost {
     }
 
     /// Coupling windows closed so far.
-    pub fn windows(&self) -> &[Episode] {
-        self.coupling.episodes()
+    pub fn windows(&self) -> &[TapWindow] {
+        self.coupling.windows()
     }
 
     fn power_on(&mut self, now: Instant) {
@@ -446,7 +446,7 @@ impl DriveHost {
         let (z_cmd, z_act) = (self.drives[zi].target.value, self.drives[zi].actual.value);
         let (c_cmd, c_act) = (self.drives[ci].target.value, self.drives[ci].actual.value);
         self.coupling_samples += 1;
-        self.coupling.feed(CountSample {
+        self.coupling.feed_counts(CountSample {
             z_cmd,
             c_cmd,
             z_act,
@@ -484,7 +484,7 @@ impl DriveHost {
         let mut checks = Vec::new();
         let mut taps = 0;
         let mut others = 0;
-        for (i, w) in self.coupling.episodes().iter().enumerate() {
+        for (i, w) in self.coupling.windows().iter().enumerate() {
             if w.spindle_running {
                 // Z moving while the spindle turns (drilling): reported, not judged.
                 others += 1;
