@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use cnc402_config::{AxisKind, MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
-use cnc402_motion::{AxisPos, Interpolator, MoveKind, PlannedMove, to_counts_wrapping};
+use cnc402_motion::{AxisPos, Interpolator, MoveKind, PlannedMove};
 
 use crate::link::{DriveFeedback, DriveLink, DriveStop, StopCause};
 use crate::ring::{Consumer, LoopInput, MoveConsumer, Observer, Producer, StatusProducer};
@@ -66,11 +66,6 @@ impl AxisTable {
             delay_cycles,
         }
     }
-
-    /// Counts to position.
-    pub fn counts_to_pos(&self, axis: usize, counts: i64) -> f64 {
-        counts as f64 / self.counts_per_unit[axis]
-    }
 }
 
 /// See the module doc.
@@ -87,7 +82,6 @@ pub struct CycleController<L: DriveLink> {
     input_done: bool,
     tap: Option<TapCoupling>,
     commands: [f64; MAX_AXES],
-    setpoints: [i32; MAX_AXES],
     feedback: [DriveFeedback; MAX_AXES],
     /// The first stop, the line executing then and its move number.
     stop: Option<(DriveStop, u32, u64)>,
@@ -134,10 +128,8 @@ impl<L: DriveLink> CycleController<L> {
     ) -> CycleController<L> {
         let axes = AxisTable::new(cfg);
         let start = start_position(&axes, &start);
-        let mut setpoints = [0; MAX_AXES];
         let mut feedback = [DriveFeedback::default(); MAX_AXES];
         for i in 0..axes.n {
-            setpoints[i] = to_counts_wrapping(start.0[i], axes.counts_per_unit[i]);
             feedback[i].actual = start.0[i];
         }
         CycleController {
@@ -153,7 +145,6 @@ impl<L: DriveLink> CycleController<L> {
             input_done: false,
             tap: None,
             commands: start.0,
-            setpoints,
             feedback,
             stop: None,
             motion_error: None,
@@ -237,9 +228,6 @@ impl<L: DriveLink> CycleController<L> {
             );
             self.commands[f.c.tool as usize] = z;
         }
-        for i in 0..self.axes.n {
-            self.setpoints[i] = to_counts_wrapping(self.commands[i], self.axes.counts_per_unit[i]);
-        }
 
         let mut raised = None;
         let all_stopped = if self.phase == Phase::QuickStop {
@@ -271,7 +259,7 @@ impl<L: DriveLink> CycleController<L> {
             line: t.line,
             phase: self.phase,
             cmd: self.commands,
-            cmd_counts: self.setpoints,
+            cmd_counts: [0; MAX_AXES],
             act: [0.0; MAX_AXES],
             act_counts: [0; MAX_AXES],
             following_error: [0.0; MAX_AXES],
@@ -291,7 +279,10 @@ impl<L: DriveLink> CycleController<L> {
         for i in 0..self.axes.n {
             let f = &self.feedback[i];
             st.act[i] = f.actual;
-            st.act_counts[i] = to_counts_wrapping(f.actual, self.axes.counts_per_unit[i]);
+            // The link's exact counts: the master scaled the command once and holds the
+            // unwrapped actual count.
+            st.cmd_counts[i] = f.target;
+            st.act_counts[i] = f.actual_counts as i32;
             st.following_error[i] = f.following_error;
             st.age[i] = f.age;
             st.statusword[i] = f.statusword;
@@ -354,8 +345,8 @@ impl<L: DriveLink> CycleController<L> {
     /// Every drive's actual position is within one count of its last setpoint.
     fn settled(&self) -> bool {
         (0..self.axes.n).all(|i| {
-            let a = to_counts_wrapping(self.feedback[i].actual, self.axes.counts_per_unit[i]);
-            within_one_count(a, self.setpoints[i])
+            let f = &self.feedback[i];
+            within_one_count(f.actual_counts as i32, f.target)
         })
     }
 

@@ -20,6 +20,11 @@ pub struct DriveFeedback {
     /// How many cycles older than the freshest possible sample `actual` is (a TPDO that came
     /// late on a loaded bus); compare axes only at equal age.
     pub age: u32,
+    /// `actual` in counts, exact (the link's unwrapped 0x6064 count; `as i32` is the value
+    /// on the wire).
+    pub actual_counts: i64,
+    /// The setpoint this cycle's command became (INT32 counts, wrapping), as sent.
+    pub target: i32,
 }
 
 /// Why the machine must stop.

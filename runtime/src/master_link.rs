@@ -199,15 +199,19 @@ impl<B: CycleBus> MasterLink<B> {
                         statusword: f.statusword[i].map_or(0, |s| s.0),
                         following_error: f.following_error[i],
                         age: f.age[i],
+                        actual_counts: f.actual_counts[i],
+                        target: f.target[i],
                     };
                 }
             }
             Err(_) => {
-                // The tripping cycle gives no feedback: keep the last, with the latched
-                // positions.
-                let pos = self.master.positions();
+                // The tripping cycle returns no feedback: keep the last statuswords, with the
+                // positions the master latched in that cycle.
+                let f = self.master.last_feedback();
                 for i in 0..self.n_axes {
-                    fb[i].actual = pos[i];
+                    fb[i].actual = f.actual[i];
+                    fb[i].actual_counts = f.actual_counts[i];
+                    fb[i].target = f.target[i];
                 }
             }
         }
@@ -357,5 +361,43 @@ mod tests {
         assert_eq!(link.bus().calls, [true], "cycles do not switch the budget");
         link.shutdown().expect("disable");
         assert_eq!(link.bus().calls, [true, false], "shutdown may wait again");
+    }
+}
+
+#[cfg(test)]
+mod count_tests {
+    use super::*;
+    use cnc402_motion::to_counts_wrapping;
+
+    #[test]
+    fn positions_scaled_to_counts_twice_feedback_carries_the_masters_counts() {
+        let cfg = MachineConfig::default_machine();
+        let mut link = MasterLink::simulated(&cfg, None).expect("sim");
+        let start = match link.startup(Instant::ZERO) {
+            Startup::Ready(p) => p,
+            other => panic!("start-up: {other:?}"),
+        };
+        let period = link.master().period();
+        let mut cmd = start;
+        cmd[0] += 0.12345; // X, a fraction of a count off the grid
+        let mut fb = [DriveFeedback::default(); MAX_AXES];
+        let mut t = Instant::ZERO;
+        for _ in 0..400 {
+            t += period;
+            link.cycle(t, &cmd, &mut fb).expect("healthy");
+        }
+        let n = cfg.axes.len();
+        let master = link.master().last_feedback();
+        for i in 0..n {
+            let cpu = cfg.axes[i].counts_per_unit;
+            // The setpoint is the one the master sent, scaled once.
+            assert_eq!(fb[i].target, to_counts_wrapping(cmd[i], cpu), "axis {i}");
+            assert_eq!(fb[i].target, master.target[i], "axis {i}");
+            // The actual count is the master's exact unwrapped count, not re-derived.
+            assert_eq!(fb[i].actual_counts, master.actual_counts[i], "axis {i}");
+            assert_eq!(fb[i].actual, fb[i].actual_counts as f64 / cpu, "axis {i}");
+        }
+        // X came to rest on its setpoint.
+        assert_eq!(fb[0].actual_counts as i32, fb[0].target);
     }
 }

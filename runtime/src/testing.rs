@@ -5,6 +5,7 @@
 use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_drives::bus::BusCounters;
+use cnc402_motion::to_counts_wrapping;
 
 use crate::link::{
     DriveFeedback, DriveLink, DriveStop, FaultPlan, SW_FAULT, SW_OPERATION_ENABLED,
@@ -27,6 +28,9 @@ pub struct ModelLink {
     t0: Option<Instant>,
     startup_cycles: u32,
     reported: bool,
+    counts_per_unit: [f64; MAX_AXES],
+    /// The last setpoints, in counts.
+    target: [i32; MAX_AXES],
 }
 
 impl ModelLink {
@@ -54,6 +58,13 @@ impl ModelLink {
             t0: None,
             startup_cycles: 0,
             reported: false,
+            counts_per_unit: core::array::from_fn(|i| {
+                cfg.axes.get(i).map_or(1.0, |a| a.counts_per_unit)
+            }),
+            target: core::array::from_fn(|i| {
+                let cpu = cfg.axes.get(i).map_or(1.0, |a| a.counts_per_unit);
+                to_counts_wrapping(start[i], cpu)
+            }),
         }
     }
 
@@ -71,6 +82,8 @@ impl ModelLink {
                 statusword: self.sw[i],
                 following_error: 0.0,
                 age: 0,
+                actual_counts: (self.line[i][tail] * self.counts_per_unit[i]).round() as i64,
+                target: self.target[i],
             };
         }
     }
@@ -96,6 +109,7 @@ impl DriveLink for ModelLink {
         let head = (self.head + 1) % 8;
         let tail = (self.head + 8 - self.delay) % 8;
         for i in 0..self.n_axes {
+            self.target[i] = to_counts_wrapping(commands[i], self.counts_per_unit[i]);
             // A faulted or stopped drive ignores commands and holds (no brake model here).
             self.line[i][head] = if self.sw[i] == SW_OPERATION_ENABLED {
                 commands[i]

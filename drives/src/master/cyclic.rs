@@ -48,6 +48,12 @@ pub struct Feedback {
     pub age: [u32; MAX_AXES],
     /// A stop reaction is running (the latched stop: [`Master::stop_reason`]).
     pub stopping: bool,
+    /// Actual position in counts, exact: the unwrapped 0x6064 count (virtual axes: the
+    /// target). `as i32` gives the wrapping value on the wire.
+    pub actual_counts: [i64; MAX_AXES],
+    /// The target position this cycle's command becomes (counts, wrapping): the RPDO1 value
+    /// while running or stopping (scaled once, here).
+    pub target: [i32; MAX_AXES],
 }
 
 impl Feedback {
@@ -62,6 +68,8 @@ impl Feedback {
         fresh: [false; MAX_AXES],
         age: [0; MAX_AXES],
         stopping: false,
+        actual_counts: [0; MAX_AXES],
+        target: [0; MAX_AXES],
     };
 
     /// The CiA 402 state of axis `i`'s drive.
@@ -318,6 +326,8 @@ impl Master {
             fresh: [false; MAX_AXES],
             age: [0; MAX_AXES],
             stopping: false,
+            actual_counts: [0; MAX_AXES],
+            target: [0; MAX_AXES],
         };
         for i in 0..self.n_axes {
             let mut cmd = commands
@@ -360,6 +370,12 @@ impl Master {
                 a.actual = cmd;
                 a.following_error = 0.0;
             }
+            fb.target[i] = to_counts_wrapping(cmd, a.counts_per_unit);
+            fb.actual_counts[i] = if a.node.is_some() {
+                a.actual_counts
+            } else {
+                fb.target[i] as i64
+            };
             fb.actual[i] = a.actual;
             fb.command[i] = cmd;
             fb.following_error[i] = a.following_error;
@@ -395,17 +411,14 @@ impl Master {
                     a.progress = step.progress;
                     (step.controlword, a.target)
                 }
-                Phase::Running => (
-                    Controlword::ENABLE_OPERATION_CMD,
-                    to_counts_wrapping(a.last_command, a.counts_per_unit),
-                ),
+                Phase::Running => (Controlword::ENABLE_OPERATION_CMD, fb.target[i]),
                 Phase::Stopping => (
                     if a.quick_stop {
                         Controlword::QUICK_STOP_CMD
                     } else {
                         Controlword::ENABLE_OPERATION_CMD
                     },
-                    to_counts_wrapping(a.last_command, a.counts_per_unit),
+                    fb.target[i],
                 ),
                 Phase::Disabling => {
                     let step = a.sequencer.step(sw);
