@@ -2,17 +2,8 @@
 //! (or SYNC) with Z and C — f64 positions ([`CouplingSample`]) or drive counts off the bus
 //! ([`CountSample`]) — it finds each window in which both move and reports the least-squares
 //! pitch observed and the worst deviation from it in µm of Z, setpoints and actual positions.
-//! A caller that knows the taps (the planner's coupling) delimits windows with [`TapMark`]s.
-//!
-//! Unmarked windowing (`feed`, `feed_counts`) works on the positions rounded to counts, so it
-//! is robust to sub-count motion: at the slow ends of a tap Z moves less than a count per tick
-//! and a tick where only one axis moves continues the window. A window opens when C moves and
-//! lasts while Z and C each keep one direction; it ends when both have rested for
-//! [`REST_TICKS`] ticks, either reverses, or Z has moved [`Z_ALONE_TICKS`] ticks without C (a
-//! rapid after the tap; those ticks are left out). Its figures are the half-width of the band
-//! of ΔZ − k·ΔC around the least-squares line (the best offset chosen: the quantized start and
-//! end points are ±½ count). A window that starts or ends with C at speed, or has C turning
-//! alone for [`SPINDLE_RUNNING_TICKS`] ticks, is marked `spindle_running` (drilling, not a tap).
+//! Callers that know the taps (the planner's coupling) delimit windows with [`TapMark`]s
+//! (deviations then from the commanded pitch); see [`CouplingChecker`] for the windowing.
 
 /// Ticks without motion that end an unmarked window (near standstill a rounded setpoint
 /// changes by a count only every few ticks: a single quiet tick must not split a tap).
@@ -85,8 +76,9 @@ pub struct TapWindow {
     /// The pitch deviations are measured from (mm/rev, always positive): the observed one,
     /// or for a window delimited with [`CouplingChecker::feed_marked`] the commanded one.
     pub pitch_mm: f64,
-    /// Pitch observed: slope of the least-squares line ΔZ = k·ΔC through the setpoints,
-    /// as mm per C revolution, always positive.
+    /// Pitch observed, mm per C revolution, always positive: unmarked windows, the slope of
+    /// the least-squares line ΔZ = k·ΔC through the setpoints; marked windows, Z path length
+    /// per C revolution of the setpoints (their deviations are from the commanded pitch).
     pub observed_pitch_mm: f64,
     /// Whether Z and C move in the same sense (Z+ with C+): the sign of the coupling.
     pub same_sense: bool,
@@ -185,7 +177,17 @@ impl Open {
     }
 }
 
-/// Finds tapping windows in a stream of samples (see the module doc).
+/// Finds tapping windows in a stream of samples.
+///
+/// Unmarked windowing (`feed`, `feed_counts`) works on the positions rounded to counts, so it
+/// is robust to sub-count motion: at the slow ends of a tap Z moves less than a count per tick
+/// and a tick where only one axis moves continues the window. A window opens when C moves and
+/// lasts while Z and C each keep one direction; it ends when both have rested for
+/// [`REST_TICKS`] ticks, either reverses, or Z has moved [`Z_ALONE_TICKS`] ticks without C (a
+/// rapid after the tap; those ticks are left out). Its figures are the half-width of the band
+/// of ΔZ − k·ΔC around the least-squares line (the best offset chosen: the quantized start and
+/// end points are ±½ count). A window that starts or ends with C at speed, or has C turning
+/// alone for [`SPINDLE_RUNNING_TICKS`] ticks, is marked `spindle_running` (drilling, not a tap).
 ///
 /// The pitch is only known when a window ends, so the window's samples are kept (in a
 /// buffer reused from window to window: it allocates only when a window is longer than every
@@ -426,7 +428,6 @@ impl CouplingChecker {
     fn close(&mut self) -> Option<TapWindow> {
         let o = self.open.take()?;
         let n = self.samples.len();
-        let k_obs = self.fit();
         let w = match o.mark {
             Some((_, ratio)) => {
                 let (mut cmd, mut act): (f64, f64) = (0.0, 0.0);
@@ -445,7 +446,13 @@ impl CouplingChecker {
                     z_travel_mm: o.z_travel,
                     c_travel_deg: o.c_travel,
                     pitch_mm: ratio.abs() * 360.0,
-                    observed_pitch_mm: k_obs.abs() * 360.0,
+                    // Travel ratio: in and out of a tap both count, and a bump of Z within
+                    // one direction leaves it exact (the commanded line is judged anyway).
+                    observed_pitch_mm: if o.c_travel > 0.0 {
+                        o.z_travel / o.c_travel * 360.0
+                    } else {
+                        0.0
+                    },
                     same_sense: ratio >= 0.0,
                     max_error_um_cmd: cmd * 1000.0,
                     max_error_um_act: act * 1000.0,
@@ -455,6 +462,7 @@ impl CouplingChecker {
                 }
             }
             None => {
+                let k_obs = self.fit();
                 let exc = |f: fn(&Rel) -> f64| {
                     self.samples
                         .iter()
