@@ -10,10 +10,13 @@ mod master_common;
 use cia402::State;
 use cnc402_config::{AxisKind, MachineConfig};
 use cnc402_drives::bus::{CanBus, Origin};
-use cnc402_drives::master::{Feedback, MasterOptions, Phase, SafetyStop, StopMode, StopReason};
+use cnc402_drives::master::{
+    BlockingSdo, Feedback, MasterOptions, Phase, SafetyStop, StopMode, StopReason,
+};
 use cnc402_drives::sim::{FaultKind, SimDriveOptions};
-use cnc402_drives::wire::Function;
+use cnc402_drives::wire::{Function, NodeId};
 use master_common::Rig;
+use std::time::Duration;
 
 fn booted() -> Rig {
     let mut rig = Rig::new(|_| SimDriveOptions::default());
@@ -221,7 +224,24 @@ fn missing_tpdos_stop_after_the_configured_cycles() {
 
 #[test]
 fn following_error_beyond_the_window_stops_before_the_drive_faults() {
-    let mut rig = booted();
+    // The master's X time-out is 0 ms: it trips on the first sample beyond the window (with
+    // the shipped 10 ms it needs 11 in a row, see master_following_error.rs). The drive keeps
+    // its own 10 ms (0x6066, written after boot, which set it to the config's 0).
+    let mut config = MachineConfig::default_machine();
+    config.axes[0].following_error_timeout_ms = 0;
+    let mut rig = Rig::with_config(
+        config,
+        |_| SimDriveOptions::default(),
+        MasterOptions::default(),
+    );
+    rig.boot();
+    {
+        let mut ignore = |_: &cnc402_drives::wire::CanFrame| {};
+        let mut sdo = BlockingSdo::new(&mut rig.bus, Duration::from_millis(100), &mut ignore);
+        sdo.write_u16(NodeId::new(1).unwrap(), 0x6066, 0, 10)
+            .unwrap();
+    }
+    rig.next = rig.next.max(rig.bus.now() + rig.master.period());
     let start = rig.master.positions();
     run(&mut rig, &start, 0, 50).unwrap();
     // A 3 mm jump of X: the drive closes most of it in one cycle, so its own 10 ms time-out

@@ -673,6 +673,8 @@ impl Master {
             a.ambiguous_cycles = 0;
             a.window_tpdos = 0;
             a.age = 0;
+            a.fe_beyond = 0;
+            a.fe_comparable = true;
         }
         self.sync_sent = false;
     }

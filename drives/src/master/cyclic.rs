@@ -13,6 +13,10 @@
 //! TPDO (the backlog drains: a later cycle brings two) or a lost one. While undecided the
 //! sample's age is the reading whose error continues the last one (they differ by a cycle's
 //! travel); after `RESYNC_CYCLES` cycles with exactly one TPDO each, the excess is written off.
+//! Trip (as CiA 402 0x6065/0x6066 on the drive side): |error| beyond the window in more
+//! consecutive fresh samples than `following_error_timeout_ms` has cycles (0 = the first one).
+//! A sample older than the command history (`COMMAND_HISTORY`, e.g. after a loop stall) is not
+//! comparable: never matched with a clamped command, counted, and no reset of the TPDO monitor.
 
 use cia402::{Controlword, Goal, Progress, State, Statusword};
 use cnc402_config::MAX_AXES;
@@ -111,6 +115,19 @@ fn rpdo1(cob_id: u16, cw: Controlword, target: i32) -> CanFrame {
 pub const RESYNC_CYCLES: u32 = 8;
 
 impl super::AxisSlot {
+    /// The command the sample taken in cycle `k` answers if it is `age` cycles old, or
+    /// `None` when that command is older than the history keeps (`COMMAND_HISTORY` cycles):
+    /// such a sample is not comparable — never clamped to the oldest entry.
+    fn reference(&self, k: usize, age: u32) -> Option<f64> {
+        let lag = self.fe_lag.checked_add(age as usize)?;
+        (lag < COMMAND_HISTORY).then(|| self.history[(k + COMMAND_HISTORY - lag) % COMMAND_HISTORY])
+    }
+
+    /// The following error of the sample in `actual` read at age `age` (see `reference`).
+    fn error_at(&self, k: usize, age: u32) -> Option<f64> {
+        self.reference(k, age).map(|r| r - self.actual)
+    }
+
     /// The age of the sample just taken in (cycle `k`), by the rule in the module doc; updates
     /// the steady lateness and writes off lost TPDOs.
     fn sample_age(&mut self, k: usize) -> u32 {
@@ -129,11 +146,14 @@ impl super::AxisSlot {
         }
         // Late (answers an older SYNC) or on time after a loss: the tracking lag changes
         // little from one cycle to the next, the two readings differ by a cycle's travel.
-        let error_at = |age: u32| {
-            let lag = (self.fe_lag + age as usize).min(COMMAND_HISTORY - 1);
-            self.history[(k + COMMAND_HISTORY - lag) % COMMAND_HISTORY] - self.actual
+        // A reading older than the history cannot be checked: take the sample as late (it
+        // is then not comparable, see `reference`) rather than guess against a wrong command.
+        let (Some(late), Some(lost)) = (
+            self.error_at(k, self.owed),
+            self.error_at(k, self.late_base),
+        ) else {
+            return self.owed;
         };
-        let (late, lost) = (error_at(self.owed), error_at(self.late_base));
         if (lost - self.following_error).abs() < (late - self.following_error).abs() {
             self.late_base
         } else {
@@ -269,7 +289,12 @@ impl Master {
                 cycles: a.tpdo_missing,
             });
         }
-        if a.tpdo_this_cycle && a.window > 0.0 && a.following_error.abs() > a.window {
+        if a.tpdo_this_cycle
+            && a.fe_comparable
+            && a.window > 0.0
+            && a.following_error.abs() > a.window
+            && a.fe_beyond > a.fe_timeout_cycles
+        {
             return Some(StopReason::FollowingError {
                 error: a.following_error,
                 window: a.window,
@@ -345,24 +370,40 @@ impl Master {
             a.last_command = cmd;
             a.history[k % COMMAND_HISTORY] = cmd;
             if a.node.is_some() {
-                if sync_sent {
-                    if a.tpdo_this_cycle {
-                        a.tpdo_missing = 0;
-                    } else {
-                        a.tpdo_missing = a.tpdo_missing.saturating_add(1);
-                    }
-                }
                 if a.tpdo_this_cycle {
                     a.age = a.sample_age(k);
-                    let lag = (a.fe_lag + a.age as usize).min(COMMAND_HISTORY - 1);
-                    let reference = a.history[(k + COMMAND_HISTORY - lag) % COMMAND_HISTORY];
-                    a.following_error = reference - a.actual;
-                    if running {
-                        a.max_following_error = a.max_following_error.max(a.following_error.abs());
+                    match a.error_at(k, a.age) {
+                        Some(e) => {
+                            a.fe_comparable = true;
+                            a.following_error = e;
+                            if a.window > 0.0 && e.abs() > a.window {
+                                a.fe_beyond = a.fe_beyond.saturating_add(1);
+                            } else {
+                                a.fe_beyond = 0;
+                            }
+                            if running {
+                                a.max_following_error = a.max_following_error.max(e.abs());
+                            }
+                        }
+                        None => {
+                            // Older than the history: the error keeps its last value, the
+                            // persistence count neither grows nor restarts.
+                            a.fe_comparable = false;
+                            a.fe_not_comparable = a.fe_not_comparable.saturating_add(1);
+                        }
                     }
                 } else {
                     // The held sample is one SYNC older than it was.
                     a.age = a.age.saturating_add(1);
+                }
+                // A sample too old to compare is no usable feedback either: stale feedback
+                // that lasts trips the TPDO monitor.
+                if sync_sent {
+                    if a.tpdo_this_cycle && a.fe_comparable {
+                        a.tpdo_missing = 0;
+                    } else {
+                        a.tpdo_missing = a.tpdo_missing.saturating_add(1);
+                    }
                 }
                 a.window_tpdos = 0;
                 fb.age[i] = a.age;

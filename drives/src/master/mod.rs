@@ -161,6 +161,16 @@ pub(crate) struct AxisSlot {
     pub window: f64,
     pub window_counts: u32,
     pub fe_timeout_ms: u16,
+    /// `following_error_timeout_ms` in whole cycles: the monitor trips when |error| has been
+    /// beyond the window in more consecutive fresh, comparable samples than this.
+    pub fe_timeout_cycles: u32,
+    /// Consecutive fresh, comparable samples with |error| beyond the window.
+    pub fe_beyond: u32,
+    /// Whether the sample in `actual` could be compared with the command it answers (false
+    /// when it is older than the command history).
+    pub fe_comparable: bool,
+    /// Fresh samples too old for the command history since boot (not compared).
+    pub fe_not_comparable: u64,
     /// Cycles between a command leaving the master and the actual that answers it.
     pub fe_lag: usize,
     pub sequencer: EnableSequencer,
@@ -216,6 +226,10 @@ impl AxisSlot {
             window: 0.0,
             window_counts: 0,
             fe_timeout_ms: 0,
+            fe_timeout_cycles: 0,
+            fe_beyond: 0,
+            fe_comparable: true,
+            fe_not_comparable: 0,
             fe_lag: 1,
             sequencer: EnableSequencer::new(Goal::OperationEnabled),
             controlword: Controlword::DISABLE_VOLTAGE,
@@ -355,6 +369,9 @@ impl Master {
                 u32::MAX // 0xFFFF_FFFF: monitoring off in the drive
             };
             s.fe_timeout_ms = a.following_error_timeout_ms.min(u16::MAX as u32) as u16;
+            s.fe_timeout_cycles = (u64::from(a.following_error_timeout_ms) * 1000
+                / u64::from(config.bus.period_us.max(1)))
+            .min(u64::from(u32::MAX)) as u32;
             s.fe_lag = (1 + a.feedback_delay_cycles as usize).min(COMMAND_HISTORY - 1);
             if let Some(n) = node {
                 s.sdo = Some(SdoClient::new(
@@ -444,6 +461,13 @@ impl Master {
     /// The latched safety stop, if one happened.
     pub fn stop_reason(&self) -> Option<&SafetyStop> {
         self.stop.as_ref()
+    }
+
+    /// Per axis, fresh samples since boot that were older than the command history
+    /// ([`COMMAND_HISTORY`] cycles, after a loop stall or a long bus delay) and therefore not
+    /// compared with any command (see [`cyclic`]).
+    pub fn following_error_not_comparable(&self) -> [u64; MAX_AXES] {
+        core::array::from_fn(|i| self.axes[i].fe_not_comparable)
     }
 
     /// Largest |following error| per axis since enabling, in axis units.

@@ -1,0 +1,195 @@
+//! Regression tests for "following error beyond window on node 3 (axis Z) after a loop stall"
+//! (qemu guest under load, m10x1.5-rigid-tap.nc:13): the master clamped the command history
+//! at 31 cycles, so feedback older than that was compared with a wrong (too new) command, and
+//! a single cycle beyond the window tripped, ignoring the axis's `following_error_timeout_ms`.
+
+use std::time::Duration;
+
+use cnc402_config::MachineConfig;
+use cnc402_drives::Instant;
+use cnc402_drives::bus::{Action, Direction, FaultInjector, FaultRule, FrameFilter, SimBus};
+use cnc402_drives::master::{COMMAND_HISTORY, Feedback, Master, SafetyStop, StopReason};
+use cnc402_drives::sim::SimDrive;
+use cnc402_drives::wire::{Function, NodeId};
+
+const Z: usize = 2;
+
+struct Rig {
+    bus: FaultInjector<SimBus<SimDrive>>,
+    master: Master,
+    next: Instant,
+    pos: [f64; 4],
+    k: u64,
+    /// Z's velocity, mm/s.
+    v_z: f64,
+}
+
+impl Rig {
+    fn booted(config: &MachineConfig, rules: &[FaultRule]) -> Rig {
+        let period = Duration::from_micros(config.bus.period_us as u64);
+        let mut sim = SimBus::new(config.bus.bitrate);
+        for a in &config.axes {
+            let node = NodeId::new(a.node.unwrap()).unwrap();
+            sim.attach(SimDrive::new(a, node, period));
+        }
+        let mut bus = FaultInjector::new(sim);
+        for r in rules {
+            bus.add_rule(*r);
+        }
+        let mut master = Master::new(config).unwrap();
+        let report = master
+            .boot(&mut bus)
+            .unwrap_or_else(|e| panic!("boot: {e}"));
+        let pos = master.positions();
+        Rig {
+            bus,
+            next: report.enabled_at + master.period(),
+            pos: [pos[0], pos[1], pos[2], pos[3]],
+            master,
+            k: 0,
+            v_z: 0.0,
+        }
+    }
+
+    /// One cycle: Z accelerates smoothly (0.1 s) to −`v_z` mm/s and cruises; `extra_z` is added to
+    /// this cycle's Z command only.
+    fn cycle_with(&mut self, extra_z: f64) -> Result<Feedback, SafetyStop> {
+        let t = self.k as f64 * 1e-3;
+        let u = (t / 0.1).clamp(0.0, 1.0);
+        self.pos[Z] -= self.v_z * u * u * (3.0 - 2.0 * u) * 1e-3;
+        self.k += 1;
+        self.bus.set_now(self.next).unwrap();
+        self.bus.inner_mut().advance(self.next);
+        let mut cmd = self.pos;
+        cmd[Z] += extra_z;
+        let r = self.master.cycle(&mut self.bus, self.next, &cmd);
+        self.next += self.master.period();
+        r
+    }
+
+    fn cycle(&mut self) -> Result<Feedback, SafetyStop> {
+        self.cycle_with(0.0)
+    }
+}
+
+fn tpdo_of(node: u8) -> FrameFilter {
+    FrameFilter::function(Function::Tpdo(1, NodeId::new(node).unwrap()))
+}
+
+#[test]
+fn a_loop_stall_longer_than_the_history_is_not_a_following_error() {
+    // The stall: Z's TPDOs of 45 cycles in a row are held 45 ms (the loop saw none of them in
+    // time), then every sample arrives 45 cycles late for those 45 cycles. A TPDO time-out
+    // longer than the stall (the bus config allows it) lets the run go on.
+    let mut config = MachineConfig::default_machine();
+    config.bus.tpdo_timeout_cycles = 200;
+    let delay = FaultRule::new(
+        tpdo_of(3),
+        Direction::Rx,
+        Action::Delay(Duration::from_millis(45)),
+    )
+    .skip(300)
+    .limit(45);
+    let mut rig = Rig::booted(&config, &[delay]);
+    rig.v_z = 100.0;
+    let mut stale = 0;
+    let mut too_old = 0;
+    let mut prev: Option<Feedback> = None;
+    for k in 0..700u64 {
+        let fb = rig.cycle().unwrap_or_else(|s| panic!("cycle {k}: {s}"));
+        if !fb.fresh[Z] {
+            stale += 1;
+        }
+        // Dead time (feedback_delay_cycles = 1) + 1 + age cycles back: past the history.
+        if fb.fresh[Z] && 2 + fb.age[Z] as usize >= COMMAND_HISTORY {
+            too_old += 1;
+            // Not compared with any command: the error holds its last value.
+            let p = prev.as_ref().unwrap();
+            assert_eq!(fb.following_error[Z], p.following_error[Z], "cycle {k}");
+        }
+        prev = Some(fb);
+    }
+    let skipped = rig.master.following_error_not_comparable()[Z];
+    println!(
+        "stall: {stale} cycles without a Z sample, {too_old} samples older than the history, {skipped} not compared"
+    );
+    assert!(
+        stale >= 45,
+        "the stall happened: {stale} cycles without a Z sample"
+    );
+    assert!(too_old >= 10, "{too_old}");
+    assert_eq!(skipped, too_old);
+}
+
+/// Corrupts the position of Z's next `n` TPDO1s after `skip` (bit 16 of 0x6064: 6.5536 mm
+/// at 10 000 counts/mm) on the master's side; the drive itself tracks fine.
+fn corrupt_z(skip: u32, n: u32) -> FaultRule {
+    FaultRule::new(
+        tpdo_of(3),
+        Direction::Rx,
+        Action::Corrupt { byte: 4, xor: 0x01 },
+    )
+    .skip(skip)
+    .limit(n)
+}
+
+/// Runs 600 cycles with Z cruising; returns the first cycle whose Z error is beyond the
+/// window and the stop with its cycle, if any.
+fn run_corrupted(timeout_ms: u32, n: u32) -> (Option<u64>, Option<(u64, SafetyStop)>) {
+    let mut config = MachineConfig::default_machine();
+    config.axes[Z].following_error_timeout_ms = timeout_ms;
+    let mut rig = Rig::booted(&config, &[corrupt_z(300, n)]);
+    rig.v_z = 50.0;
+    let mut first = None;
+    for k in 0..600u64 {
+        match rig.cycle() {
+            Ok(fb) => {
+                if fb.following_error[Z].abs() > 0.5 && first.is_none() {
+                    first = Some(k);
+                }
+            }
+            Err(s) => return (first.or(Some(k)), Some((k, s))),
+        }
+    }
+    (first, None)
+}
+
+#[test]
+fn following_error_must_persist_for_the_timeout() {
+    // following_error_timeout_ms = 10 at a 1 ms period: 10 samples beyond the window are
+    // tolerated, the 11th trips.
+    let (first, stop) = run_corrupted(10, 10);
+    assert!(first.is_some(), "the corruption reached the master");
+    assert!(stop.is_none(), "{:?}", stop.map(|(_, s)| s.to_string()));
+
+    let (first, stop) = run_corrupted(10, 11);
+    let first = first.expect("beyond the window");
+    let (k, stop) = stop.expect("following error stop");
+    assert_eq!(
+        k,
+        first + 10,
+        "tripped on the 11th sample beyond the window"
+    );
+    let StopReason::FollowingError { error, window } = stop.reason else {
+        panic!("{stop}")
+    };
+    assert_eq!(window, 0.5);
+    assert!((error.abs() - 6.5536).abs() < 0.2, "{error}");
+    assert_eq!((stop.axis, stop.node), (Some('Z'), Some(3)));
+    let sw = stop.statusword.expect("statusword");
+    assert_eq!(sw.state(), Some(cia402::State::OperationEnabled), "{sw:?}");
+    let text = stop.to_string();
+    assert!(
+        text.contains("node 3") && text.contains("axis Z") && text.contains("statusword"),
+        "{text}"
+    );
+
+    // 0 ms: the first sample beyond the window trips.
+    let (first, stop) = run_corrupted(0, 1);
+    let (k, stop) = stop.expect("following error stop");
+    assert_eq!(Some(k), first);
+    assert!(
+        matches!(stop.reason, StopReason::FollowingError { .. }),
+        "{stop}"
+    );
+}
