@@ -24,7 +24,8 @@ HEADER = """\
 # the master's timing monitors widened for the emulated guest, whose 1 ms loop misses deadlines
 # by up to ~100-500 ms (a TPDO or heartbeat that is late is not a protocol failure there; the
 # TPDO-drop and heartbeat-silence scenarios still trip them: those faults are permanent); the
-# following-error windows widened to 50 mm / 36000 degrees for the same reason (the master
+# SDO client time-out raised to 1000 ms (100 ms expired once during boot in the guest); the
+# following-error windows widened to 50 mm / 36000 degrees for the guest's timing too (the master
 # compares feedback with the command of its age, but keeps only 32 cycles of history and its
 # monitor has no time-out: after a 100-200 ms stall of the guest's loop every fast axis
 # "exceeds" 0.5 mm / 90 degrees; the following-error scenario uses machine-vcan-tight-fe.toml);
@@ -45,6 +46,7 @@ def base(src):
     s = sub1(r'^interface = "sim"', 'interface = "vcan0"             # HIL', s)
     s = sub1(r"^heartbeat_timeout_ms = .*$", "heartbeat_timeout_ms = 2000     # HIL (machine.toml: 200)", s)
     s = sub1(r"^tpdo_timeout_cycles = .*$", "tpdo_timeout_cycles = 2000      # HIL (machine.toml: 5)", s)
+    s = sub1(r"^sdo_timeout_ms = .*$", "sdo_timeout_ms = 1000           # HIL (machine.toml: 100; 100 ms expired once in the guest)", s)
     s = sub1(r"^program_dir = .*$", 'program_dir = "../examples"     # HIL', s)
     s = sub1(r"^variables_file = .*$", "# HIL: no variables_file (kept in memory)", s)
     s = sub1(r"^library_dir = .*$", 'library_dir = "../examples/axioma" # HIL', s)
