@@ -881,4 +881,52 @@ mod tests {
         assert_eq!(m.axes[3].actual_counts, expected);
         assert!((m.axes[3].actual - expected as f64 / cpu).abs() < 1e-9);
     }
+
+    /// The persistence rule at a period that does not divide the time-out: 5 ms at 2 ms is
+    /// 2 whole cycles, so the 3rd consecutive sample beyond the window trips (6 ms > 5 ms).
+    /// A sample inside the window restarts the count; a cycle without a sample does not.
+    #[test]
+    fn following_error_persistence_counts_fresh_samples() {
+        let mut config = MachineConfig::default_machine();
+        config.bus.period_us = 2000;
+        config.axes[0].following_error_timeout_ms = 5;
+        let mut m = Master::new(&config).unwrap();
+        assert_eq!(m.axes[0].fe_timeout_cycles, 2);
+        m.phase = Phase::Running;
+        let mut now = Instant::from_millis(100);
+        for a in m.axes[..4].iter_mut() {
+            a.statusword = Some(Statusword(0x1237));
+            a.last_heartbeat = Some(now);
+        }
+        let mut bus = Script::default();
+        // X's actual: 1 mm (10 000 counts) off a command of 0 is beyond the 0.5 mm window.
+        let mut step = |x: Option<i32>| {
+            if let Some(x) = x {
+                bus.rx.push_back(tpdo(1, 0x1237, x));
+            }
+            for n in 2..=4 {
+                bus.rx.push_back(tpdo(n, 0x1237, 0));
+            }
+            now += core::time::Duration::from_millis(2);
+            m.cycle(&mut bus, now, &[0.0; 4])
+        };
+        step(Some(0)).unwrap();
+        step(Some(10_000)).unwrap();
+        step(Some(10_000)).unwrap();
+        step(Some(0)).unwrap(); // back inside: the count restarts
+        step(Some(10_000)).unwrap();
+        step(Some(-10_000)).unwrap();
+        let fb = step(None).unwrap(); // no sample: neither counted nor reset
+        assert!(!fb.fresh[0]);
+        let stop = step(Some(10_000)).unwrap_err();
+        assert_eq!(
+            stop.reason,
+            StopReason::FollowingError {
+                error: -1.0,
+                window: 0.5
+            }
+        );
+        assert_eq!((stop.axis, stop.node), (Some('X'), Some(1)));
+        assert_eq!(stop.statusword, Some(Statusword(0x1237)));
+    }
 }
