@@ -40,7 +40,8 @@ pub struct Feedback {
     pub actual: [f64; MAX_AXES],
     /// The command taken this cycle.
     pub command: [f64; MAX_AXES],
-    /// Delayed command minus actual (see the module doc), axis units.
+    /// Delayed command minus actual (see the module doc), axis units; holds its last value
+    /// while samples are older than the command history (not comparable).
     pub following_error: [f64; MAX_AXES],
     /// The last statusword of each drive (`None` for virtual axes).
     pub statusword: [Option<Statusword>; MAX_AXES],
