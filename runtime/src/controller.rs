@@ -88,6 +88,11 @@ pub struct CycleController<L: DriveLink> {
     motion_error: Option<cnc402_motion::MotionError>,
     starved: u64,
     dropped: u64,
+    /// Largest |following error| per axis over every tick, kept here so that it is exact
+    /// even when status records are dropped.
+    max_following_error: [f64; MAX_AXES],
+    /// Rigid-tap moves started (coupled spindle and tool axis).
+    tap_moves: u64,
     last_line: u32,
     moves_started: u64,
     /// Tool and spindle command at the start of the current tap move.
@@ -129,8 +134,8 @@ impl<L: DriveLink> CycleController<L> {
         let axes = AxisTable::new(cfg);
         let start = start_position(&axes, &start);
         let mut feedback = [DriveFeedback::default(); MAX_AXES];
-        for i in 0..axes.n {
-            feedback[i].actual = start.0[i];
+        for (f, &p) in feedback.iter_mut().zip(&start.0).take(axes.n) {
+            f.actual = p;
         }
         CycleController {
             interp: Interpolator::new(cfg, start),
@@ -150,6 +155,8 @@ impl<L: DriveLink> CycleController<L> {
             motion_error: None,
             starved: 0,
             dropped: 0,
+            max_following_error: [0.0; MAX_AXES],
+            tap_moves: 0,
             last_line: 0,
             moves_started: 0,
             tap_anchor: (0.0, 0.0),
@@ -167,6 +174,18 @@ impl<L: DriveLink> CycleController<L> {
     /// Status records lost because the status ring was full.
     pub fn dropped_status(&self) -> u64 {
         self.dropped
+    }
+
+    /// Rigid-tap moves started so far (counted here, so known even when status records that
+    /// would show the tap windows were dropped).
+    pub fn tap_moves(&self) -> u64 {
+        self.tap_moves
+    }
+
+    /// Largest |following error| per axis (axis units) over every tick so far, as the link's
+    /// monitor saw it: exact whatever [`dropped_status`](Self::dropped_status) says.
+    pub fn max_following_error(&self) -> [f64; MAX_AXES] {
+        self.max_following_error
     }
 
     /// Whether a tick now would do anything but hold position waiting for the feeder: a
@@ -284,6 +303,10 @@ impl<L: DriveLink> CycleController<L> {
             st.cmd_counts[i] = f.target;
             st.act_counts[i] = f.actual_counts as i32;
             st.following_error[i] = f.following_error;
+            let fe = f.following_error.abs();
+            if fe.is_finite() && fe > self.max_following_error[i] {
+                self.max_following_error[i] = fe;
+            }
             st.age[i] = f.age;
             st.statusword[i] = f.statusword;
         }
@@ -379,6 +402,7 @@ impl<L: DriveLink> CycleController<L> {
                 self.moves_started += 1;
                 self.tap = tap_coupling(&self.axes, &mv);
                 if let Some(c) = self.tap {
+                    self.tap_moves += 1;
                     self.tap_anchor = (
                         self.commands[c.tool as usize],
                         self.commands[c.spindle as usize],

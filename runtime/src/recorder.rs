@@ -71,9 +71,6 @@ pub struct Recorder {
     pub ticks: u64,
     /// Commanded path length over the linear axes (mm).
     pub path_length: f64,
-    /// Largest |following error| per axis as the drive link's monitor measures it (the
-    /// command delayed by the drive's dead time, minus actual; mm / degrees).
-    pub max_following_error: [f64; MAX_AXES],
     /// The last record.
     pub last: Option<Status>,
     /// Closed tap windows.
@@ -115,7 +112,6 @@ impl Recorder {
             has_drive,
             ticks: 0,
             path_length: 0.0,
-            max_following_error: [0.0; MAX_AXES],
             last: None,
             taps: Vec::new(),
             open: None,
@@ -165,12 +161,6 @@ impl Recorder {
                 }
             }
             self.path_length += d2.sqrt();
-        }
-        for i in 0..self.n {
-            let fe = s.following_error[i].abs();
-            if fe.is_finite() {
-                self.max_following_error[i] = self.max_following_error[i].max(fe);
-            }
         }
         let coupling = self.track_taps(s);
         if self.trace.is_some() && self.trace_error.is_none() {

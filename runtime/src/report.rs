@@ -55,7 +55,13 @@ pub struct RunReport {
     /// Which real-time privileges were granted (real-time runs only).
     pub realtime_grant: Option<String>,
     pub starved_ticks: u64,
+    /// Status records the loop could not hand out (status ring full).
     pub dropped_status: u64,
+    /// False when status records were lost: the tap windows' coupling figures (and the
+    /// trace) then miss ticks, or whole windows. A run with rigid-tap moves is not `ok` then;
+    /// without, `ok` stands. The following-error maxima are exact either way (the loop keeps
+    /// them).
+    pub coupling_complete: bool,
     /// Wall-clock time of the cyclic phase, and program time over it.
     pub wall_time_s: f64,
     pub realtime_factor: f64,
@@ -94,6 +100,7 @@ impl RunReport {
             realtime_grant: None,
             starved_ticks: 0,
             dropped_status: 0,
+            coupling_complete: true,
             wall_time_s: 0.0,
             realtime_factor: 0.0,
             coupling_bound_um: 0.0,
@@ -140,6 +147,7 @@ impl RunReport {
             "coupling_bound_um": self.coupling_bound_um,
             "starved_ticks": self.starved_ticks,
             "dropped_status": self.dropped_status,
+            "coupling_complete": self.coupling_complete,
             "wall_time_s": self.wall_time_s,
             "realtime_factor": self.realtime_factor,
         });
@@ -187,6 +195,13 @@ impl RunReport {
         }
         if self.tapping.is_empty() {
             let _ = writeln!(s, "  tapping: none");
+        }
+        if !self.coupling_complete {
+            let _ = writeln!(
+                s,
+                "  {} status records lost: coupling figures and trace incomplete",
+                self.dropped_status
+            );
         }
         for t in &self.tapping {
             let _ = writeln!(

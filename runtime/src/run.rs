@@ -55,6 +55,11 @@ pub struct RunOptions {
     /// test and benchmark double, only with the `testing` feature.
     #[cfg(any(test, feature = "testing"))]
     pub model_link: bool,
+    /// Capacity of the status ring instead of [`STATUS_RING`] (tests of a full ring; only
+    /// with the `testing` feature). The virtual-time driver still drains at
+    /// `STATUS_RING / 2`, so a smaller ring loses records as a slow reporter would.
+    #[cfg(any(test, feature = "testing"))]
+    pub status_ring: Option<usize>,
     /// Boot and enable limits; `None`: [`LinkTimeouts::default`] on the simulator,
     /// [`LinkTimeouts::real_bus`] on a CAN interface.
     pub timeouts: Option<LinkTimeouts>,
@@ -69,6 +74,8 @@ impl Default for RunOptions {
             stop_request: Arc::new(AtomicBool::new(false)),
             #[cfg(any(test, feature = "testing"))]
             model_link: false,
+            #[cfg(any(test, feature = "testing"))]
+            status_ring: None,
             timeouts: None,
         }
     }
@@ -190,6 +197,10 @@ struct LoopEnd {
     ticks: u64,
     starved: u64,
     dropped: u64,
+    /// Per axis, from the controller (exact even when status records were dropped).
+    max_following_error: [f64; MAX_AXES],
+    /// Rigid-tap moves the controller started.
+    tap_moves: u64,
     counters: cnc402_drives::bus::BusCounters,
     bitrate: u32,
     elapsed: Duration,
@@ -307,6 +318,10 @@ pub fn run_program(
     let model = spec.model;
     #[cfg(not(any(test, feature = "testing")))]
     let model = false;
+    #[cfg(any(test, feature = "testing"))]
+    let status_cap = opts.status_ring.unwrap_or(STATUS_RING).max(2);
+    #[cfg(not(any(test, feature = "testing")))]
+    let status_cap = STATUS_RING;
     if !cfg.bus.is_sim() && !model {
         // Fail before anything else when the interface cannot be opened (or a fault is asked
         // of drives that are not simulated).
@@ -335,8 +350,12 @@ pub fn run_program(
     };
     let src_keep = src.clone();
     let end = match timing {
-        Timing::Virtual => run_virtual(cfg, src, program, spec, stop_request, &mut side),
-        Timing::RealTime => run_realtime(cfg, src, program, spec, stop_request, &mut side),
+        Timing::Virtual => {
+            run_virtual(cfg, src, program, spec, status_cap, stop_request, &mut side)
+        }
+        Timing::RealTime => {
+            run_realtime(cfg, src, program, spec, status_cap, stop_request, &mut side)
+        }
     };
     side.stop_feeder();
     let end = end?;
@@ -361,7 +380,7 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
         .enumerate()
         .map(|(i, a)| AxisReport {
             name: a.name,
-            max_following_error: rec.max_following_error[i],
+            max_following_error: end.max_following_error[i],
             final_position: rec.last.map_or(0.0, |s| s.act[i]),
         })
         .collect();
@@ -419,6 +438,17 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
         }
         Outcome::MotionFailed { .. } => (false, Some("motion error".into()), None),
     };
+    // Lost status records leave holes in what the recorder saw: the coupling figures (and
+    // the trace) are incomplete, the following-error maxima are not (the controller keeps
+    // them). A run with rigid taps is then not ok: its pass criterion may have been missed
+    // (the controller counts the tap moves: a window lost whole leaves no trace in `taps`).
+    let coupling_complete = end.dropped == 0;
+    let tapped = end.tap_moves > 0 || !rec.taps.is_empty();
+    let (ok, error) = if ok && !coupling_complete && tapped {
+        (false, Some(incomplete_coupling(end.dropped)))
+    } else {
+        (ok, error)
+    };
     let program_time_s = side.program_ticks as f64 * period_s;
     let wall = end.wall.as_secs_f64();
     let axes_t = AxisTable::new(cfg);
@@ -447,6 +477,7 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
         realtime_grant: end.grant.clone(),
         starved_ticks: end.starved,
         dropped_status: end.dropped,
+        coupling_complete,
         wall_time_s: wall,
         realtime_factor: if wall > 0.0 {
             end.ticks as f64 * period_s / wall
@@ -456,6 +487,14 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
         coupling_bound_um: coupling_bound_um(&axes_t, &rec.taps),
         plot: rec.plot_points().to_vec(),
     }
+}
+
+/// The error of a tapping run whose status records were partly lost.
+fn incomplete_coupling(dropped: u64) -> String {
+    format!(
+        "{dropped} status records were lost (status ring full): the rigid-tap coupling \
+         figures are incomplete"
+    )
 }
 
 /// One count of the tool axis or the tool-axis equivalent of one spindle count, whichever is
@@ -487,6 +526,7 @@ fn run_virtual(
     src: SourceFile,
     program: Program,
     spec: LinkSpec,
+    status_cap: usize,
     stop_request: Arc<AtomicBool>,
     side: &mut Side,
 ) -> Result<LoopEnd, RunError> {
@@ -510,7 +550,7 @@ fn run_virtual(
         }
     };
     let (mprod, mcons) = move_ring(MOVE_RING);
-    let (sprod, mut scons) = status_ring(STATUS_RING);
+    let (sprod, mut scons) = status_ring(status_cap);
     side.start_feeder(src, program, &start, mprod, &stop_request)?;
     let c0 = link.counters();
     let now0 = now;
@@ -578,6 +618,8 @@ fn cyclic_end(
         ticks: ctrl.ticks(),
         starved: ctrl.starved_ticks(),
         dropped: ctrl.dropped_status(),
+        max_following_error: ctrl.max_following_error(),
+        tap_moves: ctrl.tap_moves(),
         counters,
         bitrate: ctrl.link().bitrate(),
         elapsed,
@@ -599,6 +641,8 @@ fn failed_end(
         ticks: 0,
         starved: 0,
         dropped: 0,
+        max_following_error: [0.0; MAX_AXES],
+        tap_moves: 0,
         counters: link.counters(),
         bitrate: link.bitrate(),
         elapsed: Duration::from_nanos(now.nanos()),
@@ -633,11 +677,12 @@ fn run_realtime(
     src: SourceFile,
     program: Program,
     spec: LinkSpec,
+    status_cap: usize,
     stop_request: Arc<AtomicBool>,
     side: &mut Side,
 ) -> Result<LoopEnd, RunError> {
     let (mprod, mcons) = move_ring(MOVE_RING);
-    let (sprod, mut scons) = status_ring(STATUS_RING);
+    let (sprod, mut scons) = status_ring(status_cap);
     let (hello_tx, hello_rx) = std::sync::mpsc::sync_channel::<Hello>(1);
     let cfg_t = cfg.clone();
     let stop_t = stop_request.clone();

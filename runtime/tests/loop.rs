@@ -494,3 +494,44 @@ fn a_drive_booting_late_does_not_make_the_others_look_silent() {
     assert!(link.sim_bus().now() > Instant::from_millis(3000));
     assert!((st.last().unwrap().cmd[0] - 2.0).abs() < 1e-9);
 }
+
+#[test]
+fn a_full_status_ring_still_gives_ok_true() {
+    // A ring far smaller than the driver's drain threshold loses records (a slow reporter).
+    let cfg = MachineConfig::default_machine();
+    let run = |text: &str, ring: Option<usize>| {
+        let src = SourceFile::new("ring.nc", text);
+        let ast = cnc402_lang::parse(&src).unwrap();
+        let opts = RunOptions {
+            status_ring: ring,
+            ..RunOptions::default()
+        };
+        run_program(&cfg, src, ast, opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:?}"))
+    };
+    let full = run(TAP, None);
+    let tiny = run(TAP, Some(16));
+    assert!(full.ok && full.coupling_complete, "{:?}", full.error);
+    assert_eq!(full.dropped_status, 0);
+    assert!(!full.tapping.is_empty());
+    // Records were lost: the coupling figures of the tap are incomplete, so the run is not ok.
+    assert!(tiny.dropped_status > 1000, "{}", tiny.dropped_status);
+    assert!(!tiny.coupling_complete);
+    assert!(!tiny.ok);
+    let err = tiny.error.as_deref().unwrap_or("");
+    assert!(
+        err.contains(&format!("{} status records were lost", tiny.dropped_status))
+            && err.contains("coupling figures are incomplete"),
+        "{err}"
+    );
+    assert_eq!(tiny.to_json()["coupling_complete"], false);
+    // The following-error maxima come from the loop: exact whatever was dropped.
+    assert_eq!(tiny.ticks, full.ticks);
+    for (t, f) in tiny.axes.iter().zip(&full.axes) {
+        assert!(f.max_following_error > 0.0, "{}", f.name);
+        assert_eq!(t.max_following_error, f.max_following_error, "{}", t.name);
+    }
+    // Without tap windows the lost records cost only the trace: ok, but marked incomplete.
+    let plain = run("G21 G90\nG1 X20. Y5. F600.\nM30\n", Some(16));
+    assert!(plain.dropped_status > 0 && !plain.coupling_complete);
+    assert!(plain.ok, "{:?}", plain.error);
+}
