@@ -12,6 +12,7 @@ pub mod od;
 pub mod sim;
 #[cfg(target_os = "linux")]
 pub mod socketcan;
+pub mod stats;
 pub mod time;
 pub mod wire;
 
