@@ -4,6 +4,7 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use cnc402_drives::stats::Histogram;
 use nix::sys::mman::{MlockAllFlags, mlockall};
 use nix::sys::time::TimeSpec;
 use nix::time::{ClockId, ClockNanosleepFlags, clock_gettime, clock_nanosleep};
@@ -130,16 +131,14 @@ pub fn tick_deadline(next: u64, woke: u64, period_ns: u64) -> (u64, u64) {
     }
 }
 
-/// A histogram of wake-up latency with 1 µs buckets up to its size, 1 ms buckets from there
-/// up to [`COARSE_RANGE_MS`] (an emulated guest's p99 is tens of ms), and an exact maximum.
-/// `record` is allocation-free.
+/// Wake-up latency: a [`cnc402_drives::stats::Histogram`] with 1 µs buckets up to its size
+/// and 1 ms buckets from there up to [`COARSE_RANGE_MS`] more (an emulated guest's p99 is
+/// tens of ms), plus the count of late wake-ups. The buckets are allocated in `new`;
+/// `record` is allocation-free. p50/p99 are within half a bucket of the exact nearest-rank
+/// sample (0.5 µs below the fine range's end, 0.5 ms above); min, max and mean are exact.
 #[derive(Clone, Debug)]
 pub struct LatencyHistogram {
-    buckets: Vec<u64>,
-    coarse: Vec<u64>,
-    overflow: u64,
-    samples: u64,
-    max_ns: u64,
+    hist: Histogram,
     late_threshold_ns: u64,
     late: u64,
 }
@@ -148,11 +147,7 @@ impl LatencyHistogram {
     /// Buckets for 0..`range_us` µs; wake-ups later than `late_threshold_ns` count as late.
     pub fn new(range_us: usize, late_threshold_ns: u64) -> LatencyHistogram {
         LatencyHistogram {
-            buckets: vec![0; range_us.max(1)],
-            coarse: vec![0; COARSE_RANGE_MS],
-            overflow: 0,
-            samples: 0,
-            max_ns: 0,
+            hist: Histogram::micros_then_millis(range_us.max(1), COARSE_RANGE_MS),
             late_threshold_ns,
             late: 0,
         }
@@ -161,54 +156,30 @@ impl LatencyHistogram {
     /// Records one wake-up `latency_ns` after its deadline.
     #[inline]
     pub fn record(&mut self, latency_ns: u64) {
-        self.samples += 1;
-        self.max_ns = self.max_ns.max(latency_ns);
+        self.hist.record(latency_ns);
         if latency_ns > self.late_threshold_ns {
             self.late += 1;
         }
-        let us = (latency_ns / 1000) as usize;
-        match self.buckets.get_mut(us) {
-            Some(b) => *b += 1,
-            None => match self.coarse.get_mut((us - self.buckets.len()) / 1000) {
-                Some(b) => *b += 1,
-                None => self.overflow += 1,
-            },
-        }
     }
 
-    /// The upper edge (µs) of the bucket holding quantile `q` (0..1); the max if it overflowed.
-    pub fn quantile_us(&self, q: f64) -> f64 {
-        if self.samples == 0 {
-            return 0.0;
-        }
-        let rank = ((q * self.samples as f64).ceil() as u64).clamp(1, self.samples);
-        let mut seen = 0;
-        let max_us = self.max_ns as f64 / 1000.0;
-        for (i, &n) in self.buckets.iter().enumerate() {
-            seen += n;
-            if seen >= rank {
-                return ((i + 1) as f64).min(max_us);
-            }
-        }
-        let fine = self.buckets.len() as f64;
-        for (i, &n) in self.coarse.iter().enumerate() {
-            seen += n;
-            if seen >= rank {
-                return (fine + (i + 1) as f64 * 1000.0).min(max_us);
-            }
-        }
-        max_us
+    /// The histogram.
+    pub fn histogram(&self) -> &Histogram {
+        &self.hist
     }
 
-    /// p50/p99/max/late.
+    /// p50/p99/max/late (µs; zeros without samples).
     pub fn summary(&self) -> LatencySummary {
-        LatencySummary {
-            samples: self.samples,
-            p50_us: self.quantile_us(0.5),
-            p99_us: self.quantile_us(0.99),
-            max_us: self.max_ns as f64 / 1000.0,
-            late: self.late,
-            skipped: 0,
+        let us = |ns: f64| ns / 1000.0;
+        match self.hist.summary() {
+            Some(s) => LatencySummary {
+                samples: s.count,
+                p50_us: us(s.p50_ns),
+                p99_us: us(s.p99_ns),
+                max_us: us(s.max_ns as f64),
+                late: self.late,
+                skipped: 0,
+            },
+            None => LatencySummary::default(),
         }
     }
 }
@@ -252,8 +223,9 @@ mod tests {
         h.record(2_000_000);
         let s = h.summary();
         assert_eq!(s.samples, 101);
-        assert_eq!(s.p50_us, 51.0);
-        assert_eq!(s.p99_us, 100.0);
+        // Nearest rank: the 51st and 100th samples, 50.5 and 99.5 µs (bucket middles).
+        assert_eq!(s.p50_us, 50.5);
+        assert_eq!(s.p99_us, 99.5);
         assert_eq!(s.max_us, 2000.0);
         assert_eq!(s.late, 1);
     }
@@ -311,8 +283,8 @@ mod tests {
     #[test]
     fn quantiles_beyond_the_fine_range_are_not_the_maximum() {
         let mut h = LatencyHistogram::new(5000, 500_000);
-        // 90 on time, 9 at 20.3 ms, one at 150 ms: p99 is 21 ms (the bucket's upper edge),
-        // not the 150 ms maximum.
+        // 90 on time, 9 at 20.3 ms, one at 150 ms: p99 is 20.5 ms (the bucket's middle,
+        // within 0.5 ms of the exact 20.3), not the 150 ms maximum.
         for _ in 0..90 {
             h.record(10_000);
         }
@@ -321,8 +293,8 @@ mod tests {
         }
         h.record(150_000_000);
         let s = h.summary();
-        assert_eq!(s.p50_us, 11.0);
-        assert_eq!(s.p99_us, 21_000.0);
+        assert_eq!(s.p50_us, 10.5);
+        assert_eq!(s.p99_us, 20_500.0);
         assert_eq!(s.max_us, 150_000.0);
         assert_eq!(s.late, 10);
         // Beyond the coarse range: the maximum.

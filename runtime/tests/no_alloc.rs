@@ -166,3 +166,20 @@ fn full_tick_path_allocates_nothing_when_the_spindle_faults_mid_tap() {
     assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
     assert_eq!(n, 0, "allocations in {ticks} ticks");
 }
+
+#[test]
+fn latency_histogram_records_without_allocating() {
+    let mut h = cnc402_runtime::rt::LatencyHistogram::new(5000, 500_000);
+    arm(true);
+    let before = allocs();
+    // Fine, coarse and overflow buckets, as the loop records them.
+    for i in 0..10_000u64 {
+        h.record(std::hint::black_box(i * 997));
+    }
+    h.record(std::hint::black_box(5_000_000_000));
+    let n = allocs() - before;
+    arm(false);
+    assert_eq!(n, 0);
+    assert_eq!(h.summary().samples, 10_001);
+    assert_eq!(h.histogram().overflow(), 1);
+}
