@@ -11,6 +11,7 @@ use std::time::{Instant as WallInstant, SystemTime, UNIX_EPOCH};
 
 use cnc402_drives::Instant;
 use cnc402_drives::master::TimedBus;
+use cnc402_drives::stats::Histogram;
 use cnc402_drives::wire::CanFrame;
 use serde_json::json;
 
@@ -43,138 +44,86 @@ pub fn candump_line(t: f64, iface: &str, f: &CanFrame) -> String {
     format!("({whole}.{usec:06}) {iface} {:03X}#{data}", f.id())
 }
 
-/// Width of [`PeriodStats`]' fine buckets: 1 µs.
-const FINE_US: f64 = 1.0;
-/// Fine buckets cover 0..5 ms (SYNC periods of a few ms at most, jitter in µs).
+/// Fine buckets: 1 µs wide over 0..5 ms (SYNC periods of a few ms at most, jitter in µs).
 const FINE_BUCKETS: usize = 5_000;
-/// Width of the coarse buckets above the fine ones: 1 ms.
-const COARSE_US: f64 = 1_000.0;
-/// Coarse buckets cover 5 ms..1 s; longer periods (a bus pause) count only in the max.
+/// Coarse buckets: 1 ms wide over 5 ms..1 s; longer periods (a bus pause) count only in the
+/// max.
 const COARSE_BUCKETS: usize = 995;
 
-/// SYNC period statistics in bounded memory: a fixed-bucket histogram (allocated once,
-/// ~47 KiB, whatever the number of samples) with exact count, min, max and mean beside it.
+/// SYNC period statistics in bounded memory: a [`Histogram`] (allocated once, ~47 KiB,
+/// whatever the number of samples) with exact count, min, max and mean.
 ///
-/// Percentile resolution: p50/p99 are the midpoint of the bucket holding the nearest-rank
-/// sample, clamped to the exact min/max, so they are within 0.5 µs of the exact value below
-/// 5 ms and within 0.5 ms from 5 ms to 1 s; a percentile that falls above 1 s is the max.
-/// The lowest and highest ranks (p0, p100, and p99 of fewer than 51 samples) are exact.
+/// Percentile resolution ([`Histogram`]'s): the nearest-rank sample's bucket middle, clamped
+/// to the exact min/max, so within 0.5 µs of the exact value below 5 ms and within 0.5 ms
+/// from 5 ms to 1 s; a percentile that falls above 1 s is the max. The lowest and highest
+/// ranks (p0, p100, and p99 of fewer than 100 samples) are exact.
 #[derive(Clone, Debug)]
 pub struct PeriodStats {
-    /// `FINE_BUCKETS` 1 µs buckets, then `COARSE_BUCKETS` 1 ms buckets.
-    buckets: Box<[u64]>,
-    /// Samples of 1 s or more.
-    overflow: u64,
+    hist: Histogram,
     /// The last SYNC seen by [`PeriodStats::on_sync`].
     last_sync: Option<Instant>,
-    n: u64,
-    sum_us: f64,
-    min_us: f64,
-    max_us: f64,
 }
 
 impl Default for PeriodStats {
     fn default() -> Self {
         PeriodStats {
-            buckets: vec![0; FINE_BUCKETS + COARSE_BUCKETS].into_boxed_slice(),
-            overflow: 0,
+            hist: Histogram::micros_then_millis(FINE_BUCKETS, COARSE_BUCKETS),
             last_sync: None,
-            n: 0,
-            sum_us: 0.0,
-            min_us: f64::INFINITY,
-            max_us: 0.0,
         }
     }
 }
 
+/// Nanoseconds in µs.
+fn us(ns: f64) -> f64 {
+    ns / 1000.0
+}
+
 impl PeriodStats {
-    /// Adds one period (µs); a negative one counts as 0, a non-finite one is ignored.
+    /// Adds one period (µs, kept to the nanosecond); a negative one counts as 0, a
+    /// non-finite one is ignored.
     pub fn push(&mut self, us: f64) {
         if !us.is_finite() {
             return;
         }
-        let us = us.max(0.0);
-        self.n += 1;
-        self.sum_us += us;
-        self.min_us = self.min_us.min(us);
-        self.max_us = self.max_us.max(us);
-        let fine_end = FINE_BUCKETS as f64 * FINE_US;
-        let i = if us < fine_end {
-            (us / FINE_US) as usize
-        } else {
-            FINE_BUCKETS + ((us - fine_end) / COARSE_US) as usize
-        };
-        match self.buckets.get_mut(i) {
-            Some(b) => *b += 1,
-            None => self.overflow += 1,
-        }
+        // Saturating float-to-int cast: beyond u64 ns counts as the largest value.
+        self.hist.record((us.max(0.0) * 1000.0).round() as u64);
     }
 
-    /// A SYNC received at `t`: pushes the period since the previous one (none for the first).
+    /// A SYNC received at `t`: records the period since the previous one (none for the
+    /// first).
     pub fn on_sync(&mut self, t: Instant) {
         if let Some(prev) = self.last_sync {
-            self.push(t.saturating_since(prev).as_nanos() as f64 / 1000.0);
+            let ns = t.saturating_since(prev).as_nanos();
+            self.hist.record(u64::try_from(ns).unwrap_or(u64::MAX));
         }
         self.last_sync = Some(t);
     }
 
-    /// Number of periods pushed.
+    /// Number of periods recorded.
     pub fn count(&self) -> u64 {
-        self.n
+        self.hist.count()
     }
 
     /// The exact shortest period (µs), if any.
     pub fn min(&self) -> Option<f64> {
-        (self.n > 0).then_some(self.min_us)
+        self.hist.min_ns().map(|n| us(n as f64))
     }
 
-    /// Lower edge and width (µs) of bucket `i`.
-    fn bucket(i: usize) -> (f64, f64) {
-        if i < FINE_BUCKETS {
-            (i as f64 * FINE_US, FINE_US)
-        } else {
-            let fine_end = FINE_BUCKETS as f64 * FINE_US;
-            (fine_end + (i - FINE_BUCKETS) as f64 * COARSE_US, COARSE_US)
-        }
-    }
-
-    /// Percentile `p` (0..=1) in µs: the sample of nearest rank `round((n-1)·p)` (0-based),
-    /// to the resolution given on the type. `None` without samples.
+    /// Percentile `p` (0..=1) in µs: the nearest-rank sample `ceil(n·p)`, to the resolution
+    /// given on the type. `None` without samples.
     pub fn percentile(&self, p: f64) -> Option<f64> {
-        if self.n == 0 {
-            return None;
-        }
-        let rank = ((self.n - 1) as f64 * p.clamp(0.0, 1.0)).round() as u64;
-        // The first and last ranks are the exact min and max.
-        if rank == 0 {
-            return Some(self.min_us);
-        }
-        if rank == self.n - 1 {
-            return Some(self.max_us);
-        }
-        let mut seen = 0u64;
-        for (i, &c) in self.buckets.iter().enumerate() {
-            seen += c;
-            if seen > rank {
-                let (lo, w) = Self::bucket(i);
-                return Some((lo + w / 2.0).clamp(self.min_us, self.max_us));
-            }
-        }
-        Some(self.max_us)
+        self.hist.percentile_ns(p).map(us)
     }
 
     /// `(count, mean, p50, p99, max)` in µs; mean and max exact, p50/p99 bucketed.
     pub fn summary(&self) -> Option<(u64, f64, f64, f64, f64)> {
-        if self.n == 0 {
-            return None;
-        }
-        let mean = self.sum_us / self.n as f64;
+        let s = self.hist.summary()?;
         Some((
-            self.n,
-            mean,
-            self.percentile(0.5)?,
-            self.percentile(0.99)?,
-            self.max_us,
+            s.count,
+            us(s.mean_ns),
+            us(s.p50_ns),
+            us(s.p99_ns),
+            us(s.max_ns as f64),
         ))
     }
 }
@@ -729,11 +678,11 @@ mod tests {
     #[test]
     fn memory_is_bounded() {
         let mut s = PeriodStats::default();
-        let len = s.buckets.len();
+        let len = s.hist.bucket_count();
         for i in 0..1_000_000u32 {
             s.push(900.0 + (i % 200) as f64);
         }
-        assert_eq!(s.buckets.len(), len);
+        assert_eq!(s.hist.bucket_count(), len);
         assert_eq!(s.count(), 1_000_000);
         let p50 = s.percentile(0.5).unwrap();
         assert!((p50 - 1000.0).abs() <= 0.5, "{p50}");
