@@ -56,6 +56,10 @@ fn nums(args: &str) -> Vec<f64> {
 
 /// Motion calls of `rs274 -g` output.
 fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
+    // rs274 keeps state in files of its working directory (its parameter file); two of them
+    // started at once by parallel tests sometimes printed nothing at all. One at a time.
+    static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let out = Command::new(exe)
         .arg("-g")
         .arg(file)
