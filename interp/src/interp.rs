@@ -10,7 +10,7 @@ use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Block, Comment, Line, Program, Span};
 use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{
-    ArcDir, AxisPos, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind,
+    ArcDir, AxisPos, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind, arc_length,
 };
 
 use crate::arc::{self, ArcError};
@@ -255,35 +255,14 @@ impl Interpreter {
                 turns,
                 ..
             } => {
-                let (a, b, n) = match plane {
-                    Plane::XY => ('X', 'Y', 'Z'),
-                    Plane::ZX => ('Z', 'X', 'Y'),
-                    Plane::YZ => ('Y', 'Z', 'X'),
-                };
+                let (a, b, n) = plane.letters();
                 let idx = |l: char| self.cfg.axis_index(l);
-                let c = |l: char| center[(l as u8 - b'X') as usize];
                 if let (Some(ia), Some(ib)) = (idx(a), idx(b)) {
-                    let (sa, sb) = (self.path_end[ia] - c(a), self.path_end[ib] - c(b));
-                    let (ea, eb) = (end[ia] - c(a), end[ib] - c(b));
-                    let r = sa.hypot(sb);
-                    let mut sweep = eb.atan2(ea) - sb.atan2(sa);
-                    let tau = std::f64::consts::TAU;
-                    if *dir == ArcDir::Ccw {
-                        if sweep <= 1e-12 {
-                            sweep += tau;
-                        }
-                    } else {
-                        sweep = -sweep;
-                        if sweep <= 1e-12 {
-                            sweep += tau;
-                        }
-                    }
-                    if *turns > 0 && sweep >= tau - 1e-12 {
-                        sweep = 0.0;
-                    }
-                    sweep += f64::from(*turns) * tau;
+                    let start = [self.path_end[ia], self.path_end[ib]];
+                    let stop = [end[ia], end[ib]];
+                    let c = plane.center_in_plane(*center);
                     let h = idx(n).map_or(0.0, |i| end[i] - self.path_end[i]);
-                    self.path_len += (r * sweep).hypot(h);
+                    self.path_len += arc_length(start, stop, c, *dir, *turns).hypot(h);
                 }
                 self.path_end = *end;
             }
@@ -967,11 +946,7 @@ impl Exec<'_> {
 
     /// (first plane axis, second plane axis, normal / drilling axis) letters.
     pub fn plane_letters(&self) -> (char, char, char) {
-        match self.st.plane {
-            Plane::XY => ('X', 'Y', 'Z'),
-            Plane::ZX => ('Z', 'X', 'Y'),
-            Plane::YZ => ('Y', 'Z', 'X'),
-        }
+        self.st.plane.letters()
     }
 
     fn arc(&mut self, span: Span) -> Result<(), NcError> {

@@ -10,7 +10,8 @@ use cnc402_config::{AxisKind, MachineConfig};
 use crate::error::{MotionError, MotionErrorKind};
 use crate::profile::{JerkProfile, Limits, PathProfile, ProfileError, State, rest_to_rest};
 use crate::segment::{
-    ArcDir, AxisPos, MAX_AXES, Plane, Segment, SegmentKind, SpindleDir, StopKind,
+    ArcDir, AxisPos, MAX_AXES, Plane, Segment, SegmentKind, SpindleDir, StopKind, arc_length,
+    arc_sweep,
 };
 
 /// A segment made ready for the interpolator. `Copy` and heap-free: the source location is
@@ -434,11 +435,7 @@ impl Planner {
         feed: f64,
     ) -> Result<PathMove, MotionErrorKind> {
         let start = self.pos;
-        let (l0, l1) = match plane {
-            Plane::XY => ('X', 'Y'),
-            Plane::ZX => ('Z', 'X'),
-            Plane::YZ => ('Y', 'Z'),
-        };
+        let (l0, l1, _) = plane.letters();
         let find = |l: char| {
             self.axes[..self.n_axes]
                 .iter()
@@ -446,12 +443,7 @@ impl Planner {
                 .ok_or(MotionErrorKind::MissingPlaneAxis { axis: l })
         };
         let (p, q) = (find(l0)?, find(l1)?);
-        let cidx = |l: char| match l {
-            'X' => 0,
-            'Y' => 1,
-            _ => 2,
-        };
-        let c = [center[cidx(l0)], center[cidx(l1)]];
+        let c = plane.center_in_plane(center);
         let r0 = (start.0[p] - c[0]).hypot(start.0[q] - c[1]);
         let r1 = (end.0[p] - c[0]).hypot(end.0[q] - c[1]);
         if !(r0 > 1e-9 && r1 > 1e-9) {
@@ -461,21 +453,9 @@ impl Planner {
             return Err(MotionErrorKind::RadiusMismatch { start: r0, end: r1 });
         }
         let a0 = (start.0[q] - c[1]).atan2(start.0[p] - c[0]);
-        let a1 = (end.0[q] - c[1]).atan2(end.0[p] - c[0]);
-        let mut base = match dir {
-            ArcDir::Ccw => (a1 - a0).rem_euclid(TAU),
-            ArcDir::Cw => (a0 - a1).rem_euclid(TAU),
-        };
         let rm = r0.max(r1);
-        // End on start (to rounding) is a whole turn, not 2π − ε plus `turns` more.
-        if (TAU - base) * rm < 1e-9 {
-            base = 0.0;
-        }
-        let mut sweep_abs = base + turns as f64 * TAU;
-        if sweep_abs * rm < 1e-9 {
-            // End = start with turns = 0: a full circle, as G2/G3 with I/J programs it.
-            sweep_abs = base + TAU;
-        }
+        let (s2, e2) = ([start.0[p], start.0[q]], [end.0[p], end.0[q]]);
+        let sweep_abs = arc_sweep(s2, e2, c, dir, turns);
         let sweep = match dir {
             ArcDir::Ccw => sweep_abs,
             ArcDir::Cw => -sweep_abs,
@@ -505,7 +485,7 @@ impl Planner {
                 h2 += d * d;
             }
         }
-        let arc_len = 0.5 * (r0 + r1) * sweep_abs;
+        let arc_len = arc_length(s2, e2, c, dir, turns);
         let length = arc_len.hypot(h2.sqrt());
         let rmin = r0.min(r1);
         let k = (rm * sweep_abs + (r1 - r0).abs()) / length;

@@ -46,6 +46,81 @@ pub enum Plane {
     YZ,
 }
 
+impl Plane {
+    /// The plane's axis letters: (first, second, normal), e.g. `XY` → `('X', 'Y', 'Z')`. The
+    /// first and second follow the right-handed order (G18 is Z then X), so CCW is positive.
+    pub fn letters(self) -> (char, char, char) {
+        match self {
+            Plane::XY => ('X', 'Y', 'Z'),
+            Plane::ZX => ('Z', 'X', 'Y'),
+            Plane::YZ => ('Y', 'Z', 'X'),
+        }
+    }
+
+    /// An arc centre given as X Y Z (like `SegmentKind::Arc::center`) in this plane's
+    /// (first, second) coordinates.
+    pub fn center_in_plane(self, center: [f64; 3]) -> [f64; 2] {
+        match self {
+            Plane::XY => [center[0], center[1]],
+            Plane::ZX => [center[2], center[0]],
+            Plane::YZ => [center[1], center[2]],
+        }
+    }
+}
+
+/// The angle (radians, > 0) an arc sweeps from `start` to `end` around `center`, all in the
+/// plane's (first, second) coordinates, turning `dir` with `turns` extra full turns. End on
+/// start (to 1e-9 of arc length) is a whole turn: `turns = 0` gives one full circle (as G2/G3
+/// with I/J program it), `turns = 1` also one, `turns = n` n turns. The one definition the
+/// planner and the interpreter's path length share.
+///
+/// ```
+/// use cnc402_motion::segment::{ArcDir, arc_sweep};
+/// use std::f64::consts::{FRAC_PI_2, TAU};
+/// let q = arc_sweep([1.0, 0.0], [0.0, 1.0], [0.0, 0.0], ArcDir::Ccw, 0);
+/// assert!((q - FRAC_PI_2).abs() < 1e-12);
+/// let full = arc_sweep([1.0, 0.0], [1.0, 0.0], [0.0, 0.0], ArcDir::Cw, 0);
+/// assert!((full - TAU).abs() < 1e-12);
+/// ```
+pub fn arc_sweep(start: [f64; 2], end: [f64; 2], center: [f64; 2], dir: ArcDir, turns: u32) -> f64 {
+    use std::f64::consts::TAU;
+    let rm = (start[0] - center[0])
+        .hypot(start[1] - center[1])
+        .max((end[0] - center[0]).hypot(end[1] - center[1]));
+    let a0 = (start[1] - center[1]).atan2(start[0] - center[0]);
+    let a1 = (end[1] - center[1]).atan2(end[0] - center[0]);
+    let mut base = match dir {
+        ArcDir::Ccw => (a1 - a0).rem_euclid(TAU),
+        ArcDir::Cw => (a0 - a1).rem_euclid(TAU),
+    };
+    // End on start (to rounding) is a whole turn, not 2π − ε plus `turns` more.
+    if (TAU - base) * rm < 1e-9 {
+        base = 0.0;
+    }
+    let sweep = base + f64::from(turns) * TAU;
+    if sweep * rm < 1e-9 {
+        // End = start with turns = 0: a full circle.
+        base + TAU
+    } else {
+        sweep
+    }
+}
+
+/// The in-plane length of an arc (see [`arc_sweep`]): the swept angle times the mean of the
+/// start and end radius (they differ by at most the arc tolerance). A helical component is
+/// the caller's: `arc_length(..).hypot(h)`.
+pub fn arc_length(
+    start: [f64; 2],
+    end: [f64; 2],
+    center: [f64; 2],
+    dir: ArcDir,
+    turns: u32,
+) -> f64 {
+    let r0 = (start[0] - center[0]).hypot(start[1] - center[1]);
+    let r1 = (end[0] - center[0]).hypot(end[1] - center[1]);
+    0.5 * (r0 + r1) * arc_sweep(start, end, center, dir, turns)
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ArcDir {
     /// G2
