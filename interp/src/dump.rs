@@ -1,7 +1,8 @@
 //! The segment dump: one JSON object per segment (JSON Lines), the interpreter's stable contract
 //! that `cnc402 segments` prints and the golden tests compare byte for byte. Numbers are rounded
 //! to 1e-6 and printed in their shortest form (`10`, `-2.5`, `0.000001`); keys come in a fixed
-//! order.
+//! order. It is written by hand rather than through serde_json (a dev-dependency here, used by
+//! the tests to parse it back) because the key order and number format are the contract.
 //!
 //! Keys: `kind` (`rapid` `linear` `arc` `dwell` `spindle` `spindle_orient` `tool_change`
 //! `stop` `message`),
@@ -21,9 +22,12 @@
 use std::fmt::Write;
 
 use cnc402_config::MachineConfig;
+
+use crate::words::fmt_num;
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, Segment, SegmentKind, SpindleDir, StopKind};
 
-/// `v` rounded to 1e-6 in its shortest decimal form; `-0` prints as `0`, non-finite as `null`.
+/// `v` rounded to 1e-6 in its shortest decimal form ([`fmt_num`], the interpreter's one number
+/// format); `-0` prints as `0`, non-finite as `null`.
 ///
 /// ```
 /// use cnc402_interp::dump::num;
@@ -33,14 +37,15 @@ use cnc402_motion::segment::{ArcDir, AxisPos, Plane, Segment, SegmentKind, Spind
 /// assert_eq!(num(1.0 / 3.0), "0.333333");
 /// ```
 pub fn num(v: f64) -> String {
-    if !v.is_finite() {
-        return "null".into();
+    if v.is_finite() {
+        fmt_num(v)
+    } else {
+        "null".into()
     }
-    let r = (v * 1e6).round() / 1e6;
-    if r == 0.0 { "0".into() } else { format!("{r}") }
 }
 
-/// `s` as a JSON string literal.
+/// `s` as a JSON string literal: `"` `\` and control characters (U+0000 to U+001F) escaped,
+/// everything else (non-ASCII too) as UTF-8, which JSON allows.
 pub fn json_str(s: &str) -> String {
     let mut o = String::with_capacity(s.len() + 2);
     o.push('"');
@@ -204,6 +209,26 @@ mod tests {
                 n: None,
             },
         }
+    }
+
+    /// Strings (file names, MSG texts) come from users: every control character, quote,
+    /// backslash and non-ASCII character must survive a JSON parser unchanged.
+    #[test]
+    fn json_str_escapes_every_string_so_a_parser_reads_it_back() {
+        assert_eq!(
+            json_str("a\"b\\c\n\r\t\u{1}\u{1f}"),
+            r#""a\"b\\c\n\r\t\u0001\u001f""#
+        );
+        assert_eq!(json_str("Ø ✓ 𝄞"), "\"Ø ✓ 𝄞\"");
+        let mut all: String = (0u32..0x80).filter_map(char::from_u32).collect();
+        all.push_str("\u{7f}\u{80}\u{a0}é\u{2028}\u{2029}\u{fffd}\u{10ffff}/");
+        let j = json_str(&all);
+        assert!(
+            !j.chars().any(|c| (c as u32) < 0x20),
+            "raw control char in {j:?}"
+        );
+        let back: String = serde_json::from_str(&j).unwrap_or_else(|e| panic!("{j}: {e}"));
+        assert_eq!(back, all);
     }
 
     #[test]

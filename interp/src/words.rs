@@ -231,7 +231,16 @@ fn whole_code(v: f64) -> Option<u32> {
     }
 }
 
-/// A number for a message: no trailing zeros.
+/// A number for a message or the segment dump: rounded to 1e-6, shortest decimal form, no
+/// trailing zeros, `-0` as `0` (`10`, `-2.5`, `0.333333`). Non-finite values print as Rust
+/// does (`NaN`, `inf`); the dump maps them to `null` (see `dump::num`).
+///
+/// ```
+/// use cnc402_interp::words::fmt_num;
+/// assert_eq!(fmt_num(-2.50000004), "-2.5");
+/// assert_eq!(fmt_num(-0.0000001), "0");
+/// assert_eq!(fmt_num(f64::NAN), "NaN");
+/// ```
 pub fn fmt_num(v: f64) -> String {
     let r = (v * 1e6).round() / 1e6;
     if r == 0.0 { "0".into() } else { format!("{r}") }
