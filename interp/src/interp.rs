@@ -313,23 +313,14 @@ impl Interpreter {
         if let Some(m) = words.m.last() {
             self.last_m = Some(f64::from(m.0));
         }
-        let mut ex = Exec {
-            cfg: &self.cfg,
-            opts: &self.opts,
-            src: &unit.src,
-            st: &mut self.state,
-            w: words,
-            source: Source {
-                file: unit.src.name.clone(),
-                line: line.line_no,
-                n: line.n.map(|n| n.value),
-            },
-            line_span: line.span,
-            out: Vec::new(),
-            end: false,
-        };
-        ex.run(line)?;
-        let Exec { out, end, .. } = ex;
+        let (out, end) = Exec::execute(
+            &self.cfg,
+            &self.opts,
+            &unit.src,
+            &mut self.state,
+            words,
+            line,
+        )?;
         if out.iter().any(|s| {
             matches!(
                 s.kind,
@@ -466,6 +457,35 @@ impl Exec<'_> {
             kind,
             source: self.source.clone(),
         });
+    }
+
+    /// Executes one block of `line` (from `src`), its words already collected in `w`, against
+    /// the modal state `st`: the segments it makes, and whether it ended the program (M2/M30).
+    pub(crate) fn execute(
+        cfg: &MachineConfig,
+        opts: &Options,
+        src: &SourceFile,
+        st: &mut ModalState,
+        w: Words,
+        line: &Line,
+    ) -> Result<(Vec<Segment>, bool), NcError> {
+        let mut ex = Exec {
+            cfg,
+            opts,
+            src,
+            st,
+            w,
+            source: Source {
+                file: src.name.clone(),
+                line: line.line_no,
+                n: line.n.map(|n| n.value),
+            },
+            line_span: line.span,
+            out: Vec::new(),
+            end: false,
+        };
+        ex.run(line)?;
+        Ok((ex.out, ex.end))
     }
 
     pub(crate) fn run(&mut self, line: &Line) -> Result<(), NcError> {

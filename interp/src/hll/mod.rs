@@ -335,23 +335,7 @@ impl Running {
                 ),
             ));
         }
-        let mut ex = Exec {
-            cfg: &it.cfg,
-            opts: &it.opts,
-            src: &src,
-            st: &mut it.state,
-            w,
-            source: Source {
-                file: src.name.clone(),
-                line: line.line_no,
-                n: line.n.map(|n| n.value),
-            },
-            line_span: line.span,
-            out: Vec::new(),
-            end: false,
-        };
-        ex.run(line)?;
-        let Exec { out, end, .. } = ex;
+        let (out, end) = Exec::execute(&it.cfg, &it.opts, &src, &mut it.state, w, line)?;
         self.queue.extend(out);
         if end {
             self.done = true;
