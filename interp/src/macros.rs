@@ -385,13 +385,7 @@ impl Interpreter {
                 Some(lin(i, v, &self.cfg))
             }
             5221..=5328 => {
-                let k = ((n - 5221) / 20) as usize;
-                let i = ((n - 5221) % 20) as usize;
-                if k > 5 || i as i64 >= naxes {
-                    return Err(format!(
-                        "#{n} is not a work offset variable of this machine"
-                    ));
-                }
+                let (k, i) = work_offset_var(n, naxes)?;
                 Some(lin(i, self.cfg.work_offsets[k][i], &self.cfg))
             }
             _ => return Err(format!("#{n} is not a variable of this control")),
@@ -481,13 +475,7 @@ impl Interpreter {
                 }
             }
             5221..=5328 => {
-                let k = ((n - 5221) / 20) as usize;
-                let i = ((n - 5221) % 20) as usize;
-                if k > 5 || i as i64 >= naxes {
-                    return Err(format!(
-                        "#{n} is not a work offset variable of this machine"
-                    ));
-                }
+                let (k, i) = work_offset_var(n, naxes)?;
                 let unit = if self.cfg.axes[i].kind.is_rotary() {
                     1.0
                 } else {
@@ -1193,5 +1181,31 @@ impl Interpreter {
         }
         let d = dest(self)?;
         self.write_var(d, Some(result)).map_err(|m| err(p_span, m))
+    }
+}
+
+/// `#n` in 5221..=5328 as (work offset G54.. index, axis index): `#5221 + 20·k + i`, for
+/// k < 6 and i < `naxes`; anything else in the range is an error naming `#n`.
+fn work_offset_var(n: i64, naxes: i64) -> Result<(usize, usize), String> {
+    let (k, i) = ((n - 5221) / 20, (n - 5221) % 20);
+    if !(0..=5).contains(&k) || !(0..naxes).contains(&i) {
+        return Err(format!(
+            "#{n} is not a work offset variable of this machine"
+        ));
+    }
+    Ok((k as usize, i as usize))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn work_offset_vars_name_offset_and_axis() {
+        assert_eq!(work_offset_var(5221, 4), Ok((0, 0)));
+        assert_eq!(work_offset_var(5243, 4), Ok((1, 2)));
+        assert_eq!(work_offset_var(5328, 8), Ok((5, 7)));
+        assert!(work_offset_var(5225, 4).unwrap_err().contains("#5225"));
+        assert!(work_offset_var(5341, 8).is_err(), "k = 6 is not G54-G59");
     }
 }
