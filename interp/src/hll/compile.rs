@@ -286,6 +286,26 @@ impl<'a> Cx<'a> {
         self.scopes.iter().rev().find_map(|s| s.get(name).copied())
     }
 
+    /// The declared array `name` (used at `span`), or an error: undefined, or not an array.
+    fn lookup_array(&self, name: &str, span: Span) -> Result<Var, NcError> {
+        let v = self
+            .lookup(name)
+            .ok_or_else(|| self.err(span, format!("undefined name `{name}`")))?;
+        if !v.array {
+            return Err(self.err(span, format!("`{name}` is not an array")));
+        }
+        Ok(v)
+    }
+
+    /// An index expression (at `span`) of type `ty` must be a number: int, double or dynamic.
+    fn check_index(&self, span: Span, ty: Ty) -> Result<(), NcError> {
+        if matches!(ty, Ty::Int | Ty::Dyn | Ty::Double) {
+            Ok(())
+        } else {
+            Err(self.err(span, format!("an index must be an int, not {}", ty.name())))
+        }
+    }
+
     /// One line of a file's top level.
     fn top_line(&mut self, line: &Line, out: &mut Vec<St>) -> Result<(), NcError> {
         match &line.kind {
@@ -547,20 +567,10 @@ impl<'a> Cx<'a> {
             }
             ExprKind::Index(a, i) => {
                 let (ix, it) = self.expr(i)?;
-                if !matches!(it, Ty::Int | Ty::Dyn | Ty::Double) {
-                    return Err(self.err(
-                        i.span,
-                        format!("an index must be an int, not {}", it.name()),
-                    ));
-                }
+                self.check_index(i.span, it)?;
                 match &a.kind {
                     ExprKind::Ident(n) => {
-                        let v = self
-                            .lookup(n)
-                            .ok_or_else(|| self.err(a.span, format!("undefined name `{n}`")))?;
-                        if !v.array {
-                            return Err(self.err(a.span, format!("`{n}` is not an array")));
-                        }
+                        let v = self.lookup_array(n, a.span)?;
                         Ok((Target::Elem(v.slot, v.ty, ix), v.ty, format!("`{n}[]`")))
                     }
                     ExprKind::Global(n) => Ok((
@@ -694,20 +704,10 @@ impl<'a> Cx<'a> {
                         );
                     }
                     _ => {
-                        if !matches!(it, Ty::Int | Ty::Dyn | Ty::Double) {
-                            return Err(self.err(
-                                i.span,
-                                format!("an index must be an int, not {}", it.name()),
-                            ));
-                        }
+                        self.check_index(i.span, it)?;
                         match &a.kind {
                             ExprKind::Ident(n) => {
-                                let v = self.lookup(n).ok_or_else(|| {
-                                    self.err(a.span, format!("undefined name `{n}`"))
-                                })?;
-                                if !v.array {
-                                    return Err(self.err(a.span, format!("`{n}` is not an array")));
-                                }
+                                let v = self.lookup_array(n, a.span)?;
                                 (Ex::Elem(v.slot, Box::new(ix), sp), v.ty)
                             }
                             ExprKind::Global(n) => (
