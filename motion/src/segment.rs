@@ -194,3 +194,44 @@ pub struct Segment {
     pub kind: SegmentKind,
     pub source: Source,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() < 1e-12
+    }
+
+    #[test]
+    fn arc_sweep_direction_turns_and_end_on_start() {
+        let (s, e, c) = ([1.0, 0.0], [0.0, 1.0], [0.0, 0.0]);
+        assert!(close(arc_sweep(s, e, c, ArcDir::Ccw, 0), FRAC_PI_2));
+        assert!(close(arc_sweep(s, e, c, ArcDir::Cw, 0), 3.0 * FRAC_PI_2));
+        assert!(close(
+            arc_sweep(s, e, c, ArcDir::Ccw, 2),
+            FRAC_PI_2 + 2.0 * TAU
+        ));
+        // End on start: turns 0 and 1 are one circle, 3 is three.
+        for (turns, want) in [(0, TAU), (1, TAU), (3, 3.0 * TAU)] {
+            assert!(close(arc_sweep(s, s, c, ArcDir::Cw, turns), want));
+        }
+        // End a rounding error short of start is still a whole turn, not 2π − ε + 2π.
+        let e = [(1e-13f64).cos(), (-1e-13f64).sin()];
+        assert!(close(arc_sweep(s, e, c, ArcDir::Ccw, 1), TAU));
+        // Half circle, radius 2, off-origin centre.
+        let l = arc_length([3.0, 1.0], [-1.0, 1.0], [1.0, 1.0], ArcDir::Ccw, 0);
+        assert!(close(l, 2.0 * PI));
+    }
+
+    #[test]
+    fn plane_letters_and_center_agree() {
+        let c = [1.0, 2.0, 3.0];
+        for p in [Plane::XY, Plane::ZX, Plane::YZ] {
+            let (a, b, _) = p.letters();
+            let at = |l: char| c[(l as u8 - b'X') as usize];
+            assert_eq!(p.center_in_plane(c), [at(a), at(b)]);
+        }
+    }
+}
