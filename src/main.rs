@@ -81,9 +81,27 @@ struct RunArgs {
     /// (default 10 s).
     #[arg(long, value_name = "SECONDS")]
     enable_timeout: Option<f64>,
+    /// What M0 (program stop) does: `wait` holds the machine (drives enabled, position held)
+    /// until Enter is pressed on the terminal (end of input ends the program there);
+    /// `continue` logs it and goes on; `end` ends the program there (exit 0). Default: `wait`
+    /// when stdin is a terminal, otherwise `continue` (with a line on stderr at each stop).
+    #[arg(long, value_enum, value_name = "wait|continue|end")]
+    at_stop: Option<AtStopArg>,
+    /// M1 (optional stop) acts like M0; off by default, so M1 passes (the operator panel's
+    /// optional-stop switch, off unless turned on).
+    #[arg(long)]
+    optional_stop: bool,
     /// Testing: make drive NODE fault with EMCY CODE (hex) SECONDS after enable.
     #[arg(long, hide = true, value_name = "NODE:CODE@SECONDS")]
     inject_fault: Option<String>,
+}
+
+/// `--at-stop`: what a program stop does.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum AtStopArg {
+    Wait,
+    Continue,
+    End,
 }
 
 fn main() -> ExitCode {

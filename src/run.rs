@@ -8,7 +8,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use cnc402_config::MachineConfig;
-use cnc402_runtime::{FaultPlan, LinkTimeouts, Progress, RunError, RunOptions, Timing};
+use cnc402_runtime::{AtStop, FaultPlan, LinkTimeouts, Progress, RunError, RunOptions, Timing};
 
 use crate::RunArgs;
 use crate::cli_error::CliError;
@@ -117,6 +117,16 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
     if let Err(e) = cnc402_runtime::rt::install_sigint_handler() {
         log::warn!("cannot install the SIGINT handler: {e}");
     }
+    // M0 waits for the operator only when there is one at a terminal to press Enter.
+    let stdin_tty = std::io::stdin().is_terminal();
+    let at_stop = match args.at_stop {
+        Some(crate::AtStopArg::Wait) => AtStop::Wait,
+        Some(crate::AtStopArg::Continue) => AtStop::Continue,
+        Some(crate::AtStopArg::End) => AtStop::End,
+        None if stdin_tty => AtStop::Wait,
+        None => AtStop::Continue,
+    };
+    let no_operator_terminal = args.at_stop.is_none() && !stdin_tty;
     let opts = RunOptions {
         // A real bus always runs against the clock.
         timing: if args.realtime || !cfg.bus.is_sim() {
@@ -128,6 +138,9 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         trace,
         stop_request: Arc::new(AtomicBool::new(false)),
         timeouts,
+        at_stop,
+        optional_stop: args.optional_stop,
+        no_operator_terminal,
         ..RunOptions::default()
     };
 

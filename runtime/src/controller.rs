@@ -101,6 +101,10 @@ pub struct CycleController<L: DriveLink> {
     /// spindle's actual position instead of the path (see `follow_spindle`).
     follow: Option<SpindleFollow>,
     spindle_track: SpindleTrack,
+    /// Program stops (M0/M1): `None` passes them (log and go on).
+    gate: Option<Arc<crate::program_stop::StopGate>>,
+    /// Holding at a program stop until the gate releases it.
+    held: bool,
 }
 
 /// The tool axis slaved to the spindle's actual position after a spindle drive fault, so
@@ -162,7 +166,22 @@ impl<L: DriveLink> CycleController<L> {
             tap_anchor: (0.0, 0.0),
             follow: None,
             spindle_track: SpindleTrack::default(),
+            gate: None,
+            held: false,
         }
+    }
+
+    /// Holds at program stops as `gate` says (M0, M1 with optional stop): with `Wait` the
+    /// next move is not started until the gate is released (setpoints hold, the drives stay
+    /// enabled and monitored); with `End` the program ends there (settle, `Finished`).
+    pub fn with_stop_gate(mut self, gate: Arc<crate::program_stop::StopGate>) -> Self {
+        self.gate = Some(gate);
+        self
+    }
+
+    /// Holding at a program stop.
+    pub fn is_held(&self) -> bool {
+        self.held && self.phase == Phase::Running
     }
 
     /// Ticks in which the interpolator had nothing to do while the program was not over (the
@@ -194,6 +213,7 @@ impl<L: DriveLink> CycleController<L> {
     /// the feeder thread is.
     pub fn has_work(&self) -> bool {
         self.phase != Phase::Running
+            || self.held
             || self.input_done
             || !self.interp.is_idle()
             || !self.moves.is_empty()
@@ -230,11 +250,35 @@ impl<L: DriveLink> CycleController<L> {
                 emcy: None,
             });
         }
-        if self.phase == Phase::Running && self.interp.is_idle() {
+        if self.held {
+            if let Some(g) = &self.gate {
+                if g.end_requested() {
+                    self.held = false;
+                    self.input_done = true;
+                } else if g.released() {
+                    self.held = false;
+                }
+            }
+        }
+        if self.phase == Phase::Running && self.interp.is_idle() && !self.held {
             self.next_move();
         }
 
         let t = self.interp.tick();
+        if let (Some(cnc402_motion::MoveEvent::ProgramStop { kind }), Some(g)) =
+            (t.event, &self.gate)
+        {
+            if self.phase == Phase::Running && g.applies(kind) {
+                match g.policy() {
+                    crate::program_stop::AtStop::Wait => {
+                        g.hold();
+                        self.held = true;
+                    }
+                    crate::program_stop::AtStop::End => self.input_done = true,
+                    crate::program_stop::AtStop::Continue => {}
+                }
+            }
+        }
         self.last_line = t.line;
         self.commands = t.pos.0;
         if let Some(f) = &self.follow {

@@ -71,6 +71,9 @@ pub struct RunReport {
     pub coupling_bound_um: f64,
     /// The plot series (decimated), not part of the JSON.
     pub plot: Vec<PlotPoint>,
+    /// The program stops (M0, M1 with optional stop on) in order, with what was done and how
+    /// long the machine held there. `program_time_s` includes these waits.
+    pub stops: Vec<crate::program_stop::StopRecord>,
 }
 
 impl RunReport {
@@ -105,6 +108,7 @@ impl RunReport {
             realtime_factor: 0.0,
             coupling_bound_um: 0.0,
             plot: Vec::new(),
+            stops: Vec::new(),
         }
     }
 
@@ -161,6 +165,19 @@ impl RunReport {
         if let Some(g) = &self.realtime_grant {
             v["realtime_grant"] = json!(g);
         }
+        v["stops"] = Value::Array(
+            self.stops
+                .iter()
+                .map(|r| {
+                    json!({
+                        "line": r.line,
+                        "kind": r.kind,
+                        "action": r.action,
+                        "waited_s": r.waited_s,
+                    })
+                })
+                .collect(),
+        );
         if let Some(s) = &self.stop {
             v["stop"] = json!({
                 "cause": s.stop.cause.describe(),
@@ -192,6 +209,17 @@ impl RunReport {
                 "  axis {}: max following error {:.4}, final position {:.4}",
                 a.name, a.max_following_error, a.final_position
             );
+        }
+        for r in &self.stops {
+            let _ = match (r.action, r.waited_s) {
+                ("end", _) => writeln!(
+                    s,
+                    "  {} at line {}: the program ended there",
+                    r.kind, r.line
+                ),
+                (a, Some(w)) => writeln!(s, "  {} at line {}: {a}, held {w:.3} s", r.kind, r.line),
+                (a, None) => writeln!(s, "  {} at line {}: {a}", r.kind, r.line),
+            };
         }
         if self.tapping.is_empty() {
             let _ = writeln!(s, "  tapping: none");

@@ -19,6 +19,7 @@ use crate::controller::{AxisTable, CycleController, Step, start_position};
 use crate::feeder::{Feeder, dry_run, motion_error_to_nc, source_for};
 use crate::link::{DriveLink, DriveStop, FaultPlan, Startup};
 use crate::master_link::{LinkTimeouts, MasterLink};
+use crate::program_stop::{AtStop, StopGate, StopRecord, kind_name};
 use crate::recorder::Recorder;
 use crate::report::{AxisReport, RunReport, StopReport};
 use crate::ring::{
@@ -63,6 +64,13 @@ pub struct RunOptions {
     /// Boot and enable limits; `None`: [`LinkTimeouts::default`] on the simulator,
     /// [`LinkTimeouts::real_bus`] on a CAN interface.
     pub timeouts: Option<LinkTimeouts>,
+    /// What M0 (and M1 with `optional_stop`) does; default `Continue` (log and go on).
+    pub at_stop: AtStop,
+    /// M1 stops like M0 (off: M1 passes).
+    pub optional_stop: bool,
+    /// `Continue` was chosen only because no operator terminal is attached: each stop passed
+    /// says so on stderr.
+    pub no_operator_terminal: bool,
 }
 
 impl Default for RunOptions {
@@ -77,6 +85,9 @@ impl Default for RunOptions {
             #[cfg(any(test, feature = "testing"))]
             status_ring: None,
             timeouts: None,
+            at_stop: AtStop::Continue,
+            optional_stop: false,
+            no_operator_terminal: false,
         }
     }
 }
@@ -222,6 +233,11 @@ struct Side<'a> {
     expected: u64,
     program_error: Option<NcError>,
     program_ticks: u64,
+    /// The program stops (M0/M1) of this run and the gate the loop holds at.
+    gate: Arc<StopGate>,
+    stops: Vec<StopRecord>,
+    no_operator_terminal: bool,
+    src_name: String,
 }
 
 impl Side<'_> {
@@ -254,6 +270,71 @@ impl Side<'_> {
         }
     }
 
+    /// A program stop reached by the loop: record it, and with `Wait` prompt the operator and
+    /// resume (Enter) or end (end of input) through the gate from a thread of its own.
+    fn program_stop(&mut self, s: &Status, kind: cnc402_motion::StopKind) {
+        let name = kind_name(kind);
+        if !self.gate.applies(kind) {
+            log::info!("line {}: {name} passed (optional stop off)", s.line);
+            return;
+        }
+        let file = self
+            .shared
+            .file_of(s.moves_started)
+            .map_or_else(|| self.src_name.clone(), |f| f.to_string());
+        let (action, waited_s) = match self.gate.policy() {
+            AtStop::Continue => {
+                if self.no_operator_terminal {
+                    eprintln!(
+                        "{name} at {file}:{} passed: no operator terminal is attached (stdin \
+                         is not a terminal; --at-stop wait or end to stop there)",
+                        s.line
+                    );
+                }
+                log::info!("{file}:{}: {name} (continuing)", s.line);
+                ("continue", Some(0.0))
+            }
+            AtStop::End => {
+                log::info!("{file}:{}: {name}: the program ends here", s.line);
+                ("end", None)
+            }
+            AtStop::Wait => {
+                eprintln!(
+                    "{name} at {file}:{} — press Enter to continue, Ctrl-C to stop",
+                    s.line
+                );
+                let gate = self.gate.clone();
+                let t0 = std::time::Instant::now();
+                let spawned = std::thread::Builder::new()
+                    .name("cnc402-operator".into())
+                    .spawn(move || {
+                        let mut buf = String::new();
+                        match std::io::stdin().read_line(&mut buf) {
+                            Ok(n) if n > 0 => gate.resume(t0.elapsed().as_secs_f64()),
+                            _ => {
+                                eprintln!(
+                                    "no operator input (end of input): the program ends at \
+                                     this stop"
+                                );
+                                gate.end_here(t0.elapsed().as_secs_f64());
+                            }
+                        }
+                    });
+                if let Err(e) = spawned {
+                    log::error!("cannot wait for the operator ({e}): the program ends here");
+                    self.gate.end_here(0.0);
+                }
+                ("wait", None)
+            }
+        };
+        self.stops.push(StopRecord {
+            line: s.line,
+            kind: name,
+            waited_s,
+            action,
+        });
+    }
+
     fn drain(&mut self, ring: &mut StatusConsumer) {
         let mut last: Option<Status> = None;
         while let Some(s) = ring.try_pop() {
@@ -263,10 +344,7 @@ impl Side<'_> {
                         log::info!("line {}: {}", s.line, text);
                     }
                 }
-                Some(MoveEvent::ProgramStop { kind }) => {
-                    // No operator panel yet: a program stop is reported and the run goes on.
-                    log::info!("line {}: program stop {kind:?} (continuing)", s.line);
-                }
+                Some(MoveEvent::ProgramStop { kind }) => self.program_stop(&s, kind),
                 Some(MoveEvent::ToolChange { tool }) => {
                     log::info!("line {}: tool change to T{tool}", s.line);
                 }
@@ -332,6 +410,9 @@ pub fn run_program(
         timing,
         trace,
         stop_request,
+        at_stop,
+        optional_stop,
+        no_operator_terminal,
         ..
     } = opts;
     if let Some(t) = trace {
@@ -347,6 +428,10 @@ pub fn run_program(
         expected: dry.ticks,
         program_error: None,
         program_ticks: 0,
+        gate: Arc::new(StopGate::new(at_stop, optional_stop)),
+        stops: Vec::new(),
+        no_operator_terminal,
+        src_name: src.name.to_string(),
     };
     let src_keep = src.clone();
     let end = match timing {
@@ -450,6 +535,23 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
         (ok, error)
     };
     let program_time_s = side.program_ticks as f64 * period_s;
+    let waits = side.gate.waits();
+    let mut wi = 0;
+    let stops = side
+        .stops
+        .iter()
+        .map(|r| {
+            let mut r = r.clone();
+            if r.action == "wait" {
+                r.waited_s = waits.get(wi).copied();
+                wi += 1;
+                if r.waited_s.is_some() && side.gate.end_requested() && wi == waits.len() {
+                    r.action = "end";
+                }
+            }
+            r
+        })
+        .collect();
     let wall = end.wall.as_secs_f64();
     let axes_t = AxisTable::new(cfg);
     RunReport {
@@ -486,6 +588,7 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
         },
         coupling_bound_um: coupling_bound_um(&axes_t, &rec.taps),
         plot: rec.plot_points().to_vec(),
+        stops,
     }
 }
 
@@ -554,7 +657,8 @@ fn run_virtual(
     side.start_feeder(src, program, &start, mprod, &stop_request)?;
     let c0 = link.counters();
     let now0 = now;
-    let mut ctrl = CycleController::new(cfg, start, link, mcons, sprod, stop_request.clone());
+    let mut ctrl = CycleController::new(cfg, start, link, mcons, sprod, stop_request.clone())
+        .with_stop_gate(side.gate.clone());
     let mut spins = 0u32;
     let outcome = loop {
         // Virtual time only runs while there is something to do: a move, a stop, the end, or
@@ -578,9 +682,18 @@ fn run_virtual(
             continue;
         }
         spins = 0;
+        if ctrl.is_held() {
+            // Held at a program stop: virtual time advances at the wall clock's pace (the
+            // drives hold position and stay monitored) until the operator resumes.
+            std::thread::sleep(period);
+        }
         now += period;
         let step = ctrl.step(now);
-        if waiting || scons.occupied_len() >= STATUS_RING / 2 || step != Step::Continue {
+        if waiting
+            || ctrl.is_held()
+            || scons.occupied_len() >= STATUS_RING / 2
+            || step != Step::Continue
+        {
             side.drain(&mut scons);
             if crate::rt::sigint_seen() {
                 stop_request.store(true, Ordering::SeqCst);
@@ -686,6 +799,7 @@ fn run_realtime(
     let (hello_tx, hello_rx) = std::sync::mpsc::sync_channel::<Hello>(1);
     let cfg_t = cfg.clone();
     let stop_t = stop_request.clone();
+    let gate_t = side.gate.clone();
     let period_ns = cfg.bus.period_us as u64 * 1000;
     let handle = std::thread::Builder::new()
         .name("cnc402-loop".into())
@@ -735,7 +849,8 @@ fn run_realtime(
             next = next.max(monotonic_ns());
             let c0 = link.counters();
             let t_cyclic = monotonic_ns();
-            let mut ctrl = CycleController::new(&cfg_t, start, link, mcons, sprod, stop_t);
+            let mut ctrl = CycleController::new(&cfg_t, start, link, mcons, sprod, stop_t)
+                .with_stop_gate(gate_t);
             let mut hist = LatencyHistogram::new(5000, period_ns / 2);
             let wall_cyclic = std::time::Instant::now();
             let mut skipped = 0u64;
