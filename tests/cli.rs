@@ -561,3 +561,222 @@ fn faults_and_taps_in_an_included_file_name_that_file() {
         "{err}"
     );
 }
+
+/// X10 Y5 Z5 at the M0 on line 4, X20 Y-3 Z2 at the M1 on line 6, X4 Y7 Z2 at the end.
+const STOPS_NC: &str = "G21 G90 G17\nG0 X0 Y0 Z5\nG1 X10 Y5 F1200\nM0\nG1 X20 Y-3 Z2 F1200\nM1\n\
+                        G1 X4 Y7 F1200\nM30\n";
+
+fn stops_program() -> PathBuf {
+    let p = tmp("stops.nc");
+    std::fs::write(&p, STOPS_NC).unwrap();
+    p
+}
+
+fn final_xyz(v: &Value) -> [f64; 3] {
+    ["X", "Y", "Z"].map(|a| v["axes"][a]["final_position"].as_f64().unwrap())
+}
+
+fn assert_at(v: &Value, want: [f64; 3]) {
+    let got = final_xyz(v);
+    for (g, w) in got.iter().zip(want) {
+        assert!((g - w).abs() < 1e-3, "final {got:?}, want {want:?}");
+    }
+}
+
+#[test]
+fn m0_with_at_stop_end_ends_there_ok_and_m1_needs_optional_stop() {
+    let prog = stops_program();
+    let report = tmp("stops-end.json");
+    let o = cnc402(&[
+        "run",
+        prog.to_str().unwrap(),
+        "--at-stop",
+        "end",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v = read_json(&report);
+    assert_eq!(v["ok"], true);
+    assert_at(&v, [10.0, 5.0, 5.0]);
+    let stops = v["stops"].as_array().unwrap();
+    assert_eq!(stops.len(), 1, "{stops:?}");
+    assert_eq!(stops[0]["line"], 4);
+    assert_eq!(stops[0]["kind"], "M0");
+    assert_eq!(stops[0]["action"], "end");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("M0 at line 4: the program ended there"));
+
+    // With optional stop on, M1 is a program stop too (the same policy applies to both).
+    let report1 = tmp("stops-m1.json");
+    let o = cnc402(&[
+        "run",
+        prog.to_str().unwrap(),
+        "--at-stop",
+        "continue",
+        "--optional-stop",
+        "--report",
+        report1.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v = read_json(&report1);
+    let lines: Vec<(u64, String)> = v["stops"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            (
+                s["line"].as_u64().unwrap(),
+                s["kind"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(lines, vec![(4, "M0".to_string()), (6, "M1".to_string())]);
+}
+
+#[test]
+fn m0_with_continue_runs_to_the_end_and_m1_passes_without_optional_stop() {
+    let prog = stops_program();
+    let report = tmp("stops-continue.json");
+    // No --at-stop and stdin not a terminal: continue, and stderr says why.
+    let o = cnc402(&[
+        "run",
+        prog.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("no operator terminal is attached"), "{err}");
+    assert!(err.contains("stops.nc:4"), "{err}");
+    let v = read_json(&report);
+    assert_eq!(v["ok"], true);
+    assert_at(&v, [4.0, 7.0, 2.0]);
+    let stops = v["stops"].as_array().unwrap();
+    assert_eq!(
+        stops.len(),
+        1,
+        "M1 passes with optional stop off: {stops:?}"
+    );
+    assert_eq!(stops[0]["action"], "continue");
+    assert_eq!(stops[0]["waited_s"], 0.0);
+}
+
+fn spawn_wait(report: &Path, extra: &[&str]) -> std::process::Child {
+    let prog = stops_program();
+    Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args([
+            "run",
+            prog.to_str().unwrap(),
+            "--at-stop",
+            "wait",
+            "--report",
+        ])
+        .arg(report)
+        .args(extra)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_LOG", "warn")
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+#[test]
+fn m0_with_wait_holds_until_enter_and_the_report_shows_the_pause() {
+    let cont = tmp("stops-wait-ref.json");
+    let o = cnc402(&[
+        "run",
+        stops_program().to_str().unwrap(),
+        "--at-stop",
+        "continue",
+        "--report",
+        cont.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let t_cont = read_json(&cont)["program_time_s"].as_f64().unwrap();
+
+    let report = tmp("stops-wait.json");
+    let mut child = spawn_wait(&report, &[]);
+    std::thread::sleep(std::time::Duration::from_millis(600));
+    {
+        use std::io::Write as _;
+        let mut stdin = child.stdin.take().unwrap();
+        stdin.write_all(b"\n").unwrap();
+        // Kept open until the end: the newline alone resumes.
+        let o = child.wait_with_output().unwrap();
+        drop(stdin);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(0), "{err}");
+        assert!(
+            err.contains("M0 at ") && err.contains("stops.nc:4 — press Enter to continue"),
+            "{err}"
+        );
+    }
+    let v = read_json(&report);
+    assert_eq!(v["ok"], true);
+    assert_at(&v, [4.0, 7.0, 2.0]);
+    let stops = v["stops"].as_array().unwrap();
+    assert_eq!(stops.len(), 1, "{stops:?}");
+    assert_eq!(stops[0]["line"], 4);
+    assert_eq!(stops[0]["action"], "wait");
+    let w = stops[0]["waited_s"].as_f64().unwrap();
+    assert!(w > 0.3 && w < 5.0, "waited {w} s");
+    // Virtual time goes on (held ticks) during the pause: program time includes it.
+    let t = v["program_time_s"].as_f64().unwrap();
+    assert!(
+        t > t_cont + 0.2,
+        "program time {t} s, without the pause {t_cont} s"
+    );
+}
+
+#[test]
+fn sigint_during_a_pause_stops_the_machine_and_exits_1() {
+    let report = tmp("stops-sigint.json");
+    let mut child = spawn_wait(&report, &[]);
+    // The operator's terminal stays open (no end of input) while Ctrl-C is pressed.
+    let stdin = child.stdin.take().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    let pid = child.id().to_string();
+    assert!(
+        Command::new("kill")
+            .args(["-INT", &pid])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let o = child.wait_with_output().unwrap();
+    drop(stdin);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("operator stop (SIGINT)"), "{err}");
+    assert!(
+        err.contains("press Enter to continue"),
+        "paused first: {err}"
+    );
+    let v = read_json(&report);
+    assert_eq!(v["ok"], false);
+    assert_eq!(v["stop"]["cause"], "operator stop (SIGINT)");
+    assert_at(&v, [10.0, 5.0, 5.0]);
+}
+
+#[test]
+fn a_drive_fault_during_a_pause_still_stops_the_machine() {
+    let report = tmp("stops-fault.json");
+    // M0 is reached at ~0.76 s of program time; the fault comes while the machine holds
+    // there (virtual time runs on at the wall clock's pace during the pause).
+    let mut child = spawn_wait(&report, &["--inject-fault", "1:8611@1.2"]);
+    let stdin = child.stdin.take().unwrap();
+    let o = child.wait_with_output().unwrap();
+    drop(stdin);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("press Enter to continue"), "paused first: {err}");
+    assert!(err.contains("EMCY 0x8611"), "{err}");
+    let v = read_json(&report);
+    assert_eq!(v["ok"], false);
+    assert_eq!(v["stop"]["node"], 1);
+    assert_eq!(v["stops"][0]["line"], 4);
+    assert!(v["stops"][0]["waited_s"].is_null(), "never resumed: {}", v["stops"]);
+    assert_at(&v, [10.0, 5.0, 5.0]);
+}

@@ -312,6 +312,11 @@ impl Side<'_> {
                         match std::io::stdin().read_line(&mut buf) {
                             Ok(n) if n > 0 => gate.resume(t0.elapsed().as_secs_f64()),
                             _ => {
+                                // A Ctrl-C closes a piped input too: let the stop win.
+                                std::thread::sleep(Duration::from_millis(50));
+                                if crate::rt::sigint_seen() {
+                                    return;
+                                }
                                 eprintln!(
                                     "no operator input (end of input): the program ends at \
                                      this stop"
@@ -686,6 +691,9 @@ fn run_virtual(
             // Held at a program stop: virtual time advances at the wall clock's pace (the
             // drives hold position and stay monitored) until the operator resumes.
             std::thread::sleep(period);
+            if crate::rt::sigint_seen() {
+                stop_request.store(true, Ordering::SeqCst);
+            }
         }
         now += period;
         let step = ctrl.step(now);
