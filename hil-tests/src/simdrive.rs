@@ -15,7 +15,7 @@ use cnc402_drives::Instant;
 use cnc402_drives::bus::{CanDevice, FrameSink};
 use cnc402_drives::coupling::{CountSample, CouplingChecker, TapWindow};
 use cnc402_drives::sim::{FaultKind, NmtStatus, SimDrive, SimDriveOptions};
-use cnc402_drives::wire::{CanFrame, NodeId};
+use cnc402_drives::wire::{CanFrame, NodeId, SdoRequest, WireError};
 use serde_json::{Value, json};
 
 use crate::latency::percentile;
@@ -256,8 +256,36 @@ pub struct HostCounters {
     pub syncs: u64,
     /// SYNC frames with data (a counter byte is allowed; more is an error).
     pub bad_syncs: u64,
-    /// RPDO- or SDO-request-range frames no hosted drive takes (wrong COB-ID, absent node).
+    /// RPDO- or SDO-request frames for nodes this host does not host (a scan probing every
+    /// id, other devices on the bus): not a protocol error, reported apart.
     pub unaddressed: u64,
+    /// Every frame of or for a node this host does not host (its SDO, PDOs, heartbeat, EMCY,
+    /// an NMT command naming it): informational, includes `unaddressed`.
+    pub other_nodes: u64,
+    /// RPDO- or SDO-request frames on a hosted node's default COB-ID that its drive does not
+    /// take (RPDO disabled or remapped, node booting): a protocol error.
+    pub unaccepted: u64,
+    /// SDO requests to a hosted node with an unknown command specifier (the drive answers
+    /// abort 0x05040001): a protocol error. Malformed ones the drive counts itself.
+    pub bad_sdo_requests: u64,
+}
+
+/// How the host sees one received frame (see [`DriveHost::classify`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameClass {
+    /// SYNC, or an NMT command for all nodes or a hosted one, or a frame a hosted drive takes.
+    Hosted,
+    /// A hosted drive takes it but it is not a valid SDO request (unknown command specifier).
+    BadSdoRequest,
+    /// A request (RPDO 1-4 or SDO) on a hosted node's default COB-ID that no drive takes.
+    Unaccepted,
+    /// A request (RPDO 1-4 or SDO) for a node not hosted here.
+    OtherNodeRequest,
+    /// Any other frame of or for a node not hosted here (responses, TPDOs, heartbeat, EMCY,
+    /// NMT naming another node).
+    OtherNode,
+    /// Not tied to a node (TIME, LSS, ids outside the predefined connection set).
+    Unrelated,
 }
 
 /// One drive per configured node plus the observers (see the module doc).
@@ -454,12 +482,8 @@ impl DriveHost {
         });
     }
 
-    fn is_addressed(&self, frame: &CanFrame) -> bool {
-        let id = frame.id();
-        let requestish = (0x200..0x580).contains(&id) || (0x600..0x680).contains(&id);
-        if !requestish {
-            return true;
-        }
+    /// Whether a hosted drive takes a frame with COB-ID `id` (its SDO server or a valid RPDO).
+    fn taken(&self, id: u16) -> bool {
         self.drives.iter().any(|h| {
             let node = h.drive.node().get() as u16;
             if id == 0x600 + node {
@@ -472,6 +496,49 @@ impl DriveHost {
                     .is_some_and(|cob| cob & 0x8000_0000 == 0 && (cob & 0x7FF) as u16 == id)
             })
         })
+    }
+
+    fn hosts(&self, node: u8) -> bool {
+        self.drives.iter().any(|h| h.drive.node().get() == node)
+    }
+
+    /// Classifies a received frame by the node it concerns (CiA 301 predefined connection
+    /// set): traffic of other nodes is not a protocol error; requests for a hosted node that
+    /// no drive takes, or SDO requests it cannot parse, are.
+    pub fn classify(&self, frame: &CanFrame) -> FrameClass {
+        let id = frame.id();
+        if id == SYNC_ID {
+            return FrameClass::Hosted;
+        }
+        if id == 0 {
+            // NMT: a malformed one (DLC != 2) is the drives' to count.
+            return match frame.data() {
+                [_, target] if *target != 0 && !self.hosts(*target) => FrameClass::OtherNode,
+                _ => FrameClass::Hosted,
+            };
+        }
+        if self.taken(id) {
+            let is_sdo = self
+                .drives
+                .iter()
+                .any(|h| id == 0x600 + h.drive.node().get() as u16);
+            if is_sdo && matches!(SdoRequest::parse(frame), Err(WireError::UnknownCommand(_))) {
+                return FrameClass::BadSdoRequest;
+            }
+            return FrameClass::Hosted;
+        }
+        let node = (id & 0x7F) as u8;
+        let function = id & 0x780;
+        if id > 0x7FF || node == 0 || id == 0x100 || !(0x080..=0x700).contains(&function) {
+            return FrameClass::Unrelated;
+        }
+        let request = matches!(function, 0x200 | 0x300 | 0x400 | 0x500 | 0x600);
+        match (self.hosts(node), request) {
+            (true, true) => FrameClass::Unaccepted,
+            (true, false) => FrameClass::Hosted,
+            (false, true) => FrameClass::OtherNodeRequest,
+            (false, false) => FrameClass::OtherNode,
+        }
     }
 
     /// Closes an open coupling window (call once at the end).
@@ -519,9 +586,11 @@ impl DriveHost {
                 "informational": true,
             }));
         }
-        // Frames to absent nodes (a scan probing every id) are counted apart: not a protocol
-        // error on a bus that may carry other devices; the scenarios assert them separately.
-        let mut unexpected = self.counters.bad_syncs;
+        // Frames of or for other nodes (a scan probing every id, other devices) are counted
+        // apart: not a protocol error on a bus that may carry other devices; the scenarios
+        // assert them separately. Requests for a hosted node it cannot take are errors.
+        let mut unexpected =
+            self.counters.bad_syncs + self.counters.unaccepted + self.counters.bad_sdo_requests;
         let mut pdo_len = 0;
         let mut sdo_aborts = 0;
         let mut tx_errors = 0;
@@ -624,6 +693,9 @@ impl DriveHost {
             "protocol_errors": {
                 "unexpected_frames": unexpected,
                 "unaddressed_frames": self.counters.unaddressed,
+                "other_node_frames": self.counters.other_nodes,
+                "unaccepted_requests": self.counters.unaccepted,
+                "bad_sdo_requests": self.counters.bad_sdo_requests,
                 "bad_syncs": self.counters.bad_syncs,
                 "pdo_length_errors": pdo_len,
                 "sdo_aborts_sent": sdo_aborts,
@@ -688,8 +760,16 @@ impl CanDevice for DriveHost {
         let is_sync = frame.id() == SYNC_ID;
         if is_sync {
             self.on_sync(frame, now);
-        } else if !self.is_addressed(frame) {
-            self.counters.unaddressed += 1;
+        }
+        match self.classify(frame) {
+            FrameClass::Hosted | FrameClass::Unrelated => {}
+            FrameClass::BadSdoRequest => self.counters.bad_sdo_requests += 1,
+            FrameClass::Unaccepted => self.counters.unaccepted += 1,
+            FrameClass::OtherNodeRequest => {
+                self.counters.unaddressed += 1;
+                self.counters.other_nodes += 1;
+            }
+            FrameClass::OtherNode => self.counters.other_nodes += 1,
         }
         for h in self.drives.iter_mut() {
             h.drive.on_frame(frame, now, tx);
@@ -929,6 +1009,74 @@ mod tests {
         }
         assert_eq!(u.value, start);
         assert_eq!(u.wraps, 2);
+    }
+
+    /// A scan and other nodes' traffic are not protocol errors; requests for a hosted node
+    /// that it cannot take or parse, and bad PDO lengths, are.
+    #[test]
+    fn traffic_for_other_nodes_is_counted_apart_from_protocol_errors() {
+        let cfg = MachineConfig::default_machine();
+        let host = DriveHost::new(&cfg, &HostOptions::default()).unwrap();
+        let (mut bus, mut m) = boot(host);
+        run(&mut bus, &mut m, 20, |_| [0.0; 4]).unwrap();
+        let now = TimedBus::now(&bus);
+        let host = bus.device_mut(0).unwrap();
+        let before = host.counters();
+        let mut tx: Vec<CanFrame> = Vec::new();
+        let f = |id: u16, d: &[u8]| CanFrame::new(id, d).unwrap();
+        // drivectl's scan: an SDO upload of 0x1000:0 to every node id 1..127.
+        for n in 1..=127u16 {
+            host.on_frame(
+                &f(0x600 + n, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]),
+                now,
+                &mut tx,
+            );
+        }
+        // Other nodes' traffic: TPDO, heartbeat, EMCY, SDO response, NMT naming node 9, and
+        // an RPDO for node 9; TIME (no node).
+        for (id, d) in [
+            (0x189u16, &[1u8, 2][..]),
+            (0x709, &[0x05]),
+            (0x089, &[0, 0x73, 0x11, 0, 0, 0, 0, 0]),
+            (0x589, &[0x43, 0, 0x10, 0, 0x92, 0x01, 0x02, 0]),
+            (0x000, &[0x01, 9]),
+            (0x209, &[0x0f, 0]),
+            (0x100, &[0, 0, 0, 0, 0, 0]),
+        ] {
+            host.on_frame(&f(id, d), now, &mut tx);
+        }
+        let c = host.counters();
+        assert_eq!(c.unaddressed - before.unaddressed, 123 + 1, "{c:?}");
+        assert_eq!(c.other_nodes - before.other_nodes, 123 + 6, "{c:?}");
+        assert_eq!((c.unaccepted, c.bad_sdo_requests), (0, 0));
+        // The four hosted drives answered their probe.
+        assert_eq!(
+            tx.iter()
+                .filter(|t| (0x581..=0x584).contains(&t.id()))
+                .count(),
+            4
+        );
+        let r = host.report(None);
+        assert_eq!(r["protocol_errors"]["unexpected_frames"], 0, "{r:#}");
+        assert_eq!(r["ok"], true, "{r:#}");
+
+        // Now errors for hosted nodes: RPDO2 of node 1 (not enabled by the master), an SDO
+        // request with an unknown command specifier to node 2, a short RPDO1 to node 3.
+        assert_eq!(host.classify(&f(0x301, &[0; 8])), FrameClass::Unaccepted);
+        host.on_frame(&f(0x301, &[0; 8]), now, &mut tx);
+        assert_eq!(
+            host.classify(&f(0x602, &[0xE0, 0, 0, 0, 0, 0, 0, 0])),
+            FrameClass::BadSdoRequest
+        );
+        host.on_frame(&f(0x602, &[0xE0, 0, 0, 0, 0, 0, 0, 0]), now, &mut tx);
+        host.on_frame(&f(0x203, &[0x0f]), now, &mut tx);
+        let r = host.report(None);
+        let p = &r["protocol_errors"];
+        assert_eq!(p["unaccepted_requests"], 1, "{p:#}");
+        assert_eq!(p["bad_sdo_requests"], 1, "{p:#}");
+        assert_eq!(p["pdo_length_errors"], 1, "{p:#}");
+        assert_eq!(p["unexpected_frames"], 2, "{p:#}");
+        assert_eq!(r["ok"], false);
     }
 
     #[test]

@@ -205,7 +205,7 @@ fn main() -> ExitCode {
     let ok = report["ok"].as_bool() == Some(true);
     let s = &report["sync_period_us"];
     eprintln!(
-        "simdrive: {}: {} frames in {:.1} s, bus load {:.1} %, SYNC {} (period p50 {} p99 {} max {} µs), protocol errors {}",
+        "simdrive: {}: {} frames in {:.1} s, bus load {:.1} %, SYNC {} (period p50 {} p99 {} max {} µs), protocol errors {} (frames of/for other nodes, not errors: {})",
         if ok { "ok" } else { "CHECK FAILED" },
         c.rx_frames + c.tx_frames,
         figures.seconds,
@@ -215,6 +215,7 @@ fn main() -> ExitCode {
         s["p99"],
         s["max"],
         report["protocol_errors"]["unexpected_frames"],
+        report["protocol_errors"]["other_node_frames"],
     );
     if let Some(path) = &args.report {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
