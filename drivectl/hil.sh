@@ -1,17 +1,18 @@
 #!/usr/bin/env bash
 # drivectl/hil.sh: drivectl against real kernel CAN sockets. Runs where $HIL_IFACE (vcan0) is
 # up — inside the HIL guest or natively — with simulated drives hosted by a separate process
-# on the same interface (drivectl's `simpeer` example, or $HIL_DRIVECTL_PEER, e.g.
-# HIL_DRIVECTL_PEER=$PWD/target/release/simdrive for hil-tests' simdrive).
+# on the same interface: hil-tests' `simdrive` (default; its JSON report must say ok), or
+# drivectl's `simpeer` example with HIL_DRIVECTL_PEER=simpeer (or a path to either binary).
 #
-#   cargo build --release -p drivectl --bins --examples
+#   cargo build --release -p drivectl --bins --examples && cargo build --release -p cnc402-hil --bins
 #   hil-tests/run.sh script --no-build drivectl/hil.sh
 #   (or, as a suite scenario: hil-tests/run.sh suite --no-build drivectl/hil.sh)
 #
 # Checks: SocketCanBus (examples/sockcheck.rs: order, completeness, SDO during PDOs); scan finds the four drives of config/machine.toml; info; SDO read (expedited and
 # segmented), write, abort (exit 3) and absent node (exit 4); enable/state/disable step by
 # step; mode csp; a short CSP move; a drive faulted by the peer: EMCY seen by `emcy`, state
-# FAULT, enable refused (exit 5), fault-reset; `monitor --log` in candump format. Prints
+# FAULT, enable refused (exit 5), fault-reset; `monitor --log` in candump format; with simdrive,
+# its report (no protocol errors from all this traffic, frames for other nodes apart). Prints
 # "drivectl HIL: N passed, M failed" and exits 1 if any failed.
 set -u
 repo="${HIL_REPO:-$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)}"
@@ -21,10 +22,14 @@ bin="${HIL_BIN:-$repo/target/release}"
 out="${HIL_OUT:-$(mktemp -d)}"
 mkdir -p "$out"
 dc="$bin/drivectl"
-peer="${HIL_DRIVECTL_PEER:-${DRIVECTL_PEER:-$bin/examples/simpeer}}"
+peer="${HIL_DRIVECTL_PEER:-${DRIVECTL_PEER:-simdrive}}"
+case "$peer" in
+simdrive) peer="$bin/simdrive" ;;
+simpeer) peer="$bin/examples/simpeer" ;;
+esac
 sockcheck="$bin/examples/sockcheck"
 for b in "$dc" "$peer" "$sockcheck"; do
-    [[ -x "$b" ]] || { echo "FAIL: $b not built (cargo build --release -p drivectl --bins --examples)"; exit 1; }
+    [[ -x "$b" ]] || { echo "FAIL: $b not built (cargo build --release -p drivectl --bins --examples; -p cnc402-hil --bins)"; exit 1; }
 done
 # The master's timing monitors (TPDO missing for N cycles, heartbeat) judge the emulated
 # guest's loose timing, not the protocol: drivectl's own config gets wider margins here.
@@ -112,7 +117,18 @@ else
     bad "sockcheck"; sed 's/^/     | /' "$out/sockcheck.out"
 fi
 kill "$peer_pid" 2>/dev/null
-wait "$peer_pid" 2>/dev/null
+peer_rc=0
+wait "$peer_pid" 2>/dev/null || peer_rc=$?
 sed 's/^/     peer: /' "$out/peer.err" | tail -3
+if [[ "$(basename "$peer")" == simdrive ]]; then
+    # simdrive ends on SIGTERM with its report: exit 0 and "ok": true = no protocol errors.
+    if [[ $peer_rc == 0 ]] && grep -q '"ok": true' "$out/simdrive.json" 2>/dev/null; then
+        ok "simdrive report ok: $(python3 -c 'import json,sys; p=json.load(open(sys.argv[1]))["protocol_errors"]; print(", ".join(f"{k} {v}" for k, v in p.items()))' "$out/simdrive.json" 2>/dev/null)"
+    else
+        bad "simdrive report (exit $peer_rc): checks failed"
+        grep -B1 -A3 '"pass": false' "$out/simdrive.json" 2>/dev/null | sed 's/^/     | /' | head -20
+        python3 -c 'import json,sys; r=json.load(open(sys.argv[1])); print(r["protocol_errors"]); [print(k, {x: d[x] for x in ("nmt", "state", "unexpected_frames", "pdo_length_errors", "sdo_requests", "rpdos")}) for k, d in r["drives"].items()]' "$out/simdrive.json" 2>&1 | sed 's/^/     | /'
+    fi
+fi
 echo "drivectl HIL: $passed passed, $failed failed (outputs in $out)"
 [[ $failed == 0 ]]
