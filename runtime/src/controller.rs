@@ -250,14 +250,15 @@ impl<L: DriveLink> CycleController<L> {
                 emcy: None,
             });
         }
-        if self.held {
-            if let Some(g) = &self.gate {
-                if g.end_requested() {
-                    self.held = false;
-                    self.input_done = true;
-                } else if g.released() {
-                    self.held = false;
-                }
+        // Held at a program stop: released by the operator's resume, or ended there.
+        if self.held
+            && let Some(g) = &self.gate
+        {
+            if g.end_requested() {
+                self.held = false;
+                self.input_done = true;
+            } else if g.released() {
+                self.held = false;
             }
         }
         if self.phase == Phase::Running && self.interp.is_idle() && !self.held {
@@ -265,18 +266,20 @@ impl<L: DriveLink> CycleController<L> {
         }
 
         let t = self.interp.tick();
+        // A program stop (M0, M1 with optional stop): the interpolator is idle after it, so
+        // holding here means no next move is started (atomics only, no lock or allocation).
         if let (Some(cnc402_motion::MoveEvent::ProgramStop { kind }), Some(g)) =
             (t.event, &self.gate)
+            && self.phase == Phase::Running
+            && g.applies(kind)
         {
-            if self.phase == Phase::Running && g.applies(kind) {
-                match g.policy() {
-                    crate::program_stop::AtStop::Wait => {
-                        g.hold();
-                        self.held = true;
-                    }
-                    crate::program_stop::AtStop::End => self.input_done = true,
-                    crate::program_stop::AtStop::Continue => {}
+            match g.policy() {
+                crate::program_stop::AtStop::Wait => {
+                    g.hold();
+                    self.held = true;
                 }
+                crate::program_stop::AtStop::End => self.input_done = true,
+                crate::program_stop::AtStop::Continue => {}
             }
         }
         self.last_line = t.line;
