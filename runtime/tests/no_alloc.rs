@@ -183,3 +183,76 @@ fn latency_histogram_records_without_allocating() {
     assert_eq!(h.summary().samples, 10_001);
     assert_eq!(h.histogram().overflow(), 1);
 }
+
+/// A program stop held for 500 ticks, then resumed: the hold allocates nothing, the setpoints
+/// hold at the M0 position, and no move starts until the gate is released.
+#[test]
+fn holding_at_m0_allocates_nothing_and_holds_position() {
+    use cnc402_runtime::{AtStop, StopGate};
+    let cfg = machine();
+    let mut link = SimLink::simulated(&cfg, None).expect("sim link");
+    let start = match link.startup(Instant::ZERO) {
+        Startup::Ready(p) => p,
+        other => panic!("startup: {other:?}"),
+    };
+    let src = SourceFile::new("m0.nc", "G21 G90\nG1 X5 F1200\nM0\nG1 X9 F1200\nM30\n");
+    let ast = cnc402_lang::parse(&src).expect("parse");
+    let axes = cnc402_runtime::controller::AxisTable::new(&cfg);
+    let mut feeder = Feeder::new(
+        &cfg,
+        src,
+        ast,
+        cnc402_runtime::controller::start_position(&axes, &start),
+    );
+    let (mut mp, mc) = move_ring(64);
+    while let Some(mv) = feeder.next_move().expect("plan") {
+        assert!(mp.try_push(LoopInput::Move(mv)).is_ok());
+    }
+    assert!(mp.try_push(LoopInput::End).is_ok());
+    let (sp, mut sc) = status_ring(1 << 16);
+    let gate = Arc::new(StopGate::new(AtStop::Wait, false));
+    let mut ctrl =
+        CycleController::new(&cfg, start, link, mc, sp, Arc::new(AtomicBool::new(false)))
+            .with_stop_gate(gate.clone());
+    let period = Duration::from_micros(cfg.bus.period_us as u64);
+    let mut now = Instant::ZERO;
+    let mut n = 0;
+    while !ctrl.is_held() {
+        now += period;
+        assert_eq!(ctrl.step(now), Step::Continue);
+        n += 1;
+        assert!(n < 20_000, "never reached the M0");
+    }
+    while sc.try_pop().is_some() {}
+    let before = allocs();
+    arm(true);
+    for _ in 0..500 {
+        now += period;
+        assert_eq!(ctrl.step(now), Step::Continue);
+    }
+    arm(false);
+    assert_eq!(allocs() - before, 0, "allocations while held");
+    assert!(ctrl.is_held());
+    let mut held = 0;
+    while let Some(s) = sc.try_pop() {
+        assert!(
+            (s.cmd[0] - 5.0).abs() < 1e-9,
+            "X setpoint {} while held",
+            s.cmd[0]
+        );
+        held += 1;
+    }
+    assert_eq!(held, 500);
+    gate.resume(0.5);
+    let mut end = None;
+    for _ in 0..20_000 {
+        now += period;
+        if let Step::Done(o) = ctrl.step(now) {
+            end = Some(o);
+            break;
+        }
+    }
+    assert_eq!(end, Some(Outcome::Finished));
+    let last = std::iter::from_fn(|| sc.try_pop()).last().expect("status");
+    assert!((last.cmd[0] - 9.0).abs() < 1e-9, "X {}", last.cmd[0]);
+}
