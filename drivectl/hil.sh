@@ -61,14 +61,16 @@ expect() {
     fi
 }
 
-# The peer faults node 4 (EMCY 0x7300) 3 s after it starts.
+# The peer faults node 4 (EMCY 0x7300) 3 s after it starts. It runs until SIGTERM at the end
+# (240 s at most: the checks take 15-65 s in the guest, and a peer that ended by itself before
+# them would leave the last checks without drives).
 if [[ "$(basename "$peer")" == simdrive ]]; then
     # hil-tests' simdrive: same drive model, its own options and a JSON report.
-    "$peer" --iface "$iface" --config config/machine.toml --duration 60 --no-rt \
+    "$peer" --iface "$iface" --config config/machine.toml --duration 240 --no-rt \
         --fault-clock start --fault 4:fault:0x7300@3 --report "$out/simdrive.json" \
         2>"$out/peer.err" &
 else
-    "$peer" --iface "$iface" --config config/machine.toml --for 60 --fault 4:fault:0x7300@3 \
+    "$peer" --iface "$iface" --config config/machine.toml --for 240 --fault 4:fault:0x7300@3 \
         2>"$out/peer.err" &
 fi
 peer_pid=$!
@@ -111,15 +113,21 @@ else
 fi
 tail -2 "$out/monitor.out" | sed 's/^/     monitor: /'
 # The transport itself: a burst in order and complete; SDO during a PDO stream loses no PDO.
+# sockcheck drains the bus until 200 ms pass without a frame: the drives' heartbeats (node 3's
+# at 100 ms since sdo-write) would keep it there until the peer stops, so they go off first.
+for n in 1 2 3 4; do "${D[@]}" sdo write "$n" 0x1017 u16 0 >>"$out/heartbeats-off.out" 2>&1; done
 if "$sockcheck" --iface "$iface" >"$out/sockcheck.out" 2>&1; then
     ok "sockcheck"; sed 's/^/     /' "$out/sockcheck.out"
 else
     bad "sockcheck"; sed 's/^/     | /' "$out/sockcheck.out"
 fi
-kill "$peer_pid" 2>/dev/null
+echo "     checks took ${SECONDS} s; stopping the peer (SIGTERM)"
+kill -0 "$peer_pid" 2>/dev/null || bad "peer: ended before the checks did (see $out/peer.err)"
+kill -TERM "$peer_pid" 2>/dev/null
 peer_rc=0
 wait "$peer_pid" 2>/dev/null || peer_rc=$?
 sed 's/^/     peer: /' "$out/peer.err" | tail -3
+echo "     peer stopped at ${SECONDS} s"
 if [[ "$(basename "$peer")" == simdrive ]]; then
     # simdrive ends on SIGTERM with its report: exit 0 and "ok": true = no protocol errors.
     if [[ $peer_rc == 0 ]] && grep -q '"ok": true' "$out/simdrive.json" 2>/dev/null; then
