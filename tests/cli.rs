@@ -771,12 +771,19 @@ fn a_drive_fault_during_a_pause_still_stops_the_machine() {
     drop(stdin);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("press Enter to continue"), "paused first: {err}");
+    assert!(
+        err.contains("press Enter to continue"),
+        "paused first: {err}"
+    );
     assert!(err.contains("EMCY 0x8611"), "{err}");
     let v = read_json(&report);
     assert_eq!(v["ok"], false);
     assert_eq!(v["stop"]["node"], 1);
     assert_eq!(v["stops"][0]["line"], 4);
-    assert!(v["stops"][0]["waited_s"].is_null(), "never resumed: {}", v["stops"]);
+    assert!(
+        v["stops"][0]["waited_s"].is_null(),
+        "never resumed: {}",
+        v["stops"]
+    );
     assert_at(&v, [10.0, 5.0, 5.0]);
 }
