@@ -3,40 +3,15 @@
 //! safety stop and the stop reaction) allocates nothing: a counting global allocator counts
 //! allocations made on this thread while `cycle` runs.
 
+mod counting_alloc;
 mod master_common;
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 
 use cnc402_config::MachineConfig;
 use cnc402_drives::master::MasterOptions;
 use cnc402_drives::sim::{FaultKind, SimDriveOptions};
 use master_common::Rig;
 
-struct Counting;
-
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if COUNTING.with(|c| c.get()) {
-            ALLOCS.with(|a| a.set(a.get() + 1));
-        }
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if COUNTING.with(|c| c.get()) {
-            ALLOCS.with(|a| a.set(a.get() + 1));
-        }
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+use counting_alloc::{ALLOCS, COUNTING, Counting};
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;
