@@ -3,6 +3,7 @@
 //! global allocator proves it; the same run measures the bus load of 4 CSP axes.
 
 mod counting_alloc;
+
 use std::time::Duration;
 
 use cnc402_config::MachineConfig;
