@@ -566,8 +566,12 @@ fn faults_and_taps_in_an_included_file_name_that_file() {
 const STOPS_NC: &str = "G21 G90 G17\nG0 X0 Y0 Z5\nG1 X10 Y5 F1200\nM0\nG1 X20 Y-3 Z2 F1200\nM1\n\
                         G1 X4 Y7 F1200\nM30\n";
 
-fn stops_program() -> PathBuf {
-    let p = tmp("stops.nc");
+/// The stops program under a name of the test's own: tests run in parallel, and one test
+/// rewriting a file another test's `cnc402` is reading made it read an empty program.
+fn stops_program(test: &str) -> PathBuf {
+    let dir = tmp(test);
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("stops.nc");
     std::fs::write(&p, STOPS_NC).unwrap();
     p
 }
@@ -585,7 +589,7 @@ fn assert_at(v: &Value, want: [f64; 3]) {
 
 #[test]
 fn m0_with_at_stop_end_ends_there_ok_and_m1_needs_optional_stop() {
-    let prog = stops_program();
+    let prog = stops_program("m0_with_at_stop_end_ends_there_ok_and_m1_needs_optional_stop");
     let report = tmp("stops-end.json");
     let o = cnc402(&[
         "run",
@@ -635,7 +639,8 @@ fn m0_with_at_stop_end_ends_there_ok_and_m1_needs_optional_stop() {
 
 #[test]
 fn m0_with_continue_runs_to_the_end_and_m1_passes_without_optional_stop() {
-    let prog = stops_program();
+    let prog =
+        stops_program("m0_with_continue_runs_to_the_end_and_m1_passes_without_optional_stop");
     let report = tmp("stops-continue.json");
     // No --at-stop and stdin not a terminal: continue, and stderr says why.
     let o = cnc402(&[
@@ -662,7 +667,8 @@ fn m0_with_continue_runs_to_the_end_and_m1_passes_without_optional_stop() {
 }
 
 fn spawn_wait(report: &Path, extra: &[&str]) -> std::process::Child {
-    let prog = stops_program();
+    let test = report.file_stem().unwrap().to_str().unwrap();
+    let prog = stops_program(test);
     Command::new(env!("CARGO_BIN_EXE_cnc402"))
         .args([
             "run",
@@ -687,7 +693,9 @@ fn m0_with_wait_holds_until_enter_and_the_report_shows_the_pause() {
     let cont = tmp("stops-wait-ref.json");
     let o = cnc402(&[
         "run",
-        stops_program().to_str().unwrap(),
+        stops_program("m0_with_wait_holds_until_enter_and_the_report_shows_the_pause")
+            .to_str()
+            .unwrap(),
         "--at-stop",
         "continue",
         "--report",
