@@ -503,25 +503,8 @@ fn sigint_stops_the_machine_like_a_fault_and_exits_cleanly() {
 fn dry_run_does_not_write_non_volatile_variables() {
     let vars = tmp("vars.dat");
     let _ = std::fs::remove_file(&vars);
-    let text =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/machine.toml"))
-            .unwrap();
-    let text: String = text
-        .lines()
-        .map(|l| {
-            if l.starts_with("variables_file") {
-                format!("variables_file = {:?}\n", vars.to_str().unwrap())
-            } else {
-                format!("{l}\n")
-            }
-        })
-        .collect();
-    assert!(
-        text.contains(vars.to_str().unwrap()),
-        "the shipped config names a variables file"
-    );
     let cfg = tmp("vars.toml");
-    std::fs::write(&cfg, text).unwrap();
+    config_with_vars_file(&vars, &cfg);
     let prog = tmp("count.nc");
     std::fs::write(&prog, "#500 = [#500 + 1]\nG0 X[#500]\nM30\n").unwrap();
     for want in [1.0, 2.0] {
@@ -794,4 +777,88 @@ fn a_drive_fault_during_a_pause_still_stops_the_machine() {
         v["stops"]
     );
     assert_at(&v, [10.0, 5.0, 5.0]);
+}
+
+/// A copy of the shipped config whose non-volatile variables file is `vars`.
+fn config_with_vars_file(vars: &Path, cfg: &Path) {
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/machine.toml"))
+            .unwrap();
+    let text: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("variables_file") {
+                format!("variables_file = {:?}\n", vars.to_str().unwrap())
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    assert!(
+        text.contains(vars.to_str().unwrap()),
+        "the shipped config names a variables file"
+    );
+    std::fs::write(cfg, text).unwrap();
+}
+
+/// Regression: the interpreter ran ahead past an M0, so a program that ended at the stop (by
+/// `--at-stop end`, or the operator ending it there) had already executed the blocks after
+/// it, here a durable write of a non-volatile variable. M0 is now a buffer stop, as on a
+/// Fanuc control: nothing after it is interpreted until the run resumes.
+#[test]
+fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_program_ends_there() {
+    let dir = tmp("buffer-stop");
+    std::fs::create_dir_all(&dir).unwrap();
+    let prog = dir.join("write-after-stop.nc");
+    std::fs::write(
+        &prog,
+        "G21 G90 G17\nG0 X0 Y0 Z5\nG1 X10 F1200\nM0\n#500=1\nG1 X20\nM30\n",
+    )
+    .unwrap();
+    for (policy, want_x, want_500) in [
+        ("end", 10.0, None),
+        ("wait", 10.0, None),
+        ("continue", 20.0, Some(1.0)),
+    ] {
+        let vars = dir.join(format!("{policy}.vars"));
+        let _ = std::fs::remove_file(&vars);
+        let cfg = dir.join(format!("{policy}.toml"));
+        config_with_vars_file(&vars, &cfg);
+        let report = dir.join(format!("{policy}.json"));
+        // stdin is empty: `wait` reads end of input and ends the program at the stop.
+        let o = cnc402(&[
+            "run",
+            prog.to_str().unwrap(),
+            "--config",
+            cfg.to_str().unwrap(),
+            "--at-stop",
+            policy,
+            "--report",
+            report.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{policy}: {}", stderr(&o));
+        let v = read_json(&report);
+        assert_eq!(v["ok"], true, "{policy}: {v}");
+        assert_at(&v, [want_x, 0.0, 5.0]);
+        let got = cnc402_interp::NvTable::load(&vars)
+            .ok()
+            .and_then(|t| t.get(500));
+        assert_eq!(got, want_500, "{policy}: #500 after the run");
+    }
+    // The dry run (program errors before motion) ends at a stop that ends the program, too.
+    let alarm = dir.join("alarm-after-stop.nc");
+    std::fs::write(
+        &alarm,
+        "G21 G90 G17\nG0 X0 Y0 Z5\nG1 X10 F1200\nM0\n#3000=7(PAST THE STOP)\nM30\n",
+    )
+    .unwrap();
+    let o = cnc402(&["run", alarm.to_str().unwrap(), "--at-stop", "end"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = cnc402(&["run", alarm.to_str().unwrap(), "--at-stop", "continue"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("alarm 3007") && stderr(&o).contains("PAST THE STOP"),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -52,7 +52,7 @@ fn ten_minute_program(cfg: &MachineConfig) -> (SourceFile, f64) {
         text.push_str(BLOCK);
         let src = SourceFile::new("bench.nc", format!("{text}M30\n"));
         let ast = cnc402_lang::parse(&src).expect("parse");
-        let d = dry_run(cfg, &src, &ast, AxisPos::default()).expect("program");
+        let d = dry_run(cfg, &src, &ast, AxisPos::default(), None).expect("program");
         let secs = d.ticks as f64 * period;
         if secs >= 600.0 {
             return (src, secs);

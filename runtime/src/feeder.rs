@@ -174,15 +174,25 @@ pub struct DryRun {
 
 /// Interprets and plans the whole program without moving anything, so that a program error
 /// is reported (exit 2) before a drive is enabled, and the progress bar knows the length.
+/// With a `gate` whose policy ends the program at a stop, the dry run ends there too (what
+/// follows would never run); past a stop that holds it goes on, as a resume would.
 pub fn dry_run(
     cfg: &MachineConfig,
     src: &SourceFile,
     program: &Program,
     start: AxisPos,
+    gate: Option<&crate::program_stop::StopGate>,
 ) -> Result<DryRun, NcError> {
     let mut f = Feeder::dry(cfg, src.clone(), program.clone(), start);
     let mut d = DryRun::default();
     while let Some(mv) = f.next_move()? {
+        if let (MoveKind::ProgramStop { kind }, Some(g)) = (mv.kind, gate)
+            && g.ends_at(kind)
+        {
+            d.moves += 1;
+            d.ticks += 1;
+            break;
+        }
         d.moves += 1;
         d.ticks += match mv.kind {
             MoveKind::Path(p) => p.ticks,

@@ -73,9 +73,25 @@ impl StopGate {
         }
     }
 
+    /// Whether a stop of `kind` ends the program (policy `End`): nothing after it may be
+    /// interpreted, not even by the dry run.
+    pub fn ends_at(&self, kind: StopKind) -> bool {
+        self.policy == AtStop::End && self.applies(kind)
+    }
+
+    /// Whether a stop of `kind` holds the machine until the operator decides (policy `Wait`).
+    pub fn holds_at(&self, kind: StopKind) -> bool {
+        self.policy == AtStop::Wait && self.applies(kind)
+    }
+
     /// Loop side: a hold begins.
     pub fn hold(&self) {
         self.reached.fetch_add(1, Ordering::SeqCst);
+    }
+
+    /// Holds the loop has begun so far.
+    pub fn holds_reached(&self) -> u64 {
+        self.reached.load(Ordering::SeqCst)
     }
 
     /// Loop side: whether the current hold is released (resumed, or ended).

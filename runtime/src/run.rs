@@ -252,7 +252,13 @@ impl Side<'_> {
     ) -> Result<(), RunError> {
         let axes = AxisTable::new(self.cfg);
         let feeder = Feeder::new(self.cfg, src, program, start_position(&axes, start));
-        let h = spawn_feeder(feeder, ring, self.shared.clone(), stop.clone())
+        let h = spawn_feeder(
+            feeder,
+            ring,
+            self.shared.clone(),
+            stop.clone(),
+            Some(self.gate.clone()),
+        )
             .map_err(|e| RunError::Io(format!("cannot start the feeder thread: {e}")))?;
         self.feeder = Some(h);
         Ok(())
@@ -390,7 +396,9 @@ pub fn run_program(
     opts: RunOptions,
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<RunReport, RunError> {
-    let dry = dry_run(cfg, &src, &program, AxisPos::default()).map_err(RunError::Program)?;
+    let gate = Arc::new(StopGate::new(opts.at_stop, opts.optional_stop));
+    let dry = dry_run(cfg, &src, &program, AxisPos::default(), Some(&gate))
+        .map_err(RunError::Program)?;
     let spec = LinkSpec {
         fault: opts.fault,
         #[cfg(any(test, feature = "testing"))]
@@ -415,8 +423,6 @@ pub fn run_program(
         timing,
         trace,
         stop_request,
-        at_stop,
-        optional_stop,
         no_operator_terminal,
         ..
     } = opts;
@@ -433,7 +439,7 @@ pub fn run_program(
         expected: dry.ticks,
         program_error: None,
         program_ticks: 0,
-        gate: Arc::new(StopGate::new(at_stop, optional_stop)),
+        gate,
         stops: Vec::new(),
         no_operator_terminal,
         src_name: src.name.to_string(),

@@ -15,6 +15,7 @@ use cnc402_lang::NcError;
 use cnc402_motion::AxisPos;
 
 use crate::feeder::Feeder;
+use crate::program_stop::StopGate;
 use crate::ring::{LoopInput, MoveProducer, Producer};
 use crate::status::{Phase, Status, within_one_count};
 
@@ -152,14 +153,42 @@ impl LoopSync {
     }
 }
 
+/// What the feeder does after pushing a program stop (M0, M1 with optional stop on).
+#[derive(Debug, PartialEq)]
+enum AfterStop {
+    /// Not a stop of this run's policy: interpret on.
+    GoOn,
+    /// Wait: interpret nothing past the stop until the loop has held there and the operator
+    /// resumed (a buffer stop, as Fanuc's M00 is: what the operator changes during the stop,
+    /// such as a `cnc402 vars set`, is what the program reads after it).
+    Hold,
+    /// End: the program ends at the stop, so nothing after it may be interpreted (a
+    /// non-volatile write or an alarm past the stop must not happen).
+    EndHere,
+}
+
+fn after_stop(mv: &cnc402_motion::PlannedMove, gate: Option<&StopGate>) -> AfterStop {
+    match (mv.kind, gate) {
+        (cnc402_motion::MoveKind::ProgramStop { kind }, Some(g)) if g.holds_at(kind) => {
+            AfterStop::Hold
+        }
+        (cnc402_motion::MoveKind::ProgramStop { kind }, Some(g)) if g.ends_at(kind) => {
+            AfterStop::EndHere
+        }
+        _ => AfterStop::GoOn,
+    }
+}
+
 /// Starts the feeder thread: it runs `feeder` to the end of the program, pushing every move
-/// (and `End`) into `ring`, waiting for room as needed. A program error raises `stop` and is
-/// the thread's result.
+/// (and `End`) into `ring`, waiting for room as needed. With a stop `gate`, a program stop
+/// that holds or ends the run is also a buffer stop (see [`AfterStop`]). A program error
+/// raises `stop` and is the thread's result.
 pub fn spawn_feeder(
     mut feeder: Feeder,
     mut ring: MoveProducer,
     shared: Arc<SyncShared>,
     stop: Arc<AtomicBool>,
+    gate: Option<Arc<StopGate>>,
 ) -> std::io::Result<JoinHandle<Option<NcError>>> {
     feeder.set_motion_sync(Box::new(LoopSync {
         shared: shared.clone(),
@@ -181,6 +210,7 @@ pub fn spawn_feeder(
                     }
                 }
             };
+            let mut holds = 0u64;
             loop {
                 if shared.abort.load(Ordering::SeqCst) {
                     return None;
@@ -206,6 +236,29 @@ pub fn spawn_feeder(
                             return None;
                         }
                         shared.pushed.fetch_add(1, Ordering::SeqCst);
+                        match after_stop(&mv, gate.as_deref()) {
+                            AfterStop::GoOn => {}
+                            AfterStop::EndHere => return None,
+                            AfterStop::Hold => {
+                                holds += 1;
+                                let Some(g) = gate.as_deref() else {
+                                    continue;
+                                };
+                                // Until the loop has reached this hold and it is released.
+                                loop {
+                                    if shared.abort.load(Ordering::SeqCst)
+                                        || shared.lock().ended
+                                        || g.end_requested()
+                                    {
+                                        return None;
+                                    }
+                                    if g.holds_reached() >= holds && g.released() {
+                                        break;
+                                    }
+                                    std::thread::sleep(Duration::from_millis(1));
+                                }
+                            }
+                        }
                     }
                     Ok(None) => {
                         push(&mut ring, LoopInput::End);
