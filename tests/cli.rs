@@ -459,6 +459,84 @@ fn bad_fault_option_is_a_usage_error() {
     assert_eq!(o.status.code(), Some(64), "{}", stderr(&o));
 }
 
+/// A child whose stderr is read line by line on a thread of its own, so that a test can act
+/// on what the program says (a prompt, "drives enabled") instead of on a guess of how long it
+/// takes to get there: on a loaded machine a fixed sleep is too short.
+struct WatchedChild {
+    child: std::process::Child,
+    lines: std::sync::mpsc::Receiver<String>,
+    seen: Vec<String>,
+    reader: std::thread::JoinHandle<()>,
+}
+
+impl WatchedChild {
+    fn new(mut child: std::process::Child) -> WatchedChild {
+        use std::io::BufRead as _;
+        let err = child.stderr.take().expect("stderr piped");
+        let (tx, lines) = std::sync::mpsc::channel();
+        let reader = std::thread::spawn(move || {
+            for line in std::io::BufReader::new(err).lines() {
+                let Ok(line) = line else { break };
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        WatchedChild {
+            child,
+            lines,
+            seen: Vec::new(),
+            reader,
+        }
+    }
+
+    /// Waits (60 s at most) for a stderr line containing `needle`.
+    fn wait_for(&mut self, needle: &str) {
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+        if self.seen.iter().any(|l| l.contains(needle)) {
+            return;
+        }
+        while let Some(left) = deadline.checked_duration_since(std::time::Instant::now()) {
+            match self.lines.recv_timeout(left) {
+                Ok(line) => {
+                    let hit = line.contains(needle);
+                    self.seen.push(line);
+                    if hit {
+                        return;
+                    }
+                }
+                Err(_) => break,
+            }
+        }
+        panic!(
+            "no stderr line with {needle:?} within 60 s; stderr so far:\n{}",
+            self.seen.join("\n")
+        );
+    }
+
+    fn pid(&self) -> String {
+        self.child.id().to_string()
+    }
+
+    /// Waits for the exit; the exit status and all of stderr.
+    fn finish(mut self) -> (std::process::ExitStatus, String) {
+        let status = self.child.wait().expect("wait for cnc402");
+        let _ = self.reader.join();
+        self.seen.extend(self.lines.try_iter());
+        (status, self.seen.join("\n"))
+    }
+}
+
+fn sigint(pid: &str) {
+    assert!(
+        Command::new("kill")
+            .args(["-INT", pid])
+            .status()
+            .unwrap()
+            .success()
+    );
+}
+
 #[test]
 fn sigint_stops_the_machine_like_a_fault_and_exits_cleanly() {
     let report = tmp("sigint.json");
@@ -471,29 +549,37 @@ fn sigint_stops_the_machine_like_a_fault_and_exits_cleanly() {
             report.to_str().unwrap(),
         ])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_LOG", "info")
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
+    let mut child = WatchedChild::new(child);
     // Well into the program (it takes ~16 s against the clock), then an operator's Ctrl-C.
-    std::thread::sleep(std::time::Duration::from_millis(2500));
-    let pid = child.id().to_string();
-    let k = Command::new("kill").args(["-INT", &pid]).status().unwrap();
-    assert!(k.success());
-    let o = child.wait_with_output().unwrap();
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    child.wait_for("drives enabled");
+    let enabled = std::time::Instant::now();
+    std::thread::sleep(std::time::Duration::from_millis(2000));
+    sigint(&child.pid());
+    let signalled = enabled.elapsed().as_secs_f64();
+    let (status, err) = child.finish();
+    assert_eq!(status.code(), Some(1), "{err}");
     assert!(err.contains("operator stop (SIGINT)"), "{err}");
     assert!(err.contains("examples/m10x1.5-rigid-tap.nc:"), "{err}");
     let v = read_json(&report);
     assert_eq!(v["ok"], false);
     assert_eq!(v["stop"]["cause"], "operator stop (SIGINT)");
+    // Program time runs at most at the wall clock's pace (late ticks are skipped, so it may
+    // lag behind on a loaded machine): it ran for a while, and stopped within the quick-stop
+    // time of the signal, not at the end of the 16 s program.
     let t = v["program_time_s"].as_f64().unwrap();
-    assert!(t > 1.5 && t < 5.0, "stopped soon after the signal: {t} s");
+    assert!(
+        t > 0.2 && t < signalled + 3.0,
+        "stopped soon after the signal: {t} s (signal {signalled:.2} s after enable)"
+    );
     let lat = &v["wakeup_latency_us"];
     let (p50, p99) = (lat["p50"].as_f64().unwrap(), lat["p99"].as_f64().unwrap());
     assert!(p50 > 0.0 && p99 >= p50, "p50 {p50} µs, p99 {p99} µs");
-    assert!(lat["samples"].as_u64().unwrap() > 1000, "{lat}");
+    assert!(lat["samples"].as_u64().unwrap() > 200, "{lat}");
     for t in v["tapping"].as_array().unwrap() {
         assert!(t["max_coupling_error_um_cmd"].as_f64().unwrap() <= coupling_bound_um(1.5));
     }
@@ -689,20 +775,19 @@ fn m0_with_wait_holds_until_enter_and_the_report_shows_the_pause() {
 
     let report = tmp("stops-wait.json");
     let mut child = spawn_wait(&report, &[]);
+    let mut stdin = child.stdin.take().unwrap();
+    let mut child = WatchedChild::new(child);
+    // The operator reads the prompt, then presses Enter 0.6 s later.
+    child.wait_for("stops.nc:4 — press Enter to continue");
     std::thread::sleep(std::time::Duration::from_millis(600));
     {
         use std::io::Write as _;
-        let mut stdin = child.stdin.take().unwrap();
         stdin.write_all(b"\n").unwrap();
         // Kept open until the end: the newline alone resumes.
-        let o = child.wait_with_output().unwrap();
+        let (status, err) = child.finish();
         drop(stdin);
-        let err = stderr(&o);
-        assert_eq!(o.status.code(), Some(0), "{err}");
-        assert!(
-            err.contains("M0 at ") && err.contains("stops.nc:4 — press Enter to continue"),
-            "{err}"
-        );
+        assert_eq!(status.code(), Some(0), "{err}");
+        assert!(err.contains("M0 at "), "{err}");
     }
     let v = read_json(&report);
     assert_eq!(v["ok"], true);
@@ -727,19 +812,13 @@ fn sigint_during_a_pause_stops_the_machine_and_exits_1() {
     let mut child = spawn_wait(&report, &[]);
     // The operator's terminal stays open (no end of input) while Ctrl-C is pressed.
     let stdin = child.stdin.take().unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(700));
-    let pid = child.id().to_string();
-    assert!(
-        Command::new("kill")
-            .args(["-INT", &pid])
-            .status()
-            .unwrap()
-            .success()
-    );
-    let o = child.wait_with_output().unwrap();
+    let mut child = WatchedChild::new(child);
+    child.wait_for("press Enter to continue");
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    sigint(&child.pid());
+    let (status, err) = child.finish();
     drop(stdin);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(status.code(), Some(1), "{err}");
     assert!(err.contains("operator stop (SIGINT)"), "{err}");
     assert!(
         err.contains("press Enter to continue"),

@@ -259,7 +259,7 @@ impl Side<'_> {
             stop.clone(),
             Some(self.gate.clone()),
         )
-            .map_err(|e| RunError::Io(format!("cannot start the feeder thread: {e}")))?;
+        .map_err(|e| RunError::Io(format!("cannot start the feeder thread: {e}")))?;
         self.feeder = Some(h);
         Ok(())
     }
@@ -397,8 +397,8 @@ pub fn run_program(
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<RunReport, RunError> {
     let gate = Arc::new(StopGate::new(opts.at_stop, opts.optional_stop));
-    let dry = dry_run(cfg, &src, &program, AxisPos::default(), Some(&gate))
-        .map_err(RunError::Program)?;
+    let dry =
+        dry_run(cfg, &src, &program, AxisPos::default(), Some(&gate)).map_err(RunError::Program)?;
     let spec = LinkSpec {
         fault: opts.fault,
         #[cfg(any(test, feature = "testing"))]
@@ -671,6 +671,7 @@ fn run_virtual(
     let mut ctrl = CycleController::new(cfg, start, link, mcons, sprod, stop_request.clone())
         .with_stop_gate(side.gate.clone());
     let mut spins = 0u32;
+    let mut held_since: Option<(std::time::Instant, u32)> = None;
     let outcome = loop {
         // Virtual time only runs while there is something to do: a move, a stop, the end, or
         // an interpreter waiting for the motion before a position read. Otherwise the feeder
@@ -695,11 +696,20 @@ fn run_virtual(
         spins = 0;
         if ctrl.is_held() {
             // Held at a program stop: virtual time advances at the wall clock's pace (the
-            // drives hold position and stay monitored) until the operator resumes.
-            std::thread::sleep(period);
+            // drives hold position and stay monitored) until the operator resumes. Deadlines
+            // are absolute from the start of the hold, so a slow machine's long sleeps do not
+            // make the pause shorter in program time than it was on the clock.
+            let (since, n) = held_since.get_or_insert_with(|| (std::time::Instant::now(), 0));
+            *n += 1;
+            let due = *since + period * *n;
+            if let Some(left) = due.checked_duration_since(std::time::Instant::now()) {
+                std::thread::sleep(left);
+            }
             if crate::rt::sigint_seen() {
                 stop_request.store(true, Ordering::SeqCst);
             }
+        } else {
+            held_since = None;
         }
         now += period;
         let step = ctrl.step(now);
