@@ -57,10 +57,18 @@ fn nums(args: &str) -> Vec<f64> {
 /// Motion calls of `rs274 -g` output.
 fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
     // rs274 keeps state in files of its working directory (its parameter file); two of them
-    // started at once by parallel tests sometimes printed nothing at all. One at a time.
+    // started at once by parallel tests sometimes printed nothing at all. One at a time, and
+    // each in a directory of its own (so that no other process's files are in the way).
     static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let stem = file
+        .file_stem()
+        .map_or_else(|| "p".into(), |s| s.to_string_lossy());
+    let cwd = std::env::temp_dir().join(format!("cnc402-rs274-{}-{stem}", std::process::id()));
+    std::fs::create_dir_all(&cwd).expect("a working directory for rs274");
+    let file = &std::path::absolute(file).expect("an absolute program path");
     let out = Command::new(exe)
+        .current_dir(&cwd)
         .arg("-g")
         .arg(file)
         .output()
