@@ -3,7 +3,6 @@
 //! safety stop and the stop reaction) allocates nothing: a counting global allocator counts
 //! allocations made on this thread while `cycle` runs.
 
-mod counting_alloc;
 mod master_common;
 
 use cnc402_config::MachineConfig;
@@ -11,20 +10,17 @@ use cnc402_drives::master::MasterOptions;
 use cnc402_drives::sim::{FaultKind, SimDriveOptions};
 use master_common::Rig;
 
-use counting_alloc::{ALLOCS, COUNTING, Counting};
+use cnc402_testkit::{CountingAlloc, count_allocs};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAlloc = CountingAlloc;
 
 /// Runs one master cycle (the bus advance before it is not counted).
 fn counted_cycle(rig: &mut Rig, cmd: &[f64]) -> (u64, bool) {
     rig.bus.advance(rig.next);
-    let before = ALLOCS.with(|a| a.get());
-    COUNTING.with(|c| c.set(true));
-    let r = rig.master.cycle(&mut rig.bus, rig.next, cmd);
-    COUNTING.with(|c| c.set(false));
+    let (r, n) = count_allocs(|| rig.master.cycle(&mut rig.bus, rig.next, cmd));
     rig.next += rig.master.period();
-    (ALLOCS.with(|a| a.get()) - before, r.is_err())
+    (n, r.is_err())
 }
 
 #[test]

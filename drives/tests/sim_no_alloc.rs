@@ -2,8 +2,6 @@
 //! delivery, SimDrive SYNC/RPDO/TPDO handling, heartbeats) must not allocate. A counting
 //! global allocator proves it; the same run measures the bus load of 4 CSP axes.
 
-mod counting_alloc;
-
 use std::time::Duration;
 
 use cnc402_config::MachineConfig;
@@ -15,10 +13,10 @@ use cnc402_drives::wire::{
     SyncRepr,
 };
 
-use counting_alloc::{ALLOCS, COUNTING, Counting};
+use cnc402_testkit::{CountingAlloc, allocs, arm};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAlloc = CountingAlloc;
 
 fn expedited(node: NodeId, index: u16, sub: u8, data: &[u8]) -> CanFrame {
     let kind = InitiateKind::Expedited(ExpeditedData::new(data).unwrap());
@@ -121,12 +119,13 @@ fn steady_state_cycles_allocate_nothing_and_load_matches_the_arithmetic() {
 
     let before = bus.counters();
     let t0 = now;
-    COUNTING.with(|c| c.set(true));
+    let before_allocs = allocs();
+    arm(true);
     for k in 20..2020 {
         cycle(&mut bus, &mut now, k);
     }
-    COUNTING.with(|c| c.set(false));
-    let allocs = ALLOCS.with(|a| a.get());
+    arm(false);
+    let allocs = allocs() - before_allocs;
     assert_eq!(allocs, 0, "allocations in 2000 steady-state cycles");
     assert!(
         bus.devices()

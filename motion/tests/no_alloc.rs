@@ -2,62 +2,16 @@
 //! `tick()` / `request_stop()` run over lines, arcs, taps, spindle ramps, dwells, events and a
 //! stop with the counter armed.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 mod common;
 
 use cnc402_config::MachineConfig;
 use cnc402_motion::*;
 use common::*;
 
-struct Counting;
-
-thread_local! {
-    // Per thread, so the test harness's other threads are not counted.
-    static ARMED: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-fn count() {
-    ALLOCS.with(|c| c.set(c.get() + 1));
-}
-
-fn allocs() -> usize {
-    ALLOCS.with(|c| c.get())
-}
-
-fn armed() -> bool {
-    ARMED.with(|a| a.get())
-}
-
-fn arm(on: bool) {
-    ARMED.with(|a| a.set(on));
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        if armed() {
-            count();
-        }
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        if armed() {
-            count();
-        }
-        unsafe { System.dealloc(p, l) }
-    }
-    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
-        if armed() {
-            count();
-        }
-        unsafe { System.realloc(p, l, n) }
-    }
-}
+use cnc402_testkit::{CountingAlloc, allocs, arm};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAlloc = CountingAlloc;
 
 #[test]
 fn ticks_and_starts_allocate_nothing() {

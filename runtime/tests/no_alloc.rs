@@ -3,8 +3,6 @@
 //! drives, status ring — through a rigid tap, an injected drive fault, the path-coupled stop
 //! and quick stop.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
@@ -18,47 +16,10 @@ use cnc402_runtime::link::{DriveLink, FaultPlan, Startup};
 use cnc402_runtime::ring::{Consumer, LoopInput, Producer, move_ring, status_ring};
 use cnc402_runtime::{Outcome, SimLink};
 
-struct Counting;
-
-thread_local! {
-    static ARMED: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-fn note() {
-    // `try_with`: the thread-local may be gone while a thread shuts down.
-    let _ = ARMED.try_with(|a| {
-        if a.get() {
-            let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        }
-    });
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        note();
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        note();
-        unsafe { System.dealloc(p, l) }
-    }
-    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
-        note();
-        unsafe { System.realloc(p, l, n) }
-    }
-}
+use cnc402_testkit::{CountingAlloc, allocs, arm};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn arm(on: bool) {
-    ARMED.with(|a| a.set(on));
-}
-
-fn allocs() -> usize {
-    ALLOCS.with(|c| c.get())
-}
+static GLOBAL: CountingAlloc = CountingAlloc;
 
 const TAP: &str = "G21 G90 G17 G94 G54\nG0 X10. Y10. Z10.\nM29 S500\nG98 G84 X10. Y10. Z-16. R3. F750.\nX30.\nG80\nG2 X50. Y10. I10. J0 F1200.\nG0 Z20.\nM30\n";
 
@@ -67,7 +28,7 @@ fn machine() -> MachineConfig {
 }
 
 /// Runs TAP with the counter armed over every tick; returns (allocations, outcome, ticks).
-fn run_armed(fault: Option<FaultPlan>) -> (usize, Outcome, u64) {
+fn run_armed(fault: Option<FaultPlan>) -> (u64, Outcome, u64) {
     let cfg = machine();
     let mut link = SimLink::simulated(&cfg, None).expect("sim link");
     if let Some(f) = fault {
