@@ -24,6 +24,22 @@ pub struct MachineConfig {
     pub interp: InterpDefaults,
     /// G54..G59: machine position of the work zero, indexed like `axes`.
     pub work_offsets: [[f64; MAX_AXES]; 6],
+    /// Tool offsets 1..=[`TOOL_OFFSETS`] (Fanuc memory C): `tool_offsets[n - 1]` is number n.
+    /// Programs change their copy (G10, `#11001…`) for one run; the file is never written.
+    pub tool_offsets: Vec<ToolOffset>,
+}
+
+/// How many tool offset numbers there are (H1..H400, D1..D400), as Fanuc's 400-offset option.
+pub const TOOL_OFFSETS: usize = 400;
+
+/// One tool offset number (Fanuc memory C): tool length (H) and radius (D), geometry and wear,
+/// in mm. The length used by G43/G44 is `length + length_wear`.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct ToolOffset {
+    pub length: f64,
+    pub length_wear: f64,
+    pub radius: f64,
+    pub radius_wear: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -67,6 +83,10 @@ pub struct AxisConfig {
     /// The drive's dead time (cycles) between taking a setpoint and its position loop acting
     /// on it; the master's following error rule does not count it as error. Default 1.
     pub feedback_delay_cycles: u32,
+    /// Reference positions in machine coordinates: `[0]` the first (G28; key `reference`,
+    /// default 0), `[1..4]` the second to fourth (G30 P2..P4; `second_reference`,
+    /// `third_reference`, `fourth_reference`; `None` when not configured).
+    pub references: [Option<f64>; 4],
     pub sim: SimDynamics,
 }
 
@@ -334,7 +354,19 @@ struct RawConfig {
         Spanned<String>,
         std::collections::BTreeMap<Spanned<String>, Spanned<f64>>,
     >,
+    #[serde(default)]
+    tool_offsets: std::collections::BTreeMap<Spanned<String>, RawToolOffset>,
     axis: Vec<RawAxis>,
+}
+
+/// `[tool_offsets]` entry: `1 = { length = 120.0, radius = 5.0 }`; keys left out are 0.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawToolOffset {
+    length: Option<Spanned<f64>>,
+    length_wear: Option<Spanned<f64>>,
+    radius: Option<Spanned<f64>>,
+    radius_wear: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -476,6 +508,10 @@ struct RawAxis {
     max_rpm: Option<Spanned<f64>>,
     #[serde(default = "default_feedback_delay")]
     feedback_delay_cycles: Spanned<i64>,
+    reference: Option<Spanned<f64>>,
+    second_reference: Option<Spanned<f64>>,
+    third_reference: Option<Spanned<f64>>,
+    fourth_reference: Option<Spanned<f64>>,
     #[serde(default)]
     sim: RawSim,
 }
@@ -833,6 +869,30 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
             }
             (None, _) => None,
         };
+        let mut references = [Some(0.0), None, None, None];
+        for (slot, (v, name)) in [
+            (&a.reference, "reference"),
+            (&a.second_reference, "second_reference"),
+            (&a.third_reference, "third_reference"),
+            (&a.fourth_reference, "fourth_reference"),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let Some(v) = v else { continue };
+            let x = *v.get_ref();
+            let bad = if !x.is_finite() {
+                Some("must be a finite number".to_string())
+            } else {
+                soft_limits
+                    .filter(|&(lo, hi)| x < lo || x > hi)
+                    .map(|(lo, hi)| format!("{x} is outside the axis's soft limits {lo}..{hi}"))
+            };
+            if let Some(m) = bad {
+                return Err((v.span(), key(name), m));
+            }
+            references[slot] = Some(x);
+        }
         let bw = *a.sim.bandwidth_hz.get_ref();
         if !(bw.is_finite() && bw >= 0.0) {
             return Err((
@@ -867,6 +927,7 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
                 0,
                 16,
             )? as u32,
+            references,
             sim: SimDynamics {
                 delay_cycles: int_in(&a.sim.delay_cycles, &key("sim.delay_cycles"), 0, 100)? as u32,
                 bandwidth_hz: bw,
@@ -914,12 +975,46 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
         }
     }
 
+    let mut tool_offsets = vec![ToolOffset::default(); TOOL_OFFSETS];
+    for (number, t) in &raw.tool_offsets {
+        let n = number.get_ref();
+        let slot = n
+            .parse::<usize>()
+            .ok()
+            .filter(|k| (1..=TOOL_OFFSETS).contains(k) && !n.starts_with('0'))
+            .ok_or_else(|| {
+                (
+                    number.span(),
+                    format!("tool_offsets.{n}"),
+                    format!("expected an offset number 1..{TOOL_OFFSETS}"),
+                )
+            })?;
+        let value = |v: &Option<Spanned<f64>>, field: &str| -> Result<f64, Invalid> {
+            match v {
+                None => Ok(0.0),
+                Some(v) if v.get_ref().is_finite() => Ok(*v.get_ref()),
+                Some(v) => Err((
+                    v.span(),
+                    format!("tool_offsets.{n}.{field}"),
+                    "must be a finite number".into(),
+                )),
+            }
+        };
+        tool_offsets[slot - 1] = ToolOffset {
+            length: value(&t.length, "length")?,
+            length_wear: value(&t.length_wear, "length_wear")?,
+            radius: value(&t.radius, "radius")?,
+            radius_wear: value(&t.radius_wear, "radius_wear")?,
+        };
+    }
+
     Ok(MachineConfig {
         path: path.to_path_buf(),
         axes,
         bus,
         interp,
         work_offsets,
+        tool_offsets,
     })
 }
 
@@ -1152,6 +1247,79 @@ mod tests {
     fn work_offset_for_unknown_axis() {
         let e = parse(&SHIPPED.replacen("G57 = { X = 0.0,", "G57 = { Q = 0.0,", 1)).unwrap_err();
         assert_eq!(e.key, "work_offsets.G57.Q");
+    }
+
+    #[test]
+    fn tool_offsets_table() {
+        let c = parse(SHIPPED).unwrap();
+        assert_eq!(c.tool_offsets.len(), TOOL_OFFSETS);
+        assert_eq!(c.tool_offsets[0].length, -180.0);
+        assert_eq!(
+            c.tool_offsets[1],
+            ToolOffset {
+                length: -165.5,
+                length_wear: -0.02,
+                radius: 3.3,
+                radius_wear: 0.0
+            }
+        );
+        assert_eq!(c.tool_offsets[399], ToolOffset::default());
+        let text = SHIPPED.replace("1 = { length = -180.0,", "400 = { length = 1.5,");
+        assert_eq!(parse(&text).unwrap().tool_offsets[399].length, 1.5);
+        // Unknown field: line, column and key path.
+        let text = SHIPPED.replace("1 = { length = -180.0,", "1 = { lenght = -180.0,");
+        let e = parse(&text).unwrap_err();
+        let line = text.lines().position(|l| l.contains("lenght")).unwrap() + 1;
+        assert_eq!((e.line, e.col), (line, 7), "{e}");
+        assert!(e.key.starts_with("tool_offsets"), "{e}");
+        assert!(e.message.contains("unknown field `lenght`"), "{e}");
+        for bad in ["0", "401", "01", "H1", "-1"] {
+            let text = SHIPPED.replace(
+                "1 = { length = -180.0,",
+                &format!("\"{bad}\" = {{ length = -180.0,"),
+            );
+            let e = parse(&text).unwrap_err();
+            assert_eq!(e.key, format!("tool_offsets.{bad}"), "{bad}: {e}");
+            assert!(e.message.contains("1..400"), "{e}");
+            assert_eq!(e.line, line, "{e}");
+        }
+        let text = SHIPPED.replace("length = -180.0", "length = nan");
+        assert_eq!(parse(&text).unwrap_err().key, "tool_offsets.1.length");
+        let text = SHIPPED.replace("length = -180.0", "length = \"long\"");
+        assert!(parse(&text).unwrap_err().key.starts_with("tool_offsets"));
+    }
+
+    #[test]
+    fn reference_positions() {
+        let c = parse(SHIPPED).unwrap();
+        assert_eq!(c.axes[2].references, [Some(0.0), Some(40.0), None, None]);
+        assert_eq!(c.axes[0].references, [Some(0.0), None, None, None]);
+        assert_eq!(
+            c.axes[3].references[0],
+            Some(0.0),
+            "default on the spindle too"
+        );
+        let text = SHIPPED.replace("second_reference = 40.0", "third_reference = -10.0");
+        assert_eq!(
+            parse(&text).unwrap().axes[2].references,
+            [Some(0.0), None, Some(-10.0), None]
+        );
+        let text = SHIPPED.replace("second_reference = 40.0", "second_reference = 60.0");
+        let e = parse(&text).unwrap_err();
+        assert_eq!(e.key, "axis[2].second_reference");
+        assert!(
+            e.message
+                .contains("outside the axis's soft limits -250..50"),
+            "{e}"
+        );
+        let line = text
+            .lines()
+            .position(|l| l.starts_with("second_reference"))
+            .unwrap()
+            + 1;
+        assert_eq!((e.line, e.col), (line, 20));
+        let text = SHIPPED.replace("reference = 0.0\n", "reference = inf\n");
+        assert_eq!(parse(&text).unwrap_err().key, "axis[2].reference");
     }
 
     #[test]
