@@ -294,6 +294,10 @@ pub struct Function {
 pub struct Param {
     pub ty: Type,
     pub name: String,
+    /// `type name[]`: an array passed by reference (C's array parameter).
+    pub array: bool,
+    /// `const type name`: the function cannot assign it (or, for an array, its elements).
+    pub konst: bool,
     pub span: Span,
 }
 

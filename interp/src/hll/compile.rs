@@ -83,9 +83,16 @@ pub(crate) fn compile(
             }
         }
     }
-    let sig_list: Vec<(Ty, Vec<Ty>)> = defs
+    let sig_list: Vec<(Ty, Vec<ParamTy>)> = defs
         .iter()
-        .map(|(_, f)| (ty_of(f.ret), f.params.iter().map(|p| ty_of(p.ty)).collect()))
+        .map(|(_, f)| {
+            let ps = f.params.iter().map(|p| ParamTy {
+                ty: ty_of(p.ty),
+                array: p.array,
+                konst: p.konst,
+            });
+            (ty_of(f.ret), ps.collect())
+        })
         .collect();
 
     let mut funcs = Vec::new();
@@ -99,8 +106,16 @@ pub(crate) fn compile(
             if ty == Ty::Void {
                 return Err(cx.err(p.span, format!("parameter `{}` cannot be void", p.name)));
             }
-            cx.declare(&p.name, ty, false, p.span)?;
-            params.push(ty);
+            // Parameters take slots 0..n, in order: the executor stores the arguments there.
+            cx.declare(&p.name, ty, p.array, p.span)?;
+            if p.konst {
+                cx.make_const(&p.name);
+            }
+            params.push(ParamTy {
+                ty,
+                array: p.array,
+                konst: p.konst,
+            });
         }
         let body = cx.stmts(&fun.body)?;
         funcs.push(Func {
@@ -223,6 +238,8 @@ struct Var {
     slot: u32,
     ty: Ty,
     array: bool,
+    /// A `const` parameter: not assignable (nor its elements).
+    konst: bool,
 }
 
 /// The checker of one function (or one file's top level).
@@ -231,7 +248,7 @@ struct Cx<'a> {
     file: &'a File,
     fid: FileId,
     sigs: &'a HashMap<String, usize>,
-    sig_list: &'a [(Ty, Vec<Ty>)],
+    sig_list: &'a [(Ty, Vec<ParamTy>)],
     ret: Ty,
     in_function: bool,
     scopes: Vec<HashMap<String, Var>>,
@@ -245,7 +262,7 @@ impl<'a> Cx<'a> {
         file: &'a File,
         fid: FileId,
         sigs: &'a HashMap<String, usize>,
-        sig_list: &'a [(Ty, Vec<Ty>)],
+        sig_list: &'a [(Ty, Vec<ParamTy>)],
         ret: Ty,
         in_function: bool,
     ) -> Self {
@@ -278,8 +295,83 @@ impl<'a> Cx<'a> {
         }
         let slot = self.next_slot;
         self.next_slot += 1;
-        scope.insert(name.to_string(), Var { slot, ty, array });
+        scope.insert(
+            name.to_string(),
+            Var {
+                slot,
+                ty,
+                array,
+                konst: false,
+            },
+        );
         Ok(slot)
+    }
+
+    /// Marks `name`, just declared in the innermost scope, as `const`.
+    fn make_const(&mut self, name: &str) {
+        if let Some(v) = self.scopes.last_mut().and_then(|s| s.get_mut(name)) {
+            v.konst = true;
+        }
+    }
+
+    /// The local array `e` names, if `e` is the bare name of one (`a`, not `a[i]`).
+    fn array_named(&self, e: &Expr) -> Option<(String, Var)> {
+        match &e.kind {
+            ExprKind::Ident(n) => self.lookup(n).filter(|v| v.array).map(|v| (n.clone(), v)),
+            _ => None,
+        }
+    }
+
+    /// An array passed where an array is expected: the bare name of a local array, of an array
+    /// parameter or of a `$` global. `want` is the parameter (`None` for `len`), `what` names
+    /// it in messages.
+    fn array_arg(&self, e: &Expr, want: Option<ParamTy>, what: &str) -> Result<Ex, NcError> {
+        let sp = e.span;
+        let expected = want.map_or("an array".to_string(), |p| p.text());
+        match &e.kind {
+            ExprKind::Ident(n) => {
+                let v = self.lookup(n).ok_or_else(|| {
+                    self.err(sp, format!("undefined name `{n}`"))
+                })?;
+                if !v.array {
+                    return Err(self.err(
+                        sp,
+                        format!(
+                            "{what} is an array ({expected}): `{n}` is a {}, pass an array",
+                            v.ty.name()
+                        ),
+                    ));
+                }
+                if let Some(p) = want {
+                    if p.ty != v.ty {
+                        // C passes the array itself: its elements cannot change type.
+                        return Err(self.err(
+                            sp,
+                            format!(
+                                "cannot pass `{n}` ({}[]) to {what} ({expected}): the element \
+                                 types must be the same",
+                                v.ty.name()
+                            ),
+                        ));
+                    }
+                    if v.konst && !p.konst {
+                        return Err(self.err(
+                            sp,
+                            format!(
+                                "`{n}` is const: it cannot be passed to {what} ({expected}), \
+                                 which could change it"
+                            ),
+                        ));
+                    }
+                }
+                Ok(Ex::Array(ArrArg::Slot(v.slot), sp))
+            }
+            ExprKind::Global(n) => Ok(Ex::Array(ArrArg::Global(n.as_str().into()), sp)),
+            _ => Err(self.err(
+                sp,
+                format!("{what} is an array ({expected}): pass an array's name (`a` or `$g`), not a value"),
+            )),
+        }
     }
 
     fn lookup(&self, name: &str) -> Option<Var> {
@@ -520,6 +612,16 @@ impl<'a> Cx<'a> {
                         return Err(self.err(e.span, "a void function returns no value"));
                     }
                     (Some(e), t) => {
+                        if let Some((n, _)) = self.array_named(e) {
+                            return Err(self.err(
+                                e.span,
+                                format!(
+                                    "a function cannot return an array (C cannot either): \
+                                     `{n}` is an array; pass one as a parameter to fill, \
+                                     `void f(double a[])`"
+                                ),
+                            ));
+                        }
                         let (x, xt) = self.expr(e)?;
                         self.assignable(t, xt, e.span, "the return value")?;
                         St::Return(Some(x))
@@ -560,6 +662,12 @@ impl<'a> Cx<'a> {
                 if v.array {
                     return Err(self.err(e.span, format!("`{n}` is an array: assign an element")));
                 }
+                if v.konst {
+                    return Err(self.err(
+                        e.span,
+                        format!("`{n}` is a const parameter: it cannot be assigned"),
+                    ));
+                }
                 Ok((Target::Local(v.slot, v.ty), v.ty, format!("`{n}`")))
             }
             ExprKind::Global(n) => {
@@ -571,6 +679,15 @@ impl<'a> Cx<'a> {
                 match &a.kind {
                     ExprKind::Ident(n) => {
                         let v = self.lookup_array(n, a.span)?;
+                        if v.konst {
+                            return Err(self.err(
+                                a.span,
+                                format!(
+                                    "`{n}` is a const array parameter: its elements cannot be \
+                                     assigned"
+                                ),
+                            ));
+                        }
                         Ok((Target::Elem(v.slot, v.ty, ix), v.ty, format!("`{n}[]`")))
                     }
                     ExprKind::Global(n) => Ok((
@@ -708,7 +825,7 @@ impl<'a> Cx<'a> {
                         match &a.kind {
                             ExprKind::Ident(n) => {
                                 let v = self.lookup_array(n, a.span)?;
-                                (Ex::Elem(v.slot, Box::new(ix), sp), v.ty)
+                                (Ex::Elem(v.slot, v.ty, Box::new(ix), sp), v.ty)
                             }
                             ExprKind::Global(n) => (
                                 Ex::Global(n.as_str().into(), Some(Box::new(ix)), sp),
@@ -787,16 +904,6 @@ impl<'a> Cx<'a> {
     }
 
     fn call(&mut self, name: &str, args: &[Expr], sp: Span) -> Result<(Ex, Ty), NcError> {
-        let mut xs = Vec::with_capacity(args.len());
-        let mut ts = Vec::with_capacity(args.len());
-        for a in args {
-            let (x, t) = self.expr(a)?;
-            if t == Ty::Void {
-                return Err(self.err(a.span, "a void function call has no value"));
-            }
-            xs.push(x);
-            ts.push(t);
-        }
         if let Some(&k) = self.sigs.get(name) {
             let (ret, params) = &self.sig_list[k];
             if params.len() != args.len() {
@@ -809,15 +916,49 @@ impl<'a> Cx<'a> {
                     ),
                 ));
             }
-            for (i, (p, t)) in params.iter().zip(&ts).enumerate() {
-                self.assignable(
-                    *p,
-                    *t,
-                    args[i].span,
-                    &format!("parameter {} of `{name}`", i + 1),
-                )?;
+            let mut xs = Vec::with_capacity(args.len());
+            for (i, (p, a)) in params.iter().zip(args).enumerate() {
+                let what = format!("parameter {} of `{name}`", i + 1);
+                if p.array {
+                    xs.push(self.array_arg(a, Some(*p), &what)?);
+                    continue;
+                }
+                if let Some((n, v)) = self.array_named(a) {
+                    return Err(self.err(
+                        a.span,
+                        format!(
+                            "`{n}` is an array ({}[]), but {what} is a {}: pass an element, \
+                             `{n}[i]`",
+                            v.ty.name(),
+                            p.ty.name()
+                        ),
+                    ));
+                }
+                let (x, t) = self.expr(a)?;
+                if t == Ty::Void {
+                    return Err(self.err(a.span, "a void function call has no value"));
+                }
+                self.assignable(p.ty, t, a.span, &what)?;
+                xs.push(x);
             }
             return Ok((Ex::Call(k, xs, sp), *ret));
+        }
+        if name == "len" {
+            let [a] = args else {
+                return Err(self.err(sp, format!("`len` takes 1 argument(s), not {}", args.len())));
+            };
+            let x = self.array_arg(a, None, "the argument of `len`")?;
+            return Ok((Ex::Builtin(Builtin::Len, vec![x], sp), Ty::Int));
+        }
+        let mut xs = Vec::with_capacity(args.len());
+        let mut ts = Vec::with_capacity(args.len());
+        for a in args {
+            let (x, t) = self.expr(a)?;
+            if t == Ty::Void {
+                return Err(self.err(a.span, "a void function call has no value"));
+            }
+            xs.push(x);
+            ts.push(t);
         }
         if CHANNEL_FUNCS.contains(&name) {
             return Err(self.err(
@@ -835,6 +976,8 @@ impl<'a> Cx<'a> {
             Sleep => (&[Ty::Double], Ty::Void),
             Fabs | Sqrt | Sin | Cos | Tan | Floor | Ceil | Round => (&[Ty::Double], Ty::Double),
             Atan2 | Pow => (&[Ty::Double, Ty::Double], Ty::Double),
+            // Checked above, before the arguments are read as values.
+            Len => (&[Ty::Void], Ty::Int),
             Min | Max => {
                 let r = if ts.iter().all(|t| *t == Ty::Int) {
                     Ty::Int

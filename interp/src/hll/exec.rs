@@ -51,9 +51,10 @@ enum Flow {
     Return(Option<Val>),
 }
 
+/// A running function: its locals are `Executor::stack[base..base + slots]`.
 struct Frame {
     file: FileId,
-    locals: Vec<Val>,
+    base: usize,
 }
 
 pub(crate) struct Executor {
@@ -71,6 +72,9 @@ pub(crate) struct Executor {
     /// Statements since the last batch was sent.
     since_flush: u32,
     ran: Vec<bool>,
+    /// The locals of every running function, callers below callees: one stack (rather than
+    /// a vector per call) lets an array parameter refer to its caller's array by index.
+    stack: Vec<Val>,
     depth: u32,
     steps: u64,
     limit: u64,
@@ -99,6 +103,7 @@ impl Executor {
             pending: Vec::with_capacity(BATCH),
             since_flush: 0,
             ran: vec![false; n],
+            stack: Vec::with_capacity(256),
             depth: 0,
             steps: 0,
             limit,
@@ -124,11 +129,12 @@ impl Executor {
         self.ran[file] = true;
         let prog = self.prog.clone();
         let f = &prog.funcs[prog.bodies[file]];
-        let mut frame = Frame {
-            file,
-            locals: vec![Val::Int(0); f.slots as usize],
-        };
-        self.block(&mut frame, &f.body).map(|_| ())
+        let base = self.stack.len();
+        self.stack.resize(base + f.slots as usize, Val::Int(0));
+        let mut frame = Frame { file, base };
+        let r = self.block(&mut frame, &f.body).map(|_| ());
+        self.stack.truncate(base);
+        r
     }
 
     fn err(&self, f: &Frame, span: Span, m: impl Into<String>) -> Stop {
@@ -229,7 +235,7 @@ impl Executor {
                     }
                     (None, None) => Val::zero(*ty),
                 };
-                f.locals[*slot as usize] = v;
+                self.stack[f.base + *slot as usize] = v;
             }
             St::Set {
                 target,
@@ -372,13 +378,14 @@ impl Executor {
         };
         match t {
             Target::Local(slot, ty) => {
-                let cur = std::mem::replace(&mut f.locals[*slot as usize], Val::Int(0));
+                let at = f.base + *slot as usize;
+                let cur = std::mem::replace(&mut self.stack[at], Val::Int(0));
                 let nv =
                     combine(self, f, cur.clone(), v).and_then(|n| self.coerce(f, *ty, n, span));
                 match nv {
-                    Ok(n) => f.locals[*slot as usize] = n,
+                    Ok(n) => self.stack[at] = n,
                     Err(e) => {
-                        f.locals[*slot as usize] = cur;
+                        self.stack[at] = cur;
                         return Err(e);
                     }
                 }
@@ -386,11 +393,30 @@ impl Executor {
             Target::Elem(slot, ty, ix) => {
                 let i = self.ev(f, ix)?;
                 let i = self.int(f, &i, span, "an index")?;
-                let cur = self.elem(f, *slot, i, span)?;
-                let nv = combine(self, f, cur, v)?;
+                let nv = if op == AssignOp::Set {
+                    v
+                } else {
+                    let cur = self.elem(f, *slot, *ty, i, span)?;
+                    combine(self, f, cur, v)?
+                };
                 let nv = self.coerce(f, *ty, nv, span)?;
-                if let Val::Arr(a) = &mut f.locals[*slot as usize] {
-                    a[i as usize] = nv;
+                match self.place(f, *slot) {
+                    Some(ArrPlace::Stack(k)) => {
+                        let len = match &mut self.stack[k] {
+                            Val::Arr(a) => match usize::try_from(i).ok().and_then(|i| a.get_mut(i))
+                            {
+                                Some(e) => {
+                                    *e = nv;
+                                    return Ok(());
+                                }
+                                None => a.len(),
+                            },
+                            _ => return Err(self.err(f, span, "not an array")),
+                        };
+                        return Err(self.err(f, span, out_of_range(i, len)));
+                    }
+                    Some(ArrPlace::Global(name)) => self.set_global_elem(f, &name, i, nv, span)?,
+                    None => return Err(self.err(f, span, "not an array")),
                 }
             }
             Target::Global(name) => {
@@ -423,37 +449,119 @@ impl Executor {
                     let cur = self.global(f, name, Some(i), span)?;
                     combine(self, f, cur, v)?
                 };
-                let mut g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
-                let entry = g
-                    .entry(name.to_string())
-                    .or_insert_with(|| Global::Array(BTreeMap::new()));
-                match entry {
-                    Global::Array(a) => {
-                        a.insert(i, nv);
-                    }
-                    Global::Scalar(_) => {
-                        drop(g);
-                        return Err(self.err(f, span, format!("${name} is not an array")));
-                    }
-                }
+                self.set_global_elem(f, name, i, nv, span)?;
             }
         }
         Ok(())
     }
 
-    fn elem(&self, f: &Frame, slot: u32, i: i64, span: Span) -> R<Val> {
-        match &f.locals[slot as usize] {
-            Val::Arr(a) => match usize::try_from(i).ok().and_then(|i| a.get(i)) {
-                Some(v) => Ok(v.clone()),
-                None => Err(self.err(
-                    f,
-                    span,
-                    format!(
-                        "index {i} is out of range (the array has {} elements)",
-                        a.len()
-                    ),
-                )),
+    /// `$name[i] = v` (creating the array at its first element).
+    fn set_global_elem(&self, f: &Frame, name: &str, i: i64, v: Val, span: Span) -> R<()> {
+        if i < 0 {
+            return Err(self.err(f, span, format!("index {i} of ${name} is negative")));
+        }
+        let mut g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
+        let entry = g
+            .entry(name.to_string())
+            .or_insert_with(|| Global::Array(BTreeMap::new()));
+        match entry {
+            Global::Array(a) => {
+                a.insert(i, v);
+                Ok(())
+            }
+            Global::Scalar(_) => {
+                drop(g);
+                Err(self.err(f, span, format!("${name} is not an array")))
+            }
+        }
+    }
+
+    /// Where the array of `slot` is: that slot (a local array) or, for an array parameter,
+    /// the place it refers to. `None`: the slot holds no array (cannot happen in a checked
+    /// program; reported rather than trusted).
+    fn place(&self, f: &Frame, slot: u32) -> Option<ArrPlace> {
+        let at = f.base + slot as usize;
+        match self.stack.get(at)? {
+            Val::Arr(_) => Some(ArrPlace::Stack(at)),
+            Val::ArrRef(p) => Some(p.clone()),
+            _ => None,
+        }
+    }
+
+    /// The value of [`Ex::Array`]: a reference to the array it names.
+    fn array_ref(&self, f: &Frame, a: &ArrArg, span: Span) -> R<Val> {
+        match a {
+            ArrArg::Slot(s) => self
+                .place(f, *s)
+                .map(Val::ArrRef)
+                .ok_or_else(|| self.err(f, span, "not an array")),
+            ArrArg::Global(name) => {
+                let g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
+                if let Some(Global::Scalar(_)) = g.get(&**name) {
+                    drop(g);
+                    return Err(self.err(f, span, format!("${name} is not an array")));
+                }
+                // A global array not assigned yet is passed too: its first element written
+                // creates it, as `$name[i] = …` does.
+                Ok(Val::ArrRef(ArrPlace::Global(name.clone())))
+            }
+        }
+    }
+
+    /// The number of elements of the array `v` refers to; for a `$` global array, its
+    /// highest assigned index + 1 (0 if none).
+    fn len_of(&self, f: &Frame, v: &Val, span: Span) -> R<i64> {
+        match v {
+            Val::ArrRef(ArrPlace::Stack(k)) => match self.stack.get(*k) {
+                Some(Val::Arr(a)) => Ok(a.len() as i64),
+                _ => Err(self.err(f, span, "not an array")),
             },
+            Val::ArrRef(ArrPlace::Global(name)) => {
+                let g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
+                match g.get(&**name) {
+                    Some(Global::Array(a)) => {
+                        Ok(a.last_key_value().map_or(0, |(k, _)| k.saturating_add(1)))
+                    }
+                    None => Ok(0),
+                    Some(Global::Scalar(_)) => {
+                        drop(g);
+                        Err(self.err(f, span, format!("${name} is not an array")))
+                    }
+                }
+            }
+            _ => Err(self.err(f, span, "len takes an array")),
+        }
+    }
+
+    /// Element `i` of the array of `slot` (element type `ty`).
+    fn elem(&self, f: &Frame, slot: u32, ty: Ty, i: i64, span: Span) -> R<Val> {
+        let mut v = self.stack.get(f.base + slot as usize);
+        if let Some(Val::ArrRef(ArrPlace::Stack(k))) = v {
+            v = self.stack.get(*k);
+        }
+        match v {
+            Some(Val::Arr(a)) => match usize::try_from(i).ok().and_then(|i| a.get(i)) {
+                Some(v) => Ok(v.clone()),
+                None => Err(self.err(f, span, out_of_range(i, a.len()))),
+            },
+            Some(Val::ArrRef(ArrPlace::Global(name))) => {
+                // A `$` global's elements have no declared type: converted to the parameter's
+                // as an assignment would, checked here.
+                let v = self.global(f, name, Some(i), span)?;
+                let what = format!("${name}[{i}]");
+                match (ty, v) {
+                    (Ty::Dyn, v) => Ok(v),
+                    (Ty::Int | Ty::Double, v @ (Val::Int(_) | Val::Dbl(_))) => {
+                        self.coerce(f, ty, v, span)
+                    }
+                    (Ty::Str, v @ Val::Str(_)) | (Ty::Bool, v @ Val::Bool(_)) => Ok(v),
+                    (t, v) => Err(self.err(
+                        f,
+                        span,
+                        format!("{what} holds a {}, not a {}", v.ty().name(), t.name()),
+                    )),
+                }
+            }
             _ => Err(self.err(f, span, "not an array")),
         }
     }
@@ -547,12 +655,13 @@ impl Executor {
     fn ev(&mut self, f: &mut Frame, e: &Ex) -> R<Val> {
         Ok(match e {
             Ex::Lit(v) => v.clone(),
-            Ex::Local(s) => f.locals[*s as usize].clone(),
-            Ex::Elem(s, ix, span) => {
+            Ex::Local(s) => self.stack[f.base + *s as usize].clone(),
+            Ex::Elem(s, ty, ix, span) => {
                 let i = self.ev(f, ix)?;
                 let i = self.int(f, &i, *span, "an index")?;
-                self.elem(f, *s, i, *span)?
+                self.elem(f, *s, *ty, i, *span)?
             }
+            Ex::Array(a, span) => self.array_ref(f, a, *span)?,
             Ex::Global(n, ix, span) => {
                 let i = match ix {
                     Some(ix) => {
@@ -604,18 +713,27 @@ impl Executor {
                 ),
             ));
         }
-        let mut locals = vec![Val::Int(0); func.slots as usize];
-        for (i, (a, ty)) in args.iter().zip(&func.params).enumerate() {
+        // The arguments go to slots 0..n of the new frame, on top of the stack; a call inside
+        // an argument runs above them and leaves the stack as it found it.
+        let base = self.stack.len();
+        for (a, p) in args.iter().zip(&func.params) {
             let v = self.ev(f, a)?;
-            locals[i] = self.coerce(f, *ty, v, span_of(a))?;
+            let v = if p.array {
+                v
+            } else {
+                self.coerce(f, p.ty, v, span_of(a))?
+            };
+            self.stack.push(v);
         }
+        self.stack.resize(base + func.slots as usize, Val::Int(0));
         let mut frame = Frame {
             file: func.file,
-            locals,
+            base,
         };
         self.depth += 1;
         let r = self.block(&mut frame, &func.body);
         self.depth -= 1;
+        self.stack.truncate(base);
         match r? {
             Flow::Return(Some(v)) => self.coerce(&frame, func.ret, v, func.span),
             _ if func.ret != Ty::Void => Err(self.err(
@@ -726,6 +844,7 @@ impl Executor {
             Ceil => real(self, n(self, 0)?.ceil()),
             Round => real(self, n(self, 0)?.round()),
             Pow => real(self, n(self, 0)?.powf(n(self, 1)?)),
+            Len => Ok(Val::Int(self.len_of(f, &vs[0], span_of(&args[0]))?)),
             Min | Max => {
                 let is_min = b == Min;
                 match (&vs[0], &vs[1]) {
@@ -745,7 +864,8 @@ impl Executor {
 /// The span of an expression, for errors about its value.
 fn span_of(e: &Ex) -> Span {
     match e {
-        Ex::Elem(_, _, s)
+        Ex::Elem(_, _, _, s)
+        | Ex::Array(_, s)
         | Ex::Global(_, _, s)
         | Ex::Sys(_, s)
         | Ex::Neg(_, s)
@@ -756,6 +876,10 @@ fn span_of(e: &Ex) -> Span {
         Ex::And(a, b) | Ex::Or(a, b) => span_of(a).join(span_of(b)),
         Ex::Lit(_) | Ex::Local(_) => Span::default(),
     }
+}
+
+fn out_of_range(i: i64, len: usize) -> String {
+    format!("index {i} is out of range (the array has {len} elements)")
 }
 
 /// `a op b` on run-time values, with C's promotions; the message on a type or value error.
@@ -778,7 +902,9 @@ pub(crate) fn bin(op: BinaryOp, a: Val, b: Val) -> Result<Val, String> {
     };
     match op {
         Add if matches!(a, Val::Str(_)) || matches!(b, Val::Str(_)) => {
-            if matches!(a, Val::Arr(_)) || matches!(b, Val::Arr(_)) {
+            if matches!(a, Val::Arr(_) | Val::ArrRef(_))
+                || matches!(b, Val::Arr(_) | Val::ArrRef(_))
+            {
                 return Err(bad(&a, &b));
             }
             let mut s = a.text();

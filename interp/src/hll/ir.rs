@@ -45,6 +45,28 @@ pub(crate) enum Val {
     Bool(bool),
     /// A local array (only ever in a slot, never the value of an expression).
     Arr(Vec<Val>),
+    /// The array an array parameter stands for (in the parameter's slot, and the value of
+    /// [`Ex::Array`]): C passes arrays by reference, so the callee works on the caller's.
+    ArrRef(ArrPlace),
+}
+
+/// Where an array passed by reference lives.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum ArrPlace {
+    /// A local array: its index in the executor's stack of locals (below the callee's frame,
+    /// so it outlives the call).
+    Stack(usize),
+    /// The `$` global array of that name.
+    Global(Arc<str>),
+}
+
+/// An array named where an array is expected (an argument of an array parameter, `len(a)`).
+#[derive(Debug)]
+pub(crate) enum ArrArg {
+    /// A local array or an array parameter of the running function.
+    Slot(u32),
+    /// `$name`.
+    Global(Arc<str>),
 }
 
 impl Val {
@@ -54,7 +76,7 @@ impl Val {
             Val::Dbl(_) => Ty::Double,
             Val::Str(_) => Ty::Str,
             Val::Bool(_) => Ty::Bool,
-            Val::Arr(_) => Ty::Void,
+            Val::Arr(_) | Val::ArrRef(_) => Ty::Void,
         }
     }
     /// The zero value a declaration without initialiser gets.
@@ -74,7 +96,7 @@ impl Val {
             Val::Dbl(d) => d.to_string(),
             Val::Str(s) => s.to_string(),
             Val::Bool(b) => b.to_string(),
-            Val::Arr(_) => "<array>".to_string(),
+            Val::Arr(_) | Val::ArrRef(_) => "<array>".to_string(),
         }
     }
 }
@@ -97,6 +119,8 @@ pub(crate) enum Builtin {
     Pow,
     Min,
     Max,
+    /// `len(a)`: the number of elements of an array.
+    Len,
 }
 
 impl Builtin {
@@ -118,6 +142,7 @@ impl Builtin {
             "pow" => Pow,
             "min" => Min,
             "max" => Max,
+            "len" => Len,
             _ => return None,
         })
     }
@@ -143,8 +168,10 @@ pub(crate) enum Sys {
 pub(crate) enum Ex {
     Lit(Val),
     Local(u32),
-    /// Element of a local array: slot, index.
-    Elem(u32, Box<Ex>, Span),
+    /// Element of a local array or array parameter: slot, element type, index.
+    Elem(u32, Ty, Box<Ex>, Span),
+    /// An array passed to an array parameter or to `len`: its value is a [`Val::ArrRef`].
+    Array(ArrArg, Span),
     /// `$name` or `$name[i]`.
     Global(Arc<str>, Option<Box<Ex>>, Span),
     Sys(Sys, Span),
@@ -212,13 +239,34 @@ pub(crate) enum St {
     Use(FileId),
 }
 
+/// A parameter's type: `ty name`, or `ty name[]` (an array, by reference); `const` if the
+/// function may not assign it (or its elements).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct ParamTy {
+    pub ty: Ty,
+    pub array: bool,
+    pub konst: bool,
+}
+
+impl ParamTy {
+    /// As written in C: `double`, `const int[]`.
+    pub(crate) fn text(self) -> String {
+        format!(
+            "{}{}{}",
+            if self.konst { "const " } else { "" },
+            self.ty.name(),
+            if self.array { "[]" } else { "" }
+        )
+    }
+}
+
 /// A function, or the top-level statements of a file (`name` is then the file name).
 #[derive(Debug)]
 pub(crate) struct Func {
     pub name: String,
     pub file: FileId,
     pub ret: Ty,
-    pub params: Vec<Ty>,
+    pub params: Vec<ParamTy>,
     pub slots: u32,
     pub body: Vec<St>,
     pub span: Span,

@@ -557,6 +557,14 @@ impl<'a> Cx<'a> {
         top: bool,
     ) -> PResult<'a, Stmt> {
         let (j, ()) = self.c_ws(&i[n..], false)?;
+        if j.starts_with('[') {
+            return fail(
+                j,
+                1,
+                "C declares arrays as `type name[size]`, and a function cannot return an array \
+                 (pass one as a parameter, `void f(double a[])`)",
+            );
+        }
         let len = ident_len(j);
         if len > 0 {
             let (k, ()) = self.c_ws(&j[len..], false)?;
@@ -641,6 +649,12 @@ impl<'a> Cx<'a> {
         let (mut j, ()) = self.c_ws(&paren[1..], true)?;
         if !j.starts_with(')') {
             loop {
+                let p0 = j;
+                // `const type name`: the function may not assign the parameter.
+                let konst = word_is(j, "const");
+                if konst {
+                    j = self.c_ws(&j[5..], true)?.0;
+                }
                 let Some((ty, n)) = type_kw(j) else {
                     return fail_exp(
                         j,
@@ -649,15 +663,32 @@ impl<'a> Cx<'a> {
                         "int, double, string or bool",
                     );
                 };
-                let p0 = j;
                 let (k, ()) = self.c_ws(&j[n..], true)?;
                 let (k, pname) = self.c_name(k, "a parameter name")?;
+                // `name[]`: an array parameter; its size is the argument's, so none is written.
+                let mut end = k;
+                let (k, ()) = self.c_ws(k, true)?;
+                let array = k.starts_with('[');
+                if array {
+                    let (q, ()) = self.c_ws(&k[1..], true)?;
+                    let Some(q) = q.strip_prefix(']') else {
+                        return fail_exp(
+                            q,
+                            char_len(q),
+                            "an array parameter is written `name[]`: its size is the array passed",
+                            "`]`",
+                        );
+                    };
+                    end = q;
+                }
                 params.push(Param {
                     ty,
                     name: pname.to_string(),
-                    span: self.span(p0, k),
+                    array,
+                    konst,
+                    span: self.span(p0, end),
                 });
-                let (k, ()) = self.c_ws(k, true)?;
+                let (k, ()) = self.c_ws(end, true)?;
                 if let Some(k) = k.strip_prefix(',') {
                     j = self.c_ws(k, true)?.0;
                 } else {
