@@ -506,6 +506,12 @@ impl<'a> Cx<'a> {
                 }
             }
             StmtKind::Assign { target, op, value } => {
+                if let Some((n, _)) = self.array_named(target) {
+                    return Err(self.err(
+                        target.span,
+                        format!("`{n}` is an array: assign an element (C cannot assign arrays)"),
+                    ));
+                }
                 let (v, vt) = self.expr(value)?;
                 let (tg, tt, name) = self.target(target)?;
                 if *op == AssignOp::Set {
