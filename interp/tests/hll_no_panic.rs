@@ -56,6 +56,11 @@ fn operand() -> impl Strategy<Value = String> {
             "\"Z\"",
             "Fn(nA)",
             "Fd(dX, nB)",
+            "Fa(aV, nA)",
+            "Fa($gA, nB)",
+            "Fs(aV, aV)",
+            "len(aV)",
+            "len($gA)",
             "fabs(dX)",
             "sqrt(dX)",
             "pow(dX, nA)",
@@ -97,12 +102,16 @@ fn stmt() -> impl Strategy<Value = String> {
         expr().prop_map(|e| format!("sleep({e});")),
         expr().prop_map(|e| format!("terminate(5, {e});")),
         Just("Fn(nA);".to_string()),
+        expr().prop_map(|e| format!("Fa(aV, {e});")),
+        expr().prop_map(|e| format!("Fa($gA, {e});")),
         Just("M30".to_string()),
     ]
 }
 
 const HEADER: &str = "int Fn(int n) { if (n > 3) return n; return Fn(n + 1); }\n\
 double Fd(double a, int b) { return a / b; }\n\
+int Fa(int aA[], int n) { aA[n] = n; return aA[n % len(aA)] + len(aA); }\n\
+int Fs(int aA[], const int aB[]) { if (len(aA) > 0) aA[0] += aB[len(aB) - 1]; return Fa(aA, 1); }\n\
 int nA = 1;\nint nB = 2;\ndouble dX = 1.5;\nstring sT = \"Z\";\nbool bF = false;\nint aV[3];\n";
 
 proptest! {
