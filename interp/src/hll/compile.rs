@@ -1119,3 +1119,73 @@ pub(crate) fn op_text(op: BinaryOp) -> &'static str {
         Le => "<=",
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(text: &str) -> Result<Prog, NcError> {
+        let cfg = MachineConfig::default_machine();
+        let src = SourceFile::new("u.nc", text);
+        let program = cnc402_lang::parse(&src)?;
+        compile(&cfg, src, program, None)
+    }
+
+    #[test]
+    fn array_parameters_are_typed_and_their_arguments_are_references() {
+        let p = check(
+            "double Sum(const double dV[], int nN, double dOut[]) { return dV[0]; }\n\
+             double dA[2];\ndouble dS = Sum(dA, 2, $dG);\n",
+        )
+        .unwrap();
+        let f = &p.funcs[0];
+        assert_eq!(
+            f.params.iter().map(|p| p.text()).collect::<Vec<_>>(),
+            vec!["const double[]", "int", "double[]"]
+        );
+        // The call passes the slot of `dA` and the global's name, not their values.
+        let main = &p.funcs[p.bodies[0]];
+        let St::Decl {
+            init: Some(Ex::Call(0, args, _)),
+            ..
+        } = &main.body[1]
+        else {
+            panic!("{:?}", main.body[1]);
+        };
+        assert!(matches!(args[0], Ex::Array(ArrArg::Slot(0), _)));
+        assert!(matches!(args[1], Ex::Lit(Val::Int(2))));
+        assert!(matches!(&args[2], Ex::Array(ArrArg::Global(n), _) if &**n == "dG"));
+    }
+
+    #[test]
+    fn len_is_an_int_of_an_array_only() {
+        let p = check("int nA[3];\nint nL = len(nA) + 1;\n").unwrap();
+        let main = &p.funcs[p.bodies[0]];
+        assert!(matches!(
+            &main.body[1],
+            St::Decl { init: Some(Ex::Bin(_, l, _, _)), .. }
+                if matches!(**l, Ex::Builtin(Builtin::Len, _, _))
+        ));
+        let e = check("double dX;\nint nL = len(dX);\n").unwrap_err();
+        assert!(e.message.contains("`dX` is a double, pass an array"), "{e}");
+        let e = check("int nL = len(3);\n").unwrap_err();
+        assert!(e.message.contains("pass an array's name"), "{e}");
+    }
+
+    #[test]
+    fn array_and_scalar_parameters_do_not_mix() {
+        let e = check("void Fn(int nA[]) { }\nint nA[2];\nFn(nA[0]);\n").unwrap_err();
+        assert_eq!((e.line, e.col), (3, 4), "{e}");
+        let e = check("void Fn(int nN) { }\nint nA[2];\nFn(nA);\n").unwrap_err();
+        assert!(e.message.contains("pass an element, `nA[i]`"), "{e}");
+        let e = check("void Fn(double dA[]) { }\nint nA[2];\nFn(nA);\n").unwrap_err();
+        assert!(
+            e.message.contains("the element types must be the same"),
+            "{e}"
+        );
+        // The same element type through two levels is fine, `const` may be added, not dropped.
+        check("void Gc(const int nA[]) { }\nvoid Fn(int nA[]) { Gc(nA); }\n").unwrap();
+        let e = check("void Gc(int nA[]) { }\nvoid Fn(const int nA[]) { Gc(nA); }\n").unwrap_err();
+        assert!(e.message.contains("`nA` is const"), "{e}");
+    }
+}

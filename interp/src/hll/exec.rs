@@ -984,3 +984,75 @@ fn as_f64(v: &Val) -> f64 {
         _ => f64::NAN,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::mpsc::sync_channel;
+
+    use cnc402_lang::SourceFile;
+
+    use super::*;
+
+    /// Runs `text`'s main program on an executor without an interpreter (no G-code lines).
+    fn exec(text: &str) -> (Executor, R<()>) {
+        let cfg = MachineConfig::default_machine();
+        let src = SourceFile::new("x.nc", text);
+        let program = cnc402_lang::parse(&src).unwrap();
+        let prog = super::super::compile::compile(&cfg, src, program, None).unwrap();
+        let (tx, _rx) = sync_channel(4);
+        let (_rtx, rrx) = sync_channel(1);
+        let mut ex = Executor::new(
+            Arc::new(prog),
+            cfg,
+            Globals::default(),
+            tx,
+            rrx,
+            Arc::new(AtomicBool::new(false)),
+            Arc::new(AtomicBool::new(false)),
+        );
+        let r = ex.run_file(0);
+        (ex, r)
+    }
+
+    fn messages(ex: &Executor) -> Vec<String> {
+        ex.pending
+            .iter()
+            .filter_map(|r| match r {
+                Req::Seg {
+                    kind: cnc402_motion::segment::SegmentKind::Message { text },
+                    ..
+                } => Some(text.clone()),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn calls_leave_the_stack_of_locals_as_they_found_it() {
+        let (ex, r) = exec(
+            "int Deep(int nA[], int nN) { int nL[2]; if (nN > 0) return Deep(nA, nN - 1) + 1; \
+             nA[0] = 9; return 0; }\n\
+             int Two(int nP, int nQ) { return nP * 10 + nQ; }\n\
+             int nArr[1];\nint nK = 5;\n\
+             MSG(\"\" + Two(Deep(nArr, 3), Deep(nArr, 1)) + \" \" + nK + \" \" + nArr[0]);\n",
+        );
+        assert!(r.is_ok());
+        assert_eq!(messages(&ex), vec!["31 5 9"]);
+        // Every frame, the main program's too, is gone at the end.
+        assert!(ex.stack.is_empty(), "{:?}", ex.stack);
+    }
+
+    #[test]
+    fn an_array_parameter_refers_to_the_callers_slot_or_global() {
+        let (ex, r) = exec(
+            "int Len2(int nA[]) { return len(nA); }\n\
+             void Put(int nA[], int nI) { nA[nI] = nI; }\n\
+             int nA[4];\nPut(nA, 3);\nPut($gB, 6);\n\
+             MSG(\"\" + Len2(nA) + \" \" + nA[3] + \" \" + Len2($gB) + \" \" + $gB[6]);\n",
+        );
+        assert!(r.is_ok());
+        assert_eq!(messages(&ex), vec!["4 3 7 6"]);
+        let g = ex.globals.lock().unwrap();
+        assert!(matches!(g.get("gB"), Some(Global::Array(a)) if a.len() == 1));
+    }
+}
