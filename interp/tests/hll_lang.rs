@@ -404,6 +404,24 @@ fn types_promote_like_c() {
 }
 
 #[test]
+fn int_literals_keep_all_64_bits() {
+    // Read from their digits, not through an f64 (2^53 + 1 and i64::MAX were rounded).
+    let segs = run(concat!(
+        "int nA = 9007199254740993;\nint nMax = 9223372036854775807;\n",
+        "double dBig = 18446744073709551616;\n",
+        "MSG(\"\" + nA + \" \" + nMax + \" \" + (nMax - 1) + \" \" + (dBig > nMax));\n",
+    ))
+    .unwrap();
+    assert_eq!(
+        msgs(&segs),
+        vec!["9007199254740993 9223372036854775807 9223372036854775806 true"]
+    );
+    let (line, col, m) = err("int nMax = 9223372036854775807;\nnMax += 1;\n");
+    assert_eq!((line, col), (2, 1), "{m}");
+    assert!(m.contains("integer overflow"), "{m}");
+}
+
+#[test]
 fn source_000_channel_program_stops_where_it_leaves_the_language_implemented_here() {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),

@@ -765,11 +765,17 @@ impl<'a> Cx<'a> {
         Ok(match &e.kind {
             ExprKind::Number(v) => {
                 let text = self.file.src.text.get(sp.range()).unwrap_or("");
+                // Whole-number literals are ints from their digits (the parsed f64 loses
+                // precision above 2^53); beyond i64 they stay doubles.
+                let digits = text.trim();
+                let exact = (!digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()))
+                    .then(|| digits.parse::<i64>().ok())
+                    .flatten();
                 let is_int = !text.contains(['.', 'e', 'E']) && v.fract() == 0.0 && v.abs() < 9e15;
-                if is_int {
-                    (Ex::Lit(Val::Int(*v as i64)), Ty::Int)
-                } else {
-                    (Ex::Lit(Val::Dbl(*v)), Ty::Double)
+                match exact {
+                    Some(i) => (Ex::Lit(Val::Int(i)), Ty::Int),
+                    None if is_int => (Ex::Lit(Val::Int(*v as i64)), Ty::Int),
+                    None => (Ex::Lit(Val::Dbl(*v)), Ty::Double),
                 }
             }
             ExprKind::Str(s) => (Ex::Lit(Val::Str(Arc::from(s.as_str()))), Ty::Str),
