@@ -988,8 +988,8 @@ impl<'a> Cx<'a> {
             Sleep => (&[Ty::Double], Ty::Void),
             Fabs | Sqrt | Sin | Cos | Tan | Floor | Ceil | Round => (&[Ty::Double], Ty::Double),
             Atan2 | Pow => (&[Ty::Double, Ty::Double], Ty::Double),
-            // Checked above, before the arguments are read as values.
-            Len => (&[Ty::Void], Ty::Int),
+            // `len` is checked above, before its argument could be read as a value.
+            Len => return Err(self.err(sp, "`len` takes an array's name")),
             Min | Max => {
                 let r = if ts.iter().all(|t| *t == Ty::Int) {
                     Ty::Int
