@@ -450,3 +450,31 @@ MSG("" + nB[0] + " " + nB[149]);
     );
     assert_eq!(out, vec!["0 149"]);
 }
+
+#[test]
+fn memory_a_program_asks_for_is_bounded_by_an_error() {
+    refused(&[
+        (
+            // Each level keeps a million elements alive: the fifth would pass 4 million.
+            "void Deep(int nN)\n{\n    int nBig[1000000];\n    nBig[0] = nN;\n    Deep(nN + 1);\n}\nDeep(0);\n",
+            (3, 9),
+            "arrays too large: 5000000 elements would be alive at once (at most 4000000",
+        ),
+        (
+            "string sS = \"ab\";\nwhile (true)\n    sS = sS + sS;\n",
+            (3, 10),
+            "string too long: 2097152 bytes (at most 1048576)",
+        ),
+    ]);
+    // Arrays of functions that returned, and of a declaration run again in a loop, are freed.
+    let out = ok(r#"int Use(int nN) { int nBig[1000000]; nBig[nN] = nN; return nBig[nN]; }
+int nSum = 0;
+for (int i = 0; i < 20; i++)
+{
+    int nLoop[1000000];
+    nSum += Use(i);
+}
+MSG("" + nSum);
+"#);
+    assert_eq!(out, vec!["190"]);
+}

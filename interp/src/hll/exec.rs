@@ -24,6 +24,12 @@ const BATCH: usize = 32;
 const FLUSH_AFTER: u32 = 64;
 /// Largest local array.
 pub const MAX_ARRAY_LEN: i64 = 1_000_000;
+/// Most elements of local arrays alive at once, over every running function: a recursive
+/// function with a large local array would otherwise exhaust the memory (200 levels of
+/// `MAX_ARRAY_LEN` are 6 GB) and abort instead of stopping with an error.
+pub const MAX_LIVE_ELEMENTS: usize = 4_000_000;
+/// Longest string a `+` may make (a doubling loop would otherwise exhaust the memory).
+pub const MAX_STRING_LEN: usize = 1 << 20;
 
 /// A `$` global: a scalar or a sparse array (`$dPerm[1]`).
 #[derive(Clone, Debug)]
@@ -75,6 +81,8 @@ pub(crate) struct Executor {
     /// The locals of every running function, callers below callees: one stack (rather than
     /// a vector per call) lets an array parameter refer to its caller's array by index.
     stack: Vec<Val>,
+    /// Elements of the local arrays on `stack` (at most [`MAX_LIVE_ELEMENTS`]).
+    live: usize,
     depth: u32,
     steps: u64,
     limit: u64,
@@ -104,6 +112,7 @@ impl Executor {
             since_flush: 0,
             ran: vec![false; n],
             stack: Vec::with_capacity(256),
+            live: 0,
             depth: 0,
             steps: 0,
             limit,
@@ -133,8 +142,18 @@ impl Executor {
         self.stack.resize(base + f.slots as usize, Val::Int(0));
         let mut frame = Frame { file, base };
         let r = self.block(&mut frame, &f.body).map(|_| ());
-        self.stack.truncate(base);
+        self.pop_frame(base);
         r
+    }
+
+    /// Drops the locals from `base` up (a function's frame), and counts its arrays as freed.
+    fn pop_frame(&mut self, base: usize) {
+        for v in self.stack.get(base..).unwrap_or_default() {
+            if let Val::Arr(a) = v {
+                self.live = self.live.saturating_sub(a.len());
+            }
+        }
+        self.stack.truncate(base);
     }
 
     fn err(&self, f: &Frame, span: Span, m: impl Into<String>) -> Stop {
@@ -227,6 +246,23 @@ impl Executor {
                                 format!("array size {n} is out of range 0..{MAX_ARRAY_LEN}"),
                             ));
                         }
+                        // A declaration run again (in a loop) replaces the array it made before.
+                        let old = match self.stack.get(f.base + *slot as usize) {
+                            Some(Val::Arr(a)) => a.len(),
+                            _ => 0,
+                        };
+                        let live = self.live.saturating_sub(old) + n as usize;
+                        if live > MAX_LIVE_ELEMENTS {
+                            return Err(self.err(
+                                f,
+                                *span,
+                                format!(
+                                    "arrays too large: {live} elements would be alive at once \
+                                     (at most {MAX_LIVE_ELEMENTS}, over every running function)"
+                                ),
+                            ));
+                        }
+                        self.live = live;
                         Val::Arr(vec![Val::zero(*ty); n as usize])
                     }
                     (None, Some(e)) => {
@@ -733,7 +769,7 @@ impl Executor {
         self.depth += 1;
         let r = self.block(&mut frame, &func.body);
         self.depth -= 1;
-        self.stack.truncate(base);
+        self.pop_frame(base);
         match r? {
             Flow::Return(Some(v)) => self.coerce(&frame, func.ret, v, func.span),
             _ if func.ret != Ty::Void => Err(self.err(
@@ -909,6 +945,12 @@ pub(crate) fn bin(op: BinaryOp, a: Val, b: Val) -> Result<Val, String> {
             }
             let mut s = a.text();
             s.push_str(&b.text());
+            if s.len() > MAX_STRING_LEN {
+                return Err(format!(
+                    "string too long: {} bytes (at most {MAX_STRING_LEN})",
+                    s.len()
+                ));
+            }
             Ok(Val::Str(Arc::from(s)))
         }
         Add | Sub | Mul | Div | Mod => match (&a, &b) {
