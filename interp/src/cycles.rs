@@ -135,28 +135,28 @@ impl Exec<'_> {
                 dir: SpindleDir::Stop,
             });
         }
-        let off = self.cfg.work_offsets[self.st.work_offset];
         for _ in 0..reps {
             let mut pos = self.st.pos;
             for (w, i) in [(wa, ia), (wb, ib)] {
                 if let Some(a) = w {
-                    pos[i] = if self.st.incremental {
-                        pos[i] + a.v * unit
-                    } else {
-                        a.v * unit + off[i]
-                    };
+                    pos[i] = self.word_target(i, a.v * unit);
                 }
             }
+            // The levels include the work zero, the G92 shift and the tool length offset.
             let r_level = if self.st.incremental {
                 data.initial + r
             } else {
-                r + off[id]
+                r + self.st.origin(id)
             };
             let bottom = if self.st.incremental {
                 r_level + z
             } else {
-                z + off[id]
+                z + self.st.origin(id)
             };
+            if self.st.tool_axis == Some(id) {
+                // The drilling moves carry the whole offset vector (restored after G28).
+                self.st.tlo_in_pos = self.st.tlo;
+            }
             if (bottom - r_level).abs() < EPS {
                 return Err(self
                     .err(

@@ -5,14 +5,14 @@
 //! the tests to parse it back) because the key order and number format are the contract.
 //!
 //! Keys: `kind` (`rapid` `linear` `arc` `dwell` `spindle` `spindle_orient` `tool_change`
-//! `stop` `message`),
+//! `coolant` `stop` `message`),
 //! `file`, `line`, `n` (N number or null); motion kinds add `end` (axis name → absolute machine
 //! position of every configured axis, mm or degrees); `linear` and `arc` add `feed` (mm/min);
 //! `arc` adds `center` (`X` `Y` `Z`, machine coordinates; the normal axis holds the start's
 //! value), `plane` (`XY` `ZX` `YZ`), `dir` (`cw` `ccw`) and `turns` (1 = full circle);
 //! `dwell` adds `seconds`; `spindle` adds `rpm` and `dir` (`cw` `ccw` `stop`);
 //! `spindle_orient` adds `angle` (the physical spindle angle in degrees); `tool_change`
-//! adds `tool`; `stop` adds `stop` (`program` `optional` `end` `end_rewind`); `message` adds
+//! adds `tool`; `coolant` adds `mist` and `flood` (booleans: the state from here on); `stop` adds `stop` (`program` `optional` `end` `end_rewind`); `message` adds
 //! `text`.
 //!
 //! The spindle axis C is the program's view: it starts at 0 and moves only with rigid taps
@@ -103,6 +103,7 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
         SegmentKind::Spindle { .. } => "spindle",
         SegmentKind::SpindleOrient { .. } => "spindle_orient",
         SegmentKind::ToolChange { .. } => "tool_change",
+        SegmentKind::Coolant { .. } => "coolant",
         SegmentKind::Stop { .. } => "stop",
         SegmentKind::Message { .. } => "message",
     };
@@ -167,6 +168,9 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
         }
         SegmentKind::ToolChange { tool } => {
             let _ = write!(o, ",\"tool\":{tool}");
+        }
+        SegmentKind::Coolant { mist, flood } => {
+            let _ = write!(o, ",\"mist\":{mist},\"flood\":{flood}");
         }
         SegmentKind::Stop { kind } => {
             let k = match kind {
@@ -253,6 +257,10 @@ mod tests {
             },
             SegmentKind::SpindleOrient { angle: 271.5 },
             SegmentKind::ToolChange { tool: 4 },
+            SegmentKind::Coolant {
+                mist: false,
+                flood: true,
+            },
             SegmentKind::Stop {
                 kind: StopKind::EndRewind,
             },
@@ -267,6 +275,7 @@ mod tests {
             ("spindle", "rpm"),
             ("spindle_orient", "angle"),
             ("tool_change", "tool"),
+            ("coolant", "flood"),
             ("stop", "stop"),
             ("message", "text"),
         ];

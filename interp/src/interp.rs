@@ -389,6 +389,9 @@ pub(crate) struct Exec<'a> {
     pub out: Vec<Segment>,
     /// M2/M30 was executed.
     pub end: bool,
+    /// The block programs the tool length offset (G43/G44/G49, or H in G43/G44): the tool
+    /// axis moves by the change even without its own word.
+    pub tlo_commanded: bool,
 }
 
 /// `(MSG, text)` → `text`.
@@ -414,9 +417,10 @@ fn group_name(g: GGroup) -> &'static str {
         GGroup::Cycle => "09 (canned cycle)",
         GGroup::ReturnMode => "10 (cycle return)",
         GGroup::WorkOffset => "14 (work offset)",
+        GGroup::ToolLength => "08 (tool length compensation)",
+        GGroup::PathMode => "15 (exact stop / cutting mode)",
         GGroup::MacroCall => "12 (macro call)",
         GGroup::Cancel(7) => "07 (cutter compensation)",
-        GGroup::Cancel(8) => "08 (tool length compensation)",
         GGroup::Cancel(11) => "11 (scaling)",
         GGroup::Cancel(16) => "16 (coordinate rotation)",
         GGroup::Cancel(_) => "17 (polar coordinates)",
@@ -431,6 +435,10 @@ fn m_group(code: u32) -> Result<u8, String> {
         6 => 2,
         29 => 3,
         98 | 99 => 4,
+        // M7 and M8 may share a block (mist and flood); M9 contradicts either.
+        7 => 5,
+        8 => 6,
+        9 => 7,
         _ => return Err(format!("unknown M code M{code}")),
     })
 }
@@ -483,6 +491,7 @@ impl Exec<'_> {
             line_span: line.span,
             out: Vec::new(),
             end: false,
+            tlo_commanded: false,
         };
         ex.run(line)?;
         Ok((ex.out, ex.end))
@@ -502,12 +511,15 @@ impl Exec<'_> {
         if let Some(t) = self.w.take('T') {
             self.st.tool_selected = self.whole(t, "T (tool number)")?;
         }
+        self.tool_length()?;
         self.m_before_motion()?;
-        let dwell = self.w.g.iter().any(|g| g.0 == 4);
-        if dwell {
-            self.dwell()?;
-        } else {
-            self.motion()?;
+        match self.w.g_of(GGroup::NonModal) {
+            Some((4, _)) => self.dwell()?,
+            Some((10, span)) => self.data_input(span)?,
+            Some((92, span)) => self.set_coordinates(span)?,
+            Some((code @ (28 | 30), span)) => self.reference_return(code, span)?,
+            Some((29, span)) => self.from_reference(span)?,
+            _ => self.motion()?,
         }
         self.m_after_motion();
         if let Some((c, a)) = self.w.first_unused() {
@@ -579,7 +591,7 @@ impl Exec<'_> {
                 format!("G{} cannot share a block with G4 (dwell)", o.0),
             ));
         }
-        let mut seen: [Option<u32>; 4] = [None; 4];
+        let mut seen: [Option<u32>; 8] = [None; 8];
         for &(code, span) in &self.w.m {
             let grp = m_group(code).map_err(|m| self.err(span, m))?;
             if let Some(c0) = seen[grp as usize] {
@@ -589,6 +601,20 @@ impl Exec<'_> {
                 ));
             }
             seen[grp as usize] = Some(code);
+            if code == 9
+                && let Some(on) = seen[5].or(seen[6])
+            {
+                return Err(self.err(
+                    span,
+                    format!("M{on} and M9 in one block: they contradict each other"),
+                ));
+            }
+            if matches!(code, 7 | 8) && seen[7].is_some() {
+                return Err(self.err(
+                    span,
+                    format!("M9 and M{code} in one block: they contradict each other"),
+                ));
+            }
         }
         Ok(())
     }
@@ -623,6 +649,9 @@ impl Exec<'_> {
         }
         if let Some((c, _)) = self.w.g_of(GGroup::ReturnMode) {
             self.st.return_to_r = c == 99;
+        }
+        if let Some((c, _)) = self.w.g_of(GGroup::PathMode) {
+            self.st.path_mode = c;
         }
         if let Some((80, _)) = self.w.g_of(GGroup::Cycle) {
             self.cancel_cycle();
@@ -685,8 +714,17 @@ impl Exec<'_> {
 
     fn m_before_motion(&mut self) -> Result<(), NcError> {
         let ms = self.w.m.clone();
+        let mut coolant = false;
         for (code, span) in ms {
             match code {
+                7 | 8 | 9 => {
+                    coolant = true;
+                    match code {
+                        7 => self.st.mist = true,
+                        8 => self.st.flood = true,
+                        _ => (self.st.mist, self.st.flood) = (false, false),
+                    }
+                }
                 6 => {
                     self.st.tool_loaded = Some(self.st.tool_selected);
                     self.push(SegmentKind::ToolChange {
@@ -721,6 +759,14 @@ impl Exec<'_> {
                 _ => {}
             }
         }
+        // One event for the block, before its motion (LinuxCNC's order; Fanuc's M8 with a
+        // move starts with the move).
+        if coolant {
+            self.push(SegmentKind::Coolant {
+                mist: self.st.mist,
+                flood: self.st.flood,
+            });
+        }
         Ok(())
     }
 
@@ -734,6 +780,17 @@ impl Exec<'_> {
                 30 => StopKind::EndRewind,
                 _ => continue,
             };
+            // M2/M30 turn the coolant off, as the reset that follows them does on Fanuc
+            // (and as LinuxCNC's M2/M30 do).
+            if matches!(kind, StopKind::End | StopKind::EndRewind)
+                && (self.st.mist || self.st.flood)
+            {
+                (self.st.mist, self.st.flood) = (false, false);
+                self.push(SegmentKind::Coolant {
+                    mist: false,
+                    flood: false,
+                });
+            }
             self.push(SegmentKind::Stop { kind });
             if matches!(kind, StopKind::End | StopKind::EndRewind) {
                 self.end = true;
@@ -844,7 +901,7 @@ impl Exec<'_> {
     }
 
     /// Error if the spindle axis is asked to move while it turns in speed mode.
-    fn check_spindle_still(&self, end: &AxisPos) -> Result<(), NcError> {
+    pub(crate) fn check_spindle_still(&self, end: &AxisPos) -> Result<(), NcError> {
         if let Some(c) = self.cfg.spindle_index()
             && (end[c] - self.st.pos[c]).abs() > 1e-9
             && self.st.spindle_turning()
@@ -874,30 +931,74 @@ impl Exec<'_> {
         Ok(())
     }
 
-    /// Axis words of the block → machine targets (G53: machine coordinates as given).
+    /// A programmed value of axis `i` (already in mm / degrees) → machine position, G90 or
+    /// G91, with the work zero and the tool length offset. On the tool axis this (re)applies
+    /// the offset vector: after it, `pos` includes all of it.
+    pub fn word_target(&mut self, i: usize, v: f64) -> f64 {
+        let m = if self.st.incremental {
+            self.st.pos[i] + v + self.tlo_pending(i)
+        } else {
+            v + self.st.origin(i)
+        };
+        if self.st.tool_axis == Some(i) {
+            self.st.tlo_in_pos = self.st.tlo;
+        }
+        m
+    }
+
+    /// The part of the tool length offset vector on axis `i` that `pos` does not include yet.
+    pub fn tlo_pending(&self, i: usize) -> f64 {
+        if self.st.tool_axis == Some(i) {
+            self.st.tlo - self.st.tlo_in_pos
+        } else {
+            0.0
+        }
+    }
+
+    /// A programmed value of `ax` in mm / degrees (inch programs converted).
+    pub fn axis_value(&self, i: usize, a: Arg) -> f64 {
+        if self.cfg.axes[i].kind.is_rotary() {
+            a.v
+        } else {
+            a.v * self.st.unit()
+        }
+    }
+
+    /// Axis words of the block → machine targets (G53: machine coordinates as given), and
+    /// whether anything moves: an axis word, or a tool length offset programmed in this block
+    /// (the tool axis then moves by the change of the offset, as on Fanuc).
     fn targets(&mut self, machine: bool) -> (AxisPos, bool) {
         let mut end = self.st.pos;
         let mut any = false;
-        let unit = self.st.unit();
-        let off = self.cfg.work_offsets[self.st.work_offset];
-        for (i, ax) in self.cfg.axes.iter().enumerate() {
-            if let Some(a) = self.w.take(ax.name) {
+        for i in 0..self.cfg.axes.len() {
+            if let Some(a) = self.w.take(self.cfg.axes[i].name) {
                 any = true;
-                let v = if ax.kind.is_rotary() { a.v } else { a.v * unit };
+                let v = self.axis_value(i, a);
                 end[i] = if machine {
+                    // Fanuc: G53 cancels the tool length offset vector of the axis it moves.
+                    if self.st.tool_axis == Some(i) {
+                        self.st.tlo_in_pos = 0.0;
+                    }
                     v
-                } else if self.st.incremental {
-                    self.st.pos[i] + v
                 } else {
-                    v + off[i]
+                    self.word_target(i, v)
                 };
+            } else if self.tlo_commanded && self.st.tool_axis == Some(i) {
+                // No move when the vector does not change (G49 after G28 Z: Fanuc cancelled
+                // it at the reference position already).
+                let d = self.tlo_pending(i);
+                if d != 0.0 {
+                    end[i] = self.st.pos[i] + d;
+                    any = true;
+                }
+                self.st.tlo_in_pos = self.st.tlo;
             }
         }
         (end, any)
     }
 
-    fn motion(&mut self) -> Result<(), NcError> {
-        let g53 = self.w.g.iter().find(|g| g.0 == 53).map(|g| g.2);
+    /// A group 01 code of the block sets the motion mode and cancels a canned cycle.
+    pub fn apply_motion_code(&mut self) {
         if let Some((code, _)) = self.w.g_of(GGroup::Motion) {
             self.st.motion = match code {
                 0 => Motion::Rapid,
@@ -907,6 +1008,11 @@ impl Exec<'_> {
             };
             self.cancel_cycle();
         }
+    }
+
+    fn motion(&mut self) -> Result<(), NcError> {
+        let g53 = self.w.g.iter().find(|g| g.0 == 53).map(|g| g.2);
+        self.apply_motion_code();
         if let Some((code, span)) = self.w.g_of(GGroup::Cycle)
             && let Some(c) = Cycle::from_code(code)
         {

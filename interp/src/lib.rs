@@ -71,6 +71,7 @@ pub mod host_fs;
 mod interp;
 pub mod macros;
 pub mod nvfile;
+pub mod offsets;
 pub mod state;
 pub mod words;
 

@@ -13,6 +13,7 @@ use cnc402_motion::segment::{Plane, SegmentKind, Source, StopKind};
 use crate::eval::{self, VarSource, var_number};
 use crate::interp::Interpreter;
 use crate::nvfile::{NV_FIRST, NV_LAST};
+use crate::offsets::tool_offset_var;
 use crate::state::Motion;
 use crate::words::{GGroup, Words, fmt_num};
 
@@ -341,7 +342,6 @@ impl Interpreter {
     pub(crate) fn read_var(&mut self, n: i64) -> Result<MVal, String> {
         let naxes = self.cfg.axes.len() as i64;
         let unit = self.state.unit();
-        let off = self.cfg.work_offsets[self.state.work_offset];
         let lin = |i: usize, v: f64, cfg: &cnc402_config::MachineConfig| {
             if cfg.axes[i].kind.is_rotary() {
                 v
@@ -365,29 +365,45 @@ impl Interpreter {
                     .last()
                     .and_then(|f| f.unit.number)
                     .map(f64::from),
+                11 => Some(f64::from(self.state.h)),
                 19 => Some(self.state.speed),
                 20 => Some(f64::from(self.state.tool_selected)),
-                2 | 7 | 8 | 11 => None,
+                2 | 7 | 8 => None,
                 _ => return Err(format!("#{n} is not a modal information variable")),
             },
+            // Fanuc: the block end point without the tool length offset.
             5001..=5008 if n - 5001 < naxes => {
                 let i = (n - 5001) as usize;
-                Some(lin(i, self.state.pos[i] - off[i], &self.cfg))
+                Some(lin(i, self.state.programmed(i), &self.cfg))
+            }
+            // The tool length offset vector in force (Z; 0 on the other axes).
+            5081..=5088 if n - 5081 < naxes => {
+                let i = (n - 5081) as usize;
+                Some(lin(i, self.state.tlo_of(i), &self.cfg))
             }
             5021..=5028 | 5041..=5048 if (n - 1) % 20 < naxes => {
                 let i = ((n - 1) % 20) as usize;
                 let actual = self.sync.wait_motion_done(&self.state.pos)?;
+                // #5041: work coordinates with the tool length offset included (Fanuc).
                 let v = if n < 5041 {
                     actual[i]
                 } else {
-                    actual[i] - off[i]
+                    actual[i] - self.state.work_zero(i)
                 };
                 Some(lin(i, v, &self.cfg))
             }
             5221..=5328 => {
                 let (k, i) = work_offset_var(n, naxes)?;
-                Some(lin(i, self.cfg.work_offsets[k][i], &self.cfg))
+                Some(lin(i, self.state.work_offsets[k][i], &self.cfg))
             }
+            2001..=2400 | 10001..=13999 => match tool_offset_var(n) {
+                Some((k, f)) => Some(f.get(&self.state.tool_offsets[k - 1]) / unit),
+                None => {
+                    return Err(format!(
+                        "#{n} is not a tool offset of this control (1..400)"
+                    ));
+                }
+            },
             _ => return Err(format!("#{n} is not a variable of this control")),
         })
     }
@@ -430,7 +446,7 @@ impl Interpreter {
                 }
             }
             7 => 40.0,
-            8 => 49.0,
+            8 => f64::from(st.tool_length.code()),
             9 => st.cycle.map_or(80.0, |c| f64::from(c.code())),
             10 => {
                 if st.return_to_r {
@@ -448,6 +464,7 @@ impl Interpreter {
                 }
             }
             14 => 54.0 + st.work_offset as f64,
+            15 => f64::from(st.path_mode),
             16 => 69.0,
             17 => 15.0,
             _ => return None,
@@ -481,11 +498,20 @@ impl Interpreter {
                 } else {
                     self.state.unit()
                 };
-                self.cfg.work_offsets[k][i] = v.unwrap_or(0.0) * unit;
+                self.state.work_offsets[k][i] = v.unwrap_or(0.0) * unit;
+            }
+            2001..=2400 | 10001..=13999 => {
+                let Some((k, f)) = tool_offset_var(n) else {
+                    return Err(format!(
+                        "#{n} is not a tool offset of this control (1..400)"
+                    ));
+                };
+                let v = v.unwrap_or(0.0) * self.state.unit();
+                f.set(&mut self.state.tool_offsets[k - 1], v);
             }
             _ => {
                 return Err(format!(
-                    "#{n} cannot be written (locals #1-#33, common #100-#199, non-volatile #{NV_FIRST}-#{NV_LAST}, work offsets #5221-#5326, #3000, #3006)"
+                    "#{n} cannot be written (locals #1-#33, common #100-#199, non-volatile #{NV_FIRST}-#{NV_LAST}, work offsets #5221-#5326, tool offsets #2001-#2400 and #10001-#13400, #3000, #3006)"
                 ));
             }
         }

@@ -1,9 +1,32 @@
 //! The interpreter's modal state: every G group, F, S, T, the spindle, the canned-cycle data
 //! Fanuc keeps between blocks, and the programmed position in machine coordinates. Later issues
-//! read it for the Macro B system variables (`#4001…`, `#5001…`).
+//! read it for the Macro B system variables (`#4001…`, `#5001…`). It also holds the run's
+//! copies of the tables a program may change (work offsets, tool offsets, the G92 shift), so
+//! that a change lasts for the run and the next run starts from the config again.
 
-use cnc402_config::{MachineConfig, PlaneDefault, ReturnPlane, Units};
+use cnc402_config::{MAX_AXES, MachineConfig, PlaneDefault, ReturnPlane, ToolOffset, Units};
 use cnc402_motion::segment::{AxisPos, Plane, SpindleDir};
+
+/// Group 08: tool length compensation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ToolLength {
+    /// G49
+    Off,
+    /// G43: the H offset is added along the tool axis.
+    Plus,
+    /// G44: the H offset is subtracted.
+    Minus,
+}
+
+impl ToolLength {
+    pub fn code(self) -> u32 {
+        match self {
+            ToolLength::Off => 49,
+            ToolLength::Plus => 43,
+            ToolLength::Minus => 44,
+        }
+    }
+}
 
 /// Group 01 motion mode (what axis words do outside a canned cycle).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -113,8 +136,37 @@ pub struct ModalState {
     /// The tool in the spindle after the last M6.
     pub tool_loaded: Option<u32>,
     /// Programmed position, machine coordinates, mm / degrees; C (the spindle) is the program's
-    /// view, 0 at program start.
+    /// view, 0 at program start. On the tool axis it includes `tlo_in_pos`.
     pub pos: AxisPos,
+    /// Group 08 (G43/G44/G49).
+    pub tool_length: ToolLength,
+    /// The H number last programmed (`#4111`); 0 at start.
+    pub h: u32,
+    /// The tool length offset vector G43/G44 asked for, mm along the tool axis (0 in G49).
+    /// Its value is taken when H (or G43/G44) is programmed: a later change of the table
+    /// takes effect at the next H, as on Fanuc.
+    pub tlo: f64,
+    /// The part of the vector that `pos` includes. Equal to `tlo`, except after G28/G30/G53
+    /// moved the tool axis: Fanuc cancels the vector there (the tool sits on the machine
+    /// position given) and restores it at the tool axis's next programmed move.
+    pub tlo_in_pos: f64,
+    /// The tool axis (Z, "type A"), if the machine has one.
+    pub tool_axis: Option<usize>,
+    /// G54..G59 for this run: the config's, changed by `G10 L2` and `#5221…`.
+    pub work_offsets: [[f64; MAX_AXES]; 6],
+    /// The G92 shift, added to every work coordinate system; 0 at program start.
+    pub shift: [f64; MAX_AXES],
+    /// Tool offsets 1..=400 for this run (`tool_offsets[n - 1]`): the config's, changed by
+    /// `G10 L10–L13` and `#10001…`.
+    pub tool_offsets: Vec<ToolOffset>,
+    /// The last G28/G30 intermediate point (machine), per axis, for G29.
+    pub ref_mid: [Option<f64>; MAX_AXES],
+    /// Group 15: 61 (exact stop), 63 (tapping), 64 (cutting; the default). Motion ends every
+    /// segment in exact stop in all three until the planner blends segments.
+    pub path_mode: u32,
+    /// Coolant: M7 (mist), M8 (flood); M9 turns both off.
+    pub mist: bool,
+    pub flood: bool,
 }
 
 impl ModalState {
@@ -141,7 +193,51 @@ impl ModalState {
             tool_selected: 0,
             tool_loaded: None,
             pos: start,
+            tool_length: ToolLength::Off,
+            h: 0,
+            tlo: 0.0,
+            tlo_in_pos: 0.0,
+            tool_axis: cfg.axis_index('Z'),
+            work_offsets: cfg.work_offsets,
+            shift: [0.0; MAX_AXES],
+            tool_offsets: cfg.tool_offsets.clone(),
+            ref_mid: [None; MAX_AXES],
+            path_mode: 64,
+            mist: false,
+            flood: false,
         }
+    }
+
+    /// Machine position of the work zero of axis `i`: the active G54–G59 offset plus the G92
+    /// shift (what `#5041…` subtracts from the machine position).
+    pub fn work_zero(&self, i: usize) -> f64 {
+        self.work_offsets[self.work_offset][i] + self.shift[i]
+    }
+
+    /// What a programmed absolute coordinate of axis `i` is added to for its machine position:
+    /// the work zero plus, on the tool axis, the tool length offset vector.
+    pub fn origin(&self, i: usize) -> f64 {
+        self.work_zero(i) + self.tlo_of(i)
+    }
+
+    /// The tool length offset vector on axis `i` (0 off the tool axis).
+    pub fn tlo_of(&self, i: usize) -> f64 {
+        if self.tool_axis == Some(i) {
+            self.tlo
+        } else {
+            0.0
+        }
+    }
+
+    /// The programmed position of axis `i` in work coordinates without the tool length offset
+    /// (`#5001…`), mm / degrees.
+    pub fn programmed(&self, i: usize) -> f64 {
+        let t = if self.tool_axis == Some(i) {
+            self.tlo_in_pos
+        } else {
+            0.0
+        };
+        self.pos[i] - self.work_zero(i) - t
     }
 
     /// mm per program length unit.

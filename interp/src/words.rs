@@ -19,7 +19,7 @@ pub struct Arg {
 /// Fanuc modal groups of the G codes this interpreter knows (group numbers as Fanuc M series).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GGroup {
-    /// 00: G4, G53 (one-shot).
+    /// 00: G4, G10, G28, G29, G30, G53, G92 (one-shot).
     NonModal,
     /// 01: G0 G1 G2 G3.
     Motion,
@@ -35,12 +35,16 @@ pub enum GGroup {
     Cycle,
     /// 10: G98 G99.
     ReturnMode,
+    /// 08: G43 G44 G49.
+    ToolLength,
     /// 14: G54-G59.
     WorkOffset,
+    /// 15: G61 G63 G64.
+    PathMode,
     /// 00/12: G65 (macro call), G66/G67 (modal macro call); the interpreter handles them.
     MacroCall,
     /// A cancel code of a group whose function cnc402 does not have, so it is never on:
-    /// G40 (07), G49 (08), G50 (11), G69 (16), G15 (17). Accepted as no-ops so that programs
+    /// G40 (07), G50 (11), G69 (16), G15 (17). Accepted as no-ops so that programs
     /// restoring saved modal state (`G[FUP[#104]]`) run.
     Cancel(u8),
 }
@@ -49,7 +53,7 @@ pub enum GGroup {
 pub fn g_group(code: u32) -> Result<GGroup, String> {
     use GGroup::*;
     Ok(match code {
-        4 | 53 => NonModal,
+        4 | 10 | 28..=30 | 53 | 92 => NonModal,
         0..=3 => Motion,
         17..=19 => Plane,
         90 | 91 => Distance,
@@ -58,18 +62,19 @@ pub fn g_group(code: u32) -> Result<GGroup, String> {
         73 | 74 | 76 | 80..=89 => Cycle,
         98 | 99 => ReturnMode,
         54..=59 => WorkOffset,
-        10 | 11 => {
-            return Err(format!(
-                "G{code} (programmable data input) is not supported yet"
-            ));
+        11 => {
+            return Err(
+                "G11 (programmable data input mode cancel) is not supported: G10 here is one block"
+                    .into(),
+            );
         }
-        27..=30 => {
-            return Err(format!(
-                "G{code} (reference position return) is not supported yet"
-            ));
+        27 => {
+            return Err("G27 (reference position return check) is not supported yet".into());
         }
+        43 | 44 | 49 => ToolLength,
+        61 | 63 | 64 => PathMode,
+        62 => return Err("G62 (automatic corner override) is not supported yet".into()),
         40 => Cancel(7),
-        49 => Cancel(8),
         50 => Cancel(11),
         69 => Cancel(16),
         15 => Cancel(17),
@@ -79,12 +84,6 @@ pub fn g_group(code: u32) -> Result<GGroup, String> {
                 "G{code} (cutter radius compensation) is not supported yet"
             ));
         }
-        43 | 44 => {
-            return Err(format!(
-                "G{code} (tool length compensation) is not supported yet"
-            ));
-        }
-        92 => return Err("G92 (coordinate system setting) is not supported yet".into()),
         _ => return Err(format!("unknown G code G{code}")),
     })
 }

@@ -57,6 +57,10 @@ pub enum MoveEvent {
     ToolChange {
         tool: u32,
     },
+    Coolant {
+        mist: bool,
+        flood: bool,
+    },
     ProgramStop {
         kind: StopKind,
     },
@@ -327,6 +331,7 @@ impl Interpolator {
                 }
             }
             MoveKind::ToolChange { tool } => Job::Event(MoveEvent::ToolChange { tool }),
+            MoveKind::Coolant { mist, flood } => Job::Event(MoveEvent::Coolant { mist, flood }),
             MoveKind::ProgramStop { kind } => Job::Event(MoveEvent::ProgramStop { kind }),
             MoveKind::Message => Job::Event(MoveEvent::Message),
         };

@@ -49,6 +49,8 @@ pub enum MoveKind {
     SpindleOrient { angle: f64, limits: Limits },
     /// T with M6: reported to the caller in one tick.
     ToolChange { tool: u32 },
+    /// M7/M8/M9: the coolant state, reported to the caller in one tick.
+    Coolant { mist: bool, flood: bool },
     /// M0/M1/M2/M30: reported to the caller in one tick; the caller decides whether to pause.
     ProgramStop { kind: StopKind },
     /// An operator message; the text stays with the caller's `Segment`.
@@ -294,6 +296,10 @@ impl Planner {
                 }
             }
             SegmentKind::ToolChange { tool } => MoveKind::ToolChange { tool: *tool },
+            SegmentKind::Coolant { mist, flood } => MoveKind::Coolant {
+                mist: *mist,
+                flood: *flood,
+            },
             SegmentKind::Stop { kind } => MoveKind::ProgramStop { kind: *kind },
             SegmentKind::Message { .. } => MoveKind::Message,
         };

@@ -1,6 +1,6 @@
 //! `Segment`: the one type between the interpreter and motion. A segment says where every
 //! configured axis must end up and how to get there, plus the events that must be sequenced
-//! with motion (dwell, spindle, spindle orientation, tool change, stop, message). Positions
+//! with motion (dwell, spindle, spindle orientation, tool change, coolant, stop, message). Positions
 //! are absolute machine coordinates in each axis's unit (mm, degrees), indexed like
 //! `MachineConfig::axes`.
 
@@ -183,6 +183,8 @@ pub enum SegmentKind {
     SpindleOrient { angle: f64 },
     /// T with M6.
     ToolChange { tool: u32 },
+    /// M7 (mist on), M8 (flood on), M9 (both off): the coolant state from here on.
+    Coolant { mist: bool, flood: bool },
     /// M0/M1/M2/M30.
     Stop { kind: StopKind },
     /// A message for the operator (MSG, `(MSG, …)`).

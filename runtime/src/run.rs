@@ -359,6 +359,15 @@ impl Side<'_> {
                 Some(MoveEvent::ToolChange { tool }) => {
                     log::info!("line {}: tool change to T{tool}", s.line);
                 }
+                Some(MoveEvent::Coolant { mist, flood }) => {
+                    let state = match (mist, flood) {
+                        (false, false) => "off",
+                        (true, false) => "mist",
+                        (false, true) => "flood",
+                        (true, true) => "mist and flood",
+                    };
+                    log::info!("line {}: coolant {state}", s.line);
+                }
                 None => {}
             }
             if s.phase != crate::status::Phase::Settling

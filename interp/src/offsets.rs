@@ -1,0 +1,436 @@
+//! Offsets and reference positions in a block: tool length compensation (G43/G44/G49 with H,
+//! Fanuc type A: always along Z), programmable data input (G10 L2 work offsets, L10–L13 tool
+//! offsets, Fanuc memory C), coordinate system setting (G92) and reference position return
+//! (G28, G30 P2–P4, G29 back). The position model is in [`crate::state::ModalState`]: machine
+//! = programmed + work offset + G92 shift + tool length offset vector.
+
+use cnc402_config::TOOL_OFFSETS;
+use cnc402_lang::NcError;
+use cnc402_lang::ast::Span;
+use cnc402_motion::segment::AxisPos;
+
+use crate::interp::Exec;
+use crate::state::{Motion, ToolLength};
+use crate::words::{Arg, GGroup, fmt_num};
+
+/// Which value of a tool offset number `G10 L10–L13` and the `#1xxxx` variables address.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OffsetField {
+    LengthGeometry,
+    LengthWear,
+    RadiusGeometry,
+    RadiusWear,
+}
+
+impl OffsetField {
+    pub fn get(self, t: &cnc402_config::ToolOffset) -> f64 {
+        match self {
+            OffsetField::LengthGeometry => t.length,
+            OffsetField::LengthWear => t.length_wear,
+            OffsetField::RadiusGeometry => t.radius,
+            OffsetField::RadiusWear => t.radius_wear,
+        }
+    }
+    pub fn set(self, t: &mut cnc402_config::ToolOffset, v: f64) {
+        match self {
+            OffsetField::LengthGeometry => t.length = v,
+            OffsetField::LengthWear => t.length_wear = v,
+            OffsetField::RadiusGeometry => t.radius = v,
+            OffsetField::RadiusWear => t.radius_wear = v,
+        }
+    }
+}
+
+/// `#n` as a tool offset variable (Fanuc memory C): `#10001+` H wear, `#11001+` H geometry,
+/// `#12001+` D wear, `#13001+` D geometry (offsets 1..400), and the older numbers of a
+/// memory C control with up to 200 offsets: `#2001+` H wear, `#2201+` H geometry. `None`:
+/// not a tool offset variable.
+///
+/// ```
+/// use cnc402_interp::offsets::{OffsetField, tool_offset_var};
+/// assert_eq!(tool_offset_var(11001), Some((1, OffsetField::LengthGeometry)));
+/// assert_eq!(tool_offset_var(12400), Some((400, OffsetField::RadiusWear)));
+/// assert_eq!(tool_offset_var(2201), Some((1, OffsetField::LengthGeometry)));
+/// assert_eq!(tool_offset_var(2200), Some((200, OffsetField::LengthWear)));
+/// assert_eq!(tool_offset_var(10401), None);
+/// ```
+pub fn tool_offset_var(n: i64) -> Option<(usize, OffsetField)> {
+    let max = TOOL_OFFSETS as i64;
+    let (base, field) = match n {
+        2001..=2200 => (2000, OffsetField::LengthWear),
+        2201..=2400 => (2200, OffsetField::LengthGeometry),
+        _ => match n / 1000 {
+            10 => (10000, OffsetField::LengthWear),
+            11 => (11000, OffsetField::LengthGeometry),
+            12 => (12000, OffsetField::RadiusWear),
+            13 => (13000, OffsetField::RadiusGeometry),
+            _ => return None,
+        },
+    };
+    let k = n - base;
+    (1..=max).contains(&k).then_some((k as usize, field))
+}
+
+impl Exec<'_> {
+    /// A tool offset number word (H, or P of G10 L10–L13): 0..=400 (`allow_zero`: H0 means
+    /// no offset).
+    fn offset_number(&self, a: Arg, what: &str, allow_zero: bool) -> Result<usize, NcError> {
+        let lo = if allow_zero { 0.0 } else { 1.0 };
+        if a.v.fract() != 0.0 || a.v < lo || a.v > TOOL_OFFSETS as f64 {
+            let zero = if allow_zero { " (H0: no offset)" } else { "" };
+            return Err(self
+                .err(
+                    a.span,
+                    format!(
+                        "{what}{} is not a tool offset number: the table has 1..{TOOL_OFFSETS}{zero}",
+                        fmt_num(a.v)
+                    ),
+                )
+                .with_expected(format!("a whole number {}..{TOOL_OFFSETS}", lo as u32)));
+        }
+        Ok(a.v as usize)
+    }
+
+    /// G43/G44/G49 and H. The new vector is taken now; the motion of this block carries the
+    /// change (see `targets`), so a `G43 H1` alone moves Z by the offset in G0 or G1.
+    pub(crate) fn tool_length(&mut self) -> Result<(), NcError> {
+        let g = self.w.g_of(GGroup::ToolLength);
+        let h = self.w.take('H');
+        if g.is_none() && h.is_none() {
+            return Ok(());
+        }
+        if let Some(h) = h {
+            self.st.h = self.offset_number(h, "H", true)? as u32;
+        }
+        let mode = match g {
+            Some((43, _)) => ToolLength::Plus,
+            Some((44, _)) => ToolLength::Minus,
+            Some(_) => ToolLength::Off,
+            None => self.st.tool_length,
+        };
+        if g.is_none() && mode == ToolLength::Off {
+            // H in G49: remembered (#4111) for the next G43/G44, nothing moves.
+            return Ok(());
+        }
+        let at = g.map(|g| g.1).or(h.map(|h| h.span)).unwrap_or(self.w.span);
+        let name = format!("G{}", mode.code());
+        if self.st.tool_axis.is_none() {
+            return Err(self.err(
+                at,
+                format!("{name}: tool length compensation needs axis Z, which is not configured"),
+            ));
+        }
+        let cycle_here = self.w.g_of(GGroup::Cycle).is_some_and(|c| c.0 != 80);
+        if self.st.cycle.is_some() || cycle_here {
+            return Err(self
+                .err(
+                    at,
+                    format!("{name} (or a new H) while a canned cycle is active"),
+                )
+                .with_expected("G80 before changing the tool length offset"));
+        }
+        if let Some((code, _)) = self.w.g_of(GGroup::NonModal) {
+            return Err(self
+                .err(
+                    at,
+                    format!("{name} (or a new H) cannot share a block with G{code}"),
+                )
+                .with_expected("the tool length offset in a G0 or G1 block of its own"));
+        }
+        if matches!(self.st.motion, Motion::ArcCw | Motion::ArcCcw) {
+            return Err(self
+                .err(
+                    at,
+                    format!("{name} (or a new H) in G2/G3 mode: the offset is applied by a straight move"),
+                )
+                .with_expected("G0 or G1 in the block that changes the tool length offset"));
+        }
+        let len = match self.st.h {
+            0 => 0.0,
+            n => {
+                let t = &self.st.tool_offsets[n as usize - 1];
+                t.length + t.length_wear
+            }
+        };
+        self.st.tool_length = mode;
+        self.st.tlo = match mode {
+            ToolLength::Off => 0.0,
+            ToolLength::Plus => len,
+            ToolLength::Minus => -len,
+        };
+        self.tlo_commanded = true;
+        Ok(())
+    }
+
+    /// G10: L2 P1–P6 work offsets G54–G59 from the axis words; L10/L11/L12/L13 Pn R tool
+    /// offset n (H geometry, H wear, D geometry, D wear). G90 sets, G91 adds. No motion.
+    pub(crate) fn data_input(&mut self, span: Span) -> Result<(), NcError> {
+        self.no_cycle_code(span, "G10")?;
+        self.apply_motion_code();
+        let Some(l) = self.w.take('L') else {
+            return Err(self
+                .err(span, "G10 needs L (what to set)")
+                .with_expected("L2 (work offsets G54-G59) or L10-L13 (tool offsets)"));
+        };
+        let lv = if l.v.fract() == 0.0 && (0.0..1000.0).contains(&l.v) {
+            l.v as u32
+        } else {
+            u32::MAX
+        };
+        let add = self.st.incremental;
+        match lv {
+            2 => {
+                let Some(p) = self.w.take('P') else {
+                    return Err(self
+                        .err(span, "G10 L2 needs P (the work offset: P1-P6 for G54-G59)")
+                        .with_expected("P1 to P6"));
+                };
+                let k = match p.v {
+                    v if v == 0.0 => {
+                        return Err(self
+                            .err(
+                                p.span,
+                                "G10 L2 P0 sets the external work offset, which cnc402 does not have",
+                            )
+                            .with_expected("P1 to P6 (G54 to G59)"));
+                    }
+                    v if v.fract() == 0.0 && (1.0..=6.0).contains(&v) => v as usize - 1,
+                    v => {
+                        return Err(self
+                            .err(
+                                p.span,
+                                format!("G10 L2 P{}: P1-P6 select G54-G59", fmt_num(v)),
+                            )
+                            .with_expected("P1 to P6"));
+                    }
+                };
+                for i in 0..self.cfg.axes.len() {
+                    if let Some(a) = self.w.take(self.cfg.axes[i].name) {
+                        let v = self.axis_value(i, a);
+                        let o = &mut self.st.work_offsets[k][i];
+                        *o = if add { *o + v } else { v };
+                    }
+                }
+                Ok(())
+            }
+            10..=13 => {
+                let Some(p) = self.w.take('P') else {
+                    return Err(self
+                        .err(
+                            span,
+                            format!("G10 L{lv} needs P (the tool offset number 1..{TOOL_OFFSETS})"),
+                        )
+                        .with_expected("P1 to P400"));
+                };
+                let n = self.offset_number(p, &format!("G10 L{lv} P"), false)?;
+                let Some(r) = self.w.take('R') else {
+                    return Err(self
+                        .err(span, format!("G10 L{lv} needs R (the offset value)"))
+                        .with_expected("R with the value, e.g. R-120.5"));
+                };
+                let field = match lv {
+                    10 => OffsetField::LengthGeometry,
+                    11 => OffsetField::LengthWear,
+                    12 => OffsetField::RadiusGeometry,
+                    _ => OffsetField::RadiusWear,
+                };
+                let v = r.v * self.st.unit();
+                let t = &mut self.st.tool_offsets[n - 1];
+                let new = if add { field.get(t) + v } else { v };
+                field.set(t, new);
+                Ok(())
+            }
+            20 => Err(self
+                .err(
+                    l.span,
+                    "G10 L20 (Fanuc: the additional work offsets of G54.1 P1-P48) is not supported",
+                )
+                .with_expected("L2 (G54-G59) or L10-L13 (tool offsets)")),
+            _ => Err(self
+                .err(l.span, format!("G10 L{} is not supported", fmt_num(l.v)))
+                .with_expected("L2 (work offsets G54-G59) or L10-L13 (tool offsets, memory C)")),
+        }
+    }
+
+    /// G92: shifts every work coordinate system so that the programmed position of each named
+    /// axis reads as the value given (always absolute, in G91 too). No motion.
+    pub(crate) fn set_coordinates(&mut self, span: Span) -> Result<(), NcError> {
+        self.no_cycle_code(span, "G92")?;
+        self.apply_motion_code();
+        let mut any = false;
+        for i in 0..self.cfg.axes.len() {
+            if let Some(a) = self.w.take(self.cfg.axes[i].name) {
+                any = true;
+                let v = self.axis_value(i, a);
+                self.st.shift[i] += self.st.programmed(i) - v;
+            }
+        }
+        if !any {
+            let axes: String = self.cfg.axes.iter().map(|a| a.name).collect();
+            return Err(self
+                .err(
+                    span,
+                    "G92 needs an axis word (the current position's new coordinate)",
+                )
+                .with_expected(format!("one or more of {axes}")));
+        }
+        Ok(())
+    }
+
+    /// The block must not start a canned cycle (group 09 other than G80).
+    fn no_cycle_code(&self, span: Span, what: &str) -> Result<(), NcError> {
+        if let Some((c, s)) = self.w.g_of(GGroup::Cycle)
+            && c != 80
+        {
+            return Err(self.err(s, format!("G{c} cannot share a block with {what}")));
+        }
+        let _ = span;
+        Ok(())
+    }
+
+    /// The named axes of the block (index, value in mm / degrees), in config order.
+    fn named_axes(&mut self) -> Vec<(usize, f64)> {
+        let mut v = Vec::new();
+        for i in 0..self.cfg.axes.len() {
+            if let Some(a) = self.w.take(self.cfg.axes[i].name) {
+                v.push((i, self.axis_value(i, a)));
+            }
+        }
+        v
+    }
+
+    /// G28 (reference position) and G30 P2–P4 (second to fourth): a rapid of the named axes
+    /// to the intermediate point (G90/G91 as modal), then a rapid of the same axes to the
+    /// reference position (machine coordinates, from the config). The tool length offset
+    /// stays in force but its vector is cancelled on Z at the reference position (Fanuc);
+    /// Z's next programmed move restores it.
+    pub(crate) fn reference_return(&mut self, code: u32, span: Span) -> Result<(), NcError> {
+        let name = format!("G{code}");
+        self.no_cycle_code(span, &name)?;
+        self.apply_motion_code();
+        if self.st.cycle.is_some() {
+            return Err(self
+                .err(span, format!("{name} while a canned cycle is active"))
+                .with_expected(format!("G80 before {name}")));
+        }
+        let slot = if code == 28 {
+            0
+        } else {
+            match self.w.take('P') {
+                None => 1,
+                Some(p) if p.v.fract() == 0.0 && (2.0..=4.0).contains(&p.v) => p.v as usize - 1,
+                Some(p) => {
+                    return Err(self
+                        .err(
+                            p.span,
+                            format!(
+                                "G30 P{}: P2, P3 or P4 selects the reference position",
+                                fmt_num(p.v)
+                            ),
+                        )
+                        .with_expected("P2 (default), P3 or P4"));
+                }
+            }
+        };
+        let ord = ["", "second_", "third_", "fourth_"][slot];
+        let mut refs = Vec::new();
+        for i in 0..self.cfg.axes.len() {
+            let ax = &self.cfg.axes[i];
+            if let Some(a) = self.w.peek(ax.name) {
+                let Some(r) = ax.references[slot] else {
+                    return Err(self
+                        .err(
+                            a.span,
+                            format!(
+                                "{name}{}: axis {} has no {ord}reference in the machine config",
+                                if code == 30 {
+                                    format!(" P{}", slot + 1)
+                                } else {
+                                    String::new()
+                                },
+                                ax.name
+                            ),
+                        )
+                        .with_expected(format!("{ord}reference = … in [[axis]] {}", ax.name)));
+                };
+                refs.push(r);
+            }
+        }
+        let named = self.named_axes();
+        if named.is_empty() {
+            let axes: String = self.cfg.axes.iter().map(|a| a.name).collect();
+            return Err(self
+                .err(
+                    span,
+                    format!("{name} needs the axes to return (their intermediate point)"),
+                )
+                .with_expected(format!("axis words of {axes}, e.g. G91 {name} Z0")));
+        }
+        let mut mid = self.st.pos;
+        for &(i, v) in &named {
+            mid[i] = self.word_target(i, v);
+        }
+        let letters: Vec<char> = named.iter().map(|&(i, _)| self.cfg.axes[i].name).collect();
+        self.check_spindle_still(&mid)?;
+        if mid != self.st.pos {
+            self.rapid(mid, &letters)?;
+        }
+        let mut end = mid;
+        for (&(i, _), r) in named.iter().zip(refs) {
+            self.st.ref_mid[i] = Some(mid[i]);
+            end[i] = r;
+            if self.st.tool_axis == Some(i) {
+                self.st.tlo_in_pos = 0.0;
+            }
+        }
+        self.check_spindle_still(&end)?;
+        self.rapid(end, &letters)
+    }
+
+    /// G29: rapid of the named axes to the last G28/G30 intermediate point, then to the
+    /// position given (G90: work coordinates; G91: from the intermediate point).
+    pub(crate) fn from_reference(&mut self, span: Span) -> Result<(), NcError> {
+        self.no_cycle_code(span, "G29")?;
+        self.apply_motion_code();
+        if self.st.cycle.is_some() {
+            return Err(self
+                .err(span, "G29 while a canned cycle is active")
+                .with_expected("G80 before G29"));
+        }
+        let mut mid = self.st.pos;
+        for i in 0..self.cfg.axes.len() {
+            let ax = &self.cfg.axes[i];
+            if let Some(a) = self.w.peek(ax.name) {
+                let Some(m) = self.st.ref_mid[i] else {
+                    return Err(self
+                        .err(
+                            a.span,
+                            format!(
+                                "G29: no intermediate point for axis {} (no G28 or G30 named it)",
+                                ax.name
+                            ),
+                        )
+                        .with_expected(format!("G28 or G30 with {} before G29", ax.name)));
+                };
+                mid[i] = m;
+            }
+        }
+        let named = self.named_axes();
+        if named.is_empty() {
+            return Err(self
+                .err(span, "G29 needs the axes to move")
+                .with_expected("axis words"));
+        }
+        let letters: Vec<char> = named.iter().map(|&(i, _)| self.cfg.axes[i].name).collect();
+        self.check_spindle_still(&mid)?;
+        if mid != self.st.pos {
+            self.rapid(mid, &letters)?;
+        }
+        let mut end: AxisPos = mid;
+        for &(i, v) in &named {
+            end[i] = self.word_target(i, v);
+        }
+        self.check_spindle_still(&end)?;
+        self.rapid(end, &letters)
+    }
+}
