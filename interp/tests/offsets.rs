@@ -1,0 +1,403 @@
+//! Tool length compensation (G43/G44/G49, H), the tool offset table (G10 L10–L13, `#1xxxx`),
+//! work offsets by G10 L2, G92, reference position return (G28/G29/G30), G61/G63/G64 and
+//! coolant (M7/M8/M9), on the shipped machine (H1 = -180, H2 = -165.5 with wear -0.02,
+//! G54 = 0, G55 X = 100, Z reference 0, second reference 40).
+//!
+//! The position rules chosen (Fanuc 0i/30i milling; Custom Macro manual):
+//! - segment `end` and `#5021…` (machine) include the tool length offset vector;
+//! - `#5001…` (block end point) is in work coordinates *without* the offset;
+//! - `#5041…` (current position) is in work coordinates *with* the offset (machine minus the
+//!   work offset and the G92 shift);
+//! - the offset is type A: always Z, whatever the plane;
+//! - G28/G30 keep G43/G44 modal (`#4008`) but cancel the vector on Z at the reference position;
+//!   Z's next programmed move (or a new H) restores it; G53 Z cancels it the same way;
+//! - a change of the table while G43 is active takes effect at the next H (Fanuc).
+
+use cnc402_config::MachineConfig;
+use cnc402_interp::{Interpreter, dump::segment_to_json};
+use cnc402_lang::SourceFile;
+use cnc402_motion::segment::{Segment, SegmentKind};
+
+fn cfg() -> MachineConfig {
+    MachineConfig::default_machine()
+}
+
+/// Runs `text` to its end (panics on an error) and returns its segments and the interpreter,
+/// whose variables can then be read.
+fn run(text: &str) -> (Vec<Segment>, Interpreter) {
+    let src = SourceFile::new("t.nc", text);
+    let p = cnc402_lang::parse(&src).expect("parses");
+    let mut it = Interpreter::new(&cfg());
+    it.load(src, p);
+    let mut segs = Vec::new();
+    loop {
+        match it.next_segment() {
+            Ok(Some(s)) => segs.push(s),
+            Ok(None) => break,
+            Err(e) => panic!("{e}"),
+        }
+    }
+    (segs, it)
+}
+
+/// Every motion segment's end as (line, X, Y, Z).
+fn ends(segs: &[Segment]) -> Vec<(u32, f64, f64, f64)> {
+    let r = |v: f64| (v * 1e6).round() / 1e6;
+    segs.iter()
+        .filter_map(|s| match &s.kind {
+            SegmentKind::Rapid { end }
+            | SegmentKind::Linear { end, .. }
+            | SegmentKind::Arc { end, .. } => {
+                Some((s.source.line, r(end[0]), r(end[1]), r(end[2])))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+fn var(it: &mut Interpreter, n: u32) -> Option<f64> {
+    it.var(n).map(|v| (v * 1e6).round() / 1e6)
+}
+
+#[test]
+fn g43_adds_h_to_z_and_the_position_variables_follow_fanuc() {
+    let (segs, mut it) = run(
+        "G90 G54 G0 X0 Y0\nG43 H1 Z50.\n#100=#5003\n#101=#5043\n#102=#5023\n#103=#4008\n#104=#4111\n#105=#5083\n",
+    );
+    assert_eq!(ends(&segs)[1], (2, 0.0, 0.0, -130.0));
+    assert_eq!(var(&mut it, 100), Some(50.0), "#5003: no offset");
+    assert_eq!(var(&mut it, 101), Some(-130.0), "#5043: with the offset");
+    assert_eq!(var(&mut it, 102), Some(-130.0), "#5023: machine");
+    assert_eq!(var(&mut it, 103), Some(43.0));
+    assert_eq!(var(&mut it, 104), Some(1.0));
+    assert_eq!(var(&mut it, 105), Some(-180.0), "#5083: the vector");
+}
+
+#[test]
+fn g43_alone_moves_z_by_the_offset_in_the_current_mode() {
+    // G0: a rapid of Z by the offset; the programmed Z (#5003) does not change.
+    let (segs, mut it) = run("G0 Z20\nG43 H1\n#100=#5003\n");
+    assert_eq!(
+        ends(&segs),
+        vec![(1, 0.0, 0.0, 20.0), (2, 0.0, 0.0, -160.0)]
+    );
+    assert!(matches!(segs[1].kind, SegmentKind::Rapid { .. }));
+    assert_eq!(var(&mut it, 100), Some(20.0));
+    // G1: a feed move at the modal F.
+    let (segs, _) = run("G1 Z20 F300\nG43 H1\n");
+    assert!(matches!(segs[1].kind, SegmentKind::Linear { feed, .. } if feed == 300.0));
+    // With other axes: one move of all of them.
+    let (segs, _) = run("G0 Z20\nG43 H1 X5\n");
+    assert_eq!(ends(&segs)[1], (2, 5.0, 0.0, -160.0));
+}
+
+#[test]
+fn g44_subtracts_geometry_plus_wear_and_g49_h0_cancel() {
+    let (segs, _) = run("G44 H2 Z-200\nG49\nG43 H2 Z0\nG43 H0\nG43 H1 Z0\nG43 H0 Z0\n");
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 0.0, 0.0, -34.48), // -200 + 165.52
+            (2, 0.0, 0.0, -200.0), // G49 alone: back by the offset
+            (3, 0.0, 0.0, -165.52),
+            (4, 0.0, 0.0, 0.0), // H0: no offset
+            (5, 0.0, 0.0, -180.0),
+            (6, 0.0, 0.0, 0.0),
+        ]
+    );
+}
+
+#[test]
+fn incremental_moves_carry_the_change_and_a_new_h_replaces_the_offset() {
+    let (segs, _) = run("G0 Z10\nG91 G43 H1 Z-10\nG90 Z5\nH2 Z5\nG91 Z1\n");
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 0.0, 0.0, 10.0),
+            (2, 0.0, 0.0, -180.0), // 10 - 10 - 180
+            (3, 0.0, 0.0, -175.0),
+            (4, 0.0, 0.0, -160.52), // H2 replaces H1: 5 - 165.52
+            (5, 0.0, 0.0, -159.52),
+        ]
+    );
+}
+
+#[test]
+fn a_table_change_takes_effect_at_the_next_h() {
+    let (segs, mut it) = run(
+        "G43 H1 Z10\nG10 L10 P1 R-100\nG0 Z10\n#100=#11001\nH1 Z10\n#11001=-90\n#10001=-0.5\nH1\n",
+    );
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 0.0, 0.0, -170.0),
+            (3, 0.0, 0.0, -170.0),
+            (5, 0.0, 0.0, -90.0),
+            (8, 0.0, 0.0, -80.5),
+        ]
+    );
+    assert_eq!(var(&mut it, 100), Some(-100.0));
+}
+
+#[test]
+fn g28_goes_through_the_intermediate_point_and_cancels_the_vector_there() {
+    let (segs, mut it) = run(concat!(
+        "G43 H1 Z50.\n",
+        "G0 X10 Y20\n",
+        "G91 G28 Z0\n", // only Z, straight up to the reference
+        "#100=#5003\n#101=#4008\n#102=#5043\n",
+        "G90 G0 X30\n", // Z stays at the reference
+        "G0 Z50\n",     // restores the vector
+        "G90 G28 X50 Z60\n",
+        "G49\n", // after G28 Z: nothing to move
+        "G0 Z10\n",
+    ));
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 0.0, 0.0, -130.0),
+            (2, 10.0, 20.0, -130.0),
+            (3, 10.0, 20.0, 0.0),
+            (7, 30.0, 20.0, 0.0),
+            (8, 30.0, 20.0, -130.0),
+            (9, 50.0, 20.0, -120.0), // intermediate: X50, Z60 with the offset
+            (9, 0.0, 20.0, 0.0),     // reference, X and Z only
+            (11, 0.0, 20.0, 10.0),
+        ]
+    );
+    assert_eq!(var(&mut it, 100), Some(0.0));
+    assert_eq!(var(&mut it, 101), Some(43.0), "G43 stays modal after G28");
+    let (_, mut it) = run("G43 H1 Z50.\nG91 G28 Z0\n#100=#4008\n#101=#5043\n#102=#5003\n");
+    assert_eq!(var(&mut it, 100), Some(43.0), "G43 stays modal after G28");
+    assert_eq!(var(&mut it, 101), Some(0.0), "at the reference, no vector");
+    assert_eq!(var(&mut it, 102), Some(0.0));
+}
+
+#[test]
+fn g30_second_reference_and_g29_back_through_the_intermediate_point() {
+    let (segs, _) = run("G0 X10 Y10 Z-20\nG30 Z-10\nG28 X20 Y30\nG29 X50 Y0\nG91 G29 Z5\n");
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 10.0, 10.0, -20.0),
+            (2, 10.0, 10.0, -10.0),
+            (2, 10.0, 10.0, 40.0), // second_reference of Z
+            (3, 20.0, 30.0, 40.0),
+            (3, 0.0, 0.0, 40.0),
+            (4, 20.0, 30.0, 40.0), // back through the G28 point
+            (4, 50.0, 0.0, 40.0),
+            (5, 50.0, 0.0, -10.0), // the G30 point of Z
+            (5, 50.0, 0.0, -5.0),  // G91: from the intermediate point
+        ]
+    );
+    // P2 given; an intermediate point where the tool is makes no segment, the move to the
+    // reference always one (also when the tool is there).
+    let (segs, _) = run("G30 P2 Z0\nG91 G28 X0\nG28 X0\n");
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 0.0, 0.0, 40.0),
+            (2, 0.0, 0.0, 40.0),
+            (3, 0.0, 0.0, 40.0)
+        ]
+    );
+}
+
+#[test]
+fn g28_of_the_spindle_axis_is_a_position_move() {
+    let (segs, _) = run("G0 C90\nG91 G28 C0\n");
+    let c: Vec<f64> = segs
+        .iter()
+        .filter_map(|s| match &s.kind {
+            SegmentKind::Rapid { end } => Some(end[3]),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(c, vec![90.0, 0.0]);
+}
+
+#[test]
+fn g53_cancels_the_vector_on_z_until_z_moves_again() {
+    let (segs, _) = run("G43 H1 Z50\nG53 Z0\nG0 X5\nG0 Z50\n");
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 0.0, 0.0, -130.0),
+            (2, 0.0, 0.0, 0.0),
+            (3, 5.0, 0.0, 0.0),
+            (4, 5.0, 0.0, -130.0),
+        ]
+    );
+}
+
+#[test]
+fn canned_cycles_drill_with_the_offset() {
+    let (segs, _) = run("G43 H1 Z50\nG99 G81 X10 Y0 R2 Z-5 F100\nG80\n");
+    let z: Vec<f64> = ends(&segs).iter().map(|e| e.3).collect();
+    assert_eq!(z, vec![-130.0, -130.0, -178.0, -185.0, -178.0]);
+}
+
+#[test]
+fn g10_l2_sets_work_offsets_absolute_and_incremental() {
+    let (segs, mut it) = run(concat!(
+        "G10 L2 P1 X100 Z-5\n",
+        "#100=#5221\n",
+        "G91 G10 L2 P1 X5\n",
+        "G90 G0 X0 Z0\n",
+        "G10 L2 P2 X-50\n",
+        "G55 G0 X0\n",
+        "#101=#5241\n#102=#5001\n",
+        "G20 G10 L2 P3 Y1\n#103=#5262\nG21\n#104=#5262\n",
+    ));
+    assert_eq!(
+        ends(&segs),
+        vec![(4, 105.0, 0.0, -5.0), (6, -50.0, 0.0, -5.0)]
+    );
+    assert_eq!(var(&mut it, 100), Some(100.0));
+    assert_eq!(var(&mut it, 101), Some(-50.0));
+    assert_eq!(var(&mut it, 102), Some(0.0));
+    assert_eq!(var(&mut it, 103), Some(1.0), "read in inches in G20");
+    assert_eq!(var(&mut it, 104), Some(25.4));
+}
+
+#[test]
+fn g10_l10_to_l13_and_the_offset_variables() {
+    let (_, mut it) = run(concat!(
+        "G10 L10 P5 R-120.5\nG10 L11 P5 R-0.1\nG10 L12 P5 R6\nG10 L13 P5 R0.02\n",
+        "G91 G10 L10 P5 R0.5\nG90\n",
+        "#100=#11005\n#101=#10005\n#102=#13005\n#103=#12005\n#104=#2205\n#105=#2005\n",
+        "#2201=-50\n#106=#11001\n#2400=7\n#107=#11200\n#108=#13003\n",
+        "G20 G10 L10 P6 R1\n#109=#11006\nG21\n#110=#11006\n",
+    ));
+    let want = [
+        (100, -120.0),
+        (101, -0.1),
+        (102, 6.0),
+        (103, 0.02),
+        (104, -120.0),
+        (105, -0.1),
+        (106, -50.0),
+        (107, 7.0),
+        (108, 4.0), // the config's radius of offset 3
+        (109, 1.0),
+        (110, 25.4),
+    ];
+    for (n, v) in want {
+        assert_eq!(var(&mut it, n), Some(v), "#{n}");
+    }
+}
+
+#[test]
+fn program_changes_last_for_the_run_only() {
+    let cfg = cfg();
+    let mut it = Interpreter::new(&cfg);
+    for (text, want_h1, want_g54x) in [
+        (
+            "G10 L10 P1 R-1\n#5221=7\n#100=#11001\n#101=#5221\nM30\n",
+            -1.0,
+            7.0,
+        ),
+        ("#100=#11001\n#101=#5221\nM30\n", -180.0, 0.0),
+    ] {
+        let src = SourceFile::new("t.nc", text);
+        it.load(src.clone(), cnc402_lang::parse(&src).unwrap());
+        while it.next_segment().unwrap().is_some() {}
+        assert_eq!(it.var(100), Some(want_h1), "{text}");
+        assert_eq!(it.var(101), Some(want_g54x), "{text}");
+    }
+}
+
+#[test]
+fn g92_shifts_every_work_system_and_is_cleared_at_the_next_run() {
+    let (segs, mut it) = run(concat!(
+        "G0 X10 Y5\n",
+        "G92 X0 Y0\n",
+        "#100=#5001\n#101=#5041\n#102=#5021\n",
+        "G0 X5\n",
+        "G55 G0 X0\n",  // G55 (X 100) plus the shift (10)
+        "G91 G92 X1\n", // always absolute: X now reads 1
+        "#103=#5001\n",
+        "G90 G0 X0\n",
+    ));
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 10.0, 5.0, 0.0),
+            (6, 15.0, 5.0, 0.0),
+            (7, 110.0, 5.0, 0.0),
+            (10, 109.0, 5.0, 0.0),
+        ]
+    );
+    assert_eq!(var(&mut it, 100), Some(0.0));
+    assert_eq!(var(&mut it, 101), Some(0.0));
+    assert_eq!(var(&mut it, 102), Some(10.0));
+    assert_eq!(var(&mut it, 103), Some(1.0));
+    // The next program starts without the shift.
+    let src = SourceFile::new("t.nc", "G0 X5\n");
+    it.load(src.clone(), cnc402_lang::parse(&src).unwrap());
+    let s = it.next_segment().unwrap().unwrap();
+    assert!(matches!(s.kind, SegmentKind::Rapid { end } if end[0] == 5.0));
+}
+
+#[test]
+fn g92_with_the_tool_length_offset_sets_the_programmed_tip_position() {
+    let (segs, mut it) = run("G43 H1 Z50\nG92 Z0\n#100=#5003\n#101=#5043\nG0 Z10\n");
+    assert_eq!(
+        ends(&segs),
+        vec![(1, 0.0, 0.0, -130.0), (5, 0.0, 0.0, -120.0)]
+    );
+    assert_eq!(var(&mut it, 100), Some(0.0));
+    assert_eq!(var(&mut it, 101), Some(-180.0), "#5043 = 0 + the offset");
+}
+
+#[test]
+fn group_15_is_tracked_and_changes_no_segment() {
+    let (segs, mut it) =
+        run("#100=#4015\nG61\n#101=#4015\nG63 G1 X1 F100\n#102=#4015\nG64\n#103=#4015\n");
+    assert_eq!(ends(&segs), vec![(4, 1.0, 0.0, 0.0)]);
+    for (n, v) in [(100, 64.0), (101, 61.0), (102, 63.0), (103, 64.0)] {
+        assert_eq!(var(&mut it, n), Some(v));
+    }
+}
+
+#[test]
+fn coolant_events_come_before_the_motion_of_their_block_and_end_with_m30() {
+    let (segs, _) = run("M8 G0 X10\nM7\nG1 X20 F100\nM9\nM7 M8\nM30\n");
+    let cfg = cfg();
+    let json: Vec<String> = segs.iter().map(|s| segment_to_json(s, &cfg)).collect();
+    let kinds: Vec<&str> = segs
+        .iter()
+        .map(|s| match s.kind {
+            SegmentKind::Coolant { mist, flood } => match (mist, flood) {
+                (false, false) => "off",
+                (true, false) => "mist",
+                (false, true) => "flood",
+                (true, true) => "both",
+            },
+            SegmentKind::Rapid { .. } => "rapid",
+            SegmentKind::Linear { .. } => "linear",
+            SegmentKind::Stop { .. } => "stop",
+            _ => "other",
+        })
+        .collect();
+    assert_eq!(
+        kinds,
+        vec![
+            "flood", "rapid", "both", "linear", "off", "both", "off", "stop"
+        ]
+    );
+    assert_eq!(
+        json[0],
+        r#"{"kind":"coolant","file":"t.nc","line":1,"n":null,"mist":false,"flood":true}"#
+    );
+    // M30 with the coolant off adds nothing.
+    let (segs, _) = run("M8\nM9\nM30\n");
+    assert_eq!(segs.len(), 3);
+}
+
+#[test]
+fn h_alone_in_g49_is_remembered_for_the_next_g43() {
+    let (segs, mut it) = run("H2\n#100=#4111\nG43 Z0\n");
+    assert_eq!(var(&mut it, 100), Some(2.0));
+    assert_eq!(ends(&segs), vec![(3, 0.0, 0.0, -165.52)]);
+}
