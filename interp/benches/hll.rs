@@ -8,7 +8,9 @@
 //! C-like with 300,000 function calls 0.39 M blocks/s (1.2 M calls/s), the same blocks as
 //! plain ISO 1.11 M blocks/s, as a Macro B WHILE loop 0.96 M blocks/s. The C-like executor runs
 //! on its own thread; about a third of its time was thread hand-offs before requests were
-//! batched (0.16 M blocks/s then).
+//! batched (0.16 M blocks/s then). With the locals of every call on one executor stack (no
+//! vector allocated per call; array parameters refer into it), same machine, one run: C-like
+//! 0.45 M blocks/s (was 0.40 M in the run just before), ISO 1.19 M, Macro B 1.04 M.
 
 use std::hint::black_box;
 use std::time::Instant;
