@@ -467,7 +467,8 @@ fn memory_a_program_asks_for_is_bounded_by_an_error() {
         ),
     ]);
     // Arrays of functions that returned, and of a declaration run again in a loop, are freed.
-    let out = ok(r#"int Use(int nN) { int nBig[1000000]; nBig[nN] = nN; return nBig[nN]; }
+    let out = ok(
+        r#"int Use(int nN) { int nBig[1000000]; nBig[nN] = nN; return nBig[nN]; }
 int nSum = 0;
 for (int i = 0; i < 20; i++)
 {
@@ -475,6 +476,52 @@ for (int i = 0; i < 20; i++)
     nSum += Use(i);
 }
 MSG("" + nSum);
-"#);
+"#,
+    );
     assert_eq!(out, vec!["190"]);
+}
+
+#[test]
+fn array_parameters_give_g_code_lines_their_values() {
+    // A hole pattern in two arrays, drilled by a function that gets the arrays and the axis
+    // names (a string array) as parameters.
+    let segs = run(
+        r#"void Drill(const double dX[], const double dY[], const string sAx[], double dF)
+{
+    for (int i = 0; i < len(dX); i++)
+    {
+        G1 AXSTR(sAx[0])=dX[i] AXSTR(sAx[1])=dY[i] F=dF
+    }
+}
+double dPx[3];
+double dPy[3];
+string sAxes[2];
+sAxes[0] = "X";
+sAxes[1] = "Y";
+for (int i = 0; i < 3; i++)
+{
+    dPx[i] = 10 * (i + 1);
+    dPy[i] = -5 * i;
+}
+G90
+Drill(dPx, dPy, sAxes, 400);
+M02
+"#,
+    )
+    .unwrap();
+    let moves: Vec<(f64, f64, f64, u32)> = segs
+        .iter()
+        .filter_map(|s| match &s.kind {
+            SegmentKind::Linear { end, feed } => Some((end[0], end[1], *feed, s.source.line)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        moves,
+        vec![
+            (10.0, 0.0, 400.0, 5),
+            (20.0, -5.0, 400.0, 5),
+            (30.0, -10.0, 400.0, 5)
+        ]
+    );
 }
