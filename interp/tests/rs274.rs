@@ -24,6 +24,26 @@
 //!   LinuxCNC) and rigid G84 are not comparable and are covered by `tests/cycles.rs`.
 //! - G98 when the initial level is below R: LinuxCNC retracts to R; Fanuc to the initial level
 //!   (not used in these programs).
+//!
+//! Offsets (`offsets.ngc`, with the tool table `offsets.tbl`: H1 = -7 in, H2 = -6.5 in, in
+//! inches because rs274 reads its tool table in inches). rs274 prints canonical positions
+//! without the offsets, so they are added back here (SET_G5X_OFFSET, SET_G92_OFFSET,
+//! USE_TOOL_LENGTH_OFFSET) to compare machine positions. They agree on G43 H with Z, G49,
+//! G91/G90 G28 (intermediate point, then the reference of the named axes only), G81 with the
+//! offset, G92 (the current point reads as given; a G10 L2 change keeps the shift) and G10 L2
+//! in G90. Differences, where cnc402 follows Fanuc (not in the program):
+//! - G43/G44 H or G49 in a block without Z: Fanuc (cnc402) moves Z by the change in that
+//!   block; LinuxCNC applies it at the next move.
+//! - G28 in G43: Fanuc cancels the vector at the reference position and restores it at Z's
+//!   next move; LinuxCNC keeps it applied (the reference is in machine coordinates, so the
+//!   positions agree; a G49 right after G28 moves nothing in either).
+//! - G30: LinuxCNC has one G30 position (parameters 5181-5186) and no P2-P4; cnc402 takes
+//!   `second_reference`… from the config.
+//! - G10 L2 in G91: Fanuc adds to the offset; LinuxCNC sets it. G10 L20: LinuxCNC sets the
+//!   offset from the current position; on Fanuc L20 is the G54.1 P1-P48 table, which cnc402
+//!   refuses. G10 L10-L13 (memory C) and G44 are Fanuc's (LinuxCNC: G10 L1/L10 tool table).
+//! - G92: LinuxCNC cancels it with G92.1/G92.2 and keeps it in its parameters; cnc402 clears
+//!   it at program start (G92.1 cannot be written: G numbers are whole).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -54,8 +74,13 @@ fn nums(args: &str) -> Vec<f64> {
         .collect()
 }
 
-/// Motion calls of `rs274 -g` output.
+/// Motion calls of `rs274 -g` output, as machine positions (offsets added back).
 fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
+    rs274_moves_with(exe, file, None)
+}
+
+/// [`rs274_moves`] with a tool table (`rs274 -t`).
+fn rs274_moves_with(exe: &Path, file: &Path, tools: Option<&Path>) -> Vec<Move> {
     // rs274 keeps state in files of its working directory (its parameter file); two of them
     // started at once by parallel tests sometimes printed nothing at all. One at a time, and
     // each in a directory of its own (so that no other process's files are in the way).
@@ -67,12 +92,13 @@ fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
     let cwd = std::env::temp_dir().join(format!("cnc402-rs274-{}-{stem}", std::process::id()));
     std::fs::create_dir_all(&cwd).expect("a working directory for rs274");
     let file = &std::path::absolute(file).expect("an absolute program path");
-    let out = Command::new(exe)
-        .current_dir(&cwd)
-        .arg("-g")
-        .arg(file)
-        .output()
-        .expect("rs274 runs");
+    let mut cmd = Command::new(exe);
+    cmd.current_dir(&cwd);
+    if let Some(t) = tools {
+        cmd.arg("-t")
+            .arg(std::path::absolute(t).expect("an absolute tool table path"));
+    }
+    let out = cmd.arg("-g").arg(file).output().expect("rs274 runs");
     let text =
         String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -84,6 +110,11 @@ fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
     let mut plane = Plane::XY;
     // rs274 reports lengths in the program's units.
     let mut scale = 1.0;
+    // G5x + G92 offsets and the tool length offset, X Y Z, in the program's units.
+    let mut g5x = [0.0; 3];
+    let mut g92 = [0.0; 3];
+    let mut tlo = [0.0; 3];
+    let off = |i: usize, g5x: &[f64; 3], g92: &[f64; 3], tlo: &[f64; 3]| g5x[i] + g92[i] + tlo[i];
     let mut v = Vec::new();
     for line in text.lines() {
         let Some(call) = line.split("N..... ").nth(1) else {
@@ -98,7 +129,18 @@ fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
             .split_once('(')
             .map(|(_, a)| a.trim_end_matches(')'))
             .unwrap_or("");
-        if call.starts_with("USE_LENGTH_UNITS") {
+        if call.starts_with("SET_G5X_OFFSET") {
+            let n = nums(args);
+            g5x.copy_from_slice(&n[1..4]);
+        } else if call.starts_with("SET_G92_OFFSET") {
+            let n = nums(args);
+            g92.copy_from_slice(&n[0..3]);
+        } else if call.starts_with("USE_TOOL_LENGTH_OFFSET") {
+            let first = args.split(',').next().unwrap_or("");
+            for (i, t) in first.split_whitespace().take(3).enumerate() {
+                tlo[i] = t.parse().unwrap_or(0.0);
+            }
+        } else if call.starts_with("USE_LENGTH_UNITS") {
             scale = if args.contains("INCHES") { 25.4 } else { 1.0 };
         } else if call.starts_with("SELECT_PLANE") {
             plane = if args.contains("XZ") {
@@ -109,7 +151,11 @@ fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
                 Plane::XY
             };
         } else if call.starts_with("STRAIGHT_TRAVERSE") || call.starts_with("STRAIGHT_FEED") {
-            let n: Vec<f64> = nums(args).iter().map(|x| x * scale).collect();
+            let n: Vec<f64> = nums(args)
+                .iter()
+                .enumerate()
+                .map(|(i, x)| (x + if i < 3 { off(i, &g5x, &g92, &tlo) } else { 0.0 }) * scale)
+                .collect();
             let kind = if call.starts_with("STRAIGHT_T") {
                 'R'
             } else {
@@ -122,13 +168,20 @@ fn rs274_moves(exe: &Path, file: &Path) -> Vec<Move> {
             });
         } else if call.starts_with("ARC_FEED") {
             let n = nums(args);
+            // (first, second, normal) axis indices of the plane, for the offsets.
+            let (a, b, c) = match plane {
+                Plane::XY => (0, 1, 2),
+                Plane::ZX => (2, 0, 1),
+                Plane::YZ => (1, 2, 0),
+            };
+            let o = |i: usize| off(i, &g5x, &g92, &tlo);
             let (e1, e2, c1, c2, rot, en) = (
-                n[0] * scale,
-                n[1] * scale,
-                n[2] * scale,
-                n[3] * scale,
+                (n[0] + o(a)) * scale,
+                (n[1] + o(b)) * scale,
+                (n[2] + o(a)) * scale,
+                (n[3] + o(b)) * scale,
                 n[4] as i32,
-                n[5] * scale,
+                (n[5] + o(c)) * scale,
             );
             let end = match plane {
                 Plane::XY => [e1, e2, en],
@@ -318,4 +371,45 @@ fn g89_with_g98_differs_only_in_the_way_out() {
     for (a, b) in ours.iter().zip(&expect) {
         assert!(close(a, b), "ours {a:?} expected {b:?}");
     }
+}
+
+/// G43/G49 with H, G28, G92 and G10 L2 (see the module docs for what differs and is not in
+/// the program): same machine positions as rs274 with the same tool lengths.
+#[test]
+fn offsets_same_machine_positions_as_linuxcnc() {
+    let Some(exe) = find_rs274() else {
+        eprintln!("NOTICE: rs274 (LinuxCNC) is not installed; cross-check skipped");
+        return;
+    };
+    let mut cfg = config();
+    // offsets.tbl: T1 Z-7 in, T2 Z-6.5 in.
+    cfg.tool_offsets[0] = cnc402_config::ToolOffset {
+        length: -177.8,
+        ..Default::default()
+    };
+    cfg.tool_offsets[1] = cnc402_config::ToolOffset {
+        length: -165.1,
+        ..Default::default()
+    };
+    let file = dir().join("offsets.ngc");
+    let theirs = dedup(rs274_moves_with(
+        &exe,
+        &file,
+        Some(&dir().join("offsets.tbl")),
+    ));
+    let ours = dedup(our_moves(&cfg, &file));
+    assert!(theirs.len() > 20, "rs274 gave {} moves", theirs.len());
+    assert_eq!(
+        ours.len(),
+        theirs.len(),
+        "ours {ours:#?}\ntheirs {theirs:#?}"
+    );
+    for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
+        assert!(close(a, b), "move {i}: ours {a:?}\n    rs274 {b:?}");
+    }
+    // The offsets are really in play: the G43 H1 Z50 move is at machine Z 50 - 177.8.
+    assert!(
+        ours.iter()
+            .any(|m| (m.end[2] - (50.0 - 177.8)).abs() < 1e-6)
+    );
 }
