@@ -26,6 +26,14 @@
 //!   stops the spindle at the bottom and restarts it after the rapid out; G88 dwells, stops
 //!   the spindle, emits a program stop (the operator's manual retract in Fanuc), then rapids
 //!   out and restarts the spindle.
+//! - Offsets ([`offsets`]): machine = programmed + work offset (G54–G59, G10 L2) + G92 shift
+//!   + tool length offset (G43/G44 Hn, Fanuc type A: always Z; the block that programs it
+//!   moves by the change). G28/G30 go through the intermediate point to the config's
+//!   reference positions and cancel the offset vector on Z there (G43 stays modal; Z's next
+//!   move restores it), as Fanuc. Tables changed by a program (G10, `#5221…`, `#1xxxx`) and
+//!   the G92 shift last for the run: `load` starts from the config again.
+//! - M7/M8/M9 make a `Coolant` segment before the block's motion; M2/M30 turn coolant off.
+//!   G61/G63/G64 are tracked only (motion stops at every segment).
 //! - M1 stops only with [`Options::optional_stop`]; `/` blocks are skipped with
 //!   [`Options::block_delete`]; M2/M30 end the run; a `%` after the first block ends it.
 //!
@@ -49,12 +57,14 @@
 //! - No I/O by default: the file system comes in only through [`host_fs`], which the binaries
 //!   construct and inject.
 //! - System variables: `#3000=n(text)` alarm `3000+n`; `G65 H99 Pn` alarm `500+n`; `#3006`
-//!   message + program stop; `#4001–#4022` group codes (G40/G49/G50/G69/G15 read as the cancel
-//!   codes cnc402 accepts as no-ops; groups it lacks read vacant); `#4109 F #4113 M #4114 N
-//!   #4115 O #4119 S #4120 T` (`B D E H` vacant); `#5001+i` programmed block end (work
-//!   coordinates, no sync); `#5021+i` machine and `#5041+i` work position: sync points through
-//!   [`MotionSync`] (default [`ExactStop`]); `#5221+20k+i` work offsets G54–G59, read/write
-//!   (for the run only, the config file is not changed).
+//!   message + program stop; `#4001–#4022` group codes (G40/G50/G69/G15 read as the cancel
+//!   codes cnc402 accepts as no-ops; groups it lacks read vacant); `#4109 F #4111 H #4113 M
+//!   #4114 N #4115 O #4119 S #4120 T` (`B D E` vacant); `#5001+i` programmed block end (work
+//!   coordinates without the tool length offset, no sync); `#5021+i` machine and `#5041+i`
+//!   work position (with the offset): sync points through [`MotionSync`] (default
+//!   [`ExactStop`]); `#5081+i` the tool length offset vector; `#5221+20k+i` work offsets
+//!   G54–G59 and the tool offsets `#10001–#13400` (`#2001–#2400`), read/write (for the run
+//!   only, the config file is not changed).
 //! - `interp.block_limit` blocks in a row without motion (feed, rapid, arc or dwell) end the
 //!   program as a runaway, naming the lines the loop ran over.
 
