@@ -518,7 +518,7 @@ impl Exec<'_> {
             Some((10, span)) => self.data_input(span)?,
             Some((92, span)) => self.set_coordinates(span)?,
             Some((code @ (28 | 30), span)) => self.reference_return(code, span)?,
-            Some((29, span)) => self.from_reference(span)?,
+            Some((29, span)) => self.return_from_reference(span)?,
             _ => self.motion()?,
         }
         self.m_after_motion();
@@ -717,7 +717,7 @@ impl Exec<'_> {
         let mut coolant = false;
         for (code, span) in ms {
             match code {
-                7 | 8 | 9 => {
+                7..=9 => {
                     coolant = true;
                     match code {
                         7 => self.st.mist = true,

@@ -27,7 +27,7 @@
 //!   the spindle, emits a program stop (the operator's manual retract in Fanuc), then rapids
 //!   out and restarts the spindle.
 //! - Offsets ([`offsets`]): machine = programmed + work offset (G54–G59, G10 L2) + G92 shift
-//!   + tool length offset (G43/G44 Hn, Fanuc type A: always Z; the block that programs it
+//!   plus the tool length offset (G43/G44 Hn, Fanuc type A: always Z; the block that sets it
 //!   moves by the change). G28/G30 go through the intermediate point to the config's
 //!   reference positions and cancel the offset vector on Z there (G43 stays modal; Z's next
 //!   move restores it), as Fanuc. Tables changed by a program (G10, `#5221…`, `#1xxxx`) and

@@ -185,15 +185,15 @@ impl Exec<'_> {
                         .err(span, "G10 L2 needs P (the work offset: P1-P6 for G54-G59)")
                         .with_expected("P1 to P6"));
                 };
+                if p.v == 0.0 {
+                    return Err(self
+                        .err(
+                            p.span,
+                            "G10 L2 P0 sets the external work offset, which cnc402 does not have",
+                        )
+                        .with_expected("P1 to P6 (G54 to G59)"));
+                }
                 let k = match p.v {
-                    v if v == 0.0 => {
-                        return Err(self
-                            .err(
-                                p.span,
-                                "G10 L2 P0 sets the external work offset, which cnc402 does not have",
-                            )
-                            .with_expected("P1 to P6 (G54 to G59)"));
-                    }
                     v if v.fract() == 0.0 && (1.0..=6.0).contains(&v) => v as usize - 1,
                     v => {
                         return Err(self
@@ -389,7 +389,7 @@ impl Exec<'_> {
 
     /// G29: rapid of the named axes to the last G28/G30 intermediate point, then to the
     /// position given (G90: work coordinates; G91: from the intermediate point).
-    pub(crate) fn from_reference(&mut self, span: Span) -> Result<(), NcError> {
+    pub(crate) fn return_from_reference(&mut self, span: Span) -> Result<(), NcError> {
         self.no_cycle_code(span, "G29")?;
         self.apply_motion_code();
         if self.st.cycle.is_some() {
