@@ -12,7 +12,7 @@ run_pair() {
     shift
     hil_bg "drive-$name" "$HIL_BIN/simdrive" --config "$SC_DIR/machine-vcan.toml" \
         --iface "$HIL_IFACE" --report "$HIL_OUT/$name.json" "$@"
-    hil_wait_socket "drive-$name" 20 || sc_fail "$name: simdrive did not open its socket"
+    hil_wait_ready "drive-$name" "$SIMDRIVE_READY" 20 || sc_fail "$name: simdrive did not report its socket bound"
     RUN_RC=0
     timeout -k 5 60 "$HIL_BIN/examples/tapmaster" --iface "$HIL_IFACE" --seconds 3 \
         --config "$SC_DIR/machine-vcan.toml" >"$HIL_OUT/$name-master.log" 2>&1 || RUN_RC=$?

@@ -29,9 +29,23 @@ fi
 
 sc_fail() { SC_FAILS+=("$*"); }
 
+# simdrive's line once its CAN socket is bound (printed after the open; see simdrive.rs).
+SIMDRIVE_READY='^simdrive: nodes '
+
+# trace_row_matches FILE CONDITION: some complete row of cnc402's --trace CSV satisfies the
+# awk CONDITION, which names columns by their header as $c["Z_cmd"] (t, line, <AXIS>_cmd,
+# <AXIS>_act, <AXIS>_sw). A row still being written (fewer fields) is not judged.
+trace_row_matches() {
+    [[ -s "$1" ]] || return 1
+    awk -F, "NR == 1 { for (i = 1; i <= NF; i++) c[\$i] = i; n = NF; next }
+        NF == n && ($2) { found = 1; exit } END { exit !found }" "$1"
+}
+
 # scenario_run CONFIG PROGRAM [SIMDRIVE_ARG...]: simdrive (same config) in the background,
-# then `cnc402 run PROGRAM` in the foreground (limit RUN_LIMIT s, default 150; with
-# SIGINT_AFTER=S it gets SIGINT S seconds after its start), then SIGTERM to simdrive.
+# then `cnc402 run PROGRAM` in the foreground (limit RUN_LIMIT s, default 150), then SIGTERM
+# to simdrive. With SIGINT_WHEN='AWK-CONDITION' (see trace_row_matches), cnc402 run writes
+# --trace $HIL_OUT/trace.csv and gets SIGINT (Ctrl-C) as soon as a row of it satisfies the
+# condition: at a point of the program, however slowly the machine runs.
 # RUN_RC / DRIVE_RC hold the exit statuses.
 scenario_run() {
     local cfg="$1" prog="$2"
@@ -39,17 +53,26 @@ scenario_run() {
     SC_T0=$SECONDS
     hil_bg drive "$HIL_BIN/simdrive" --config "$cfg" --iface "$HIL_IFACE" \
         --report "$DRIVE_JSON" "$@"
-    if ! hil_wait_socket drive 20; then
+    if ! hil_wait_ready drive "$SIMDRIVE_READY" 20; then
         hil_log drive
-        sc_fail "simdrive did not open its socket"
+        sc_fail "simdrive did not report its socket bound"
         return 0
     fi
     RUN_RC=0
-    if [[ -n "${SIGINT_AFTER:-}" ]]; then
-        # Ctrl-C SIGINT_AFTER seconds after the run started.
-        hil_bg run "$HIL_BIN/cnc402" --config "$cfg" run "$prog" --report "$RUN_JSON"
-        sleep "$SIGINT_AFTER"
-        kill -INT "${HIL_PIDS[run]}" 2>/dev/null || sc_fail "cnc402 run had ended before SIGINT"
+    if [[ -n "${SIGINT_WHEN:-}" ]]; then
+        local trace="$HIL_OUT/trace.csv"
+        hil_bg run "$HIL_BIN/cnc402" --config "$cfg" run "$prog" --report "$RUN_JSON" \
+            --trace "$trace"
+        # The trace lags the loop by the recorder's buffer (~80 rows); the condition must
+        # hold long enough in program time for that and for the signal's delivery.
+        if hil_wait_until run "${RUN_LIMIT:-150}" trace_row_matches "$trace" "$SIGINT_WHEN"; then
+            # Program time of the last complete row when the signal went (for the figures).
+            # shellcheck disable=SC2034 # used by the scenario scripts
+            SIGINT_AT_S=$(awk -F, 'NR == 1 { n = NF } NR > 1 && NF == n { t = $1 } END { print t }' "$trace")
+            kill -INT "${HIL_PIDS[run]}" 2>/dev/null || sc_fail "cnc402 run had ended before SIGINT"
+        else
+            sc_fail "the trace never showed ${SIGINT_WHEN}: no SIGINT sent"
+        fi
         hil_wait run "${RUN_LIMIT:-150}" || RUN_RC=$?
     else
         timeout -k 5 "${RUN_LIMIT:-150}" "$HIL_BIN/cnc402" --config "$cfg" run "$prog" \
@@ -65,6 +88,29 @@ scenario_run() {
     if [[ ! -s "$DRIVE_JSON" ]]; then
         sc_fail "simdrive wrote no report (exit $DRIVE_RC): $(tail -n 3 "$HIL_OUT/drive.log" | tr '\n' ' ')"
     fi
+}
+
+# act_coupling_bound_um TOOL_SPEED_MM_S: a bound for cnc402's actual-level coupling figure
+# (tapping.*.max_coupling_error_um_act) in this run, printed in µm (nothing without both
+# reports). cnc402 compares Z and C feedback of the same SYNC cycle by each TPDO's inferred
+# age; when a TPDO comes late (a process stalled), Z and C may be paired a few cycles apart,
+# an error of the tool axis's speed times the mismatch (62.5 µm = 5 cycles at 12.5 mm/s was
+# seen on a loaded host). A TPDO can be no later than the run's longest stall — simdrive's
+# largest SYNC interval (its own stalls and the master's), cnc402's largest loop wake-up
+# latency — plus a cycle for the answer and one for the master's read; plus 1 µm for what
+# the drives' own tracking and the counts may add (simdrive's actual-level bound).
+act_coupling_bound_um() {
+    [[ -s "$DRIVE_JSON" && -s "$RUN_JSON" ]] || return 0
+    local figs
+    figs=$("$HIL_BIN/hilcheck" -f "$DRIVE_JSON" -p '{sync_period_us.max}' \
+        -f "$RUN_JSON" -p '{wakeup_latency_us.max} {period_us}' 2>/dev/null | paste -sd' ') || return 0
+    awk -v v="$1" -v f="$figs" 'BEGIN {
+        split(f, x, " "); sync_max = x[1] + 0; wake_max = x[2] + 0; period = x[3] + 0
+        if (period <= 0) exit 1
+        stall = sync_max > wake_max ? sync_max : wake_max
+        # mm/s * µs = nm; /1000 = µm
+        printf "%.1f\n", v * (stall + 2 * period) / 1000 + 1
+    }'
 }
 
 # expect_rc WHAT GOT WANT

@@ -139,6 +139,9 @@ fn main() -> ExitCode {
         }
     };
     let granted = grants(args.no_rt, args.fifo_priority);
+    // The ready line: printed once the socket is bound (open binds it), so frames sent from
+    // now on reach the drives. Scripts wait for it (hil-tests/scenarios/common.bash
+    // SIMDRIVE_READY, drivectl/hil.sh): keep it after the open and keep its start.
     eprintln!(
         "simdrive: nodes {:?} on {} (period {} µs); {granted}",
         host.nodes(),
