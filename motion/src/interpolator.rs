@@ -547,3 +547,39 @@ impl Interpolator {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planner::Planner;
+    use crate::segment::{Segment, SegmentKind, Source};
+    use cnc402_config::MachineConfig;
+
+    /// M7/M8/M9 reach the caller as one event tick, with their line, and move nothing.
+    #[test]
+    fn coolant_is_an_event_of_one_tick() {
+        let cfg = MachineConfig::default_machine();
+        let start = AxisPos::default();
+        let mut planner = Planner::new(&cfg);
+        planner.set_position(start);
+        let mut ip = Interpolator::new(&cfg, start);
+        for (line, (mist, flood)) in [(3, (false, true)), (4, (true, true)), (5, (false, false))] {
+            let seg = Segment {
+                kind: SegmentKind::Coolant { mist, flood },
+                source: Source {
+                    file: "t.nc".into(),
+                    line,
+                    n: None,
+                },
+            };
+            let mv = planner.plan(&seg).expect("plans");
+            assert_eq!(mv.kind, MoveKind::Coolant { mist, flood });
+            ip.start(mv).expect("starts");
+            let t = ip.tick();
+            assert!(t.finished);
+            assert_eq!(t.state, TickState::Event);
+            assert_eq!(t.event, Some(MoveEvent::Coolant { mist, flood }));
+            assert_eq!((t.line, t.pos), (line, start));
+        }
+    }
+}
