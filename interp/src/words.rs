@@ -273,6 +273,22 @@ mod tests {
     }
 
     #[test]
+    fn offset_reference_and_path_mode_codes_have_their_groups() {
+        for c in [4, 10, 28, 29, 30, 53, 92] {
+            assert_eq!(g_group(c), Ok(GGroup::NonModal), "G{c}");
+        }
+        for c in [43, 44, 49] {
+            assert_eq!(g_group(c), Ok(GGroup::ToolLength), "G{c}");
+        }
+        for c in [61, 63, 64] {
+            assert_eq!(g_group(c), Ok(GGroup::PathMode), "G{c}");
+        }
+        for c in [11, 27, 62] {
+            assert!(g_group(c).unwrap_err().contains("not supported"), "G{c}");
+        }
+    }
+
+    #[test]
     fn rejects_fractional_codes_duplicates_and_unknown_g() {
         let e = words("G1.5 X1").unwrap_err();
         assert!(e.message.contains("G1.5 is not a G code"), "{e}");
