@@ -305,8 +305,31 @@ impl Interpreter {
         if crate::macros::is_g65_h(block) {
             return self.g65_h(unit, line, block);
         }
+        // A G65/G66 call may repeat I, J and K (argument specification II): they are taken
+        // out of the block here, in source order, and numbered by `take_calls`.
+        let mut ijk = Vec::new();
+        let filtered;
+        let block = if crate::macros::is_macro_call(block)
+            && block
+                .words
+                .iter()
+                .any(|w| matches!(w.letter, 'I' | 'J' | 'K'))
+        {
+            for w in &block.words {
+                if matches!(w.letter, 'I' | 'J' | 'K') {
+                    let v = crate::eval::value_in(&unit.src, &w.value, self)?;
+                    ijk.push((w.letter, v, w.span));
+                }
+            }
+            let mut b = block.clone();
+            b.words.retain(|w| !matches!(w.letter, 'I' | 'J' | 'K'));
+            filtered = b;
+            &filtered
+        } else {
+            block
+        };
         let mut words = Words::collect_with(&unit.src, block, self)?;
-        let Some(call) = self.take_calls(unit, &mut words)? else {
+        let Some(call) = self.take_calls(unit, &mut words, &ijk)? else {
             return Ok(());
         };
         let has_axis = self.cfg.axes.iter().any(|a| words.peek(a.name).is_some());

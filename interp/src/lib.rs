@@ -43,7 +43,8 @@
 //!   [`host_fs::FsLibrary`] looks next to the main program, `O9001.nc`, `O9001.CNC`, …
 //!   case-insensitive, then in the config's `program_dir`). `M98 P30009001` =
 //!   3 × O9001 (Fanuc 0 prefix); `L` overrides. M98 shares the caller's locals; G65/G66 get a
-//!   new set (argument specification I; `M` is `#13`). Nesting: 15 programs, 4 macro levels.
+//!   new set (argument specification I, `M` is `#13`; and II: repeated I J K sets → `#4–#33`,
+//!   a later word wins where the two meet). Nesting: 15 programs, 4 macro levels.
 //!   A `G65` block with H and only P/Q/R besides is an old macro instruction (`G65 H02 P#1 Q#2
 //!   R3`); with any other address H is the argument `#11`.
 //! - `M99` returns (repeats first); `M99 P n` returns to `N n` of the caller, or jumps in a

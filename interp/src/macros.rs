@@ -303,6 +303,47 @@ pub fn is_g65_h(b: &Block) -> bool {
             .all(|w| matches!(w.letter, 'G' | 'H' | 'P' | 'Q' | 'R'))
 }
 
+/// A `G65` or `G66` block (a literal G65/G66 word): its arguments may use specification II.
+pub fn is_macro_call(b: &Block) -> bool {
+    b.words.iter().any(|w| {
+        w.letter == 'G'
+            && matches!(&w.value, Value::Number(n) if n.value == 65.0 || n.value == 66.0)
+    })
+}
+
+/// Fanuc argument specification II: the I, J, K words of a call, in source order, numbered in
+/// sets: a letter that does not come after the previous one in I < J < K order starts the
+/// next set (`I1 J1 K1 I2 K2 J3` …), and set n's I, J, K are `#(3n+1)`, `#(3n+2)`, `#(3n+3)`
+/// (set 1 is specification I's `#4 #5 #6`). Returns (source offset, variable, value) for
+/// each word with a value, or the span of the 11th set's first word.
+///
+/// ```
+/// use cnc402_interp::macros::spec2_vars;
+/// use cnc402_lang::ast::Span;
+/// let s = |i: u32| Span { start: i, end: i + 1 };
+/// let w = [('I', Some(1.0), s(0)), ('K', Some(2.0), s(2)), ('J', Some(3.0), s(4)), ('I', None, s(6))];
+/// assert_eq!(spec2_vars(&w), Ok(vec![(0, 4, 1.0), (2, 6, 2.0), (4, 8, 3.0)]));
+/// ```
+pub fn spec2_vars(ijk: &[(char, MVal, Span)]) -> Result<Vec<(u32, usize, f64)>, Span> {
+    let mut out = Vec::new();
+    let mut set = 1usize;
+    let mut last: Option<char> = None;
+    for &(letter, v, span) in ijk {
+        if last.is_some_and(|l| letter <= l) {
+            set += 1;
+        }
+        last = Some(letter);
+        if set > 10 {
+            return Err(span);
+        }
+        let var = 3 * set + 1 + (letter as usize - 'I' as usize);
+        if let Some(v) = v {
+            out.push((span.start, var, v));
+        }
+    }
+    Ok(out)
+}
+
 /// What a block asks for after its own words have run.
 pub enum After {
     Nothing,
@@ -883,6 +924,7 @@ impl Interpreter {
         &mut self,
         unit: &Unit,
         w: &mut Words,
+        ijk: &[(char, MVal, Span)],
     ) -> Result<Option<After>, NcError> {
         let err = |span: Span, m: String| NcError::new(&unit.src, span, m);
         if let Some(&(code, _, gspan)) = w.g.iter().find(|g| g.1 == GGroup::MacroCall) {
@@ -899,7 +941,7 @@ impl Interpreter {
                     format!("address M given twice in a G{code} block"),
                 ));
             }
-            let m_arg = w.m.first().map(|m| f64::from(m.0));
+            let m_arg = w.m.first().map(|m| (m.1.start, f64::from(m.0)));
             if code == 67 {
                 self.modal_call = None;
                 return match w.first_unused() {
@@ -920,21 +962,35 @@ impl Interpreter {
                 })?,
                 None => 1,
             };
-            let mut args = [None; 33];
+            // (source offset, variable, value): a variable given twice (D and the second
+            // set's I are both #7) takes the later word, as Fanuc mixes the specifications.
+            let mut given = Vec::new();
             for c in 'A'..='Z' {
                 if let Some(i) = arg_var(c)
                     && let Some(a) = w.take(c)
                 {
-                    args[i - 1] = Some(a.v);
+                    given.push((a.span.start, i, a.v));
                 }
             }
-            if m_arg.is_some() {
-                args[12] = m_arg;
+            if let Some((at, m)) = m_arg {
+                given.push((at, 13, m));
+            }
+            given.extend(spec2_vars(ijk).map_err(|s| {
+                err(
+                    s,
+                    format!("G{code}: more than 10 I/J/K sets (argument specification II)"),
+                )
+                .with_expected("at most I10 J10 K10 (#33)")
+            })?);
+            given.sort_by_key(|g| g.0);
+            let mut args = [None; 33];
+            for (_, i, v) in given {
+                args[i - 1] = Some(v);
             }
             if let Some((c, a)) = w.first_unused() {
                 return Err(
                     err(a.span, format!("address {c} is not an argument of G{code}"))
-                        .with_expected("A-F, H, I-K, M, Q-Z (argument specification I)"),
+                        .with_expected("A-F, H, I-K, M, Q-Z (argument specification I; I J K may repeat: II)"),
                 );
             }
             if code == 65 {

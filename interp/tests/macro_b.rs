@@ -293,6 +293,88 @@ fn g65_arguments_locals_per_level_and_repeats() {
     assert_eq!(it.var(100), Some(4.0));
 }
 
+/// Argument specification II (Fanuc Custom Macro B): A B C, then I J K sets 1..10 →
+/// #4-#6, #7-#9, … #31-#33, numbered by the order of the words; mixed with specification I,
+/// a variable given twice takes the later word.
+#[test]
+fn g65_argument_specification_ii() {
+    // O9 copies #1-#33 to #101-#133.
+    let mut body = String::from("O9\n");
+    for n in 1..=33 {
+        body.push_str(&format!("#{}=#{n}\n", 100 + n));
+    }
+    body.push_str("M99\n");
+    let run = |call: &str| ok(&format!("{call}\nM30\n{body}"));
+    let vars =
+        |it: &mut Interpreter| -> Vec<Option<f64>> { (101..=133).map(|n| it.var(n)).collect() };
+    let mut it = run("G65 P9 A1 B2 I3 J4 K5 I6 J7 K8 I9 K10");
+    let v = vars(&mut it);
+    assert_eq!(
+        &v[..12],
+        &[
+            Some(1.0),
+            Some(2.0),
+            None, // A B C
+            Some(3.0),
+            Some(4.0),
+            Some(5.0), // I1 J1 K1
+            Some(6.0),
+            Some(7.0),
+            Some(8.0), // I2 J2 K2
+            Some(9.0),
+            None,
+            Some(10.0), // I3 (J3 not given) K3
+        ]
+    );
+    assert!(v[12..].iter().all(Option::is_none));
+    // The manual's example: A1.0 B2.0 I-3.0 I4.0 D5.0 → #7 = 5.0 (D after I2 wins).
+    let mut it = run("G65 P9 A1.0 B2.0 I-3.0 I4.0 D5.0");
+    let v = vars(&mut it);
+    assert_eq!(
+        &v[..7],
+        &[
+            Some(1.0),
+            Some(2.0),
+            None,
+            Some(-3.0),
+            None,
+            None,
+            Some(5.0)
+        ]
+    );
+    // D before I2: the I word is later and wins.
+    let mut it = run("G65 P9 D5 I1 I2");
+    assert_eq!(it.var(107), Some(2.0));
+    // A letter out of I < J < K order starts the next set: I K J → #4, #6, #8.
+    let mut it = run("G65 P9 I1 K2 J3");
+    assert_eq!(
+        (it.var(104), it.var(106), it.var(108)),
+        (Some(1.0), Some(2.0), Some(3.0))
+    );
+    // All ten sets: I10 J10 K10 are #31-#33.
+    let sets: String = (1..=10).map(|k| format!(" I{k} J{k} K{k}")).collect();
+    let mut it = run(&format!("G65 P9{sets}"));
+    assert_eq!(
+        (it.var(131), it.var(132), it.var(133)),
+        (Some(10.0), Some(10.0), Some(10.0))
+    );
+    assert_eq!(it.var(104), Some(1.0));
+    // An eleventh set is an error at its first word.
+    let e = err(&format!("G65 P9{sets} I11\nM30\n{body}"));
+    assert_eq!((e.line, e.col), (1, 101), "{e}");
+    assert!(e.message.contains("more than 10 I/J/K sets"), "{e}");
+    // Specification I is unchanged, and I given twice outside a call is still an error.
+    let mut it = run("G65 P9 I1 J2 K3 X24");
+    assert_eq!(
+        (it.var(104), it.var(106), it.var(124)),
+        (Some(1.0), Some(3.0), Some(24.0))
+    );
+    assert!(err("G1 I1 I2\n").message.contains("address I given twice"));
+    // G66 takes them too.
+    let mut it = ok(&format!("G66 P9 I1 I2\nG0 X1\nG67\nM30\n{body}"));
+    assert_eq!((it.var(104), it.var(107)), (Some(1.0), Some(2.0)));
+}
+
 #[test]
 fn g66_modal_call_after_each_move_until_g67() {
     let text = "O1\nG66 P8 A10\nG0 X1\nG0 X2\nG67\nG0 X3\nM30\nO8\n#100=#100+#1\nG0 Y#100\nM99\n";
