@@ -120,8 +120,10 @@ impl Exec<'_> {
                 format!("{name}: tool length compensation needs axis Z, which is not configured"),
             ));
         }
+        // A group 01 code in this block sets the mode the offset moves in, and ends a cycle.
+        let motion_code = self.w.g_of(GGroup::Motion).map(|g| g.0);
         let cycle_here = self.w.g_of(GGroup::Cycle).is_some_and(|c| c.0 != 80);
-        if self.st.cycle.is_some() || cycle_here {
+        if (self.st.cycle.is_some() && motion_code.is_none()) || cycle_here {
             return Err(self
                 .err(
                     at,
@@ -137,7 +139,11 @@ impl Exec<'_> {
                 )
                 .with_expected("the tool length offset in a G0 or G1 block of its own"));
         }
-        if matches!(self.st.motion, Motion::ArcCw | Motion::ArcCcw) {
+        let arc_mode = match motion_code {
+            Some(c) => c >= 2,
+            None => matches!(self.st.motion, Motion::ArcCw | Motion::ArcCcw),
+        };
+        if arc_mode {
             return Err(self
                 .err(
                     at,

@@ -395,6 +395,21 @@ fn coolant_events_come_before_the_motion_of_their_block_and_end_with_m30() {
     assert_eq!(segs.len(), 3);
 }
 
+/// `G0 G43 H2 Z50.` after a contour in G3 (or after a cycle): the block's G0 is the mode the
+/// offset moves in.
+#[test]
+fn a_g0_in_the_block_sets_the_mode_of_the_offset_move() {
+    let (segs, _) = run("G3 X10 Y10 R10 F100\nG0 G43 H1 Z50\nG1 G49 Z40\n");
+    assert!(matches!(segs[1].kind, SegmentKind::Rapid { .. }));
+    assert!(matches!(segs[2].kind, SegmentKind::Linear { .. }));
+    assert_eq!(
+        ends(&segs)[1..],
+        [(2, 10.0, 10.0, -130.0), (3, 10.0, 10.0, 40.0)]
+    );
+    let (segs, _) = run("G0 Z10\nG81 X1 R2 Z-2 F100\nG0 G43 H1 Z50\n");
+    assert_eq!(ends(&segs).last(), Some(&(3, 1.0, 0.0, -130.0)));
+}
+
 #[test]
 fn h_alone_in_g49_is_remembered_for_the_next_g43() {
     let (segs, mut it) = run("H2\n#100=#4111\nG43 Z0\n");
