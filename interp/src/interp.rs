@@ -415,6 +415,8 @@ pub(crate) struct Exec<'a> {
     /// The block programs the tool length offset (G43/G44/G49, or H in G43/G44): the tool
     /// axis moves by the change even without its own word.
     pub tlo_commanded: bool,
+    /// G49 in a G28/G30/G53 block: the offset is cancelled after the block's moves.
+    pub tlo_cancel_after: bool,
 }
 
 /// `(MSG, text)` → `text`.
@@ -515,6 +517,7 @@ impl Exec<'_> {
             out: Vec::new(),
             end: false,
             tlo_commanded: false,
+            tlo_cancel_after: false,
         };
         ex.run(line)?;
         Ok((ex.out, ex.end))
@@ -543,6 +546,11 @@ impl Exec<'_> {
             Some((code @ (28 | 30), span)) => self.reference_return(code, span)?,
             Some((29, span)) => self.return_from_reference(span)?,
             _ => self.motion()?,
+        }
+        if self.tlo_cancel_after {
+            // The vector left in `pos` (if Z did not move) is taken out at Z's next move.
+            self.st.tool_length = crate::state::ToolLength::Off;
+            self.st.tlo = 0.0;
         }
         self.m_after_motion();
         if let Some((c, a)) = self.w.first_unused() {

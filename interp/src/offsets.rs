@@ -114,7 +114,19 @@ impl Exec<'_> {
         }
         let at = g.map(|g| g.1).or(h.map(|h| h.span)).unwrap_or(self.w.span);
         let name = format!("G{}", mode.code());
+        let nonmodal = self.w.g_of(GGroup::NonModal).map(|g| g.0);
+        if g.is_some_and(|g| g.0 == 49) && matches!(nonmodal, Some(28 | 30 | 53)) {
+            // `G91 G28 Z0 G49`, `G49 G53 Z0`: Fanuc cancels the vector with the move (at the
+            // reference position), not before it; see `run`.
+            self.tlo_cancel_after = true;
+            return Ok(());
+        }
         if self.st.tool_axis.is_none() {
+            if mode == ToolLength::Off {
+                // G49 in a safety line on a machine without Z: nothing to cancel.
+                self.st.tool_length = mode;
+                return Ok(());
+            }
             return Err(self.err(
                 at,
                 format!("{name}: tool length compensation needs axis Z, which is not configured"),
@@ -131,7 +143,7 @@ impl Exec<'_> {
                 )
                 .with_expected("G80 before changing the tool length offset"));
         }
-        if let Some((code, _)) = self.w.g_of(GGroup::NonModal) {
+        if let Some(code) = nonmodal {
             return Err(self
                 .err(
                     at,

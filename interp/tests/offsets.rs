@@ -410,6 +410,44 @@ fn a_g0_in_the_block_sets_the_mode_of_the_offset_move() {
     assert_eq!(ends(&segs).last(), Some(&(3, 1.0, 0.0, -130.0)));
 }
 
+/// `G91 G28 Z0 G49` and `G49 G53 Z0`: the cancel happens with the move (Fanuc), so Z goes
+/// straight to the reference; with G53 X only, Z drops the offset at its next move.
+#[test]
+fn g49_in_a_g28_or_g53_block_cancels_with_the_move() {
+    let (segs, mut it) = run("G43 H1 Z50\nG91 G28 Z0 G49\n#100=#4008\nG90 G0 Z10\n");
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 0.0, 0.0, -130.0),
+            (2, 0.0, 0.0, 0.0),
+            (4, 0.0, 0.0, 10.0)
+        ]
+    );
+    assert_eq!(var(&mut it, 100), Some(49.0));
+    let (segs, _) = run("G43 H1 Z50\nG49 G53 X5\nG0 X6\nG0 Z10\n");
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 0.0, 0.0, -130.0),
+            (2, 5.0, 0.0, -130.0),
+            (3, 6.0, 0.0, -130.0),
+            (4, 6.0, 0.0, 10.0),
+        ]
+    );
+}
+
+/// G49 in a safety line is harmless on a machine without Z; G43 there is an error.
+#[test]
+fn g49_without_a_z_axis_is_accepted() {
+    let mut cfg = cfg();
+    cfg.axes.remove(2);
+    let src = SourceFile::new("t.nc", "G21 G40 G49 G80 G90\nG0 X1\n");
+    assert_eq!(cnc402_interp::run_program(&cfg, &src).unwrap().len(), 1);
+    let e = cnc402_interp::run_program(&cfg, &SourceFile::new("t.nc", "G43 H1 X1\n")).unwrap_err();
+    assert_eq!((e.line, e.col), (1, 1));
+    assert!(e.message.contains("needs axis Z"), "{e}");
+}
+
 #[test]
 fn h_alone_in_g49_is_remembered_for_the_next_g43() {
     let (segs, mut it) = run("H2\n#100=#4111\nG43 Z0\n");
