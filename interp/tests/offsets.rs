@@ -454,3 +454,47 @@ fn h_alone_in_g49_is_remembered_for_the_next_g43() {
     assert_eq!(var(&mut it, 100), Some(2.0));
     assert_eq!(ends(&segs), vec![(3, 0.0, 0.0, -165.52)]);
 }
+
+/// `examples/fanuc-milling.nc` on the shipped machine: G10 L11 wear on H1, G10 L2 P2 for the
+/// second part, G30 to the tool change height, G92 at the first hole, coolant on and off.
+#[test]
+fn the_fanuc_milling_example_runs_with_its_offsets() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/fanuc-milling.nc");
+    let text = std::fs::read_to_string(path).expect("the example exists");
+    let (segs, mut it) = run(&text);
+    let e = ends(&segs);
+    let at = |n: u32| -> Vec<(f64, f64, f64)> {
+        segs.iter()
+            .filter(|s| s.source.n == Some(n))
+            .filter_map(|s| match &s.kind {
+                SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => {
+                    Some((end[0], end[1], (end[2] * 1e6).round() / 1e6))
+                }
+                _ => None,
+            })
+            .collect()
+    };
+    // N70 G43 H1 Z50. with the wear of N30: 50 - 180 - 0.05.
+    assert_eq!(at(70), vec![(-10.0, -10.0, -130.05)]);
+    // N190 G55 (set by N40 to X120 Y40): X-10 → machine 110, Y-10 → 30.
+    assert_eq!(at(190), vec![(110.0, 30.0, -130.05)]);
+    // N310 G30 Z0 in G91: straight up to the second reference, 40.
+    assert_eq!(at(310), vec![(110.0, 30.0, 40.0)]);
+    // N370-N400: holes from the G92 origin at X10 Y10 (G54): X30 → 40, Y30 → 40.
+    assert_eq!(at(380)[0], (40.0, 10.0, -163.52));
+    assert_eq!(at(390)[0], (40.0, 40.0, -163.52));
+    // N460 G28 X0 Y0 (G91): home in X and Y; the program ends there.
+    assert_eq!(e.last().map(|l| (l.1, l.2, l.3)), Some((0.0, 0.0, 0.0)));
+    assert_eq!(var(&mut it, 100), Some(-130.05), "#5043 at N170");
+    let coolant: Vec<(bool, bool)> = segs
+        .iter()
+        .filter_map(|s| match s.kind {
+            SegmentKind::Coolant { mist, flood } => Some((mist, flood)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        coolant,
+        vec![(false, true), (false, false), (true, false), (false, false)]
+    );
+}
