@@ -355,7 +355,9 @@ struct RawConfig {
         std::collections::BTreeMap<Spanned<String>, Spanned<f64>>,
     >,
     #[serde(default)]
-    tool_offsets: std::collections::BTreeMap<Spanned<String>, RawToolOffset>,
+    // Plain keys, so that an error inside an entry names it (`tool_offsets.1.length`); a bad
+    // number is reported at the entry's value.
+    tool_offsets: std::collections::BTreeMap<String, Spanned<RawToolOffset>>,
     axis: Vec<RawAxis>,
 }
 
@@ -976,15 +978,14 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
     }
 
     let mut tool_offsets = vec![ToolOffset::default(); TOOL_OFFSETS];
-    for (number, t) in &raw.tool_offsets {
-        let n = number.get_ref();
+    for (n, t) in &raw.tool_offsets {
         let slot = n
             .parse::<usize>()
             .ok()
             .filter(|k| (1..=TOOL_OFFSETS).contains(k) && !n.starts_with('0'))
             .ok_or_else(|| {
                 (
-                    number.span(),
+                    t.span(),
                     format!("tool_offsets.{n}"),
                     format!("expected an offset number 1..{TOOL_OFFSETS}"),
                 )
@@ -1000,6 +1001,7 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
                 )),
             }
         };
+        let t = t.get_ref();
         tool_offsets[slot - 1] = ToolOffset {
             length: value(&t.length, "length")?,
             length_wear: value(&t.length_wear, "length_wear")?,
@@ -1271,7 +1273,7 @@ mod tests {
         let e = parse(&text).unwrap_err();
         let line = text.lines().position(|l| l.contains("lenght")).unwrap() + 1;
         assert_eq!((e.line, e.col), (line, 7), "{e}");
-        assert!(e.key.starts_with("tool_offsets"), "{e}");
+        assert_eq!(e.key, "tool_offsets.1.lenght", "{e}");
         assert!(e.message.contains("unknown field `lenght`"), "{e}");
         for bad in ["0", "401", "01", "H1", "-1"] {
             let text = SHIPPED.replace(
@@ -1286,7 +1288,7 @@ mod tests {
         let text = SHIPPED.replace("length = -180.0", "length = nan");
         assert_eq!(parse(&text).unwrap_err().key, "tool_offsets.1.length");
         let text = SHIPPED.replace("length = -180.0", "length = \"long\"");
-        assert!(parse(&text).unwrap_err().key.starts_with("tool_offsets"));
+        assert_eq!(parse(&text).unwrap_err().key, "tool_offsets.1.length");
     }
 
     #[test]
