@@ -445,3 +445,15 @@ fn source_000_channel_program_stops_where_it_leaves_the_language_implemented_her
         "{e}"
     );
 }
+
+/// Regression: `@X` subtracted the configured G54 offset, so a work offset changed by the
+/// program (G10 L2, `#5221`) or a G92 shift was ignored and `@X` read machine-relative values.
+#[test]
+fn axis_reads_follow_work_offsets_set_by_the_program_and_g92() {
+    let segs = run(
+        "G90 G54 G10 L2 P1 X5 Y0 Z0\nG0 X10 Y0 Z0\n$dA = @X;\nG92 X1\n$dB = @X;\n\
+         MSG(\"\" + $dA + \" \" + $dB);\nM30\n",
+    )
+    .unwrap();
+    assert_eq!(msgs(&segs), vec!["10 1"]);
+}

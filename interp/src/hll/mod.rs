@@ -359,8 +359,9 @@ fn read(it: &mut Interpreter, what: Read) -> Result<f64, String> {
             let programmed = it.state.pos;
             let act = it.sync.wait_motion_done(&programmed)?;
             let ax = it.cfg.axes.get(i).ok_or("no such axis")?;
-            let off = it.cfg.work_offsets[it.state.work_offset][i];
-            let v = act[i] - off;
+            // Work coordinates as `#5041…` read them: the work offset in force (as G10 L2 or
+            // `#5221…` left it) and the G92 shift taken off; the tool length offset stays in.
+            let v = act[i] - it.state.work_zero(i);
             Ok(if ax.kind.is_rotary() {
                 v
             } else {
