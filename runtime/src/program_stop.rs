@@ -126,11 +126,13 @@ impl StopGate {
     }
 }
 
-/// "M0" or "M1" (other kinds are not program stops).
+/// The M code of a stop kind.
 pub fn kind_name(kind: StopKind) -> &'static str {
     match kind {
+        StopKind::Program => "M0",
         StopKind::Optional => "M1",
-        _ => "M0",
+        StopKind::End => "M2",
+        StopKind::EndRewind => "M30",
     }
 }
 

@@ -281,7 +281,10 @@ impl Side<'_> {
     fn program_stop(&mut self, s: &Status, kind: cnc402_motion::StopKind) {
         let name = kind_name(kind);
         if !self.gate.applies(kind) {
-            log::info!("line {}: {name} passed (optional stop off)", s.line);
+            // M2/M30 end the program on their own and are not program stops.
+            if kind == cnc402_motion::StopKind::Optional {
+                log::info!("line {}: {name} passed (optional stop off)", s.line);
+            }
             return;
         }
         let file = self
