@@ -168,5 +168,12 @@ fn segments(cfg: &cnc402_config::MachineConfig, program: &std::path::Path) -> Re
         writeln!(out, "{}", cnc402_interp::dump::segment_to_json(&seg, cfg))
             .map_err(|e| CliError::Io(e.to_string()))?;
     }
-    out.flush().map_err(|e| CliError::Io(e.to_string()))
+    out.flush().map_err(|e| CliError::Io(e.to_string()))?;
+    if let Some(line) = interp.main_m99_line() {
+        eprintln!(
+            "note: M99 at line {line} ends the main program: `cnc402 run` (like a Fanuc \
+             control) starts it over there, endlessly; these are the segments of one pass"
+        );
+    }
+    Ok(())
 }

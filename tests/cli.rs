@@ -941,3 +941,45 @@ fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_progr
         stderr(&o)
     );
 }
+
+#[test]
+fn m99_at_the_end_of_a_main_program_repeats_it_in_run_and_segments_shows_one_pass() {
+    let dir = tmp("m99-repeat");
+    std::fs::create_dir_all(&dir).unwrap();
+    let prog = dir.join("loop.nc");
+    std::fs::write(
+        &prog,
+        "O0100 (PART LOOP)\nG21 G90 G17\n#100 = [#100 + 1]\nG0 X[#100 * 2] Y0 Z5\n\
+         IF [#100 GE 3] GOTO 90\nM99\nN90 M30\n",
+    )
+    .unwrap();
+    let report = dir.join("loop.json");
+    let o = cnc402(&[
+        "run",
+        prog.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("loop.nc:6: M99 in the main program: it starts over"),
+        "{}",
+        stderr(&o)
+    );
+    let v = read_json(&report);
+    assert_eq!(v["ok"], true);
+    // Three passes: X2, X4, X6, then the branch to M30.
+    assert_at(&v, [6.0, 0.0, 5.0]);
+    // sqrt(2² + 5²) + 2 + 2 mm (summed from the 1 ms setpoints).
+    assert!((v["path_length_mm"].as_f64().unwrap() - 9.385164807134504).abs() < 1e-4);
+
+    let o = cnc402(&["segments", prog.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let lines: Vec<Value> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 1, "one pass: {lines:?}");
+    assert_eq!(lines[0]["end"]["X"], 2.0);
+    assert!(stderr(&o).contains("M99 at line 6"), "{}", stderr(&o));
+}

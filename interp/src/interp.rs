@@ -30,6 +30,21 @@ pub struct Options {
     /// Machine position of every axis when the program starts (default all 0). C, the spindle,
     /// is the program's view and should start at 0.
     pub start: AxisPos,
+    /// What `M99` without `P` does in the main program. Default [`MainM99::End`].
+    pub main_m99: MainM99,
+}
+
+/// `M99` (without `P`) in the main program.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MainM99 {
+    /// The program ends there after one pass (a segment dump, a dry run), and
+    /// [`Interpreter::main_m99_line`] says where.
+    #[default]
+    End,
+    /// As on a Fanuc control: the main program starts over from its first block, endlessly,
+    /// with its modal state and variables as they are (a machine run; it ends by M2/M30 in a
+    /// branch, an alarm, or the operator).
+    Repeat,
 }
 
 impl Default for Options {
@@ -38,6 +53,7 @@ impl Default for Options {
             block_delete: true,
             optional_stop: true,
             start: AxisPos::default(),
+            main_m99: MainM99::End,
         }
     }
 }
@@ -86,11 +102,19 @@ pub struct Interpreter {
     /// A `%` after the first block, M2/M30, an error, or the end of the text.
     pub(crate) done: bool,
     pub(crate) seen_block: bool,
+    /// The line of the main program's `M99` that ended it ([`MainM99::End`]).
+    pub(crate) main_m99_line: Option<u32>,
     /// The C-like language (`$` globals, the running C-like program).
     pub(crate) hll: crate::hll::Hll,
 }
 
 impl Interpreter {
+    /// The line of the `M99` (without `P`) that ended the main program after one pass, with
+    /// [`MainM99::End`]; `None` when it ended otherwise (or has not ended).
+    pub fn main_m99_line(&self) -> Option<u32> {
+        self.main_m99_line
+    }
+
     /// An interpreter for the machine `cfg`, default [`Options`], no program loaded.
     pub fn new(cfg: &MachineConfig) -> Self {
         Self::with_options(cfg, Options::default())
@@ -121,6 +145,7 @@ impl Interpreter {
             queue: VecDeque::new(),
             done: true,
             seen_block: false,
+            main_m99_line: None,
             hll: crate::hll::Hll::default(),
         }
     }
@@ -200,6 +225,7 @@ impl Interpreter {
         self.queue.clear();
         self.done = false;
         self.seen_block = false;
+        self.main_m99_line = None;
     }
 
     /// The next segment, `Ok(None)` at the end of the program, or the error that ends it.

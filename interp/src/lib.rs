@@ -88,6 +88,6 @@ pub mod words;
 
 pub use dump::segment_to_json;
 pub use host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary, UsedFile};
-pub use interp::{Interpreter, Options, run_program, run_program_with};
+pub use interp::{Interpreter, MainM99, Options, run_program, run_program_with};
 pub use nvfile::{NvTable, VarFileError};
 pub use state::ModalState;

@@ -798,11 +798,20 @@ impl Interpreter {
         }
         if self.frames.len() == 1 {
             // M99 in the main program: jump to N seq. Without P Fanuc starts the program over,
-            // endlessly; cnc402 ends it instead (a run must end without an operator).
-            return match seq {
-                Some(n) => self.jump(unit, n, span),
-                None => {
+            // endlessly: a machine run does (`MainM99::Repeat`); a dump or a dry run shows one
+            // pass and says where it would repeat.
+            return match (seq, self.opts.main_m99) {
+                (Some(n), _) => self.jump(unit, n, span),
+                (None, crate::interp::MainM99::Repeat) => {
+                    let start = unit.start;
+                    self.set_pc(start);
+                    Ok(())
+                }
+                (None, crate::interp::MainM99::End) => {
                     self.done = true;
+                    if span != Span::default() {
+                        self.main_m99_line = Some(unit.src.line_col(span.start as usize).0);
+                    }
                     Ok(())
                 }
             };

@@ -254,9 +254,15 @@ fn subprograms_in_the_file_m98_l_and_p_prefix_m99_p() {
     // M99 P in a main program jumps.
     let segs = drain(&mut start("G0 X1\nM99 P7\nG0 X2\nN7 G0 X3\n")).unwrap();
     assert_eq!(xs(&segs), vec![1.0, 3.0]);
-    // M99 alone in a main program ends it (no endless restart).
-    let segs = drain(&mut start("G0 X1\nM99\nG0 X2\n")).unwrap();
+    // M99 alone in a main program, by default (a dump, a dry run): one pass, and the line
+    // where a machine run would start over.
+    let mut it = start("G0 X1\nM99\nG0 X2\n");
+    let segs = drain(&mut it).unwrap();
     assert_eq!(xs(&segs), vec![1.0]);
+    assert_eq!(it.main_m99_line(), Some(2));
+    let mut it = start("G0 X1\nM30\n");
+    drain(&mut it).unwrap();
+    assert_eq!(it.main_m99_line(), None, "ended by M30");
     // M98 shares the locals of its caller.
     let mut it = ok("O1\n#1=4\nM98 P2\nM30\nO2\n#1=#1*2\nM99\n");
     assert_eq!(it.var(1), Some(8.0));
@@ -658,4 +664,35 @@ fn fanuc_arithmetic_edge_table() {
     for &(e, want) in table {
         approx(e, want);
     }
+}
+
+#[test]
+fn m99_in_the_main_program_repeats_it_with_state_and_variables_kept_when_asked() {
+    // The Fanuc part-counter idiom: the program starts over at M99 until its own branch ends
+    // it; modal state (G91 here) and common variables carry over from pass to pass.
+    let text = "G0 X1\nG91\n#100=[#100+1]\nIF [#100 GE 3] GOTO 90\nM99\nN90 M30\n";
+    let src = SourceFile::new("m.nc", text);
+    let p = cnc402_lang::parse(&src).unwrap();
+    let opts = cnc402_interp::Options {
+        main_m99: cnc402_interp::MainM99::Repeat,
+        ..Default::default()
+    };
+    let mut it = Interpreter::with_options(&cfg(), opts.clone());
+    it.set_program_library(None);
+    it.load(src, p);
+    let segs = drain(&mut it).unwrap();
+    // Pass 1 in G90 (X1), passes 2 and 3 in G91 (X+1 each).
+    assert_eq!(xs(&segs), vec![1.0, 2.0, 3.0]);
+    assert_eq!(it.var(100), Some(3.0));
+    assert_eq!(it.main_m99_line(), None);
+    // A repeating program that never moves is still a runaway.
+    let mut c = cfg();
+    c.interp.block_limit = 1000;
+    let src = SourceFile::new("m.nc", "#1=1\nM99\n");
+    let p = cnc402_lang::parse(&src).unwrap();
+    let mut it = Interpreter::with_options(&c, opts);
+    it.set_program_library(None);
+    it.load(src, p);
+    let e = drain(&mut it).unwrap_err();
+    assert!(e.message.contains("without motion"), "{e}");
 }

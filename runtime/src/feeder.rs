@@ -64,8 +64,15 @@ impl Feeder {
         start: AxisPos,
         dry: bool,
     ) -> Feeder {
+        // A machine run repeats a main program that ends in M99, as a Fanuc control does; the
+        // dry run checks one pass (it would never end otherwise).
         let opts = Options {
             start,
+            main_m99: if dry {
+                cnc402_interp::MainM99::End
+            } else {
+                cnc402_interp::MainM99::Repeat
+            },
             ..Options::default()
         };
         // The interpreter does no I/O itself: the file system (sub-programs, `#use` files,
@@ -170,6 +177,9 @@ pub struct DryRun {
     /// Interpolator ticks of all moves (path moves and dwells; spindle ramps and events are
     /// not known in advance and count as 0).
     pub ticks: u64,
+    /// The line of the main program's `M99` where the run will start over (the dry run
+    /// covers one pass).
+    pub repeats_at: Option<u32>,
 }
 
 /// Interprets and plans the whole program without moving anything, so that a program error
@@ -201,5 +211,6 @@ pub fn dry_run(
         };
         f.messages.clear();
     }
+    d.repeats_at = f.interp.main_m99_line();
     Ok(d)
 }

@@ -411,6 +411,13 @@ pub fn run_program(
     let gate = Arc::new(StopGate::new(opts.at_stop, opts.optional_stop));
     let dry =
         dry_run(cfg, &src, &program, AxisPos::default(), Some(&gate)).map_err(RunError::Program)?;
+    if let Some(line) = dry.repeats_at {
+        log::warn!(
+            "{}:{line}: M99 in the main program: it starts over from its first block, endlessly \
+             (as on a Fanuc control), until M2/M30, an alarm or Ctrl-C ends it",
+            src.name
+        );
+    }
     let spec = LinkSpec {
         fault: opts.fault,
         #[cfg(any(test, feature = "testing"))]
