@@ -940,6 +940,41 @@ fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_progr
         "{}",
         stderr(&o)
     );
+    // Past a stop that holds, an error the dry run sees does not keep the machine from
+    // starting (the operator may change what the program reads while it holds): it is a
+    // warning, and the run raises the alarm only if it still happens after the resume.
+    let o = cnc402(&["run", alarm.to_str().unwrap(), "--at-stop", "wait"]);
+    let err = stderr(&o);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "end of input ends it at the stop: {err}"
+    );
+    assert!(
+        err.contains("alarm-after-stop.nc:4: the program, run on past this stop"),
+        "{err}"
+    );
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args(["run", alarm.to_str().unwrap(), "--at-stop", "wait"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_LOG", "warn")
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        use std::io::Write as _;
+        // Enter, read when the stop is reached: the run resumes into the alarm.
+        let mut stdin = child.stdin.take().unwrap();
+        stdin.write_all(b"\n").unwrap();
+        let o = child.wait_with_output().unwrap();
+        drop(stdin);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("press Enter to continue"), "{err}");
+        assert!(err.contains("PAST THE STOP"), "{err}");
+    }
 }
 
 #[test]

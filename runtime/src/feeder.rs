@@ -170,7 +170,7 @@ impl Feeder {
 }
 
 /// What a dry run of the whole program (interpreter + planner, no motion) found.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default)]
 pub struct DryRun {
     /// Planned moves.
     pub moves: u64,
@@ -180,12 +180,18 @@ pub struct DryRun {
     /// The line of the main program's `M99` where the run will start over (the dry run
     /// covers one pass).
     pub repeats_at: Option<u32>,
+    /// A program error found after a program stop that holds (M0 with `--at-stop wait`):
+    /// the line of that stop and the error. It does not stop the run before motion, because
+    /// the operator may change what the program reads during the stop; it is the run's to
+    /// report if it still happens.
+    pub after_hold: Option<(u32, NcError)>,
 }
 
 /// Interprets and plans the whole program without moving anything, so that a program error
 /// is reported (exit 2) before a drive is enabled, and the progress bar knows the length.
 /// With a `gate` whose policy ends the program at a stop, the dry run ends there too (what
-/// follows would never run); past a stop that holds it goes on, as a resume would.
+/// follows would never run); past a stop that holds it goes on, as a resume would, but an
+/// error there is only noted ([`DryRun::after_hold`]).
 pub fn dry_run(
     cfg: &MachineConfig,
     src: &SourceFile,
@@ -195,13 +201,28 @@ pub fn dry_run(
 ) -> Result<DryRun, NcError> {
     let mut f = Feeder::dry(cfg, src.clone(), program.clone(), start);
     let mut d = DryRun::default();
-    while let Some(mv) = f.next_move()? {
-        if let (MoveKind::ProgramStop { kind }, Some(g)) = (mv.kind, gate)
-            && g.ends_at(kind)
-        {
-            d.moves += 1;
-            d.ticks += 1;
-            break;
+    let mut held_at: Option<u32> = None;
+    loop {
+        let mv = match f.next_move() {
+            Ok(Some(mv)) => mv,
+            Ok(None) => break,
+            Err(e) => match held_at {
+                Some(line) => {
+                    d.after_hold = Some((line, e));
+                    break;
+                }
+                None => return Err(e),
+            },
+        };
+        if let (MoveKind::ProgramStop { kind }, Some(g)) = (mv.kind, gate) {
+            if g.ends_at(kind) {
+                d.moves += 1;
+                d.ticks += 1;
+                break;
+            }
+            if g.holds_at(kind) && held_at.is_none() {
+                held_at = Some(mv.line);
+            }
         }
         d.moves += 1;
         d.ticks += match mv.kind {

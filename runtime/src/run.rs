@@ -411,6 +411,17 @@ pub fn run_program(
     let gate = Arc::new(StopGate::new(opts.at_stop, opts.optional_stop));
     let dry =
         dry_run(cfg, &src, &program, AxisPos::default(), Some(&gate)).map_err(RunError::Program)?;
+    if let Some((line, e)) = &dry.after_hold {
+        log::warn!(
+            "{}:{line}: the program, run on past this stop as it stands, would fail at {}:{}:{}: \
+             {} (checked again when it gets there: the operator may change what it reads)",
+            src.name,
+            e.file,
+            e.line,
+            e.col,
+            e.message
+        );
+    }
     if let Some(line) = dry.repeats_at {
         log::warn!(
             "{}:{line}: M99 in the main program: it starts over from its first block, endlessly \
