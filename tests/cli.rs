@@ -1018,3 +1018,57 @@ fn m99_at_the_end_of_a_main_program_repeats_it_in_run_and_segments_shows_one_pas
     assert_eq!(lines[0]["end"]["X"], 2.0);
     assert!(stderr(&o).contains("M99 at line 6"), "{}", stderr(&o));
 }
+
+/// The Fanuc idiom of filling a parameter during a program stop: the program holds at M0, the
+/// operator sets #500 (here with `cnc402 vars set`, as on the control's variable page), and
+/// the blocks after the stop read the new value, because nothing past the stop was interpreted
+/// and the variables are read again at the resume.
+#[test]
+fn variables_set_during_a_program_stop_are_what_the_program_reads_after_it() {
+    let dir = tmp("vars-during-stop");
+    std::fs::create_dir_all(&dir).unwrap();
+    let vars = dir.join("vars.txt");
+    let _ = std::fs::remove_file(&vars);
+    let cfg = dir.join("machine.toml");
+    config_with_vars_file(&vars, &cfg);
+    let prog = dir.join("ask.nc");
+    std::fs::write(
+        &prog,
+        "G21 G90 G17\n#500=3\nG0 X#500 Y0 Z5\nM0 (SET #500 TO THE NEXT X)\nG0 X#500\nM30\n",
+    )
+    .unwrap();
+    let report = dir.join("ask.json");
+    let child = Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args([
+            "run",
+            prog.to_str().unwrap(),
+            "--config",
+            cfg.to_str().unwrap(),
+        ])
+        .args(["--at-stop", "wait", "--report", report.to_str().unwrap()])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_LOG", "warn")
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut child = child;
+    let mut stdin = child.stdin.take().unwrap();
+    let mut child = WatchedChild::new(child);
+    child.wait_for("press Enter to continue");
+    let o = cnc402(&["vars", "--config", cfg.to_str().unwrap(), "set", "500=12.5"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    {
+        use std::io::Write as _;
+        stdin.write_all(b"\n").unwrap();
+    }
+    let (status, err) = child.finish();
+    drop(stdin);
+    assert_eq!(status.code(), Some(0), "{err}");
+    let v = read_json(&report);
+    assert_eq!(v["ok"], true);
+    assert_at(&v, [12.5, 0.0, 5.0]);
+    let table = cnc402_interp::NvTable::load(&vars).unwrap();
+    assert_eq!(table.get(500), Some(12.5));
+}

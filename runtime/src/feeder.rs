@@ -25,6 +25,9 @@ pub struct Feeder {
     messages: VecDeque<String>,
     /// The source file of the last move.
     last_file: Option<std::sync::Arc<str>>,
+    /// The non-volatile variables file a live run writes (`None` for a dry run, or when the
+    /// config names none).
+    vars_file: Option<std::path::PathBuf>,
 }
 
 /// A planner error as a program error at the block's line.
@@ -95,6 +98,7 @@ impl Feeder {
             done: false,
             messages: VecDeque::new(),
             last_file: None,
+            vars_file: if dry { None } else { cfg.variables_file() },
         }
     }
 
@@ -151,6 +155,37 @@ impl Feeder {
     /// The text of the next message the loop will report.
     pub fn take_message(&mut self) -> Option<String> {
         self.messages.pop_front()
+    }
+
+    /// Reads the non-volatile variables file again after the operator resumed from a program
+    /// stop, so that what was set during the stop (`cnc402 vars set`, the way an operator
+    /// fills a macro program's parameter pages) is what the program reads after it. Nothing
+    /// else writes the file while the program holds: the interpreter waits at the stop.
+    /// An error is given at `line` (the stop's) of the file of the last move.
+    pub fn reload_persistent_vars(&mut self, line: u32) -> Result<(), NcError> {
+        let Some(path) = &self.vars_file else {
+            return Ok(());
+        };
+        match cnc402_interp::host_fs::FileVarStore::open(path) {
+            Ok((store, table)) => {
+                self.interp.set_persistent_vars(table, Some(Box::new(store)));
+                Ok(())
+            }
+            Err(e) => {
+                let src = match &self.last_file {
+                    Some(f) => source_for(f, &self.src),
+                    None => self.src.clone(),
+                };
+                let span = src.line_span(line);
+                Err(NcError::new(
+                    &src,
+                    span,
+                    format!(
+                        "after this program stop the non-volatile variables cannot be read: {e}"
+                    ),
+                ))
+            }
+        }
     }
 
     /// Replaces the interpreter's motion sync (see [`crate::sync`]).

@@ -257,6 +257,10 @@ pub fn spawn_feeder(
                                     }
                                     std::thread::sleep(Duration::from_millis(1));
                                 }
+                                if let Err(e) = feeder.reload_persistent_vars(mv.line) {
+                                    stop.store(true, Ordering::SeqCst);
+                                    return Some(e);
+                                }
                             }
                         }
                     }
