@@ -1072,3 +1072,35 @@ fn variables_set_during_a_program_stop_are_what_the_program_reads_after_it() {
     let table = cnc402_interp::NvTable::load(&vars).unwrap();
     assert_eq!(table.get(500), Some(12.5));
 }
+
+#[test]
+fn coolant_left_on_by_a_program_ended_at_a_stop_is_turned_off() {
+    let dir = tmp("coolant-end");
+    std::fs::create_dir_all(&dir).unwrap();
+    let prog = dir.join("coolant.nc");
+    std::fs::write(&prog, "G21 G90\nG0 X1 M8\nM0\nG0 X2\nM30\n").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args(["run", prog.to_str().unwrap(), "--at-stop", "end"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_LOG", "info")
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    let on = err.find("line 2: coolant flood").expect(&err);
+    let off = err
+        .find("coolant off: the run ended with it on")
+        .expect(&err);
+    assert!(on < off, "{err}");
+    // M30 turns it off itself: no second "off" at the end.
+    let o = Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args(["run", prog.to_str().unwrap(), "--at-stop", "continue"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_LOG", "info")
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(err.contains("coolant off"), "{err}");
+    assert!(!err.contains("the run ended with it on"), "{err}");
+}

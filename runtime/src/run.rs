@@ -238,6 +238,9 @@ struct Side<'a> {
     stops: Vec<StopRecord>,
     no_operator_terminal: bool,
     src_name: String,
+    /// Coolant on as the last coolant event left it (turned off at the end of the run when a
+    /// stop, fault or end at a program stop left it on; M2/M30 turn it off themselves).
+    coolant_on: bool,
 }
 
 impl Side<'_> {
@@ -370,6 +373,7 @@ impl Side<'_> {
                         (true, true) => "mist and flood",
                     };
                     log::info!("line {}: coolant {state}", s.line);
+                    self.coolant_on = mist || flood;
                 }
                 None => {}
             }
@@ -473,6 +477,7 @@ pub fn run_program(
         stops: Vec::new(),
         no_operator_terminal,
         src_name: src.name.to_string(),
+        coolant_on: false,
     };
     let src_keep = src.clone();
     let end = match timing {
@@ -576,6 +581,9 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
         (ok, error)
     };
     let program_time_s = side.program_ticks as f64 * period_s;
+    if side.coolant_on {
+        log::info!("coolant off: the run ended with it on");
+    }
     let waits = side.gate.waits();
     let mut wi = 0;
     let stops = side
