@@ -457,3 +457,21 @@ fn axis_reads_follow_work_offsets_set_by_the_program_and_g92() {
     .unwrap();
     assert_eq!(msgs(&segs), vec!["10 1"]);
 }
+
+#[test]
+fn int_conversions_cover_the_whole_int_range_exactly() {
+    // -2^63 is an int (the literal 2^63 is a double, negated: exactly -2^63).
+    let segs = run("int nMin = -9223372036854775808;\nMSG(\"\" + nMin);\nM30\n").unwrap();
+    assert_eq!(msgs(&segs), vec!["-9223372036854775808"]);
+    // 2^63 is not, and the message says the range.
+    let (line, col, m) = err("int nBig = 9223372036854775808.0;\nM30\n");
+    assert_eq!(line, 1, "{m}");
+    assert!(col >= 1);
+    assert!(
+        m.contains("does not fit in an int (-9223372036854775808 to 9223372036854775807)"),
+        "{m}"
+    );
+    // 9.21e18 fits (the old bound of 9.2e18 refused it).
+    let segs = run("int n = 9.21e18;\nMSG(\"\" + n);\nM30\n").unwrap();
+    assert_eq!(msgs(&segs), vec!["9210000000000000000"]);
+}

@@ -632,10 +632,21 @@ impl Executor {
             (Ty::Dyn, v) => v,
             (Ty::Int, Val::Int(i)) => Val::Int(i),
             (Ty::Int, Val::Dbl(d)) => {
-                if !d.is_finite() || d.abs() >= 9.2e18 {
-                    return Err(self.err(f, span, format!("{d} does not fit in an int")));
+                // The int range is [-2^63, 2^63): both ends are exact in f64, so the test is
+                // exact (`as` would saturate silently).
+                const TWO_63: f64 = 9_223_372_036_854_775_808.0;
+                let t = d.trunc();
+                if !(-TWO_63..TWO_63).contains(&t) {
+                    return Err(self.err(
+                        f,
+                        span,
+                        format!(
+                            "{d:e} does not fit in an int (-9223372036854775808 to \
+                             9223372036854775807)"
+                        ),
+                    ));
                 }
-                Val::Int(d.trunc() as i64)
+                Val::Int(t as i64)
             }
             (Ty::Double, Val::Int(i)) => Val::Dbl(i as f64),
             (Ty::Double, Val::Dbl(d)) => Val::Dbl(d),
