@@ -1286,6 +1286,7 @@ mod tests {
             block_delete: false,
             optional_stop: false,
             start,
+            main_m99: MainM99::End,
         };
         let segs: Vec<_> = load("/G0 X5\nM1\nG91 G0 Z-5\n", opts)
             .collect::<Result<_, _>>()
