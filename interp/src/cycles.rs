@@ -142,9 +142,11 @@ impl Exec<'_> {
                     pos[i] = self.word_target(i, a.v * unit);
                 }
             }
-            // The levels include the work zero, the G92 shift and the tool length offset.
+            // The levels include the work zero, the G92 shift and the tool length offset. In
+            // G91 the R level is a distance from the initial level that carries the part of
+            // the offset vector G28/G30/G53 took out at the reference, as any G91 Z move does.
             let r_level = if self.st.incremental {
-                data.initial + r
+                data.initial + data.initial_tlo_pending + r
             } else {
                 r + self.st.origin(id)
             };

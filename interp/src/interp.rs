@@ -1081,6 +1081,7 @@ impl Exec<'_> {
                 let id = self.axis(d, span, "a canned cycle in this plane")?;
                 self.st.cycle_data = CycleData {
                     initial: self.st.pos[id],
+                    initial_tlo_pending: self.tlo_pending(id),
                     ..CycleData::default()
                 };
             }

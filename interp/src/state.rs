@@ -104,6 +104,10 @@ pub struct CycleData {
     pub p: Option<f64>,
     /// Machine position along the drilling axis when the cycle mode was entered.
     pub initial: f64,
+    /// The part of the tool length offset vector that `initial` lacks (after G28/G30/G53
+    /// moved Z; 0 otherwise). The drilling moves restore the whole vector, so a G91 R level
+    /// is `initial + initial_tlo_pending + R`, as a `G91 Z` move from there would be.
+    pub initial_tlo_pending: f64,
 }
 
 /// Everything modal.

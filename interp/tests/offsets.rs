@@ -498,3 +498,95 @@ fn the_fanuc_milling_example_runs_with_its_offsets() {
         vec![(false, true), (false, false), (true, false), (false, false)]
     );
 }
+
+/// Regression (review f1): a G91 canned cycle after `G91 G28 Z0` in G43 drilled 180 mm too
+/// high: its R level (a distance from the initial level, the reference position) lacked the
+/// offset vector that G28 took out, while the drilling moves counted it as restored. Now the
+/// R level carries the vector as a `G91 G0 Z-5` from there does; G98 returns to where the
+/// cycle started (the reference position).
+#[test]
+fn g91_cycle_after_g28_z_drills_with_the_offset_vector() {
+    // G43 H1 (-180), G99: R at 0 - 180 - 5, bottom 10 below, return to R.
+    let (segs, mut it) = run(concat!(
+        "G90 G0 X0 Y0 Z0\nG43 H1 Z10\nG91 G28 Z0\n",
+        "G91 G99 G81 X10 R-5 Z-10 F100\n",
+        "X10\n", // a second hole in the same cycle: the same levels
+        "G80\n#100=#5003\n#101=#5043\n#102=#5023\n",
+        "G91 Z1\n",
+    ));
+    assert_eq!(
+        ends(&segs),
+        vec![
+            (1, 0.0, 0.0, 0.0),
+            (2, 0.0, 0.0, -170.0),
+            (3, 0.0, 0.0, 0.0),
+            (4, 10.0, 0.0, 0.0),
+            (4, 10.0, 0.0, -185.0), // R
+            (4, 10.0, 0.0, -195.0), // bottom
+            (4, 10.0, 0.0, -185.0), // G99: back to R
+            (5, 20.0, 0.0, -185.0),
+            (5, 20.0, 0.0, -195.0),
+            (5, 20.0, 0.0, -185.0),
+            (10, 20.0, 0.0, -184.0), // the vector is in the position: no second -180
+        ]
+    );
+    assert_eq!(var(&mut it, 100), Some(-5.0), "#5003 at R");
+    assert_eq!(var(&mut it, 101), Some(-185.0), "#5043");
+    assert_eq!(var(&mut it, 102), Some(-185.0), "#5023");
+
+    // G98: back to the initial level, where the cycle started (the reference position).
+    let (segs, mut it) = run(concat!(
+        "G90 G0 X0 Y0 Z0\nG43 H1 Z10\nG91 G28 Z0\n",
+        "G91 G98 G81 X10 R-5 Z-10 F100\n",
+        "G80\n#100=#5003\n#101=#5043\n",
+    ));
+    let z: Vec<f64> = ends(&segs)[3..].iter().map(|e| e.3).collect();
+    assert_eq!(z, vec![0.0, -185.0, -195.0, 0.0]);
+    assert_eq!(
+        var(&mut it, 100),
+        Some(180.0),
+        "#5003: the reference, offset restored"
+    );
+    assert_eq!(var(&mut it, 101), Some(0.0), "#5043");
+
+    // G44 with a positive vector (H5 = 20 → -20 on Z).
+    let (segs, mut it) = run(concat!(
+        "G10 L10 P5 R20\nG90 G0 X0 Y0 Z0\nG44 H5 Z10\nG91 G28 Z0\n",
+        "G91 G99 G81 X10 R-5 Z-10 F100\n",
+        "G80\n#100=#5003\n#101=#5043\n#102=#5083\n",
+    ));
+    let z: Vec<f64> = ends(&segs)[2..].iter().map(|e| e.3).collect();
+    assert_eq!(z, vec![0.0, 0.0, -25.0, -35.0, -25.0]);
+    assert_eq!(var(&mut it, 100), Some(-5.0), "#5003 at R");
+    assert_eq!(var(&mut it, 101), Some(-25.0), "#5043 at R");
+    assert_eq!(var(&mut it, 102), Some(-20.0), "#5083");
+}
+
+/// A G90 cycle after `G91 G28 Z0` takes R and Z as work coordinates with the offset (G43 and
+/// G44); G98 returns to the reference position where the cycle started.
+#[test]
+fn g90_cycle_after_g28_z_drills_with_the_offset_vector() {
+    let (segs, mut it) = run(concat!(
+        "G90 G0 X0 Y0 Z0\nG43 H1 Z10\nG91 G28 Z0\n",
+        "G90 G99 G81 X10 R2 Z-5 F100\n",
+        "G80\n#100=#5003\n#101=#5043\n",
+    ));
+    let z: Vec<f64> = ends(&segs)[3..].iter().map(|e| e.3).collect();
+    assert_eq!(z, vec![0.0, -178.0, -185.0, -178.0]);
+    assert_eq!(var(&mut it, 100), Some(2.0), "#5003 at R");
+    assert_eq!(var(&mut it, 101), Some(-178.0), "#5043 at R");
+
+    let (segs, mut it) = run(concat!(
+        "G10 L10 P5 R20\nG90 G0 X0 Y0 Z0\nG44 H5 Z10\nG91 G28 Z0\n",
+        "G90 G98 G81 X10 R2 Z-5 F100\n",
+        "G80\n#100=#5003\n#101=#5043\n",
+    ));
+    let z: Vec<f64> = ends(&segs)[3..].iter().map(|e| e.3).collect();
+    assert_eq!(z, vec![0.0, -18.0, -25.0, 0.0]);
+    assert_eq!(
+        var(&mut it, 100),
+        Some(20.0),
+        "#5003 at the reference, offset restored"
+    );
+    assert_eq!(var(&mut it, 101), Some(0.0), "#5043");
+}
