@@ -5,27 +5,12 @@
 // NcError is large; these helpers only run in tests.
 #![allow(clippy::result_large_err)]
 
-use cnc402_config::MachineConfig;
+mod hll_common;
+use hll_common::{cfg, msgs, run};
+
 use cnc402_interp::{Interpreter, hll};
 use cnc402_lang::SourceFile;
-use cnc402_motion::segment::{Segment, SegmentKind};
-
-fn cfg() -> MachineConfig {
-    MachineConfig::default_machine()
-}
-
-fn run(text: &str) -> Result<Vec<Segment>, cnc402_lang::NcError> {
-    cnc402_interp::run_program(&cfg(), &SourceFile::new("t.nc", text))
-}
-
-fn msgs(segs: &[Segment]) -> Vec<String> {
-    segs.iter()
-        .filter_map(|s| match &s.kind {
-            SegmentKind::Message { text } => Some(text.clone()),
-            _ => None,
-        })
-        .collect()
-}
+use cnc402_motion::segment::SegmentKind;
 
 fn ok(text: &str) -> Vec<String> {
     msgs(&run(text).unwrap_or_else(|e| panic!("{text}\n{e}")))

@@ -5,6 +5,9 @@
 // NcError is large; these helpers only run in tests.
 #![allow(clippy::result_large_err)]
 
+mod hll_common;
+use hll_common::{cfg, msgs, run};
+
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
@@ -14,26 +17,9 @@ use cnc402_interp::{Interpreter, MotionSync, hll};
 use cnc402_lang::SourceFile;
 use cnc402_motion::segment::{AxisPos, Segment, SegmentKind};
 
-fn cfg() -> MachineConfig {
-    MachineConfig::default_machine()
-}
-
-fn run(text: &str) -> Result<Vec<Segment>, cnc402_lang::NcError> {
-    cnc402_interp::run_program(&cfg(), &SourceFile::new("t.nc", text))
-}
-
 fn err(text: &str) -> (u32, u32, String) {
     let e = run(text).unwrap_err();
     (e.line, e.col, e.message)
-}
-
-fn msgs(segs: &[Segment]) -> Vec<String> {
-    segs.iter()
-        .filter_map(|s| match &s.kind {
-            SegmentKind::Message { text } => Some(text.clone()),
-            _ => None,
-        })
-        .collect()
 }
 
 /// A fresh folder under the system temp dir.
