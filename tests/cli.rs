@@ -14,10 +14,15 @@ const EXAMPLES: [&str; 4] = [
 ];
 
 fn cnc402(args: &[&str]) -> Output {
+    cnc402_logging(args, "warn")
+}
+
+/// `cnc402` run to its end with log level `log` (`info` shows the events of a run).
+fn cnc402_logging(args: &[&str], log: &str) -> Output {
     Command::new(env!("CARGO_BIN_EXE_cnc402"))
         .args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("RUST_LOG", "warn")
+        .env("RUST_LOG", log)
         .output()
         .expect("run cnc402")
 }
@@ -26,6 +31,32 @@ fn tmp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("cnc402-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
+}
+
+/// A folder of the test's own under the per-process temp dir.
+fn test_dir(test: &str) -> PathBuf {
+    let dir = tmp(test);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes program `text` as `dir/name`.
+fn write_program(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// `cnc402` with the repository as working directory, log level `log`, and stdin, stdout
+/// and stderr piped (for tests that talk to it while it runs).
+fn cnc402_piped(log: &str) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_cnc402"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_LOG", log)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+    c
 }
 
 fn stderr(o: &Output) -> String {
@@ -638,8 +669,7 @@ const STOPS_NC: &str = "G21 G90 G17\nG0 X0 Y0 Z5\nG1 X10 Y5 F1200\nM0\nG1 X20 Y-
 /// The stops program under a name of the test's own: tests run in parallel, and one test
 /// rewriting a file another test's `cnc402` is reading made it read an empty program.
 fn stops_program(test: &str) -> PathBuf {
-    let dir = tmp(test);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = test_dir(test);
     let p = dir.join("stops.nc");
     std::fs::write(&p, STOPS_NC).unwrap();
     p
@@ -738,7 +768,7 @@ fn m0_with_continue_runs_to_the_end_and_m1_passes_without_optional_stop() {
 fn spawn_wait(report: &Path, extra: &[&str]) -> std::process::Child {
     let test = report.file_stem().unwrap().to_str().unwrap();
     let prog = stops_program(test);
-    Command::new(env!("CARGO_BIN_EXE_cnc402"))
+    cnc402_piped("warn")
         .args([
             "run",
             prog.to_str().unwrap(),
@@ -748,11 +778,6 @@ fn spawn_wait(report: &Path, extra: &[&str]) -> std::process::Child {
         ])
         .arg(report)
         .args(extra)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("RUST_LOG", "warn")
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap()
 }
@@ -886,14 +911,12 @@ fn config_with_vars_file(vars: &Path, cfg: &Path) {
 /// Fanuc control: nothing after it is interpreted until the run resumes.
 #[test]
 fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_program_ends_there() {
-    let dir = tmp("buffer-stop");
-    std::fs::create_dir_all(&dir).unwrap();
-    let prog = dir.join("write-after-stop.nc");
-    std::fs::write(
-        &prog,
+    let dir = test_dir("buffer-stop");
+    let prog = write_program(
+        &dir,
+        "write-after-stop.nc",
         "G21 G90 G17\nG0 X0 Y0 Z5\nG1 X10 F1200\nM0\n#500=1\nG1 X20\nM30\n",
-    )
-    .unwrap();
+    );
     for (policy, want_x, want_500) in [
         ("end", 10.0, None),
         ("wait", 10.0, None),
@@ -925,12 +948,11 @@ fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_progr
         assert_eq!(got, want_500, "{policy}: #500 after the run");
     }
     // The dry run (program errors before motion) ends at a stop that ends the program, too.
-    let alarm = dir.join("alarm-after-stop.nc");
-    std::fs::write(
-        &alarm,
+    let alarm = write_program(
+        &dir,
+        "alarm-after-stop.nc",
         "G21 G90 G17\nG0 X0 Y0 Z5\nG1 X10 F1200\nM0\n#3000=7(PAST THE STOP)\nM30\n",
-    )
-    .unwrap();
+    );
     let o = cnc402(&["run", alarm.to_str().unwrap(), "--at-stop", "end"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let o = cnc402(&["run", alarm.to_str().unwrap(), "--at-stop", "continue"]);
@@ -954,13 +976,8 @@ fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_progr
         err.contains("alarm-after-stop.nc:4: the program, run on past this stop"),
         "{err}"
     );
-    let mut child = Command::new(env!("CARGO_BIN_EXE_cnc402"))
+    let mut child = cnc402_piped("warn")
         .args(["run", alarm.to_str().unwrap(), "--at-stop", "wait"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("RUST_LOG", "warn")
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
     {
@@ -979,15 +996,13 @@ fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_progr
 
 #[test]
 fn m99_at_the_end_of_a_main_program_repeats_it_in_run_and_segments_shows_one_pass() {
-    let dir = tmp("m99-repeat");
-    std::fs::create_dir_all(&dir).unwrap();
-    let prog = dir.join("loop.nc");
-    std::fs::write(
-        &prog,
+    let dir = test_dir("m99-repeat");
+    let prog = write_program(
+        &dir,
+        "loop.nc",
         "O0100 (PART LOOP)\nG21 G90 G17\n#100 = [#100 + 1]\nG0 X[#100 * 2] Y0 Z5\n\
          IF [#100 GE 3] GOTO 90\nM99\nN90 M30\n",
-    )
-    .unwrap();
+    );
     let report = dir.join("loop.json");
     let o = cnc402(&[
         "run",
@@ -1025,20 +1040,18 @@ fn m99_at_the_end_of_a_main_program_repeats_it_in_run_and_segments_shows_one_pas
 /// and the variables are read again at the resume.
 #[test]
 fn variables_set_during_a_program_stop_are_what_the_program_reads_after_it() {
-    let dir = tmp("vars-during-stop");
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = test_dir("vars-during-stop");
     let vars = dir.join("vars.txt");
     let _ = std::fs::remove_file(&vars);
     let cfg = dir.join("machine.toml");
     config_with_vars_file(&vars, &cfg);
-    let prog = dir.join("ask.nc");
-    std::fs::write(
-        &prog,
+    let prog = write_program(
+        &dir,
+        "ask.nc",
         "G21 G90 G17\n#500=3\nG0 X#500 Y0 Z5\nM0 (SET #500 TO THE NEXT X)\nG0 X#500\nM30\n",
-    )
-    .unwrap();
+    );
     let report = dir.join("ask.json");
-    let child = Command::new(env!("CARGO_BIN_EXE_cnc402"))
+    let child = cnc402_piped("warn")
         .args([
             "run",
             prog.to_str().unwrap(),
@@ -1046,11 +1059,6 @@ fn variables_set_during_a_program_stop_are_what_the_program_reads_after_it() {
             cfg.to_str().unwrap(),
         ])
         .args(["--at-stop", "wait", "--report", report.to_str().unwrap()])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("RUST_LOG", "warn")
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
     let mut child = child;
@@ -1075,16 +1083,9 @@ fn variables_set_during_a_program_stop_are_what_the_program_reads_after_it() {
 
 #[test]
 fn coolant_left_on_by_a_program_ended_at_a_stop_is_turned_off() {
-    let dir = tmp("coolant-end");
-    std::fs::create_dir_all(&dir).unwrap();
-    let prog = dir.join("coolant.nc");
-    std::fs::write(&prog, "G21 G90\nG0 X1 M8\nM0\nG0 X2\nM30\n").unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_cnc402"))
-        .args(["run", prog.to_str().unwrap(), "--at-stop", "end"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("RUST_LOG", "info")
-        .output()
-        .unwrap();
+    let dir = test_dir("coolant-end");
+    let prog = write_program(&dir, "coolant.nc", "G21 G90\nG0 X1 M8\nM0\nG0 X2\nM30\n");
+    let o = cnc402_logging(&["run", prog.to_str().unwrap(), "--at-stop", "end"], "info");
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(0), "{err}");
     let on = err.find("line 2: coolant flood").expect(&err);
@@ -1093,12 +1094,10 @@ fn coolant_left_on_by_a_program_ended_at_a_stop_is_turned_off() {
         .expect(&err);
     assert!(on < off, "{err}");
     // M30 turns it off itself: no second "off" at the end.
-    let o = Command::new(env!("CARGO_BIN_EXE_cnc402"))
-        .args(["run", prog.to_str().unwrap(), "--at-stop", "continue"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("RUST_LOG", "info")
-        .output()
-        .unwrap();
+    let o = cnc402_logging(
+        &["run", prog.to_str().unwrap(), "--at-stop", "continue"],
+        "info",
+    );
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(err.contains("coolant off"), "{err}");
