@@ -1113,7 +1113,8 @@ impl Exec<'_> {
         match self.st.motion {
             Motion::Rapid | Motion::Linear => {
                 let (end, any) = self.targets(g53.is_some());
-                if !any {
+                // G53 to where the tool already is makes no segment, as G28/G30 do.
+                if !any || (g53.is_some() && end == self.st.pos) {
                     return Ok(());
                 }
                 self.check_spindle_still(&end)?;

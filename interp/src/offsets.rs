@@ -7,7 +7,7 @@
 use cnc402_config::TOOL_OFFSETS;
 use cnc402_lang::NcError;
 use cnc402_lang::ast::Span;
-use cnc402_motion::segment::AxisPos;
+use cnc402_motion::segment::{AxisPos, SegmentKind};
 
 use crate::interp::Exec;
 use crate::state::{Motion, ToolLength};
@@ -317,11 +317,34 @@ impl Exec<'_> {
         v
     }
 
+    /// G28/G29/G30 with the spindle axis while the spindle turns in speed mode: an error at
+    /// its word, even when C would not move (its position is not known while it turns).
+    fn spindle_still_for(&self, name: &str) -> Result<(), NcError> {
+        if let Some(c) = self.cfg.spindle_index()
+            && let Some(a) = self.w.peek(self.cfg.axes[c].name)
+            && self.st.spindle_turning()
+        {
+            let letter = self.cfg.axes[c].name;
+            return Err(self
+                .err(
+                    a.span,
+                    format!(
+                        "{name} {letter}: the spindle turns in speed mode (M3/M4); {letter} is positioned only at rest"
+                    ),
+                )
+                .with_expected(format!("M5 before {name} {letter}")));
+        }
+        Ok(())
+    }
+
     /// G28 (reference position) and G30 P2–P4 (second to fourth): a rapid of the named axes
     /// to the intermediate point (G90/G91 as modal), then a rapid of the same axes to the
-    /// reference position (machine coordinates, from the config). The tool length offset
-    /// stays in force but its vector is cancelled on Z at the reference position (Fanuc);
-    /// Z's next programmed move restores it.
+    /// reference position (machine coordinates, from the config); a move where the tool
+    /// already is makes no segment. The tool length offset stays in force but its vector is
+    /// cancelled on Z at the reference position (Fanuc); Z's next programmed move restores
+    /// it. The spindle axis goes to its reference by an orientation (`SpindleOrient`) to the
+    /// physical angle, as M19 does: program C is not where the spindle physically is after a
+    /// speed-mode run, and only motion knows the difference.
     pub(crate) fn reference_return(&mut self, code: u32, span: Span) -> Result<(), NcError> {
         let name = format!("G{code}");
         self.no_cycle_code(span, &name)?;
@@ -331,6 +354,7 @@ impl Exec<'_> {
                 .err(span, format!("{name} while a canned cycle is active"))
                 .with_expected(format!("G80 before {name}")));
         }
+        self.spindle_still_for(&name)?;
         let slot = if code == 28 {
             0
         } else {
@@ -389,20 +413,34 @@ impl Exec<'_> {
             mid[i] = self.word_target(i, v);
         }
         let letters: Vec<char> = named.iter().map(|&(i, _)| self.cfg.axes[i].name).collect();
-        self.check_spindle_still(&mid)?;
         if mid != self.st.pos {
             self.rapid(mid, &letters)?;
         }
         let mut end = mid;
+        let spindle = self.cfg.spindle_index();
+        let mut orient = None;
         for (&(i, _), r) in named.iter().zip(refs) {
             self.st.ref_mid[i] = Some(mid[i]);
+            if spindle == Some(i) {
+                // The physical angle of the reference, 0 <= a < 360 (rem_euclid of a tiny
+                // negative number rounds to 360).
+                let a = r.rem_euclid(360.0);
+                orient = Some(if a >= 360.0 { 0.0 } else { a });
+                continue;
+            }
             end[i] = r;
             if self.st.tool_axis == Some(i) {
                 self.st.tlo_in_pos = 0.0;
             }
         }
-        self.check_spindle_still(&end)?;
-        self.rapid(end, &letters)
+        if end != self.st.pos {
+            self.rapid(end, &letters)?;
+        }
+        if let Some(angle) = orient {
+            // Program C stays; motion puts the turn into the spindle offset.
+            self.push(SegmentKind::SpindleOrient { angle });
+        }
+        Ok(())
     }
 
     /// G29: rapid of the named axes to the last G28/G30 intermediate point, then to the
@@ -415,6 +453,7 @@ impl Exec<'_> {
                 .err(span, "G29 while a canned cycle is active")
                 .with_expected("G80 before G29"));
         }
+        self.spindle_still_for("G29")?;
         let mut mid = self.st.pos;
         for i in 0..self.cfg.axes.len() {
             let ax = &self.cfg.axes[i];
@@ -440,7 +479,6 @@ impl Exec<'_> {
                 .with_expected("axis words"));
         }
         let letters: Vec<char> = named.iter().map(|&(i, _)| self.cfg.axes[i].name).collect();
-        self.check_spindle_still(&mid)?;
         if mid != self.st.pos {
             self.rapid(mid, &letters)?;
         }
@@ -448,7 +486,9 @@ impl Exec<'_> {
         for &(i, v) in &named {
             end[i] = self.word_target(i, v);
         }
-        self.check_spindle_still(&end)?;
-        self.rapid(end, &letters)
+        if end != self.st.pos {
+            self.rapid(end, &letters)?;
+        }
+        Ok(())
     }
 }

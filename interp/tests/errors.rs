@@ -461,7 +461,20 @@ const CASES: &[(&str, u32, u32, &str)] = &[
         "M3 S100\nG28 C90\n",
         2,
         5,
-        "C positioning while the spindle turns",
+        "G28 C: the spindle turns in speed mode (M3/M4); C is positioned only at rest",
+    ),
+    // Regression (review item 2): `G28 C0` while the spindle turned made a zero-length rapid.
+    (
+        "G0 X0 Y0 Z0\nS500 M3\nG28 C0\n",
+        3,
+        5,
+        "G28 C: the spindle turns in speed mode (M3/M4); C is positioned only at rest",
+    ),
+    (
+        "G28 C0\nM4 S100\nG91 G29 C0\n",
+        3,
+        9,
+        "G29 C: the spindle turns in speed mode (M3/M4); C is positioned only at rest",
     ),
     // G92.
     (

@@ -190,30 +190,118 @@ fn g30_second_reference_and_g29_back_through_the_intermediate_point() {
             (5, 50.0, 0.0, -5.0),  // G91: from the intermediate point
         ]
     );
-    // P2 given; an intermediate point where the tool is makes no segment, the move to the
-    // reference always one (also when the tool is there).
+    // P2 given; an intermediate point where the tool is makes no segment.
     let (segs, _) = run("G30 P2 Z0\nG91 G28 X0\nG28 X0\n");
+    assert_eq!(ends(&segs), vec![(1, 0.0, 0.0, 40.0)]);
+}
+
+/// Regression (review item 4): G28/G30, G29 and G53 to where the tool already is made a
+/// zero-length rapid; they make no segment now (a move of some axes still moves only them).
+#[test]
+fn reference_moves_and_g53_to_where_the_tool_is_make_no_segment() {
+    let (segs, _) = run(concat!(
+        "G0 X0 Y0 Z0\n",
+        "G91 G28 X0 Y0\n", // at the reference already
+        "G90 G28 X0 Z0\n", // the same, in G90
+        "G53 X0 Z0\n",     // G53 to where it is
+        "G53 X#1\n",       // only a vacant word
+        "G29 X0\n",        // back to the intermediate point, which is the end too
+        "G0 X10\n",
+        "G28 X10\n", // the intermediate point is where the tool is: the reference only
+        "G53 X0 Y5\n",
+    ));
     assert_eq!(
         ends(&segs),
         vec![
-            (1, 0.0, 0.0, 40.0),
-            (2, 0.0, 0.0, 40.0),
-            (3, 0.0, 0.0, 40.0)
+            (1, 0.0, 0.0, 0.0),
+            (7, 10.0, 0.0, 0.0),
+            (8, 0.0, 0.0, 0.0),
+            (9, 0.0, 5.0, 0.0),
         ]
     );
 }
 
-#[test]
-fn g28_of_the_spindle_axis_is_a_position_move() {
-    let (segs, _) = run("G0 C90\nG91 G28 C0\n");
-    let c: Vec<f64> = segs
-        .iter()
+fn spindle_events(segs: &[Segment]) -> Vec<String> {
+    segs.iter()
         .filter_map(|s| match &s.kind {
-            SegmentKind::Rapid { end } => Some(end[3]),
+            SegmentKind::Rapid { end } => Some(format!("{} C{}", s.source.line, end[3])),
+            SegmentKind::SpindleOrient { angle } => Some(format!("{} O{angle}", s.source.line)),
+            SegmentKind::Spindle { rpm, .. } => Some(format!("{} S{rpm}", s.source.line)),
             _ => None,
         })
-        .collect();
-    assert_eq!(c, vec![90.0, 0.0]);
+        .collect()
+}
+
+/// Regression (review item 2): `G28 C0` turned program C to 0, which is not the physical
+/// reference after a speed-mode run (motion keeps the spindle's offset), so the spindle did
+/// not move. The spindle axis goes to its reference by an orientation to the physical angle
+/// (as M19); program C stays. The intermediate point is an ordinary C move.
+#[test]
+fn g28_of_the_spindle_axis_orients_it_to_the_physical_reference() {
+    let (segs, it) = run("G0 C90\nS500 M3\nG4 X1\nM5\nG91 G28 C0\nG90 G28 C45\n");
+    assert_eq!(
+        spindle_events(&segs),
+        vec!["1 C90", "2 S500", "4 S0", "5 O0", "6 C45", "6 O0"]
+    );
+    assert_eq!(
+        it.state().pos[3],
+        45.0,
+        "program C stays at the intermediate point"
+    );
+
+    // A reference angle outside 0..360 is taken modulo 360; G30 uses the second reference; G28
+    // of Z and C moves Z, then orients C; G29 C goes back through the intermediate point.
+    let mut cfg = cfg();
+    cfg.axes[3].references = [Some(-90.0), Some(450.0), None, None];
+    let src = SourceFile::new(
+        "t.nc",
+        "G28 C0\nG30 C10\nG0 Z-10\nG28 Z-5 C20\nG29 C30\nM3 S0\nG28 C0\n",
+    );
+    let segs = cnc402_interp::run_program(&cfg, &src).unwrap();
+    assert_eq!(
+        spindle_events(&segs),
+        vec![
+            "1 O270", "2 C10", "2 O90", "3 C10", "4 C20", "4 C20", "4 O270", "5 C30", "6 S0",
+            "7 C0", "7 O270"
+        ]
+    );
+    assert_eq!(ends(&segs)[3], (4, 0.0, 0.0, 0.0), "Z at its reference");
+}
+
+/// G28/G30/G29 with C while the spindle turns in speed mode is an error at the C word, also
+/// when program C would not move; other axes may return while it turns.
+#[test]
+fn g28_g29_g30_of_the_spindle_axis_while_it_turns_are_errors() {
+    for (text, col) in [
+        ("S500 M3\nG28 C0\n", 5),
+        ("S500 M3\nG91 G30 X0 C0\n", 12),
+        ("G28 C10\nS500 M4\nG29 C0\n", 5),
+    ] {
+        let e = cnc402_interp::run_program(&cfg(), &SourceFile::new("t.nc", text)).unwrap_err();
+        let code = if text.contains("G29") {
+            "G29"
+        } else if text.contains("G30") {
+            "G30"
+        } else {
+            "G28"
+        };
+        assert_eq!(
+            (e.line, e.col, e.message.as_str()),
+            (
+                text.lines().count() as u32,
+                col,
+                format!("{code} C: the spindle turns in speed mode (M3/M4); C is positioned only at rest")
+                    .as_str()
+            ),
+            "{text}"
+        );
+        assert_eq!(
+            e.expected.as_deref(),
+            Some(format!("M5 before {code} C").as_str())
+        );
+    }
+    let (segs, _) = run("G0 X5\nS500 M3\nG28 X0\n");
+    assert_eq!(ends(&segs).last(), Some(&(3, 0.0, 0.0, 0.0)));
 }
 
 #[test]
