@@ -115,9 +115,29 @@ impl Exec<'_> {
         let at = g.map(|g| g.1).or(h.map(|h| h.span)).unwrap_or(self.w.span);
         let name = format!("G{}", mode.code());
         let nonmodal = self.w.g_of(GGroup::NonModal).map(|g| g.0);
-        if g.is_some_and(|g| g.0 == 49) && matches!(nonmodal, Some(28 | 30 | 53)) {
+        if let Some((49, g49)) = g
+            && let Some(code @ (28 | 30 | 53)) = nonmodal
+        {
             // `G91 G28 Z0 G49`, `G49 G53 Z0`: Fanuc cancels the vector with the move (at the
-            // reference position), not before it; see `run`.
+            // reference position), not before it; see `run`. Without a Z move the vector
+            // would stay in the position while `#4008` reads 49, unless the position holds
+            // none of it already (after `G28 Z`).
+            if let Some(z) = self.st.tool_axis
+                && self.w.peek(self.cfg.axes[z].name).is_none()
+                && self.st.tlo_in_pos != 0.0
+            {
+                let zn = self.cfg.axes[z].name;
+                return Err(self
+                    .err(
+                        g49,
+                        format!(
+                            "G49 with G{code} cancels the tool length offset on the {zn} move, and this block does not move {zn}"
+                        ),
+                    )
+                    .with_expected(format!(
+                        "{zn} in this block, or G49 in a block of its own"
+                    )));
+            }
             self.tlo_cancel_after = true;
             return Ok(());
         }

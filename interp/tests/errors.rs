@@ -594,6 +594,26 @@ const CASES: &[(&str, u32, u32, &str)] = &[
     ),
     ("G0 X[1/0]\n", 1, 5, "division by zero"),
     ("G0 X[SQRT[-1]]\n", 1, 5, "SQRT of a negative number (-1)"),
+    // Regression (review item 3): G49 in a G53/G28/G30 block without Z left the vector in the
+    // position (Z stayed at -170 until its next word) while #4008 read 49.
+    (
+        "G0 X0 Y0 Z0\nG43 H1 Z10\nG49 G53 X0\n",
+        3,
+        1,
+        "G49 with G53 cancels the tool length offset on the Z move, and this block does not move Z",
+    ),
+    (
+        "G43 H1 Z10\nG91 G28 X0 G49\n",
+        2,
+        12,
+        "G49 with G28 cancels the tool length offset on the Z move",
+    ),
+    (
+        "G43 H1 Z10\nG30 Y0 G49\n",
+        2,
+        8,
+        "G49 with G30 cancels the tool length offset on the Z move",
+    ),
     // G53.
     ("G53 G2 X1 I1 F10\n", 1, 1, "G53 works only with G0 or G1"),
     (

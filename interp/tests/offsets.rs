@@ -499,7 +499,8 @@ fn a_g0_in_the_block_sets_the_mode_of_the_offset_move() {
 }
 
 /// `G91 G28 Z0 G49` and `G49 G53 Z0`: the cancel happens with the move (Fanuc), so Z goes
-/// straight to the reference; with G53 X only, Z drops the offset at its next move.
+/// straight to the reference. Without Z in the block it is an error (see the corpus), except
+/// when the position holds no vector anyway (after `G28 Z`).
 #[test]
 fn g49_in_a_g28_or_g53_block_cancels_with_the_move() {
     let (segs, mut it) = run("G43 H1 Z50\nG91 G28 Z0 G49\n#100=#4008\nG90 G0 Z10\n");
@@ -512,16 +513,23 @@ fn g49_in_a_g28_or_g53_block_cancels_with_the_move() {
         ]
     );
     assert_eq!(var(&mut it, 100), Some(49.0));
-    let (segs, _) = run("G43 H1 Z50\nG49 G53 X5\nG0 X6\nG0 Z10\n");
+    let (segs, mut it) = run(concat!(
+        "G43 H1 Z50\nG91 G28 Z0\nG28 X5 Y0 G49\n#100=#4008\n#101=#5003\n",
+        "G49 G90 G53 X1\nG0 Z10\n",
+    ));
     assert_eq!(
         ends(&segs),
         vec![
             (1, 0.0, 0.0, -130.0),
-            (2, 5.0, 0.0, -130.0),
-            (3, 6.0, 0.0, -130.0),
-            (4, 6.0, 0.0, 10.0),
+            (2, 0.0, 0.0, 0.0),
+            (3, 5.0, 0.0, 0.0),
+            (3, 0.0, 0.0, 0.0),
+            (6, 1.0, 0.0, 0.0),
+            (7, 1.0, 0.0, 10.0),
         ]
     );
+    assert_eq!(var(&mut it, 100), Some(49.0));
+    assert_eq!(var(&mut it, 101), Some(0.0));
 }
 
 /// G49 in a safety line is harmless on a machine without Z; G43 there is an error.
