@@ -357,6 +357,14 @@ fn g65_argument_specification_ii() {
         (it.var(104), it.var(106), it.var(108)),
         (Some(1.0), Some(2.0), Some(3.0))
     );
+    // The example of docs/language.md: a specification I program written K J I reads
+    // #6, #8, #10 (three sets), as on Fanuc, not #4-#6.
+    let mut it = run("G65 P9 K3 J2 I1");
+    let v = vars(&mut it);
+    assert_eq!(
+        &v[3..10],
+        &[None, None, Some(3.0), None, Some(2.0), None, Some(1.0)]
+    );
     // All ten sets: I10 J10 K10 are #31-#33.
     let sets: String = (1..=10).map(|k| format!(" I{k} J{k} K{k}")).collect();
     let mut it = run(&format!("G65 P9{sets}"));
