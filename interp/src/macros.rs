@@ -370,6 +370,15 @@ impl VarSource for Interpreter {
     }
 }
 
+/// `#2401–#2800`: controls differ in whether and how they number the D values (cutter
+/// radius) of offsets 1–200 there, so cnc402 maps only `#12001…`/`#13001…` for D; a guessed
+/// mapping could write the wrong field. The error says where the D values are.
+fn old_d_offset_var(n: i64) -> String {
+    format!(
+        "#{n} is not a variable of this control: the D (radius) offsets are #13001-#13400 (geometry) and #12001-#12400 (wear); the older #2xxx numbers are H only (#2001-#2200 wear, #2201-#2400 geometry)"
+    )
+}
+
 impl Interpreter {
     fn cur_unit(&self) -> Arc<Unit> {
         self.frames
@@ -445,6 +454,7 @@ impl Interpreter {
                     ));
                 }
             },
+            2401..=2800 => return Err(old_d_offset_var(n)),
             _ => return Err(format!("#{n} is not a variable of this control")),
         })
     }
@@ -550,6 +560,7 @@ impl Interpreter {
                 let v = v.unwrap_or(0.0) * self.state.unit();
                 f.set(&mut self.state.tool_offsets[k - 1], v);
             }
+            2401..=2800 => return Err(old_d_offset_var(n)),
             _ => {
                 return Err(format!(
                     "#{n} cannot be written (locals #1-#33, common #100-#199, non-volatile #{NV_FIRST}-#{NV_LAST}, work offsets #5221-#5326, tool offsets #2001-#2400 and #10001-#13400, #3000, #3006)"
@@ -999,7 +1010,9 @@ impl Interpreter {
             if let Some((c, a)) = w.first_unused() {
                 return Err(
                     err(a.span, format!("address {c} is not an argument of G{code}"))
-                        .with_expected("A-F, H, I-K, M, Q-Z (argument specification I; I J K may repeat: II)"),
+                        .with_expected(
+                            "A-F, H, I-K, M, Q-Z (argument specification I; I J K may repeat: II)",
+                        ),
                 );
             }
             if code == 65 {

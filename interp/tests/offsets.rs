@@ -375,6 +375,20 @@ fn g10_l10_to_l13_and_the_offset_variables() {
     }
 }
 
+/// Review item 6: `#2401–#2800` (D values on some older controls) are not mapped; reading or
+/// writing one is an error that says where the D values are.
+#[test]
+fn the_older_d_offset_numbers_are_refused_with_where_d_is() {
+    for (text, col) in [("#1=#2401\n", 4), ("#2800=1\n", 1), ("#1=#2600\n", 4)] {
+        let e = cnc402_interp::run_program(&cfg(), &SourceFile::new("t.nc", text)).unwrap_err();
+        assert_eq!((e.line, e.col), (1, col), "{text}");
+        assert!(
+            e.message.contains("is not a variable of this control: the D (radius) offsets are #13001-#13400 (geometry) and #12001-#12400 (wear)"),
+            "{e}"
+        );
+    }
+}
+
 #[test]
 fn program_changes_last_for_the_run_only() {
     let cfg = cfg();
