@@ -194,9 +194,10 @@ pub fn eval(src: &SourceFile, e: &Expr, vars: &mut dyn VarSource) -> Result<Opti
         }
         #[allow(unreachable_patterns)]
         _ => {
-            return Err(err(
-                "this expression is not supported yet (it belongs to the C-like language)".into(),
-            ));
+            return Err(err(format!(
+                "C-like expressions are allowed {}",
+                crate::macros::C_LIKE_ONLY
+            )));
         }
     };
     if r.is_finite() {

@@ -325,7 +325,10 @@ impl Interpreter {
             return Err(NcError::new(
                 &unit.src,
                 named.span,
-                "AXSTR axis words are not supported yet (they come with the C-like language)",
+                format!(
+                    "AXSTR axis words are allowed {}",
+                    crate::macros::C_LIKE_ONLY
+                ),
             ));
         }
         if crate::macros::is_g65_h(block) {

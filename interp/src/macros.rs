@@ -370,6 +370,10 @@ impl VarSource for Interpreter {
     }
 }
 
+/// Where the C-like language runs: a Macro B sub-program may be a C-like file, but the
+/// Macro B executor does not run C-like code (a C-like main program runs in `hll`).
+pub(crate) const C_LIKE_ONLY: &str = "only in a C-like main program and the files it #uses, not in a sub-program that a Macro B program calls (M98, G65, G66)";
+
 /// `#2401–#2800`: controls differ in whether and how they number the D values (cutter
 /// radius) of offsets 1–200 there, so cnc402 maps only `#12001…`/`#13001…` for D; a guessed
 /// mapping could write the wrong field. The error says where the D values are.
@@ -628,8 +632,7 @@ impl Interpreter {
             }
             LineKind::Stmts(_) => Err(err(
                 line.span,
-                "C-like statements are not supported yet (they come with the C-like language)"
-                    .into(),
+                format!("C-like statements are allowed {C_LIKE_ONLY}"),
             )),
             LineKind::Assign { target, value } => {
                 self.seen_block = true;

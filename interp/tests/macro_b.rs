@@ -704,3 +704,62 @@ fn m99_in_the_main_program_repeats_it_with_state_and_variables_kept_when_asked()
     let e = drain(&mut it).unwrap_err();
     assert!(e.message.contains("without motion"), "{e}");
 }
+
+/// A library holding one file, `O7001`.
+struct OneFile(&'static str);
+
+impl cnc402_interp::host::ProgramLibrary for OneFile {
+    fn find(&mut self, number: u32, _main: &str) -> Result<Option<SourceFile>, String> {
+        Ok((number == 7001).then(|| SourceFile::new("O7001.nc", self.0)))
+    }
+    fn resolve_use(
+        &mut self,
+        _path: &str,
+        _including: &str,
+    ) -> Result<Option<cnc402_interp::host::UsedFile>, String> {
+        Ok(None)
+    }
+    fn describe(&self) -> String {
+        "in the test library".into()
+    }
+}
+
+/// Regression (review item 7): a C-like file called as a sub-program of a Macro B program
+/// gave "not supported yet (they come with the C-like language)", although the language
+/// exists; the errors now say where C-like code is allowed.
+#[test]
+fn c_like_code_in_a_macro_b_sub_program_says_where_it_is_allowed() {
+    let where_ = "only in a C-like main program and the files it #uses, not in a sub-program that a Macro B program calls (M98, G65, G66)";
+    for (sub, line, col, what) in [
+        (
+            "O7001\nG0 X1\ndouble dA = 1;\nM99\n",
+            3,
+            1,
+            "C-like statements are allowed",
+        ),
+        (
+            "O7001\nG0 AXSTR(\"X\")=2\ndouble dA = 1;\nM99\n",
+            2,
+            4,
+            "AXSTR axis words are allowed",
+        ),
+        (
+            "O7001\nG0 X=dA\ndouble dA = 1;\nM99\n",
+            2,
+            6,
+            "C-like expressions are allowed",
+        ),
+    ] {
+        let src = SourceFile::new("m.nc", "O1\nM98 P7001\nM30\n");
+        let p = cnc402_lang::parse(&src).unwrap();
+        let mut it = Interpreter::new(&cfg());
+        it.set_program_library(Some(Box::new(OneFile(sub))));
+        it.load(src, p);
+        let e = drain(&mut it).unwrap_err();
+        assert_eq!(
+            (e.line, e.col, e.message.clone()),
+            (line, col, format!("{what} {where_}")),
+            "{sub}"
+        );
+    }
+}
