@@ -168,7 +168,8 @@ impl Feeder {
         };
         match cnc402_interp::host_fs::FileVarStore::open(path) {
             Ok((store, table)) => {
-                self.interp.set_persistent_vars(table, Some(Box::new(store)));
+                self.interp
+                    .set_persistent_vars(table, Some(Box::new(store)));
                 Ok(())
             }
             Err(e) => {
