@@ -6,6 +6,9 @@
 //! 2 the program is wrong (parse, interpreter or planning error) · 3 the machine config is wrong ·
 //! 4 an I/O error (file unreadable, CAN interface missing) · 64 bad command-line usage.
 
+// CliError carries an NcError (large); it ends the process, so its size costs nothing.
+#![allow(clippy::result_large_err)]
+
 use std::path::PathBuf;
 use std::process::ExitCode;
 

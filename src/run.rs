@@ -127,6 +127,9 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         None => AtStop::Continue,
     };
     let no_operator_terminal = args.at_stop.is_none() && !stdin_tty;
+    // The test doubles' fields exist when a workspace test build turns on the runtime's
+    // `testing` feature; in a plain build every field is named here.
+    #[allow(clippy::needless_update)]
     let opts = RunOptions {
         // A real bus always runs against the clock.
         timing: if args.realtime || !cfg.bus.is_sim() {

@@ -193,8 +193,8 @@ impl<B: CycleBus> MasterLink<B> {
             .cycle(&mut self.bus, t, &commands[..self.n_axes]);
         match &r {
             Ok(f) => {
-                for i in 0..self.n_axes {
-                    fb[i] = DriveFeedback {
+                for (i, fb) in fb.iter_mut().enumerate().take(self.n_axes) {
+                    *fb = DriveFeedback {
                         actual: f.actual[i],
                         statusword: f.statusword[i].map_or(0, |s| s.0),
                         following_error: f.following_error[i],
@@ -208,10 +208,10 @@ impl<B: CycleBus> MasterLink<B> {
                 // The tripping cycle returns no feedback: keep the last statuswords, with the
                 // positions the master latched in that cycle.
                 let f = self.master.last_feedback();
-                for i in 0..self.n_axes {
-                    fb[i].actual = f.actual[i];
-                    fb[i].actual_counts = f.actual_counts[i];
-                    fb[i].target = f.target[i];
+                for (i, fb) in fb.iter_mut().enumerate().take(self.n_axes) {
+                    fb.actual = f.actual[i];
+                    fb.actual_counts = f.actual_counts[i];
+                    fb.target = f.target[i];
                 }
             }
         }
@@ -286,14 +286,14 @@ impl<B: CycleBus> DriveLink for MasterLink<B> {
         // Stopped: every drive out of OPERATION ENABLED and no axis moved by a count since
         // the last cycle (quick stop ramps take their time).
         let mut stopped = true;
-        for i in 0..self.n_axes {
+        for (i, fb) in fb.iter().enumerate().take(self.n_axes) {
             if self.has_drive[i] {
-                let state = cia402::Statusword(fb[i].statusword).state();
+                let state = cia402::Statusword(fb.statusword).state();
                 let moved =
-                    (fb[i].actual - self.prev_actual[i]).abs() * self.counts_per_unit[i] >= 1.0;
+                    (fb.actual - self.prev_actual[i]).abs() * self.counts_per_unit[i] >= 1.0;
                 stopped &= state != Some(State::OperationEnabled) && !moved;
             }
-            self.prev_actual[i] = fb[i].actual;
+            self.prev_actual[i] = fb.actual;
         }
         stopped
     }

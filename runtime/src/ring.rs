@@ -17,6 +17,8 @@ use crate::status::Status;
 pub use ringbuf::traits::{Consumer, Observer, Producer};
 
 /// What the feeder gives the loop.
+// A move travels by value through the fixed-capacity ring: boxing it would allocate.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum LoopInput {
     /// The next move, in program order.

@@ -715,7 +715,7 @@ fn run_virtual(
         // an interpreter waiting for the motion before a position read. Otherwise the feeder
         // thread is still planning, and we wait for it (so results do not depend on speed).
         let waiting = side.shared.waiting.load(Ordering::SeqCst);
-        if !ctrl.has_work() && !(waiting && !side.shared.motion_done()) {
+        if !ctrl.has_work() && (!waiting || side.shared.motion_done()) {
             if side.feeder.as_ref().is_some_and(|h| h.is_finished()) {
                 // The feeder ended without `End` (an error): stop the machine.
                 stop_request.store(true, Ordering::SeqCst);

@@ -74,6 +74,8 @@ impl ModelLink {
         self
     }
 
+    // Several per-axis arrays are indexed together: an index reads clearer than a zip of five.
+    #[allow(clippy::needless_range_loop)]
     fn feedback(&self, fb: &mut [DriveFeedback; MAX_AXES]) {
         let tail = (self.head + 8 - self.delay) % 8;
         for i in 0..self.n_axes {
@@ -100,6 +102,7 @@ impl DriveLink for ModelLink {
         Startup::Ready(self.start)
     }
 
+    #[allow(clippy::needless_range_loop)]
     fn cycle(
         &mut self,
         now: Instant,
