@@ -50,7 +50,9 @@
 //!   A `G65` block with H and only P/Q/R besides is an old macro instruction (`G65 H02 P#1 Q#2
 //!   R3`); with any other address H is the argument `#11`.
 //! - `M99` returns (repeats first); `M99 P n` returns to `N n` of the caller, or jumps in a
-//!   main program; `M99` alone in a main program ends it (Fanuc would restart it endlessly).
+//!   main program; `M99` alone in a main program restarts it endlessly as on Fanuc with
+//!   [`MainM99::Repeat`] (a machine run), or ends it after one pass with [`MainM99::End`] (the
+//!   default: a dump, a dry run; [`Interpreter::main_m99_line`] says where).
 //!   The end of a sub-program's text returns like M99.
 //! - Vacant: `#0`, unset variables; a word whose value is vacant is left out; arithmetic reads
 //!   0; `EQ`/`NE` compare vacant as a value of its own. Common `#100–#199` clear at `load`;

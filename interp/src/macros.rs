@@ -817,7 +817,15 @@ impl Interpreter {
             return match (seq, self.opts.main_m99) {
                 (Some(n), _) => self.jump(unit, n, span),
                 (None, crate::interp::MainM99::Repeat) => {
-                    let start = unit.start;
+                    // Over the opening `%` (past the first block it would end the program).
+                    let start = (unit.start..unit.end)
+                        .find(|&i| {
+                            !matches!(
+                                unit.program.lines.get(i).map(|l| &l.kind),
+                                Some(LineKind::Percent)
+                            )
+                        })
+                        .unwrap_or(unit.start);
                     self.set_pc(start);
                     Ok(())
                 }

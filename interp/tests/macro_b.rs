@@ -693,6 +693,16 @@ fn m99_in_the_main_program_repeats_it_with_state_and_variables_kept_when_asked()
     assert_eq!(xs(&segs), vec![1.0, 2.0, 3.0]);
     assert_eq!(it.var(100), Some(3.0));
     assert_eq!(it.main_m99_line(), None);
+    // Regression: with the tape's opening `%`, the restart went back to the `%`, which after
+    // the first block ends the program, so the run stopped after one pass.
+    let text = "%\nO0001\n#100=[#100+1]\nG0 X[#100]\nIF [#100 GE 3] GOTO 90\nM99\nN90 M30\n%\n";
+    let src = SourceFile::new("m.nc", text);
+    let p = cnc402_lang::parse(&src).unwrap();
+    let mut it = Interpreter::with_options(&cfg(), opts.clone());
+    it.set_program_library(None);
+    it.load(src, p);
+    let segs = drain(&mut it).unwrap();
+    assert_eq!(xs(&segs), vec![1.0, 2.0, 3.0]);
     // A repeating program that never moves is still a runaway.
     let mut c = cfg();
     c.interp.block_limit = 1000;
