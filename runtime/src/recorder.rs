@@ -47,6 +47,9 @@ struct OpenWindow {
 
 const HIST: usize = 16;
 
+/// The plot series never holds more points than this (see `Recorder::thin_plot`).
+pub const PLOT_MAX_POINTS: usize = 8000;
+
 /// One sample of the plot series.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlotPoint {
@@ -185,6 +188,9 @@ impl Recorder {
             });
             self.plot_coupling = 0.0;
             self.plot_coupling_act = 0.0;
+            if self.plot.len() >= PLOT_MAX_POINTS {
+                self.thin_plot();
+            }
         }
         self.ticks += 1;
         self.last = Some(*s);
@@ -328,6 +334,25 @@ impl Recorder {
         }
     }
 
+    /// Halves the plot series and its rate, so that a run longer than the dry run said (a
+    /// main program repeated by M99, a long hold) keeps a bounded series: each pair becomes
+    /// its first point with the pair's worst coupling errors.
+    fn thin_plot(&mut self) {
+        let worst = |a: f64, b: f64| if b.abs() > a.abs() { b } else { a };
+        let mut w = 0;
+        for r in (0..self.plot.len()).step_by(2) {
+            let mut p = self.plot[r];
+            if let Some(q) = self.plot.get(r + 1) {
+                p.coupling_um = worst(p.coupling_um, q.coupling_um);
+                p.coupling_act_um = worst(p.coupling_act_um, q.coupling_act_um);
+            }
+            self.plot[w] = p;
+            w += 1;
+        }
+        self.plot.truncate(w);
+        self.plot_every = self.plot_every.saturating_mul(2);
+    }
+
     /// The plot series (Z and C setpoints, coupling error).
     pub fn plot_points(&self) -> &[PlotPoint] {
         &self.plot
@@ -347,5 +372,54 @@ fn fmt(v: f64) -> String {
         "0".to_string()
     } else {
         s.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::status::Phase;
+
+    fn status(tick: u64) -> Status {
+        Status {
+            tick,
+            line: 1,
+            phase: Phase::Running,
+            cmd: [0.0; MAX_AXES],
+            cmd_counts: [0; MAX_AXES],
+            act: [0.0; MAX_AXES],
+            act_counts: [0; MAX_AXES],
+            following_error: [0.0; MAX_AXES],
+            age: [0; MAX_AXES],
+            statusword: [0; MAX_AXES],
+            event: None,
+            tap: None,
+            stop: None,
+            moves_started: 1,
+            idle: false,
+            spindle_follow: false,
+        }
+    }
+
+    /// Regression: a run far longer than its dry run (a main program repeated by M99) grew
+    /// the plot series by about 4000 points per pass, without bound.
+    #[test]
+    fn the_plot_series_stays_bounded_and_spans_the_whole_run() {
+        let cfg = MachineConfig::default_machine();
+        // The dry run said 8000 ticks; the run lasts 100 times longer.
+        let mut r = Recorder::new(&cfg, 8000);
+        let n = 800_000;
+        for t in 0..n {
+            r.record(&status(t));
+        }
+        let p = r.plot_points();
+        assert!(p.len() <= PLOT_MAX_POINTS, "{} points", p.len());
+        assert!(p.len() >= PLOT_MAX_POINTS / 4, "{} points", p.len());
+        let last = p.last().unwrap().t;
+        assert!(
+            last > (n as f64 * 1e-3) * 0.9,
+            "the series reaches {last} s"
+        );
+        assert!(p.windows(2).all(|w| w[1].t > w[0].t));
     }
 }
