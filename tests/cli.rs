@@ -1103,3 +1103,43 @@ fn coolant_left_on_by_a_program_ended_at_a_stop_is_turned_off() {
     assert!(err.contains("coolant off"), "{err}");
     assert!(!err.contains("the run ended with it on"), "{err}");
 }
+
+/// Regression: a variables file removed during a program stop read as all vacant at the
+/// resume, so the program went on with its #500 gone (and a word with a vacant value is left
+/// out of its block). It is an error at the stop's line now.
+#[test]
+fn a_variables_file_removed_during_a_stop_stops_the_program_at_the_resume() {
+    let dir = test_dir("vars-removed-during-stop");
+    let vars = dir.join("vars.txt");
+    let _ = std::fs::remove_file(&vars);
+    let cfg = dir.join("machine.toml");
+    config_with_vars_file(&vars, &cfg);
+    let prog = write_program(
+        &dir,
+        "ask.nc",
+        "G21 G90 G17\n#500=7\nG0 X1 Y0 Z5\nM0\nG0 X#500\nM30\n",
+    );
+    let mut child = cnc402_piped("warn")
+        .args([
+            "run",
+            prog.to_str().unwrap(),
+            "--config",
+            cfg.to_str().unwrap(),
+        ])
+        .args(["--at-stop", "wait"])
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let mut child = WatchedChild::new(child);
+    child.wait_for("press Enter to continue");
+    std::fs::remove_file(&vars).unwrap();
+    {
+        use std::io::Write as _;
+        stdin.write_all(b"\n").unwrap();
+    }
+    let (status, err) = child.finish();
+    drop(stdin);
+    assert_eq!(status.code(), Some(2), "{err}");
+    assert!(err.contains("ask.nc:4"), "{err}");
+    assert!(err.contains("was removed during the stop"), "{err}");
+}

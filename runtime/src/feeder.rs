@@ -166,7 +166,21 @@ impl Feeder {
         let Some(path) = &self.vars_file else {
             return Ok(());
         };
-        match cnc402_interp::host_fs::FileVarStore::open(path) {
+        // A file removed during the stop would read as all vacant: values the program holds
+        // would silently vanish (and vacant words are left out of blocks). An error instead.
+        let gone = !path.exists()
+            && self
+                .interp
+                .persistent_vars()
+                .as_slice()
+                .iter()
+                .any(Option::is_some);
+        let opened = if gone {
+            Err(format!("{} was removed during the stop", path.display()))
+        } else {
+            cnc402_interp::host_fs::FileVarStore::open(path).map_err(|e| e.to_string())
+        };
+        match opened {
             Ok((store, table)) => {
                 self.interp
                     .set_persistent_vars(table, Some(Box::new(store)));
