@@ -582,7 +582,7 @@ fn build_report(cfg: &MachineConfig, src: &SourceFile, side: &Side, end: &LoopEn
     };
     let program_time_s = side.program_ticks as f64 * period_s;
     if side.coolant_on {
-        log::info!("coolant off: the run ended with it on");
+        log::warn!("coolant off: the run ended with it on");
     }
     let waits = side.gate.waits();
     let mut wi = 0;
