@@ -346,6 +346,7 @@ impl Exec<'_> {
         if self.cfg.spindle_index().is_some() {
             self.push(SegmentKind::SpindleOrient {
                 angle: self.cfg.interp.spindle_orient_angle,
+                program: None,
             });
         }
         Ok(())

@@ -11,13 +11,15 @@
 //! `arc` adds `center` (`X` `Y` `Z`, machine coordinates; the normal axis holds the start's
 //! value), `plane` (`XY` `ZX` `YZ`), `dir` (`cw` `ccw`) and `turns` (1 = full circle);
 //! `dwell` adds `seconds`; `spindle` adds `rpm` and `dir` (`cw` `ccw` `stop`);
-//! `spindle_orient` adds `angle` (the physical spindle angle in degrees); `tool_change`
+//! `spindle_orient` adds `angle` (the physical spindle angle in degrees) and, for G28/G30 C,
+//! `program` (the spindle axis's program position from then on: its reference); `tool_change`
 //! adds `tool`; `coolant` adds `mist` and `flood` (booleans: the state from here on); `stop` adds `stop` (`program` `optional` `end` `end_rewind`); `message` adds
 //! `text`.
 //!
-//! The spindle axis C is the program's view: it starts at 0 and moves only with rigid taps
-//! and C words; speed-mode runs (M3/M4) and orientation do not change it, because the motion
-//! layer keeps their turn in the spindle offset (machine C − program C).
+//! The spindle axis C is the program's view: it starts at 0 and moves only with rigid taps,
+//! C words and G28/G30 C (which set it to the reference); speed-mode runs (M3/M4) and
+//! orientation do not otherwise change it, because the motion layer keeps their turn in the
+//! spindle offset (machine C − program C).
 
 use std::fmt::Write;
 
@@ -163,8 +165,11 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
             };
             let _ = write!(o, ",\"rpm\":{},\"dir\":\"{dir}\"", num(*rpm));
         }
-        SegmentKind::SpindleOrient { angle } => {
+        SegmentKind::SpindleOrient { angle, program } => {
             let _ = write!(o, ",\"angle\":{}", num(*angle));
+            if let Some(c) = program {
+                let _ = write!(o, ",\"program\":{}", num(*c));
+            }
         }
         SegmentKind::ToolChange { tool } => {
             let _ = write!(o, ",\"tool\":{tool}");
@@ -255,7 +260,10 @@ mod tests {
                 rpm: 800.0,
                 dir: SpindleDir::Ccw,
             },
-            SegmentKind::SpindleOrient { angle: 271.5 },
+            SegmentKind::SpindleOrient {
+                angle: 271.5,
+                program: None,
+            },
             SegmentKind::ToolChange { tool: 4 },
             SegmentKind::Coolant {
                 mist: false,
@@ -302,10 +310,28 @@ mod tests {
     #[test]
     fn spindle_orient_has_its_angle() {
         let cfg = MachineConfig::default_machine();
-        let j = segment_to_json(&seg(SegmentKind::SpindleOrient { angle: 90.25 }), &cfg);
+        let j = segment_to_json(
+            &seg(SegmentKind::SpindleOrient {
+                angle: 90.25,
+                program: None,
+            }),
+            &cfg,
+        );
         assert_eq!(
             j,
             r#"{"kind":"spindle_orient","file":"q\"x.nc","line":7,"n":null,"angle":90.25}"#
+        );
+        // G28/G30 C: program C reads the reference afterwards.
+        let j = segment_to_json(
+            &seg(SegmentKind::SpindleOrient {
+                angle: 270.0,
+                program: Some(-90.0),
+            }),
+            &cfg,
+        );
+        assert_eq!(
+            j,
+            r#"{"kind":"spindle_orient","file":"q\"x.nc","line":7,"n":null,"angle":270,"program":-90}"#
         );
     }
 }

@@ -292,6 +292,14 @@ impl Interpreter {
                 }
                 self.path_end = *end;
             }
+            // G28/G30 C: program C reads the reference from here (the turn is no path).
+            SegmentKind::SpindleOrient {
+                program: Some(c), ..
+            } => {
+                if let Some(i) = self.cfg.spindle_index() {
+                    self.path_end[i] = *c;
+                }
+            }
             _ => {}
         }
     }

@@ -363,8 +363,10 @@ impl Exec<'_> {
     /// already is makes no segment. The tool length offset stays in force but its vector is
     /// cancelled on Z at the reference position (Fanuc); Z's next programmed move restores
     /// it. The spindle axis goes to its reference by an orientation (`SpindleOrient`) to the
-    /// physical angle, as M19 does: program C is not where the spindle physically is after a
-    /// speed-mode run, and only motion knows the difference.
+    /// physical angle of the reference, as M19 does (program C is not where the spindle
+    /// physically is after a speed-mode run; only motion knows the difference), and then
+    /// reads the reference, as on Fanuc: the segment sets program C in motion too, so the
+    /// physical angle ≡ program C afterwards and later absolute C moves count from it.
     pub(crate) fn reference_return(&mut self, code: u32, span: Span) -> Result<(), NcError> {
         let name = format!("G{code}");
         self.no_cycle_code(span, &name)?;
@@ -445,7 +447,7 @@ impl Exec<'_> {
                 // The physical angle of the reference, 0 <= a < 360 (rem_euclid of a tiny
                 // negative number rounds to 360).
                 let a = r.rem_euclid(360.0);
-                orient = Some(if a >= 360.0 { 0.0 } else { a });
+                orient = Some((i, if a >= 360.0 { 0.0 } else { a }, r));
                 continue;
             }
             end[i] = r;
@@ -456,9 +458,13 @@ impl Exec<'_> {
         if end != self.st.pos {
             self.rapid(end, &letters)?;
         }
-        if let Some(angle) = orient {
-            // Program C stays; motion puts the turn into the spindle offset.
-            self.push(SegmentKind::SpindleOrient { angle });
+        if let Some((i, angle, r)) = orient {
+            // Program C reads the reference from here on (Fanuc), in motion as here.
+            self.push(SegmentKind::SpindleOrient {
+                angle,
+                program: Some(r),
+            });
+            self.st.pos[i] = r;
         }
         Ok(())
     }

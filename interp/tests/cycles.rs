@@ -346,7 +346,10 @@ fn g76_orients_and_shifts_by_q() {
             .unwrap();
         assert_eq!(
             l3[stop + 1].kind,
-            SegmentKind::SpindleOrient { angle },
+            SegmentKind::SpindleOrient {
+                angle,
+                program: None
+            },
             "{plane}"
         );
         let bottom = end(l3[stop - 1]).unwrap();
@@ -384,7 +387,7 @@ fn g87_back_boring_sequence() {
             SegmentKind::Rapid { end } => format!("R{},{}", end[X], end[Z]),
             SegmentKind::Linear { end, .. } => format!("F{},{}", end[X], end[Z]),
             SegmentKind::Spindle { rpm, .. } => format!("S{rpm}"),
-            SegmentKind::SpindleOrient { angle } => format!("O{angle}"),
+            SegmentKind::SpindleOrient { angle, .. } => format!("O{angle}"),
             k => format!("{k:?}"),
         })
         .collect();
@@ -598,7 +601,13 @@ fn m19_stops_and_orients_the_spindle() {
             dir: SpindleDir::Stop
         }
     );
-    assert_eq!(l3[1].kind, SegmentKind::SpindleOrient { angle: 123.25 });
+    assert_eq!(
+        l3[1].kind,
+        SegmentKind::SpindleOrient {
+            angle: 123.25,
+            program: None
+        }
+    );
     let after = segs.iter().find(|s| s.source.line == 4).unwrap();
     assert_eq!(end(after).unwrap()[C], 30.0);
     // The spindle stays stopped: a tap needs M3 (or M29) again.

@@ -225,7 +225,10 @@ fn spindle_events(segs: &[Segment]) -> Vec<String> {
     segs.iter()
         .filter_map(|s| match &s.kind {
             SegmentKind::Rapid { end } => Some(format!("{} C{}", s.source.line, end[3])),
-            SegmentKind::SpindleOrient { angle } => Some(format!("{} O{angle}", s.source.line)),
+            SegmentKind::SpindleOrient { angle, program } => Some(match program {
+                Some(c) => format!("{} O{angle}=C{c}", s.source.line),
+                None => format!("{} O{angle}", s.source.line),
+            }),
             SegmentKind::Spindle { rpm, .. } => Some(format!("{} S{rpm}", s.source.line)),
             _ => None,
         })
@@ -235,22 +238,21 @@ fn spindle_events(segs: &[Segment]) -> Vec<String> {
 /// Regression (review item 2): `G28 C0` turned program C to 0, which is not the physical
 /// reference after a speed-mode run (motion keeps the spindle's offset), so the spindle did
 /// not move. The spindle axis goes to its reference by an orientation to the physical angle
-/// (as M19); program C stays. The intermediate point is an ordinary C move.
+/// (as M19), and then reads the reference (Fanuc): the segment sets program C in motion too
+/// (`O0=C0`), and later C words count from it. The intermediate point is an ordinary C move.
 #[test]
-fn g28_of_the_spindle_axis_orients_it_to_the_physical_reference() {
-    let (segs, it) = run("G0 C90\nS500 M3\nG4 X1\nM5\nG91 G28 C0\nG90 G28 C45\n");
+fn g28_of_the_spindle_axis_orients_it_and_c_reads_the_reference() {
+    let (segs, mut it) = run("G0 C90\nS500 M3\nG4 X1\nM5\nG91 G28 C0\nG90 G28 C45\n#100=#5004\n");
     assert_eq!(
         spindle_events(&segs),
-        vec!["1 C90", "2 S500", "4 S0", "5 O0", "6 C45", "6 O0"]
+        vec!["1 C90", "2 S500", "4 S0", "5 O0=C0", "6 C45", "6 O0=C0"]
     );
-    assert_eq!(
-        it.state().pos[3],
-        45.0,
-        "program C stays at the intermediate point"
-    );
+    assert_eq!(it.state().pos[3], 0.0, "program C reads the reference");
+    assert_eq!(var(&mut it, 100), Some(0.0));
 
-    // A reference angle outside 0..360 is taken modulo 360; G30 uses the second reference; G28
-    // of Z and C moves Z, then orients C; G29 C goes back through the intermediate point.
+    // A reference angle outside 0..360 is taken modulo 360 (program C reads the reference
+    // itself); G30 uses the second reference; G28 of Z and C moves Z, then orients C; G29 C
+    // goes back through the intermediate point, from the reference.
     let mut cfg = cfg();
     cfg.axes[3].references = [Some(-90.0), Some(450.0), None, None];
     let src = SourceFile::new(
@@ -261,11 +263,186 @@ fn g28_of_the_spindle_axis_orients_it_to_the_physical_reference() {
     assert_eq!(
         spindle_events(&segs),
         vec![
-            "1 O270", "2 C10", "2 O90", "3 C10", "4 C20", "4 C20", "4 O270", "5 C30", "6 S0",
-            "7 C0", "7 O270"
+            "1 O270=C-90",
+            "2 C10",
+            "2 O90=C450",
+            "3 C450",
+            "4 C20",
+            "4 C20",
+            "4 O270=C-90",
+            "5 C20",
+            "5 C30",
+            "6 S0",
+            "7 C0",
+            "7 O270=C-90"
         ]
     );
     assert_eq!(ends(&segs)[3], (4, 0.0, 0.0, 0.0), "Z at its reference");
+    // G30 P3 shares the code.
+    cfg.axes[3].references[2] = Some(725.5);
+    let src = SourceFile::new("t.nc", "G30 P3 C10\nG91 G0 C1\n");
+    let segs = cnc402_interp::run_program(&cfg, &src).unwrap();
+    assert_eq!(
+        spindle_events(&segs),
+        vec!["1 C10", "1 O5.5=C725.5", "2 C726.5"]
+    );
+}
+
+/// Review repro 1 (segments): `G0 C0` / `G28 C30.` / `G0 C45.` oriented the spindle to 0 but
+/// left program C at 30, so the `G0 C45.` turned 15° and ended at the physical 15°. Program C,
+/// the segments' C and `#5004`/`#5024`/`#5044` read the reference after G28 C (work
+/// coordinates: the reference less the work offset), and `G0 C45.` is a turn of 45.
+#[test]
+fn g28_c_then_absolute_c_counts_from_the_reference() {
+    let text = "G0 C0\nG28 C30.\n#100=#5004\n#101=#5024\n#102=#5044\nG0 C45.\n";
+    let (segs, mut it) = run(text);
+    assert_eq!(
+        spindle_events(&segs),
+        vec!["1 C0", "2 C30", "2 O0=C0", "6 C45"]
+    );
+    assert_eq!(
+        [var(&mut it, 100), var(&mut it, 101), var(&mut it, 102)],
+        [Some(0.0); 3]
+    );
+    let orient = segs
+        .iter()
+        .find(|s| matches!(s.kind, SegmentKind::SpindleOrient { .. }))
+        .unwrap();
+    assert_eq!(
+        segment_to_json(orient, &cfg()),
+        r#"{"kind":"spindle_orient","file":"t.nc","line":2,"n":null,"angle":0,"program":0}"#
+    );
+
+    // With a work offset on C the work coordinates read the reference less it.
+    let (segs, mut it) = run(concat!(
+        "G10 L2 P1 C10\n",
+        "G0 C0\n", // machine 10
+        "G28 C30.\n",
+        "#100=#5004\n#101=#5024\n#102=#5044\n",
+        "G0 C45.\n", // machine 55
+    ));
+    assert_eq!(
+        spindle_events(&segs),
+        vec!["2 C10", "3 C40", "3 O0=C0", "7 C55"]
+    );
+    assert_eq!(
+        [var(&mut it, 100), var(&mut it, 101), var(&mut it, 102)],
+        [Some(-10.0), Some(0.0), Some(-10.0)]
+    );
+}
+
+/// Review repro 2 (segments): at C90, `M5`, `G91 G28 C0` (the intermediate point is where C
+/// is), `G90 G0 C90.` must turn 90 from the reference; it moved nothing (program C stayed 90).
+#[test]
+fn g91_g28_c0_then_g90_c90_turns_from_the_reference() {
+    let (segs, it) = run("G0 C90.\nM5\nG91 G28 C0\nG90 G0 C90.\n");
+    assert_eq!(
+        spindle_events(&segs),
+        vec!["1 C90", "2 S0", "3 O0=C0", "4 C90"]
+    );
+    assert_eq!(it.state().pos[3], 90.0);
+}
+
+/// Runs `text` through the interpreter, the planner and the interpolator, the spindle left at
+/// the physical angle `left_at` (the interpolator's spindle offset at start-up). Returns every
+/// tick's (line, Z, machine C) and asserts that the C setpoints never jump: each second
+/// difference is within the axis's acceleration (a re-basing of C by even a degree would
+/// break that).
+fn drive(text: &str, left_at: f64) -> Vec<(u32, f64, f64)> {
+    use cnc402_motion::{Interpolator, Planner, segment::AxisPos};
+    let cfg = cfg();
+    let segs = cnc402_interp::run_program(&cfg, &SourceFile::new("t.nc", text)).unwrap();
+    let mut planner = Planner::new(&cfg);
+    let mut ip = Interpolator::new(&cfg, AxisPos::default());
+    assert!(ip.set_spindle_offset(left_at));
+    let mut out = vec![(0, 0.0, left_at)];
+    let mut next = segs.iter();
+    loop {
+        if ip.is_idle() {
+            let Some(s) = next.next() else { break };
+            ip.start(planner.plan(s).expect("plans")).expect("starts");
+        }
+        let t = ip.tick();
+        out.push((t.line, t.pos.0[2], t.pos.0[3]));
+        assert!(out.len() < 1_000_000, "runaway");
+    }
+    let p = ip.period();
+    let a = cfg.axes[3].max_acceleration;
+    for w in out.windows(3) {
+        let d2 = w[2].2 - 2.0 * w[1].2 + w[0].2;
+        assert!(
+            d2.abs() <= a * p * p * (1.0 + 1e-9) + 1e-9,
+            "C jumps at line {}: {} {} {}",
+            w[2].0,
+            w[0].2,
+            w[1].2,
+            w[2].2
+        );
+    }
+    out
+}
+
+/// The physical angle of machine C, 0 <= a < 360 (up to rounding).
+fn physical(c: f64) -> f64 {
+    let a = c.rem_euclid(360.0);
+    if 360.0 - a < 1e-9 { 0.0 } else { a }
+}
+
+/// Review repros end to end: the final physical C is the programmed one after G28 C, from
+/// any angle the spindle was left at and after a speed-mode run; without a jump in the
+/// setpoints.
+#[test]
+fn after_g28_c_absolute_c_lands_on_its_physical_angle() {
+    for left_at in [0.0, 200.7, -1234.5] {
+        for (text, want) in [
+            ("G0 C0\nG28 C30.\nG0 C45.\nM30\n", 45.0),
+            ("G0 C90.\nM5\nG91 G28 C0\nG90 G0 C90.\nM30\n", 90.0),
+            ("S700 M3\nG4 X0.37\nM5\nG28 C0\nG0 C45.\nM30\n", 45.0),
+            (
+                "S900 M4\nG4 X0.29\nM5\nG91 G28 C0\nG90 G0 C-30.\nM30\n",
+                330.0,
+            ),
+        ] {
+            let ticks = drive(text, left_at);
+            let c = ticks.last().unwrap().2;
+            assert!(
+                (physical(c) - want).abs() < 1e-6,
+                "{text:?} from {left_at}: ends at the physical {}",
+                physical(c)
+            );
+        }
+    }
+}
+
+/// A rigid tap after G28 C starts at the reference angle and turns exactly its pitch's worth
+/// (Z -5.25 from R2 at 1 mm: 7.25 turns, the physical 90 at the bottom); M3 after G28 C
+/// ramps from the oriented angle (no jump, checked by `drive`).
+#[test]
+fn tap_and_speed_mode_after_g28_c() {
+    let text = concat!(
+        "S500 M3\nG4 X0.31\nM5\n",
+        "G0 X0 Y0 Z10\n",
+        "G28 C30.\n",
+        "M29 S600\n",
+        "G84 X0 Y0 Z-5.25 R2 F600\n",
+        "G80\n",
+        "G0 C45.\n",
+        "S800 M3\nG4 X0.2\nM5\n",
+        "M30\n",
+    );
+    let ticks = drive(text, 77.7);
+    let tap: Vec<_> = ticks.iter().filter(|t| t.0 == 7).collect();
+    let bottom = tap.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+    assert!((bottom.1 + 5.25).abs() < 1e-9, "Z bottom {}", bottom.1);
+    assert!(
+        (physical(bottom.2) - 90.0).abs() < 1e-6,
+        "bottom at the physical {}",
+        physical(bottom.2)
+    );
+    let after_tap = tap.last().unwrap();
+    assert!(physical(after_tap.2) < 1e-6 || physical(after_tap.2) > 360.0 - 1e-6);
+    let at_45 = ticks.iter().rfind(|t| t.0 == 9).unwrap();
+    assert!((physical(at_45.2) - 45.0).abs() < 1e-6);
 }
 
 /// G28/G30/G29 with C while the spindle turns in speed mode is an error at the C word, also

@@ -24,6 +24,9 @@ pub enum MotionErrorKind {
     BadRpm(f64),
     /// A spindle orientation angle outside 0 ≤ angle < 360 or not finite.
     BadOrientAngle(f64),
+    /// A spindle orientation that sets program C to a value not ≡ its angle (mod 360), or
+    /// not finite: afterwards the physical angle would not be ≡ program C.
+    BadOrientProgram { angle: f64, program: f64 },
     /// A spindle speed above the axis' `max_rpm` / `max_velocity`.
     SpindleTooFast { rpm: f64, max_rpm: f64 },
     /// A spindle command on a machine without a spindle axis.
@@ -74,6 +77,10 @@ impl fmt::Display for MotionError {
                     "spindle orientation angle {a}° (must be 0 ≤ angle < 360)"
                 )
             }
+            MotionErrorKind::BadOrientProgram { angle, program } => write!(
+                f,
+                "spindle orientation to {angle}° sets program C to {program} (must be ≡ the angle mod 360)"
+            ),
             MotionErrorKind::SpindleTooFast { rpm, max_rpm } => {
                 write!(f, "spindle speed {rpm} rpm above the maximum {max_rpm} rpm")
             }

@@ -7,7 +7,7 @@
 use cnc402_config::MachineConfig;
 
 use crate::error::{MotionError, MotionErrorKind};
-use crate::planner::{MoveKind, PathMove, PlannedMove};
+use crate::planner::{MoveKind, PathMove, PlannedMove, orient_program_agrees};
 use crate::profile::{JerkProfile, Limits, PathProfile, State, rest_to_rest, velocity_change};
 use crate::segment::{AxisPos, MAX_AXES, StopKind};
 
@@ -310,7 +310,11 @@ impl Interpolator {
                 };
                 Job::SpindleRamp
             }
-            MoveKind::SpindleOrient { angle, limits } => {
+            MoveKind::SpindleOrient {
+                angle,
+                limits,
+                program,
+            } => {
                 let Some(sp) = self.spindle else {
                     return Err(err(MotionErrorKind::NoSpindle));
                 };
@@ -320,10 +324,21 @@ impl Interpolator {
                 if !(angle.is_finite() && (0.0..360.0).contains(&angle)) {
                     return Err(err(MotionErrorKind::BadOrientAngle(angle)));
                 }
+                if let Some(c) = program
+                    && !orient_program_agrees(angle, c)
+                {
+                    return Err(err(MotionErrorKind::BadOrientProgram { angle, program: c }));
+                }
                 let from = self.prog.0[sp.index] + self.offset;
                 let Some(orient) = OrientMove::new(from, angle, limits, self.period) else {
                     return Err(err(MotionErrorKind::BadLimits));
                 };
+                if let Some(c) = program {
+                    // Program C reads `c` from here on (G28/G30 C); machine C does not jump:
+                    // the offset takes the difference, and the turn goes into it at the end.
+                    self.prog.0[sp.index] = c;
+                    self.offset = from - c;
+                }
                 Job::Orient {
                     orient,
                     k: 0,
@@ -488,7 +503,8 @@ impl Interpolator {
                 };
                 spindle_pos = Some(c);
                 if done {
-                    // Program C stays; the turn goes into the offset (as after a speed run).
+                    // Program C stays (or was set when the move started); the turn goes into
+                    // the offset (as after a speed run).
                     if let Some(sp) = self.spindle {
                         self.offset = c - self.prog.0[sp.index];
                     }

@@ -19,12 +19,15 @@
 //! stopped. (Hence the exact-end guarantee of a move holds bit-for-bit for C only while the
 //! offset is 0; otherwise the end is `end[C] + offset`.)
 //!
-//! `SpindleOrient { angle }` (G76/G87) is resolved here for the same reason: with the spindle
-//! at rest, a jerk-limited position move (the axis's velocity capped at `max_rpm`, its
-//! acceleration and jerk) turns machine C the shorter way (≤ 180°, ties forward) to the
-//! nearest `angle + 360·n` (one rounding), exactly on its last tick. Program C does not
-//! change; the turn goes into the offset, so a later tap from program C0 to C1 still turns
-//! exactly C1 − C0, now starting at the oriented angle.
+//! `SpindleOrient { angle, program }` (M19, G76/G87, G28/G30 C) is resolved here for the same
+//! reason: with the spindle at rest, a jerk-limited position move (the axis's velocity capped
+//! at `max_rpm`, its acceleration and jerk) turns machine C the shorter way (≤ 180°, ties
+//! forward) to the nearest `angle + 360·n` (one rounding), exactly on its last tick. With
+//! `program: None` program C does not change; the turn goes into the offset, so a later tap
+//! from program C0 to C1 still turns exactly C1 − C0, now starting at the oriented angle. With
+//! `program: Some(c)` (G28/G30 C, c ≡ angle mod 360) program C becomes c and the offset
+//! becomes a whole number of turns (up to rounding), so the physical angle ≡ program C: a
+//! later `G0 C45` ends on the physical angle 45.
 //!
 //! # Limits
 //! Lines: each moving axis i bounds path speed, acceleration and jerk by its limit · L/|Δi|.

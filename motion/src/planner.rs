@@ -45,8 +45,13 @@ pub enum MoveKind {
     /// Spindle orientation: with the spindle at rest, turn it the shorter way to the nearest
     /// machine C ≡ `angle` (mod 360) within `limits` (deg/s, deg/s², deg/s³). The interpolator
     /// resolves the target against machine C when the move starts (only it knows the spindle
-    /// offset), so the duration is not known here; program C does not change.
-    SpindleOrient { angle: f64, limits: Limits },
+    /// offset), so the duration is not known here. Program C does not change, or becomes
+    /// `program` (≡ `angle` mod 360) when it is given (G28/G30 C).
+    SpindleOrient {
+        angle: f64,
+        limits: Limits,
+        program: Option<f64>,
+    },
     /// T with M6: reported to the caller in one tick.
     ToolChange { tool: u32 },
     /// M7/M8/M9: the coolant state, reported to the caller in one tick.
@@ -268,10 +273,18 @@ impl Planner {
                     jerk: ax.j,
                 }
             }
-            SegmentKind::SpindleOrient { angle } => {
+            SegmentKind::SpindleOrient { angle, program } => {
                 let si = self.spindle.ok_or(err(MotionErrorKind::NoSpindle))?;
                 if !(angle.is_finite() && (0.0..360.0).contains(angle)) {
                     return Err(err(MotionErrorKind::BadOrientAngle(*angle)));
+                }
+                if let Some(c) = *program
+                    && !orient_program_agrees(*angle, c)
+                {
+                    return Err(err(MotionErrorKind::BadOrientProgram {
+                        angle: *angle,
+                        program: c,
+                    }));
                 }
                 if self.spindle_running {
                     return Err(err(MotionErrorKind::SpindleRunning));
@@ -290,9 +303,13 @@ impl Planner {
                 if !limits.is_valid() {
                     return Err(err(MotionErrorKind::BadLimits));
                 }
+                if let Some(c) = *program {
+                    self.pos.0[si] = c;
+                }
                 MoveKind::SpindleOrient {
                     angle: *angle,
                     limits,
+                    program: *program,
                 }
             }
             SegmentKind::ToolChange { tool } => MoveKind::ToolChange { tool: *tool },
@@ -527,6 +544,13 @@ impl Planner {
         });
         self.finish(start, end, geometry, length, lim, false)
     }
+}
+
+/// True when program C `c` is finite and ≡ the orientation `angle` (mod 360), up to rounding
+/// relative to |c|.
+pub(crate) fn orient_program_agrees(angle: f64, c: f64) -> bool {
+    let d = (c - angle).rem_euclid(360.0);
+    c.is_finite() && d.min(360.0 - d) <= 1e-9 * (1.0 + c.abs())
 }
 
 fn check_feed(feed: f64) -> Result<(), MotionErrorKind> {

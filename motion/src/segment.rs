@@ -177,10 +177,13 @@ pub enum SegmentKind {
     /// jerk-limited position move of the spindle axis the shorter way round to the nearest
     /// physical angle ≡ `angle` (degrees, 0 ≤ angle < 360) mod 360. Physical means machine C,
     /// i.e. program C plus the spindle offset that speed-mode runs leave (see the crate doc):
-    /// the interpreter cannot know it. The move turns the spindle without changing program C
-    /// (the turn goes into the offset, like a speed-mode run), so later C moves still turn by
-    /// exactly their programmed difference.
-    SpindleOrient { angle: f64 },
+    /// the interpreter cannot know it. With `program: None` (M19, G76/G87) the move turns the
+    /// spindle without changing program C (the turn goes into the offset, like a speed-mode
+    /// run), so later C moves still turn by exactly their programmed difference. With
+    /// `program: Some(c)` (G28/G30 C: the axis reads its reference position afterwards, as on
+    /// Fanuc) program C becomes `c`, which must be ≡ `angle` (mod 360): afterwards the
+    /// physical angle ≡ program C, so a later absolute C move lands on its angle.
+    SpindleOrient { angle: f64, program: Option<f64> },
     /// T with M6.
     ToolChange { tool: u32 },
     /// M7 (mist on), M8 (flood on), M9 (both off): the coolant state from here on.

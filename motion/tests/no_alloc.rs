@@ -52,7 +52,13 @@ fn ticks_and_starts_allocate_nothing() {
             7,
         ),
         // G76-style orientation from wherever the M3 … M5 run stopped.
-        seg(SegmentKind::SpindleOrient { angle: 271.5 }, 7),
+        seg(
+            SegmentKind::SpindleOrient {
+                angle: 271.5,
+                program: None,
+            },
+            7,
+        ),
         lin(xyzc(40.0, 15.0, -16.0, 15.0 / 1.5 * 360.0), 600.0 * 1.5, 8),
         lin(xyzc(40.0, 15.0, -1.0, 0.0), 600.0 * 1.5, 9),
         seg(

@@ -21,7 +21,13 @@ fn counts_off_angle(c: &MachineConfig, pos: f64, angle: f64) -> f64 {
 }
 
 fn orient(angle: f64, line: u32) -> Segment {
-    seg(SegmentKind::SpindleOrient { angle }, line)
+    seg(
+        SegmentKind::SpindleOrient {
+            angle,
+            program: None,
+        },
+        line,
+    )
 }
 
 fn spindle(rpm: f64, dir: SpindleDir, line: u32) -> Segment {
@@ -259,4 +265,185 @@ fn stop_during_orientation_brakes_along_it() {
         }
     };
     assert_eq!(last.pos.0[3], 190.0);
+}
+
+fn orient_to(angle: f64, program: f64, line: u32) -> Segment {
+    seg(
+        SegmentKind::SpindleOrient {
+            angle,
+            program: Some(program),
+        },
+        line,
+    )
+}
+
+/// G28/G30 C (`program: Some`): after an M3 run the orientation lands on the angle and program
+/// C becomes the reference, so the offset is whole turns and a later absolute C move ends on
+/// its physical angle (review: `G28 C30.` then `G0 C45.` ended at the physical 15°). The
+/// setpoints stay within the axis limits (no jump when program C is re-based), and a tap
+/// from the reference turns exactly its programmed difference.
+#[test]
+fn orientation_that_sets_program_c_makes_the_physical_angle_follow_it() {
+    let c = MachineConfig::default_machine();
+    for (rpm, reference, left_at) in [
+        (1234.0, 0.0f64, 0.0),
+        (2777.0, -90.0, 200.7),
+        (913.0, 725.5, -1234.5),
+    ] {
+        let angle = reference.rem_euclid(360.0);
+        let start = xyzc(0.0, 0.0, 0.0, 30.0);
+        let segs = [
+            spindle(rpm, SpindleDir::Cw, 1),
+            rapid(xyzc(10.0, 0.0, 0.0, 30.0), 2),
+            spindle(0.0, SpindleDir::Stop, 3),
+            orient_to(angle, reference, 4),
+            rapid(xyzc(10.0, 0.0, 0.0, reference + 45.0), 5),
+            // A tap: Z down 6 at pitch 1.5 (4 turns), and back.
+            lin(xyzc(10.0, 0.0, -6.0, reference + 45.0 + 1440.0), 900.0, 6),
+            lin(xyzc(10.0, 0.0, 0.0, reference + 45.0), 900.0, 7),
+            spindle(500.0, SpindleDir::Cw, 8),
+        ];
+        let mut planner = Planner::new(&c);
+        planner.set_position(start);
+        let mut ip = Interpolator::new(&c, start);
+        assert!(ip.set_spindle_offset(left_at));
+        let mut ticks = vec![Tick {
+            pos: ip.position(),
+            line: 0,
+            n: None,
+            state: TickState::Idle,
+            finished: false,
+            event: None,
+            path_velocity: 0.0,
+            spindle_velocity: 0.0,
+        }];
+        for s in &segs {
+            ip.start(planner.plan(s).expect("plans")).expect("starts");
+            loop {
+                let t = ip.tick();
+                ticks.push(t);
+                if t.finished {
+                    break;
+                }
+            }
+            if s.source.line == 4 {
+                assert_eq!(ip.program_position().0[3], reference);
+                assert_eq!(planner.position().0[3], reference);
+                let off = ip.spindle_offset() / 360.0;
+                assert!((off - off.round()).abs() < 1e-9, "offset {off} turns");
+            }
+        }
+        check_limits(&c, &ticks);
+        let at = |line: u32| ticks.iter().rposition(|t| t.line == line).unwrap();
+        let c_or = ticks[at(4)].pos.0[3];
+        assert!(
+            counts_off_angle(&c, c_or, angle) <= 1.0,
+            "oriented to {c_or}"
+        );
+        let c45 = ticks[at(5)].pos.0[3];
+        assert!(
+            counts_off_angle(&c, c45, (angle + 45.0).rem_euclid(360.0)) <= 1.0,
+            "G0 C(ref+45) ended at {c45}"
+        );
+        assert!((c45 - c_or - 45.0).abs() < 1e-6);
+        let bottom = ticks[at(6)].pos.0[3];
+        assert!((bottom - c45 - 1440.0).abs() < 1e-6);
+        assert!((ticks[at(7)].pos.0[3] - c45).abs() < 1e-6);
+    }
+}
+
+/// Program C not ≡ the angle (mod 360), or not finite, is refused by the planner and the
+/// interpolator: the physical angle would not follow program C.
+#[test]
+fn orientation_to_a_program_c_off_its_angle_is_refused() {
+    let c = MachineConfig::default_machine();
+    let mut planner = Planner::new(&c);
+    for (angle, program) in [
+        (0.0, 30.0),
+        (90.0, 91.0),
+        (0.0, f64::NAN),
+        (0.0, f64::INFINITY),
+    ] {
+        let e = planner.plan(&orient_to(angle, program, 3)).unwrap_err();
+        assert!(
+            matches!(e.kind, MotionErrorKind::BadOrientProgram { .. }),
+            "{angle} {program}: {e:?}"
+        );
+    }
+    assert_eq!(
+        planner.position(),
+        AxisPos::default(),
+        "nothing changes on error"
+    );
+    // Whole turns, and a rounding below a reference of one turn less, are accepted.
+    for (angle, program) in [(0.0, -720.0), (270.0, -90.0), (0.0, -1e-13)] {
+        planner.plan(&orient_to(angle, program, 4)).unwrap();
+        assert_eq!(planner.position().0[3], program);
+    }
+    let mut ip = Interpolator::new(&c, AxisPos::default());
+    let e = ip
+        .start(PlannedMove {
+            line: 5,
+            n: None,
+            kind: MoveKind::SpindleOrient {
+                angle: 0.0,
+                limits: Limits {
+                    velocity: 100.0,
+                    acceleration: 100.0,
+                    jerk: 1000.0,
+                },
+                program: Some(10.0),
+            },
+        })
+        .unwrap_err();
+    assert!(matches!(e.kind, MotionErrorKind::BadOrientProgram { .. }));
+}
+
+/// A stop during a G28 C orientation: program C already reads the reference (the planner
+/// went on from it) and the offset holds where the spindle stopped, so machine C does not
+/// jump and orienting again finishes the job.
+#[test]
+fn stop_during_an_orientation_that_sets_program_c_keeps_planner_and_interpolator_agreed() {
+    let c = MachineConfig::default_machine();
+    let start = xyzc(0.0, 0.0, 0.0, 30.0);
+    let mut planner = Planner::new(&c);
+    planner.set_position(start);
+    let mut ip = Interpolator::new(&c, start);
+    ip.start(planner.plan(&orient_to(180.0, -180.0, 1)).unwrap())
+        .unwrap();
+    let mut ticks = vec![Tick {
+        pos: ip.position(),
+        line: 1,
+        n: None,
+        state: TickState::Idle,
+        finished: false,
+        event: None,
+        path_velocity: 0.0,
+        spindle_velocity: 0.0,
+    }];
+    while !ip.is_held() {
+        assert!(ticks.len() < 100_000, "runaway");
+        if ticks.len() == 40 {
+            ip.request_stop();
+        }
+        ticks.push(ip.tick());
+    }
+    // Within the limits, so no jump.
+    check_limits(&c, &ticks);
+    let last = ip.position().0[3];
+    assert!(last > 30.0 && last < 180.0, "{last}");
+    assert_eq!(ip.program_position().0[3], -180.0);
+    assert_eq!(planner.position().0[3], -180.0);
+    assert_eq!(ip.spindle_offset(), last + 180.0);
+    assert!(ip.clear_stop());
+    ip.start(planner.plan(&orient_to(180.0, -180.0, 2)).unwrap())
+        .unwrap();
+    let end = loop {
+        let t = ip.tick();
+        if t.finished {
+            break t;
+        }
+    };
+    assert_eq!(end.pos.0[3], 180.0);
+    assert_eq!(ip.program_position().0[3], -180.0);
 }

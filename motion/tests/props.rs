@@ -44,6 +44,8 @@ enum Spec {
     },
     Orient {
         angle: f64,
+        /// `Some(n)`: program C becomes angle + 360·n (as G28/G30 C set it).
+        turns: Option<i32>,
     },
 }
 
@@ -82,7 +84,9 @@ fn spec() -> impl Strategy<Value = Spec> {
             }
         ),
         (0.0..30.0f64).prop_map(|ms| Spec::Dwell { ms }),
-        (0.0..360.0f64).prop_map(|angle| Spec::Orient { angle }),
+        // Half of them set program C as G28/G30 C do (to the angle plus whole turns).
+        (0.0..360.0f64, proptest::option::of(-3i32..4))
+            .prop_map(|(angle, turns)| Spec::Orient { angle, turns }),
     ]
 }
 
@@ -192,7 +196,13 @@ fn build(specs: &[Spec], start: AxisPos) -> (Vec<Segment>, Vec<TapCheck>) {
                 taps.push((line, z0, c0, pitch, dir));
             }
             Spec::Dwell { ms } => segs.push(seg(SegmentKind::Dwell { seconds: ms * 1e-3 }, line)),
-            Spec::Orient { angle } => segs.push(seg(SegmentKind::SpindleOrient { angle }, line)),
+            Spec::Orient { angle, turns } => {
+                let program = turns.map(|n| angle + 360.0 * f64::from(n));
+                if let Some(c) = program {
+                    pos.0[3] = c;
+                }
+                segs.push(seg(SegmentKind::SpindleOrient { angle, program }, line));
+            }
         }
     }
     (segs, taps)
@@ -217,6 +227,7 @@ fn run_checked(c: &MachineConfig, segs: &[Segment], stop_at: Option<usize>) -> V
     let mut next = 0;
     let mut end = None;
     let mut angle = None;
+    let mut program = None;
     loop {
         if ip.is_idle() {
             let Some(s) = segs.get(next) else { break };
@@ -225,9 +236,9 @@ fn run_checked(c: &MachineConfig, segs: &[Segment], stop_at: Option<usize>) -> V
                 MoveKind::Path(m) => Some(m.end),
                 _ => None,
             };
-            angle = match mv.kind {
-                MoveKind::SpindleOrient { angle, .. } => Some(angle),
-                _ => None,
+            (angle, program) = match mv.kind {
+                MoveKind::SpindleOrient { angle, program, .. } => (Some(angle), program),
+                _ => (None, None),
             };
             ip.start(mv).expect("starts");
             next += 1;
@@ -254,6 +265,11 @@ fn run_checked(c: &MachineConfig, segs: &[Segment], stop_at: Option<usize>) -> V
                 t.line,
                 t.pos.0[3]
             );
+            // G28/G30 C: program C is the one given, and the planner continues from it.
+            if let Some(p) = program {
+                assert_eq!(ip.program_position().0[3], p, "line {}", t.line);
+                assert_eq!(planner.position().0[3], p, "line {}", t.line);
+            }
         }
         if t.state == TickState::Held {
             break;
@@ -414,7 +430,8 @@ fn wild_segment() -> impl Strategy<Value = SegmentKind> {
             rpm,
             dir: [SpindleDir::Cw, SpindleDir::Ccw, SpindleDir::Stop][d as usize],
         }),
-        wild().prop_map(|angle| SegmentKind::SpindleOrient { angle }),
+        (wild(), proptest::option::of(wild()))
+            .prop_map(|(angle, program)| SegmentKind::SpindleOrient { angle, program }),
     ]
 }
 
