@@ -962,10 +962,34 @@ fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_progr
         "{}",
         stderr(&o)
     );
-    // Past a stop that holds, an error the dry run sees does not keep the machine from
-    // starting (the operator may change what the program reads while it holds): it is a
-    // warning, and the run raises the alarm only if it still happens after the resume.
+    // Past a stop that holds, an error that cannot change during the stop (it reads no
+    // variable the operator can set) is refused before motion, as any program error.
     let o = cnc402(&["run", alarm.to_str().unwrap(), "--at-stop", "wait"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("PAST THE STOP"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("press Enter"), "{}", stderr(&o));
+    // One that reads a non-volatile variable there does not keep the machine from starting
+    // (the operator may set it while the machine holds): it is a warning, and the run raises
+    // the alarm only if it still happens after the resume.
+    let vars = dir.join("ask.vars");
+    let _ = std::fs::remove_file(&vars);
+    let cfg = dir.join("ask.toml");
+    config_with_vars_file(&vars, &cfg);
+    let ask = write_program(
+        &dir,
+        "ask-after-stop.nc",
+        "G21 G90 G17\nG0 X0 Y0 Z5\nG1 X10 F1200\nM0 (SET #500=1)\n\
+         IF [#500 NE 1] THEN #3000=7(PAST THE STOP)\nM30\n",
+    );
+    let args = [
+        "run",
+        ask.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+        "--at-stop",
+        "wait",
+    ];
+    let o = cnc402(&args);
     let err = stderr(&o);
     assert_eq!(
         o.status.code(),
@@ -973,16 +997,14 @@ fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_progr
         "end of input ends it at the stop: {err}"
     );
     assert!(
-        err.contains("alarm-after-stop.nc:4: the program, run on past this stop"),
+        err.contains("ask-after-stop.nc:4: the program, run on past this stop"),
         "{err}"
     );
-    let mut child = cnc402_piped("warn")
-        .args(["run", alarm.to_str().unwrap(), "--at-stop", "wait"])
-        .spawn()
-        .unwrap();
+    let mut child = cnc402_piped("warn").args(args).spawn().unwrap();
     {
         use std::io::Write as _;
-        // Enter, read when the stop is reached: the run resumes into the alarm.
+        // Enter, read when the stop is reached, #500 still vacant: the run resumes into the
+        // alarm.
         let mut stdin = child.stdin.take().unwrap();
         stdin.write_all(b"\n").unwrap();
         let o = child.wait_with_output().unwrap();

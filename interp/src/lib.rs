@@ -31,7 +31,8 @@
 //!   moves by the change). G28/G30 go through the intermediate point to the config's
 //!   reference positions and cancel the offset vector on Z there (G43 stays modal; Z's next
 //!   move restores it), as Fanuc; the spindle axis goes to its reference by a `SpindleOrient`
-//!   to the physical angle (refused while it turns), and a move to where the tool already is
+//!   to the physical angle (refused while it turns), after which C reads the reference (as
+//!   on Fanuc: later absolute C words count from it), and a move to where the tool already is
 //!   makes no segment. Tables changed by a program (G10, `#5221…`, `#1xxxx`) and
 //!   the G92 shift last for the run: `load` starts from the config again.
 //! - M7/M8/M9 make a `Coolant` segment before the block's motion; M2/M30 turn coolant off.

@@ -241,6 +241,8 @@ pub struct VarTable {
     pub locals: Vec<[MVal; 33]>,
     pub common: [MVal; 100],
     pub nv: Box<[MVal; 500]>,
+    /// Reads of `#500–#999` so far (see [`Interpreter::persistent_reads`]).
+    pub nv_reads: u64,
 }
 
 impl Default for VarTable {
@@ -249,6 +251,7 @@ impl Default for VarTable {
             locals: vec![[None; 33]],
             common: [None; 100],
             nv: Box::new([None; 500]),
+            nv_reads: 0,
         }
     }
 }
@@ -384,6 +387,13 @@ fn old_d_offset_var(n: i64) -> String {
 }
 
 impl Interpreter {
+    /// How many times the program has read a non-volatile variable (`#500–#999`) so far: the
+    /// values an operator can change during a program stop (`cnc402 vars set`). A dry run uses
+    /// it to tell an error that depends on them from one that does not.
+    pub fn persistent_reads(&self) -> u64 {
+        self.vars.nv_reads
+    }
+
     fn cur_unit(&self) -> Arc<Unit> {
         self.frames
             .last()
@@ -407,7 +417,10 @@ impl Interpreter {
             0 => None,
             1..=33 => self.vars.locals.last().and_then(|l| l[(n - 1) as usize]),
             100..=199 => self.vars.common[(n - 100) as usize],
-            500..=999 => self.vars.nv[(n - 500) as usize],
+            500..=999 => {
+                self.vars.nv_reads += 1;
+                self.vars.nv[(n - 500) as usize]
+            }
             3000 | 3006 => None,
             4001..=4022 => self.group_code((n - 4000) as u32),
             4102..=4120 => match n - 4100 {

@@ -230,10 +230,11 @@ pub struct DryRun {
     /// The line of the main program's `M99` where the run will start over (the dry run
     /// covers one pass).
     pub repeats_at: Option<u32>,
-    /// A program error found after a program stop that holds (M0 with `--at-stop wait`):
-    /// the line of that stop and the error. It does not stop the run before motion, because
-    /// the operator may change what the program reads during the stop; it is the run's to
-    /// report if it still happens.
+    /// A program error found after a program stop that holds (M0 with `--at-stop wait`),
+    /// after the program read non-volatile variables there: the line of that stop and the
+    /// error. It does not stop the run before motion, because the operator may change those
+    /// variables during the stop; it is the run's to report if it still happens. (An error
+    /// past the stop that reads none of them is refused before motion, as any other.)
     pub after_hold: Option<(u32, NcError)>,
 }
 
@@ -251,17 +252,21 @@ pub fn dry_run(
 ) -> Result<DryRun, NcError> {
     let mut f = Feeder::dry(cfg, src.clone(), program.clone(), start);
     let mut d = DryRun::default();
-    let mut held_at: Option<u32> = None;
+    // The first stop that holds, and the non-volatile reads made before it.
+    let mut held_at: Option<(u32, u64)> = None;
     loop {
         let mv = match f.next_move() {
             Ok(Some(mv)) => mv,
             Ok(None) => break,
             Err(e) => match held_at {
-                Some(line) => {
+                // Only an error that may depend on what the operator can set during the stop
+                // (the non-volatile variables, read since) waits for the run; one that cannot
+                // change (a target outside the soft limits from constants) is refused now.
+                Some((line, reads)) if f.interp.persistent_reads() > reads => {
                     d.after_hold = Some((line, e));
                     break;
                 }
-                None => return Err(e),
+                _ => return Err(e),
             },
         };
         if let (MoveKind::ProgramStop { kind }, Some(g)) = (mv.kind, gate) {
@@ -271,7 +276,7 @@ pub fn dry_run(
                 break;
             }
             if g.holds_at(kind) && held_at.is_none() {
-                held_at = Some(mv.line);
+                held_at = Some((mv.line, f.interp.persistent_reads()));
             }
         }
         d.moves += 1;
