@@ -1,5 +1,5 @@
 //! The C-like high-level language of source 000 (AxiOMA Control): a program with statement
-//! lines is checked whole at `load` ([`compile`]), then run by an executor thread ([`exec`])
+//! lines is checked whole at `load` (`compile`), then run by an executor thread (`exec`)
 //! that hands its G-code blocks to the G-code core here, one request at a time, so that
 //! segments stay pull-based and `@ITPPATH`/axis reads wait for the motion before them.
 //! The language is documented in `docs/language.md`.
