@@ -226,16 +226,7 @@ fn stop_during_orientation_brakes_along_it() {
     let mut ip = Interpolator::new(&c, start);
     assert!(ip.set_spindle_offset(10.0)); // 10° → 190° is the full half turn
     ip.start(planner.plan(&orient(190.0, 1)).unwrap()).unwrap();
-    let mut ticks = vec![Tick {
-        pos: ip.position(),
-        line: 1,
-        n: None,
-        state: TickState::Idle,
-        finished: false,
-        event: None,
-        path_velocity: 0.0,
-        spindle_velocity: 0.0,
-    }];
+    let mut ticks = vec![idle_tick(&ip, 1)];
     let mut n = 0;
     while !ip.is_held() {
         n += 1;
@@ -307,16 +298,7 @@ fn orientation_that_sets_program_c_makes_the_physical_angle_follow_it() {
         planner.set_position(start);
         let mut ip = Interpolator::new(&c, start);
         assert!(ip.set_spindle_offset(left_at));
-        let mut ticks = vec![Tick {
-            pos: ip.position(),
-            line: 0,
-            n: None,
-            state: TickState::Idle,
-            finished: false,
-            event: None,
-            path_velocity: 0.0,
-            spindle_velocity: 0.0,
-        }];
+        let mut ticks = vec![idle_tick(&ip, 0)];
         for s in &segs {
             ip.start(planner.plan(s).expect("plans")).expect("starts");
             loop {
@@ -411,16 +393,7 @@ fn stop_during_an_orientation_that_sets_program_c_keeps_planner_and_interpolator
     let mut ip = Interpolator::new(&c, start);
     ip.start(planner.plan(&orient_to(180.0, -180.0, 1)).unwrap())
         .unwrap();
-    let mut ticks = vec![Tick {
-        pos: ip.position(),
-        line: 1,
-        n: None,
-        state: TickState::Idle,
-        finished: false,
-        event: None,
-        path_velocity: 0.0,
-        spindle_velocity: 0.0,
-    }];
+    let mut ticks = vec![idle_tick(&ip, 1)];
     while !ip.is_held() {
         assert!(ticks.len() < 100_000, "runaway");
         if ticks.len() == 40 {

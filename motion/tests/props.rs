@@ -214,16 +214,7 @@ fn build(specs: &[Spec], start: AxisPos) -> (Vec<Segment>, Vec<TapCheck>) {
 fn run_checked(c: &MachineConfig, segs: &[Segment], stop_at: Option<usize>) -> Vec<Tick> {
     let mut planner = Planner::new(c);
     let mut ip = Interpolator::new(c, AxisPos::default());
-    let mut out = vec![Tick {
-        pos: AxisPos::default(),
-        line: 0,
-        n: None,
-        state: TickState::Idle,
-        finished: false,
-        event: None,
-        path_velocity: 0.0,
-        spindle_velocity: 0.0,
-    }];
+    let mut out = vec![idle_tick(&ip, 0)];
     let mut next = 0;
     let mut end = None;
     let mut angle = None;

@@ -19,16 +19,7 @@ fn run_with_stop(
     let mut planner = Planner::new(cfg);
     planner.set_position(start);
     let mut ip = Interpolator::new(cfg, start);
-    let mut out = vec![Tick {
-        pos: start,
-        line: 0,
-        n: None,
-        state: TickState::Idle,
-        finished: false,
-        event: None,
-        path_velocity: 0.0,
-        spindle_velocity: 0.0,
-    }];
+    let mut out = vec![idle_tick(&ip, 0)];
     let mut next = 0;
     let mut held_extra = 0;
     loop {

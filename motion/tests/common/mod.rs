@@ -42,21 +42,27 @@ pub fn rapid(end: AxisPos, line: u32) -> Segment {
 
 /// Plans and runs every segment, returning all ticks (including the start as tick 0, with
 /// line 0 and state Idle). Panics (in tests only) on a planning error.
-pub fn run(cfg: &MachineConfig, start: AxisPos, segs: &[Segment]) -> Vec<Tick> {
-    let mut planner = Planner::new(cfg);
-    planner.set_position(start);
-    let mut ip = Interpolator::new(cfg, start);
-    let mut out = Vec::new();
-    out.push(Tick {
+/// The tick an interpolator at rest would give: where it stands, at `line`, nothing moving
+/// (the first entry of a recorded run, so that differences start from rest).
+pub fn idle_tick(ip: &Interpolator, line: u32) -> Tick {
+    Tick {
         pos: ip.position(),
-        line: 0,
+        line,
         n: None,
         state: TickState::Idle,
         finished: false,
         event: None,
         path_velocity: 0.0,
         spindle_velocity: 0.0,
-    });
+    }
+}
+
+pub fn run(cfg: &MachineConfig, start: AxisPos, segs: &[Segment]) -> Vec<Tick> {
+    let mut planner = Planner::new(cfg);
+    planner.set_position(start);
+    let mut ip = Interpolator::new(cfg, start);
+    let mut out = Vec::new();
+    out.push(idle_tick(&ip, 0));
     for s in segs {
         let mv = planner.plan(s).expect("plans");
         ip.start(mv).expect("starts");
