@@ -883,6 +883,16 @@ fn a_drive_fault_during_a_pause_still_stops_the_machine() {
     assert_at(&v, [10.0, 5.0, 5.0]);
 }
 
+/// In `dir`: a fresh (absent) variables file `<name>.vars` and a copy of the shipped config
+/// `<name>.toml` that names it.
+fn config_with_fresh_vars(dir: &Path, name: &str) -> (PathBuf, PathBuf) {
+    let vars = dir.join(format!("{name}.vars"));
+    let _ = std::fs::remove_file(&vars);
+    let cfg = dir.join(format!("{name}.toml"));
+    config_with_vars_file(&vars, &cfg);
+    (vars, cfg)
+}
+
 /// A copy of the shipped config whose non-volatile variables file is `vars`.
 fn config_with_vars_file(vars: &Path, cfg: &Path) {
     let text =
@@ -922,10 +932,7 @@ fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_progr
         ("wait", 10.0, None),
         ("continue", 20.0, Some(1.0)),
     ] {
-        let vars = dir.join(format!("{policy}.vars"));
-        let _ = std::fs::remove_file(&vars);
-        let cfg = dir.join(format!("{policy}.toml"));
-        config_with_vars_file(&vars, &cfg);
+        let (vars, cfg) = config_with_fresh_vars(&dir, policy);
         let report = dir.join(format!("{policy}.json"));
         // stdin is empty: `wait` reads end of input and ends the program at the stop.
         let o = cnc402(&[
@@ -971,10 +978,7 @@ fn a_program_stop_is_a_buffer_stop_and_what_follows_it_is_not_run_when_the_progr
     // One that reads a non-volatile variable there does not keep the machine from starting
     // (the operator may set it while the machine holds): it is a warning, and the run raises
     // the alarm only if it still happens after the resume.
-    let vars = dir.join("ask.vars");
-    let _ = std::fs::remove_file(&vars);
-    let cfg = dir.join("ask.toml");
-    config_with_vars_file(&vars, &cfg);
+    let (_vars, cfg) = config_with_fresh_vars(&dir, "ask");
     let ask = write_program(
         &dir,
         "ask-after-stop.nc",
@@ -1063,10 +1067,7 @@ fn m99_at_the_end_of_a_main_program_repeats_it_in_run_and_segments_shows_one_pas
 #[test]
 fn variables_set_during_a_program_stop_are_what_the_program_reads_after_it() {
     let dir = test_dir("vars-during-stop");
-    let vars = dir.join("vars.txt");
-    let _ = std::fs::remove_file(&vars);
-    let cfg = dir.join("machine.toml");
-    config_with_vars_file(&vars, &cfg);
+    let (vars, cfg) = config_with_fresh_vars(&dir, "vars");
     let prog = write_program(
         &dir,
         "ask.nc",
@@ -1132,10 +1133,7 @@ fn coolant_left_on_by_a_program_ended_at_a_stop_is_turned_off() {
 #[test]
 fn a_variables_file_removed_during_a_stop_stops_the_program_at_the_resume() {
     let dir = test_dir("vars-removed-during-stop");
-    let vars = dir.join("vars.txt");
-    let _ = std::fs::remove_file(&vars);
-    let cfg = dir.join("machine.toml");
-    config_with_vars_file(&vars, &cfg);
+    let (vars, cfg) = config_with_fresh_vars(&dir, "vars");
     let prog = write_program(
         &dir,
         "ask.nc",
