@@ -378,26 +378,13 @@ fn fmt(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::status::Phase;
 
     fn status(tick: u64) -> Status {
         Status {
             tick,
             line: 1,
-            phase: Phase::Running,
-            cmd: [0.0; MAX_AXES],
-            cmd_counts: [0; MAX_AXES],
-            act: [0.0; MAX_AXES],
-            act_counts: [0; MAX_AXES],
-            following_error: [0.0; MAX_AXES],
-            age: [0; MAX_AXES],
-            statusword: [0; MAX_AXES],
-            event: None,
-            tap: None,
-            stop: None,
             moves_started: 1,
-            idle: false,
-            spindle_follow: false,
+            ..Status::default()
         }
     }
 

@@ -7,9 +7,10 @@ use cnc402_motion::{MotionError, MoveEvent};
 use crate::link::DriveStop;
 
 /// What the loop is doing.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Phase {
     /// Running the program.
+    #[default]
     Running,
     /// Decelerating along the path after a stop request or safety reaction.
     Stopping,
@@ -29,8 +30,9 @@ pub struct TapCoupling {
     pub ratio: f64,
 }
 
-/// One tick as the loop saw it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// One tick as the loop saw it. (`Default`: tick 0, running, every axis at 0 with no
+/// feedback, no event: a base for records built field by field.)
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Status {
     /// Tick number from the start of the cyclic phase (t = tick · period).
     pub tick: u64,

@@ -220,20 +220,10 @@ fn status(tick: u64, z: f64, c: f64, tap: Option<TapCoupling>) -> Status {
     let mut s = Status {
         tick,
         line: 7,
-        phase: Phase::Running,
-        cmd: [0.0; MAX_AXES],
-        cmd_counts: [0; MAX_AXES],
-        act: [0.0; MAX_AXES],
-        act_counts: [0; MAX_AXES],
-        following_error: [0.0; MAX_AXES],
-        age: [0; MAX_AXES],
         statusword: [0x0237; MAX_AXES],
-        event: None,
         tap,
-        stop: None,
         moves_started: tick,
-        idle: false,
-        spindle_follow: false,
+        ..Status::default()
     };
     s.cmd[2] = z;
     s.cmd[3] = c;
