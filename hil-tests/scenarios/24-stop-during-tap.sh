@@ -3,15 +3,14 @@
 # EMCY 0x5530 while the first hole of the M10x1.5 program is being tapped. cnc402 run stops
 # (exit 1, node 1) and every window of Z+C setpoints that simdrive decoded, the deceleration
 # included, stays within one count.
-# simdrive injects faults at a time after the first SYNC (no program event), and the program
-# runs slower than the wall clock on a loaded machine (program time = pace x wall time: 0.98
-# on a quiet host, 0.5 measured with cargo test alongside). The first hole's tap spans program
-# time 0.63-3.9 s (down to Z-16 until ~2.3 s, then out; the first SYNC comes a few cycles
-# before program time 0), so a fault 3 s after the first SYNC lands in it for any pace from
-# 1 down to 0.21. That the stop landed in the tap is checked, not assumed: Z stopped below
-# the R plane Z3, where only the tap takes it (G98 returns to Z10 between holes).
+# The fault runs on simdrive's tap clock (--fault-clock tap): 1 s after the first SYNC on
+# which Z and C move together, i.e. 1 s into the first hole's tap (its in-stroke lasts ~1.7 s
+# of program time), whatever the pace of the program against the wall clock. That the stop
+# landed in the tap is checked, not assumed: Z stopped below the R plane Z3, where only the
+# tap takes it (G98 returns to Z10 between holes).
 source "$HIL_REPO/hil-tests/scenarios/common.bash"
-scenario_run "$SC_DIR/machine-vcan.toml" examples/m10x1.5-rigid-tap.nc --fault 1:fault:0x5530@3
+scenario_run "$SC_DIR/machine-vcan.toml" examples/m10x1.5-rigid-tap.nc --fault-clock tap \
+    --fault 1:fault:0x5530@1
 expect_rc "cnc402 run" "$RUN_RC" 1
 scenario_check 'tap_windows >= 1' 'checks.?name~(setpoints).pass == true' \
     'drives.1.last_fault_code == 0x5530' 'drives.3.position < 3' \

@@ -140,6 +140,10 @@ pub enum FaultClock {
     FirstSync,
     /// At power-on of the drives (host start).
     Start,
+    /// At the first SYNC on which the tool axis and the spindle move together (the first
+    /// Z+C window of the coupling checker: the first tap): lands a fault inside a tap on any
+    /// machine, however slowly the program runs against the wall clock.
+    FirstTap,
 }
 
 /// Everything the host needs besides the machine config.
@@ -296,6 +300,8 @@ pub struct DriveHost {
     period: Duration,
     powered_at: Option<Instant>,
     first_sync: Option<Instant>,
+    /// The first SYNC at which a Z+C window was open ([`FaultClock::FirstTap`]).
+    first_tap: Option<Instant>,
     last_sync: Option<Instant>,
     last_now: Instant,
     sync_intervals_ns: Vec<u64>,
@@ -367,6 +373,7 @@ impl DriveHost {
             period,
             powered_at: None,
             first_sync: None,
+            first_tap: None,
             last_sync: None,
             last_now: Instant::ZERO,
             sync_intervals_ns: Vec::with_capacity(1 << 16),
@@ -421,6 +428,7 @@ impl DriveHost {
         let origin = match self.fault_clock {
             FaultClock::FirstSync => self.first_sync,
             FaultClock::Start => self.powered_at,
+            FaultClock::FirstTap => self.first_tap,
         };
         let Some(origin) = origin else { return };
         let t = (now - origin).as_secs_f64();
@@ -783,6 +791,9 @@ impl CanDevice for DriveHost {
                 h.actual.feed(a);
             }
             self.sample_coupling();
+            if self.first_tap.is_none() && self.coupling.open_window().is_some() {
+                self.first_tap = Some(now);
+            }
         }
         self.apply_faults(now);
     }
@@ -967,6 +978,39 @@ mod tests {
             Some(true)
         );
         assert!(r["emcys_sent"].as_u64().unwrap() >= 1);
+    }
+
+    #[test]
+    fn a_fault_on_the_tap_clock_lands_inside_the_first_tap() {
+        let cfg = MachineConfig::default_machine();
+        let opts = HostOptions {
+            // X (node 1, not part of the tap) faults 50 ms into the first Z+C window.
+            faults: vec!["1:fault:0x5530@0.05".parse().unwrap()],
+            fault_clock: FaultClock::FirstTap,
+            ..HostOptions::default()
+        };
+        let host = DriveHost::new(&cfg, &opts).unwrap();
+        let (mut bus, mut m) = boot(host);
+        // 150 cycles at rest, then the ramped tap: the fault must wait for the tap, however
+        // long the rest before it.
+        let c_pos = ramped_c();
+        let err = run(&mut bus, &mut m, 570, |t| {
+            let c = c_pos[t.saturating_sub(150).min(420) as usize];
+            [0.0, 0.0, -c / 360.0 * 1.5, c]
+        })
+        .unwrap_err();
+        assert!(err.contains("5530") || err.contains("21808"), "{err}");
+        let r = bus.device(0).unwrap().report(None);
+        let applied = r["faults"][0]["applied_at_s"].as_f64().unwrap();
+        assert!((0.05..0.06).contains(&applied), "{applied}");
+        // At the fault the tap was under way: Z below its start, C turned.
+        let host = bus.device(0).unwrap();
+        assert!(host.first_tap.is_some() && host.first_sync < host.first_tap);
+        let into_tap = (host.first_tap.unwrap() - host.first_sync.unwrap()).as_secs_f64();
+        assert!(
+            into_tap >= 0.14,
+            "the tap began {into_tap} s after the first SYNC"
+        );
     }
 
     #[test]

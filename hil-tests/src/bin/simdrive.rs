@@ -44,8 +44,9 @@ struct Args {
     /// first SYNC (see --fault-clock). Repeatable.
     #[arg(long, value_name = "NODE:KIND@SECONDS")]
     fault: Vec<FaultSpec>,
-    /// Where --fault's SECONDS start: `sync` (first SYNC seen) or `start` (power-on).
-    #[arg(long, default_value = "sync", value_parser = ["sync", "start"])]
+    /// Where --fault's SECONDS start: `sync` (first SYNC seen), `start` (power-on) or `tap`
+    /// (the first SYNC on which Z and C move together: inside the first tap).
+    #[arg(long, default_value = "sync", value_parser = ["sync", "start", "tap"])]
     fault_clock: String,
     /// A drive that boots late: its boot-up message comes SECONDS after power-on. Repeatable.
     #[arg(long, value_name = "NODE:SECONDS", value_parser = parse_boot_delay)]
@@ -109,10 +110,10 @@ fn main() -> ExitCode {
     };
     let opts = HostOptions {
         faults: args.fault.clone(),
-        fault_clock: if args.fault_clock == "start" {
-            FaultClock::Start
-        } else {
-            FaultClock::FirstSync
+        fault_clock: match args.fault_clock.as_str() {
+            "start" => FaultClock::Start,
+            "tap" => FaultClock::FirstTap,
+            _ => FaultClock::FirstSync,
         },
         boot_delays: args.boot_delay.clone(),
         start_in_fault: args.start_in_fault.clone(),
