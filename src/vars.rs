@@ -2,9 +2,6 @@
 //! `interp.variables_file`, so that an operator fills parameter pages (source 001) without a
 //! program. Every change is written durably (see `cnc402_interp::nvfile`).
 
-// CliError carries an NcError; it ends the command, its size does not matter.
-#![allow(clippy::result_large_err)]
-
 use std::path::{Path, PathBuf};
 
 use cnc402_interp::nvfile::{self, NV_FIRST, NV_LAST, NvTable};

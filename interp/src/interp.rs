@@ -397,7 +397,7 @@ impl Interpreter {
             self.done = true;
             return Ok(());
         }
-        self.after_block(unit, line, call, has_axis)
+        self.after_block(unit, call, has_axis)
     }
 }
 

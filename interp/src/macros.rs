@@ -1103,7 +1103,6 @@ impl Interpreter {
     pub(crate) fn after_block(
         &mut self,
         unit: &Unit,
-        _line: &Line,
         after: After,
         moved: bool,
     ) -> Result<(), NcError> {

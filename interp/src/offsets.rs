@@ -203,7 +203,7 @@ impl Exec<'_> {
     /// G10: L2 P1–P6 work offsets G54–G59 from the axis words; L10/L11/L12/L13 Pn R tool
     /// offset n (H geometry, H wear, D geometry, D wear). G90 sets, G91 adds. No motion.
     pub(crate) fn data_input(&mut self, span: Span) -> Result<(), NcError> {
-        self.no_cycle_code(span, "G10")?;
+        self.no_cycle_code("G10")?;
         self.apply_motion_code();
         let Some(l) = self.w.take('L') else {
             return Err(self
@@ -293,7 +293,7 @@ impl Exec<'_> {
     /// G92: shifts every work coordinate system so that the programmed position of each named
     /// axis reads as the value given (always absolute, in G91 too). No motion.
     pub(crate) fn set_coordinates(&mut self, span: Span) -> Result<(), NcError> {
-        self.no_cycle_code(span, "G92")?;
+        self.no_cycle_code("G92")?;
         self.apply_motion_code();
         let mut any = false;
         for i in 0..self.cfg.axes.len() {
@@ -316,13 +316,12 @@ impl Exec<'_> {
     }
 
     /// The block must not start a canned cycle (group 09 other than G80).
-    fn no_cycle_code(&self, span: Span, what: &str) -> Result<(), NcError> {
+    fn no_cycle_code(&self, what: &str) -> Result<(), NcError> {
         if let Some((c, s)) = self.w.g_of(GGroup::Cycle)
             && c != 80
         {
             return Err(self.err(s, format!("G{c} cannot share a block with {what}")));
         }
-        let _ = span;
         Ok(())
     }
 
@@ -369,7 +368,7 @@ impl Exec<'_> {
     /// physical angle ≡ program C afterwards and later absolute C moves count from it.
     pub(crate) fn reference_return(&mut self, code: u32, span: Span) -> Result<(), NcError> {
         let name = format!("G{code}");
-        self.no_cycle_code(span, &name)?;
+        self.no_cycle_code(&name)?;
         self.apply_motion_code();
         if self.st.cycle.is_some() {
             return Err(self
@@ -472,7 +471,7 @@ impl Exec<'_> {
     /// G29: rapid of the named axes to the last G28/G30 intermediate point, then to the
     /// position given (G90: work coordinates; G91: from the intermediate point).
     pub(crate) fn return_from_reference(&mut self, span: Span) -> Result<(), NcError> {
-        self.no_cycle_code(span, "G29")?;
+        self.no_cycle_code("G29")?;
         self.apply_motion_code();
         if self.st.cycle.is_some() {
             return Err(self

@@ -8,10 +8,10 @@ mod compile;
 mod exec;
 mod ir;
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Line, LineKind, Program, Span};
@@ -356,24 +356,13 @@ fn read(it: &mut Interpreter, what: Read) -> Result<f64, String> {
             Ok(it.sync.path_length_done(it.path_len))
         }
         Read::Axis(i) => {
-            let programmed = it.state.pos;
-            let act = it.sync.wait_motion_done(&programmed)?;
-            let ax = it.cfg.axes.get(i).ok_or("no such axis")?;
-            // Work coordinates as `#5041…` read them: the work offset in force (as G10 L2 or
-            // `#5221…` left it) and the G92 shift taken off; the tool length offset stays in.
-            let v = act[i] - it.state.work_zero(i);
-            Ok(if ax.kind.is_rotary() {
-                v
-            } else {
-                v / it.state.unit()
-            })
+            if i >= it.cfg.axes.len() {
+                return Err("no such axis".into());
+            }
+            // Exactly what `#5041…` reads: work coordinates (the work offset in force and the
+            // G92 shift taken off, the tool length offset in), after the motion before it.
+            it.read_var(5041 + i as i64)?
+                .ok_or_else(|| "the axis position is vacant".to_string())
         }
     }
-}
-
-#[allow(dead_code)]
-fn _assert_send() {
-    fn s<T: Send>() {}
-    s::<Req>();
-    s::<Mutex<HashMap<String, exec::Global>>>();
 }
