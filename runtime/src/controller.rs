@@ -38,8 +38,9 @@ pub struct AxisTable {
     pub spindle: Option<usize>,
     /// CANopen node of each axis's drive (0: none).
     pub nodes: [u8; MAX_AXES],
-    /// The drive's dead time in cycles (config `sim.delay_cycles`, which describes the real
-    /// drive too).
+    /// The drive's dead time in cycles (config `feedback_delay_cycles`, 0–16: the same figure
+    /// the master's following-error rule uses; the simulator's `sim.delay_cycles` only
+    /// describes the simulated drive).
     pub delay_cycles: [u32; MAX_AXES],
 }
 
@@ -55,7 +56,7 @@ impl AxisTable {
             counts_per_unit[i] = a.counts_per_unit;
             linear[i] = a.kind == AxisKind::Linear;
             nodes[i] = a.node.unwrap_or(0);
-            delay_cycles[i] = a.sim.delay_cycles.min(16);
+            delay_cycles[i] = a.feedback_delay_cycles;
         }
         AxisTable {
             n,

@@ -118,8 +118,8 @@ pub struct MasterLink<B: CycleBus> {
     loop_base: Option<Instant>,
     last: [f64; MAX_AXES],
     quick_stop_sent: bool,
-    prev_actual: [f64; MAX_AXES],
-    counts_per_unit: [f64; MAX_AXES],
+    /// Actual counts at the previous quick-stop cycle (`None` before the first).
+    prev_counts: [Option<i64>; MAX_AXES],
 }
 
 impl<B: CycleBus> MasterLink<B> {
@@ -152,10 +152,7 @@ impl<B: CycleBus> MasterLink<B> {
             loop_base: None,
             last: [0.0; MAX_AXES],
             quick_stop_sent: false,
-            prev_actual: [f64::NAN; MAX_AXES],
-            counts_per_unit: core::array::from_fn(|i| {
-                cfg.axes.get(i).map_or(1.0, |a| a.counts_per_unit)
-            }),
+            prev_counts: [None; MAX_AXES],
         })
     }
 
@@ -191,29 +188,18 @@ impl<B: CycleBus> MasterLink<B> {
         let r = self
             .master
             .cycle(&mut self.bus, t, &commands[..self.n_axes]);
-        match &r {
-            Ok(f) => {
-                for (i, fb) in fb.iter_mut().enumerate().take(self.n_axes) {
-                    *fb = DriveFeedback {
-                        actual: f.actual[i],
-                        statusword: f.statusword[i].map_or(0, |s| s.0),
-                        following_error: f.following_error[i],
-                        age: f.age[i],
-                        actual_counts: f.actual_counts[i],
-                        target: f.target[i],
-                    };
-                }
-            }
-            Err(_) => {
-                // The tripping cycle returns no feedback: keep the last statuswords, with the
-                // positions the master latched in that cycle.
-                let f = self.master.last_feedback();
-                for (i, fb) in fb.iter_mut().enumerate().take(self.n_axes) {
-                    fb.actual = f.actual[i];
-                    fb.actual_counts = f.actual_counts[i];
-                    fb.target = f.target[i];
-                }
-            }
+        // Every cycle, the tripping one included, leaves its whole feedback (statuswords,
+        // following errors, ages) in `last_feedback`: one conversion for both outcomes.
+        let f = self.master.last_feedback();
+        for (i, fb) in fb.iter_mut().enumerate().take(self.n_axes) {
+            *fb = DriveFeedback {
+                actual: f.actual[i],
+                statusword: f.statusword[i].map_or(0, |s| s.0),
+                following_error: f.following_error[i],
+                age: f.age[i],
+                actual_counts: f.actual_counts[i],
+                target: f.target[i],
+            };
         }
         r.map(|_| ())
     }
@@ -284,16 +270,17 @@ impl<B: CycleBus> DriveLink for MasterLink<B> {
         let hold = self.last;
         let _ = self.exchange(t, &hold, fb);
         // Stopped: every drive out of OPERATION ENABLED and no axis moved by a count since
-        // the last cycle (quick stop ramps take their time).
+        // the last cycle (quick stop ramps take their time). The first quick-stop cycle has
+        // no previous position and counts as moving.
         let mut stopped = true;
         for (i, fb) in fb.iter().enumerate().take(self.n_axes) {
             if self.has_drive[i] {
                 let state = cia402::Statusword(fb.statusword).state();
-                let moved =
-                    (fb.actual - self.prev_actual[i]).abs() * self.counts_per_unit[i] >= 1.0;
+                let moved = self.prev_counts[i]
+                    .is_none_or(|p| fb.actual_counts.abs_diff(p) >= 1);
                 stopped &= state != Some(State::OperationEnabled) && !moved;
             }
-            self.prev_actual[i] = fb.actual;
+            self.prev_counts[i] = Some(fb.actual_counts);
         }
         stopped
     }
