@@ -173,6 +173,21 @@ fn bus_error(e: &io::Error) -> BusError {
     }
 }
 
+/// A zero send budget makes the socket non-blocking, so a cyclic send is one attempt that
+/// never sleeps (SO_SNDTIMEO cannot express that: the kernel rounds even 1 µs up to a whole
+/// tick, 1–10 ms). A positive budget blocks on a full socket buffer for at most the budget
+/// (SO_SNDTIMEO), and `send` retries ENOBUFS within it. Reads never block either way: they
+/// follow a poll.
+fn apply_send_budget(socket: &CanSocket, budget: Duration) -> io::Result<()> {
+    if budget.is_zero() {
+        return socket.set_nonblocking(true);
+    }
+    socket.set_nonblocking(false)?;
+    socket.set_write_timeout(budget)
+}
+
+/// The socket could take no frame now (queue or buffer full, or interrupted); reads: no
+/// frame (also a poll that timed out).
 fn is_would_block(e: &io::Error) -> bool {
     matches!(
         e.kind(),
@@ -230,11 +245,7 @@ impl SocketCanBus {
                 return Err(io_err(&e));
             }
         };
-        // Blocking socket with a bounded SO_SNDTIMEO: a full socket buffer cannot stall a
-        // send longer than the budget. Reads only follow a poll that saw a frame.
-        socket.set_nonblocking(false).map_err(|e| io_err(&e))?;
-        let budget = options.send_budget.max(Duration::from_micros(1));
-        socket.set_write_timeout(budget).map_err(|e| io_err(&e))?;
+        apply_send_budget(&socket, options.send_budget).map_err(|e| io_err(&e))?;
         if options.recv_buffer_bytes > 0 {
             // SO_RCVBUFFORCE passes net.core.rmem_max (~208 KiB, ~200 frames) where the
             // process may (CAP_NET_ADMIN); otherwise SO_RCVBUF, capped by the kernel.
@@ -297,9 +308,7 @@ impl SocketCanBus {
     /// error means the socket's write timeout could not be changed (the budget is set anyway).
     pub fn set_send_budget(&mut self, budget: Duration) -> Result<(), BusError> {
         self.options.send_budget = budget;
-        self.socket
-            .set_write_timeout(budget.max(Duration::from_micros(1)))
-            .map_err(|e| bus_error(&e))
+        apply_send_budget(&self.socket, budget).map_err(|e| bus_error(&e))
     }
 
     /// Sends that found the transmit queue full at least once and were retried.
@@ -355,7 +364,9 @@ impl CanBus for SocketCanBus {
         let Some(sk) = Self::to_socket_frame(frame) else {
             return Err(BusError::Io(0));
         };
-        let start = StdInstant::now();
+        // The clock is read only once the queue is found full, and never with a zero budget
+        // (the cyclic loop: one attempt on a non-blocking socket).
+        let mut start: Option<StdInstant> = None;
         let mut retried = false;
         loop {
             match self.socket.write_frame(&sk) {
@@ -369,16 +380,13 @@ impl CanBus for SocketCanBus {
                     return Ok(());
                 }
                 Err(e) => {
-                    let full =
-                        matches!(os_errno(&e), errno::ENOBUFS | errno::EAGAIN | errno::EINTR)
-                            || matches!(
-                                e.kind(),
-                                io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
-                            );
-                    if !full {
+                    if !(is_would_block(&e) || os_errno(&e) == errno::ENOBUFS) {
                         return Err(bus_error(&e));
                     }
-                    if start.elapsed() >= self.options.send_budget {
+                    let budget = self.options.send_budget;
+                    if budget.is_zero()
+                        || start.get_or_insert_with(StdInstant::now).elapsed() >= budget
+                    {
                         self.counters.dropped += 1;
                         return Err(BusError::TxQueueFull);
                     }
