@@ -4,7 +4,7 @@
 #   source "$HIL_REPO/hil-tests/guest/lib.sh"
 #   hil_bg drive "$HIL_BIN/simdrive" --iface "$HIL_IFACE" --report "$HIL_OUT/drive.json"
 #   hil_wait_ready drive '^simdrive: nodes '   # its line printed after its socket is bound
-#   "$HIL_BIN/cnc402" run ... ; hil_wait drive 30
+#   "$HIL_BIN/cnc402" run ... ; kill -TERM "${HIL_PIDS[drive]}"; hil_wait drive 20
 # Logs go to $HIL_OUT/NAME.log; every process still running when the script exits is killed.
 # Waits are for events (a line in a log, a receiver registered with the kernel, a condition
 # on a file), each with a time limit, never a fixed sleep standing in for one.
