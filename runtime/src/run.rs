@@ -936,10 +936,8 @@ fn run_realtime(
                     break o;
                 }
             };
-            let now = monotonic_ns().saturating_sub(t0);
-            let _ = wall0;
             let wall = wall_cyclic.elapsed();
-            let elapsed = Duration::from_nanos((now + t0).saturating_sub(t_cyclic));
+            let elapsed = Duration::from_nanos(monotonic_ns().saturating_sub(t_cyclic));
             Ok(LoopEnd {
                 latency: Some(LatencySummary {
                     skipped,
@@ -977,7 +975,6 @@ fn run_realtime(
         .join()
         .map_err(|_| RunError::Io("the loop thread panicked".into()))??;
     side.drain(&mut scons);
-    let _ = side.cfg;
     Ok(end)
 }
 
