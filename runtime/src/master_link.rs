@@ -276,8 +276,7 @@ impl<B: CycleBus> DriveLink for MasterLink<B> {
         for (i, fb) in fb.iter().enumerate().take(self.n_axes) {
             if self.has_drive[i] {
                 let state = cia402::Statusword(fb.statusword).state();
-                let moved = self.prev_counts[i]
-                    .is_none_or(|p| fb.actual_counts.abs_diff(p) >= 1);
+                let moved = self.prev_counts[i].is_none_or(|p| fb.actual_counts.abs_diff(p) >= 1);
                 stopped &= state != Some(State::OperationEnabled) && !moved;
             }
             self.prev_counts[i] = Some(fb.actual_counts);
