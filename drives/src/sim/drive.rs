@@ -615,15 +615,7 @@ impl SimDrive {
     }
 
     fn boot(&mut self) {
-        self.nmt = NmtStatus::PreOperational;
-        let f = HeartbeatRepr {
-            node: self.node,
-            state: NmtState::BootUp,
-        }
-        .emit();
-        self.send(f);
-        self.stats.boot_ups += 1;
-        self.schedule_heartbeat();
+        self.boot_comm_only();
         self.cia.init_done();
         if let Some(code) = self.options.start_in_fault.take() {
             self.fault_persistent = false;
