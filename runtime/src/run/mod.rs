@@ -28,12 +28,11 @@ use crate::master_link::{LinkTimeouts, MasterLink};
 use crate::program_stop::{AtStop, StopGate};
 use crate::recorder::Recorder;
 use crate::report::RunReport;
-use crate::ring::{MOVE_RING, STATUS_RING, move_ring, status_ring};
+use crate::ring::{MOVE_RING, STATUS_RING, StatusConsumer, move_ring, status_ring};
 use crate::rt::request_realtime;
 use crate::sim_machine::SimLink;
 use crate::socket_machine::SocketLink;
 use crate::status::Outcome;
-use crate::sync::SyncShared;
 use cyclic::{LoopEnd, LoopIo, run_cyclic};
 pub use error::RunError;
 use prompt::OperatorPrompt;
@@ -41,7 +40,7 @@ use real_time::RealTimeClock;
 use report::build_report;
 pub use report::coupling_bound_um;
 pub use side::Progress;
-use side::Side;
+use side::{FeederStart, Side};
 use virtual_time::VirtualClock;
 
 /// How time advances.
@@ -211,20 +210,8 @@ pub fn run_program(
     if let Some(t) = trace {
         recorder = recorder.with_trace(t);
     }
-    let mut side = Side {
-        cfg,
-        shared: Arc::new(SyncShared::default()),
-        feeder: None,
-        idle_ticks: 0,
-        recorder,
-        progress,
-        expected: dry.ticks,
-        program_error: None,
-        program_ticks: 0,
-        prompt: OperatorPrompt::new(gate, no_operator_terminal),
-        src_name: src.name.to_string(),
-        coolant_on: false,
-    };
+    let prompt = OperatorPrompt::new(gate, no_operator_terminal);
+    let mut side = Side::new(cfg, recorder, progress, dry.ticks, prompt, &src.name);
     let src_keep = src.clone();
     let (moves_tx, moves_rx) = move_ring(MOVE_RING);
     let (status_tx, status_rx) = status_ring(status_cap);
@@ -257,21 +244,13 @@ pub fn run_program(
     Ok(build_report(cfg, &src_keep, &side, &end))
 }
 
-/// The program, and where the feeder that plans it sends its moves.
-struct FeederStart {
-    src: SourceFile,
-    program: Program,
-    moves: crate::ring::MoveProducer,
-    stop_request: Arc<AtomicBool>,
-}
-
 /// The loop on the calling thread in virtual time, the reporting side draining between ticks.
 fn run_virtual(
     cfg: &MachineConfig,
     spec: LinkSpec,
     feed: FeederStart,
     io: LoopIo,
-    status: crate::ring::StatusConsumer,
+    status: StatusConsumer,
     side: &mut Side,
 ) -> Result<LoopEnd, RunError> {
     let wall0 = std::time::Instant::now();
@@ -279,15 +258,7 @@ fn run_virtual(
     let link = link_for(cfg, &spec)?;
     let mut clock = VirtualClock::new(period, wall0, side, status, io.stop_request.clone());
     run_cyclic(&mut clock, cfg, link, io, wall0, |clock, start| {
-        let FeederStart {
-            src,
-            program,
-            moves,
-            stop_request,
-        } = feed;
-        clock
-            .side()
-            .start_feeder(src, program, start, moves, &stop_request)
+        clock.side().start_feeder(feed, start)
     })
 }
 
@@ -299,7 +270,7 @@ fn run_realtime(
     spec: LinkSpec,
     feed: FeederStart,
     io: LoopIo,
-    mut status: crate::ring::StatusConsumer,
+    mut status: StatusConsumer,
     side: &mut Side,
 ) -> Result<LoopEnd, RunError> {
     let (ready_tx, ready_rx) = std::sync::mpsc::sync_channel::<[f64; MAX_AXES]>(1);
@@ -330,13 +301,7 @@ fn run_realtime(
     let stop_request = feed.stop_request.clone();
     match ready_rx.recv() {
         Ok(start) => {
-            let FeederStart {
-                src,
-                program,
-                moves,
-                stop_request,
-            } = feed;
-            if let Err(e) = side.start_feeder(src, program, &start, moves, &stop_request) {
+            if let Err(e) = side.start_feeder(feed, &start) {
                 stop_request.store(true, Ordering::SeqCst);
                 let _ = handle.join();
                 return Err(e);

@@ -29,42 +29,74 @@ pub struct Progress {
     pub line: u32,
 }
 
+/// The program, and where the feeder that plans it sends its moves.
+pub(super) struct FeederStart {
+    pub(super) src: SourceFile,
+    pub(super) program: Program,
+    pub(super) moves: MoveProducer,
+    pub(super) stop_request: Arc<AtomicBool>,
+}
+
 /// The reporting side: recorder, progress callback, and what the feeder thread needs to know.
 pub(super) struct Side<'a> {
-    pub(super) cfg: &'a MachineConfig,
+    cfg: &'a MachineConfig,
     pub(super) shared: Arc<SyncShared>,
     pub(super) feeder: Option<JoinHandle<Option<NcError>>>,
-    pub(super) idle_ticks: u32,
+    idle_ticks: u32,
     pub(super) recorder: Recorder,
-    pub(super) progress: &'a mut dyn FnMut(&Progress),
-    pub(super) expected: u64,
+    progress: &'a mut dyn FnMut(&Progress),
+    expected: u64,
     pub(super) program_error: Option<NcError>,
     pub(super) program_ticks: u64,
     /// The program stops (M0/M1) of this run, the gate the loop holds at, and the operator.
     pub(super) prompt: OperatorPrompt,
-    pub(super) src_name: String,
+    src_name: String,
     /// Coolant on as the last coolant event left it (turned off at the end of the run when a
     /// stop, fault or end at a program stop left it on; M2/M30 turn it off themselves).
     pub(super) coolant_on: bool,
 }
 
-impl Side<'_> {
+impl<'a> Side<'a> {
+    /// The reporting side of a run of `src_name` that the dry run expects to take
+    /// `expected` ticks.
+    pub(super) fn new(
+        cfg: &'a MachineConfig,
+        recorder: Recorder,
+        progress: &'a mut dyn FnMut(&Progress),
+        expected: u64,
+        prompt: OperatorPrompt,
+        src_name: &str,
+    ) -> Side<'a> {
+        Side {
+            cfg,
+            shared: Arc::new(SyncShared::default()),
+            feeder: None,
+            idle_ticks: 0,
+            recorder,
+            progress,
+            expected,
+            program_error: None,
+            program_ticks: 0,
+            prompt,
+            src_name: src_name.to_string(),
+            coolant_on: false,
+        }
+    }
+
     /// Starts the feeder thread for a machine standing at `start`.
     pub(super) fn start_feeder(
         &mut self,
-        src: SourceFile,
-        program: Program,
+        feed: FeederStart,
         start: &[f64; MAX_AXES],
-        ring: MoveProducer,
-        stop: &Arc<AtomicBool>,
     ) -> Result<(), RunError> {
         let axes = AxisTable::new(self.cfg);
-        let feeder = Feeder::new(self.cfg, src, program, start_position(&axes, start));
+        let start = start_position(&axes, start);
+        let feeder = Feeder::new(self.cfg, feed.src, feed.program, start);
         let h = spawn_feeder(
             feeder,
-            ring,
+            feed.moves,
             self.shared.clone(),
-            stop.clone(),
+            feed.stop_request,
             Some(self.prompt.gate().clone()),
         )
         .map_err(|e| RunError::Io(format!("cannot start the feeder thread: {e}")))?;
