@@ -238,3 +238,101 @@ fn counters_since(end: BusCounters, start: BusCounters) -> BusCounters {
         dropped: end.dropped.saturating_sub(start.dropped),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ring::{LoopInput, Producer, move_ring, status_ring};
+
+    /// A clock that has no tick ready at every other poll and fails at tick `fail_at`.
+    #[derive(Default)]
+    struct ScriptedClock {
+        now: Instant,
+        polls: u32,
+        ticks: u32,
+        ticked: u32,
+        startup_waits: u32,
+        fail_at: Option<u32>,
+    }
+
+    impl CycleClock for ScriptedClock {
+        fn now(&self) -> Instant {
+            self.now
+        }
+        fn wait_startup(&mut self) -> Result<(), Errno> {
+            self.startup_waits += 1;
+            self.now += Duration::from_millis(1);
+            Ok(())
+        }
+        fn start_cyclic(&mut self) {}
+        fn next_tick(&mut self, _: LoopState) -> Result<Option<Instant>, Errno> {
+            self.polls += 1;
+            if self.polls % 2 == 1 {
+                return Ok(None);
+            }
+            self.ticks += 1;
+            if Some(self.ticks) == self.fail_at {
+                return Err(Errno::EINVAL);
+            }
+            self.now += Duration::from_millis(1);
+            Ok(Some(self.now))
+        }
+        fn ticked(&mut self, _: LoopState, _: &Step) {
+            self.ticked += 1;
+        }
+        fn finish(&mut self) -> ClockEnd {
+            ClockEnd {
+                elapsed: Duration::from_millis(self.ticked.into()),
+                wall: Duration::ZERO,
+                latency: None,
+                grant: Some("scripted".into()),
+            }
+        }
+    }
+
+    /// Runs an empty program (only its end) on the bus-less model with `clock`.
+    fn run(clock: &mut ScriptedClock) -> (Result<LoopEnd, RunError>, bool) {
+        let cfg = MachineConfig::default_machine();
+        let (mut moves_tx, moves) = move_ring(4);
+        assert!(moves_tx.try_push(LoopInput::End).is_ok());
+        let (status, _status_rx) = status_ring(1 << 12);
+        let io = LoopIo {
+            moves,
+            status,
+            stop_request: Arc::new(AtomicBool::new(false)),
+            gate: Arc::new(StopGate::default()),
+        };
+        let link = Box::new(crate::testing::model_link(&cfg, None));
+        let mut ready = false;
+        let wall0 = std::time::Instant::now();
+        let r = run_cyclic(clock, &cfg, link, io, wall0, |_, _| {
+            ready = true;
+            Ok(())
+        });
+        (r, ready)
+    }
+
+    #[test]
+    fn the_loop_steps_once_per_tick_its_clock_gives() {
+        let mut clock = ScriptedClock::default();
+        let (r, ready) = run(&mut clock);
+        let end = r.expect("the run ended");
+        assert!(ready && clock.startup_waits > 0);
+        assert_eq!(end.outcome, Outcome::Finished);
+        // Polls without a tick step nothing.
+        assert_eq!((end.ticks, clock.ticked), (clock.ticks.into(), clock.ticks));
+        assert_eq!(clock.polls, 2 * clock.ticks);
+        assert_eq!(end.grant.as_deref(), Some("scripted"));
+    }
+
+    #[test]
+    fn a_failing_clock_ends_the_run_with_a_clock_error() {
+        let mut clock = ScriptedClock {
+            fail_at: Some(2),
+            ..ScriptedClock::default()
+        };
+        let (r, _) = run(&mut clock);
+        assert!(matches!(r, Err(RunError::Clock(_))), "{:?}", r.err());
+        assert_eq!(clock.ticked, 1);
+    }
+}

@@ -1,5 +1,5 @@
 //! Why a run could not produce a report: the error every part of a run hands back to
-//! [`run_program`](super::run_program)'s caller.
+//! `run_program`'s caller.
 
 use cnc402_lang::NcError;
 
