@@ -118,15 +118,12 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         log::warn!("cannot install the SIGINT handler: {e}");
     }
     // M0 waits for the operator only when there is one at a terminal to press Enter.
-    let stdin_tty = std::io::stdin().is_terminal();
-    let at_stop = match args.at_stop {
-        Some(crate::AtStopArg::Wait) => AtStop::Wait,
-        Some(crate::AtStopArg::Continue) => AtStop::Continue,
-        Some(crate::AtStopArg::End) => AtStop::End,
-        None if stdin_tty => AtStop::Wait,
-        None => AtStop::Continue,
-    };
-    let no_operator_terminal = args.at_stop.is_none() && !stdin_tty;
+    let asked = args.at_stop.map(|a| match a {
+        crate::AtStopArg::Wait => AtStop::Wait,
+        crate::AtStopArg::Continue => AtStop::Continue,
+        crate::AtStopArg::End => AtStop::End,
+    });
+    let (at_stop, no_operator_terminal) = AtStop::for_run(asked, std::io::stdin().is_terminal());
     // The test doubles' fields exist when a workspace test build turns on the runtime's
     // `testing` feature; in a plain build every field is named here.
     #[allow(clippy::needless_update)]

@@ -272,15 +272,15 @@ impl<L: DriveLink> CycleController<L> {
         if let (Some(cnc402_motion::MoveEvent::ProgramStop { kind }), Some(g)) =
             (t.event, &self.gate)
             && self.phase == Phase::Running
-            && g.applies(kind)
         {
-            match g.policy() {
-                crate::program_stop::AtStop::Wait => {
+            match g.decide(kind) {
+                crate::program_stop::StopDecision::Hold => {
                     g.hold();
                     self.held = true;
                 }
-                crate::program_stop::AtStop::End => self.input_done = true,
-                crate::program_stop::AtStop::Continue => {}
+                crate::program_stop::StopDecision::End => self.input_done = true,
+                crate::program_stop::StopDecision::Continue
+                | crate::program_stop::StopDecision::Pass => {}
             }
         }
         self.last_line = t.line;

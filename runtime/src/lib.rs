@@ -27,7 +27,7 @@ pub mod testing;
 pub use controller::{CycleController, Step};
 pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, Startup, StopCause};
 pub use master_link::{CycleBus, LinkTimeouts, MasterLink};
-pub use program_stop::{AtStop, StopGate, StopRecord};
+pub use program_stop::{AtStop, StopDecision, StopGate, StopPolicy, StopRecord};
 pub use report::{RunReport, write_plot};
 pub use run::{Progress, RunError, RunOptions, Timing, make_link, run_program};
 pub use sim_machine::{SimLink, SimMachine};

@@ -121,6 +121,33 @@ pub trait DriveLink {
     fn shutdown(&mut self) -> Result<(), String>;
 }
 
+/// A boxed link is a link (a run picks its link, simulated or on a socket, at run time).
+impl<L: DriveLink + ?Sized> DriveLink for Box<L> {
+    fn startup(&mut self, now: Instant) -> Startup {
+        (**self).startup(now)
+    }
+    fn cycle(
+        &mut self,
+        now: Instant,
+        commands: &[f64; MAX_AXES],
+        feedback: &mut [DriveFeedback; MAX_AXES],
+    ) -> Result<(), DriveStop> {
+        (**self).cycle(now, commands, feedback)
+    }
+    fn quick_stop(&mut self, now: Instant, feedback: &mut [DriveFeedback; MAX_AXES]) -> bool {
+        (**self).quick_stop(now, feedback)
+    }
+    fn counters(&self) -> BusCounters {
+        (**self).counters()
+    }
+    fn bitrate(&self) -> u32 {
+        (**self).bitrate()
+    }
+    fn shutdown(&mut self) -> Result<(), String> {
+        (**self).shutdown()
+    }
+}
+
 /// A drive fault to inject into a simulated machine: `node` goes to FAULT with `emcy` at
 /// `at` (time since start of the cyclic phase).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,6 +1,7 @@
-//! Program stops (M0, and M1 with optional stop on): the policy of a run and the gate that the
-//! loop holds at. The loop only reads and writes atomics here (no lock, no allocation); the
-//! reporting side prompts the operator and records how long each stop waited.
+//! Program stops (M0, and M1 with optional stop on): the policy of a run, the one decision of
+//! what a stop does ([`StopPolicy::decide`], used by the dry run, the feeder, the loop and the
+//! report), and the gate that the loop holds at. The loop only reads and writes atomics here
+//! (no lock, no allocation); the reporting side prompts the operator and records the waits.
 
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -17,6 +18,73 @@ pub enum AtStop {
     Continue,
     /// End the program there cleanly: settle, disable, report `ok`.
     End,
+}
+
+impl AtStop {
+    /// The policy of a run: the one asked for (`--at-stop`), otherwise `Wait` when an operator
+    /// terminal is attached to press Enter and `Continue` when none is. The flag is true when
+    /// `Continue` was chosen only for want of a terminal (each stop passed then says so).
+    pub fn for_run(asked: Option<AtStop>, operator_terminal: bool) -> (AtStop, bool) {
+        match asked {
+            Some(a) => (a, false),
+            None if operator_terminal => (AtStop::Wait, false),
+            None => (AtStop::Continue, true),
+        }
+    }
+}
+
+/// The program-stop settings of a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct StopPolicy {
+    /// What M0 (and M1 with `optional_stop`) does.
+    pub at_stop: AtStop,
+    /// M1 stops like M0 (off: M1 passes).
+    pub optional_stop: bool,
+}
+
+/// What one stop of the program does under a run's [`StopPolicy`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopDecision {
+    /// Not a program stop of this run: M1 with optional stop off, and M2/M30 (they end the
+    /// program on their own).
+    Pass,
+    /// Log it and go on.
+    Continue,
+    /// Hold the machine there until the operator resumes or ends the program.
+    Hold,
+    /// The program ends there: nothing after it may be interpreted, not even by the dry run.
+    End,
+}
+
+impl StopDecision {
+    /// The report's name of what was done ("wait", "continue", "end"; "pass" is never
+    /// recorded).
+    pub fn action(self) -> &'static str {
+        match self {
+            StopDecision::Pass => "pass",
+            StopDecision::Continue => "continue",
+            StopDecision::Hold => "wait",
+            StopDecision::End => "end",
+        }
+    }
+}
+
+impl StopPolicy {
+    /// What a stop of `kind` does: M0 always stops, M1 only with optional stop on, and a stop
+    /// does what the policy says.
+    pub fn decide(&self, kind: StopKind) -> StopDecision {
+        let stops = match kind {
+            StopKind::Program => true,
+            StopKind::Optional => self.optional_stop,
+            StopKind::End | StopKind::EndRewind => false,
+        };
+        match (stops, self.at_stop) {
+            (false, _) => StopDecision::Pass,
+            (true, AtStop::Continue) => StopDecision::Continue,
+            (true, AtStop::Wait) => StopDecision::Hold,
+            (true, AtStop::End) => StopDecision::End,
+        }
+    }
 }
 
 /// One program stop as the report shows it.
@@ -36,8 +104,7 @@ pub struct StopRecord {
 /// Shared between the loop, the reporting side and the operator's resume.
 #[derive(Debug, Default)]
 pub struct StopGate {
-    policy: AtStop,
-    optional_stop: bool,
+    policy: StopPolicy,
     /// Holds the loop reached (counted by the loop).
     reached: AtomicU64,
     /// Resumes given (counted by the operator side).
@@ -50,38 +117,40 @@ pub struct StopGate {
 
 impl StopGate {
     /// A gate for `policy`; `optional_stop` makes M1 act like M0 (otherwise M1 passes).
-    pub fn new(policy: AtStop, optional_stop: bool) -> StopGate {
+    pub fn new(at_stop: AtStop, optional_stop: bool) -> StopGate {
         StopGate {
-            policy,
-            optional_stop,
+            policy: StopPolicy {
+                at_stop,
+                optional_stop,
+            },
             ..StopGate::default()
         }
     }
 
     /// The run's policy.
     pub fn policy(&self) -> AtStop {
-        self.policy
+        self.policy.at_stop
+    }
+
+    /// What a stop of `kind` does in this run ([`StopPolicy::decide`]).
+    pub fn decide(&self, kind: StopKind) -> StopDecision {
+        self.policy.decide(kind)
     }
 
     /// Whether a stop of `kind` stops the program (M0 always, M1 with optional stop on;
     /// M2/M30 end the program anyway and are not program stops here).
     pub fn applies(&self, kind: StopKind) -> bool {
-        match kind {
-            StopKind::Program => true,
-            StopKind::Optional => self.optional_stop,
-            _ => false,
-        }
+        self.decide(kind) != StopDecision::Pass
     }
 
-    /// Whether a stop of `kind` ends the program (policy `End`): nothing after it may be
-    /// interpreted, not even by the dry run.
+    /// Whether a stop of `kind` ends the program (policy `End`).
     pub fn ends_at(&self, kind: StopKind) -> bool {
-        self.policy == AtStop::End && self.applies(kind)
+        self.decide(kind) == StopDecision::End
     }
 
     /// Whether a stop of `kind` holds the machine until the operator decides (policy `Wait`).
     pub fn holds_at(&self, kind: StopKind) -> bool {
-        self.policy == AtStop::Wait && self.applies(kind)
+        self.decide(kind) == StopDecision::Hold
     }
 
     /// Loop side: a hold begins.
@@ -157,5 +226,47 @@ mod tests {
         g.end_here(1.0);
         assert!(g.end_requested());
         assert_eq!(g.waits(), vec![0.25, 1.0]);
+    }
+
+    #[test]
+    fn one_decision_per_kind_and_policy() {
+        use StopDecision::*;
+        let kinds = [
+            StopKind::Program,
+            StopKind::Optional,
+            StopKind::End,
+            StopKind::EndRewind,
+        ];
+        let decide = |at_stop, optional_stop| {
+            let p = StopPolicy {
+                at_stop,
+                optional_stop,
+            };
+            kinds.map(|k| p.decide(k))
+        };
+        assert_eq!(decide(AtStop::Wait, false), [Hold, Pass, Pass, Pass]);
+        assert_eq!(decide(AtStop::Wait, true), [Hold, Hold, Pass, Pass]);
+        assert_eq!(
+            decide(AtStop::Continue, true),
+            [Continue, Continue, Pass, Pass]
+        );
+        assert_eq!(decide(AtStop::End, false), [End, Pass, Pass, Pass]);
+        let g = StopGate::new(AtStop::End, true);
+        assert!(g.ends_at(StopKind::Optional) && !g.holds_at(StopKind::Optional));
+        assert!(!g.applies(StopKind::EndRewind));
+    }
+
+    #[test]
+    fn a_run_waits_only_with_an_operator_terminal_unless_told() {
+        assert_eq!(AtStop::for_run(None, true), (AtStop::Wait, false));
+        assert_eq!(AtStop::for_run(None, false), (AtStop::Continue, true));
+        assert_eq!(
+            AtStop::for_run(Some(AtStop::End), false),
+            (AtStop::End, false)
+        );
+        assert_eq!(
+            AtStop::for_run(Some(AtStop::Continue), true),
+            (AtStop::Continue, false)
+        );
     }
 }

@@ -15,7 +15,7 @@ use cnc402_lang::NcError;
 use cnc402_motion::AxisPos;
 
 use crate::feeder::Feeder;
-use crate::program_stop::StopGate;
+use crate::program_stop::{StopDecision, StopGate};
 use crate::ring::{LoopInput, MoveProducer, Producer};
 use crate::status::{Phase, Status, within_one_count};
 
@@ -169,12 +169,11 @@ enum AfterStop {
 
 fn after_stop(mv: &cnc402_motion::PlannedMove, gate: Option<&StopGate>) -> AfterStop {
     match (mv.kind, gate) {
-        (cnc402_motion::MoveKind::ProgramStop { kind }, Some(g)) if g.holds_at(kind) => {
-            AfterStop::Hold
-        }
-        (cnc402_motion::MoveKind::ProgramStop { kind }, Some(g)) if g.ends_at(kind) => {
-            AfterStop::EndHere
-        }
+        (cnc402_motion::MoveKind::ProgramStop { kind }, Some(g)) => match g.decide(kind) {
+            StopDecision::Hold => AfterStop::Hold,
+            StopDecision::End => AfterStop::EndHere,
+            StopDecision::Pass | StopDecision::Continue => AfterStop::GoOn,
+        },
         _ => AfterStop::GoOn,
     }
 }

@@ -1,0 +1,329 @@
+//! Running a whole program: a dry run first (program errors before anything moves), then the
+//! drives are started and the cyclic loop ([`cyclic`]) runs on its clock — virtual time on the
+//! calling thread ([`virtual_time`]), or real time on a thread of its own with absolute
+//! deadlines ([`real_time`]) — while the reporting side ([`side`]) and the operator at program
+//! stops ([`prompt`]) stay on the calling thread; then the report ([`report`]).
+
+mod cyclic;
+mod error;
+mod prompt;
+mod real_time;
+mod report;
+mod side;
+mod virtual_time;
+
+use std::io::Write;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use cnc402_config::{MAX_AXES, MachineConfig};
+use cnc402_lang::SourceFile;
+use cnc402_lang::ast::Program;
+use cnc402_motion::AxisPos;
+
+use crate::feeder::{dry_run, motion_error_to_nc};
+use crate::link::{DriveLink, FaultPlan};
+use crate::master_link::{LinkTimeouts, MasterLink};
+use crate::program_stop::{AtStop, StopGate};
+use crate::recorder::Recorder;
+use crate::report::RunReport;
+use crate::ring::{MOVE_RING, STATUS_RING, StatusConsumer, move_ring, status_ring};
+use crate::rt::request_realtime;
+use crate::sim_machine::SimLink;
+use crate::socket_machine::SocketLink;
+use crate::status::Outcome;
+use cyclic::{LoopEnd, LoopIo, run_cyclic};
+pub use error::RunError;
+use prompt::OperatorPrompt;
+use real_time::RealTimeClock;
+use report::build_report;
+pub use report::coupling_bound_um;
+pub use side::Progress;
+use side::{FeederStart, Side};
+use virtual_time::VirtualClock;
+
+/// How time advances.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Timing {
+    /// Each tick right after the last: virtual time, as fast as the CPU allows.
+    Virtual,
+    /// Against CLOCK_MONOTONIC at the configured period, on a thread of its own.
+    RealTime,
+}
+
+/// What a run needs besides the program.
+pub struct RunOptions {
+    pub timing: Timing,
+    /// A fault to inject into the simulated drives (tests, demos).
+    pub fault: Option<FaultPlan>,
+    /// Where to write the CSV trace.
+    pub trace: Option<Box<dyn Write>>,
+    /// Raised by the caller (SIGINT) to stop the machine the way a fault does.
+    pub stop_request: Arc<AtomicBool>,
+    /// Use the bus-less `testing::ModelLink` (pure delay) instead of the configured bus: a
+    /// test and benchmark double, only with the `testing` feature.
+    #[cfg(any(test, feature = "testing"))]
+    pub model_link: bool,
+    /// Capacity of the status ring instead of [`STATUS_RING`] (tests of a full ring; only
+    /// with the `testing` feature). The virtual-time driver still drains at
+    /// `STATUS_RING / 2`, so a smaller ring loses records as a slow reporter would.
+    #[cfg(any(test, feature = "testing"))]
+    pub status_ring: Option<usize>,
+    /// Boot and enable limits; `None`: [`LinkTimeouts::default`] on the simulator,
+    /// [`LinkTimeouts::real_bus`] on a CAN interface.
+    pub timeouts: Option<LinkTimeouts>,
+    /// What M0 (and M1 with `optional_stop`) does; default `Continue` (log and go on).
+    pub at_stop: AtStop,
+    /// M1 stops like M0 (off: M1 passes).
+    pub optional_stop: bool,
+    /// `Continue` was chosen only because no operator terminal is attached: each stop passed
+    /// says so on stderr.
+    pub no_operator_terminal: bool,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions {
+            timing: Timing::Virtual,
+            fault: None,
+            trace: None,
+            stop_request: Arc::new(AtomicBool::new(false)),
+            #[cfg(any(test, feature = "testing"))]
+            model_link: false,
+            #[cfg(any(test, feature = "testing"))]
+            status_ring: None,
+            timeouts: None,
+            at_stop: AtStop::Continue,
+            optional_stop: false,
+            no_operator_terminal: false,
+        }
+    }
+}
+
+/// The drive link for `cfg`'s bus: the embedded simulated machine for `interface = "sim"`,
+/// otherwise the master on that SocketCAN interface ([`SocketLink`]; an interface that cannot
+/// be opened is `RunError::Io` naming it and why). `fault` needs simulated drives.
+pub fn make_link(
+    cfg: &MachineConfig,
+    fault: Option<FaultPlan>,
+    timeouts: Option<LinkTimeouts>,
+) -> Result<Box<dyn DriveLink>, RunError> {
+    if !cfg.bus.is_sim() {
+        if fault.is_some() {
+            return Err(RunError::Io(format!(
+                "bus interface {:?}: faults can only be injected into the simulated drives \
+                 (interface = \"sim\"); on a CAN bus use simdrive --fault",
+                cfg.bus.interface
+            )));
+        }
+        let link = SocketLink::socket(cfg, timeouts.unwrap_or_else(LinkTimeouts::real_bus))
+            .map_err(RunError::Io)?;
+        return Ok(Box::new(link));
+    }
+    let machine = crate::sim_machine::SimMachine::new(cfg, None)
+        .map_err(|e| RunError::Io(format!("simulated bus: {e}")))?;
+    let mut link: SimLink = MasterLink::with_timeouts(cfg, machine, timeouts.unwrap_or_default())
+        .map_err(|e| RunError::Io(format!("simulated bus: {e}")))?;
+    if let Some(f) = fault {
+        link = link.with_fault(f);
+    }
+    Ok(Box::new(link))
+}
+
+/// Which drive link a run uses (see [`make_link`]).
+#[derive(Clone, Copy, Debug)]
+struct LinkSpec {
+    fault: Option<FaultPlan>,
+    /// The bus-less test double (only ever set with the `testing` feature).
+    #[cfg(any(test, feature = "testing"))]
+    model: bool,
+    timeouts: Option<LinkTimeouts>,
+}
+
+/// The link of a run: [`make_link`], or the test double when asked for (feature `testing`).
+fn link_for(cfg: &MachineConfig, spec: &LinkSpec) -> Result<Box<dyn DriveLink>, RunError> {
+    #[cfg(any(test, feature = "testing"))]
+    if spec.model {
+        return Ok(Box::new(crate::testing::model_link(cfg, spec.fault)));
+    }
+    make_link(cfg, spec.fault, spec.timeouts)
+}
+
+/// Runs `program` on the machine `cfg` describes and reports. Program errors found before
+/// motion are `Err(RunError::Program)`; faults and stops are reports with `ok == false`.
+pub fn run_program(
+    cfg: &MachineConfig,
+    src: SourceFile,
+    program: Program,
+    opts: RunOptions,
+    progress: &mut dyn FnMut(&Progress),
+) -> Result<RunReport, RunError> {
+    let gate = Arc::new(StopGate::new(opts.at_stop, opts.optional_stop));
+    let dry =
+        dry_run(cfg, &src, &program, AxisPos::default(), Some(&gate)).map_err(RunError::Program)?;
+    if let Some((line, e)) = &dry.after_hold {
+        log::warn!(
+            "{}:{line}: the program, run on past this stop as it stands, would fail at {}:{}:{}: \
+             {} (checked again when it gets there: the operator may change what it reads)",
+            src.name,
+            e.file,
+            e.line,
+            e.col,
+            e.message
+        );
+    }
+    if let Some(line) = dry.repeats_at {
+        log::warn!(
+            "{}:{line}: M99 in the main program: it starts over from its first block, endlessly \
+             (as on a Fanuc control), until M2/M30, an alarm or Ctrl-C ends it",
+            src.name
+        );
+    }
+    let spec = LinkSpec {
+        fault: opts.fault,
+        #[cfg(any(test, feature = "testing"))]
+        model: opts.model_link,
+        timeouts: opts.timeouts,
+    };
+    #[cfg(any(test, feature = "testing"))]
+    let model = spec.model;
+    #[cfg(not(any(test, feature = "testing")))]
+    let model = false;
+    #[cfg(any(test, feature = "testing"))]
+    let status_cap = opts.status_ring.unwrap_or(STATUS_RING).max(2);
+    #[cfg(not(any(test, feature = "testing")))]
+    let status_cap = STATUS_RING;
+    if !cfg.bus.is_sim() && !model {
+        // Fail before anything else when the interface cannot be opened (or a fault is asked
+        // of drives that are not simulated).
+        make_link(cfg, opts.fault, opts.timeouts)?;
+    }
+    let mut recorder = Recorder::new(cfg, dry.ticks);
+    let RunOptions {
+        timing,
+        trace,
+        stop_request,
+        no_operator_terminal,
+        ..
+    } = opts;
+    if let Some(t) = trace {
+        recorder = recorder.with_trace(t);
+    }
+    let prompt = OperatorPrompt::new(gate, no_operator_terminal);
+    let mut side = Side::new(cfg, recorder, progress, dry.ticks, prompt, &src.name);
+    let src_keep = src.clone();
+    let (moves_tx, moves_rx) = move_ring(MOVE_RING);
+    let (status_tx, status_rx) = status_ring(status_cap);
+    let feed = FeederStart {
+        src,
+        program,
+        moves: moves_tx,
+        stop_request: stop_request.clone(),
+    };
+    let io = LoopIo {
+        moves: moves_rx,
+        status: status_tx,
+        stop_request,
+        gate: side.prompt.gate().clone(),
+    };
+    let end = match timing {
+        Timing::Virtual => run_virtual(cfg, spec, feed, io, status_rx, &mut side),
+        Timing::RealTime => run_realtime(cfg, spec, feed, io, status_rx, &mut side),
+    };
+    side.stop_feeder();
+    let end = end?;
+    let trace_result = side.recorder.finish();
+    if let Some(e) = side.program_error.take() {
+        return Err(RunError::Program(e));
+    }
+    if let Outcome::MotionFailed { error } = &end.outcome {
+        return Err(RunError::Program(motion_error_to_nc(&src_keep, error)));
+    }
+    trace_result.map_err(|e| RunError::Io(format!("trace: {e}")))?;
+    Ok(build_report(cfg, &src_keep, &side, &end))
+}
+
+/// The loop on the calling thread in virtual time, the reporting side draining between ticks.
+fn run_virtual(
+    cfg: &MachineConfig,
+    spec: LinkSpec,
+    feed: FeederStart,
+    io: LoopIo,
+    status: StatusConsumer,
+    side: &mut Side,
+) -> Result<LoopEnd, RunError> {
+    let wall0 = std::time::Instant::now();
+    let period = Duration::from_micros(cfg.bus.period_us as u64);
+    let link = link_for(cfg, &spec)?;
+    let mut clock = VirtualClock::new(period, wall0, side, status, io.stop_request.clone());
+    run_cyclic(&mut clock, cfg, link, io, wall0, |clock, start| {
+        clock.side().start_feeder(feed, start)
+    })
+}
+
+/// The loop on a thread of its own in real time (memory locked and SCHED_FIFO where
+/// permitted); the calling thread starts the feeder once the drives are enabled and drains
+/// the status ring every 2 ms until the loop ends.
+fn run_realtime(
+    cfg: &MachineConfig,
+    spec: LinkSpec,
+    feed: FeederStart,
+    io: LoopIo,
+    mut status: StatusConsumer,
+    side: &mut Side,
+) -> Result<LoopEnd, RunError> {
+    let (ready_tx, ready_rx) = std::sync::mpsc::sync_channel::<[f64; MAX_AXES]>(1);
+    let cfg_t = cfg.clone();
+    let period_ns = cfg.bus.period_us as u64 * 1000;
+    let handle = std::thread::Builder::new()
+        .name("cnc402-loop".into())
+        .spawn(move || -> Result<LoopEnd, RunError> {
+            let grant = request_realtime();
+            if grant.mlockall.is_ok() && grant.fifo.is_ok() {
+                log::info!("{}", grant.describe());
+            } else {
+                log::warn!(
+                    "{} — running anyway, expect more late wake-ups",
+                    grant.describe()
+                );
+            }
+            let wall0 = std::time::Instant::now();
+            let link = link_for(&cfg_t, &spec)?;
+            let mut clock = RealTimeClock::new(period_ns, grant);
+            run_cyclic(&mut clock, &cfg_t, link, io, wall0, |_, start| {
+                let _ = ready_tx.send(*start);
+                Ok(())
+            })
+        })
+        .map_err(|e| RunError::Io(format!("cannot start the loop thread: {e}")))?;
+
+    let stop_request = feed.stop_request.clone();
+    match ready_rx.recv() {
+        Ok(start) => {
+            if let Err(e) = side.start_feeder(feed, &start) {
+                stop_request.store(true, Ordering::SeqCst);
+                let _ = handle.join();
+                return Err(e);
+            }
+        }
+        Err(_) => {
+            // The thread ended during start-up; its result says why.
+            return handle
+                .join()
+                .map_err(|_| RunError::Io("the loop thread panicked".into()))?;
+        }
+    }
+    while !handle.is_finished() {
+        side.drain(&mut status);
+        if crate::rt::sigint_seen() {
+            stop_request.store(true, Ordering::SeqCst);
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let end = handle
+        .join()
+        .map_err(|_| RunError::Io("the loop thread panicked".into()))??;
+    side.drain(&mut status);
+    Ok(end)
+}

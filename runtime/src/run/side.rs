@@ -1,0 +1,180 @@
+//! The reporting side of a run, on the calling thread in both timings: it starts and ends the
+//! feeder thread, drains the status ring into the recorder, publishes what the loop did for
+//! the interpreter's motion sync, logs the program's events and tells the caller's progress.
+
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::thread::JoinHandle;
+
+use cnc402_config::{MAX_AXES, MachineConfig};
+use cnc402_lang::ast::Program;
+use cnc402_lang::{NcError, SourceFile};
+use cnc402_motion::MoveEvent;
+
+use super::error::RunError;
+use super::prompt::OperatorPrompt;
+use crate::controller::{AxisTable, start_position};
+use crate::feeder::Feeder;
+use crate::recorder::Recorder;
+use crate::ring::{Consumer, MoveProducer, StatusConsumer};
+use crate::status::{Phase, Status};
+use crate::sync::{SyncShared, spawn_feeder};
+
+/// Progress as the reporting side sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Progress {
+    pub tick: u64,
+    /// Ticks the dry run expects (spindle ramps excluded, so `tick` may pass it).
+    pub expected_ticks: u64,
+    pub line: u32,
+}
+
+/// The program, and where the feeder that plans it sends its moves.
+pub(super) struct FeederStart {
+    pub(super) src: SourceFile,
+    pub(super) program: Program,
+    pub(super) moves: MoveProducer,
+    pub(super) stop_request: Arc<AtomicBool>,
+}
+
+/// The reporting side: recorder, progress callback, and what the feeder thread needs to know.
+pub(super) struct Side<'a> {
+    cfg: &'a MachineConfig,
+    pub(super) shared: Arc<SyncShared>,
+    pub(super) feeder: Option<JoinHandle<Option<NcError>>>,
+    idle_ticks: u32,
+    pub(super) recorder: Recorder,
+    progress: &'a mut dyn FnMut(&Progress),
+    expected: u64,
+    pub(super) program_error: Option<NcError>,
+    pub(super) program_ticks: u64,
+    /// The program stops (M0/M1) of this run, the gate the loop holds at, and the operator.
+    pub(super) prompt: OperatorPrompt,
+    src_name: String,
+    /// Coolant on as the last coolant event left it (turned off at the end of the run when a
+    /// stop, fault or end at a program stop left it on; M2/M30 turn it off themselves).
+    pub(super) coolant_on: bool,
+}
+
+impl<'a> Side<'a> {
+    /// The reporting side of a run of `src_name` that the dry run expects to take
+    /// `expected` ticks.
+    pub(super) fn new(
+        cfg: &'a MachineConfig,
+        recorder: Recorder,
+        progress: &'a mut dyn FnMut(&Progress),
+        expected: u64,
+        prompt: OperatorPrompt,
+        src_name: &str,
+    ) -> Side<'a> {
+        Side {
+            cfg,
+            shared: Arc::new(SyncShared::default()),
+            feeder: None,
+            idle_ticks: 0,
+            recorder,
+            progress,
+            expected,
+            program_error: None,
+            program_ticks: 0,
+            prompt,
+            src_name: src_name.to_string(),
+            coolant_on: false,
+        }
+    }
+
+    /// Starts the feeder thread for a machine standing at `start`.
+    pub(super) fn start_feeder(
+        &mut self,
+        feed: FeederStart,
+        start: &[f64; MAX_AXES],
+    ) -> Result<(), RunError> {
+        let axes = AxisTable::new(self.cfg);
+        let start = start_position(&axes, start);
+        let feeder = Feeder::new(self.cfg, feed.src, feed.program, start);
+        let h = spawn_feeder(
+            feeder,
+            feed.moves,
+            self.shared.clone(),
+            feed.stop_request,
+            Some(self.prompt.gate().clone()),
+        )
+        .map_err(|e| RunError::Io(format!("cannot start the feeder thread: {e}")))?;
+        self.feeder = Some(h);
+        Ok(())
+    }
+
+    /// Ends the feeder thread and keeps its program error, if any.
+    pub(super) fn stop_feeder(&mut self) {
+        self.shared.end();
+        if let Some(h) = self.feeder.take() {
+            match h.join() {
+                Ok(Some(e)) => self.program_error = Some(e),
+                Ok(None) => {}
+                Err(_) => log::error!("the feeder thread panicked"),
+            }
+        }
+    }
+
+    /// Takes every status record the loop has sent so far: events logged (program stops to
+    /// the operator), records to the recorder, progress published and told.
+    pub(super) fn drain(&mut self, ring: &mut StatusConsumer) {
+        let mut last: Option<Status> = None;
+        while let Some(s) = ring.try_pop() {
+            self.event(&s);
+            if s.phase != Phase::Settling && s.phase != Phase::QuickStop {
+                self.program_ticks = s.tick + 1;
+            }
+            self.recorder.record(&s);
+            self.idle_ticks = if s.idle {
+                self.idle_ticks.saturating_add(1)
+            } else {
+                0
+            };
+            last = Some(s);
+        }
+        if let Some(s) = last {
+            let n = self.cfg.axes.len().min(MAX_AXES);
+            self.shared
+                .publish(&s, self.idle_ticks, n, self.recorder.path_length);
+            (self.progress)(&Progress {
+                tick: s.tick,
+                expected_ticks: self.expected,
+                line: s.line,
+            });
+        }
+    }
+
+    /// The program's event in status record `s`, if any.
+    fn event(&mut self, s: &Status) {
+        match s.event {
+            Some(MoveEvent::Message) => {
+                if let Some(text) = self.shared.take_message() {
+                    log::info!("line {}: {}", s.line, text);
+                }
+            }
+            Some(MoveEvent::ProgramStop { kind }) => {
+                let (shared, src_name) = (&self.shared, &self.src_name);
+                self.prompt.stop_reached(s.line, kind, || {
+                    shared
+                        .file_of(s.moves_started)
+                        .map_or_else(|| src_name.clone(), |f| f.to_string())
+                });
+            }
+            Some(MoveEvent::ToolChange { tool }) => {
+                log::info!("line {}: tool change to T{tool}", s.line);
+            }
+            Some(MoveEvent::Coolant { mist, flood }) => {
+                let state = match (mist, flood) {
+                    (false, false) => "off",
+                    (true, false) => "mist",
+                    (false, true) => "flood",
+                    (true, true) => "mist and flood",
+                };
+                log::info!("line {}: coolant {state}", s.line);
+                self.coolant_on = mist || flood;
+            }
+            None => {}
+        }
+    }
+}
