@@ -17,7 +17,10 @@ use super::timed::TimedBus;
 use super::{COMMAND_HISTORY, Master, Phase};
 use crate::bus::BusError;
 use crate::time::Instant;
-use crate::wire::{AbortCode, CanFrame, MappingEntry, NmtCommand, NmtRepr, NmtTarget, NodeId};
+use crate::wire::{
+    AbortCode, CanFrame, MappingEntry, NmtCommand, NmtRepr, NmtTarget, NodeId, PdoDirection,
+    PdoLayout, PdoObject,
+};
 
 /// The 0x60C2 representation of the cycle period: `value · 10^exponent` seconds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -216,6 +219,20 @@ pub const TPDO1_MAPPING: [MappingEntry; 2] = [
     MappingEntry::new(obj::STATUSWORD, 0, 16),
     MappingEntry::new(obj::POSITION_ACTUAL, 0, 32),
 ];
+
+/// RPDO1 as boot maps it ([`RPDO1_MAPPING`]) and the cyclic loop packs it. Validated when
+/// the crate compiles: an invalid mapping, or one without the controlword and the target,
+/// does not build.
+pub const RPDO1_LAYOUT: PdoLayout = match PdoLayout::new(PdoDirection::Rpdo, &RPDO1_MAPPING) {
+    Ok(l) if l.maps(PdoObject::Controlword) && l.maps(PdoObject::TargetPosition) => l,
+    _ => panic!("RPDO1_MAPPING must be a valid RPDO with controlword and target position"),
+};
+/// TPDO1 as boot maps it ([`TPDO1_MAPPING`]) and the cyclic loop unpacks it; validated when
+/// the crate compiles, like [`RPDO1_LAYOUT`].
+pub const TPDO1_LAYOUT: PdoLayout = match PdoLayout::new(PdoDirection::Tpdo, &TPDO1_MAPPING) {
+    Ok(l) if l.maps(PdoObject::Statusword) && l.maps(PdoObject::PositionActual) => l,
+    _ => panic!("TPDO1_MAPPING must be a valid TPDO with statusword and position actual"),
+};
 /// Transmission type 1: synchronous, every SYNC.
 pub const SYNCHRONOUS_EVERY_SYNC: u8 = 1;
 
@@ -238,25 +255,27 @@ fn optional<T>(r: Result<T, SdoError>) -> Result<Option<T>, SdoError> {
 }
 
 /// Maps one PDO in the CiA 301 sequence: COB-ID bit 31 set (invalid) → mapping sub0 = 0 →
-/// entries → sub0 = n → transmission type → COB-ID valid. The COB-ID's bit 30 (RTR not
-/// allowed) is kept as the drive reports it.
+/// the layout's entries → sub0 = n → transmission type → COB-ID valid. The COB-ID's bit 30
+/// (RTR not allowed) is kept as the drive reports it.
 pub fn map_pdo<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
     node: NodeId,
     comm: u16,
     mapping: u16,
     cob_id: u16,
-    entries: &[MappingEntry],
+    layout: &PdoLayout,
     transmission_type: u8,
 ) -> Result<(), SdoError> {
     let current = sdo.read_u32(node, comm, 1)?;
     let valid = (current & COB_NO_RTR) | cob_id as u32;
     sdo.write_u32(node, comm, 1, valid | COB_INVALID)?;
     sdo.write_u8(node, mapping, 0, 0)?;
-    for (i, e) in entries.iter().enumerate() {
+    let entries = layout.entries();
+    let count = entries.len() as u8;
+    for (i, e) in entries.enumerate() {
         sdo.write_u32(node, mapping, i as u8 + 1, e.to_u32())?;
     }
-    sdo.write_u8(node, mapping, 0, entries.len() as u8)?;
+    sdo.write_u8(node, mapping, 0, count)?;
     sdo.write_u8(node, comm, 2, transmission_type)?;
     sdo.write_u32(node, comm, 1, valid)
 }
@@ -304,7 +323,7 @@ fn configure<B: TimedBus + ?Sized>(
         obj::RPDO_COMMUNICATION,
         obj::RPDO_MAPPING,
         0x200 + id,
-        &RPDO1_MAPPING,
+        &RPDO1_LAYOUT,
         SYNCHRONOUS_EVERY_SYNC,
     )?;
     map_pdo(
@@ -313,7 +332,7 @@ fn configure<B: TimedBus + ?Sized>(
         obj::TPDO_COMMUNICATION,
         obj::TPDO_MAPPING,
         0x180 + id,
-        &TPDO1_MAPPING,
+        &TPDO1_LAYOUT,
         SYNCHRONOUS_EVERY_SYNC,
     )?;
     // TPDO2..4 off: a drive's default mapping would only add bus load (4 CSP axes at 1 ms

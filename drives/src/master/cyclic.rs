@@ -22,12 +22,15 @@ use cia402::{Controlword, Goal, Progress, State, Statusword};
 use cnc402_config::MAX_AXES;
 use cnc402_motion::to_counts_wrapping;
 
+use super::boot::{RPDO1_LAYOUT, TPDO1_LAYOUT};
 use super::sdo::{SdoError, SdoEvent};
 use super::stop::{SafetyStop, StopReason};
 use super::{COMMAND_HISTORY, Master, Phase, StopMode};
 use crate::bus::{BusError, CanBus};
 use crate::time::Instant;
-use crate::wire::{CanFrame, EmcyRepr, Function, HeartbeatRepr, NmtState, SyncRepr};
+use crate::wire::{
+    CanFrame, EmcyRepr, Function, HeartbeatRepr, NmtState, PdoObject, PdoValues, SyncRepr,
+};
 
 /// What one cycle gives back, per axis (indexed like `config.axes`; `Copy`, no heap).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -91,23 +94,24 @@ impl Feedback {
     }
 }
 
-/// Decodes a TPDO1 (statusword u16 + position actual i32, little-endian, 6 bytes).
+/// Decodes a TPDO1 by the layout boot mapped ([`TPDO1_LAYOUT`]); `None` when its length is
+/// not the layout's.
 fn parse_tpdo1(data: &[u8]) -> Option<(Statusword, i32)> {
-    if data.len() != 6 {
-        return None;
-    }
-    let sw = u16::from_le_bytes([data[0], data[1]]);
-    let pos = i32::from_le_bytes([data[2], data[3], data[4], data[5]]);
+    let v = TPDO1_LAYOUT.unpack(data).ok()?;
+    let sw = v.get(PdoObject::Statusword)? as u16;
+    // INTEGER32 on the wire: the raw bits are the two's complement count.
+    let pos = v.get(PdoObject::PositionActual)? as u32 as i32;
     Some((Statusword(sw), pos))
 }
 
-/// Encodes an RPDO1 (controlword u16 + target position i32, 6 bytes).
+/// Encodes an RPDO1 by the layout boot mapped ([`RPDO1_LAYOUT`]).
 fn rpdo1(cob_id: u16, cw: Controlword, target: i32) -> CanFrame {
-    let mut d = [0u8; 6];
-    d[..2].copy_from_slice(&cw.bits().to_le_bytes());
-    d[2..].copy_from_slice(&target.to_le_bytes());
-    // The id is 0x200 + node (≤ 0x27F) and 6 ≤ 8 bytes: cannot fail.
-    CanFrame::new(cob_id, &d).unwrap_or_else(|_| SyncRepr { counter: None }.emit())
+    let values = PdoValues::new()
+        .with(PdoObject::Controlword, cw.bits() as u64)
+        .with(PdoObject::TargetPosition, target as u32 as u64);
+    let (data, len) = RPDO1_LAYOUT.pack(&values);
+    // The id is 0x200 + node (≤ 0x27F) and the layout at most 8 bytes.
+    CanFrame::from_parts(cob_id, data, len)
 }
 
 /// Cycles in a row with exactly one TPDO1 each after which SYNCs still owed beyond a drive's

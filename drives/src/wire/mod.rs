@@ -3,7 +3,8 @@
 //! with `parse` and `emit`. Parsers never panic on bad input; they return [`WireError`].
 //!
 //! canopen-rs 0.6.1 is used for the NMT, heartbeat, SYNC and EMCY codecs (they are correct);
-//! SDO and PDO codecs are this crate's own — see the notes in `sdo.rs` and `pdo.rs`.
+//! SDO and PDO codecs are this crate's own — see the notes in `sdo.rs` and `pdo.rs` (which also
+//! holds [`PdoLayout`], the validated RPDO/TPDO layout the master packs and unpacks by).
 
 mod emcy;
 mod frame;
@@ -19,7 +20,10 @@ pub use frame::{CanFrame, Function, NodeId, frame_bits};
 pub use nmt::{
     HeartbeatPacket, HeartbeatRepr, NmtCommand, NmtPacket, NmtRepr, NmtState, NmtTarget,
 };
-pub use pdo::{MappingEntry, PdoDirection, PdoError, PdoMap, pdo_cob_id};
+pub use pdo::{
+    MappingEntry, PdoDirection, PdoError, PdoField, PdoLayout, PdoMap, PdoObject, PdoValues,
+    pdo_cob_id,
+};
 pub use sdo::{
     AbortCode, ExpeditedData, InitiateKind, SdoPacket, SdoRequest, SdoResponse, SdoSegment,
 };

@@ -1,0 +1,411 @@
+//! `[[axis]]`: each axis's name, kind, drive node, scaling, dynamic limits, soft limits,
+//! following error supervision, reference positions and simulated dynamics. An axis is
+//! checked against the bus (the master's node id) and the axes before it (names, nodes, one
+//! spindle).
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::MAX_AXES;
+use crate::check::{Invalid, int_in, positive, sp};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AxisKind {
+    /// mm
+    Linear,
+    /// degrees, a positioning axis
+    Rotary,
+    /// degrees, the spindle: position-controlled for rigid tapping, speed mode for M3/M4
+    Spindle,
+}
+
+impl AxisKind {
+    pub fn is_rotary(self) -> bool {
+        !matches!(self, AxisKind::Linear)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct AxisConfig {
+    /// Address letter: X, Y, Z, A, B, C, U, V, W.
+    pub name: char,
+    pub kind: AxisKind,
+    /// CANopen node id 1..=127, or `None` for a virtual axis with no drive on the bus.
+    pub node: Option<u8>,
+    /// Drive position counts per mm (linear) or per degree (rotary).
+    pub counts_per_unit: f64,
+    /// units/s
+    pub max_velocity: f64,
+    /// units/s²
+    pub max_acceleration: f64,
+    /// units/s³
+    pub max_jerk: f64,
+    /// Soft limits in machine coordinates (linear axes; rotary axes have none).
+    pub soft_limits: Option<(f64, f64)>,
+    /// Largest allowed |commanded − actual|, in units.
+    pub following_error_window: f64,
+    pub following_error_timeout_ms: u32,
+    /// Spindle only.
+    pub max_rpm: Option<f64>,
+    /// The drive's dead time (cycles) between taking a setpoint and its position loop acting
+    /// on it; the master's following error rule does not count it as error. Default 1.
+    pub feedback_delay_cycles: u32,
+    /// Reference positions in machine coordinates: `[0]` the first (G28; key `reference`,
+    /// default 0), `[1..4]` the second to fourth (G30 P2..P4; `second_reference`,
+    /// `third_reference`, `fourth_reference`; `None` when not configured).
+    pub references: [Option<f64>; 4],
+    pub sim: SimDynamics,
+}
+
+/// How the simulated drive of an axis follows its CSP setpoints.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimDynamics {
+    /// Pure delay between a setpoint taking effect and the position loop seeing it.
+    pub delay_cycles: u32,
+    /// First-order tracking bandwidth of the position loop (Hz); 0 = ideal (actual = target).
+    pub bandwidth_hz: f64,
+}
+
+/// One `[[axis]]` as written, with spans.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawAxis {
+    name: Spanned<String>,
+    kind: Spanned<String>,
+    node: Option<Spanned<i64>>,
+    #[serde(rename = "virtual")]
+    is_virtual: Option<Spanned<bool>>,
+    counts_per_unit: Option<Spanned<f64>>,
+    counts_per_rev: Option<Spanned<f64>>,
+    max_velocity: Spanned<f64>,
+    max_acceleration: Spanned<f64>,
+    max_jerk: Spanned<f64>,
+    min: Option<Spanned<f64>>,
+    max: Option<Spanned<f64>>,
+    following_error_window: Spanned<f64>,
+    #[serde(default = "default_fe_timeout")]
+    following_error_timeout_ms: Spanned<i64>,
+    max_rpm: Option<Spanned<f64>>,
+    #[serde(default = "default_feedback_delay")]
+    feedback_delay_cycles: Spanned<i64>,
+    reference: Option<Spanned<f64>>,
+    second_reference: Option<Spanned<f64>>,
+    third_reference: Option<Spanned<f64>>,
+    fourth_reference: Option<Spanned<f64>>,
+    #[serde(default)]
+    sim: RawSim,
+}
+
+fn default_fe_timeout() -> Spanned<i64> {
+    sp(10)
+}
+fn default_feedback_delay() -> Spanned<i64> {
+    sp(1)
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawSim {
+    #[serde(default = "default_delay")]
+    delay_cycles: Spanned<i64>,
+    #[serde(default = "default_bandwidth")]
+    bandwidth_hz: Spanned<f64>,
+}
+
+impl Default for RawSim {
+    fn default() -> Self {
+        RawSim {
+            delay_cycles: default_delay(),
+            bandwidth_hz: default_bandwidth(),
+        }
+    }
+}
+fn default_delay() -> Spanned<i64> {
+    sp(1)
+}
+fn default_bandwidth() -> Spanned<f64> {
+    sp(150.0)
+}
+
+/// Checks the `[[axis]]` list in order; `master_node_id` is `bus.master_node_id`, which no
+/// axis may use.
+pub(crate) fn validate(raw: &[RawAxis], master_node_id: u8) -> Result<Vec<AxisConfig>, Invalid> {
+    if raw.is_empty() {
+        return Err((
+            0..0,
+            "axis".into(),
+            "at least one [[axis]] is required".into(),
+        ));
+    }
+    if raw.len() > MAX_AXES {
+        return Err((
+            raw[MAX_AXES].name.span(),
+            format!("axis[{MAX_AXES}]"),
+            format!("at most {MAX_AXES} axes"),
+        ));
+    }
+    let mut axes: Vec<AxisConfig> = Vec::new();
+    for (k, a) in raw.iter().enumerate() {
+        let axis = a.validate(k, &axes, master_node_id)?;
+        axes.push(axis);
+    }
+    Ok(axes)
+}
+
+impl RawAxis {
+    /// Checks axis `k` against the axes before it (`earlier`). The checks run in a fixed
+    /// order, so the first error a file has is always the one reported.
+    fn validate(
+        &self,
+        k: usize,
+        earlier: &[AxisConfig],
+        master_node_id: u8,
+    ) -> Result<AxisConfig, Invalid> {
+        let a = self;
+        let key = |f: &str| format!("axis[{k}].{f}");
+        let name = a.name(k, earlier)?;
+        let kind = a.kind(k, earlier)?;
+        let node = a.node(k, earlier, master_node_id)?;
+        let counts_per_unit = a.counts_per_unit(k, kind)?;
+        let soft_limits = a.soft_limits(k, kind)?;
+        let max_rpm = a.max_rpm(k, kind)?;
+        let references = a.references(k, soft_limits)?;
+        let bw = *a.sim.bandwidth_hz.get_ref();
+        if !(bw.is_finite() && bw >= 0.0) {
+            return Err((
+                a.sim.bandwidth_hz.span(),
+                key("sim.bandwidth_hz"),
+                format!("must be ≥ 0, got {bw}"),
+            ));
+        }
+        Ok(AxisConfig {
+            name,
+            kind,
+            node,
+            counts_per_unit,
+            max_velocity: positive(&a.max_velocity, &key("max_velocity"))?,
+            max_acceleration: positive(&a.max_acceleration, &key("max_acceleration"))?,
+            max_jerk: positive(&a.max_jerk, &key("max_jerk"))?,
+            soft_limits,
+            following_error_window: positive(
+                &a.following_error_window,
+                &key("following_error_window"),
+            )?,
+            following_error_timeout_ms: int_in(
+                &a.following_error_timeout_ms,
+                &key("following_error_timeout_ms"),
+                0,
+                65535,
+            )? as u32,
+            max_rpm,
+            feedback_delay_cycles: int_in(
+                &a.feedback_delay_cycles,
+                &key("feedback_delay_cycles"),
+                0,
+                16,
+            )? as u32,
+            references,
+            sim: SimDynamics {
+                delay_cycles: int_in(&a.sim.delay_cycles, &key("sim.delay_cycles"), 0, 100)? as u32,
+                bandwidth_hz: bw,
+            },
+        })
+    }
+
+    /// The address letter, upper case, not used by an earlier axis.
+    fn name(&self, k: usize, earlier: &[AxisConfig]) -> Result<char, Invalid> {
+        let s = self.name.get_ref();
+        let mut cs = s.chars();
+        let name = match (cs.next(), cs.next()) {
+            (Some(c), None) if "XYZABCUVW".contains(c.to_ascii_uppercase()) => {
+                c.to_ascii_uppercase()
+            }
+            _ => {
+                return Err((
+                    self.name.span(),
+                    format!("axis[{k}].name"),
+                    format!("expected one of X Y Z A B C U V W, got {s:?}"),
+                ));
+            }
+        };
+        if let Some(prev) = earlier.iter().find(|p| p.name == name) {
+            return Err((
+                self.name.span(),
+                format!("axis[{k}].name"),
+                format!("axis {} is configured twice", prev.name),
+            ));
+        }
+        Ok(name)
+    }
+
+    /// The kind; at most one spindle.
+    fn kind(&self, k: usize, earlier: &[AxisConfig]) -> Result<AxisKind, Invalid> {
+        let kind = match self.kind.get_ref().as_str() {
+            "linear" => AxisKind::Linear,
+            "rotary" => AxisKind::Rotary,
+            "spindle" => AxisKind::Spindle,
+            o => {
+                return Err((
+                    self.kind.span(),
+                    format!("axis[{k}].kind"),
+                    format!("expected \"linear\", \"rotary\" or \"spindle\", got {o:?}"),
+                ));
+            }
+        };
+        if kind == AxisKind::Spindle && earlier.iter().any(|p| p.kind == AxisKind::Spindle) {
+            return Err((
+                self.kind.span(),
+                format!("axis[{k}].kind"),
+                "only one spindle axis is supported".into(),
+            ));
+        }
+        Ok(kind)
+    }
+
+    /// The drive's node id (`None` for a virtual axis): in range, not the master's, not an
+    /// earlier axis's.
+    fn node(
+        &self,
+        k: usize,
+        earlier: &[AxisConfig],
+        master_node_id: u8,
+    ) -> Result<Option<u8>, Invalid> {
+        let key = format!("axis[{k}].node");
+        let is_virtual = self
+            .is_virtual
+            .as_ref()
+            .map(|v| *v.get_ref())
+            .unwrap_or(false);
+        match (&self.node, is_virtual) {
+            (Some(n), false) => {
+                let id = int_in(n, &key, 1, 127)? as u8;
+                if id == master_node_id {
+                    return Err((
+                        n.span(),
+                        key,
+                        format!("node id {id} is the master's (bus.master_node_id)"),
+                    ));
+                }
+                if let Some(p) = earlier.iter().find(|p| p.node == Some(id)) {
+                    return Err((
+                        n.span(),
+                        key,
+                        format!("node id {id} is already used by axis {}", p.name),
+                    ));
+                }
+                Ok(Some(id))
+            }
+            (Some(n), true) => Err((n.span(), key, "a virtual axis has no node id".into())),
+            (None, true) => Ok(None),
+            (None, false) => Err((
+                self.name.span(),
+                key,
+                "missing: give a CANopen node id 1..127, or virtual = true".into(),
+            )),
+        }
+    }
+
+    /// Counts per unit, from `counts_per_unit` or (rotary axes) `counts_per_rev`.
+    fn counts_per_unit(&self, k: usize, kind: AxisKind) -> Result<f64, Invalid> {
+        let key = |f: &str| format!("axis[{k}].{f}");
+        match (&self.counts_per_unit, &self.counts_per_rev) {
+            (Some(c), None) => positive(c, &key("counts_per_unit")),
+            (None, Some(c)) if kind.is_rotary() => Ok(positive(c, &key("counts_per_rev"))? / 360.0),
+            (None, Some(c)) => Err((
+                c.span(),
+                key("counts_per_rev"),
+                "only rotary axes take counts_per_rev".into(),
+            )),
+            (Some(c), Some(_)) => Err((
+                c.span(),
+                key("counts_per_unit"),
+                "give counts_per_unit or counts_per_rev, not both".into(),
+            )),
+            (None, None) => Err((self.name.span(), key("counts_per_unit"), "missing".into())),
+        }
+    }
+
+    /// `min` and `max`: both required and ordered on a linear axis, absent on a rotary one.
+    fn soft_limits(&self, k: usize, kind: AxisKind) -> Result<Option<(f64, f64)>, Invalid> {
+        let key = |f: &str| format!("axis[{k}].{f}");
+        match (&self.min, &self.max, kind) {
+            (Some(lo), Some(hi), AxisKind::Linear) => {
+                if !(lo.get_ref().is_finite()
+                    && hi.get_ref().is_finite()
+                    && lo.get_ref() < hi.get_ref())
+                {
+                    return Err((
+                        hi.span(),
+                        key("max"),
+                        format!("must be greater than min ({})", lo.get_ref()),
+                    ));
+                }
+                Ok(Some((*lo.get_ref(), *hi.get_ref())))
+            }
+            (None, None, AxisKind::Linear) => Err((
+                self.name.span(),
+                key("min"),
+                "a linear axis needs soft limits min and max".into(),
+            )),
+            (Some(l), None, AxisKind::Linear) => {
+                Err((l.span(), key("max"), "missing (min is given)".into()))
+            }
+            (None, Some(h), AxisKind::Linear) => {
+                Err((h.span(), key("min"), "missing (max is given)".into()))
+            }
+            (None, None, _) => Ok(None),
+            (Some(l), _, _) | (_, Some(l), _) => Err((
+                l.span(),
+                key("min"),
+                "rotary axes have no soft limits".into(),
+            )),
+        }
+    }
+
+    /// `max_rpm`: required on the spindle, refused elsewhere.
+    fn max_rpm(&self, k: usize, kind: AxisKind) -> Result<Option<f64>, Invalid> {
+        let key = format!("axis[{k}].max_rpm");
+        match (&self.max_rpm, kind) {
+            (Some(r), AxisKind::Spindle) => Ok(Some(positive(r, &key)?)),
+            (None, AxisKind::Spindle) => {
+                Err((self.kind.span(), key, "a spindle needs max_rpm".into()))
+            }
+            (Some(r), _) => Err((r.span(), key, "only the spindle has max_rpm".into())),
+            (None, _) => Ok(None),
+        }
+    }
+
+    /// The four reference positions (the first defaults to 0): finite, inside the soft
+    /// limits.
+    fn references(
+        &self,
+        k: usize,
+        soft_limits: Option<(f64, f64)>,
+    ) -> Result<[Option<f64>; 4], Invalid> {
+        let mut references = [Some(0.0), None, None, None];
+        for (slot, (v, name)) in [
+            (&self.reference, "reference"),
+            (&self.second_reference, "second_reference"),
+            (&self.third_reference, "third_reference"),
+            (&self.fourth_reference, "fourth_reference"),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let Some(v) = v else { continue };
+            let x = *v.get_ref();
+            let bad = if !x.is_finite() {
+                Some("must be a finite number".to_string())
+            } else {
+                soft_limits
+                    .filter(|&(lo, hi)| x < lo || x > hi)
+                    .map(|(lo, hi)| format!("{x} is outside the axis's soft limits {lo}..{hi}"))
+            };
+            if let Some(m) = bad {
+                return Err((v.span(), format!("axis[{k}].{name}"), m));
+            }
+            references[slot] = Some(x);
+        }
+        Ok(references)
+    }
+}

@@ -1,0 +1,119 @@
+//! `[bus]`: the CAN interface, the cycle period and the master's time-outs and node id.
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::check::{Invalid, int_in, sp};
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct BusConfig {
+    /// `"sim"` or a SocketCAN interface name.
+    pub interface: String,
+    pub bitrate: u32,
+    pub period_us: u32,
+    pub heartbeat_ms: u16,
+    pub heartbeat_timeout_ms: u32,
+    pub tpdo_timeout_cycles: u32,
+    pub sdo_timeout_ms: u32,
+    /// The master's own node id: it produces its heartbeat on 0x700 + id and the drives
+    /// consume it (0x1016). No axis may use it. Default 127.
+    pub master_node_id: u8,
+}
+
+impl BusConfig {
+    pub fn is_sim(&self) -> bool {
+        self.interface == "sim"
+    }
+    pub fn period_s(&self) -> f64 {
+        self.period_us as f64 * 1e-6
+    }
+}
+
+/// `[bus]` as written, with spans.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawBus {
+    interface: Spanned<String>,
+    #[serde(default = "default_bitrate")]
+    bitrate: Spanned<i64>,
+    #[serde(default = "default_period")]
+    period_us: Spanned<i64>,
+    #[serde(default = "default_heartbeat")]
+    heartbeat_ms: Spanned<i64>,
+    #[serde(default = "default_heartbeat_timeout")]
+    heartbeat_timeout_ms: Spanned<i64>,
+    #[serde(default = "default_tpdo_timeout")]
+    tpdo_timeout_cycles: Spanned<i64>,
+    #[serde(default = "default_sdo_timeout")]
+    sdo_timeout_ms: Spanned<i64>,
+    #[serde(default = "default_master_node_id")]
+    master_node_id: Spanned<i64>,
+}
+
+fn default_bitrate() -> Spanned<i64> {
+    sp(1_000_000)
+}
+fn default_period() -> Spanned<i64> {
+    sp(1000)
+}
+fn default_heartbeat() -> Spanned<i64> {
+    sp(50)
+}
+fn default_heartbeat_timeout() -> Spanned<i64> {
+    sp(200)
+}
+fn default_tpdo_timeout() -> Spanned<i64> {
+    sp(5)
+}
+fn default_sdo_timeout() -> Spanned<i64> {
+    sp(100)
+}
+fn default_master_node_id() -> Spanned<i64> {
+    sp(127)
+}
+
+impl RawBus {
+    /// Checks each key's range and the heartbeat time-out against the heartbeat period.
+    pub(crate) fn validate(&self) -> Result<BusConfig, Invalid> {
+        let b = self;
+        let interface = b.interface.get_ref().trim().to_string();
+        if interface.is_empty() {
+            return Err((
+                b.interface.span(),
+                "bus.interface".into(),
+                "must name \"sim\" or a CAN interface".into(),
+            ));
+        }
+        let bus = BusConfig {
+            interface,
+            bitrate: int_in(&b.bitrate, "bus.bitrate", 10_000, 1_000_000)? as u32,
+            period_us: int_in(&b.period_us, "bus.period_us", 100, 100_000)? as u32,
+            heartbeat_ms: int_in(&b.heartbeat_ms, "bus.heartbeat_ms", 0, 65535)? as u16,
+            heartbeat_timeout_ms: int_in(
+                &b.heartbeat_timeout_ms,
+                "bus.heartbeat_timeout_ms",
+                1,
+                60_000,
+            )? as u32,
+            tpdo_timeout_cycles: int_in(
+                &b.tpdo_timeout_cycles,
+                "bus.tpdo_timeout_cycles",
+                1,
+                10_000,
+            )? as u32,
+            sdo_timeout_ms: int_in(&b.sdo_timeout_ms, "bus.sdo_timeout_ms", 1, 60_000)? as u32,
+            master_node_id: int_in(&b.master_node_id, "bus.master_node_id", 1, 127)? as u8,
+        };
+        if bus.heartbeat_ms > 0 && bus.heartbeat_timeout_ms <= bus.heartbeat_ms as u32 {
+            return Err((
+                b.heartbeat_timeout_ms.span(),
+                "bus.heartbeat_timeout_ms".into(),
+                format!(
+                    "must be longer than bus.heartbeat_ms ({})",
+                    bus.heartbeat_ms
+                ),
+            ));
+        }
+        Ok(bus)
+    }
+}

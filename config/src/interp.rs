@@ -1,0 +1,219 @@
+//! `[interp]`: the interpreter's modal defaults at program start, canned cycle amounts, and
+//! where sub-programs, libraries and the non-volatile variables live.
+
+use std::path::PathBuf;
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::check::{Invalid, angle_in_turn, int_in, positive, sp};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Units {
+    Mm,
+    Inch,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlaneDefault {
+    XY,
+    ZX,
+    YZ,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReturnPlane {
+    /// G98
+    Initial,
+    /// G99
+    R,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct InterpDefaults {
+    pub units: Units,
+    pub plane: PlaneDefault,
+    pub return_plane: ReturnPlane,
+    /// G73 retract d (mm).
+    pub peck_retract: f64,
+    /// G83 re-entry clearance d (mm).
+    pub peck_clearance: f64,
+    /// G84/G74 peck tapping: how far the tap backs out after each peck (mm; Fanuc parameter
+    /// No. 5213, the return amount of peck tapping). Default: `peck_retract`'s value.
+    pub tap_peck_retract: f64,
+    /// Largest allowed difference between an arc's start and end radius (mm).
+    pub arc_tolerance: f64,
+    /// The physical spindle angle (degrees, 0 ≤ angle < 360, in the spindle axis's machine
+    /// coordinate) that spindle orientation (G76/G87) turns C to: where the boring bar's
+    /// edge points away from the shift direction.
+    pub spindle_orient_angle: f64,
+    /// Where sub-programs (`O9001.nc`, …) are looked up; relative to the config file's folder's
+    /// parent when relative (so `examples` means `<repo>/examples`).
+    pub program_dir: PathBuf,
+    /// Blocks executed without motion before a program is called runaway.
+    pub block_limit: u64,
+    /// The file of the non-volatile macro variables `#500–#999` (`None`: kept in memory for
+    /// one run). Relative paths resolve like `program_dir`; see [`crate::MachineConfig::variables_file`].
+    pub variables_file: Option<PathBuf>,
+    /// Where `#use "file"` of the C-like language looks after the including file's folder
+    /// (`None`: nowhere else). Relative paths resolve like `program_dir`.
+    pub library_dir: Option<PathBuf>,
+}
+
+/// `[interp]` as written, with spans; every key has a default.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawInterp {
+    #[serde(default = "default_units")]
+    units: Spanned<String>,
+    #[serde(default = "default_plane")]
+    plane: Spanned<String>,
+    #[serde(default = "default_return")]
+    return_plane: Spanned<String>,
+    #[serde(default = "default_half")]
+    peck_retract: Spanned<f64>,
+    #[serde(default = "default_half")]
+    peck_clearance: Spanned<f64>,
+    #[serde(default)]
+    tap_peck_retract: Option<Spanned<f64>>,
+    #[serde(default = "default_arc_tol")]
+    arc_tolerance: Spanned<f64>,
+    #[serde(default = "default_orient_angle")]
+    spindle_orient_angle: Spanned<f64>,
+    #[serde(default = "default_program_dir")]
+    program_dir: Spanned<String>,
+    #[serde(default = "default_block_limit")]
+    block_limit: Spanned<i64>,
+    #[serde(default)]
+    variables_file: Option<Spanned<String>>,
+    #[serde(default)]
+    library_dir: Option<Spanned<String>>,
+}
+
+impl Default for RawInterp {
+    fn default() -> Self {
+        RawInterp {
+            units: default_units(),
+            plane: default_plane(),
+            return_plane: default_return(),
+            peck_retract: default_half(),
+            peck_clearance: default_half(),
+            tap_peck_retract: None,
+            arc_tolerance: default_arc_tol(),
+            spindle_orient_angle: default_orient_angle(),
+            program_dir: default_program_dir(),
+            block_limit: default_block_limit(),
+            variables_file: None,
+            library_dir: None,
+        }
+    }
+}
+
+fn default_units() -> Spanned<String> {
+    sp("mm".into())
+}
+fn default_plane() -> Spanned<String> {
+    sp("XY".into())
+}
+fn default_return() -> Spanned<String> {
+    sp("initial".into())
+}
+fn default_half() -> Spanned<f64> {
+    sp(0.5)
+}
+fn default_arc_tol() -> Spanned<f64> {
+    sp(0.002)
+}
+fn default_orient_angle() -> Spanned<f64> {
+    sp(0.0)
+}
+fn default_program_dir() -> Spanned<String> {
+    sp("examples".into())
+}
+fn default_block_limit() -> Spanned<i64> {
+    sp(1_000_000)
+}
+
+impl RawInterp {
+    /// Checks each key; a left-out `tap_peck_retract` takes `peck_retract`'s value.
+    pub(crate) fn validate(&self) -> Result<InterpDefaults, Invalid> {
+        let i = self;
+        Ok(InterpDefaults {
+            units: match i.units.get_ref().as_str() {
+                "mm" => Units::Mm,
+                "inch" => Units::Inch,
+                o => {
+                    return Err((
+                        i.units.span(),
+                        "interp.units".into(),
+                        format!("expected \"mm\" or \"inch\", got {o:?}"),
+                    ));
+                }
+            },
+            plane: match i.plane.get_ref().to_ascii_uppercase().as_str() {
+                "XY" | "G17" => PlaneDefault::XY,
+                "ZX" | "XZ" | "G18" => PlaneDefault::ZX,
+                "YZ" | "G19" => PlaneDefault::YZ,
+                o => {
+                    return Err((
+                        i.plane.span(),
+                        "interp.plane".into(),
+                        format!("expected \"XY\", \"ZX\" or \"YZ\", got {o:?}"),
+                    ));
+                }
+            },
+            return_plane: match i.return_plane.get_ref().to_ascii_lowercase().as_str() {
+                "initial" | "g98" => ReturnPlane::Initial,
+                "r" | "g99" => ReturnPlane::R,
+                o => {
+                    return Err((
+                        i.return_plane.span(),
+                        "interp.return_plane".into(),
+                        format!("expected \"initial\" (G98) or \"r\" (G99), got {o:?}"),
+                    ));
+                }
+            },
+            peck_retract: positive(&i.peck_retract, "interp.peck_retract")?,
+            peck_clearance: positive(&i.peck_clearance, "interp.peck_clearance")?,
+            tap_peck_retract: match &i.tap_peck_retract {
+                Some(v) => positive(v, "interp.tap_peck_retract")?,
+                None => positive(&i.peck_retract, "interp.peck_retract")?,
+            },
+            arc_tolerance: positive(&i.arc_tolerance, "interp.arc_tolerance")?,
+            spindle_orient_angle: angle_in_turn(
+                &i.spindle_orient_angle,
+                "interp.spindle_orient_angle",
+            )?,
+            program_dir: PathBuf::from(i.program_dir.get_ref()),
+            block_limit: int_in(&i.block_limit, "interp.block_limit", 1, i64::MAX)? as u64,
+            variables_file: optional_path(
+                &i.variables_file,
+                "interp.variables_file",
+                "leave the key out to keep the variables in memory",
+            )?,
+            library_dir: optional_path(
+                &i.library_dir,
+                "interp.library_dir",
+                "leave the key out to search only next to the program",
+            )?,
+        })
+    }
+}
+
+/// An optional path key: left out is `None`, given it must not be blank (`hint` says how
+/// to get the `None` behaviour).
+fn optional_path(
+    v: &Option<Spanned<String>>,
+    key: &str,
+    hint: &str,
+) -> Result<Option<PathBuf>, Invalid> {
+    match v {
+        None => Ok(None),
+        Some(f) if f.get_ref().trim().is_empty() => Err((
+            f.span(),
+            key.to_string(),
+            format!("must not be empty ({hint})"),
+        )),
+        Some(f) => Ok(Some(PathBuf::from(f.get_ref()))),
+    }
+}
