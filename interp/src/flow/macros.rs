@@ -1,24 +1,22 @@
 //! Fanuc Custom Macro B execution: the program units of a file (`O` numbers), the call stack
-//! (`M98`/`M99`, `G65`, `G66`/`G67`), macro variables (local per call level, common, non-volatile,
-//! system), control flow (`GOTO`, `IF`, `WHILE … DO m … END m`), the old `G65 H…` macro
-//! instructions, alarms (`#3000`, `G65 H99`) and the runaway-loop guard.
+//! (`M98`/`M99`, `G65`, `G66`/`G67`), control flow (`GOTO`, `IF`, `WHILE … DO m … END m`), the
+//! old `G65 H…` macro instructions (computed by the expression operators), alarms (`#3000`,
+//! `G65 H99`) and the runaway-loop guard. Variables are read and written through `sysvars`.
 
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 
-use cnc402_lang::ast::{Block, Expr, ExprKind, Line, LineKind, Program, Span, Value};
+use cnc402_lang::ast::{
+    BinaryOp, Block, Expr, ExprKind, Func, Line, LineKind, Program, Span, Value,
+};
 use cnc402_lang::{NcError, SourceFile};
-use cnc402_motion::segment::{Plane, SegmentKind, Source, StopKind};
+use cnc402_motion::segment::{SegmentKind, Source, StopKind};
 
-use crate::eval::{self, VarSource, var_number};
-use crate::interp::Interpreter;
-use crate::nvfile::{NV_FIRST, NV_LAST};
-use crate::offsets::tool_offset_var;
-use crate::state::Motion;
-use crate::words::{GGroup, Words, fmt_num};
-
-/// A macro value; `None` is vacant.
-pub type MVal = Option<f64>;
+use super::Interpreter;
+use crate::block::MainM99;
+use crate::block::words::{GGroup, Words, fmt_num};
+use crate::expr::{self as eval, C_LIKE_ONLY, ops, var_number};
+use crate::vars::MVal;
 
 /// Deepest call nesting (main program included): Fanuc allows 10 sub-program levels plus
 /// 4 macro levels.
@@ -234,36 +232,6 @@ impl Runaway {
     }
 }
 
-/// Local, common and non-volatile variables.
-#[derive(Debug)]
-pub struct VarTable {
-    /// One set of `#1–#33` per macro call level; `[0]` is the main program's.
-    pub locals: Vec<[MVal; 33]>,
-    pub common: [MVal; 100],
-    pub nv: Box<[MVal; 500]>,
-    /// Reads of `#500–#999` so far (see [`Interpreter::persistent_reads`]).
-    pub nv_reads: u64,
-}
-
-impl Default for VarTable {
-    fn default() -> Self {
-        VarTable {
-            locals: vec![[None; 33]],
-            common: [None; 100],
-            nv: Box::new([None; 500]),
-            nv_reads: 0,
-        }
-    }
-}
-
-impl VarTable {
-    /// Reset: locals and common variables vacant; non-volatile ones kept.
-    pub fn reset(&mut self) {
-        self.locals = vec![[None; 33]];
-        self.common = [None; 100];
-    }
-}
-
 /// Fanuc argument specification I: address → local variable number.
 pub fn arg_var(letter: char) -> Option<usize> {
     Some(match letter {
@@ -367,224 +335,20 @@ fn whole(v: f64) -> Option<u32> {
     (v >= 0.0 && v.fract() == 0.0 && v <= 99_999_999.0).then_some(v as u32)
 }
 
-impl VarSource for Interpreter {
-    fn get(&mut self, n: i64) -> Result<Option<f64>, String> {
-        self.read_var(n)
-    }
-}
-
-/// Where the C-like language runs: a Macro B sub-program may be a C-like file, but the
-/// Macro B executor does not run C-like code (a C-like main program runs in `hll`).
-pub(crate) const C_LIKE_ONLY: &str = "only in a C-like main program and the files it #uses, not in a sub-program that a Macro B program calls (M98, G65, G66)";
-
-/// `#2401–#2800`: controls differ in whether and how they number the D values (cutter
-/// radius) of offsets 1–200 there, so cnc402 maps only `#12001…`/`#13001…` for D; a guessed
-/// mapping could write the wrong field. The error says where the D values are.
-fn old_d_offset_var(n: i64) -> String {
-    format!(
-        "#{n} is not a variable of this control: the D (radius) offsets are #13001-#13400 (geometry) and #12001-#12400 (wear); the older #2xxx numbers are H only (#2001-#2200 wear, #2201-#2400 geometry)"
-    )
-}
-
 impl Interpreter {
     /// How many times the program has read a non-volatile variable (`#500–#999`) so far: the
     /// values an operator can change during a program stop (`cnc402 vars set`). A dry run uses
     /// it to tell an error that depends on them from one that does not.
     pub fn persistent_reads(&self) -> u64 {
-        self.vars.nv_reads
+        self.vars.table.nv_reads
     }
 
     fn cur_unit(&self) -> Arc<Unit> {
-        self.frames
+        self.flow
+            .frames
             .last()
             .map(|f| f.unit.clone())
-            .unwrap_or_else(|| self.units[0].clone())
-    }
-
-    /// Reads `#n` (system variables included). A position read (`#5021…`, `#5041…`) first
-    /// waits for motion through the [`MotionSync`](crate::host::MotionSync).
-    pub(crate) fn read_var(&mut self, n: i64) -> Result<MVal, String> {
-        let naxes = self.cfg.axes.len() as i64;
-        let unit = self.state.unit();
-        let lin = |i: usize, v: f64, cfg: &cnc402_config::MachineConfig| {
-            if cfg.axes[i].kind.is_rotary() {
-                v
-            } else {
-                v / unit
-            }
-        };
-        Ok(match n {
-            0 => None,
-            1..=33 => self.vars.locals.last().and_then(|l| l[(n - 1) as usize]),
-            100..=199 => self.vars.common[(n - 100) as usize],
-            500..=999 => {
-                self.vars.nv_reads += 1;
-                self.vars.nv[(n - 500) as usize]
-            }
-            3000 | 3006 => None,
-            4001..=4022 => self.group_code((n - 4000) as u32),
-            4102..=4120 => match n - 4100 {
-                9 => Some(self.state.feed / unit),
-                13 => self.last_m,
-                14 => self.last_n,
-                15 => self
-                    .frames
-                    .last()
-                    .and_then(|f| f.unit.number)
-                    .map(f64::from),
-                11 => Some(f64::from(self.state.h)),
-                19 => Some(self.state.speed),
-                20 => Some(f64::from(self.state.tool_selected)),
-                2 | 7 | 8 => None,
-                _ => return Err(format!("#{n} is not a modal information variable")),
-            },
-            // Fanuc: the block end point without the tool length offset.
-            5001..=5008 if n - 5001 < naxes => {
-                let i = (n - 5001) as usize;
-                Some(lin(i, self.state.programmed(i), &self.cfg))
-            }
-            // The tool length offset vector in force (Z; 0 on the other axes).
-            5081..=5088 if n - 5081 < naxes => {
-                let i = (n - 5081) as usize;
-                Some(lin(i, self.state.tlo_of(i), &self.cfg))
-            }
-            5021..=5028 | 5041..=5048 if (n - 1) % 20 < naxes => {
-                let i = ((n - 1) % 20) as usize;
-                let actual = self.sync.wait_motion_done(&self.state.pos)?;
-                // #5041: work coordinates with the tool length offset included (Fanuc).
-                let v = if n < 5041 {
-                    actual[i]
-                } else {
-                    actual[i] - self.state.work_zero(i)
-                };
-                Some(lin(i, v, &self.cfg))
-            }
-            5221..=5328 => {
-                let (k, i) = work_offset_var(n, naxes)?;
-                Some(lin(i, self.state.work_offsets[k][i], &self.cfg))
-            }
-            2001..=2400 | 10001..=13999 => match tool_offset_var(n) {
-                Some((k, f)) => Some(f.get(&self.state.tool_offsets[k - 1]) / unit),
-                None => {
-                    return Err(format!(
-                        "#{n} is not a tool offset of this control (1..400)"
-                    ));
-                }
-            },
-            2401..=2800 => return Err(old_d_offset_var(n)),
-            _ => return Err(format!("#{n} is not a variable of this control")),
-        })
-    }
-
-    /// `#4000+g`: the code of modal group `g` (groups cnc402 lacks read vacant, or the
-    /// group's cancel code when cnc402 accepts it).
-    fn group_code(&self, g: u32) -> MVal {
-        let st = &self.state;
-        let v = match g {
-            1 => match st.motion {
-                Motion::Rapid => 0.0,
-                Motion::Linear => 1.0,
-                Motion::ArcCw => 2.0,
-                Motion::ArcCcw => 3.0,
-            },
-            2 => match st.plane {
-                Plane::XY => 17.0,
-                Plane::ZX => 18.0,
-                Plane::YZ => 19.0,
-            },
-            3 => {
-                if st.incremental {
-                    91.0
-                } else {
-                    90.0
-                }
-            }
-            5 => {
-                if st.feed_per_rev {
-                    95.0
-                } else {
-                    94.0
-                }
-            }
-            6 => {
-                if st.inch {
-                    20.0
-                } else {
-                    21.0
-                }
-            }
-            7 => 40.0,
-            8 => f64::from(st.tool_length.code()),
-            9 => st.cycle.map_or(80.0, |c| f64::from(c.code())),
-            10 => {
-                if st.return_to_r {
-                    99.0
-                } else {
-                    98.0
-                }
-            }
-            11 => 50.0,
-            12 => {
-                if self.modal_call.is_some() {
-                    66.0
-                } else {
-                    67.0
-                }
-            }
-            14 => 54.0 + st.work_offset as f64,
-            15 => f64::from(st.path_mode),
-            16 => 69.0,
-            17 => 15.0,
-            _ => return None,
-        };
-        Some(v)
-    }
-
-    /// Writes `#n`; system variables with side effects (`#3000`, `#3006`) are handled by the
-    /// assignment itself.
-    pub(crate) fn write_var(&mut self, n: i64, v: MVal) -> Result<(), String> {
-        let naxes = self.cfg.axes.len() as i64;
-        match n {
-            0 => return Err("#0 is always vacant and cannot be written".into()),
-            1..=33 => {
-                if let Some(l) = self.vars.locals.last_mut() {
-                    l[(n - 1) as usize] = v;
-                }
-            }
-            100..=199 => self.vars.common[(n - 100) as usize] = v,
-            500..=999 => {
-                self.vars.nv[(n - 500) as usize] = v;
-                if let Some(s) = self.nv_store.as_mut() {
-                    s.store(&self.vars.nv[..])
-                        .map_err(|e| format!("#{n} could not be stored (non-volatile): {e}"))?;
-                }
-            }
-            5221..=5328 => {
-                let (k, i) = work_offset_var(n, naxes)?;
-                let unit = if self.cfg.axes[i].kind.is_rotary() {
-                    1.0
-                } else {
-                    self.state.unit()
-                };
-                self.state.work_offsets[k][i] = v.unwrap_or(0.0) * unit;
-            }
-            2001..=2400 | 10001..=13999 => {
-                let Some((k, f)) = tool_offset_var(n) else {
-                    return Err(format!(
-                        "#{n} is not a tool offset of this control (1..400)"
-                    ));
-                };
-                let v = v.unwrap_or(0.0) * self.state.unit();
-                f.set(&mut self.state.tool_offsets[k - 1], v);
-            }
-            2401..=2800 => return Err(old_d_offset_var(n)),
-            _ => {
-                return Err(format!(
-                    "#{n} cannot be written (locals #1-#33, common #100-#199, non-volatile #{NV_FIRST}-#{NV_LAST}, work offsets #5221-#5326, tool offsets #2001-#2400 and #10001-#13400, #3000, #3006)"
-                ));
-            }
-        }
-        Ok(())
+            .unwrap_or_else(|| self.flow.units[0].clone())
     }
 
     fn eval_at(&mut self, src: &SourceFile, e: &Expr) -> Result<MVal, NcError> {
@@ -593,8 +357,8 @@ impl Interpreter {
 
     /// Executes the line at the program counter of the innermost frame.
     pub(crate) fn step(&mut self) -> Result<(), NcError> {
-        let Some(frame) = self.frames.last_mut() else {
-            self.done = true;
+        let Some(frame) = self.flow.frames.last_mut() else {
+            self.flow.done = true;
             return Ok(());
         };
         let unit = frame.unit.clone();
@@ -605,25 +369,25 @@ impl Interpreter {
         frame.pc += 1;
         let program = unit.program.clone();
         let line = &program.lines[pc];
-        if line.block_delete && self.opts.block_delete {
+        if line.block_delete && self.m.opts.block_delete {
             return Ok(());
         }
         if let Some(n) = line.n {
-            self.last_n = Some(f64::from(n.value));
+            self.flow.last_n = Some(f64::from(n.value));
         }
         if !matches!(
             line.kind,
             LineKind::Empty | LineKind::Continued | LineKind::ProgramNumber { .. }
         ) {
-            self.runaway.note(&unit, line.line_no);
-            if self.runaway.count > self.cfg.interp.block_limit {
-                let (a, b) = self.runaway.lines(&unit);
+            self.flow.runaway.note(&unit, line.line_no);
+            if self.flow.runaway.count > self.m.cfg.interp.block_limit {
+                let (a, b) = self.flow.runaway.lines(&unit);
                 return Err(NcError::new(
                     &unit.src,
                     line.span,
                     format!(
                         "runaway program: {} blocks in a row without motion (interp.block_limit); the loop runs over lines {a}-{b} of {}",
-                        self.cfg.interp.block_limit, unit.src.name
+                        self.m.cfg.interp.block_limit, unit.src.name
                     ),
                 )
                 .with_expected("a loop that ends, or motion inside it"));
@@ -632,7 +396,7 @@ impl Interpreter {
         let err = |span: Span, m: String| NcError::new(&unit.src, span, m);
         match &line.kind {
             LineKind::Percent => {
-                if self.seen_block {
+                if self.flow.seen_block {
                     return self.end_of_unit(&unit);
                 }
                 Ok(())
@@ -640,7 +404,7 @@ impl Interpreter {
             LineKind::ProgramNumber { .. } | LineKind::Continued => Ok(()),
             LineKind::Empty => self.exec_block(&unit, line, None),
             LineKind::Block(b) => {
-                self.seen_block = true;
+                self.flow.seen_block = true;
                 self.exec_block(&unit, line, Some(b))
             }
             LineKind::Stmts(_) => Err(err(
@@ -648,16 +412,16 @@ impl Interpreter {
                 format!("C-like statements are allowed {C_LIKE_ONLY}"),
             )),
             LineKind::Assign { target, value } => {
-                self.seen_block = true;
+                self.flow.seen_block = true;
                 self.assign(&unit, line, target, value)
             }
             LineKind::Goto { target } => {
-                self.seen_block = true;
+                self.flow.seen_block = true;
                 let n = self.seq_target(&unit, target)?;
                 self.jump(&unit, n, target.span)
             }
             LineKind::IfGoto { cond, target } => {
-                self.seen_block = true;
+                self.flow.seen_block = true;
                 if self.truth(&unit, cond)? {
                     let n = self.seq_target(&unit, target)?;
                     self.jump(&unit, n, target.span)?;
@@ -665,7 +429,7 @@ impl Interpreter {
                 Ok(())
             }
             LineKind::IfThen { cond, then } => {
-                self.seen_block = true;
+                self.flow.seen_block = true;
                 if !self.truth(&unit, cond)? {
                     return Ok(());
                 }
@@ -679,7 +443,7 @@ impl Interpreter {
                 }
             }
             LineKind::While { cond, id } => {
-                self.seen_block = true;
+                self.flow.seen_block = true;
                 if let Some(m) = unit.loop_errors.get(&pc) {
                     return Err(err(line.span, m.clone()));
                 }
@@ -705,7 +469,7 @@ impl Interpreter {
     }
 
     fn set_pc(&mut self, pc: usize) {
-        if let Some(f) = self.frames.last_mut() {
+        if let Some(f) = self.flow.frames.last_mut() {
             f.pc = pc;
         }
     }
@@ -784,12 +548,12 @@ impl Interpreter {
                     n: line.n.map(|n| n.value),
                 };
                 if !text.is_empty() {
-                    self.queue.push_back(cnc402_motion::segment::Segment {
+                    self.flow.queue.push_back(cnc402_motion::segment::Segment {
                         kind: SegmentKind::Message { text },
                         source: source.clone(),
                     });
                 }
-                self.queue.push_back(cnc402_motion::segment::Segment {
+                self.flow.queue.push_back(cnc402_motion::segment::Segment {
                     kind: SegmentKind::Stop {
                         kind: StopKind::Program,
                     },
@@ -806,8 +570,8 @@ impl Interpreter {
     /// End of a program unit (its last line, or `%`): the main program ends; a sub-program
     /// returns as with `M99`.
     fn end_of_unit(&mut self, unit: &Unit) -> Result<(), NcError> {
-        if self.frames.len() <= 1 {
-            self.done = true;
+        if self.flow.frames.len() <= 1 {
+            self.flow.done = true;
             return Ok(());
         }
         self.ret(unit, None, Span::default())
@@ -815,7 +579,7 @@ impl Interpreter {
 
     /// `M99 [P seq]`.
     fn ret(&mut self, unit: &Unit, seq: Option<u32>, span: Span) -> Result<(), NcError> {
-        let Some(f) = self.frames.last_mut() else {
+        let Some(f) = self.flow.frames.last_mut() else {
             return Ok(());
         };
         if f.repeats > 0 {
@@ -823,13 +587,13 @@ impl Interpreter {
             f.pc = f.unit.start;
             return Ok(());
         }
-        if self.frames.len() == 1 {
+        if self.flow.frames.len() == 1 {
             // M99 in the main program: jump to N seq. Without P Fanuc starts the program over,
             // endlessly: a machine run does (`MainM99::Repeat`); a dump or a dry run shows one
             // pass and says where it would repeat.
-            return match (seq, self.opts.main_m99) {
+            return match (seq, self.m.opts.main_m99) {
                 (Some(n), _) => self.jump(unit, n, span),
-                (None, crate::interp::MainM99::Repeat) => {
+                (None, MainM99::Repeat) => {
                     // Over the opening `%` (past the first block it would end the program).
                     let start = (unit.start..unit.end)
                         .find(|&i| {
@@ -842,19 +606,19 @@ impl Interpreter {
                     self.set_pc(start);
                     Ok(())
                 }
-                (None, crate::interp::MainM99::End) => {
-                    self.done = true;
+                (None, MainM99::End) => {
+                    self.flow.done = true;
                     if span != Span::default() {
-                        self.main_m99_line = Some(unit.src.line_col(span.start as usize).0);
+                        self.flow.main_m99_line = Some(unit.src.line_col(span.start as usize).0);
                     }
                     Ok(())
                 }
             };
         }
-        if let Some(f) = self.frames.pop()
+        if let Some(f) = self.flow.frames.pop()
             && f.macro_level
         {
-            self.vars.locals.pop();
+            self.vars.table.locals.pop();
         }
         if let Some(n) = seq {
             let caller = self.cur_unit();
@@ -882,24 +646,25 @@ impl Interpreter {
     ) -> Result<Arc<Unit>, NcError> {
         let cur = self.cur_unit();
         if let Some(u) = self
+            .flow
             .units
             .iter()
             .find(|u| u.number == Some(number) && Arc::ptr_eq(&u.src, &cur.src))
-            .or_else(|| self.units.iter().find(|u| u.number == Some(number)))
+            .or_else(|| self.flow.units.iter().find(|u| u.number == Some(number)))
         {
             return Ok(u.clone());
         }
-        if let Some(u) = self.lib_cache.get(&number) {
+        if let Some(u) = self.flow.lib_cache.get(&number) {
             return Ok(u.clone());
         }
         let not_found = |why: String| NcError::new(src, span, why);
         // The injected library only: the interpreter itself reads no files.
-        let Some(lib) = self.library.as_mut() else {
+        let Some(lib) = self.flow.library.as_mut() else {
             return Err(not_found(format!(
                 "program O{number:04} not found: not in this file, and no program directory is configured"
             )));
         };
-        let main = self.main_src.name.clone();
+        let main = self.flow.main_src.name.clone();
         let Some(file) = lib
             .find(number, &main)
             .map_err(|e| not_found(format!("program O{number:04}: {e}")))?
@@ -919,10 +684,13 @@ impl Interpreter {
             .unwrap_or_else(|| units[main].clone());
         for other in &units {
             if let Some(n) = other.number {
-                self.lib_cache.entry(n).or_insert_with(|| other.clone());
+                self.flow
+                    .lib_cache
+                    .entry(n)
+                    .or_insert_with(|| other.clone());
             }
         }
-        self.lib_cache.insert(number, u.clone());
+        self.flow.lib_cache.insert(number, u.clone());
         Ok(u)
     }
 
@@ -939,14 +707,14 @@ impl Interpreter {
         if times == 0 {
             return Ok(());
         }
-        if self.frames.len() >= MAX_FRAMES {
+        if self.flow.frames.len() >= MAX_FRAMES {
             return Err(NcError::new(
                 src,
                 span,
                 format!("calls nested deeper than {MAX_FRAMES} programs"),
             ));
         }
-        if args.is_some() && self.vars.locals.len() > MAX_MACRO_LEVELS {
+        if args.is_some() && self.vars.table.locals.len() > MAX_MACRO_LEVELS {
             return Err(NcError::new(
                 src,
                 span,
@@ -956,9 +724,9 @@ impl Interpreter {
         let mut f = Frame::new(unit, args.is_some());
         f.repeats = times - 1;
         if let Some(a) = args {
-            self.vars.locals.push(a);
+            self.vars.table.locals.push(a);
         }
-        self.frames.push(f);
+        self.flow.frames.push(f);
         Ok(())
     }
 
@@ -987,7 +755,7 @@ impl Interpreter {
             }
             let m_arg = w.m.first().map(|m| (m.1.start, f64::from(m.0)));
             if code == 67 {
-                self.modal_call = None;
+                self.flow.modal_call = None;
                 return match w.first_unused() {
                     Some((c, a)) => Err(err(a.span, format!("address {c} is not used with G67"))),
                     None => Ok(None),
@@ -1044,11 +812,11 @@ impl Interpreter {
             } else {
                 // Check the program exists now, where the G66 is.
                 self.find_program(number, &unit.src, gspan)?;
-                self.modal_call = Some(ModalCall {
+                self.flow.modal_call = Some(ModalCall {
                     number,
                     times,
                     args,
-                    depth: self.frames.len(),
+                    depth: self.flow.frames.len(),
                 });
             }
             return Ok(None);
@@ -1115,13 +883,18 @@ impl Interpreter {
             After::Return { seq, span } => self.ret(unit, seq, span),
             After::Nothing => {
                 if moved
-                    && let Some(mc) = self.modal_call.clone()
-                    && mc.depth == self.frames.len()
+                    && let Some(mc) = self.flow.modal_call.clone()
+                    && mc.depth == self.flow.frames.len()
                 {
                     let span = unit
                         .program
                         .lines
-                        .get(self.frames.last().map_or(0, |f| f.pc.saturating_sub(1)))
+                        .get(
+                            self.flow
+                                .frames
+                                .last()
+                                .map_or(0, |f| f.pc.saturating_sub(1)),
+                        )
                         .map_or_else(Span::default, |l| l.span);
                     self.call(mc.number, mc.times, Some(mc.args), &unit.src, span)?;
                 }
@@ -1190,55 +963,31 @@ impl Interpreter {
             v.and_then(whole)
                 .ok_or_else(|| err(p_span, format!("G65 H{code:02} needs P as a whole number")))
         };
-        let int = |v: f64| v.round() as i64;
+        // The instructions are the expression operators under other names; H26-H28 and the
+        // messages are their own.
+        let bin = |op: BinaryOp| ops::binary(op, qv, rv);
+        let func = |f: Func, a: f64| ops::call(f, a, 0.0, false);
+        let at = |m: String| err(line.span, m);
         let result = match code {
             1 => qv,
-            2 => qv + rv,
-            3 => qv - rv,
-            4 => qv * rv,
-            5 => {
-                if rv == 0.0 {
-                    return Err(err(line.span, "G65 H05: division by zero".into()));
-                }
-                qv / rv
-            }
-            11 => (int(qv) | int(rv)) as f64,
-            12 => (int(qv) & int(rv)) as f64,
-            13 => (int(qv) ^ int(rv)) as f64,
-            21 => {
-                if qv < 0.0 {
-                    return Err(err(
-                        line.span,
-                        "G65 H21: square root of a negative number".into(),
-                    ));
-                }
-                qv.sqrt()
-            }
-            22 => qv.abs(),
-            23 => {
-                if int(rv) == 0 {
-                    return Err(err(line.span, "G65 H23: remainder by zero".into()));
-                }
-                (int(qv) % int(rv)) as f64
-            }
+            2 => bin(BinaryOp::Add).map_err(|e| at(e.to_string()))?,
+            3 => bin(BinaryOp::Sub).map_err(|e| at(e.to_string()))?,
+            4 => bin(BinaryOp::Mul).map_err(|e| at(e.to_string()))?,
+            5 => bin(BinaryOp::Div).map_err(|e| at(format!("G65 H05: {e}")))?,
+            11 => bin(BinaryOp::Or).map_err(|e| at(e.to_string()))?,
+            12 => bin(BinaryOp::And).map_err(|e| at(e.to_string()))?,
+            13 => bin(BinaryOp::Xor).map_err(|e| at(e.to_string()))?,
+            21 => func(Func::Sqrt, qv)
+                .map_err(|_| at("G65 H21: square root of a negative number".into()))?,
+            22 => func(Func::Abs, qv).map_err(|e| at(e.to_string()))?,
+            23 => bin(BinaryOp::Mod).map_err(|_| at("G65 H23: remainder by zero".into()))?,
             24 | 25 => {
-                let f = if code == 24 { "BIN" } else { "BCD" };
-                let e = Expr {
-                    kind: ExprKind::Call(
-                        if code == 24 {
-                            cnc402_lang::ast::Func::Bin
-                        } else {
-                            cnc402_lang::ast::Func::Bcd
-                        },
-                        vec![Expr {
-                            kind: ExprKind::Number(qv),
-                            span: line.span,
-                        }],
-                    ),
-                    span: line.span,
+                let (f, name) = if code == 24 {
+                    (Func::Bin, "BIN")
+                } else {
+                    (Func::Bcd, "BCD")
                 };
-                eval::expr(&src, &e)
-                    .map_err(|e| err(line.span, format!("G65 H{code}: {f}: {}", e.message)))?
+                func(f, qv).map_err(|e| at(format!("G65 H{code}: {name}: {e}")))?
             }
             26 => {
                 if rv == 0.0 {
@@ -1259,22 +1008,26 @@ impl Interpreter {
                 }
                 d.sqrt()
             }
-            31 => qv * rv.to_radians().sin(),
-            32 => qv * rv.to_radians().cos(),
-            33 => qv * rv.to_radians().tan(),
-            34 => {
-                let a = qv.atan2(rv).to_degrees();
-                if a < 0.0 { a + 360.0 } else { a }
+            31..=33 => {
+                let f = [Func::Sin, Func::Cos, Func::Tan][code as usize - 31];
+                let t = func(f, rv).map_err(|e| at(e.to_string()))?;
+                ops::binary(BinaryOp::Mul, qv, t).map_err(|e| at(e.to_string()))?
             }
+            34 => ops::call(Func::Atan, qv, rv, true).map_err(|e| at(e.to_string()))?,
             80..=86 => {
                 let go = match code {
                     80 => true,
-                    81 => qv == rv,
-                    82 => qv != rv,
-                    83 => qv > rv,
-                    84 => qv < rv,
-                    85 => qv >= rv,
-                    _ => qv <= rv,
+                    c => {
+                        let op = [
+                            BinaryOp::Eq,
+                            BinaryOp::Ne,
+                            BinaryOp::Gt,
+                            BinaryOp::Lt,
+                            BinaryOp::Ge,
+                            BinaryOp::Le,
+                        ][c as usize - 81];
+                        bin(op).map_err(|e| at(e.to_string()))? != 0.0
+                    }
                 };
                 let n = pconst(self)?;
                 if go {
@@ -1308,31 +1061,5 @@ impl Interpreter {
         }
         let d = dest(self)?;
         self.write_var(d, Some(result)).map_err(|m| err(p_span, m))
-    }
-}
-
-/// `#n` in 5221..=5328 as (work offset G54.. index, axis index): `#5221 + 20·k + i`, for
-/// k < 6 and i < `naxes`; anything else in the range is an error naming `#n`.
-fn work_offset_var(n: i64, naxes: i64) -> Result<(usize, usize), String> {
-    let (k, i) = ((n - 5221) / 20, (n - 5221) % 20);
-    if !(0..=5).contains(&k) || !(0..naxes).contains(&i) {
-        return Err(format!(
-            "#{n} is not a work offset variable of this machine"
-        ));
-    }
-    Ok((k as usize, i as usize))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn work_offset_vars_name_offset_and_axis() {
-        assert_eq!(work_offset_var(5221, 4), Ok((0, 0)));
-        assert_eq!(work_offset_var(5243, 4), Ok((1, 2)));
-        assert_eq!(work_offset_var(5328, 8), Ok((5, 7)));
-        assert!(work_offset_var(5225, 4).unwrap_err().contains("#5225"));
-        assert!(work_offset_var(5341, 8).is_err(), "k = 6 is not G54-G59");
     }
 }

@@ -11,9 +11,9 @@ use cnc402_lang::NcError;
 use cnc402_lang::ast::Span;
 use cnc402_motion::segment::{AxisPos, SegmentKind, SpindleDir, StopKind};
 
-use crate::interp::Exec;
-use crate::state::Cycle;
-use crate::words::fmt_num;
+use super::exec::Exec;
+use super::state::Cycle;
+use super::words::fmt_num;
 
 /// Lengths closer than this are the same point.
 const EPS: f64 = 1e-9;

@@ -1,7 +1,7 @@
 //! Offsets and reference positions in a block: tool length compensation (G43/G44/G49 with H,
 //! Fanuc type A: always along Z), programmable data input (G10 L2 work offsets, L10–L13 tool
 //! offsets, Fanuc memory C), coordinate system setting (G92) and reference position return
-//! (G28, G30 P2–P4, G29 back). The position model is in [`crate::state::ModalState`]: machine
+//! (G28, G30 P2–P4, G29 back). The position model is in [`super::state::ModalState`]: machine
 //! = programmed + work offset + G92 shift + tool length offset vector.
 
 use cnc402_config::TOOL_OFFSETS;
@@ -9,67 +9,11 @@ use cnc402_lang::NcError;
 use cnc402_lang::ast::Span;
 use cnc402_motion::segment::{AxisPos, SegmentKind};
 
-use crate::interp::Exec;
-use crate::state::{Motion, ToolLength};
-use crate::words::{Arg, GGroup, fmt_num};
+use super::exec::Exec;
+use super::state::{Motion, ToolLength};
+use super::words::{Arg, GGroup, fmt_num};
 
-/// Which value of a tool offset number `G10 L10–L13` and the `#1xxxx` variables address.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OffsetField {
-    LengthGeometry,
-    LengthWear,
-    RadiusGeometry,
-    RadiusWear,
-}
-
-impl OffsetField {
-    pub fn get(self, t: &cnc402_config::ToolOffset) -> f64 {
-        match self {
-            OffsetField::LengthGeometry => t.length,
-            OffsetField::LengthWear => t.length_wear,
-            OffsetField::RadiusGeometry => t.radius,
-            OffsetField::RadiusWear => t.radius_wear,
-        }
-    }
-    pub fn set(self, t: &mut cnc402_config::ToolOffset, v: f64) {
-        match self {
-            OffsetField::LengthGeometry => t.length = v,
-            OffsetField::LengthWear => t.length_wear = v,
-            OffsetField::RadiusGeometry => t.radius = v,
-            OffsetField::RadiusWear => t.radius_wear = v,
-        }
-    }
-}
-
-/// `#n` as a tool offset variable (Fanuc memory C): `#10001+` H wear, `#11001+` H geometry,
-/// `#12001+` D wear, `#13001+` D geometry (offsets 1..400), and the older numbers of a
-/// memory C control with up to 200 offsets: `#2001+` H wear, `#2201+` H geometry. `None`:
-/// not a tool offset variable.
-///
-/// ```
-/// use cnc402_interp::offsets::{OffsetField, tool_offset_var};
-/// assert_eq!(tool_offset_var(11001), Some((1, OffsetField::LengthGeometry)));
-/// assert_eq!(tool_offset_var(12400), Some((400, OffsetField::RadiusWear)));
-/// assert_eq!(tool_offset_var(2201), Some((1, OffsetField::LengthGeometry)));
-/// assert_eq!(tool_offset_var(2200), Some((200, OffsetField::LengthWear)));
-/// assert_eq!(tool_offset_var(10401), None);
-/// ```
-pub fn tool_offset_var(n: i64) -> Option<(usize, OffsetField)> {
-    let max = TOOL_OFFSETS as i64;
-    let (base, field) = match n {
-        2001..=2200 => (2000, OffsetField::LengthWear),
-        2201..=2400 => (2200, OffsetField::LengthGeometry),
-        _ => match n / 1000 {
-            10 => (10000, OffsetField::LengthWear),
-            11 => (11000, OffsetField::LengthGeometry),
-            12 => (12000, OffsetField::RadiusWear),
-            13 => (13000, OffsetField::RadiusGeometry),
-            _ => return None,
-        },
-    };
-    let k = n - base;
-    (1..=max).contains(&k).then_some((k as usize, field))
-}
+pub use crate::vars::{OffsetField, tool_offset_var};
 
 impl Exec<'_> {
     /// A tool offset number word (H, or P of G10 L10–L13): 0..=400 (`allow_zero`: H0 means
