@@ -106,7 +106,7 @@ facade! {
     /// Expression evaluation with Fanuc Custom Macro B semantics.
     eval => crate::expr;
     /// Custom Macro B program flow: program units, calls, control flow.
-    macros => crate::flow::macros;
+    macros => crate::flow::units;
     /// The non-volatile variables `#500–#999` and their file.
     nvfile => crate::vars::nv;
     /// Offsets and reference positions in a block; tool offset variables.

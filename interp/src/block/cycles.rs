@@ -155,10 +155,8 @@ impl Exec<'_> {
             } else {
                 z + self.st.origin(id)
             };
-            if self.st.tool_axis == Some(id) {
-                // The drilling moves carry the whole offset vector (restored after G28).
-                self.st.tlo_in_pos = self.st.tlo;
-            }
+            // The drilling moves carry the whole offset vector (restored after G28).
+            self.st.restore_tlo(id);
             if (bottom - r_level).abs() < EPS {
                 return Err(self
                     .err(

@@ -163,8 +163,7 @@ impl Exec<'_> {
         }
         if self.tlo_cancel_after {
             // The vector left in `pos` (if Z did not move) is taken out at Z's next move.
-            self.st.tool_length = super::state::ToolLength::Off;
-            self.st.tlo = 0.0;
+            self.st.set_tool_length(super::state::ToolLength::Off, 0.0);
         }
         self.m_after_motion();
         if let Some((c, a)) = self.w.first_unused() {
@@ -585,19 +584,13 @@ impl Exec<'_> {
         } else {
             v + self.st.origin(i)
         };
-        if self.st.tool_axis == Some(i) {
-            self.st.tlo_in_pos = self.st.tlo;
-        }
+        self.st.restore_tlo(i);
         m
     }
 
     /// The part of the tool length offset vector on axis `i` that `pos` does not include yet.
     pub fn tlo_pending(&self, i: usize) -> f64 {
-        if self.st.tool_axis == Some(i) {
-            self.st.tlo - self.st.tlo_in_pos
-        } else {
-            0.0
-        }
+        self.st.tlo_pending(i)
     }
 
     /// A programmed value of `ax` in mm / degrees (inch programs converted).
@@ -621,9 +614,7 @@ impl Exec<'_> {
                 let v = self.axis_value(i, a);
                 end[i] = if machine {
                     // Fanuc: G53 cancels the tool length offset vector of the axis it moves.
-                    if self.st.tool_axis == Some(i) {
-                        self.st.tlo_in_pos = 0.0;
-                    }
+                    self.st.drop_tlo(i);
                     v
                 } else {
                     self.word_target(i, v)
@@ -636,7 +627,7 @@ impl Exec<'_> {
                     end[i] = self.st.pos[i] + d;
                     any = true;
                 }
-                self.st.tlo_in_pos = self.st.tlo;
+                self.st.restore_tlo(i);
             }
         }
         (end, any)

@@ -178,11 +178,11 @@ impl Machine {
                 } else {
                     self.state.unit()
                 };
-                self.state.work_offsets[k][axis] = v.unwrap_or(0.0) * unit;
+                self.state.set_work_offset(k, axis, v.unwrap_or(0.0) * unit);
             }
             VarClass::ToolOffset { k, field } => {
                 let v = v.unwrap_or(0.0) * self.state.unit();
-                field.set(&mut self.state.tool_offsets[k - 1], v);
+                self.state.set_tool_offset(k, field, v);
             }
             _ => return false,
         }

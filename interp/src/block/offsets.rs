@@ -10,10 +10,57 @@ use cnc402_lang::ast::Span;
 use cnc402_motion::segment::{AxisPos, SegmentKind};
 
 use super::exec::Exec;
-use super::state::{Motion, ToolLength};
+use super::state::{ModalState, Motion, ToolLength};
 use super::words::{Arg, GGroup, fmt_num};
 
 pub use crate::vars::{OffsetField, tool_offset_var};
+
+/// The one owner of the offset state in [`ModalState`]: work offsets, the G92 shift and the
+/// tool length offset are changed only here (the rest of the interpreter calls these).
+impl ModalState {
+    /// The part of the tool length offset vector on axis `i` that `pos` does not include yet.
+    pub fn tlo_pending(&self, i: usize) -> f64 {
+        if self.tool_axis == Some(i) {
+            self.tlo - self.tlo_in_pos
+        } else {
+            0.0
+        }
+    }
+
+    /// A move of axis `i` from here on carries the whole vector (a programmed tool-axis move).
+    pub(crate) fn restore_tlo(&mut self, i: usize) {
+        if self.tool_axis == Some(i) {
+            self.tlo_in_pos = self.tlo;
+        }
+    }
+
+    /// Axis `i` went to a machine position (G28/G30/G53): `pos` holds none of the vector.
+    pub(crate) fn drop_tlo(&mut self, i: usize) {
+        if self.tool_axis == Some(i) {
+            self.tlo_in_pos = 0.0;
+        }
+    }
+
+    /// G43/G44/G49 take effect: the mode and its vector (`len`, the H offset's length).
+    pub(crate) fn set_tool_length(&mut self, mode: ToolLength, len: f64) {
+        self.tool_length = mode;
+        self.tlo = match mode {
+            ToolLength::Off => 0.0,
+            ToolLength::Plus => len,
+            ToolLength::Minus => -len,
+        };
+    }
+
+    /// Work offset G54+`k` on `axis` (G10 L2, `#5221…`), mm / degrees.
+    pub(crate) fn set_work_offset(&mut self, k: usize, axis: usize, v: f64) {
+        self.work_offsets[k][axis] = v;
+    }
+
+    /// A field of tool offset `k` (1-based; G10 L10–L13, `#10001…`).
+    pub(crate) fn set_tool_offset(&mut self, k: usize, field: OffsetField, v: f64) {
+        field.set(&mut self.tool_offsets[k - 1], v);
+    }
+}
 
 impl Exec<'_> {
     /// A tool offset number word (H, or P of G10 L10–L13): 0..=400 (`allow_zero`: H0 means
@@ -88,7 +135,7 @@ impl Exec<'_> {
         if self.st.tool_axis.is_none() {
             if mode == ToolLength::Off {
                 // G49 in a safety line on a machine without Z: nothing to cancel.
-                self.st.tool_length = mode;
+                self.st.set_tool_length(mode, 0.0);
                 return Ok(());
             }
             return Err(self.err(
@@ -134,12 +181,7 @@ impl Exec<'_> {
                 t.length + t.length_wear
             }
         };
-        self.st.tool_length = mode;
-        self.st.tlo = match mode {
-            ToolLength::Off => 0.0,
-            ToolLength::Plus => len,
-            ToolLength::Minus => -len,
-        };
+        self.st.set_tool_length(mode, len);
         self.tlo_commanded = true;
         Ok(())
     }
@@ -394,9 +436,7 @@ impl Exec<'_> {
                 continue;
             }
             end[i] = r;
-            if self.st.tool_axis == Some(i) {
-                self.st.tlo_in_pos = 0.0;
-            }
+            self.st.drop_tlo(i);
         }
         if end != self.st.pos {
             self.rapid(end, &letters)?;

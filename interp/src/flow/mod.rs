@@ -1,12 +1,13 @@
 //! Program flow: the [`Interpreter`] and its public API, a program counter over the lines of
-//! a parsed program, the call stack (`M98`/`M99`, `G65`, `G66`, in [`macros`]) and the macro
+//! a parsed program, the call stack (`M98`/`M99`, `G65`, `G66`: [`units`] and `macros`) and the macro
 //! variables as the program reads and writes them ([`sysvars`]). Blocks run in the block layer
 //! ([`Machine`]); a C-like program runs in `hll`. Segments are produced on demand
 //! ([`Interpreter::next_segment`]) so that the interpreter can run ahead of motion and, with
 //! Macro B, stop at sync points (reading a position variable waits for queued motion).
 
-pub mod macros;
+mod macros;
 mod sysvars;
+pub mod units;
 
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
@@ -24,7 +25,7 @@ use crate::expr::{self, C_LIKE_ONLY};
 use crate::hll::Hll;
 use crate::host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary};
 use crate::vars::{NvTable, VarTable};
-use macros::{Frame, ModalCall, Runaway, Unit};
+use units::{Frame, ModalCall, Runaway, Unit};
 
 /// Runs one program: `load` it, then pull segments with [`next_segment`](Self::next_segment)
 /// (or iterate). The first error ends the run; segments of the block that failed are never
@@ -179,7 +180,7 @@ impl Interpreter {
         self.hll.load(&self.m.cfg, &src, &program, library);
         let src = Arc::new(src);
         let program = Arc::new(program);
-        let (units, main) = macros::split_units(&src, &program);
+        let (units, main) = units::split_units(&src, &program);
         self.m.reset();
         self.flow.main_src = src;
         self.flow.units = units;
@@ -254,14 +255,14 @@ impl Interpreter {
                 format!("AXSTR axis words are allowed {}", C_LIKE_ONLY),
             ));
         }
-        if macros::is_g65_h(block) {
+        if units::is_g65_h(block) {
             return self.g65_h(unit, line, block);
         }
         // A G65/G66 call may repeat I, J and K (argument specification II): they are taken
         // out of the block here, in source order, and numbered by `take_calls`.
         let mut ijk = Vec::new();
         let filtered;
-        let block = if macros::is_macro_call(block)
+        let block = if units::is_macro_call(block)
             && block
                 .words
                 .iter()
