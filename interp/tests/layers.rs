@@ -2,8 +2,10 @@
 //! lines and in code, comments left out) must name a module of the file's own layer or a lower
 //! one. The order, lowest first: host traits, expressions, variables, block execution, segment
 //! output, the C-like language, program flow, the file-system host. `lib.rs` is the crate's
-//! face and may name anything.
+//! face and may name anything. Inside a layer, the files must not use each other in a circle
+//! either (`super::x`, `crate::layer::x`, a `mod.rs` naming its child `x::`).
 
+use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::Path;
 
@@ -122,23 +124,154 @@ fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
     }
 }
 
-#[test]
-fn lower_layers_never_use_higher_ones() {
+/// The file a module path names: `dir/name.rs` or `dir/name/mod.rs`, if one of `files`.
+fn module_file(dir: &str, name: &str, files: &BTreeSet<String>) -> Option<String> {
+    let pre = if dir.is_empty() {
+        String::new()
+    } else {
+        format!("{dir}/")
+    };
+    [format!("{pre}{name}.rs"), format!("{pre}{name}/mod.rs")]
+        .into_iter()
+        .find(|f| files.contains(f))
+}
+
+/// The files of its own folder that `rel` uses (test modules, at the file's end, left out).
+fn sibling_uses(rel: &str, text: &str, files: &BTreeSet<String>) -> BTreeSet<String> {
+    let code = code_only(text.split("#[cfg(test)]").next().unwrap_or(text));
+    let (dir, file) = rel.rsplit_once('/').unwrap_or(("", rel));
+    let is_mod = file == "mod.rs";
+    let mut out = BTreeSet::new();
+    let words: Vec<&str> = code
+        .split(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':'))
+        .filter(|w| w.contains("::"))
+        .collect();
+    for w in words {
+        let parts: Vec<&str> = w.split("::").collect();
+        let target = match parts.as_slice() {
+            // `super::x` from a file of the folder: its sibling x, else the folder's mod.rs.
+            ["super", name, ..] if !is_mod => module_file(dir, name, files).or_else(|| {
+                files
+                    .contains(&format!("{dir}/mod.rs"))
+                    .then(|| format!("{dir}/mod.rs"))
+            }),
+            ["crate", top, name, ..] if dir == *top => module_file(dir, name, files),
+            [name, ..] if is_mod => module_file(dir, name, files),
+            _ => None,
+        };
+        if let Some(t) = target.filter(|t| t != rel) {
+            out.insert(t);
+        }
+    }
+    out
+}
+
+/// A cycle in `edges`, as the files around it.
+fn find_cycle(edges: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
+    fn visit(
+        n: &str,
+        edges: &BTreeMap<String, BTreeSet<String>>,
+        state: &mut BTreeMap<String, u8>,
+        path: &mut Vec<String>,
+    ) -> Option<Vec<String>> {
+        match state.get(n) {
+            Some(2) => return None,
+            Some(1) => {
+                let at = path.iter().position(|p| p == n).unwrap_or(0);
+                let mut c = path[at..].to_vec();
+                c.push(n.to_string());
+                return Some(c);
+            }
+            _ => {}
+        }
+        state.insert(n.to_string(), 1);
+        path.push(n.to_string());
+        for m in edges.get(n).into_iter().flatten() {
+            if let Some(c) = visit(m, edges, state, path) {
+                return Some(c);
+            }
+        }
+        path.pop();
+        state.insert(n.to_string(), 2);
+        None
+    }
+    let mut state = BTreeMap::new();
+    for n in edges.keys() {
+        if let Some(c) = visit(n, edges, &mut state, &mut Vec::new()) {
+            return Some(c);
+        }
+    }
+    None
+}
+
+fn sources() -> Vec<(String, String)> {
     let mut files = Vec::new();
     rust_files(Path::new(SRC), &mut files);
     files.sort();
-    assert!(files.len() > 15, "the sources were found: {files:?}");
-    let mut errors = Vec::new();
-    for f in &files {
-        let rel = f
-            .strip_prefix(SRC)
-            .expect("under src")
-            .to_string_lossy()
-            .trim_start_matches('/')
-            .replace('\\', "/");
-        let text = fs::read_to_string(f).expect("readable");
-        errors.extend(violations(&rel, &text));
+    files
+        .iter()
+        .map(|f| {
+            let rel = f
+                .strip_prefix(SRC)
+                .expect("under src")
+                .to_string_lossy()
+                .trim_start_matches('/')
+                .replace('\\', "/");
+            (rel, fs::read_to_string(f).expect("readable"))
+        })
+        .collect()
+}
+
+#[test]
+fn no_file_uses_itself_through_its_folder() {
+    let srcs = sources();
+    let files: BTreeSet<String> = srcs.iter().map(|(r, _)| r.clone()).collect();
+    let edges: BTreeMap<String, BTreeSet<String>> = srcs
+        .iter()
+        .map(|(r, t)| (r.clone(), sibling_uses(r, t, &files)))
+        .collect();
+    assert!(
+        edges["flow/macros.rs"].contains("flow/mod.rs"),
+        "the check sees `super::Interpreter`: {edges:?}"
+    );
+    if let Some(c) = find_cycle(&edges) {
+        panic!("module cycle: {}", c.join(" -> "));
     }
+}
+
+#[test]
+fn the_cycle_check_sees_a_cycle() {
+    let files: BTreeSet<String> = ["a/mod.rs", "a/x.rs", "a/y.rs"].map(String::from).into();
+    let mut edges = BTreeMap::new();
+    edges.insert(
+        "a/mod.rs".to_string(),
+        sibling_uses("a/mod.rs", "use x::T;", &files),
+    );
+    edges.insert(
+        "a/x.rs".to_string(),
+        sibling_uses("a/x.rs", "use super::y::U;", &files),
+    );
+    edges.insert(
+        "a/y.rs".to_string(),
+        sibling_uses("a/y.rs", "use crate::b::x::V;", &files),
+    );
+    assert_eq!(find_cycle(&edges), None);
+    edges.insert(
+        "a/y.rs".to_string(),
+        sibling_uses("a/y.rs", "use super::T;", &files),
+    );
+    assert_eq!(
+        find_cycle(&edges).map(|c| c.len()),
+        Some(4),
+        "mod -> x -> y -> mod"
+    );
+}
+
+#[test]
+fn lower_layers_never_use_higher_ones() {
+    let srcs = sources();
+    assert!(srcs.len() > 15, "the sources were found: {}", srcs.len());
+    let errors: Vec<String> = srcs.iter().flat_map(|(r, t)| violations(r, t)).collect();
     assert!(errors.is_empty(), "{}", errors.join("\n"));
 }
 

@@ -7,6 +7,7 @@
 mod compile;
 mod exec;
 mod ir;
+mod req;
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -16,13 +17,14 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Line, LineKind, Program, Span};
 use cnc402_lang::{NcError, SourceFile};
-use cnc402_motion::segment::{Segment, SegmentKind, Source};
+use cnc402_motion::segment::{Segment, Source};
 
 use crate::block::Machine;
 use crate::block::exec::Exec;
 use crate::block::words::{GGroup, Words};
 
 pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
+use req::{Read, Req};
 
 /// The executor thread's stack. The deepest program the parser and the checker allow
 /// (`MAX_CALL_DEPTH` nested calls, each from 15 nested blocks and 31 nested parentheses, see
@@ -36,33 +38,6 @@ const AHEAD: usize = 4;
 
 /// Where the answer to a [`Read`] goes.
 type ReplyTx = SyncSender<Result<f64, String>>;
-
-/// A motion-dependent system variable read (answered after the queue is drained).
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Read {
-    ItpPath,
-    Axis(usize),
-}
-
-/// What the executor thread asks of the interpreter.
-pub(crate) enum Req {
-    /// A G-code block with every value computed, for the G-code core.
-    Block {
-        file: ir::FileId,
-        line: Box<Line>,
-    },
-    /// A segment made by a built-in (`MSG` → Message, `sleep` → Dwell).
-    Seg {
-        file: ir::FileId,
-        span: Span,
-        kind: SegmentKind,
-    },
-    Read(Read),
-    Error(Box<NcError>),
-    End,
-    /// Several of the above, in order.
-    Batch(Vec<Req>),
-}
 
 struct Running {
     prog: Arc<ir::Prog>,
