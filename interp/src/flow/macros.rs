@@ -666,32 +666,7 @@ impl Interpreter {
             v.and_then(whole)
                 .ok_or_else(|| err(p_span, format!("G65 H{code:02} needs P as a whole number")))
         };
-        // The instructions are the expression operators under other names; H26-H28 and the
-        // messages are their own.
-        let bin = |op: BinaryOp| ops::binary(op, qv, rv);
-        let func = |f: Func, a: f64| ops::call(f, a, 0.0, false);
-        let at = |m: String| err(line.span, m);
         let result = match code {
-            1 => qv,
-            2 => bin(BinaryOp::Add).map_err(|e| at(e.to_string()))?,
-            3 => bin(BinaryOp::Sub).map_err(|e| at(e.to_string()))?,
-            4 => bin(BinaryOp::Mul).map_err(|e| at(e.to_string()))?,
-            5 => bin(BinaryOp::Div).map_err(|e| at(format!("G65 H05: {e}")))?,
-            11 => bin(BinaryOp::Or).map_err(|e| at(e.to_string()))?,
-            12 => bin(BinaryOp::And).map_err(|e| at(e.to_string()))?,
-            13 => bin(BinaryOp::Xor).map_err(|e| at(e.to_string()))?,
-            21 => func(Func::Sqrt, qv)
-                .map_err(|_| at("G65 H21: square root of a negative number".into()))?,
-            22 => func(Func::Abs, qv).map_err(|e| at(e.to_string()))?,
-            23 => bin(BinaryOp::Mod).map_err(|_| at("G65 H23: remainder by zero".into()))?,
-            24 | 25 => {
-                let (f, name) = if code == 24 {
-                    (Func::Bin, "BIN")
-                } else {
-                    (Func::Bcd, "BCD")
-                };
-                func(f, qv).map_err(|e| at(format!("G65 H{code}: {name}: {e}")))?
-            }
             26 => {
                 if rv == 0.0 {
                     return Err(err(line.span, "G65 H26: division by zero".into()));
@@ -700,38 +675,8 @@ impl Interpreter {
                 let cur = self.read_var(d).map_err(|m| err(p_span, m))?.unwrap_or(0.0);
                 cur * qv / rv
             }
-            27 => qv.hypot(rv),
-            28 => {
-                let d = qv * qv - rv * rv;
-                if d < 0.0 {
-                    return Err(err(
-                        line.span,
-                        "G65 H28: square root of a negative number".into(),
-                    ));
-                }
-                d.sqrt()
-            }
-            31..=33 => {
-                let f = [Func::Sin, Func::Cos, Func::Tan][code as usize - 31];
-                let t = func(f, rv).map_err(|e| at(e.to_string()))?;
-                ops::binary(BinaryOp::Mul, qv, t).map_err(|e| at(e.to_string()))?
-            }
-            34 => ops::call(Func::Atan, qv, rv, true).map_err(|e| at(e.to_string()))?,
             80..=86 => {
-                let go = match code {
-                    80 => true,
-                    c => {
-                        let op = [
-                            BinaryOp::Eq,
-                            BinaryOp::Ne,
-                            BinaryOp::Gt,
-                            BinaryOp::Lt,
-                            BinaryOp::Ge,
-                            BinaryOp::Le,
-                        ][c as usize - 81];
-                        bin(op).map_err(|e| at(e.to_string()))? != 0.0
-                    }
-                };
+                let go = code == 80 || h_operator(code, qv, rv) == Some(Ok(1.0));
                 let n = pconst(self)?;
                 if go {
                     self.jump(unit, n, p_span)?;
@@ -749,12 +694,15 @@ impl Interpreter {
                 }
                 return Err(err(line.span, m));
             }
-            _ => {
-                return Err(
-                    err(hw.span, format!("G65 H{code}: unknown macro instruction"))
-                        .with_expected("H01-H05, H11-H13, H21-H28, H31-H34, H80-H86, H99"),
-                );
-            }
+            _ => match h_operator(code, qv, rv) {
+                Some(v) => v.map_err(|m| err(line.span, m))?,
+                None => {
+                    return Err(
+                        err(hw.span, format!("G65 H{code}: unknown macro instruction"))
+                            .with_expected("H01-H05, H11-H13, H21-H28, H31-H34, H80-H86, H99"),
+                    );
+                }
+            },
         };
         if !result.is_finite() {
             return Err(err(
@@ -765,4 +713,53 @@ impl Interpreter {
         let d = dest(self)?;
         self.write_var(d, Some(result)).map_err(|m| err(p_span, m))
     }
+}
+
+/// The value of the old macro instruction `G65 H<code>` on Q and R, for the instructions that
+/// only compute: they are the expression operators under other names (H27, H28 are their own;
+/// the messages are the instructions'). `None`: not such an instruction.
+fn h_operator(code: u32, q: f64, r: f64) -> Option<Result<f64, String>> {
+    let bin = |op: BinaryOp| ops::binary(op, q, r).map_err(|e| e.to_string());
+    let func = |f: Func, a: f64| ops::call(f, a, 0.0, false).map_err(|e| e.to_string());
+    Some(match code {
+        1 => Ok(q),
+        2 => bin(BinaryOp::Add),
+        3 => bin(BinaryOp::Sub),
+        4 => bin(BinaryOp::Mul),
+        5 => bin(BinaryOp::Div).map_err(|e| format!("G65 H05: {e}")),
+        11 => bin(BinaryOp::Or),
+        12 => bin(BinaryOp::And),
+        13 => bin(BinaryOp::Xor),
+        21 => func(Func::Sqrt, q).map_err(|_| "G65 H21: square root of a negative number".into()),
+        22 => func(Func::Abs, q),
+        23 => bin(BinaryOp::Mod).map_err(|_| "G65 H23: remainder by zero".into()),
+        24 => func(Func::Bin, q).map_err(|e| format!("G65 H24: BIN: {e}")),
+        25 => func(Func::Bcd, q).map_err(|e| format!("G65 H25: BCD: {e}")),
+        27 => Ok(q.hypot(r)),
+        28 => {
+            let d = q * q - r * r;
+            if d < 0.0 {
+                Err("G65 H28: square root of a negative number".into())
+            } else {
+                Ok(d.sqrt())
+            }
+        }
+        31..=33 => {
+            let f = [Func::Sin, Func::Cos, Func::Tan][code as usize - 31];
+            func(f, r).and_then(|t| ops::binary(BinaryOp::Mul, q, t).map_err(|e| e.to_string()))
+        }
+        34 => ops::call(Func::Atan, q, r, true).map_err(|e| e.to_string()),
+        81..=86 => {
+            let op = [
+                BinaryOp::Eq,
+                BinaryOp::Ne,
+                BinaryOp::Gt,
+                BinaryOp::Lt,
+                BinaryOp::Ge,
+                BinaryOp::Le,
+            ][code as usize - 81];
+            bin(op)
+        }
+        _ => return None,
+    })
 }
