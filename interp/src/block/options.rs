@@ -21,7 +21,7 @@ pub struct Options {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum MainM99 {
     /// The program ends there after one pass (a segment dump, a dry run), and
-    /// [`Interpreter::main_m99_line`] says where.
+    /// [`Interpreter::main_m99_line`](crate::Interpreter::main_m99_line) says where.
     #[default]
     End,
     /// As on a Fanuc control: the main program starts over from its first block, endlessly,

@@ -69,7 +69,7 @@ impl Drop for Running {
 
 /// The C-like language's part of an interpreter: the `$` globals (kept across the programs
 /// of one interpreter) and the program running now, if it is C-like. It runs its G-code blocks
-/// on the interpreter's [`Machine`] (the block layer); program flow holds it.
+/// on the interpreter's `Machine` (the block layer); program flow holds it.
 #[derive(Default)]
 pub struct Hll {
     globals: exec::Globals,
