@@ -77,22 +77,49 @@
 // NcError (lang's) is large; an error ends the run, so its size costs nothing that matters.
 #![allow(clippy::result_large_err)]
 
-pub mod arc;
-pub mod cycles;
+// The layers, lowest first; a layer uses only the ones before it (`tests/layers.rs` checks):
+// host traits, expressions, variables, block execution (and segment output), the C-like
+// language, program flow, the file-system host.
+mod block;
 pub mod dump;
-pub mod eval;
+mod expr;
+mod flow;
 pub mod hll;
 pub mod host;
-pub mod host_fs;
-mod interp;
-pub mod macros;
-pub mod nvfile;
-pub mod offsets;
-pub mod state;
-pub mod words;
+mod vars;
+
+// The public paths of the modules as they were before the layers.
+macro_rules! facade {
+    ($($(#[$m:meta])* $name:ident => $path:path;)*) => {$(
+        $(#[$m])*
+        pub mod $name {
+            #[allow(unused_imports)]
+            pub use $path::*;
+        }
+    )*};
+}
+facade! {
+    /// Circular arcs: centre, radius, extremes.
+    arc => crate::block::arc;
+    /// Canned cycles (part of block execution).
+    cycles => crate::block::cycles;
+    /// Expression evaluation with Fanuc Custom Macro B semantics.
+    eval => crate::expr;
+    /// Custom Macro B program flow: program units, calls, control flow.
+    macros => crate::flow::units;
+    /// The non-volatile variables `#500–#999` and their file.
+    nvfile => crate::vars::nv;
+    /// Offsets and reference positions in a block; tool offset variables.
+    offsets => crate::block::offsets;
+    /// The modal state.
+    state => crate::block::state;
+    /// A block's words sorted for execution.
+    words => crate::block::words;
+}
+pub use host::fs as host_fs;
 
 pub use dump::segment_to_json;
+pub use flow::{Interpreter, MainM99, Options, run_program, run_program_with};
 pub use host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary, UsedFile};
-pub use interp::{Interpreter, MainM99, Options, run_program, run_program_with};
 pub use nvfile::{NvTable, VarFileError};
 pub use state::ModalState;

@@ -13,7 +13,7 @@ use cnc402_lang::ast::{AssignOp, BinaryOp, Block, LineKind, Number, Span, Value,
 
 use super::compile::{axis_of, op_text};
 use super::ir::*;
-use super::{Read, Req};
+use super::req::{Read, Req};
 
 /// Deepest chain of user-function calls before the program is stopped.
 pub const MAX_CALL_DEPTH: u32 = 200;

@@ -7,6 +7,7 @@
 mod compile;
 mod exec;
 mod ir;
+mod req;
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -16,12 +17,14 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Line, LineKind, Program, Span};
 use cnc402_lang::{NcError, SourceFile};
-use cnc402_motion::segment::{Segment, SegmentKind, Source};
+use cnc402_motion::segment::{Segment, Source};
 
-use crate::interp::{Exec, Interpreter};
-use crate::words::{GGroup, Words};
+use crate::block::Machine;
+use crate::block::exec::Exec;
+use crate::block::words::{GGroup, Words};
 
 pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
+use req::{Read, Req};
 
 /// The executor thread's stack. The deepest program the parser and the checker allow
 /// (`MAX_CALL_DEPTH` nested calls, each from 15 nested blocks and 31 nested parentheses, see
@@ -35,33 +38,6 @@ const AHEAD: usize = 4;
 
 /// Where the answer to a [`Read`] goes.
 type ReplyTx = SyncSender<Result<f64, String>>;
-
-/// A motion-dependent system variable read (answered after the queue is drained).
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Read {
-    ItpPath,
-    Axis(usize),
-}
-
-/// What the executor thread asks of the interpreter.
-pub(crate) enum Req {
-    /// A G-code block with every value computed, for the G-code core.
-    Block {
-        file: ir::FileId,
-        line: Box<Line>,
-    },
-    /// A segment made by a built-in (`MSG` → Message, `sleep` → Dwell).
-    Seg {
-        file: ir::FileId,
-        span: Span,
-        kind: SegmentKind,
-    },
-    Read(Read),
-    Error(Box<NcError>),
-    End,
-    /// Several of the above, in order.
-    Batch(Vec<Req>),
-}
 
 struct Running {
     prog: Arc<ir::Prog>,
@@ -91,10 +67,11 @@ impl Drop for Running {
     }
 }
 
-/// The C-like language's part of an [`Interpreter`]: the `$` globals (kept across the
-/// programs of one interpreter) and the program running now, if it is C-like.
+/// The C-like language's part of an interpreter: the `$` globals (kept across the programs
+/// of one interpreter) and the program running now, if it is C-like. It runs its G-code blocks
+/// on the interpreter's `Machine` (the block layer); program flow holds it.
 #[derive(Default)]
-pub(crate) struct Hll {
+pub struct Hll {
     globals: exec::Globals,
     run: Option<Running>,
 }
@@ -189,9 +166,13 @@ impl Hll {
 }
 
 /// The `$` global `name` (scalar, or element `index` of an array) as a number, for tests and
-/// tools: `None` if it has no value or is not a number.
-pub fn global_number(it: &Interpreter, name: &str, index: Option<i64>) -> Option<f64> {
-    let g = it.hll.globals.lock().unwrap_or_else(|p| p.into_inner());
+/// tools: `None` if it has no value or is not a number. `it` is the `Interpreter`.
+pub fn global_number(it: &impl AsRef<Hll>, name: &str, index: Option<i64>) -> Option<f64> {
+    let g = it
+        .as_ref()
+        .globals
+        .lock()
+        .unwrap_or_else(|p| p.into_inner());
     let v = match (g.get(name)?, index) {
         (exec::Global::Scalar(v), None) => v,
         (exec::Global::Array(a), Some(i)) => a.get(&i)?,
@@ -204,14 +185,16 @@ pub fn global_number(it: &Interpreter, name: &str, index: Option<i64>) -> Option
     }
 }
 
-/// [`Interpreter::next_segment`] for a C-like program.
-pub(crate) fn next_segment(it: &mut Interpreter) -> Result<Option<Segment>, NcError> {
-    let Some(mut r) = it.hll.run.take() else {
-        return Ok(None);
-    };
-    let out = r.next(it);
-    it.hll.run = Some(r);
-    out
+impl Hll {
+    /// The interpreter's next segment for a C-like program, its blocks run on `it`.
+    pub(crate) fn next_segment(&mut self, it: &mut Machine) -> Result<Option<Segment>, NcError> {
+        let Some(mut r) = self.run.take() else {
+            return Ok(None);
+        };
+        let out = r.next(it);
+        self.run = Some(r);
+        out
+    }
 }
 
 impl Running {
@@ -225,7 +208,7 @@ impl Running {
         self.chan = None;
     }
 
-    fn next(&mut self, it: &mut Interpreter) -> Result<Option<Segment>, NcError> {
+    fn next(&mut self, it: &mut Machine) -> Result<Option<Segment>, NcError> {
         loop {
             if let Some(s) = self.queue.pop_front() {
                 it.account(&s);
@@ -301,12 +284,7 @@ impl Running {
     }
 
     /// Runs one computed G-code block through the G-code core.
-    fn block(
-        &mut self,
-        it: &mut Interpreter,
-        file: ir::FileId,
-        line: &Line,
-    ) -> Result<(), NcError> {
+    fn block(&mut self, it: &mut Machine, file: ir::FileId, line: &Line) -> Result<(), NcError> {
         if line.block_delete && it.opts.block_delete {
             return Ok(());
         }
@@ -347,7 +325,7 @@ impl Running {
 
 /// Answers a system variable read after the motion before it (through the interpreter's
 /// [`crate::host::MotionSync`]).
-fn read(it: &mut Interpreter, what: Read) -> Result<f64, String> {
+fn read(it: &mut Machine, what: Read) -> Result<f64, String> {
     match what {
         Read::ItpPath => {
             // Wait for the motion first: `path_length_done` alone reports progress so far.

@@ -6,6 +6,14 @@
 use cnc402_lang::ast::{BinaryOp, Expr, ExprKind, Func, UnaryOp, Value};
 use cnc402_lang::{NcError, SourceFile};
 
+use ops::bool01;
+
+pub mod ops;
+
+/// Where the C-like language runs: a Macro B sub-program may be a C-like file, but the
+/// Macro B executor does not run C-like code (a C-like main program runs in `hll`).
+pub(crate) const C_LIKE_ONLY: &str = "only in a C-like main program and the files it #uses, not in a sub-program that a Macro B program calls (M98, G65, G66)";
+
 /// Where expressions read macro variables from. `n` is the variable number as computed
 /// (indirect `#[…]` already evaluated and rounded); `Ok(None)` is vacant; `Err` is a message
 /// for the variable's place in the program (no such variable, a failed motion sync, …).
@@ -104,34 +112,7 @@ pub fn eval(src: &SourceFile, e: &Expr, vars: &mut dyn VarSource) -> Result<Opti
                 _ => {}
             }
             let (x, y) = (xa.unwrap_or(0.0), yb.unwrap_or(0.0));
-            let int = |v: f64| v.round() as i64;
-            match op {
-                BinaryOp::Add => x + y,
-                BinaryOp::Sub => x - y,
-                BinaryOp::Mul => x * y,
-                BinaryOp::Div => {
-                    if y == 0.0 {
-                        return Err(err("division by zero".into()));
-                    }
-                    x / y
-                }
-                BinaryOp::Mod => {
-                    let (xi, yi) = (int(x), int(y));
-                    if yi == 0 {
-                        return Err(err("MOD by zero".into()));
-                    }
-                    // Fanuc: operands rounded to integers, the remainder has the dividend's sign.
-                    (xi % yi) as f64
-                }
-                BinaryOp::Or => (int(x) | int(y)) as f64,
-                BinaryOp::Xor => (int(x) ^ int(y)) as f64,
-                BinaryOp::And => (int(x) & int(y)) as f64,
-                BinaryOp::Eq | BinaryOp::Ne => bool01((x == y) == matches!(op, BinaryOp::Eq)),
-                BinaryOp::Gt => bool01(x > y),
-                BinaryOp::Ge => bool01(x >= y),
-                BinaryOp::Lt => bool01(x < y),
-                BinaryOp::Le => bool01(x <= y),
-            }
+            ops::binary(*op, x, y).map_err(|e| err(e.to_string()))?
         }
         ExprKind::Call(f, args) => {
             let want = if matches!(f, Func::Pow) { 2 } else { 1 };
@@ -146,57 +127,13 @@ pub fn eval(src: &SourceFile, e: &Expr, vars: &mut dyn VarSource) -> Result<Opti
             for (slot, a) in v.iter_mut().zip(args) {
                 *slot = eval(src, a, vars)?.unwrap_or(0.0);
             }
-            let a = v[0];
-            match f {
-                Func::Sin => a.to_radians().sin(),
-                Func::Cos => a.to_radians().cos(),
-                Func::Tan => a.to_radians().tan(),
-                Func::Asin | Func::Acos => {
-                    if !(-1.0..=1.0).contains(&a) {
-                        return Err(err(format!("{f:?} of {a}: outside -1..1")));
-                    }
-                    if matches!(f, Func::Asin) {
-                        a.asin().to_degrees()
-                    } else {
-                        a.acos().to_degrees()
-                    }
-                }
-                Func::Atan if args.len() == 2 => {
-                    let d = v[0].atan2(v[1]).to_degrees();
-                    if d < 0.0 { d + 360.0 } else { d }
-                }
-                Func::Atan => a.atan().to_degrees(),
-                Func::Sqrt => {
-                    if a < 0.0 {
-                        return Err(err(format!("SQRT of a negative number ({a})")));
-                    }
-                    a.sqrt()
-                }
-                Func::Abs => a.abs(),
-                Func::Round => a.round(),
-                Func::Fix => a.trunc(),
-                Func::Fup => {
-                    let t = a.trunc();
-                    if t == a { t } else { t + a.signum() }
-                }
-                Func::Ln => {
-                    if a <= 0.0 {
-                        return Err(err(format!("LN of {a}: needs a positive number")));
-                    }
-                    a.ln()
-                }
-                Func::Exp => a.exp(),
-                Func::Pow => a.powf(v[1]),
-                Func::Bin => bcd_to_bin(a).ok_or_else(|| err(format!("BIN of {a}: not BCD")))?,
-                Func::Bcd => bin_to_bcd(a)
-                    .ok_or_else(|| err(format!("BCD of {a}: not a whole number >= 0")))?,
-            }
+            ops::call(*f, v[0], v[1], args.len() == 2).map_err(|e| err(e.to_string()))?
         }
         #[allow(unreachable_patterns)]
         _ => {
             return Err(err(format!(
                 "C-like expressions are allowed {}",
-                crate::macros::C_LIKE_ONLY
+                C_LIKE_ONLY
             )));
         }
     };
@@ -205,40 +142,6 @@ pub fn eval(src: &SourceFile, e: &Expr, vars: &mut dyn VarSource) -> Result<Opti
     } else {
         Err(err("the result is not a finite number".into()))
     }
-}
-
-fn bool01(b: bool) -> f64 {
-    if b { 1.0 } else { 0.0 }
-}
-
-fn bcd_to_bin(a: f64) -> Option<f64> {
-    if a < 0.0 || a.fract() != 0.0 || a > u32::MAX as f64 {
-        return None;
-    }
-    let (mut x, mut r, mut m) = (a as u64, 0u64, 1u64);
-    while x > 0 {
-        let d = x & 0xF;
-        if d > 9 {
-            return None;
-        }
-        r += d * m;
-        m *= 10;
-        x >>= 4;
-    }
-    Some(r as f64)
-}
-
-fn bin_to_bcd(a: f64) -> Option<f64> {
-    if a < 0.0 || a.fract() != 0.0 || a > 99_999_999.0 {
-        return None;
-    }
-    let (mut x, mut r, mut sh) = (a as u64, 0u64, 0u32);
-    while x > 0 {
-        r |= (x % 10) << sh;
-        sh += 4;
-        x /= 10;
-    }
-    Some(r as f64)
 }
 
 #[cfg(test)]

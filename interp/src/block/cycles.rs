@@ -11,9 +11,9 @@ use cnc402_lang::NcError;
 use cnc402_lang::ast::Span;
 use cnc402_motion::segment::{AxisPos, SegmentKind, SpindleDir, StopKind};
 
-use crate::interp::Exec;
-use crate::state::Cycle;
-use crate::words::fmt_num;
+use super::exec::Exec;
+use super::state::Cycle;
+use super::words::fmt_num;
 
 /// Lengths closer than this are the same point.
 const EPS: f64 = 1e-9;
@@ -155,10 +155,8 @@ impl Exec<'_> {
             } else {
                 z + self.st.origin(id)
             };
-            if self.st.tool_axis == Some(id) {
-                // The drilling moves carry the whole offset vector (restored after G28).
-                self.st.tlo_in_pos = self.st.tlo;
-            }
+            // The drilling moves carry the whole offset vector (restored after G28).
+            self.st.restore_tlo(id);
             if (bottom - r_level).abs() < EPS {
                 return Err(self
                     .err(

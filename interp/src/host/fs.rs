@@ -8,8 +8,10 @@ use std::path::{Path, PathBuf};
 use cnc402_config::MachineConfig;
 use cnc402_lang::SourceFile;
 
+use crate::block::Options;
+use crate::flow::Interpreter;
 use crate::host::{PersistentVars, ProgramLibrary, UsedFile};
-use crate::nvfile::{NvTable, VarFileError};
+use crate::vars::nv::{NvTable, VarFileError};
 
 /// Extensions a program file may have (compared case-insensitively).
 pub const PROGRAM_EXTENSIONS: &[&str] = &["nc", "cnc", "ngc", "tap", "txt", "mpf", "spf"];
@@ -202,7 +204,7 @@ pub enum VarsAccess {
 /// Gives `it` the non-volatile variables of the config's `interp.variables_file` (nothing if
 /// the config names none). A damaged file is not an error here: it becomes the first
 /// `next_segment` error of every program `it` loads, at the main file.
-pub fn attach_variables_file(it: &mut crate::Interpreter, cfg: &MachineConfig, access: VarsAccess) {
+pub fn attach_variables_file(it: &mut Interpreter, cfg: &MachineConfig, access: VarsAccess) {
     let Some(path) = cfg.variables_file() else {
         return;
     };
@@ -220,12 +222,8 @@ pub fn attach_variables_file(it: &mut crate::Interpreter, cfg: &MachineConfig, a
 
 /// An interpreter for `cfg` with the file system injected: [`FsLibrary::from_config`] and the
 /// variables file with `access`. What the `cnc402` binaries use.
-pub fn interpreter(
-    cfg: &MachineConfig,
-    opts: crate::Options,
-    access: VarsAccess,
-) -> crate::Interpreter {
-    let mut it = crate::Interpreter::with_options(cfg, opts);
+pub fn interpreter(cfg: &MachineConfig, opts: Options, access: VarsAccess) -> Interpreter {
+    let mut it = Interpreter::with_options(cfg, opts);
     it.set_program_library(Some(Box::new(FsLibrary::from_config(cfg))));
     attach_variables_file(&mut it, cfg, access);
     it
@@ -238,7 +236,7 @@ pub fn run_program(
     src: &SourceFile,
 ) -> Result<Vec<cnc402_motion::segment::Segment>, cnc402_lang::NcError> {
     let program = cnc402_lang::parse(src)?;
-    let mut it = interpreter(cfg, crate::Options::default(), VarsAccess::ReadOnly);
+    let mut it = interpreter(cfg, Options::default(), VarsAccess::ReadOnly);
     it.load(src.clone(), program);
     it.collect()
 }

@@ -5,7 +5,7 @@
 use cnc402_lang::ast::{Block, Span, Value};
 use cnc402_lang::{NcError, SourceFile};
 
-use crate::eval;
+use crate::expr as eval;
 
 /// The value of one address in a block.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,7 +1,7 @@
 //! Offsets and reference positions in a block: tool length compensation (G43/G44/G49 with H,
 //! Fanuc type A: always along Z), programmable data input (G10 L2 work offsets, L10–L13 tool
 //! offsets, Fanuc memory C), coordinate system setting (G92) and reference position return
-//! (G28, G30 P2–P4, G29 back). The position model is in [`crate::state::ModalState`]: machine
+//! (G28, G30 P2–P4, G29 back). The position model is in [`super::state::ModalState`]: machine
 //! = programmed + work offset + G92 shift + tool length offset vector.
 
 use cnc402_config::TOOL_OFFSETS;
@@ -9,66 +9,57 @@ use cnc402_lang::NcError;
 use cnc402_lang::ast::Span;
 use cnc402_motion::segment::{AxisPos, SegmentKind};
 
-use crate::interp::Exec;
-use crate::state::{Motion, ToolLength};
-use crate::words::{Arg, GGroup, fmt_num};
+use super::exec::Exec;
+use super::state::{ModalState, Motion, ToolLength};
+use super::words::{Arg, GGroup, fmt_num};
 
-/// Which value of a tool offset number `G10 L10–L13` and the `#1xxxx` variables address.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OffsetField {
-    LengthGeometry,
-    LengthWear,
-    RadiusGeometry,
-    RadiusWear,
-}
+pub use crate::vars::{OffsetField, tool_offset_var};
 
-impl OffsetField {
-    pub fn get(self, t: &cnc402_config::ToolOffset) -> f64 {
-        match self {
-            OffsetField::LengthGeometry => t.length,
-            OffsetField::LengthWear => t.length_wear,
-            OffsetField::RadiusGeometry => t.radius,
-            OffsetField::RadiusWear => t.radius_wear,
+/// The one owner of the offset state in [`ModalState`]: work offsets, the G92 shift and the
+/// tool length offset are changed only here (the rest of the interpreter calls these).
+impl ModalState {
+    /// The part of the tool length offset vector on axis `i` that `pos` does not include yet.
+    pub fn tlo_pending(&self, i: usize) -> f64 {
+        if self.tool_axis == Some(i) {
+            self.tlo - self.tlo_in_pos
+        } else {
+            0.0
         }
     }
-    pub fn set(self, t: &mut cnc402_config::ToolOffset, v: f64) {
-        match self {
-            OffsetField::LengthGeometry => t.length = v,
-            OffsetField::LengthWear => t.length_wear = v,
-            OffsetField::RadiusGeometry => t.radius = v,
-            OffsetField::RadiusWear => t.radius_wear = v,
+
+    /// A move of axis `i` from here on carries the whole vector (a programmed tool-axis move).
+    pub(crate) fn restore_tlo(&mut self, i: usize) {
+        if self.tool_axis == Some(i) {
+            self.tlo_in_pos = self.tlo;
         }
     }
-}
 
-/// `#n` as a tool offset variable (Fanuc memory C): `#10001+` H wear, `#11001+` H geometry,
-/// `#12001+` D wear, `#13001+` D geometry (offsets 1..400), and the older numbers of a
-/// memory C control with up to 200 offsets: `#2001+` H wear, `#2201+` H geometry. `None`:
-/// not a tool offset variable.
-///
-/// ```
-/// use cnc402_interp::offsets::{OffsetField, tool_offset_var};
-/// assert_eq!(tool_offset_var(11001), Some((1, OffsetField::LengthGeometry)));
-/// assert_eq!(tool_offset_var(12400), Some((400, OffsetField::RadiusWear)));
-/// assert_eq!(tool_offset_var(2201), Some((1, OffsetField::LengthGeometry)));
-/// assert_eq!(tool_offset_var(2200), Some((200, OffsetField::LengthWear)));
-/// assert_eq!(tool_offset_var(10401), None);
-/// ```
-pub fn tool_offset_var(n: i64) -> Option<(usize, OffsetField)> {
-    let max = TOOL_OFFSETS as i64;
-    let (base, field) = match n {
-        2001..=2200 => (2000, OffsetField::LengthWear),
-        2201..=2400 => (2200, OffsetField::LengthGeometry),
-        _ => match n / 1000 {
-            10 => (10000, OffsetField::LengthWear),
-            11 => (11000, OffsetField::LengthGeometry),
-            12 => (12000, OffsetField::RadiusWear),
-            13 => (13000, OffsetField::RadiusGeometry),
-            _ => return None,
-        },
-    };
-    let k = n - base;
-    (1..=max).contains(&k).then_some((k as usize, field))
+    /// Axis `i` went to a machine position (G28/G30/G53): `pos` holds none of the vector.
+    pub(crate) fn drop_tlo(&mut self, i: usize) {
+        if self.tool_axis == Some(i) {
+            self.tlo_in_pos = 0.0;
+        }
+    }
+
+    /// G43/G44/G49 take effect: the mode and its vector (`len`, the H offset's length).
+    pub(crate) fn set_tool_length(&mut self, mode: ToolLength, len: f64) {
+        self.tool_length = mode;
+        self.tlo = match mode {
+            ToolLength::Off => 0.0,
+            ToolLength::Plus => len,
+            ToolLength::Minus => -len,
+        };
+    }
+
+    /// Work offset G54+`k` on `axis` (G10 L2, `#5221…`), mm / degrees.
+    pub(crate) fn set_work_offset(&mut self, k: usize, axis: usize, v: f64) {
+        self.work_offsets[k][axis] = v;
+    }
+
+    /// A field of tool offset `k` (1-based; G10 L10–L13, `#10001…`).
+    pub(crate) fn set_tool_offset(&mut self, k: usize, field: OffsetField, v: f64) {
+        field.set(&mut self.tool_offsets[k - 1], v);
+    }
 }
 
 impl Exec<'_> {
@@ -144,7 +135,7 @@ impl Exec<'_> {
         if self.st.tool_axis.is_none() {
             if mode == ToolLength::Off {
                 // G49 in a safety line on a machine without Z: nothing to cancel.
-                self.st.tool_length = mode;
+                self.st.set_tool_length(mode, 0.0);
                 return Ok(());
             }
             return Err(self.err(
@@ -190,12 +181,7 @@ impl Exec<'_> {
                 t.length + t.length_wear
             }
         };
-        self.st.tool_length = mode;
-        self.st.tlo = match mode {
-            ToolLength::Off => 0.0,
-            ToolLength::Plus => len,
-            ToolLength::Minus => -len,
-        };
+        self.st.set_tool_length(mode, len);
         self.tlo_commanded = true;
         Ok(())
     }
@@ -450,9 +436,7 @@ impl Exec<'_> {
                 continue;
             }
             end[i] = r;
-            if self.st.tool_axis == Some(i) {
-                self.st.tlo_in_pos = 0.0;
-            }
+            self.st.drop_tlo(i);
         }
         if end != self.st.pos {
             self.rapid(end, &letters)?;

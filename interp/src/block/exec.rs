@@ -1,441 +1,18 @@
-//! The interpreter: a program counter over the lines of a parsed program, the modal state, and
-//! one block's execution ([`Exec`]) turning words into [`Segment`]s. Segments are produced on
-//! demand ([`Interpreter::next_segment`]) so that the interpreter can run ahead of motion and,
-//! with Macro B, stop at sync points (reading a position variable waits for queued motion).
-
-use std::collections::{HashMap, VecDeque};
-use std::sync::Arc;
+//! One block's execution ([`Exec`]): its collected words run against the modal state and
+//! become [`Segment`]s (modes, feed and speed, M codes, dwell, straight and arc motion; the
+//! offsets and canned cycles are in their own files and extend `Exec`).
 
 use cnc402_config::MachineConfig;
-use cnc402_lang::ast::{Block, Comment, Line, Program, Span};
+use cnc402_lang::ast::{Comment, Line, Span};
 use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{
-    ArcDir, AxisPos, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind, arc_length,
+    ArcDir, AxisPos, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind,
 };
 
-use crate::arc::{self, ArcError};
-use crate::host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary};
-use crate::macros::{Frame, ModalCall, Runaway, Unit, VarTable};
-use crate::nvfile::NvTable;
-use crate::state::{Cycle, CycleData, ModalState, Motion};
-use crate::words::{Arg, GGroup, Words, fmt_num};
-
-/// Operator switches that change how a program runs.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Options {
-    /// Block delete switch: when on, lines starting with `/` are skipped. Default on.
-    pub block_delete: bool,
-    /// Optional stop switch: when on, M1 stops like M0; when off, M1 does nothing. Default on.
-    pub optional_stop: bool,
-    /// Machine position of every axis when the program starts (default all 0). C, the spindle,
-    /// is the program's view and should start at 0.
-    pub start: AxisPos,
-    /// What `M99` without `P` does in the main program. Default [`MainM99::End`].
-    pub main_m99: MainM99,
-}
-
-/// `M99` (without `P`) in the main program.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum MainM99 {
-    /// The program ends there after one pass (a segment dump, a dry run), and
-    /// [`Interpreter::main_m99_line`] says where.
-    #[default]
-    End,
-    /// As on a Fanuc control: the main program starts over from its first block, endlessly,
-    /// with its modal state and variables as they are (a machine run; it ends by M2/M30 in a
-    /// branch, an alarm, or the operator).
-    Repeat,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            block_delete: true,
-            optional_stop: true,
-            start: AxisPos::default(),
-            main_m99: MainM99::End,
-        }
-    }
-}
-
-/// Runs one program: `load` it, then pull segments with [`next_segment`](Self::next_segment)
-/// (or iterate). The first error ends the run; segments of the block that failed are never
-/// produced (a canned cycle is checked whole before any of it is given out).
-///
-/// Custom Macro B (see [`crate::macros`]): variables, GOTO/IF/WHILE, sub-programs (`M98`,
-/// `M99`, `G65`, `G66`/`G67`) looked up in the running file and then in the injected
-/// [`ProgramLibrary`] (default: none), non-volatile `#500–#999` kept by an injected
-/// [`PersistentVars`] (default: memory only), and position reads synchronised through a
-/// [`MotionSync`] (default: [`ExactStop`]). The defaults do no I/O; the file system comes in
-/// through [`crate::host_fs`].
-pub struct Interpreter {
-    pub(crate) cfg: MachineConfig,
-    pub(crate) opts: Options,
-    pub(crate) state: ModalState,
-    /// The main program's file (for errors that belong to no line).
-    pub(crate) main_src: Arc<SourceFile>,
-    /// The programs of the main file; `units[main_unit]` runs first.
-    pub(crate) units: Vec<Arc<Unit>>,
-    /// Programs found in the library, by number.
-    pub(crate) lib_cache: HashMap<u32, Arc<Unit>>,
-    /// The call stack; `frames[0]` is the main program. Empty before `load`.
-    pub(crate) frames: Vec<Frame>,
-    pub(crate) vars: VarTable,
-    pub(crate) sync: Box<dyn MotionSync>,
-    pub(crate) library: Option<Box<dyn ProgramLibrary>>,
-    pub(crate) nv_store: Option<Box<dyn PersistentVars>>,
-    /// The injected variables could not be read (`set_persistent_vars_error`): every `load`
-    /// fails with this at the first `next_segment`.
-    pub(crate) nv_error: Option<String>,
-    /// An error found at `load` (damaged variables file), given out by the first
-    /// `next_segment`.
-    pub(crate) load_error: Option<String>,
-    pub(crate) modal_call: Option<ModalCall>,
-    pub(crate) runaway: Runaway,
-    /// Last M code, N number (for `#4113`, `#4114`).
-    pub(crate) last_m: Option<f64>,
-    pub(crate) last_n: Option<f64>,
-    /// Length of every segment produced so far (mm), and where the last one ended.
-    pub(crate) path_len: f64,
-    pub(crate) path_end: AxisPos,
-    pub(crate) queue: VecDeque<Segment>,
-    /// A `%` after the first block, M2/M30, an error, or the end of the text.
-    pub(crate) done: bool,
-    pub(crate) seen_block: bool,
-    /// The line of the main program's `M99` that ended it ([`MainM99::End`]).
-    pub(crate) main_m99_line: Option<u32>,
-    /// The C-like language (`$` globals, the running C-like program).
-    pub(crate) hll: crate::hll::Hll,
-}
-
-impl Interpreter {
-    /// The line of the `M99` (without `P`) that ended the main program after one pass, with
-    /// [`MainM99::End`]; `None` when it ended otherwise (or has not ended).
-    pub fn main_m99_line(&self) -> Option<u32> {
-        self.main_m99_line
-    }
-
-    /// An interpreter for the machine `cfg`, default [`Options`], no program loaded.
-    pub fn new(cfg: &MachineConfig) -> Self {
-        Self::with_options(cfg, Options::default())
-    }
-
-    /// An interpreter with explicit operator switches.
-    pub fn with_options(cfg: &MachineConfig, opts: Options) -> Self {
-        Interpreter {
-            state: ModalState::new(cfg, opts.start),
-            cfg: cfg.clone(),
-            main_src: Arc::new(SourceFile::new("", "")),
-            units: Vec::new(),
-            lib_cache: HashMap::new(),
-            frames: Vec::new(),
-            vars: VarTable::default(),
-            sync: Box::new(ExactStop),
-            library: None,
-            nv_store: None,
-            nv_error: None,
-            load_error: None,
-            modal_call: None,
-            runaway: Runaway::default(),
-            last_m: None,
-            last_n: None,
-            path_len: 0.0,
-            path_end: opts.start,
-            opts,
-            queue: VecDeque::new(),
-            done: true,
-            seen_block: false,
-            main_m99_line: None,
-            hll: crate::hll::Hll::default(),
-        }
-    }
-
-    /// Replaces the motion sync used when a position variable is read (the runtime's feeder
-    /// gives one that waits until the loop is idle).
-    pub fn set_motion_sync(&mut self, sync: Box<dyn MotionSync>) {
-        self.sync = sync;
-    }
-
-    /// Sets where sub-programs not in the running file and `#use` files are looked up
-    /// (default and `None`: nowhere, so such a call or `#use` is a not-found error).
-    pub fn set_program_library(&mut self, lib: Option<Box<dyn ProgramLibrary>>) {
-        self.library = lib;
-    }
-
-    /// Sets the non-volatile variables `#500–#999` and where writes go (`None`: memory only,
-    /// the default). They keep their values across `load`s of this interpreter.
-    pub fn set_persistent_vars(&mut self, table: NvTable, store: Option<Box<dyn PersistentVars>>) {
-        self.vars.nv.copy_from_slice(table.as_slice());
-        self.nv_store = store;
-        self.nv_error = None;
-    }
-
-    /// The non-volatile variables could not be read (e.g. a damaged file): every program
-    /// loaded from now on ends with `why` at its first `next_segment`, at the main file.
-    pub fn set_persistent_vars_error(&mut self, why: String) {
-        self.nv_store = None;
-        self.nv_error = Some(why);
-    }
-
-    /// The non-volatile variables as they are now.
-    pub fn persistent_vars(&self) -> NvTable {
-        NvTable::from_slice(&self.vars.nv[..])
-    }
-
-    /// Macro variable `#n` as the program would read it (no motion sync: the programmed
-    /// position stands for the actual one). `None`: vacant or no such variable.
-    pub fn var(&mut self, n: u32) -> Option<f64> {
-        let saved = std::mem::replace(&mut self.sync, Box::new(ExactStop));
-        let v = self.read_var(i64::from(n)).ok().flatten();
-        self.sync = saved;
-        v
-    }
-
-    /// Path length (mm) of all segments produced so far: linear axes, arcs along the arc.
-    pub fn path_length(&self) -> f64 {
-        self.path_len
-    }
-
-    /// Starts `program` (parsed from `src`) from its first line with the modal state of a fresh
-    /// start. Common variables `#100–#199` are cleared (reset); locals start vacant;
-    /// non-volatile ones keep their values (see [`set_persistent_vars`](Self::set_persistent_vars)).
-    /// A C-like program is checked here (its `#use` files come from the program library).
-    pub fn load(&mut self, src: SourceFile, program: Program) {
-        let library: Option<&mut dyn ProgramLibrary> = match &mut self.library {
-            Some(l) => Some(l.as_mut()),
-            None => None,
-        };
-        self.hll.load(&self.cfg, &src, &program, library);
-        let src = Arc::new(src);
-        let program = Arc::new(program);
-        let (units, main) = crate::macros::split_units(&src, &program);
-        self.state = ModalState::new(&self.cfg, self.opts.start);
-        self.main_src = src;
-        self.units = units;
-        self.lib_cache.clear();
-        self.frames = vec![Frame::new(self.units[main].clone(), false)];
-        self.vars.reset();
-        self.modal_call = None;
-        self.runaway = Runaway::default();
-        self.last_m = None;
-        self.last_n = None;
-        self.path_len = 0.0;
-        self.path_end = self.opts.start;
-        self.load_error = self.nv_error.clone();
-        self.queue.clear();
-        self.done = false;
-        self.seen_block = false;
-        self.main_m99_line = None;
-    }
-
-    /// The next segment, `Ok(None)` at the end of the program, or the error that ends it.
-    pub fn next_segment(&mut self) -> Result<Option<Segment>, NcError> {
-        if let Some(e) = self.load_error.take() {
-            self.done = true;
-            return Err(NcError::new(&self.main_src, Span::default(), e));
-        }
-        if self.hll.active() {
-            return crate::hll::next_segment(self);
-        }
-        loop {
-            if let Some(s) = self.queue.pop_front() {
-                self.account(&s);
-                return Ok(Some(s));
-            }
-            if self.done {
-                return Ok(None);
-            }
-            if let Err(e) = self.step() {
-                self.done = true;
-                self.queue.clear();
-                return Err(e);
-            }
-        }
-    }
-
-    /// Adds a handed-out segment's length to the path length.
-    pub(crate) fn account(&mut self, s: &Segment) {
-        let lin = |a: &AxisPos, b: &AxisPos, cfg: &MachineConfig| {
-            let mut d2 = 0.0;
-            let mut r2 = 0.0;
-            for (i, ax) in cfg.axes.iter().enumerate() {
-                let d = b[i] - a[i];
-                if ax.kind.is_rotary() {
-                    r2 += d * d;
-                } else {
-                    d2 += d * d;
-                }
-            }
-            if d2 > 0.0 { d2.sqrt() } else { r2.sqrt() }
-        };
-        match &s.kind {
-            SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => {
-                self.path_len += lin(&self.path_end, end, &self.cfg);
-                self.path_end = *end;
-            }
-            SegmentKind::Arc {
-                end,
-                center,
-                plane,
-                dir,
-                turns,
-                ..
-            } => {
-                let (a, b, n) = plane.letters();
-                let idx = |l: char| self.cfg.axis_index(l);
-                if let (Some(ia), Some(ib)) = (idx(a), idx(b)) {
-                    let start = [self.path_end[ia], self.path_end[ib]];
-                    let stop = [end[ia], end[ib]];
-                    let c = plane.center_in_plane(*center);
-                    let h = idx(n).map_or(0.0, |i| end[i] - self.path_end[i]);
-                    self.path_len += arc_length(start, stop, c, *dir, *turns).hypot(h);
-                }
-                self.path_end = *end;
-            }
-            // G28/G30 C: program C reads the reference from here (the turn is no path).
-            SegmentKind::SpindleOrient {
-                program: Some(c), ..
-            } => {
-                if let Some(i) = self.cfg.spindle_index() {
-                    self.path_end[i] = *c;
-                }
-            }
-            _ => {}
-        }
-    }
-
-    /// The modal state after the last executed block.
-    pub fn state(&self) -> &ModalState {
-        &self.state
-    }
-
-    /// The 1-based line of the first block numbered `N n` in the main program, if any.
-    pub fn label_line(&self, n: u32) -> Option<u32> {
-        let u = self.frames.first()?;
-        u.unit
-            .labels
-            .get(&n)
-            .map(|&i| u.unit.program.lines[i].line_no)
-    }
-
-    /// Runs one block of `unit` (the current frame's program), with words evaluated against
-    /// the variables (vacant words left out), then whatever the block asks for after its
-    /// words: an `M98` call, an `M99` return, or the `G66` modal call after a move.
-    pub(crate) fn exec_block(
-        &mut self,
-        unit: &Arc<Unit>,
-        line: &Line,
-        block: Option<&Block>,
-    ) -> Result<(), NcError> {
-        let empty = Block::default();
-        let block = block.unwrap_or(&empty);
-        if let Some(named) = block.named_axes.first() {
-            return Err(NcError::new(
-                &unit.src,
-                named.span,
-                format!(
-                    "AXSTR axis words are allowed {}",
-                    crate::macros::C_LIKE_ONLY
-                ),
-            ));
-        }
-        if crate::macros::is_g65_h(block) {
-            return self.g65_h(unit, line, block);
-        }
-        // A G65/G66 call may repeat I, J and K (argument specification II): they are taken
-        // out of the block here, in source order, and numbered by `take_calls`.
-        let mut ijk = Vec::new();
-        let filtered;
-        let block = if crate::macros::is_macro_call(block)
-            && block
-                .words
-                .iter()
-                .any(|w| matches!(w.letter, 'I' | 'J' | 'K'))
-        {
-            for w in &block.words {
-                if matches!(w.letter, 'I' | 'J' | 'K') {
-                    let v = crate::eval::value_in(&unit.src, &w.value, self)?;
-                    ijk.push((w.letter, v, w.span));
-                }
-            }
-            let mut b = block.clone();
-            b.words.retain(|w| !matches!(w.letter, 'I' | 'J' | 'K'));
-            filtered = b;
-            &filtered
-        } else {
-            block
-        };
-        let mut words = Words::collect_with(&unit.src, block, self)?;
-        let Some(call) = self.take_calls(unit, &mut words, &ijk)? else {
-            return Ok(());
-        };
-        let has_axis = self.cfg.axes.iter().any(|a| words.peek(a.name).is_some());
-        if let Some(m) = words.m.last() {
-            self.last_m = Some(f64::from(m.0));
-        }
-        let (out, end) = Exec::execute(
-            &self.cfg,
-            &self.opts,
-            &unit.src,
-            &mut self.state,
-            words,
-            line,
-        )?;
-        if out.iter().any(|s| {
-            matches!(
-                s.kind,
-                SegmentKind::Rapid { .. }
-                    | SegmentKind::Linear { .. }
-                    | SegmentKind::Arc { .. }
-                    | SegmentKind::Dwell { .. }
-            )
-        }) {
-            self.runaway.reset();
-        }
-        self.queue.extend(out);
-        if end {
-            self.done = true;
-            return Ok(());
-        }
-        self.after_block(unit, call, has_axis)
-    }
-}
-
-impl Iterator for Interpreter {
-    type Item = Result<Segment, NcError>;
-    /// Segments until the end of the program; an error is the last item.
-    fn next(&mut self) -> Option<Self::Item> {
-        self.next_segment().transpose()
-    }
-}
-
-/// Parses and runs `src` to its end: every segment, or the first error (parser or interpreter).
-///
-/// ```
-/// use cnc402_config::MachineConfig;
-/// use cnc402_lang::SourceFile;
-/// let cfg = MachineConfig::default_machine();
-/// let segs = cnc402_interp::run_program(&cfg, &SourceFile::new("a.nc", "G1 X10 F100\nM30\n"))
-///     .unwrap();
-/// assert_eq!(segs.len(), 2);
-/// let err = cnc402_interp::run_program(&cfg, &SourceFile::new("b.nc", "G1 X10\n")).unwrap_err();
-/// assert_eq!(err.to_string(), "b.nc:1:1: zero feed in a motion block (expected an F word > 0 in this or an earlier block)\n    G1 X10");
-/// ```
-pub fn run_program(cfg: &MachineConfig, src: &SourceFile) -> Result<Vec<Segment>, NcError> {
-    run_program_with(cfg, Options::default(), src)
-}
-
-/// [`run_program`] with explicit operator switches.
-pub fn run_program_with(
-    cfg: &MachineConfig,
-    opts: Options,
-    src: &SourceFile,
-) -> Result<Vec<Segment>, NcError> {
-    let program = cnc402_lang::parse(src)?;
-    let mut it = Interpreter::with_options(cfg, opts);
-    it.load(src.clone(), program);
-    it.collect()
-}
+use super::arc::{self, ArcError};
+use super::options::Options;
+use super::state::{Cycle, CycleData, ModalState, Motion};
+use super::words::{Arg, GGroup, Words, fmt_num};
 
 /// One block being executed.
 pub(crate) struct Exec<'a> {
@@ -586,8 +163,7 @@ impl Exec<'_> {
         }
         if self.tlo_cancel_after {
             // The vector left in `pos` (if Z did not move) is taken out at Z's next move.
-            self.st.tool_length = crate::state::ToolLength::Off;
-            self.st.tlo = 0.0;
+            self.st.set_tool_length(super::state::ToolLength::Off, 0.0);
         }
         self.m_after_motion();
         if let Some((c, a)) = self.w.first_unused() {
@@ -1008,19 +584,13 @@ impl Exec<'_> {
         } else {
             v + self.st.origin(i)
         };
-        if self.st.tool_axis == Some(i) {
-            self.st.tlo_in_pos = self.st.tlo;
-        }
+        self.st.restore_tlo(i);
         m
     }
 
     /// The part of the tool length offset vector on axis `i` that `pos` does not include yet.
     pub fn tlo_pending(&self, i: usize) -> f64 {
-        if self.st.tool_axis == Some(i) {
-            self.st.tlo - self.st.tlo_in_pos
-        } else {
-            0.0
-        }
+        self.st.tlo_pending(i)
     }
 
     /// A programmed value of `ax` in mm / degrees (inch programs converted).
@@ -1044,9 +614,7 @@ impl Exec<'_> {
                 let v = self.axis_value(i, a);
                 end[i] = if machine {
                     // Fanuc: G53 cancels the tool length offset vector of the axis it moves.
-                    if self.st.tool_axis == Some(i) {
-                        self.st.tlo_in_pos = 0.0;
-                    }
+                    self.st.drop_tlo(i);
                     v
                 } else {
                     self.word_target(i, v)
@@ -1059,7 +627,7 @@ impl Exec<'_> {
                     end[i] = self.st.pos[i] + d;
                     any = true;
                 }
-                self.st.tlo_in_pos = self.st.tlo;
+                self.st.restore_tlo(i);
             }
         }
         (end, any)
@@ -1253,122 +821,5 @@ impl Exec<'_> {
         });
         self.st.pos = end;
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn cfg() -> MachineConfig {
-        MachineConfig::default_machine()
-    }
-
-    fn load(text: &str, opts: Options) -> Interpreter {
-        let src = SourceFile::new("t.nc", text);
-        let p = cnc402_lang::parse(&src).expect("parses");
-        let mut it = Interpreter::with_options(&cfg(), opts);
-        it.load(src, p);
-        it
-    }
-
-    #[test]
-    fn segments_come_one_at_a_time_with_their_source() {
-        let mut it = load("N5 G0 X1\n\nN7 G1 Y2 F50\n", Options::default());
-        let a = it.next_segment().unwrap().unwrap();
-        assert_eq!(
-            (a.source.line, a.source.n, &*a.source.file),
-            (1, Some(5), "t.nc")
-        );
-        // The interpreter has run only as far as it had to.
-        assert_eq!(it.state().pos[1], 0.0);
-        let b = it.next_segment().unwrap().unwrap();
-        assert_eq!((b.source.line, b.source.n), (3, Some(7)));
-        assert_eq!(it.state().pos[1], 2.0);
-        assert_eq!(it.next_segment().unwrap(), None);
-        assert_eq!(it.next_segment().unwrap(), None);
-        assert_eq!(it.label_line(7), Some(3));
-        assert_eq!(it.label_line(6), None);
-    }
-
-    #[test]
-    fn options_switch_m1_block_delete_and_start() {
-        let mut start = AxisPos::default();
-        start[2] = 30.0;
-        let opts = Options {
-            block_delete: false,
-            optional_stop: false,
-            start,
-            main_m99: MainM99::End,
-        };
-        let segs: Vec<_> = load("/G0 X5\nM1\nG91 G0 Z-5\n", opts)
-            .collect::<Result<_, _>>()
-            .unwrap();
-        assert_eq!(segs.len(), 2, "M1 is skipped, the / block runs");
-        let SegmentKind::Rapid { end } = segs[1].kind else {
-            panic!()
-        };
-        assert_eq!((end[0], end[2]), (5.0, 25.0));
-    }
-
-    #[test]
-    fn s_change_while_turning_and_g95_feed() {
-        let segs: Vec<_> = load(
-            "M3 S100\nS200\nG95 G1 X1 F0.5\nM5\nS300\n",
-            Options::default(),
-        )
-        .collect::<Result<_, _>>()
-        .unwrap();
-        let kinds: Vec<_> = segs.iter().map(|s| s.kind.clone()).collect();
-        assert_eq!(
-            kinds[1],
-            SegmentKind::Spindle {
-                rpm: 200.0,
-                dir: SpindleDir::Cw
-            }
-        );
-        assert!(matches!(kinds[2], SegmentKind::Linear { feed, .. } if feed == 100.0));
-        assert_eq!(kinds.len(), 4, "S while stopped makes no segment");
-    }
-
-    #[test]
-    fn messages_percent_end_and_msg_parsing() {
-        let segs: Vec<_> = load(
-            "%\n(MSG, hello )\nG0 X1 (not a msg)\n%\nG0 X2\n",
-            Options::default(),
-        )
-        .collect::<Result<_, _>>()
-        .unwrap();
-        assert_eq!(segs.len(), 2);
-        assert_eq!(
-            segs[0].kind,
-            SegmentKind::Message {
-                text: "hello".into()
-            }
-        );
-    }
-
-    #[test]
-    fn an_error_ends_the_run() {
-        let mut it = load("G0 X1\nG7\nG0 X2\n", Options::default());
-        assert!(it.next_segment().unwrap().is_some());
-        let e = it.next_segment().unwrap_err();
-        assert_eq!(e.line, 2);
-        assert_eq!(it.next_segment().unwrap(), None);
-    }
-}
-
-#[cfg(test)]
-mod regressions {
-    use super::*;
-
-    /// Found by the proptest: `(MSG…` detection sliced a comment at byte 3, inside `Ä`.
-    #[test]
-    fn multibyte_comment_does_not_panic_msg_detection() {
-        let cfg = MachineConfig::default_machine();
-        for t in ["(ÄÖÜ)\n", "(MSÄ, x)\n", "(MS)\n", "(msg,lower)\n"] {
-            let segs = run_program(&cfg, &SourceFile::new("t.nc", t)).unwrap();
-            assert_eq!(segs.len(), usize::from(t.starts_with("(msg")), "{t}");
-        }
     }
 }

@@ -1,0 +1,255 @@
+//! The block layer's state as the interpreter holds it ([`Machine`]): the configuration, the
+//! operator switches, the modal state, the motion sync and the path length handed out. It runs
+//! blocks ([`Exec`]) and answers the system variables that read or change this state.
+
+use cnc402_config::MachineConfig;
+use cnc402_lang::ast::Line;
+use cnc402_lang::{NcError, SourceFile};
+use cnc402_motion::segment::{AxisPos, Plane, Segment, SegmentKind, arc_length};
+
+use super::exec::Exec;
+use super::options::Options;
+use super::state::{ModalState, Motion};
+use super::words::Words;
+use crate::host::{ExactStop, MotionSync};
+use crate::vars::{MVal, VarClass};
+
+/// Block execution state: what every block runs against.
+pub struct Machine {
+    pub(crate) cfg: MachineConfig,
+    pub(crate) opts: Options,
+    pub(crate) state: ModalState,
+    pub(crate) sync: Box<dyn MotionSync>,
+    /// Length of every segment handed out so far (mm), and where the last one ended.
+    pub(crate) path_len: f64,
+    pub(crate) path_end: AxisPos,
+}
+
+impl Machine {
+    /// The machine `cfg` at the start of a program, exact-stop sync.
+    pub(crate) fn new(cfg: &MachineConfig, opts: Options) -> Machine {
+        Machine {
+            state: ModalState::new(cfg, opts.start),
+            cfg: cfg.clone(),
+            sync: Box::new(ExactStop),
+            path_len: 0.0,
+            path_end: opts.start,
+            opts,
+        }
+    }
+
+    /// A fresh start for the next program: modal state and path length (the sync stays).
+    pub(crate) fn reset(&mut self) {
+        self.state = ModalState::new(&self.cfg, self.opts.start);
+        self.path_len = 0.0;
+        self.path_end = self.opts.start;
+    }
+
+    /// Runs one block of `line` with its words collected: its segments, and whether it ended
+    /// the program (M2/M30).
+    pub(crate) fn execute(
+        &mut self,
+        src: &SourceFile,
+        words: Words,
+        line: &Line,
+    ) -> Result<(Vec<Segment>, bool), NcError> {
+        Exec::execute(&self.cfg, &self.opts, src, &mut self.state, words, line)
+    }
+
+    /// Adds a handed-out segment's length to the path length.
+    pub(crate) fn account(&mut self, s: &Segment) {
+        let lin = |a: &AxisPos, b: &AxisPos, cfg: &MachineConfig| {
+            let mut d2 = 0.0;
+            let mut r2 = 0.0;
+            for (i, ax) in cfg.axes.iter().enumerate() {
+                let d = b[i] - a[i];
+                if ax.kind.is_rotary() {
+                    r2 += d * d;
+                } else {
+                    d2 += d * d;
+                }
+            }
+            if d2 > 0.0 { d2.sqrt() } else { r2.sqrt() }
+        };
+        match &s.kind {
+            SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => {
+                self.path_len += lin(&self.path_end, end, &self.cfg);
+                self.path_end = *end;
+            }
+            SegmentKind::Arc {
+                end,
+                center,
+                plane,
+                dir,
+                turns,
+                ..
+            } => {
+                let (a, b, n) = plane.letters();
+                let idx = |l: char| self.cfg.axis_index(l);
+                if let (Some(ia), Some(ib)) = (idx(a), idx(b)) {
+                    let start = [self.path_end[ia], self.path_end[ib]];
+                    let stop = [end[ia], end[ib]];
+                    let c = plane.center_in_plane(*center);
+                    let h = idx(n).map_or(0.0, |i| end[i] - self.path_end[i]);
+                    self.path_len += arc_length(start, stop, c, *dir, *turns).hypot(h);
+                }
+                self.path_end = *end;
+            }
+            // G28/G30 C: program C reads the reference from here (the turn is no path).
+            SegmentKind::SpindleOrient {
+                program: Some(c), ..
+            } => {
+                if let Some(i) = self.cfg.spindle_index() {
+                    self.path_end[i] = *c;
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// A program length on axis `i` from mm (linear axes in inch programs) or degrees.
+    fn in_program_units(&self, i: usize, v: f64) -> f64 {
+        if self.cfg.axes[i].kind.is_rotary() {
+            v
+        } else {
+            v / self.state.unit()
+        }
+    }
+
+    /// Reads `#n` when this layer owns it: modal information, positions (a position read
+    /// first waits for motion through the [`MotionSync`]), work and tool offsets. The other
+    /// classes (locals, common, non-volatile, program flow) are the caller's: an error here.
+    pub(crate) fn read_var(&mut self, n: i64) -> Result<MVal, String> {
+        let class = VarClass::of(n, self.cfg.axes.len())?;
+        self.read_class(n, class, false)
+    }
+
+    /// [`read_var`](Self::read_var) of an already classified `#n`; `modal_call`: a G66 is in
+    /// force (`#4012`).
+    pub(crate) fn read_class(
+        &mut self,
+        n: i64,
+        class: VarClass,
+        modal_call: bool,
+    ) -> Result<MVal, String> {
+        let unit = self.state.unit();
+        Ok(match class {
+            VarClass::GroupCode(g) => self.group_code(g, modal_call),
+            VarClass::ModalInfo(k) => match k {
+                9 => Some(self.state.feed / unit),
+                11 => Some(f64::from(self.state.h)),
+                19 => Some(self.state.speed),
+                20 => Some(f64::from(self.state.tool_selected)),
+                2 | 7 | 8 => None,
+                _ => return Err(format!("#{n} is not a modal information variable")),
+            },
+            // Fanuc: the block end point without the tool length offset.
+            VarClass::Programmed(i) => Some(self.in_program_units(i, self.state.programmed(i))),
+            // The tool length offset vector in force (Z; 0 on the other axes).
+            VarClass::ToolLengthVector(i) => Some(self.in_program_units(i, self.state.tlo_of(i))),
+            VarClass::MachinePos(i) | VarClass::WorkPos(i) => {
+                let actual = self.sync.wait_motion_done(&self.state.pos)?;
+                // #5041: work coordinates with the tool length offset included (Fanuc).
+                let v = if matches!(class, VarClass::MachinePos(_)) {
+                    actual[i]
+                } else {
+                    actual[i] - self.state.work_zero(i)
+                };
+                Some(self.in_program_units(i, v))
+            }
+            VarClass::WorkOffset { k, axis } => {
+                Some(self.in_program_units(axis, self.state.work_offsets[k][axis]))
+            }
+            VarClass::ToolOffset { k, field } => {
+                Some(field.get(&self.state.tool_offsets[k - 1]) / unit)
+            }
+            VarClass::Null | VarClass::Alarm => None,
+            _ => return Err(format!("#{n} is not a variable of this control")),
+        })
+    }
+
+    /// Writes `#n` of a class this layer owns (work and tool offsets): `Ok(false)` for the
+    /// other classes.
+    pub(crate) fn write_class(&mut self, class: VarClass, v: MVal) -> bool {
+        match class {
+            VarClass::WorkOffset { k, axis } => {
+                let unit = if self.cfg.axes[axis].kind.is_rotary() {
+                    1.0
+                } else {
+                    self.state.unit()
+                };
+                self.state.set_work_offset(k, axis, v.unwrap_or(0.0) * unit);
+            }
+            VarClass::ToolOffset { k, field } => {
+                let v = v.unwrap_or(0.0) * self.state.unit();
+                self.state.set_tool_offset(k, field, v);
+            }
+            _ => return false,
+        }
+        true
+    }
+
+    /// `#4000+g`: the code of modal group `g` (groups cnc402 lacks read vacant, or the
+    /// group's cancel code when cnc402 accepts it); `modal_call`: a G66 is in force.
+    fn group_code(&self, g: u32, modal_call: bool) -> MVal {
+        let st = &self.state;
+        let v = match g {
+            1 => match st.motion {
+                Motion::Rapid => 0.0,
+                Motion::Linear => 1.0,
+                Motion::ArcCw => 2.0,
+                Motion::ArcCcw => 3.0,
+            },
+            2 => match st.plane {
+                Plane::XY => 17.0,
+                Plane::ZX => 18.0,
+                Plane::YZ => 19.0,
+            },
+            3 => {
+                if st.incremental {
+                    91.0
+                } else {
+                    90.0
+                }
+            }
+            5 => {
+                if st.feed_per_rev {
+                    95.0
+                } else {
+                    94.0
+                }
+            }
+            6 => {
+                if st.inch {
+                    20.0
+                } else {
+                    21.0
+                }
+            }
+            7 => 40.0,
+            8 => f64::from(st.tool_length.code()),
+            9 => st.cycle.map_or(80.0, |c| f64::from(c.code())),
+            10 => {
+                if st.return_to_r {
+                    99.0
+                } else {
+                    98.0
+                }
+            }
+            11 => 50.0,
+            12 => {
+                if modal_call {
+                    66.0
+                } else {
+                    67.0
+                }
+            }
+            14 => 54.0 + st.work_offset as f64,
+            15 => f64::from(st.path_mode),
+            16 => 69.0,
+            17 => 15.0,
+            _ => return None,
+        };
+        Some(v)
+    }
+}

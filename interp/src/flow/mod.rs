@@ -1,0 +1,471 @@
+//! Program flow: the [`Interpreter`] and its public API, a program counter over the lines of
+//! a parsed program, the call stack (`M98`/`M99`, `G65`, `G66`: [`units`] and `macros`) and the macro
+//! variables as the program reads and writes them ([`sysvars`]). Blocks run in the block layer
+//! ([`Machine`]); a C-like program runs in `hll`. Segments are produced on demand
+//! ([`Interpreter::next_segment`]) so that the interpreter can run ahead of motion and, with
+//! Macro B, stop at sync points (reading a position variable waits for queued motion).
+
+mod macros;
+mod sysvars;
+pub mod units;
+
+use std::collections::{HashMap, VecDeque};
+use std::sync::Arc;
+
+use cnc402_config::MachineConfig;
+use cnc402_lang::ast::{Block, Line, Program, Span};
+use cnc402_lang::{NcError, SourceFile};
+use cnc402_motion::segment::{Segment, SegmentKind};
+
+use crate::block::Machine;
+use crate::block::state::ModalState;
+use crate::block::words::Words;
+pub use crate::block::{MainM99, Options};
+use crate::expr::{self, C_LIKE_ONLY};
+use crate::hll::Hll;
+use crate::host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary};
+use crate::vars::{NvTable, VarTable};
+use units::{Frame, ModalCall, Runaway, Unit};
+
+/// Runs one program: `load` it, then pull segments with [`next_segment`](Self::next_segment)
+/// (or iterate). The first error ends the run; segments of the block that failed are never
+/// produced (a canned cycle is checked whole before any of it is given out).
+///
+/// Custom Macro B (see [`crate::macros`]): variables, GOTO/IF/WHILE, sub-programs (`M98`,
+/// `M99`, `G65`, `G66`/`G67`) looked up in the running file and then in the injected
+/// [`ProgramLibrary`] (default: none), non-volatile `#500–#999` kept by an injected
+/// [`PersistentVars`] (default: memory only), and position reads synchronised through a
+/// [`MotionSync`] (default: [`ExactStop`]). The defaults do no I/O; the file system comes in
+/// through [`crate::host_fs`].
+pub struct Interpreter {
+    /// Block execution: configuration, switches, modal state, motion sync, path length.
+    m: Machine,
+    /// Where the program is: its programs, the call stack, what it has handed out.
+    flow: Flow,
+    /// Macro variables and where the non-volatile ones are stored.
+    vars: Vars,
+    /// The C-like language (`$` globals, the running C-like program).
+    hll: Hll,
+}
+
+/// The program flow's state.
+struct Flow {
+    /// The main program's file (for errors that belong to no line).
+    main_src: Arc<SourceFile>,
+    /// The programs of the main file; the first runs first.
+    units: Vec<Arc<Unit>>,
+    /// Programs found in the library, by number.
+    lib_cache: HashMap<u32, Arc<Unit>>,
+    /// The call stack; `frames[0]` is the main program. Empty before `load`.
+    frames: Vec<Frame>,
+    library: Option<Box<dyn ProgramLibrary>>,
+    /// An error found at `load` (damaged variables file), given out by the first
+    /// `next_segment`.
+    load_error: Option<String>,
+    modal_call: Option<ModalCall>,
+    runaway: Runaway,
+    /// Last M code, N number (for `#4113`, `#4114`).
+    last_m: Option<f64>,
+    last_n: Option<f64>,
+    queue: VecDeque<Segment>,
+    /// A `%` after the first block, M2/M30, an error, or the end of the text.
+    done: bool,
+    seen_block: bool,
+    /// The line of the main program's `M99` that ended it ([`MainM99::End`]).
+    main_m99_line: Option<u32>,
+}
+
+/// The macro variables and their storage.
+#[derive(Default)]
+struct Vars {
+    table: VarTable,
+    store: Option<Box<dyn PersistentVars>>,
+    /// The injected variables could not be read (`set_persistent_vars_error`): every `load`
+    /// fails with this at the first `next_segment`.
+    error: Option<String>,
+}
+
+impl Interpreter {
+    /// The line of the `M99` (without `P`) that ended the main program after one pass, with
+    /// [`MainM99::End`]; `None` when it ended otherwise (or has not ended).
+    pub fn main_m99_line(&self) -> Option<u32> {
+        self.flow.main_m99_line
+    }
+
+    /// An interpreter for the machine `cfg`, default [`Options`], no program loaded.
+    pub fn new(cfg: &MachineConfig) -> Self {
+        Self::with_options(cfg, Options::default())
+    }
+
+    /// An interpreter with explicit operator switches.
+    pub fn with_options(cfg: &MachineConfig, opts: Options) -> Self {
+        Interpreter {
+            m: Machine::new(cfg, opts),
+            flow: Flow {
+                main_src: Arc::new(SourceFile::new("", "")),
+                units: Vec::new(),
+                lib_cache: HashMap::new(),
+                frames: Vec::new(),
+                library: None,
+                load_error: None,
+                modal_call: None,
+                runaway: Runaway::default(),
+                last_m: None,
+                last_n: None,
+                queue: VecDeque::new(),
+                done: true,
+                seen_block: false,
+                main_m99_line: None,
+            },
+            vars: Vars::default(),
+            hll: Hll::default(),
+        }
+    }
+
+    /// Replaces the motion sync used when a position variable is read (the runtime's feeder
+    /// gives one that waits until the loop is idle).
+    pub fn set_motion_sync(&mut self, sync: Box<dyn MotionSync>) {
+        self.m.sync = sync;
+    }
+
+    /// Sets where sub-programs not in the running file and `#use` files are looked up
+    /// (default and `None`: nowhere, so such a call or `#use` is a not-found error).
+    pub fn set_program_library(&mut self, lib: Option<Box<dyn ProgramLibrary>>) {
+        self.flow.library = lib;
+    }
+
+    /// Sets the non-volatile variables `#500–#999` and where writes go (`None`: memory only,
+    /// the default). They keep their values across `load`s of this interpreter.
+    pub fn set_persistent_vars(&mut self, table: NvTable, store: Option<Box<dyn PersistentVars>>) {
+        self.vars.table.nv = table;
+        self.vars.store = store;
+        self.vars.error = None;
+    }
+
+    /// The non-volatile variables could not be read (e.g. a damaged file): every program
+    /// loaded from now on ends with `why` at its first `next_segment`, at the main file.
+    pub fn set_persistent_vars_error(&mut self, why: String) {
+        self.vars.store = None;
+        self.vars.error = Some(why);
+    }
+
+    /// The non-volatile variables as they are now.
+    pub fn persistent_vars(&self) -> NvTable {
+        self.vars.table.nv.clone()
+    }
+
+    /// Macro variable `#n` as the program would read it (no motion sync: the programmed
+    /// position stands for the actual one). `None`: vacant or no such variable.
+    pub fn var(&mut self, n: u32) -> Option<f64> {
+        let saved = std::mem::replace(&mut self.m.sync, Box::new(ExactStop));
+        let v = self.read_var(i64::from(n)).ok().flatten();
+        self.m.sync = saved;
+        v
+    }
+
+    /// Path length (mm) of all segments produced so far: linear axes, arcs along the arc.
+    pub fn path_length(&self) -> f64 {
+        self.m.path_len
+    }
+
+    /// Starts `program` (parsed from `src`) from its first line with the modal state of a fresh
+    /// start. Common variables `#100–#199` are cleared (reset); locals start vacant;
+    /// non-volatile ones keep their values (see [`set_persistent_vars`](Self::set_persistent_vars)).
+    /// A C-like program is checked here (its `#use` files come from the program library).
+    pub fn load(&mut self, src: SourceFile, program: Program) {
+        let library: Option<&mut dyn ProgramLibrary> = match &mut self.flow.library {
+            Some(l) => Some(l.as_mut()),
+            None => None,
+        };
+        self.hll.load(&self.m.cfg, &src, &program, library);
+        let src = Arc::new(src);
+        let program = Arc::new(program);
+        let (units, main) = units::split_units(&src, &program);
+        self.m.reset();
+        self.flow.main_src = src;
+        self.flow.units = units;
+        self.flow.lib_cache.clear();
+        self.flow.frames = vec![Frame::new(self.flow.units[main].clone(), false)];
+        self.vars.table.reset();
+        self.flow.modal_call = None;
+        self.flow.runaway = Runaway::default();
+        self.flow.last_m = None;
+        self.flow.last_n = None;
+        self.flow.load_error = self.vars.error.clone();
+        self.flow.queue.clear();
+        self.flow.done = false;
+        self.flow.seen_block = false;
+        self.flow.main_m99_line = None;
+    }
+
+    /// The next segment, `Ok(None)` at the end of the program, or the error that ends it.
+    pub fn next_segment(&mut self) -> Result<Option<Segment>, NcError> {
+        if let Some(e) = self.flow.load_error.take() {
+            self.flow.done = true;
+            return Err(NcError::new(&self.flow.main_src, Span::default(), e));
+        }
+        if self.hll.active() {
+            return self.hll.next_segment(&mut self.m);
+        }
+        loop {
+            if let Some(s) = self.flow.queue.pop_front() {
+                self.m.account(&s);
+                return Ok(Some(s));
+            }
+            if self.flow.done {
+                return Ok(None);
+            }
+            if let Err(e) = self.step() {
+                self.flow.done = true;
+                self.flow.queue.clear();
+                return Err(e);
+            }
+        }
+    }
+
+    /// The modal state after the last executed block.
+    pub fn state(&self) -> &ModalState {
+        &self.m.state
+    }
+
+    /// The 1-based line of the first block numbered `N n` in the main program, if any.
+    pub fn label_line(&self, n: u32) -> Option<u32> {
+        let u = self.flow.frames.first()?;
+        u.unit
+            .labels
+            .get(&n)
+            .map(|&i| u.unit.program.lines[i].line_no)
+    }
+
+    /// Runs one block of `unit` (the current frame's program), with words evaluated against
+    /// the variables (vacant words left out), then whatever the block asks for after its
+    /// words: an `M98` call, an `M99` return, or the `G66` modal call after a move.
+    pub(crate) fn exec_block(
+        &mut self,
+        unit: &Arc<Unit>,
+        line: &Line,
+        block: Option<&Block>,
+    ) -> Result<(), NcError> {
+        let empty = Block::default();
+        let block = block.unwrap_or(&empty);
+        if let Some(named) = block.named_axes.first() {
+            return Err(NcError::new(
+                &unit.src,
+                named.span,
+                format!("AXSTR axis words are allowed {}", C_LIKE_ONLY),
+            ));
+        }
+        if units::is_g65_h(block) {
+            return self.g65_h(unit, line, block);
+        }
+        // A G65/G66 call may repeat I, J and K (argument specification II): they are taken
+        // out of the block here, in source order, and numbered by `take_calls`.
+        let mut ijk = Vec::new();
+        let filtered;
+        let block = if units::is_macro_call(block)
+            && block
+                .words
+                .iter()
+                .any(|w| matches!(w.letter, 'I' | 'J' | 'K'))
+        {
+            for w in &block.words {
+                if matches!(w.letter, 'I' | 'J' | 'K') {
+                    let v = expr::value_in(&unit.src, &w.value, self)?;
+                    ijk.push((w.letter, v, w.span));
+                }
+            }
+            let mut b = block.clone();
+            b.words.retain(|w| !matches!(w.letter, 'I' | 'J' | 'K'));
+            filtered = b;
+            &filtered
+        } else {
+            block
+        };
+        let mut words = Words::collect_with(&unit.src, block, self)?;
+        let Some(call) = self.take_calls(unit, &mut words, &ijk)? else {
+            return Ok(());
+        };
+        let has_axis = self.m.cfg.axes.iter().any(|a| words.peek(a.name).is_some());
+        if let Some(m) = words.m.last() {
+            self.flow.last_m = Some(f64::from(m.0));
+        }
+        let (out, end) = self.m.execute(&unit.src, words, line)?;
+        if out.iter().any(|s| {
+            matches!(
+                s.kind,
+                SegmentKind::Rapid { .. }
+                    | SegmentKind::Linear { .. }
+                    | SegmentKind::Arc { .. }
+                    | SegmentKind::Dwell { .. }
+            )
+        }) {
+            self.flow.runaway.reset();
+        }
+        self.flow.queue.extend(out);
+        if end {
+            self.flow.done = true;
+            return Ok(());
+        }
+        self.after_block(unit, call, has_axis)
+    }
+}
+
+impl AsRef<Hll> for Interpreter {
+    fn as_ref(&self) -> &Hll {
+        &self.hll
+    }
+}
+
+impl Iterator for Interpreter {
+    type Item = Result<Segment, NcError>;
+    /// Segments until the end of the program; an error is the last item.
+    fn next(&mut self) -> Option<Self::Item> {
+        self.next_segment().transpose()
+    }
+}
+
+/// Parses and runs `src` to its end: every segment, or the first error (parser or interpreter).
+///
+/// ```
+/// use cnc402_config::MachineConfig;
+/// use cnc402_lang::SourceFile;
+/// let cfg = MachineConfig::default_machine();
+/// let segs = cnc402_interp::run_program(&cfg, &SourceFile::new("a.nc", "G1 X10 F100\nM30\n"))
+///     .unwrap();
+/// assert_eq!(segs.len(), 2);
+/// let err = cnc402_interp::run_program(&cfg, &SourceFile::new("b.nc", "G1 X10\n")).unwrap_err();
+/// assert_eq!(err.to_string(), "b.nc:1:1: zero feed in a motion block (expected an F word > 0 in this or an earlier block)\n    G1 X10");
+/// ```
+pub fn run_program(cfg: &MachineConfig, src: &SourceFile) -> Result<Vec<Segment>, NcError> {
+    run_program_with(cfg, Options::default(), src)
+}
+
+/// [`run_program`] with explicit operator switches.
+pub fn run_program_with(
+    cfg: &MachineConfig,
+    opts: Options,
+    src: &SourceFile,
+) -> Result<Vec<Segment>, NcError> {
+    let program = cnc402_lang::parse(src)?;
+    let mut it = Interpreter::with_options(cfg, opts);
+    it.load(src.clone(), program);
+    it.collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cnc402_motion::segment::{AxisPos, SpindleDir};
+
+    fn cfg() -> MachineConfig {
+        MachineConfig::default_machine()
+    }
+
+    fn load(text: &str, opts: Options) -> Interpreter {
+        let src = SourceFile::new("t.nc", text);
+        let p = cnc402_lang::parse(&src).expect("parses");
+        let mut it = Interpreter::with_options(&cfg(), opts);
+        it.load(src, p);
+        it
+    }
+
+    #[test]
+    fn segments_come_one_at_a_time_with_their_source() {
+        let mut it = load("N5 G0 X1\n\nN7 G1 Y2 F50\n", Options::default());
+        let a = it.next_segment().unwrap().unwrap();
+        assert_eq!(
+            (a.source.line, a.source.n, &*a.source.file),
+            (1, Some(5), "t.nc")
+        );
+        // The interpreter has run only as far as it had to.
+        assert_eq!(it.state().pos[1], 0.0);
+        let b = it.next_segment().unwrap().unwrap();
+        assert_eq!((b.source.line, b.source.n), (3, Some(7)));
+        assert_eq!(it.state().pos[1], 2.0);
+        assert_eq!(it.next_segment().unwrap(), None);
+        assert_eq!(it.next_segment().unwrap(), None);
+        assert_eq!(it.label_line(7), Some(3));
+        assert_eq!(it.label_line(6), None);
+    }
+
+    #[test]
+    fn options_switch_m1_block_delete_and_start() {
+        let mut start = AxisPos::default();
+        start[2] = 30.0;
+        let opts = Options {
+            block_delete: false,
+            optional_stop: false,
+            start,
+            main_m99: MainM99::End,
+        };
+        let segs: Vec<_> = load("/G0 X5\nM1\nG91 G0 Z-5\n", opts)
+            .collect::<Result<_, _>>()
+            .unwrap();
+        assert_eq!(segs.len(), 2, "M1 is skipped, the / block runs");
+        let SegmentKind::Rapid { end } = segs[1].kind else {
+            panic!()
+        };
+        assert_eq!((end[0], end[2]), (5.0, 25.0));
+    }
+
+    #[test]
+    fn s_change_while_turning_and_g95_feed() {
+        let segs: Vec<_> = load(
+            "M3 S100\nS200\nG95 G1 X1 F0.5\nM5\nS300\n",
+            Options::default(),
+        )
+        .collect::<Result<_, _>>()
+        .unwrap();
+        let kinds: Vec<_> = segs.iter().map(|s| s.kind.clone()).collect();
+        assert_eq!(
+            kinds[1],
+            SegmentKind::Spindle {
+                rpm: 200.0,
+                dir: SpindleDir::Cw
+            }
+        );
+        assert!(matches!(kinds[2], SegmentKind::Linear { feed, .. } if feed == 100.0));
+        assert_eq!(kinds.len(), 4, "S while stopped makes no segment");
+    }
+
+    #[test]
+    fn messages_percent_end_and_msg_parsing() {
+        let segs: Vec<_> = load(
+            "%\n(MSG, hello )\nG0 X1 (not a msg)\n%\nG0 X2\n",
+            Options::default(),
+        )
+        .collect::<Result<_, _>>()
+        .unwrap();
+        assert_eq!(segs.len(), 2);
+        assert_eq!(
+            segs[0].kind,
+            SegmentKind::Message {
+                text: "hello".into()
+            }
+        );
+    }
+
+    #[test]
+    fn an_error_ends_the_run() {
+        let mut it = load("G0 X1\nG7\nG0 X2\n", Options::default());
+        assert!(it.next_segment().unwrap().is_some());
+        let e = it.next_segment().unwrap_err();
+        assert_eq!(e.line, 2);
+        assert_eq!(it.next_segment().unwrap(), None);
+    }
+}
+
+#[cfg(test)]
+mod regressions {
+    use super::*;
+
+    /// Found by the proptest: `(MSG…` detection sliced a comment at byte 3, inside `Ä`.
+    #[test]
+    fn multibyte_comment_does_not_panic_msg_detection() {
+        let cfg = MachineConfig::default_machine();
+        for t in ["(ÄÖÜ)\n", "(MSÄ, x)\n", "(MS)\n", "(msg,lower)\n"] {
+            let segs = run_program(&cfg, &SourceFile::new("t.nc", t)).unwrap();
+            assert_eq!(segs.len(), usize::from(t.starts_with("(msg")), "{t}");
+        }
+    }
+}
