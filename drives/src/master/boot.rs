@@ -295,27 +295,11 @@ struct DriveSetup {
     master_timeout_ms: u16,
 }
 
-/// Identity, checks and configuration of one drive, up to NMT start (exclusive).
-fn configure<B: TimedBus + ?Sized>(
+/// RPDO1 and TPDO1 as the layouts say, synchronous; TPDO2..4 off.
+fn map_cyclic_pdos<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
-    d: &DriveSetup,
-    seen_at: Instant,
-) -> Result<DriveIdentity, BootError> {
-    let n = d.node;
-    let device_type = sdo.read_u32(n, obj::DEVICE_TYPE, 0)?;
-    if device_type & 0xFFFF != 0x0192 {
-        return Err(BootError::NotCia402 {
-            axis: d.axis,
-            node: n.get(),
-            device_type,
-        });
-    }
-    let vendor = sdo.read_u32(n, obj::IDENTITY, 1)?;
-    let product = optional(sdo.read_u32(n, obj::IDENTITY, 2))?;
-    let revision = optional(sdo.read_u32(n, obj::IDENTITY, 3))?;
-    let serial = optional(sdo.read_u32(n, obj::IDENTITY, 4))?;
-    let name = optional(sdo.read_string(n, obj::DEVICE_NAME, 0))?;
-
+    n: NodeId,
+) -> Result<(), SdoError> {
     let id = n.get() as u16;
     map_pdo(
         sdo,
@@ -345,6 +329,16 @@ fn configure<B: TimedBus + ?Sized>(
             sdo.write_u32(n, comm, 1, cob | COB_INVALID)?;
         }
     }
+    Ok(())
+}
+
+/// CSP mode, the interpolation and SYNC period, the following-error window and time-out,
+/// and the drive's heartbeat.
+fn write_cyclic_parameters<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    d: &DriveSetup,
+) -> Result<(), SdoError> {
+    let n = d.node;
     sdo.write_i8(n, obj::MODES_OF_OPERATION, 0, 8)?;
     sdo.write_u8(
         n,
@@ -363,6 +357,16 @@ fn configure<B: TimedBus + ?Sized>(
     sdo.write_u32(n, obj::FOLLOWING_ERROR_WINDOW, 0, d.window_counts)?;
     sdo.write_u16(n, obj::FOLLOWING_ERROR_TIMEOUT, 0, d.fe_timeout_ms)?;
     sdo.write_u16(n, obj::PRODUCER_HEARTBEAT_TIME, 0, d.heartbeat_ms)?;
+    Ok(())
+}
+
+/// The drive's supervision of the master (0x1016:1, 0x6007); returns whether it watches the
+/// master's heartbeat and whether it takes quick stop on its loss.
+fn supervise_master<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    d: &DriveSetup,
+) -> Result<(bool, bool), SdoError> {
+    let n = d.node;
     // The drive watches the master: 0x1016:1 = node << 16 | timeout ms (0 = off), and quick
     // stops when it misses it (0x6007). Both optional in CiA 301/402: a drive without them is
     // reported, not refused.
@@ -393,6 +397,33 @@ fn configure<B: TimedBus + ?Sized>(
         }
         Err(e) => optional::<()>(Err(e))?.is_some(),
     };
+    Ok((supervises_master, abort_connection_quick_stop))
+}
+
+/// Identity, checks and configuration of one drive, up to NMT start (exclusive).
+fn configure<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    d: &DriveSetup,
+    seen_at: Instant,
+) -> Result<DriveIdentity, BootError> {
+    let n = d.node;
+    let device_type = sdo.read_u32(n, obj::DEVICE_TYPE, 0)?;
+    if device_type & 0xFFFF != 0x0192 {
+        return Err(BootError::NotCia402 {
+            axis: d.axis,
+            node: n.get(),
+            device_type,
+        });
+    }
+    let vendor = sdo.read_u32(n, obj::IDENTITY, 1)?;
+    let product = optional(sdo.read_u32(n, obj::IDENTITY, 2))?;
+    let revision = optional(sdo.read_u32(n, obj::IDENTITY, 3))?;
+    let serial = optional(sdo.read_u32(n, obj::IDENTITY, 4))?;
+    let name = optional(sdo.read_string(n, obj::DEVICE_NAME, 0))?;
+
+    map_cyclic_pdos(sdo, n)?;
+    write_cyclic_parameters(sdo, d)?;
+    let (supervises_master, abort_connection_quick_stop) = supervise_master(sdo, d)?;
     let initial_statusword = Statusword(sdo.read_u16(n, obj::STATUSWORD, 0)?);
     Ok(DriveIdentity {
         axis: d.axis,
