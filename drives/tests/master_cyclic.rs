@@ -55,6 +55,30 @@ fn run(
     Ok(out)
 }
 
+/// The machine at a 2 ms period (half the bus free for SDO), booted, after `cycles` cycles
+/// of `ramp`: the rig, the start positions and the next cycle.
+fn ramped_at_2ms(cycles: u64) -> (Rig, [f64; cnc402_config::MAX_AXES], u64) {
+    let mut rig = Rig::booted_for(master_common::machine_at_period_us(2000));
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, cycles).unwrap();
+    (rig, start, cycles)
+}
+
+/// Starts an in-cycle SDO upload of `index:0` on `axis` and waits for its outcome (see
+/// `sdo_outcome`).
+fn upload(
+    rig: &mut Rig,
+    start: &[f64],
+    k: &mut u64,
+    axis: usize,
+    index: u16,
+    limit: u64,
+) -> Result<(), SdoError> {
+    let now = rig.next;
+    rig.master.start_sdo_upload(axis, index, 0, now).unwrap();
+    sdo_outcome(rig, start, k, axis, limit)
+}
+
 /// Runs `ramp` from cycle `*k` until the in-cycle SDO transfer on `axis` ends and returns
 /// its outcome; the cycle count `*k` must stay below `limit` until then.
 fn sdo_outcome(
@@ -307,13 +331,8 @@ fn spindle_across_the_int32_wrap_keeps_counting() {
 fn pdos_keep_flowing_while_an_sdo_transfer_runs() {
     // At 1 ms the four drives' PDOs fill 97.5 % of 1 Mbit/s (see the next test); at 2 ms
     // half the bus is free for SDO.
-    let mut rig = Rig::booted_for(master_common::machine_at_period_us(2000));
-    let start = rig.master.positions();
-    run(&mut rig, &start, 0, 20).unwrap();
-    let now = rig.next;
-    rig.master.start_sdo_upload(3, 0x1008, 0, now).unwrap();
-    let mut k = 20;
-    let outcome = sdo_outcome(&mut rig, &start, &mut k, 3, 200);
+    let (mut rig, start, mut k) = ramped_at_2ms(20);
+    let outcome = upload(&mut rig, &start, &mut k, 3, 0x1008, 200);
     outcome.unwrap();
     assert_eq!(rig.master.sdo_data(3), b"cnc402 simdrive C");
     // A write during cyclic operation too, then the read-back.
@@ -362,13 +381,8 @@ fn sdo_during_cyclic_operation_is_refused_when_the_bus_is_full() {
 
 #[test]
 fn sdo_error_during_cyclic_operation_is_reported_not_a_stop() {
-    let mut rig = Rig::booted_for(master_common::machine_at_period_us(2000));
-    let start = rig.master.positions();
-    run(&mut rig, &start, 0, 10).unwrap();
-    let now = rig.next;
-    rig.master.start_sdo_upload(1, 0x2345, 0, now).unwrap();
-    let mut k = 10;
-    let outcome = sdo_outcome(&mut rig, &start, &mut k, 1, 200);
+    let (mut rig, start, mut k) = ramped_at_2ms(10);
+    let outcome = upload(&mut rig, &start, &mut k, 1, 0x2345, 200);
     let e = outcome.unwrap_err();
     assert_eq!(
         e.abort_code(),
@@ -377,10 +391,8 @@ fn sdo_error_during_cyclic_operation_is_reported_not_a_stop() {
     assert_eq!(e.node, 2);
     // Silence: the in-cycle client times out after 100 ms and aborts.
     rig.inject(1, FaultKind::SdoSilence);
-    let now = rig.next;
-    rig.master.start_sdo_upload(1, 0x1000, 0, now).unwrap();
     let t0 = k;
-    let outcome = sdo_outcome(&mut rig, &start, &mut k, 1, t0 + 200);
+    let outcome = upload(&mut rig, &start, &mut k, 1, 0x1000, t0 + 200);
     assert!(matches!(
         outcome.unwrap_err().kind,
         cnc402_drives::master::SdoErrorKind::Timeout { .. }

@@ -575,7 +575,8 @@ impl Master {
         if self.phase == Phase::Idle || self.heartbeat_ms == 0 {
             return None;
         }
-        if !self.next_heartbeat.is_none_or(|t| now >= t) {
+        if self.next_heartbeat.is_some_and(|t| now < t) {
+            // Not due yet.
             return None;
         }
         let hb = HeartbeatRepr {
