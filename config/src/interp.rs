@@ -43,6 +43,9 @@ pub struct InterpDefaults {
     pub tap_peck_retract: f64,
     /// Largest allowed difference between an arc's start and end radius (mm).
     pub arc_tolerance: f64,
+    /// G64 continuous-path mode's default corner tolerance (mm): how far the path may leave
+    /// a corner between blocks when the program gives none (LinuxCNC's G64 P, Fanuc's default).
+    pub path_tolerance: f64,
     /// The physical spindle angle (degrees, 0 ≤ angle < 360, in the spindle axis's machine
     /// coordinate) that spindle orientation (G76/G87) turns C to: where the boring bar's
     /// edge points away from the shift direction.
@@ -78,6 +81,8 @@ pub(crate) struct RawInterp {
     tap_peck_retract: Option<Spanned<f64>>,
     #[serde(default = "default_arc_tol")]
     arc_tolerance: Spanned<f64>,
+    #[serde(default = "default_path_tol")]
+    path_tolerance: Spanned<f64>,
     #[serde(default = "default_orient_angle")]
     spindle_orient_angle: Spanned<f64>,
     #[serde(default = "default_program_dir")]
@@ -100,6 +105,7 @@ impl Default for RawInterp {
             peck_clearance: default_half(),
             tap_peck_retract: None,
             arc_tolerance: default_arc_tol(),
+            path_tolerance: default_path_tol(),
             spindle_orient_angle: default_orient_angle(),
             program_dir: default_program_dir(),
             block_limit: default_block_limit(),
@@ -123,6 +129,9 @@ fn default_half() -> Spanned<f64> {
 }
 fn default_arc_tol() -> Spanned<f64> {
     sp(0.002)
+}
+fn default_path_tol() -> Spanned<f64> {
+    sp(0.01)
 }
 fn default_orient_angle() -> Spanned<f64> {
     sp(0.0)
@@ -180,6 +189,7 @@ impl RawInterp {
                 None => positive(&i.peck_retract, "interp.peck_retract")?,
             },
             arc_tolerance: positive(&i.arc_tolerance, "interp.arc_tolerance")?,
+            path_tolerance: positive(&i.path_tolerance, "interp.path_tolerance")?,
             spindle_orient_angle: angle_in_turn(
                 &i.spindle_orient_angle,
                 "interp.spindle_orient_angle",

@@ -235,6 +235,22 @@ mod tests {
     }
 
     #[test]
+    fn path_tolerance_key() {
+        assert_eq!(parse(SHIPPED).unwrap().interp.path_tolerance, 0.01);
+        let text = SHIPPED.replace("path_tolerance = 0.01", "");
+        assert_ne!(text, SHIPPED, "the shipped config sets the key");
+        assert_eq!(parse(&text).unwrap().interp.path_tolerance, 0.01);
+        let text = SHIPPED.replace("path_tolerance = 0.01", "path_tolerance = 0.05");
+        assert_eq!(parse(&text).unwrap().interp.path_tolerance, 0.05);
+        for bad in ["0.0", "-0.01", "nan", "inf"] {
+            let text = SHIPPED.replace("path_tolerance = 0.01", &format!("path_tolerance = {bad}"));
+            let e = parse(&text).unwrap_err();
+            assert_eq!(e.key, "interp.path_tolerance", "{bad}");
+            assert!(e.message.contains("positive"), "{bad}: {}", e.message);
+        }
+    }
+
+    #[test]
     fn spindle_orient_angle_key() {
         assert_eq!(parse(SHIPPED).unwrap().interp.spindle_orient_angle, 0.0);
         let text = SHIPPED.replace("spindle_orient_angle = 0.0", "");

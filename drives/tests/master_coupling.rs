@@ -6,26 +6,14 @@ mod master_common;
 
 use cnc402_config::{MachineConfig, SimDynamics};
 use cnc402_drives::coupling::{CouplingChecker, CouplingSample};
-use cnc402_drives::master::MasterOptions;
-use cnc402_drives::sim::SimDriveOptions;
-use master_common::Rig;
-
-fn smoothstep(u: f64) -> f64 {
-    let u = u.clamp(0.0, 1.0);
-    u * u * (3.0 - 2.0 * u)
-}
+use master_common::{Rig, smoothstep};
 
 /// M10×1.5, 15 mm deep, 300 ms in and 300 ms out with 20 ms at the bottom; returns the
 /// windows the checker found.
 fn tap(config: MachineConfig) -> Vec<cnc402_drives::coupling::TapWindow> {
     let pitch = 1.5;
     let depth = 15.0;
-    let mut rig = Rig::with_config(
-        config,
-        |_| SimDriveOptions::default(),
-        MasterOptions::default(),
-    );
-    rig.boot();
+    let mut rig = Rig::booted_for(config);
     let start = rig.master.positions();
     let z_cpu = rig.config.axes[2].counts_per_unit;
     let c_cpu = rig.config.axes[3].counts_per_unit;

@@ -11,23 +11,12 @@ use cia402::State;
 use cnc402_config::{AxisKind, MachineConfig};
 use cnc402_drives::bus::{CanBus, Origin};
 use cnc402_drives::master::{
-    BlockingSdo, Feedback, MasterOptions, Phase, SafetyStop, StopMode, StopReason,
+    BlockingSdo, Feedback, MasterOptions, Phase, SafetyStop, SdoError, StopMode, StopReason,
 };
 use cnc402_drives::sim::{FaultKind, SimDriveOptions};
 use cnc402_drives::wire::{Function, NodeId};
-use master_common::Rig;
+use master_common::{Rig, smoothstep};
 use std::time::Duration;
-
-fn booted() -> Rig {
-    let mut rig = Rig::new(|_| SimDriveOptions::default());
-    rig.boot();
-    rig
-}
-
-fn smoothstep(u: f64) -> f64 {
-    let u = u.clamp(0.0, 1.0);
-    u * u * (3.0 - 2.0 * u)
-}
 
 /// Commands at cycle `k` of a move from `start`: X +40 mm, Y −30 mm, Z −20 mm in 1 s
 /// (S-shaped), C accelerating to 600 rpm in 0.5 s and then turning at that speed.
@@ -66,9 +55,53 @@ fn run(
     Ok(out)
 }
 
+/// The machine at a 2 ms period (half the bus free for SDO), booted, after `cycles` cycles
+/// of `ramp`: the rig, the start positions and the next cycle.
+fn ramped_at_2ms(cycles: u64) -> (Rig, [f64; cnc402_config::MAX_AXES], u64) {
+    let mut rig = Rig::booted_for(master_common::machine_at_period_us(2000));
+    let start = rig.master.positions();
+    run(&mut rig, &start, 0, cycles).unwrap();
+    (rig, start, cycles)
+}
+
+/// Starts an in-cycle SDO upload of `index:0` on `axis` and waits for its outcome (see
+/// `sdo_outcome`).
+fn upload(
+    rig: &mut Rig,
+    start: &[f64],
+    k: &mut u64,
+    axis: usize,
+    index: u16,
+    limit: u64,
+) -> Result<(), SdoError> {
+    let now = rig.next;
+    rig.master.start_sdo_upload(axis, index, 0, now).unwrap();
+    sdo_outcome(rig, start, k, axis, limit)
+}
+
+/// Runs `ramp` from cycle `*k` until the in-cycle SDO transfer on `axis` ends and returns
+/// its outcome; the cycle count `*k` must stay below `limit` until then.
+fn sdo_outcome(
+    rig: &mut Rig,
+    start: &[f64],
+    k: &mut u64,
+    axis: usize,
+    limit: u64,
+) -> Result<(), SdoError> {
+    loop {
+        rig.cycle(&ramp(start, *k))
+            .unwrap_or_else(|s| panic!("cycle {k}: {s}"));
+        *k += 1;
+        if let Some(o) = rig.master.take_sdo_outcome(axis) {
+            return o;
+        }
+        assert!(*k < limit, "SDO on axis {axis} never finished");
+    }
+}
+
 #[test]
 fn all_four_drives_follow_a_ramp() {
-    let mut rig = booted();
+    let mut rig = Rig::booted();
     let start = rig.master.positions();
     let fbs = run(&mut rig, &start, 0, 1500).unwrap_or_else(|(k, s)| panic!("cycle {k}: {s}"));
     let mut late = 0;
@@ -128,7 +161,7 @@ fn all_four_drives_follow_a_ramp() {
 
 #[test]
 fn drive_fault_with_emcy_stops_all_axes_naming_node_state_and_code() {
-    let mut rig = booted();
+    let mut rig = Rig::booted();
     let start = rig.master.positions();
     run(&mut rig, &start, 0, 300).unwrap();
     rig.bus.start_trace();
@@ -192,7 +225,7 @@ fn drive_fault_with_emcy_stops_all_axes_naming_node_state_and_code() {
 
 #[test]
 fn silent_heartbeat_stops_naming_the_drive() {
-    let mut rig = booted();
+    let mut rig = Rig::booted();
     let start = rig.master.positions();
     run(&mut rig, &start, 0, 100).unwrap();
     rig.inject(1, FaultKind::HeartbeatSilence);
@@ -212,7 +245,7 @@ fn silent_heartbeat_stops_naming_the_drive() {
 
 #[test]
 fn missing_tpdos_stop_after_the_configured_cycles() {
-    let mut rig = booted();
+    let mut rig = Rig::booted();
     let start = rig.master.positions();
     run(&mut rig, &start, 0, 100).unwrap();
     rig.inject(3, FaultKind::DropTpdos);
@@ -229,12 +262,7 @@ fn following_error_beyond_the_window_stops_before_the_drive_faults() {
     // its own 10 ms (0x6066, written after boot, which set it to the config's 0).
     let mut config = MachineConfig::default_machine();
     config.axes[0].following_error_timeout_ms = 0;
-    let mut rig = Rig::with_config(
-        config,
-        |_| SimDriveOptions::default(),
-        MasterOptions::default(),
-    );
-    rig.boot();
+    let mut rig = Rig::booted_for(config);
     {
         let mut ignore = |_: &cnc402_drives::wire::CanFrame| {};
         let mut sdo = BlockingSdo::new(&mut rig.bus, Duration::from_millis(100), &mut ignore);
@@ -303,28 +331,8 @@ fn spindle_across_the_int32_wrap_keeps_counting() {
 fn pdos_keep_flowing_while_an_sdo_transfer_runs() {
     // At 1 ms the four drives' PDOs fill 97.5 % of 1 Mbit/s (see the next test); at 2 ms
     // half the bus is free for SDO.
-    let mut config = MachineConfig::default_machine();
-    config.bus.period_us = 2000;
-    let mut rig = Rig::with_config(
-        config,
-        |_| SimDriveOptions::default(),
-        MasterOptions::default(),
-    );
-    rig.boot();
-    let start = rig.master.positions();
-    run(&mut rig, &start, 0, 20).unwrap();
-    let now = rig.next;
-    rig.master.start_sdo_upload(3, 0x1008, 0, now).unwrap();
-    let mut k = 20;
-    let outcome = loop {
-        rig.cycle(&ramp(&start, k))
-            .unwrap_or_else(|s| panic!("cycle {k}: {s}"));
-        k += 1;
-        if let Some(o) = rig.master.take_sdo_outcome(3) {
-            break o;
-        }
-        assert!(k < 200, "SDO never finished");
-    };
+    let (mut rig, start, mut k) = ramped_at_2ms(20);
+    let outcome = upload(&mut rig, &start, &mut k, 3, 0x1008, 200);
     outcome.unwrap();
     assert_eq!(rig.master.sdo_data(3), b"cnc402 simdrive C");
     // A write during cyclic operation too, then the read-back.
@@ -332,14 +340,8 @@ fn pdos_keep_flowing_while_an_sdo_transfer_runs() {
     rig.master
         .start_sdo_download(0, 0x6065, 0, &6000u32.to_le_bytes(), now)
         .unwrap();
-    loop {
-        rig.cycle(&ramp(&start, k)).unwrap();
-        k += 1;
-        if let Some(o) = rig.master.take_sdo_outcome(0) {
-            o.unwrap();
-            break;
-        }
-    }
+    let limit = k + 200;
+    sdo_outcome(&mut rig, &start, &mut k, 0, limit).unwrap();
     assert_eq!(rig.drive(0).od().get_u64(0x6065, 0), Some(6000));
     run(&mut rig, &start, k, 5).unwrap();
     // Not one TPDO lost: all but the one answering the last SYNC (still in flight) arrived.
@@ -355,7 +357,7 @@ fn pdos_keep_flowing_while_an_sdo_transfer_runs() {
 
 #[test]
 fn sdo_during_cyclic_operation_is_refused_when_the_bus_is_full() {
-    let mut rig = booted();
+    let mut rig = Rig::booted();
     // SYNC, 4 RPDO1, 4 TPDO1 per ms, and 5 heartbeats (4 drives, the master) per 50 ms.
     assert!(
         (rig.master.cyclic_load_percent() - 98.15).abs() < 0.01,
@@ -379,27 +381,8 @@ fn sdo_during_cyclic_operation_is_refused_when_the_bus_is_full() {
 
 #[test]
 fn sdo_error_during_cyclic_operation_is_reported_not_a_stop() {
-    let mut config = MachineConfig::default_machine();
-    config.bus.period_us = 2000;
-    let mut rig = Rig::with_config(
-        config,
-        |_| SimDriveOptions::default(),
-        MasterOptions::default(),
-    );
-    rig.boot();
-    let start = rig.master.positions();
-    run(&mut rig, &start, 0, 10).unwrap();
-    let now = rig.next;
-    rig.master.start_sdo_upload(1, 0x2345, 0, now).unwrap();
-    let mut k = 10;
-    let outcome = loop {
-        rig.cycle(&ramp(&start, k)).unwrap();
-        k += 1;
-        if let Some(o) = rig.master.take_sdo_outcome(1) {
-            break o;
-        }
-        assert!(k < 200);
-    };
+    let (mut rig, start, mut k) = ramped_at_2ms(10);
+    let outcome = upload(&mut rig, &start, &mut k, 1, 0x2345, 200);
     let e = outcome.unwrap_err();
     assert_eq!(
         e.abort_code(),
@@ -408,17 +391,8 @@ fn sdo_error_during_cyclic_operation_is_reported_not_a_stop() {
     assert_eq!(e.node, 2);
     // Silence: the in-cycle client times out after 100 ms and aborts.
     rig.inject(1, FaultKind::SdoSilence);
-    let now = rig.next;
-    rig.master.start_sdo_upload(1, 0x1000, 0, now).unwrap();
     let t0 = k;
-    let outcome = loop {
-        rig.cycle(&ramp(&start, k)).unwrap();
-        k += 1;
-        if let Some(o) = rig.master.take_sdo_outcome(1) {
-            break o;
-        }
-        assert!(k < t0 + 200);
-    };
+    let outcome = upload(&mut rig, &start, &mut k, 1, 0x1000, t0 + 200);
     assert!(matches!(
         outcome.unwrap_err().kind,
         cnc402_drives::master::SdoErrorKind::Timeout { .. }
@@ -434,12 +408,7 @@ fn virtual_axes_echo_their_command() {
     a.kind = AxisKind::Rotary;
     a.node = None;
     config.axes.push(a);
-    let mut rig = Rig::with_config(
-        config,
-        |_| SimDriveOptions::default(),
-        MasterOptions::default(),
-    );
-    rig.boot();
+    let mut rig = Rig::booted_for(config);
     assert_eq!(rig.master.axis_count(), 5);
     let start = rig.master.positions();
     for k in 0..100u64 {
@@ -453,7 +422,7 @@ fn virtual_axes_echo_their_command() {
 
 #[test]
 fn quick_stop_then_disable() {
-    let mut rig = booted();
+    let mut rig = Rig::booted();
     let start = rig.master.positions();
     run(&mut rig, &start, 0, 400).unwrap();
     rig.master.quick_stop();
@@ -515,7 +484,7 @@ fn follow_path_stop_mode_keeps_healthy_drives_enabled() {
 
 #[test]
 fn reenable_after_a_fault_stop_resumes_where_the_axes_stopped() {
-    let mut rig = booted();
+    let mut rig = Rig::booted();
     let start = rig.master.positions();
     run(&mut rig, &start, 0, 300).unwrap();
     rig.inject(0, FaultKind::Fault(0x2310));
@@ -585,11 +554,7 @@ fn a_machine_without_drives_boots_and_echoes() {
     for a in &mut config.axes {
         a.node = None;
     }
-    let mut rig = Rig::with_config(
-        config,
-        |_| SimDriveOptions::default(),
-        MasterOptions::default(),
-    );
+    let mut rig = Rig::for_machine(config);
     let r = rig.boot();
     assert!(r.drives.is_empty());
     let start = rig.master.positions();
@@ -605,7 +570,7 @@ fn a_machine_without_drives_boots_and_echoes() {
 
 #[test]
 fn after_dropped_tpdos_a_reenabled_master_follows_without_false_errors() {
-    let mut rig = booted();
+    let mut rig = Rig::booted();
     let start = rig.master.positions();
     run(&mut rig, &start, 0, 100).unwrap();
     rig.inject(3, FaultKind::DropTpdos);
@@ -660,7 +625,7 @@ fn spindle_backwards_across_the_int32_wrap_keeps_counting() {
 
 #[test]
 fn the_master_produces_its_heartbeat_every_heartbeat_period() {
-    let mut rig = booted();
+    let mut rig = Rig::booted();
     let id = 0x700 + rig.config.bus.master_node_id as u16;
     assert_eq!(id, 0x77F);
     rig.bus.start_trace();
@@ -694,11 +659,7 @@ fn the_master_produces_its_heartbeat_every_heartbeat_period() {
 fn no_master_heartbeat_when_heartbeats_are_off() {
     let mut config = MachineConfig::default_machine();
     config.bus.heartbeat_ms = 0;
-    let mut rig = Rig::with_config(
-        config,
-        |_| SimDriveOptions::default(),
-        MasterOptions::default(),
-    );
+    let mut rig = Rig::for_machine(config);
     let report = rig.boot();
     assert!(report.drives.iter().all(|d| !d.supervises_master));
     rig.bus.start_trace();
@@ -715,12 +676,7 @@ fn the_following_error_allows_the_configured_feedback_delay_not_the_sims() {
     let run_with = |delay: u32| {
         let mut config = MachineConfig::default_machine();
         config.axes[0].feedback_delay_cycles = delay;
-        let mut rig = Rig::with_config(
-            config,
-            |_| SimDriveOptions::default(),
-            MasterOptions::default(),
-        );
-        rig.boot();
+        let mut rig = Rig::booted_for(config);
         let start = rig.master.positions();
         run(&mut rig, &start, 0, 400).unwrap()
     };
@@ -740,7 +696,7 @@ fn the_following_error_allows_the_configured_feedback_delay_not_the_sims() {
 
 #[test]
 fn drives_quick_stop_when_the_master_stops_cycling() {
-    let mut rig = booted();
+    let mut rig = Rig::booted();
     let start = rig.master.positions();
     run(&mut rig, &start, 0, 300).unwrap();
     let t_dead = rig.next;

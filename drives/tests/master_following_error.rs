@@ -3,52 +3,27 @@
 //! at 31 cycles, so feedback older than that was compared with a wrong (too new) command, and
 //! a single cycle beyond the window tripped, ignoring the axis's `following_error_timeout_ms`.
 
+mod master_common;
+
 use std::time::Duration;
 
 use cnc402_config::MachineConfig;
-use cnc402_drives::Instant;
-use cnc402_drives::bus::{Action, Direction, FaultInjector, FaultRule, FrameFilter, SimBus};
-use cnc402_drives::master::{COMMAND_HISTORY, Feedback, Master, SafetyStop, StopReason};
-use cnc402_drives::sim::SimDrive;
-use cnc402_drives::wire::{Function, NodeId};
+use cnc402_drives::bus::{Action, Direction, FaultRule};
+use cnc402_drives::master::{COMMAND_HISTORY, Feedback, SafetyStop, StopReason};
+use master_common::{MovingRig, tpdo_of};
 
 const Z: usize = 2;
 
-struct Rig {
-    bus: FaultInjector<SimBus<SimDrive>>,
-    master: Master,
-    next: Instant,
-    pos: [f64; 4],
-    k: u64,
-    /// Z's velocity, mm/s.
+/// Z's motion: its cruising velocity, mm/s.
+struct ZRamp {
     v_z: f64,
 }
 
+type Rig = MovingRig<ZRamp>;
+
 impl Rig {
     fn booted(config: &MachineConfig, rules: &[FaultRule]) -> Rig {
-        let period = Duration::from_micros(config.bus.period_us as u64);
-        let mut sim = SimBus::new(config.bus.bitrate);
-        for a in &config.axes {
-            let node = NodeId::new(a.node.unwrap()).unwrap();
-            sim.attach(SimDrive::new(a, node, period));
-        }
-        let mut bus = FaultInjector::new(sim);
-        for r in rules {
-            bus.add_rule(*r);
-        }
-        let mut master = Master::new(config).unwrap();
-        let report = master
-            .boot(&mut bus)
-            .unwrap_or_else(|e| panic!("boot: {e}"));
-        let pos = master.positions();
-        Rig {
-            bus,
-            next: report.enabled_at + master.period(),
-            pos: [pos[0], pos[1], pos[2], pos[3]],
-            master,
-            k: 0,
-            v_z: 0.0,
-        }
+        Rig::booted_with(config, rules, ZRamp { v_z: 0.0 })
     }
 
     /// One cycle: Z accelerates smoothly (0.1 s) to −`v_z` mm/s and cruises; `extra_z` is added to
@@ -56,24 +31,16 @@ impl Rig {
     fn cycle_with(&mut self, extra_z: f64) -> Result<Feedback, SafetyStop> {
         let t = self.k as f64 * 1e-3;
         let u = (t / 0.1).clamp(0.0, 1.0);
-        self.pos[Z] -= self.v_z * u * u * (3.0 - 2.0 * u) * 1e-3;
+        self.pos[Z] -= self.motion.v_z * u * u * (3.0 - 2.0 * u) * 1e-3;
         self.k += 1;
-        self.bus.set_now(self.next).unwrap();
-        self.bus.inner_mut().advance(self.next);
         let mut cmd = self.pos;
         cmd[Z] += extra_z;
-        let r = self.master.cycle(&mut self.bus, self.next, &cmd);
-        self.next += self.master.period();
-        r
+        self.base.cycle(&cmd)
     }
 
     fn cycle(&mut self) -> Result<Feedback, SafetyStop> {
         self.cycle_with(0.0)
     }
-}
-
-fn tpdo_of(node: u8) -> FrameFilter {
-    FrameFilter::function(Function::Tpdo(1, NodeId::new(node).unwrap()))
 }
 
 #[test]
@@ -91,7 +58,7 @@ fn a_loop_stall_longer_than_the_history_is_not_a_following_error() {
     .skip(300)
     .limit(45);
     let mut rig = Rig::booted(&config, &[delay]);
-    rig.v_z = 100.0;
+    rig.motion.v_z = 100.0;
     let mut stale = 0;
     let mut too_old = 0;
     let mut prev: Option<Feedback> = None;
@@ -139,7 +106,7 @@ fn run_corrupted(timeout_ms: u32, n: u32) -> (Option<u64>, Option<(u64, SafetySt
     let mut config = MachineConfig::default_machine();
     config.axes[Z].following_error_timeout_ms = timeout_ms;
     let mut rig = Rig::booted(&config, &[corrupt_z(300, n)]);
-    rig.v_z = 50.0;
+    rig.motion.v_z = 50.0;
     let mut first = None;
     for k in 0..600u64 {
         match rig.cycle() {

@@ -5,9 +5,7 @@
 
 mod master_common;
 
-use cnc402_config::MachineConfig;
-use cnc402_drives::master::MasterOptions;
-use cnc402_drives::sim::{FaultKind, SimDriveOptions};
+use cnc402_drives::sim::FaultKind;
 use master_common::Rig;
 
 use cnc402_testkit::{CountingAlloc, count_allocs};
@@ -26,14 +24,7 @@ fn counted_cycle(rig: &mut Rig, cmd: &[f64]) -> (u64, bool) {
 #[test]
 fn the_cycle_allocates_nothing_in_any_phase() {
     // 2 ms so that an SDO transfer fits next to the PDOs.
-    let mut config = MachineConfig::default_machine();
-    config.bus.period_us = 2000;
-    let mut rig = Rig::with_config(
-        config,
-        |_| SimDriveOptions::default(),
-        MasterOptions::default(),
-    );
-    rig.boot();
+    let mut rig = Rig::booted_for(master_common::machine_at_period_us(2000));
     let start = rig.master.positions();
     let mut allocs = 0;
     let mut cmd = [0.0; 4];

@@ -7,53 +7,26 @@
 // Several per-axis arrays are indexed together.
 #![allow(clippy::needless_range_loop)]
 
+mod master_common;
+
 use std::time::Duration;
 
 use cnc402_config::MachineConfig;
-use cnc402_drives::Instant;
-use cnc402_drives::bus::{Action, Direction, FaultInjector, FaultRule, FrameFilter, SimBus};
-use cnc402_drives::master::{Feedback, Master, SafetyStop};
-use cnc402_drives::sim::SimDrive;
-use cnc402_drives::wire::{Function, NodeId};
+use cnc402_drives::bus::{Action, Direction, FaultRule};
+use cnc402_drives::master::{Feedback, SafetyStop};
+use master_common::{MovingRig, smoothstep, tpdo_of};
 
 const X: usize = 0;
 const C: usize = 3;
 /// Cycles of the run; X cruises at 250 mm/s from ~190, C at 6000 rpm from ~1500.
 const CYCLES: u64 = 1800;
 
-struct Rig {
-    bus: FaultInjector<SimBus<SimDrive>>,
-    master: Master,
-    next: Instant,
-    pos: [f64; 4],
-    k: u64,
-}
+/// The shared fault rig; the run's motion needs no state of its own.
+type Rig = MovingRig<()>;
 
 impl Rig {
     fn booted(rules: &[FaultRule]) -> Rig {
-        let config = MachineConfig::default_machine();
-        let period = Duration::from_micros(config.bus.period_us as u64);
-        let mut sim = SimBus::new(config.bus.bitrate);
-        for a in &config.axes {
-            let node = NodeId::new(a.node.unwrap()).unwrap();
-            sim.attach(SimDrive::new(a, node, period));
-        }
-        let mut bus = FaultInjector::new(sim);
-        for r in rules {
-            bus.add_rule(*r);
-        }
-        let mut master = Master::new(&config).unwrap();
-        let report = master
-            .boot(&mut bus)
-            .unwrap_or_else(|e| panic!("boot: {e}"));
-        let pos = master.positions();
-        Rig {
-            bus,
-            next: report.enabled_at + master.period(),
-            pos: [pos[0], pos[1], pos[2], pos[3]],
-            master,
-            k: 0,
-        }
+        Rig::booted_with(&MachineConfig::default_machine(), rules, ())
     }
 
     /// One cycle of the run: X to 250 mm/s and C to 6000 rpm on smooth velocity ramps
@@ -65,11 +38,8 @@ impl Rig {
         self.pos[X] += v_x * 1e-3;
         self.pos[C] += v_c * 1e-3;
         self.k += 1;
-        self.bus.set_now(self.next).unwrap();
-        self.bus.inner_mut().advance(self.next);
-        let r = self.master.cycle(&mut self.bus, self.next, &self.pos);
-        self.next += self.master.period();
-        r
+        let pos = self.pos;
+        self.base.cycle(&pos)
     }
 
     fn run(&mut self, cycles: u64) -> Vec<Feedback> {
@@ -80,15 +50,6 @@ impl Rig {
             })
             .collect()
     }
-}
-
-fn smoothstep(u: f64) -> f64 {
-    let u = u.clamp(0.0, 1.0);
-    u * u * (3.0 - 2.0 * u)
-}
-
-fn tpdo_of(node: u8) -> FrameFilter {
-    FrameFilter::function(Function::Tpdo(1, NodeId::new(node).unwrap()))
 }
 
 /// The clean run: the reference every faulted run is held against.
@@ -194,10 +155,7 @@ fn a_loss_at_standstill_is_written_off_within_the_resync_cycles() {
                 rig.bus
                     .add_rule(FaultRule::new(tpdo_of(4), Direction::Rx, Action::Drop).limit(1));
             }
-            rig.bus.set_now(rig.next).unwrap();
-            rig.bus.inner_mut().advance(rig.next);
-            let fb = rig.master.cycle(&mut rig.bus, rig.next, &hold).unwrap();
-            rig.next += rig.master.period();
+            let fb = rig.base.cycle(&hold).unwrap();
             ages.push(fb.age[C]);
         }
         ages

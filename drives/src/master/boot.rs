@@ -295,27 +295,11 @@ struct DriveSetup {
     master_timeout_ms: u16,
 }
 
-/// Identity, checks and configuration of one drive, up to NMT start (exclusive).
-fn configure<B: TimedBus + ?Sized>(
+/// RPDO1 and TPDO1 as the layouts say, synchronous; TPDO2..4 off.
+fn map_cyclic_pdos<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
-    d: &DriveSetup,
-    seen_at: Instant,
-) -> Result<DriveIdentity, BootError> {
-    let n = d.node;
-    let device_type = sdo.read_u32(n, obj::DEVICE_TYPE, 0)?;
-    if device_type & 0xFFFF != 0x0192 {
-        return Err(BootError::NotCia402 {
-            axis: d.axis,
-            node: n.get(),
-            device_type,
-        });
-    }
-    let vendor = sdo.read_u32(n, obj::IDENTITY, 1)?;
-    let product = optional(sdo.read_u32(n, obj::IDENTITY, 2))?;
-    let revision = optional(sdo.read_u32(n, obj::IDENTITY, 3))?;
-    let serial = optional(sdo.read_u32(n, obj::IDENTITY, 4))?;
-    let name = optional(sdo.read_string(n, obj::DEVICE_NAME, 0))?;
-
+    n: NodeId,
+) -> Result<(), SdoError> {
     let id = n.get() as u16;
     map_pdo(
         sdo,
@@ -345,6 +329,16 @@ fn configure<B: TimedBus + ?Sized>(
             sdo.write_u32(n, comm, 1, cob | COB_INVALID)?;
         }
     }
+    Ok(())
+}
+
+/// CSP mode, the interpolation and SYNC period, the following-error window and time-out,
+/// and the drive's heartbeat.
+fn write_cyclic_parameters<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    d: &DriveSetup,
+) -> Result<(), SdoError> {
+    let n = d.node;
     sdo.write_i8(n, obj::MODES_OF_OPERATION, 0, 8)?;
     sdo.write_u8(
         n,
@@ -363,6 +357,16 @@ fn configure<B: TimedBus + ?Sized>(
     sdo.write_u32(n, obj::FOLLOWING_ERROR_WINDOW, 0, d.window_counts)?;
     sdo.write_u16(n, obj::FOLLOWING_ERROR_TIMEOUT, 0, d.fe_timeout_ms)?;
     sdo.write_u16(n, obj::PRODUCER_HEARTBEAT_TIME, 0, d.heartbeat_ms)?;
+    Ok(())
+}
+
+/// The drive's supervision of the master (0x1016:1, 0x6007); returns whether it watches the
+/// master's heartbeat and whether it takes quick stop on its loss.
+fn supervise_master<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    d: &DriveSetup,
+) -> Result<(bool, bool), SdoError> {
+    let n = d.node;
     // The drive watches the master: 0x1016:1 = node << 16 | timeout ms (0 = off), and quick
     // stops when it misses it (0x6007). Both optional in CiA 301/402: a drive without them is
     // reported, not refused.
@@ -393,6 +397,33 @@ fn configure<B: TimedBus + ?Sized>(
         }
         Err(e) => optional::<()>(Err(e))?.is_some(),
     };
+    Ok((supervises_master, abort_connection_quick_stop))
+}
+
+/// Identity, checks and configuration of one drive, up to NMT start (exclusive).
+fn configure<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    d: &DriveSetup,
+    seen_at: Instant,
+) -> Result<DriveIdentity, BootError> {
+    let n = d.node;
+    let device_type = sdo.read_u32(n, obj::DEVICE_TYPE, 0)?;
+    if device_type & 0xFFFF != 0x0192 {
+        return Err(BootError::NotCia402 {
+            axis: d.axis,
+            node: n.get(),
+            device_type,
+        });
+    }
+    let vendor = sdo.read_u32(n, obj::IDENTITY, 1)?;
+    let product = optional(sdo.read_u32(n, obj::IDENTITY, 2))?;
+    let revision = optional(sdo.read_u32(n, obj::IDENTITY, 3))?;
+    let serial = optional(sdo.read_u32(n, obj::IDENTITY, 4))?;
+    let name = optional(sdo.read_string(n, obj::DEVICE_NAME, 0))?;
+
+    map_cyclic_pdos(sdo, n)?;
+    write_cyclic_parameters(sdo, d)?;
+    let (supervises_master, abort_connection_quick_stop) = supervise_master(sdo, d)?;
     let initial_statusword = Statusword(sdo.read_u16(n, obj::STATUSWORD, 0)?);
     Ok(DriveIdentity {
         axis: d.axis,
@@ -440,6 +471,8 @@ impl Master {
         r
     }
 
+    /// The boot steps in order (see the module doc): drain, reset communication, wait for
+    /// every boot-up, configure and start each drive, then the enable sequence.
     fn boot_inner<B: TimedBus + ?Sized>(&mut self, bus: &mut B) -> Result<BootReport, BootError> {
         let t0 = bus.now();
         while let Some(f) = bus.recv()? {
@@ -447,31 +480,72 @@ impl Master {
         }
         let drives: Vec<usize> = self.drive_indices().collect();
         if self.options.reset_communication {
-            for &i in &drives {
-                if let Some(n) = self.axes[i].node {
-                    bus.send(
-                        &NmtRepr {
-                            command: NmtCommand::ResetCommunication,
-                            target: NmtTarget::Node(n),
-                        }
-                        .emit(),
-                    )?;
-                }
-                self.axes[i].booted = false;
-                self.axes[i].last_heartbeat = None;
+            self.reset_communication(bus, &drives)?;
+        }
+        let seen_at = self.wait_for_boot_up(bus, &drives, t0)?;
+        let mut report = BootReport {
+            drives: Vec::with_capacity(drives.len()),
+            enabled_at: Instant::ZERO,
+            enable_cycles: 0,
+        };
+        for &i in &drives {
+            if let Some(ident) = self.set_up_drive(bus, i, seen_at[i])? {
+                report.drives.push(ident);
             }
         }
-        // Wait for every drive's boot-up (a late drive: up to the boot timeout).
+        // No drive has seen a SYNC yet: SYNC and TPDO counts start together.
+        self.syncs = 0;
+        for a in self.axes[..self.n_axes].iter_mut() {
+            a.tpdos = 0;
+            a.owed = 0;
+        }
+        let (enabled_at, cycles) = self.run_enable(bus)?;
+        report.enabled_at = enabled_at;
+        report.enable_cycles = cycles;
+        Ok(report)
+    }
+
+    /// NMT reset communication to each drive of `drives`; each is then unbooted until its
+    /// boot-up comes.
+    fn reset_communication<B: TimedBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        drives: &[usize],
+    ) -> Result<(), BusError> {
+        for &i in drives {
+            if let Some(n) = self.axes[i].node {
+                bus.send(
+                    &NmtRepr {
+                        command: NmtCommand::ResetCommunication,
+                        target: NmtTarget::Node(n),
+                    }
+                    .emit(),
+                )?;
+            }
+            self.axes[i].booted = false;
+            self.axes[i].last_heartbeat = None;
+        }
+        Ok(())
+    }
+
+    /// Waits for every drive's boot-up (a late drive: up to the boot timeout from `t0`);
+    /// returns when each was seen, indexed like the axes.
+    fn wait_for_boot_up<B: TimedBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        drives: &[usize],
+        t0: Instant,
+    ) -> Result<[Instant; cnc402_config::MAX_AXES], BootError> {
         let boot_deadline = t0 + self.options.boot_timeout;
         let mut seen_at = [Instant::ZERO; cnc402_config::MAX_AXES];
         loop {
-            for &i in &drives {
+            for &i in drives {
                 if self.axes[i].booted && seen_at[i] == Instant::ZERO {
                     seen_at[i] = self.axes[i].last_heartbeat.unwrap_or(bus.now());
                 }
             }
             if drives.iter().all(|&i| self.axes[i].booted) {
-                break;
+                return Ok(seen_at);
             }
             match bus.recv_until(boot_deadline)? {
                 Some(f) => {
@@ -492,89 +566,95 @@ impl Master {
                 }
             }
         }
+    }
 
-        // Configure each drive, then start it.
-        let mut report = BootReport {
-            drives: Vec::with_capacity(drives.len()),
-            enabled_at: Instant::ZERO,
-            enable_cycles: 0,
-        };
+    /// What drive axis `i` (node `node`) is configured with.
+    fn drive_setup(&self, i: usize, node: NodeId) -> DriveSetup {
+        let a = &self.axes[i];
+        DriveSetup {
+            axis: a.name,
+            node,
+            period: self.interpolation,
+            period_us: self.period_us,
+            window_counts: a.window_counts,
+            fe_timeout_ms: a.fe_timeout_ms,
+            heartbeat_ms: self.heartbeat_ms,
+            counts_per_unit: a.counts_per_unit,
+            master_node: self.master_node,
+            // Off with heartbeats off: the master then produces none.
+            master_timeout_ms: if self.heartbeat_ms > 0 {
+                self.heartbeat_timeout.as_millis().min(u16::MAX as u128) as u16
+            } else {
+                0
+            },
+        }
+    }
+
+    /// Runs `transfer` with a blocking SDO client on `bus`; the other frames that arrive
+    /// meanwhile are taken in when it has succeeded.
+    fn with_sdo<B: TimedBus + ?Sized, T, E>(
+        &mut self,
+        bus: &mut B,
+        transfer: impl FnOnce(&mut BlockingSdo<'_, B>) -> Result<T, E>,
+    ) -> Result<T, E> {
         let mut queue: Vec<CanFrame> = Vec::new();
-        for &i in &drives {
-            let a = &self.axes[i];
-            let Some(node) = a.node else { continue };
-            let setup = DriveSetup {
-                axis: a.name,
-                node,
-                period: self.interpolation,
-                period_us: self.period_us,
-                window_counts: a.window_counts,
-                fe_timeout_ms: a.fe_timeout_ms,
-                heartbeat_ms: self.heartbeat_ms,
-                counts_per_unit: a.counts_per_unit,
-                master_node: self.master_node,
-                // Off with heartbeats off: the master then produces none.
-                master_timeout_ms: if self.heartbeat_ms > 0 {
-                    self.heartbeat_timeout.as_millis().min(u16::MAX as u128) as u16
-                } else {
-                    0
-                },
-            };
-            let mut push = |f: &CanFrame| queue.push(*f);
-            let mut sdo = BlockingSdo::new(&mut *bus, self.sdo_timeout, &mut push);
-            let ident = configure(&mut sdo, &setup, seen_at[i]);
-            let mut ident = ident?;
-            let now = bus.now();
-            self.absorb_all(&mut queue, now);
-            bus.send(
-                &NmtRepr {
-                    command: NmtCommand::Start,
-                    target: NmtTarget::Node(node),
-                }
-                .emit(),
-            )?;
-            // The NMT state is unknown until the next heartbeat (the boot-up is history).
-            self.axes[i].nmt = None;
-            // The heartbeat producer was configured just now: the monitor's clock starts here,
-            // not at the boot-up (a drive seen long before the last one booted would otherwise
-            // count as silent since its boot-up).
-            self.axes[i].last_heartbeat = Some(bus.now());
-            // The first setpoint is the actual position: 0x607A = 0x6064 before enabling.
-            let mut push = |f: &CanFrame| queue.push(*f);
-            let pos = {
-                let mut sdo = BlockingSdo::new(&mut *bus, self.sdo_timeout, &mut push);
-                let pos = sdo.read_i32(node, obj::POSITION_ACTUAL, 0)?;
-                sdo.write_i32(node, obj::TARGET_POSITION, 0, pos)?;
-                pos
-            };
-            let now = bus.now();
-            self.absorb_all(&mut queue, now);
-            ident.position_counts = pos;
-            ident.position = pos as f64 / setup.counts_per_unit;
-            if ident
-                .initial_statusword
-                .state()
-                .is_some_and(State::is_fault)
-            {
-                ident.fault_at_power_on = Some(self.axes[i].emcy);
-            }
-            let a = &mut self.axes[i];
-            a.reset_actual(pos);
-            a.target = pos;
-            a.statusword = Some(ident.initial_statusword);
-            report.drives.push(ident);
-        }
+        let mut push = |f: &CanFrame| queue.push(*f);
+        let value = transfer(&mut BlockingSdo::new(
+            &mut *bus,
+            self.sdo_timeout,
+            &mut push,
+        ))?;
+        let now = bus.now();
+        self.absorb_all(&mut queue, now);
+        Ok(value)
+    }
 
-        // No drive has seen a SYNC yet: SYNC and TPDO counts start together.
-        self.syncs = 0;
-        for a in self.axes[..self.n_axes].iter_mut() {
-            a.tpdos = 0;
-            a.owed = 0;
+    /// Configures drive axis `i` (seen booted at `seen_at`), starts it (NMT) and holds its
+    /// target at its actual position; `None` for a virtual axis.
+    fn set_up_drive<B: TimedBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        i: usize,
+        seen_at: Instant,
+    ) -> Result<Option<DriveIdentity>, BootError> {
+        let Some(node) = self.axes[i].node else {
+            return Ok(None);
+        };
+        let setup = self.drive_setup(i, node);
+        let mut ident = self.with_sdo(bus, |sdo| configure(sdo, &setup, seen_at))?;
+        bus.send(
+            &NmtRepr {
+                command: NmtCommand::Start,
+                target: NmtTarget::Node(node),
+            }
+            .emit(),
+        )?;
+        // The NMT state is unknown until the next heartbeat (the boot-up is history).
+        self.axes[i].nmt = None;
+        // The heartbeat producer was configured just now: the monitor's clock starts here,
+        // not at the boot-up (a drive seen long before the last one booted would otherwise
+        // count as silent since its boot-up).
+        self.axes[i].last_heartbeat = Some(bus.now());
+        // The first setpoint is the actual position: 0x607A = 0x6064 before enabling.
+        let pos = self.with_sdo(bus, |sdo| {
+            let pos = sdo.read_i32(node, obj::POSITION_ACTUAL, 0)?;
+            sdo.write_i32(node, obj::TARGET_POSITION, 0, pos)?;
+            Ok::<i32, SdoError>(pos)
+        })?;
+        ident.position_counts = pos;
+        ident.position = pos as f64 / setup.counts_per_unit;
+        if ident
+            .initial_statusword
+            .state()
+            .is_some_and(State::is_fault)
+        {
+            ident.fault_at_power_on = Some(self.axes[i].emcy);
         }
-        let (enabled_at, cycles) = self.run_enable(bus)?;
-        report.enabled_at = enabled_at;
-        report.enable_cycles = cycles;
-        Ok(report)
+        let a = &mut self.axes[i];
+        a.reset_actual(pos);
+        a.target = pos;
+        a.statusword = Some(ident.initial_statusword);
+        Ok(Some(ident))
     }
 
     /// The enable sequence: cycles at the period with every drive's target held at its
@@ -616,15 +696,7 @@ impl Master {
                     .copied()
                     .find(|&i| progress[i] != Progress::Reached)
                     .unwrap_or(0);
-                let a = &self.axes[i];
-                return Err(BootError::Enable {
-                    axis: a.name,
-                    node: a.node.map(NodeId::get).unwrap_or(0),
-                    statusword: a.statusword,
-                    stuck: stuck[i],
-                    emcy: a.emcy,
-                    waited: next.saturating_since(t_enable),
-                });
+                return Err(self.goal_not_reached(i, stuck[i], next.saturating_since(t_enable)));
             }
             next += self.period;
         }
@@ -664,6 +736,20 @@ impl Master {
                 self.request_disable();
                 Err(e)
             }
+        }
+    }
+
+    /// The error of drive axis `i` when it has not reached its enable (or disable) goal after
+    /// `waited`, with what it last reported.
+    fn goal_not_reached(&self, i: usize, stuck: Option<Stuck>, waited: Duration) -> BootError {
+        let a = &self.axes[i];
+        BootError::Enable {
+            axis: a.name,
+            node: a.node.map(NodeId::get).unwrap_or(0),
+            statusword: a.statusword,
+            stuck,
+            emcy: a.emcy,
+            waited,
         }
     }
 
@@ -754,15 +840,7 @@ impl Master {
                 let i = (0..self.n_axes)
                     .find(|&i| !self.axes[i].disabled)
                     .unwrap_or(0);
-                let a = &self.axes[i];
-                return Err(BootError::Enable {
-                    axis: a.name,
-                    node: a.node.map(NodeId::get).unwrap_or(0),
-                    statusword: a.statusword,
-                    stuck: None,
-                    emcy: a.emcy,
-                    waited: next.saturating_since(t0),
-                });
+                return Err(self.goal_not_reached(i, None, next.saturating_since(t0)));
             }
             next += self.period;
         }

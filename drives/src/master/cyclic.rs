@@ -165,6 +165,85 @@ impl super::AxisSlot {
             self.owed
         }
     }
+
+    /// Takes in this cycle's sample (cycle `k`): its age and following error when a TPDO1
+    /// came, else the held sample ages; counts TPDO misses once a SYNC went out.
+    fn take_sample(&mut self, k: usize, running: bool, sync_sent: bool) {
+        if self.tpdo_this_cycle {
+            self.age = self.sample_age(k);
+            self.compare_sample(k, running);
+        } else {
+            // The held sample is one SYNC older than it was.
+            self.age = self.age.saturating_add(1);
+        }
+        // A sample too old to compare is no usable feedback either: stale feedback that
+        // lasts trips the TPDO monitor.
+        if sync_sent {
+            if self.tpdo_this_cycle && self.fe_comparable {
+                self.tpdo_missing = 0;
+            } else {
+                self.tpdo_missing = self.tpdo_missing.saturating_add(1);
+            }
+        }
+        self.window_tpdos = 0;
+    }
+
+    /// The following error of the fresh sample at its age, and the count of samples beyond
+    /// the window in a row (the maximum is kept while running).
+    fn compare_sample(&mut self, k: usize, running: bool) {
+        match self.error_at(k, self.age) {
+            Some(e) => {
+                self.fe_comparable = true;
+                self.following_error = e;
+                if self.window > 0.0 && e.abs() > self.window {
+                    self.fe_beyond = self.fe_beyond.saturating_add(1);
+                } else {
+                    self.fe_beyond = 0;
+                }
+                if running {
+                    self.max_following_error = self.max_following_error.max(e.abs());
+                }
+            }
+            None => {
+                // Older than the history: the error keeps its last value, the persistence
+                // count neither grows nor restarts.
+                self.fe_comparable = false;
+                self.fe_not_comparable = self.fe_not_comparable.saturating_add(1);
+            }
+        }
+    }
+
+    /// The controlword and target of this drive's RPDO1 in `phase` (`None`: idle, nothing
+    /// is sent); `command` is this cycle's command in counts. Steps the enable sequencer
+    /// while enabling or disabling, and remembers what is sent.
+    fn next_rpdo(&mut self, phase: Phase, command: i32) -> Option<(Controlword, i32)> {
+        let sw = self.statusword.unwrap_or(Statusword(0));
+        let (cw, target) = match phase {
+            Phase::Idle => return None,
+            Phase::Enabling => {
+                let step = self.sequencer.step(sw);
+                self.progress = step.progress;
+                (step.controlword, self.target)
+            }
+            Phase::Running => (Controlword::ENABLE_OPERATION_CMD, command),
+            Phase::Stopping => (
+                if self.quick_stop {
+                    Controlword::QUICK_STOP_CMD
+                } else {
+                    Controlword::ENABLE_OPERATION_CMD
+                },
+                command,
+            ),
+            Phase::Disabling => {
+                let step = self.sequencer.step(sw);
+                self.disabled = step.progress == Progress::Reached;
+                (step.controlword, self.target)
+            }
+        };
+        self.controlword = cw;
+        self.target = target;
+        Some((cw, target))
+    }
 }
 
 impl Master {
@@ -324,117 +403,40 @@ impl Master {
     /// cycle's time (the caller's deadline). Returns the feedback, or the safety stop the
     /// first time a monitor trips — the stop reaction has then already been sent, and later
     /// cycles return `Ok` with [`Feedback::stopping`] set. Allocation-free.
+    ///
+    /// The steps, in this order: take in what arrived, take each axis's command and sample,
+    /// run the monitors, then the send phase (RPDO1 per drive, SYNC, the master's heartbeat,
+    /// at most one SDO frame per drive).
     pub fn cycle<B: CanBus + ?Sized>(
         &mut self,
         bus: &mut B,
         now: Instant,
         commands: &[f64],
     ) -> Result<Feedback, SafetyStop> {
-        let mut tripped: Option<SafetyStop> = None;
-        loop {
-            match bus.recv() {
-                Ok(Some(f)) => self.absorb(&f, now),
-                Ok(None) => break,
-                Err(e) => {
-                    tripped = Some(self.bus_stop(e, now));
-                    break;
-                }
-            }
-        }
+        let mut tripped = self.receive_pending(bus, now);
         let running = self.phase == Phase::Running;
         if running || self.phase == Phase::Stopping {
             self.cycles += 1;
         }
-        let k = self.cycles as usize;
         let mut fb = Feedback {
             cycle: self.cycles,
             axis_count: self.n_axes,
-            actual: [0.0; MAX_AXES],
-            command: [0.0; MAX_AXES],
-            following_error: [0.0; MAX_AXES],
-            statusword: [None; MAX_AXES],
-            fresh: [false; MAX_AXES],
-            age: [0; MAX_AXES],
-            stopping: false,
-            actual_counts: [0; MAX_AXES],
-            target: [0; MAX_AXES],
+            ..Feedback::EMPTY
         };
         for i in 0..self.n_axes {
-            let mut cmd = commands
-                .get(i)
-                .copied()
-                .unwrap_or(self.axes[i].last_command);
-            if !cmd.is_finite() {
-                if running && tripped.is_none() {
-                    tripped = Some(self.stop_for(i, StopReason::BadSetpoint, now));
-                }
-                cmd = self.axes[i].last_command;
-            }
-            let sync_sent = self.sync_sent;
-            let a = &mut self.axes[i];
-            a.last_command = cmd;
-            a.history[k % COMMAND_HISTORY] = cmd;
-            if a.node.is_some() {
-                if a.tpdo_this_cycle {
-                    a.age = a.sample_age(k);
-                    match a.error_at(k, a.age) {
-                        Some(e) => {
-                            a.fe_comparable = true;
-                            a.following_error = e;
-                            if a.window > 0.0 && e.abs() > a.window {
-                                a.fe_beyond = a.fe_beyond.saturating_add(1);
-                            } else {
-                                a.fe_beyond = 0;
-                            }
-                            if running {
-                                a.max_following_error = a.max_following_error.max(e.abs());
-                            }
-                        }
-                        None => {
-                            // Older than the history: the error keeps its last value, the
-                            // persistence count neither grows nor restarts.
-                            a.fe_comparable = false;
-                            a.fe_not_comparable = a.fe_not_comparable.saturating_add(1);
-                        }
+            let cmd = match self.command_for(i, commands) {
+                Ok(cmd) => cmd,
+                Err(held) => {
+                    if running && tripped.is_none() {
+                        tripped = Some(self.stop_for(i, StopReason::BadSetpoint, now));
                     }
-                } else {
-                    // The held sample is one SYNC older than it was.
-                    a.age = a.age.saturating_add(1);
+                    held
                 }
-                // A sample too old to compare is no usable feedback either: stale feedback
-                // that lasts trips the TPDO monitor.
-                if sync_sent {
-                    if a.tpdo_this_cycle && a.fe_comparable {
-                        a.tpdo_missing = 0;
-                    } else {
-                        a.tpdo_missing = a.tpdo_missing.saturating_add(1);
-                    }
-                }
-                a.window_tpdos = 0;
-                fb.age[i] = a.age;
-            } else {
-                a.actual = cmd;
-                a.following_error = 0.0;
-            }
-            fb.target[i] = to_counts_wrapping(cmd, a.counts_per_unit);
-            fb.actual_counts[i] = if a.node.is_some() {
-                a.actual_counts
-            } else {
-                fb.target[i] as i64
             };
-            fb.actual[i] = a.actual;
-            fb.command[i] = cmd;
-            fb.following_error[i] = a.following_error;
-            fb.statusword[i] = a.statusword;
-            fb.fresh[i] = a.tpdo_this_cycle;
+            self.take_axis(i, cmd, running, &mut fb);
         }
         if running && tripped.is_none() {
-            for i in 0..self.n_axes {
-                if let Some(reason) = self.monitor(i, now) {
-                    tripped = Some(self.stop_for(i, reason, now));
-                    break;
-                }
-            }
+            tripped = self.first_monitor_stop(now);
         }
         if let Some(s) = tripped {
             if self.stop.is_none() {
@@ -443,77 +445,164 @@ impl Master {
                 tripped = None;
             }
         }
-        // Send phase: RPDO1 per drive, then SYNC, then at most one SDO frame per drive.
-        let mut send_err: Option<BusError> = None;
-        for i in 0..self.n_axes {
-            let a = &mut self.axes[i];
+        // Every frame of the send phase goes out even after a failed one; the first error
+        // is the one reported.
+        let rpdo_err = self.send_rpdos(bus, &fb.target);
+        let sync_err = self.send_sync(bus);
+        let heartbeat_err = self.send_master_heartbeat(bus, now);
+        let sdo_err = self.send_sdo_frames(bus, now);
+        if let Some(e) = rpdo_err.or(sync_err).or(heartbeat_err).or(sdo_err)
+            && self.stop.is_none()
+            && running
+        {
+            let s = self.bus_stop(e, now);
+            self.trip(s);
+            tripped = Some(s);
+        }
+        fb.stopping = self.phase == Phase::Stopping;
+        self.last_feedback = fb;
+        match tripped {
+            Some(s) => Err(s),
+            None => Ok(fb),
+        }
+    }
+
+    /// Takes in every frame waiting on the bus; a receive error ends that with a bus stop.
+    fn receive_pending<B: CanBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        now: Instant,
+    ) -> Option<SafetyStop> {
+        loop {
+            match bus.recv() {
+                Ok(Some(f)) => self.absorb(&f, now),
+                Ok(None) => return None,
+                Err(e) => return Some(self.bus_stop(e, now)),
+            }
+        }
+    }
+
+    /// Axis `i`'s command this cycle: `commands[i]`, or the last command when the entry is
+    /// missing; `Err` with the last command (held) when the entry is not finite.
+    fn command_for(&self, i: usize, commands: &[f64]) -> Result<f64, f64> {
+        let last = self.axes[i].last_command;
+        let cmd = commands.get(i).copied().unwrap_or(last);
+        if cmd.is_finite() { Ok(cmd) } else { Err(last) }
+    }
+
+    /// Records axis `i`'s command `cmd` in its history, takes in its sample (drives) or
+    /// echoes the command (virtual axes), and fills the axis's entries of `fb`.
+    fn take_axis(&mut self, i: usize, cmd: f64, running: bool, fb: &mut Feedback) {
+        let k = self.cycles as usize;
+        let sync_sent = self.sync_sent;
+        let a = &mut self.axes[i];
+        a.last_command = cmd;
+        a.history[k % COMMAND_HISTORY] = cmd;
+        if a.node.is_some() {
+            a.take_sample(k, running, sync_sent);
+            fb.age[i] = a.age;
+        } else {
+            a.actual = cmd;
+            a.following_error = 0.0;
+        }
+        fb.target[i] = to_counts_wrapping(cmd, a.counts_per_unit);
+        fb.actual_counts[i] = if a.node.is_some() {
+            a.actual_counts
+        } else {
+            fb.target[i] as i64
+        };
+        fb.actual[i] = a.actual;
+        fb.command[i] = cmd;
+        fb.following_error[i] = a.following_error;
+        fb.statusword[i] = a.statusword;
+        fb.fresh[i] = a.tpdo_this_cycle;
+    }
+
+    /// The stop of the first drive whose monitor trips (in axis order).
+    fn first_monitor_stop(&self, now: Instant) -> Option<SafetyStop> {
+        (0..self.n_axes).find_map(|i| {
+            self.monitor(i, now)
+                .map(|reason| self.stop_for(i, reason, now))
+        })
+    }
+
+    /// RPDO1 to every drive with the controlword of the phase; `targets` are this cycle's
+    /// commands in counts (sent while running or stopping). Returns the first send error.
+    fn send_rpdos<B: CanBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        targets: &[i32; MAX_AXES],
+    ) -> Option<BusError> {
+        let mut err = None;
+        for (a, &target) in self.axes[..self.n_axes].iter_mut().zip(targets) {
             let Some(node) = a.node else { continue };
             a.tpdo_this_cycle = false;
-            let sw = a.statusword.unwrap_or(Statusword(0));
-            let (cw, target) = match self.phase {
-                Phase::Idle => continue,
-                Phase::Enabling => {
-                    let step = a.sequencer.step(sw);
-                    a.progress = step.progress;
-                    (step.controlword, a.target)
-                }
-                Phase::Running => (Controlword::ENABLE_OPERATION_CMD, fb.target[i]),
-                Phase::Stopping => (
-                    if a.quick_stop {
-                        Controlword::QUICK_STOP_CMD
-                    } else {
-                        Controlword::ENABLE_OPERATION_CMD
-                    },
-                    fb.target[i],
-                ),
-                Phase::Disabling => {
-                    let step = a.sequencer.step(sw);
-                    a.disabled = step.progress == Progress::Reached;
-                    (step.controlword, a.target)
-                }
+            let Some((cw, target)) = a.next_rpdo(self.phase, target) else {
+                continue;
             };
-            a.controlword = cw;
-            a.target = target;
             let cob = 0x200 + node.get() as u16;
             if let Err(e) = bus.send(&rpdo1(cob, cw, target)) {
-                send_err = send_err.or(Some(e));
+                err = err.or(Some(e));
             }
         }
-        if self.phase != Phase::Idle {
-            if let Err(e) = bus.send(&SyncRepr { counter: None }.emit()) {
-                send_err = send_err.or(Some(e));
-            }
-            self.sync_sent = true;
-            self.syncs = self.syncs.wrapping_add(1);
-            for a in self.axes[..self.n_axes].iter_mut() {
-                if a.node.is_some() {
-                    a.owed = a.owed.saturating_add(1);
-                }
+        err
+    }
+
+    /// The SYNC (outside the idle phase): every drive then owes one more TPDO1.
+    fn send_sync<B: CanBus + ?Sized>(&mut self, bus: &mut B) -> Option<BusError> {
+        if self.phase == Phase::Idle {
+            return None;
+        }
+        let err = bus.send(&SyncRepr { counter: None }.emit()).err();
+        self.sync_sent = true;
+        self.syncs = self.syncs.wrapping_add(1);
+        for a in self.axes[..self.n_axes].iter_mut() {
+            if a.node.is_some() {
+                a.owed = a.owed.saturating_add(1);
             }
         }
-        // The master's own heartbeat (the drives' 0x1016 consumer watches it): a master that
-        // stops cycling falls silent, and each drive takes its 0x6007 reaction (quick stop).
-        if self.phase != Phase::Idle && self.heartbeat_ms > 0 {
-            let period = core::time::Duration::from_millis(self.heartbeat_ms as u64);
-            let due = self.next_heartbeat.is_none_or(|t| now >= t);
-            if due {
-                let hb = HeartbeatRepr {
-                    node: self.master_node,
-                    state: NmtState::Operational,
-                };
-                if let Err(e) = bus.send(&hb.emit()) {
-                    send_err = send_err.or(Some(e));
-                }
-                self.heartbeats_sent = self.heartbeats_sent.wrapping_add(1);
-                // On the producer's grid; after a gap, restart from now rather than burst.
-                let next = self.next_heartbeat.map_or(now + period, |t| t + period);
-                self.next_heartbeat = Some(if next <= now { now + period } else { next });
-            }
+        err
+    }
+
+    /// The master's own heartbeat when due (the drives' 0x1016 consumer watches it): a
+    /// master that stops cycling falls silent, and each drive takes its 0x6007 reaction
+    /// (quick stop).
+    fn send_master_heartbeat<B: CanBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        now: Instant,
+    ) -> Option<BusError> {
+        if self.phase == Phase::Idle || self.heartbeat_ms == 0 {
+            return None;
         }
-        // SDO frames use the bus time the cyclic frames leave free (a request and its
-        // response per 270 bits of credit), so they delay no PDO by more than that.
+        if self.next_heartbeat.is_some_and(|t| now < t) {
+            // Not due yet.
+            return None;
+        }
+        let hb = HeartbeatRepr {
+            node: self.master_node,
+            state: NmtState::Operational,
+        };
+        let err = bus.send(&hb.emit()).err();
+        self.heartbeats_sent = self.heartbeats_sent.wrapping_add(1);
+        // On the producer's grid; after a gap, restart from now rather than burst.
+        let period = core::time::Duration::from_millis(self.heartbeat_ms as u64);
+        let next = self.next_heartbeat.map_or(now + period, |t| t + period);
+        self.next_heartbeat = Some(if next <= now { now + period } else { next });
+        err
+    }
+
+    /// At most one SDO frame per drive (aborts always; requests as the credit allows).
+    /// SDO frames use the bus time the cyclic frames leave free (a request and its response
+    /// per 270 bits of credit), so they delay no PDO by more than that.
+    fn send_sdo_frames<B: CanBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        now: Instant,
+    ) -> Option<BusError> {
         let cap = self.sdo_free_bits.max(2.0 * SDO_EXCHANGE_BITS);
         self.sdo_credit = (self.sdo_credit + self.sdo_free_bits).min(cap);
+        let mut err = None;
         for a in self.axes[..self.n_axes].iter_mut() {
             if let Some(c) = a.sdo.as_mut()
                 && let SdoEvent::Failed(e, abort) = c.poll(now)
@@ -529,24 +618,11 @@ impl Master {
                 if let Some(f) = a.sdo_tx.take()
                     && let Err(e) = bus.send(&f)
                 {
-                    send_err = send_err.or(Some(e));
+                    err = err.or(Some(e));
                 }
             }
         }
-        if let Some(e) = send_err
-            && self.stop.is_none()
-            && running
-        {
-            let s = self.bus_stop(e, now);
-            self.trip(s);
-            tripped = Some(s);
-        }
-        fb.stopping = self.phase == Phase::Stopping;
-        self.last_feedback = fb;
-        match tripped {
-            Some(s) => Err(s),
-            None => Ok(fb),
-        }
+        err
     }
 
     /// Sends quick stop (controlword 0x02) to every drive from the next cycle on; the caller
