@@ -10,14 +10,15 @@ use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Block, Comment, Line, Program, Span};
 use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{
-    ArcDir, AxisPos, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind, arc_length,
+    ArcDir, AxisPos, PathAxes, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind,
+    TapSegment, path_length,
 };
 
 use crate::arc::{self, ArcError};
 use crate::host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary};
 use crate::macros::{Frame, ModalCall, Runaway, Unit, VarTable};
 use crate::nvfile::NvTable;
-use crate::state::{Cycle, CycleData, ModalState, Motion};
+use crate::state::{Cycle, CycleData, DEFAULT_PATH_TOLERANCE, ModalState, Motion};
 use crate::words::{Arg, GGroup, Words, fmt_num};
 
 /// Operator switches that change how a program runs.
@@ -253,43 +254,16 @@ impl Interpreter {
         }
     }
 
-    /// Adds a handed-out segment's length to the path length.
+    /// Adds a handed-out segment's length (motion's [`path_length`], the planner's) to the
+    /// path length.
     pub(crate) fn account(&mut self, s: &Segment) {
-        let lin = |a: &AxisPos, b: &AxisPos, cfg: &MachineConfig| {
-            let mut d2 = 0.0;
-            let mut r2 = 0.0;
-            for (i, ax) in cfg.axes.iter().enumerate() {
-                let d = b[i] - a[i];
-                if ax.kind.is_rotary() {
-                    r2 += d * d;
-                } else {
-                    d2 += d * d;
-                }
-            }
-            if d2 > 0.0 { d2.sqrt() } else { r2.sqrt() }
-        };
         match &s.kind {
-            SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => {
-                self.path_len += lin(&self.path_end, end, &self.cfg);
-                self.path_end = *end;
-            }
-            SegmentKind::Arc {
-                end,
-                center,
-                plane,
-                dir,
-                turns,
-                ..
-            } => {
-                let (a, b, n) = plane.letters();
-                let idx = |l: char| self.cfg.axis_index(l);
-                if let (Some(ia), Some(ib)) = (idx(a), idx(b)) {
-                    let start = [self.path_end[ia], self.path_end[ib]];
-                    let stop = [end[ia], end[ib]];
-                    let c = plane.center_in_plane(*center);
-                    let h = idx(n).map_or(0.0, |i| end[i] - self.path_end[i]);
-                    self.path_len += arc_length(start, stop, c, *dir, *turns).hypot(h);
-                }
+            SegmentKind::Rapid { end }
+            | SegmentKind::Linear { end, .. }
+            | SegmentKind::Tap(TapSegment { end, .. })
+            | SegmentKind::Arc { end, .. } => {
+                let axes = PathAxes::new(&self.cfg);
+                self.path_len += path_length(&self.path_end, &s.kind, &axes);
                 self.path_end = *end;
             }
             // G28/G30 C: program C reads the reference from here (the turn is no path).
@@ -386,6 +360,7 @@ impl Interpreter {
                 s.kind,
                 SegmentKind::Rapid { .. }
                     | SegmentKind::Linear { .. }
+                    | SegmentKind::Tap(_)
                     | SegmentKind::Arc { .. }
                     | SegmentKind::Dwell { .. }
             )
@@ -522,11 +497,11 @@ impl Exec<'_> {
             })
     }
 
+    /// Adds a segment of `kind`, ending as the modal path mode says
+    /// ([`ModalState::segment`]).
     pub fn push(&mut self, kind: SegmentKind) {
-        self.out.push(Segment {
-            kind,
-            source: self.source.clone(),
-        });
+        let seg = self.st.segment(kind, self.source.clone());
+        self.out.push(seg);
     }
 
     /// Executes one block of `line` (from `src`), its words already collected in `w`, against
@@ -720,11 +695,36 @@ impl Exec<'_> {
         }
         if let Some((c, _)) = self.w.g_of(GGroup::PathMode) {
             self.st.path_mode = c;
+            if c == 64 {
+                self.st.path_tolerance = self.g64_tolerance()?;
+            }
         }
         if let Some((80, _)) = self.w.g_of(GGroup::Cycle) {
             self.cancel_cycle();
         }
         Ok(())
+    }
+
+    /// The tolerance of a G64 block: its `P` (LinuxCNC's meaning, in program units, > 0),
+    /// else [`DEFAULT_PATH_TOLERANCE`]. A block whose P is a dwell, a G10/G28/G30 selector or
+    /// canned-cycle data leaves that P alone.
+    fn g64_tolerance(&mut self) -> Result<f64, NcError> {
+        let p_taken = self.w.g_of(GGroup::NonModal).is_some()
+            || self.w.g_of(GGroup::Cycle).is_some_and(|g| g.0 != 80)
+            || self.st.cycle.is_some();
+        if p_taken {
+            return Ok(DEFAULT_PATH_TOLERANCE);
+        }
+        match self.w.take('P') {
+            None => Ok(DEFAULT_PATH_TOLERANCE),
+            Some(p) if p.v > 0.0 && p.v.is_finite() => Ok(p.v * self.st.unit()),
+            Some(p) => Err(self
+                .err(
+                    p.span,
+                    format!("G64 P{}: the path tolerance must be > 0", fmt_num(p.v)),
+                )
+                .with_expected("P > 0 (the path tolerance) or G64 without P")),
+        }
     }
 
     fn cancel_cycle(&mut self) {
@@ -999,6 +999,52 @@ impl Exec<'_> {
         Ok(())
     }
 
+    /// A feed move to `end` that couples linear axis `tool` with the spindle axis at `pitch`
+    /// (signed, see [`TapSegment`]): a `Tap` when both move, else a plain `Linear` (a move
+    /// that turns no spindle or feeds no tool couples nothing).
+    pub fn tap(
+        &mut self,
+        end: AxisPos,
+        feed: f64,
+        tool: usize,
+        pitch: f64,
+        hint: &[char],
+    ) -> Result<(), NcError> {
+        let Some(sp) = self.cfg.spindle_index() else {
+            return self.linear(end, feed, hint);
+        };
+        if end[tool] == self.st.pos[tool] || end[sp] == self.st.pos[sp] {
+            return self.linear(end, feed, hint);
+        }
+        self.check_limits(&end, hint)?;
+        self.push(SegmentKind::Tap(TapSegment {
+            end,
+            feed,
+            tool: tool as u8,
+            spindle: sp as u8,
+            pitch,
+        }));
+        self.st.pos = end;
+        Ok(())
+    }
+
+    /// A programmed feed move that moves the spindle axis as a position axis together with
+    /// linear axes, each with its own word (`G1 Z.. C.. F..`, as source-000 tapping cycles
+    /// program it): a rigid tap of the linear axis that moves most, with the pitch the two
+    /// moves give. `None` when the block is no such move.
+    fn programmed_tap(&self, end: &AxisPos, worded: &[bool]) -> Option<(usize, f64)> {
+        let sp = self.cfg.spindle_index()?;
+        let dc = end[sp] - self.st.pos[sp];
+        if !worded[sp] || dc == 0.0 {
+            return None;
+        }
+        let (tool, dt) = (0..self.cfg.axes.len())
+            .filter(|&i| worded[i] && !self.cfg.axes[i].kind.is_rotary())
+            .map(|i| (i, end[i] - self.st.pos[i]))
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+        (dt != 0.0).then_some((tool, dt / dc * 360.0))
+    }
+
     /// A programmed value of axis `i` (already in mm / degrees) → machine position, G90 or
     /// G91, with the work zero and the tool length offset. On the tool axis this (re)applies
     /// the offset vector: after it, `pos` includes all of it.
@@ -1123,6 +1169,12 @@ impl Exec<'_> {
             .unwrap_or(self.w.span);
         match self.st.motion {
             Motion::Rapid | Motion::Linear => {
+                let worded: Vec<bool> = self
+                    .cfg
+                    .axes
+                    .iter()
+                    .map(|a| self.w.peek(a.name).is_some())
+                    .collect();
                 let (end, any) = self.targets(g53.is_some());
                 // G53 to where the tool already is makes no segment, as G28/G30 do.
                 if !any || (g53.is_some() && end == self.st.pos) {
@@ -1133,7 +1185,10 @@ impl Exec<'_> {
                     self.rapid(end, &[])
                 } else {
                     let feed = self.feed_rate(motion_span)?;
-                    self.linear(end, feed, &[])
+                    match self.programmed_tap(&end, &worded) {
+                        Some((tool, pitch)) => self.tap(end, feed, tool, pitch, &[]),
+                        None => self.linear(end, feed, &[]),
+                    }
                 }
             }
             Motion::ArcCw | Motion::ArcCcw => self.arc(motion_span),

@@ -784,17 +784,15 @@ impl Interpreter {
                     n: line.n.map(|n| n.value),
                 };
                 if !text.is_empty() {
-                    self.queue.push_back(cnc402_motion::segment::Segment {
-                        kind: SegmentKind::Message { text },
-                        source: source.clone(),
-                    });
+                    let s = self
+                        .state
+                        .segment(SegmentKind::Message { text }, source.clone());
+                    self.queue.push_back(s);
                 }
-                self.queue.push_back(cnc402_motion::segment::Segment {
-                    kind: SegmentKind::Stop {
-                        kind: StopKind::Program,
-                    },
-                    source,
-                });
+                let stop = SegmentKind::Stop {
+                    kind: StopKind::Program,
+                };
+                self.queue.push_back(self.state.segment(stop, source));
                 Ok(())
             }
             _ => self
