@@ -5,7 +5,9 @@
 //! that a change lasts for the run and the next run starts from the config again.
 
 use cnc402_config::{MAX_AXES, MachineConfig, PlaneDefault, ReturnPlane, ToolOffset, Units};
-use cnc402_motion::segment::{AxisPos, Plane, Segment, SegmentEnd, SegmentKind, Source, SpindleDir};
+use cnc402_motion::segment::{
+    AxisPos, Plane, Segment, SegmentEnd, SegmentKind, Source, SpindleDir,
+};
 
 /// The path tolerance (mm) of `G64` without `P`: how far a continuous path may pass from a
 /// segment's end point. (A config key comes later.)

@@ -572,9 +572,7 @@ fn every_cycle_in_every_plane_mode_and_return() {
                         .iter()
                         .filter_map(|s| match s.kind {
                             SegmentKind::Linear { end, .. }
-                            | SegmentKind::Tap(TapSegment { end, .. }) => {
-                                Some((end[ia], end[ib]))
-                            }
+                            | SegmentKind::Tap(TapSegment { end, .. }) => Some((end[ia], end[ib])),
                             _ => None,
                         })
                         .collect();

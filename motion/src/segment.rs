@@ -7,8 +7,8 @@
 
 use std::sync::Arc;
 
-use cnc402_config::{AxisKind, MachineConfig};
 pub use cnc402_config::MAX_AXES;
+use cnc402_config::{AxisKind, MachineConfig};
 
 /// Absolute machine position of every configured axis (index = position in the config's axis
 /// list); entries past the configured count are 0 and ignored.
