@@ -1031,7 +1031,7 @@ impl Exec<'_> {
     /// A programmed feed move that moves the spindle axis as a position axis together with
     /// linear axes, each with its own word (`G1 Z.. C.. F..`, as source-000 tapping cycles
     /// program it): a rigid tap of the linear axis that moves most, with the pitch the two
-    /// moves give. `None` when the block is no such move.
+    /// moves give. `None` when the block is no such move (or the pitch overflows).
     fn programmed_tap(&self, end: &AxisPos, worded: &[bool]) -> Option<(usize, f64)> {
         let sp = self.cfg.spindle_index()?;
         let dc = end[sp] - self.st.pos[sp];
@@ -1042,7 +1042,8 @@ impl Exec<'_> {
             .filter(|&i| worded[i] && !self.cfg.axes[i].kind.is_rotary())
             .map(|i| (i, end[i] - self.st.pos[i]))
             .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
-        (dt != 0.0).then_some((tool, dt / dc * 360.0))
+        let pitch = dt / dc * 360.0;
+        (dt != 0.0 && pitch.is_finite()).then_some((tool, pitch))
     }
 
     /// A programmed value of axis `i` (already in mm / degrees) → machine position, G90 or
