@@ -4,17 +4,20 @@
 //! order. It is written by hand rather than through serde_json (a dev-dependency here, used by
 //! the tests to parse it back) because the key order and number format are the contract.
 //!
-//! Keys: `kind` (`rapid` `linear` `arc` `dwell` `spindle` `spindle_orient` `tool_change`
+//! Keys: `kind` (`rapid` `linear` `tap` `arc` `dwell` `spindle` `spindle_orient` `tool_change`
 //! `coolant` `stop` `message`),
 //! `file`, `line`, `n` (N number or null); motion kinds add `end` (axis name → absolute machine
-//! position of every configured axis, mm or degrees); `linear` and `arc` add `feed` (mm/min);
+//! position of every configured axis, mm or degrees); `linear`, `tap` and `arc` add `feed`
+//! (mm/min); `tap` adds `tool` and `spindle` (the coupled axes' names) and `pitch` (mm per
+//! spindle turn, signed: pitch / 360 = Δtool / Δspindle);
 //! `arc` adds `center` (`X` `Y` `Z`, machine coordinates; the normal axis holds the start's
 //! value), `plane` (`XY` `ZX` `YZ`), `dir` (`cw` `ccw`) and `turns` (1 = full circle);
 //! `dwell` adds `seconds`; `spindle` adds `rpm` and `dir` (`cw` `ccw` `stop`);
 //! `spindle_orient` adds `angle` (the physical spindle angle in degrees) and, for G28/G30 C,
 //! `program` (the spindle axis's program position from then on: its reference); `tool_change`
 //! adds `tool`; `coolant` adds `mist` and `flood` (booleans: the state from here on); `stop` adds `stop` (`program` `optional` `end` `end_rewind`); `message` adds
-//! `text`.
+//! `text`. Every segment ends with `ends`: `exact_stop`, or `continuous` followed by
+//! `tolerance` (mm, G64).
 //!
 //! The spindle axis C is the program's view: it starts at 0 and moves only with rigid taps,
 //! C words and G28/G30 C (which set it to the reference); speed-mode runs (M3/M4) and
@@ -26,7 +29,9 @@ use std::fmt::Write;
 use cnc402_config::MachineConfig;
 
 use crate::words::fmt_num;
-use cnc402_motion::segment::{ArcDir, AxisPos, Plane, Segment, SegmentKind, SpindleDir, StopKind};
+use cnc402_motion::segment::{
+    ArcDir, AxisPos, Plane, Segment, SegmentEnd, SegmentKind, SpindleDir, StopKind, TapSegment,
+};
 
 /// `v` rounded to 1e-6 in its shortest decimal form ([`fmt_num`], the interpreter's one number
 /// format); `-0` prints as `0`, non-finite as `null`.
@@ -84,22 +89,24 @@ fn end_obj(o: &mut String, end: &AxisPos, cfg: &MachineConfig) {
 /// ```
 /// use cnc402_config::MachineConfig;
 /// use cnc402_interp::dump::segment_to_json;
-/// use cnc402_motion::segment::{AxisPos, Segment, SegmentKind, Source};
+/// use cnc402_motion::segment::{AxisPos, Segment, SegmentEnd, SegmentKind, Source};
 /// let cfg = MachineConfig::default_machine();
 /// let mut end = AxisPos::default();
 /// end[0] = 12.5;
 /// let seg = Segment {
 ///     kind: SegmentKind::Linear { end, feed: 300.0 },
 ///     source: Source { file: "a.nc".into(), line: 3, n: Some(30) },
+///     ends: SegmentEnd::Continuous { tolerance: 0.01 },
 /// };
 /// assert_eq!(segment_to_json(&seg, &cfg),
-///     r#"{"kind":"linear","file":"a.nc","line":3,"n":30,"end":{"X":12.5,"Y":0,"Z":0,"C":0},"feed":300}"#);
+///     r#"{"kind":"linear","file":"a.nc","line":3,"n":30,"end":{"X":12.5,"Y":0,"Z":0,"C":0},"feed":300,"ends":"continuous","tolerance":0.01}"#);
 /// ```
 pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
     let mut o = String::with_capacity(160);
     let kind = match seg.kind {
         SegmentKind::Rapid { .. } => "rapid",
         SegmentKind::Linear { .. } => "linear",
+        SegmentKind::Tap(_) => "tap",
         SegmentKind::Arc { .. } => "arc",
         SegmentKind::Dwell { .. } => "dwell",
         SegmentKind::Spindle { .. } => "spindle",
@@ -126,6 +133,24 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
         SegmentKind::Linear { end, feed } => {
             end_obj(&mut o, end, cfg);
             let _ = write!(o, ",\"feed\":{}", num(*feed));
+        }
+        SegmentKind::Tap(TapSegment {
+            end,
+            feed,
+            tool,
+            spindle,
+            pitch,
+        }) => {
+            end_obj(&mut o, end, cfg);
+            let name = |i: u8| cfg.axes.get(usize::from(i)).map_or('?', |a| a.name);
+            let _ = write!(
+                o,
+                ",\"feed\":{},\"tool\":\"{}\",\"spindle\":\"{}\",\"pitch\":{}",
+                num(*feed),
+                name(*tool),
+                name(*spindle),
+                num(*pitch)
+            );
         }
         SegmentKind::Arc {
             end,
@@ -190,6 +215,16 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
             let _ = write!(o, ",\"text\":{}", json_str(text));
         }
     }
+    match seg.ends {
+        SegmentEnd::ExactStop => o.push_str(",\"ends\":\"exact_stop\""),
+        SegmentEnd::Continuous { tolerance } => {
+            let _ = write!(
+                o,
+                ",\"ends\":\"continuous\",\"tolerance\":{}",
+                num(tolerance)
+            );
+        }
+    }
     o.push('}');
     o
 }
@@ -217,6 +252,7 @@ mod tests {
                 line: 7,
                 n: None,
             },
+            ends: SegmentEnd::ExactStop,
         }
     }
 
@@ -255,6 +291,13 @@ mod tests {
                 turns: 1,
                 feed: 100.0,
             },
+            SegmentKind::Tap(TapSegment {
+                end: AxisPos::default(),
+                feed: 600.0,
+                tool: 2,
+                spindle: 3,
+                pitch: -1.25,
+            }),
             SegmentKind::Dwell { seconds: 0.5 },
             SegmentKind::Spindle {
                 rpm: 800.0,
@@ -279,6 +322,7 @@ mod tests {
         let want = [
             ("rapid", "end"),
             ("arc", "center"),
+            ("tap", "pitch"),
             ("dwell", "seconds"),
             ("spindle", "rpm"),
             ("spindle_orient", "angle"),
@@ -296,7 +340,32 @@ mod tests {
             assert_eq!(v["line"], 7);
             assert!(v["n"].is_null());
             assert!(!v[key].is_null(), "{j}");
+            assert_eq!(v["ends"], "exact_stop", "{j}");
         }
+    }
+
+    #[test]
+    fn a_tap_names_its_axes_and_pitch_and_every_segment_how_it_ends() {
+        let cfg = MachineConfig::default_machine();
+        let mut s = seg(SegmentKind::Tap(TapSegment {
+            end: AxisPos::default(),
+            feed: 600.0,
+            tool: 2,
+            spindle: 3,
+            pitch: -1.25,
+        }));
+        assert_eq!(
+            segment_to_json(&s, &cfg),
+            r#"{"kind":"tap","file":"q\"x.nc","line":7,"n":null,"end":{"X":0,"Y":0,"Z":0,"C":0},"feed":600,"tool":"Z","spindle":"C","pitch":-1.25,"ends":"exact_stop"}"#
+        );
+        s.kind = SegmentKind::Rapid {
+            end: AxisPos::default(),
+        };
+        s.ends = SegmentEnd::Continuous { tolerance: 0.05 };
+        assert_eq!(
+            segment_to_json(&s, &cfg),
+            r#"{"kind":"rapid","file":"q\"x.nc","line":7,"n":null,"end":{"X":0,"Y":0,"Z":0,"C":0},"ends":"continuous","tolerance":0.05}"#
+        );
     }
 
     #[test]
@@ -319,7 +388,7 @@ mod tests {
         );
         assert_eq!(
             j,
-            r#"{"kind":"spindle_orient","file":"q\"x.nc","line":7,"n":null,"angle":90.25}"#
+            r#"{"kind":"spindle_orient","file":"q\"x.nc","line":7,"n":null,"angle":90.25,"ends":"exact_stop"}"#
         );
         // G28/G30 C: program C reads the reference afterwards.
         let j = segment_to_json(
@@ -331,7 +400,7 @@ mod tests {
         );
         assert_eq!(
             j,
-            r#"{"kind":"spindle_orient","file":"q\"x.nc","line":7,"n":null,"angle":270,"program":-90}"#
+            r#"{"kind":"spindle_orient","file":"q\"x.nc","line":7,"n":null,"angle":270,"program":-90,"ends":"exact_stop"}"#
         );
     }
 }

@@ -13,7 +13,8 @@
 //!   block drills when it has a position, drilling-axis or R word; K and L both repeat; in G91
 //!   R is measured from the initial level and Z from R. G73 retracts by `peck_retract`, G83
 //!   re-enters to `peck_clearance` above the last depth (config `[interp]`).
-//! - G74/G84 are rigid taps: feed moves of the drilling axis with the spindle axis C,
+//! - G74/G84 are rigid taps (`Tap` segments, as is a G1 of a linear axis with the spindle
+//!   axis): feed moves of the drilling axis with the spindle axis C,
 //!   C = C0 + depth·360/pitch (negative for G74), pitch = F/S (G94) or F (G95). They need M3
 //!   (G84) or M4 (G74) or M29; a turning spindle is stopped before and restarted after the
 //!   block. With Q, peck tapping: in by Q, out by `tap_peck_retract` (Fanuc No. 5213; default
@@ -36,7 +37,8 @@
 //!   makes no segment. Tables changed by a program (G10, `#5221…`, `#1xxxx`) and
 //!   the G92 shift last for the run: `load` starts from the config again.
 //! - M7/M8/M9 make a `Coolant` segment before the block's motion; M2/M30 turn coolant off.
-//!   G61/G63/G64 are tracked only (motion stops at every segment).
+//!   G61/G63/G64 set how path segments end (`Segment::ends`; `G64 P` the tolerance), but
+//!   motion still stops at every segment.
 //! - M1 stops only with [`Options::optional_stop`]; `/` blocks are skipped with
 //!   [`Options::block_delete`]; M2/M30 end the run; a `%` after the first block ends it.
 //!

@@ -5,7 +5,9 @@
 use cnc402_config::MachineConfig;
 use cnc402_interp::run_program;
 use cnc402_lang::SourceFile;
-use cnc402_motion::segment::{AxisPos, Segment, SegmentKind, SpindleDir, StopKind};
+use cnc402_motion::segment::{
+    AxisPos, Segment, SegmentEnd, SegmentKind, SpindleDir, StopKind, TapSegment,
+};
 
 const X: usize = 0;
 const Y: usize = 1;
@@ -24,12 +26,14 @@ fn end(s: &Segment) -> Option<AxisPos> {
     match &s.kind {
         SegmentKind::Rapid { end }
         | SegmentKind::Linear { end, .. }
+        | SegmentKind::Tap(TapSegment { end, .. })
         | SegmentKind::Arc { end, .. } => Some(*end),
         _ => None,
     }
 }
 
-/// (kind letter R/F, value of axis `i`) for the motion segments of line `line`.
+/// (kind letter R/F/T (rapid, feed, tap), value of axis `i`) for the motion segments of line
+/// `line`.
 fn moves(segs: &[Segment], line: u32, i: usize) -> Vec<(char, f64)> {
     segs.iter()
         .filter(|s| s.source.line == line)
@@ -37,6 +41,7 @@ fn moves(segs: &[Segment], line: u32, i: usize) -> Vec<(char, f64)> {
             let k = match s.kind {
                 SegmentKind::Rapid { .. } => 'R',
                 SegmentKind::Linear { .. } => 'F',
+                SegmentKind::Tap(_) => 'T',
                 _ => return None,
             };
             end(s).map(|e| (k, (e[i] * 1e6).round() / 1e6))
@@ -84,8 +89,10 @@ fn g83_pecks_return_to_r_and_reenter_to_the_configured_clearance() {
     );
 }
 
-/// Every tap move satisfies C = C0 + (R − Z)·360/pitch (G84, M3) or its negative (G74, M4);
-/// the tool leaves the hole on the same helix and C returns to C0.
+/// Every tap move is a `Tap` segment of Z with C ending in an exact stop, and satisfies
+/// C = C0 + (R − Z)·360/pitch (G84, M3) or its negative (G74, M4); its signed pitch is
+/// ΔZ/ΔC·360 (−pitch for G84 into a hole below R, +pitch for G74); the tool leaves the hole
+/// on the same helix and C returns to C0.
 #[test]
 fn taps_couple_c_to_z_one_turn_per_pitch() {
     for (prog, hand, pitch) in [
@@ -103,18 +110,37 @@ fn taps_couple_c_to_z_one_turn_per_pitch() {
         ),
     ] {
         let segs = run(prog);
+        assert!(
+            !segs
+                .iter()
+                .any(|s| matches!(s.kind, SegmentKind::Linear { .. })),
+            "{prog}: a tap move left as a plain feed"
+        );
         let taps: Vec<_> = segs
             .iter()
-            .filter(|s| matches!(s.kind, SegmentKind::Linear { .. }))
+            .filter(|s| matches!(s.kind, SegmentKind::Tap(_)))
             .collect();
         assert!(taps.len() >= 2, "{prog}");
+        let mut prev = segs
+            .iter()
+            .take_while(|s| !matches!(s.kind, SegmentKind::Tap(_)))
+            .filter_map(end)
+            .last()
+            .unwrap();
         for s in &taps {
             let e = end(s).unwrap();
             let want = hand * (2.0 - e[Z]) * 360.0 / pitch;
             assert!((e[C] - want).abs() < 1e-9, "{prog}: C {} want {want}", e[C]);
-            let SegmentKind::Linear { feed, .. } = s.kind else {
+            let SegmentKind::Tap(t) = s.kind else {
                 unreachable!()
             };
+            assert_eq!((t.tool, t.spindle), (Z as u8, C as u8), "{prog}");
+            assert_eq!(t.pitch, -hand * pitch, "{prog}");
+            let geometric = (e[Z] - prev[Z]) / (e[C] - prev[C]) * 360.0;
+            assert!((t.pitch - geometric).abs() < 1e-12, "{prog}: {geometric}");
+            assert_eq!(s.ends, SegmentEnd::ExactStop, "{prog}");
+            prev = e;
+            let feed = t.feed;
             assert!(
                 (feed
                     - pitch
@@ -150,12 +176,12 @@ fn peck_tap_goes_in_by_q_and_out_by_d() {
         moves(&segs, 3, Z),
         vec![
             ('R', 0.0),
-            ('F', -3.0),
-            ('F', -2.0),
-            ('F', -6.0),
-            ('F', -5.0),
-            ('F', -8.0),
-            ('F', 0.0)
+            ('T', -3.0),
+            ('T', -2.0),
+            ('T', -6.0),
+            ('T', -5.0),
+            ('T', -8.0),
+            ('T', 0.0)
         ]
     );
 }
@@ -175,10 +201,10 @@ fn peck_tap_and_g73_use_separate_retracts() {
         moves(&segs, 3, Z),
         vec![
             ('R', 0.0),
-            ('F', -4.0),
-            ('F', -2.5),
-            ('F', -6.0),
-            ('F', 0.0)
+            ('T', -4.0),
+            ('T', -2.5),
+            ('T', -6.0),
+            ('T', 0.0)
         ]
     );
     assert_eq!(
@@ -545,7 +571,8 @@ fn every_cycle_in_every_plane_mode_and_return() {
                     let mut holes: Vec<(f64, f64)> = hole_segs
                         .iter()
                         .filter_map(|s| match s.kind {
-                            SegmentKind::Linear { end, .. } => Some((end[ia], end[ib])),
+                            SegmentKind::Linear { end, .. }
+                            | SegmentKind::Tap(TapSegment { end, .. }) => Some((end[ia], end[ib])),
                             _ => None,
                         })
                         .collect();

@@ -60,16 +60,26 @@ fn ok(v: Vec<Result<Segment, String>>) -> Vec<Segment> {
 const Z: usize = 2;
 const C: usize = 3;
 
-/// (start Z, end Z, start C, end C, feed) of every coupled G1 (Z and C both move).
+/// (start Z, end Z, start C, end C, feed) of every coupled G1 (Z and C both move): each is a
+/// `Tap` segment of Z with C whose pitch is the block's ΔZ/ΔC·360; no plain feed moves both.
 fn coupled(segs: &[Segment]) -> Vec<(f64, f64, f64, f64, f64)> {
     let mut pos = [0.0f64; 8];
     let mut out = Vec::new();
     for s in segs {
         match &s.kind {
-            SegmentKind::Linear { end, feed } => {
-                if end[Z] != pos[Z] && end[C] != pos[C] {
-                    out.push((pos[Z], end[Z], pos[C], end[C], *feed));
-                }
+            SegmentKind::Linear { end, .. } => {
+                assert!(
+                    end[Z] == pos[Z] || end[C] == pos[C],
+                    "a coupled G1 left as a plain feed: {s:?}"
+                );
+                pos.copy_from_slice(&end.0);
+            }
+            SegmentKind::Tap(t) => {
+                let end = &t.end;
+                assert_eq!((t.tool, t.spindle), (Z as u8, C as u8));
+                let pitch = (end[Z] - pos[Z]) / (end[C] - pos[C]) * 360.0;
+                assert_eq!(t.pitch, pitch, "{s:?}");
+                out.push((pos[Z], end[Z], pos[C], end[C], t.feed));
                 pos.copy_from_slice(&end.0);
             }
             SegmentKind::Rapid { end } => pos.copy_from_slice(&end.0),

@@ -185,6 +185,7 @@ fn end_of(s: &Segment) -> Option<cnc402_motion::segment::AxisPos> {
     match &s.kind {
         SegmentKind::Rapid { end }
         | SegmentKind::Linear { end, .. }
+        | SegmentKind::Tap(cnc402_motion::segment::TapSegment { end, .. })
         | SegmentKind::Arc { end, .. } => Some(*end),
         _ => None,
     }
@@ -252,11 +253,16 @@ fn check(
         74 | 84 | 76 | 87 => 1200.0,
         _ => 150.0,
     };
-    // Holes: the feed moves that end at the cut's end level.
+    // Holes: the feed moves (taps for G74/G84) that end at the cut's end level.
     let mut found = Vec::new();
     let mut hole_idx = Vec::new();
     for (i, s) in segs.iter().enumerate() {
-        if let SegmentKind::Linear { end, feed: f } = &s.kind
+        let feed_end = match &s.kind {
+            SegmentKind::Linear { end, feed } if !matches!(cycle, 74 | 84) => Some((end, feed)),
+            SegmentKind::Tap(t) if matches!(cycle, 74 | 84) => Some((&t.end, &t.feed)),
+            _ => None,
+        };
+        if let Some((end, f)) = feed_end
             && (end[Z] - cut_end).abs() < EPS
         {
             if (f - feed).abs() > EPS {

@@ -310,7 +310,7 @@ fn g28_c_then_absolute_c_counts_from_the_reference() {
         .unwrap();
     assert_eq!(
         segment_to_json(orient, &cfg()),
-        r#"{"kind":"spindle_orient","file":"t.nc","line":2,"n":null,"angle":0,"program":0}"#
+        r#"{"kind":"spindle_orient","file":"t.nc","line":2,"n":null,"angle":0,"program":0,"ends":"exact_stop"}"#
     );
 
     // With a work offset on C the work coordinates read the reference less it.
@@ -667,7 +667,7 @@ fn coolant_events_come_before_the_motion_of_their_block_and_end_with_m30() {
     );
     assert_eq!(
         json[0],
-        r#"{"kind":"coolant","file":"t.nc","line":1,"n":null,"mist":false,"flood":true}"#
+        r#"{"kind":"coolant","file":"t.nc","line":1,"n":null,"mist":false,"flood":true,"ends":"exact_stop"}"#
     );
     // M30 with the coolant off adds nothing.
     let (segs, _) = run("M8\nM9\nM30\n");

@@ -19,6 +19,7 @@ fn seg(kind: SegmentKind) -> Segment {
             line: 1,
             n: None,
         },
+        ends: SegmentEnd::ExactStop,
     }
 }
 

@@ -31,6 +31,9 @@ pub enum MotionErrorKind {
     SpindleTooFast { rpm: f64, max_rpm: f64 },
     /// A spindle command on a machine without a spindle axis.
     NoSpindle,
+    /// A rigid tap whose tool axis is not a configured linear axis, whose spindle axis is not
+    /// the configured spindle, or whose pitch is zero or not finite (axis indices).
+    BadTap { tool: u8, spindle: u8, pitch: f64 },
     /// A position move of the spindle axis while it runs in speed mode (M3/M4 active).
     SpindleRunning,
     /// An arc whose plane needs an axis the machine does not have.
@@ -85,6 +88,15 @@ impl fmt::Display for MotionError {
                 write!(f, "spindle speed {rpm} rpm above the maximum {max_rpm} rpm")
             }
             MotionErrorKind::NoSpindle => write!(f, "spindle command but no spindle axis"),
+            MotionErrorKind::BadTap {
+                tool,
+                spindle,
+                pitch,
+            } => write!(
+                f,
+                "rigid tap of axis #{tool} with axis #{spindle} at pitch {pitch} (needs a linear \
+                 tool axis, the spindle axis and a finite pitch ≠ 0)"
+            ),
             MotionErrorKind::SpindleRunning => write!(
                 f,
                 "the spindle axis is moved as a position axis while it runs (stop it with M5 first)"

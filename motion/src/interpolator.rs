@@ -587,6 +587,7 @@ mod tests {
                     line,
                     n: None,
                 },
+                ends: crate::segment::SegmentEnd::ExactStop,
             };
             let mv = planner.plan(&seg).expect("plans");
             assert_eq!(mv.kind, MoveKind::Coolant { mist, flood });

@@ -11,7 +11,7 @@
 //! counts/rev, and each sample is computed from the ramp's start, not summed, so errors do not
 //! accumulate). Wrapping to INT32 is [`to_counts_wrapping`], for the drives layer.
 //!
-//! Position moves of the spindle axis (rigid tapping: a `Linear` move of Z with C) are only
+//! Position moves of the spindle axis (rigid tapping: a `Tap` move of Z with C) are only
 //! allowed with the spindle at rest. The interpreter cannot know where a speed-mode run left
 //! the spindle, so program C coordinates are re-based: when the spindle comes to rest the
 //! interpolator sets `offset = machine C − program C`, and outputs machine C = program C +
@@ -58,6 +58,7 @@
 //! let seg = Segment {
 //!     kind: SegmentKind::Linear { end, feed: 1200.0 },
 //!     source: Source { file: Arc::from("demo.nc"), line: 1, n: Some(10) },
+//!     ends: SegmentEnd::ExactStop,
 //! };
 //! ip.start(planner.plan(&seg)?)?; // plan off the loop; start() and tick() never allocate
 //! let mut ticks = 0;

@@ -10,8 +10,8 @@ use cnc402_config::{AxisKind, MachineConfig};
 use crate::error::{MotionError, MotionErrorKind};
 use crate::profile::{JerkProfile, Limits, PathProfile, ProfileError, State, rest_to_rest};
 use crate::segment::{
-    ArcDir, AxisPos, MAX_AXES, Plane, Segment, SegmentKind, SpindleDir, StopKind, arc_length,
-    arc_sweep,
+    ArcDir, AxisPos, MAX_AXES, PathAxes, Plane, Segment, SegmentEnd, SegmentKind, SpindleDir,
+    StopKind, TapCoupling, TapSegment, arc_sweep,
 };
 
 /// A segment made ready for the interpolator. `Copy` and heap-free: the source location is
@@ -23,6 +23,9 @@ pub struct PlannedMove {
     /// The block's N number.
     pub n: Option<u32>,
     pub kind: MoveKind,
+    /// How the segment ends, as the interpreter stamped it (the planner stops exactly at
+    /// every end for now).
+    pub ends: SegmentEnd,
 }
 
 /// What a planned move does. (`Path` is large on purpose: moves travel by value through
@@ -78,6 +81,8 @@ pub struct PathMove {
     /// Number of interpolator periods the move takes (≥ 1); the last one lands on `end`.
     pub ticks: u64,
     pub rapid: bool,
+    /// A rigid tap's coupling of tool and spindle axis, from its [`TapSegment`].
+    pub tap: Option<TapCoupling>,
 }
 
 /// The shape of a path.
@@ -140,6 +145,7 @@ pub struct Planner {
     spindle: Option<usize>,
     period: f64,
     arc_tolerance: f64,
+    path_axes: PathAxes,
     pos: AxisPos,
     spindle_running: bool,
 }
@@ -178,6 +184,7 @@ impl Planner {
             spindle: config.spindle_index().filter(|&i| i < MAX_AXES),
             period: config.bus.period_s(),
             arc_tolerance: config.interp.arc_tolerance,
+            path_axes: PathAxes::new(config),
             pos: AxisPos::default(),
             spindle_running: false,
         }
@@ -221,6 +228,14 @@ impl Planner {
                 check_feed(*feed).map_err(err)?;
                 let end = self.check_end(end).map_err(err)?;
                 MoveKind::Path(self.line_move(end, feed / 60.0, false).map_err(err)?)
+            }
+            SegmentKind::Tap(tap) => {
+                check_feed(tap.feed).map_err(err)?;
+                self.check_tap(tap).map_err(err)?;
+                let end = self.check_end(&tap.end).map_err(err)?;
+                let mut m = self.line_move(end, tap.feed / 60.0, false).map_err(err)?;
+                m.tap = Some(tap.coupling());
+                MoveKind::Path(m)
             }
             SegmentKind::Arc {
                 end,
@@ -323,7 +338,12 @@ impl Planner {
         if let MoveKind::Path(m) = &kind {
             self.pos = m.end;
         }
-        Ok(PlannedMove { line, n, kind })
+        Ok(PlannedMove {
+            line,
+            n,
+            kind,
+            ends: seg.ends,
+        })
     }
 
     /// Finite, within soft limits, spindle not moved while running; zeroes unused entries.
@@ -347,6 +367,23 @@ impl Planner {
         Ok(e)
     }
 
+    /// A tap couples a configured linear axis with the configured spindle axis at a finite,
+    /// non-zero pitch (the loop indexes its axis arrays with them).
+    fn check_tap(&self, tap: &TapSegment) -> Result<(), MotionErrorKind> {
+        let tool = usize::from(tap.tool);
+        let tool_ok = tool < self.n_axes && self.axes[tool].linear;
+        let spindle_ok = self.spindle == Some(usize::from(tap.spindle));
+        if tool_ok && spindle_ok && tap.pitch.is_finite() && tap.pitch != 0.0 {
+            Ok(())
+        } else {
+            Err(MotionErrorKind::BadTap {
+                tool: tap.tool,
+                spindle: tap.spindle,
+                pitch: tap.pitch,
+            })
+        }
+    }
+
     fn check_soft(&self, i: usize, v: f64) -> Result<(), MotionErrorKind> {
         let ax = &self.axes[i];
         if let Some((min, max)) = ax.soft
@@ -367,16 +404,7 @@ impl Planner {
     /// move); each axis i moving by Δi bounds the path by limit_i · L / |Δi|.
     fn line_move(&self, end: AxisPos, feed: f64, rapid: bool) -> Result<PathMove, MotionErrorKind> {
         let start = self.pos;
-        let (mut lin2, mut rot2) = (0.0, 0.0);
-        for i in 0..self.n_axes {
-            let d = end.0[i] - start.0[i];
-            if self.axes[i].linear {
-                lin2 += d * d;
-            } else {
-                rot2 += d * d;
-            }
-        }
-        let length = if lin2 > 0.0 { lin2.sqrt() } else { rot2.sqrt() };
+        let length = self.path_axes.line_length(&start, &end);
         let mut lim = Limits {
             velocity: feed,
             acceleration: f64::INFINITY,
@@ -436,6 +464,7 @@ impl Planner {
             profile,
             ticks,
             rapid,
+            tap: None,
         })
     }
 
@@ -501,15 +530,9 @@ impl Planner {
                 self.check_soft(i, v)?;
             }
         }
-        let mut h2 = 0.0;
-        for i in 0..self.n_axes {
-            if self.axes[i].linear && i != p && i != q {
-                let d = end.0[i] - start.0[i];
-                h2 += d * d;
-            }
-        }
-        let arc_len = arc_length(s2, e2, c, dir, turns);
-        let length = arc_len.hypot(h2.sqrt());
+        let length = self
+            .path_axes
+            .helix_length(&start, &end, [p, q], c, dir, turns);
         let rmin = r0.min(r1);
         let k = (rm * sweep_abs + (r1 - r0).abs()) / length;
         let (ap, bp) = (&self.axes[p], &self.axes[q]);

@@ -1,12 +1,14 @@
 //! `Segment`: the one type between the interpreter and motion. A segment says where every
-//! configured axis must end up and how to get there, plus the events that must be sequenced
-//! with motion (dwell, spindle, spindle orientation, tool change, coolant, stop, message). Positions
-//! are absolute machine coordinates in each axis's unit (mm, degrees), indexed like
-//! `MachineConfig::axes`.
+//! configured axis must end up and how to get there (a rigid tap is its own kind, carrying its
+//! coupling), how it ends (exact stop or continuous), plus the events that must be sequenced
+//! with motion (dwell, spindle, spindle orientation, tool change, coolant, stop, message).
+//! Positions are absolute machine coordinates in each axis's unit (mm, degrees), indexed like
+//! `MachineConfig::axes`. Also the one path-length definition ([`path_length`]).
 
 use std::sync::Arc;
 
 pub use cnc402_config::MAX_AXES;
+use cnc402_config::{AxisKind, MachineConfig};
 
 /// Absolute machine position of every configured axis (index = position in the config's axis
 /// list); entries past the configured count are 0 and ignored.
@@ -121,6 +123,133 @@ pub fn arc_length(
     0.5 * (r0 + r1) * arc_sweep(start, end, center, dir, turns)
 }
 
+/// What a path length needs to know of the configured axes: how many there are, which are
+/// linear, and their names (an arc finds its plane axes by name).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathAxes {
+    n: usize,
+    linear: [bool; MAX_AXES],
+    names: [char; MAX_AXES],
+}
+
+impl PathAxes {
+    /// The axes of `cfg` (at most [`MAX_AXES`]).
+    pub fn new(cfg: &MachineConfig) -> PathAxes {
+        let mut linear = [false; MAX_AXES];
+        let mut names = ['\0'; MAX_AXES];
+        let n = cfg.axes.len().min(MAX_AXES);
+        for (i, a) in cfg.axes.iter().take(n).enumerate() {
+            linear[i] = a.kind == AxisKind::Linear;
+            names[i] = a.name;
+        }
+        PathAxes { n, linear, names }
+    }
+
+    /// The index of the axis named `name`.
+    pub fn index(&self, name: char) -> Option<usize> {
+        self.names[..self.n].iter().position(|&a| a == name)
+    }
+
+    /// Squared straight-line distance from `a` to `b` over the linear axes, and over the
+    /// rotary ones.
+    fn squared_distances(&self, a: &AxisPos, b: &AxisPos) -> (f64, f64) {
+        let (mut lin2, mut rot2) = (0.0, 0.0);
+        for i in 0..self.n {
+            let d = b.0[i] - a.0[i];
+            if self.linear[i] {
+                lin2 += d * d;
+            } else {
+                rot2 += d * d;
+            }
+        }
+        (lin2, rot2)
+    }
+
+    /// Straight-line distance from `a` to `b` over the linear axes only (mm): what the report
+    /// sums tick by tick, where the spindle turning in speed mode is no path.
+    pub fn linear_distance(&self, a: &AxisPos, b: &AxisPos) -> f64 {
+        self.squared_distances(a, b).0.sqrt()
+    }
+
+    /// The length of a straight move from `a` to `b`: mm over the linear axes that move,
+    /// degrees over the rotary axes when only rotary axes move.
+    pub fn line_length(&self, a: &AxisPos, b: &AxisPos) -> f64 {
+        let (lin2, rot2) = self.squared_distances(a, b);
+        if lin2 > 0.0 { lin2.sqrt() } else { rot2.sqrt() }
+    }
+
+    /// The length of an arc or helix from `start` to `end` turning in the plane of axes
+    /// `plane_axes` (first, second) around `center` (in those axes): the in-plane
+    /// [`arc_length`] combined with the straight travel of every other linear axis.
+    pub fn helix_length(
+        &self,
+        start: &AxisPos,
+        end: &AxisPos,
+        plane_axes: [usize; 2],
+        center: [f64; 2],
+        dir: ArcDir,
+        turns: u32,
+    ) -> f64 {
+        let [p, q] = plane_axes;
+        let mut h2 = 0.0;
+        for i in 0..self.n {
+            if self.linear[i] && i != p && i != q {
+                let d = end.0[i] - start.0[i];
+                h2 += d * d;
+            }
+        }
+        let (s2, e2) = ([start.0[p], start.0[q]], [end.0[p], end.0[q]]);
+        arc_length(s2, e2, center, dir, turns).hypot(h2.sqrt())
+    }
+}
+
+/// The path length of a segment of kind `kind` that starts at `start`, in the planner's path
+/// parameter unit: lines and taps as [`PathAxes::line_length`], arcs as
+/// [`PathAxes::helix_length`]; 0 for every kind that is no path, and for an arc whose plane
+/// axes are not configured (the planner refuses it). The one definition the planner, the
+/// interpreter's `@ITPPATH` and the report share.
+///
+/// ```
+/// use cnc402_config::MachineConfig;
+/// use cnc402_motion::segment::{AxisPos, PathAxes, SegmentKind, path_length};
+/// let axes = PathAxes::new(&MachineConfig::default_machine());
+/// let mut end = AxisPos::default();
+/// end[0] = 3.0; // X
+/// end[1] = 4.0; // Y
+/// end[3] = 90.0; // C: rotary, no path while a linear axis moves
+/// let l = path_length(&AxisPos::default(), &SegmentKind::Linear { end, feed: 100.0 }, &axes);
+/// assert_eq!(l, 5.0);
+/// ```
+pub fn path_length(start: &AxisPos, kind: &SegmentKind, axes: &PathAxes) -> f64 {
+    match kind {
+        SegmentKind::Rapid { end }
+        | SegmentKind::Linear { end, .. }
+        | SegmentKind::Tap(TapSegment { end, .. }) => axes.line_length(start, end),
+        SegmentKind::Arc {
+            end,
+            center,
+            plane,
+            dir,
+            turns,
+            ..
+        } => {
+            let (a, b, _) = plane.letters();
+            match (axes.index(a), axes.index(b)) {
+                (Some(p), Some(q)) => axes.helix_length(
+                    start,
+                    end,
+                    [p, q],
+                    plane.center_in_plane(*center),
+                    *dir,
+                    *turns,
+                ),
+                _ => 0.0,
+            }
+        }
+        _ => 0.0,
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ArcDir {
     /// G2
@@ -151,13 +280,71 @@ pub enum StopKind {
     EndRewind,
 }
 
+/// How a segment ends: whether the machine must come to rest exactly on its end point before
+/// the next segment starts, or may pass near it. The interpreter stamps it from the path mode
+/// (G61/G63: exact stop; G64: continuous) on path segments; taps and every non-path segment
+/// end in an exact stop. The planner still stops exactly at every segment end (it does not
+/// blend yet), so today this is information for what comes later.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SegmentEnd {
+    /// Come to rest on the end point (G61, G63, taps, every non-path segment).
+    ExactStop,
+    /// G64: the path may pass within `tolerance` (mm, > 0) of the end point.
+    Continuous { tolerance: f64 },
+}
+
+/// A rigid tap: the tool (drilling) axis and the spindle axis, a position axis here, move
+/// together in one straight line at `feed`, one spindle turn per `pitch` of tool travel.
+///
+/// Sign convention: `pitch` is signed like the coupling ratio, `pitch / 360` = Δtool / Δspindle
+/// (mm per degree). A right-hand tap (G84) into a hole below the R level moves the tool down
+/// while C counts up, so its pitch is negative; the retract has the same sign (both axes
+/// reverse).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TapSegment {
+    pub end: AxisPos,
+    /// Path speed in mm/min, as [`SegmentKind::Linear`]'s.
+    pub feed: f64,
+    /// Index of the tool (drilling) axis, a linear axis.
+    pub tool: u8,
+    /// Index of the spindle axis.
+    pub spindle: u8,
+    /// mm of tool travel per spindle turn, signed (see the type's doc).
+    pub pitch: f64,
+}
+
+impl TapSegment {
+    /// The coupling this tap holds while it runs.
+    pub fn coupling(&self) -> TapCoupling {
+        TapCoupling {
+            tool: self.tool,
+            spindle: self.spindle,
+            ratio: self.pitch / 360.0,
+        }
+    }
+}
+
+/// A rigid-tap coupling in force during a move: the `tool` axis moves `ratio` units per unit
+/// of the spindle axis `spindle` (degrees). It travels with the planned move and the loop's
+/// status records, so nothing downstream guesses it from geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TapCoupling {
+    pub tool: u8,
+    pub spindle: u8,
+    /// Δtool / Δspindle (mm per degree, signed): [`TapSegment::pitch`] / 360.
+    pub ratio: f64,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub enum SegmentKind {
     /// G0: the fastest straight line the axes allow.
     Rapid { end: AxisPos },
-    /// G1 (and cycle feeds, and taps: Z with C). `feed` is the path speed in units/min over
-    /// the linear axes that move; over the rotary axes when only rotary axes move.
+    /// G1 (and cycle feeds). `feed` is the path speed in units/min over the linear axes that
+    /// move; over the rotary axes when only rotary axes move.
     Linear { end: AxisPos, feed: f64 },
+    /// A rigid tap (G74/G84 moves, and a feed move of a linear axis with the spindle axis):
+    /// planned and timed like `Linear`, with the coupling carried along.
+    Tap(TapSegment),
     /// G2/G3, with an optional helical component along the plane's normal (and any other axis
     /// moving linearly with it). `center` is in machine coordinates, X Y Z. `turns` counts
     /// extra full turns (0 = less than one turn; a full circle is `turns = 1` with end = start).
@@ -194,10 +381,25 @@ pub enum SegmentKind {
     Message { text: String },
 }
 
+impl SegmentKind {
+    /// Moves along a path (rapid, linear, arc, tap), the kinds a path mode applies to.
+    pub fn is_path(&self) -> bool {
+        matches!(
+            self,
+            SegmentKind::Rapid { .. }
+                | SegmentKind::Linear { .. }
+                | SegmentKind::Tap(_)
+                | SegmentKind::Arc { .. }
+        )
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Segment {
     pub kind: SegmentKind,
     pub source: Source,
+    /// How the segment ends (see [`SegmentEnd`]).
+    pub ends: SegmentEnd,
 }
 
 #[cfg(test)]

@@ -496,3 +496,136 @@ fn spindle_offset_at_start_up_keeps_the_first_setpoint_on_the_actual_position() 
     assert_eq!(last.pos.0[3], 360.0 + 1234.5);
     assert!(!ip.set_spindle_offset(f64::NAN));
 }
+
+fn tap(end: AxisPos, feed: f64, pitch: f64, line: u32) -> Segment {
+    seg(
+        SegmentKind::Tap(TapSegment {
+            end,
+            feed,
+            tool: 2,
+            spindle: 3,
+            pitch,
+        }),
+        line,
+    )
+}
+
+/// A tap is planned like the same linear move (timing and setpoints identical), and its
+/// planned move carries the coupling (pitch / 360) and how the segment ends.
+#[test]
+fn a_tap_plans_like_its_linear_move_and_carries_its_coupling() {
+    let c = cfg();
+    let start = xyzc(5.0, 5.0, 3.0, 0.0);
+    let end = xyzc(5.0, 5.0, -10.0, 3120.0);
+    let pitch = -13.0 / 3120.0 * 360.0;
+    let mut as_tap = tap(end, 750.0, pitch, 4);
+    as_tap.ends = SegmentEnd::Continuous { tolerance: 0.02 };
+    let mut planner = Planner::new(&c);
+    planner.set_position(start);
+    let t = planner.plan(&as_tap).unwrap();
+    planner.set_position(start);
+    let l = planner.plan(&lin(end, 750.0, 4)).unwrap();
+    let (MoveKind::Path(tp), MoveKind::Path(lp)) = (t.kind, l.kind) else {
+        panic!("{t:?} {l:?}")
+    };
+    assert_eq!(
+        tp.tap,
+        Some(TapCoupling {
+            tool: 2,
+            spindle: 3,
+            ratio: pitch / 360.0
+        })
+    );
+    assert_eq!(lp.tap, None);
+    assert_eq!(PathMove { tap: None, ..tp }, lp);
+    assert_eq!(t.ends, SegmentEnd::Continuous { tolerance: 0.02 });
+    assert_eq!(l.ends, SegmentEnd::ExactStop);
+    let tap_ticks = run(&c, start, &[tap(end, 750.0, pitch, 4)]);
+    assert_eq!(tap_ticks, run(&c, start, &[lin(end, 750.0, 4)]));
+}
+
+/// A tap that names no linear tool axis, not the spindle, or no usable pitch is a planning
+/// error, never a panic (the loop indexes its axis arrays with the tap's axes).
+#[test]
+fn a_bad_tap_is_an_error() {
+    let c = cfg();
+    let end = xyzc(0.0, 0.0, -5.0, 1200.0);
+    for (tool, spindle, pitch) in [
+        (3, 3, -1.5),
+        (200, 3, -1.5),
+        (2, 2, -1.5),
+        (2, 200, -1.5),
+        (2, 3, 0.0),
+        (2, 3, f64::NAN),
+        (2, 3, f64::INFINITY),
+    ] {
+        let mut p = Planner::new(&c);
+        let s = seg(
+            SegmentKind::Tap(TapSegment {
+                end,
+                feed: 300.0,
+                tool,
+                spindle,
+                pitch,
+            }),
+            9,
+        );
+        let e = p.plan(&s).unwrap_err();
+        assert!(
+            matches!(e.kind, MotionErrorKind::BadTap { tool: t, spindle: sp, pitch: pi }
+                if (t, sp) == (tool, spindle) && pi.to_bits() == pitch.to_bits()),
+            "{tool} {spindle} {pitch}: {e}"
+        );
+        assert_eq!(e.line, 9);
+    }
+}
+
+/// The planner's path length is motion's one `path_length` (the interpreter's `@ITPPATH` and
+/// the report use it too): lines over the linear axes (rotary only when only they move),
+/// taps as lines, helices along the helix.
+#[test]
+fn planned_lengths_are_path_length() {
+    let c = cfg();
+    let axes = PathAxes::new(&c);
+    let start = xyzc(1.0, 2.0, 3.0, 10.0);
+    let kinds = [
+        SegmentKind::Rapid {
+            end: xyzc(4.0, 6.0, 3.0, 100.0),
+        },
+        SegmentKind::Linear {
+            end: xyzc(1.0, 2.0, 3.0, 100.0),
+            feed: 600.0,
+        },
+        SegmentKind::Tap(TapSegment {
+            end: xyzc(1.0, 2.0, -3.0, 10.0 + 6.0 / 1.5 * 360.0),
+            feed: 300.0,
+            tool: 2,
+            spindle: 3,
+            pitch: -1.5,
+        }),
+        SegmentKind::Arc {
+            end: xyzc(1.0, 2.0, 1.0, 10.0),
+            center: [0.0, 2.0, 0.0],
+            plane: Plane::XY,
+            dir: ArcDir::Ccw,
+            turns: 2,
+            feed: 600.0,
+        },
+    ];
+    let want = [5.0, 90.0, 6.0, (2.0 * std::f64::consts::TAU).hypot(2.0)];
+    for (k, w) in kinds.into_iter().zip(want) {
+        let mut p = Planner::new(&c);
+        p.set_position(start);
+        let mv = p.plan(&seg(k.clone(), 1)).unwrap();
+        let MoveKind::Path(m) = mv.kind else {
+            panic!("{mv:?}")
+        };
+        assert_eq!(m.length, path_length(&start, &k, &axes), "{k:?}");
+        assert!((m.length - w).abs() < 1e-9, "{k:?}: {}", m.length);
+    }
+    // Non-path kinds have none.
+    assert_eq!(
+        path_length(&start, &SegmentKind::Dwell { seconds: 1.0 }, &axes),
+        0.0
+    );
+}

@@ -376,6 +376,7 @@ fn orientation_to_a_program_c_off_its_angle_is_refused() {
                 },
                 program: Some(10.0),
             },
+            ends: SegmentEnd::ExactStop,
         })
         .unwrap_err();
     assert!(matches!(e.kind, MotionErrorKind::BadOrientProgram { .. }));

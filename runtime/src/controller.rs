@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use cnc402_config::{AxisKind, MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
-use cnc402_motion::{AxisPos, Interpolator, MoveKind, PlannedMove};
+use cnc402_motion::{AxisPos, Interpolator, MoveKind};
 
 use crate::link::{DriveFeedback, DriveLink, DriveStop, StopCause};
 use crate::ring::{Consumer, LoopInput, MoveConsumer, Observer, Producer, StatusProducer};
@@ -448,7 +448,10 @@ impl<L: DriveLink> CycleController<L> {
         match self.moves.try_pop() {
             Some(LoopInput::Move(mv)) => {
                 self.moves_started += 1;
-                self.tap = tap_coupling(&self.axes, &mv);
+                self.tap = match &mv.kind {
+                    MoveKind::Path(p) => p.tap,
+                    _ => None,
+                };
                 if let Some(c) = self.tap {
                     self.tap_moves += 1;
                     self.tap_anchor = (
@@ -502,29 +505,4 @@ pub fn start_position(axes: &AxisTable, pos: &[f64; MAX_AXES]) -> AxisPos {
     let mut p = AxisPos::default();
     p.0[..axes.n].copy_from_slice(&pos[..axes.n]);
     p
-}
-
-/// The coupling of a path move that turns the spindle axis as a position axis together with
-/// a linear axis (a rigid tap): the linear axis that moves most, and Δlinear/Δspindle.
-pub fn tap_coupling(axes: &AxisTable, mv: &PlannedMove) -> Option<TapCoupling> {
-    let MoveKind::Path(p) = &mv.kind else {
-        return None;
-    };
-    let c = axes.spindle?;
-    let dc = p.end.0[c] - p.start.0[c];
-    if dc == 0.0 {
-        return None;
-    }
-    let (tool, dz) = (0..axes.n)
-        .filter(|&i| axes.linear[i])
-        .map(|i| (i, p.end.0[i] - p.start.0[i]))
-        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
-    if dz == 0.0 {
-        return None;
-    }
-    Some(TapCoupling {
-        tool: tool as u8,
-        spindle: c as u8,
-        ratio: dz / dc,
-    })
 }

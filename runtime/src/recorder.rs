@@ -9,6 +9,8 @@ use std::io::Write;
 use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::coupling::{CouplingChecker, CouplingSample, TapMark};
 
+use cnc402_motion::{AxisPos, PathAxes};
+
 use crate::status::{Status, TapCoupling};
 
 /// One rigid-tap window: consecutive coupled moves with the same pitch.
@@ -66,13 +68,14 @@ pub struct PlotPoint {
 pub struct Recorder {
     names: Vec<char>,
     n: usize,
-    linear: [bool; MAX_AXES],
+    path_axes: PathAxes,
     counts_per_unit: [f64; MAX_AXES],
     period: f64,
     has_drive: [bool; MAX_AXES],
     /// Records seen.
     pub ticks: u64,
-    /// Commanded path length over the linear axes (mm).
+    /// Commanded path length over the linear axes (mm): the setpoints' straight steps from
+    /// tick to tick ([`PathAxes::linear_distance`]; the spindle turning is no path).
     pub path_length: f64,
     /// The last record.
     pub last: Option<Status>,
@@ -96,11 +99,9 @@ impl Recorder {
     /// A recorder for `cfg`'s axes; `expected_ticks` sizes the plot decimation.
     pub fn new(cfg: &MachineConfig, expected_ticks: u64) -> Recorder {
         let n = cfg.axes.len().min(MAX_AXES);
-        let mut linear = [false; MAX_AXES];
         let mut counts_per_unit = [1.0; MAX_AXES];
         let mut has_drive = [false; MAX_AXES];
         for (i, a) in cfg.axes.iter().take(n).enumerate() {
-            linear[i] = a.kind == cnc402_config::AxisKind::Linear;
             counts_per_unit[i] = a.counts_per_unit;
             has_drive[i] = a.node.is_some();
         }
@@ -109,7 +110,7 @@ impl Recorder {
         Recorder {
             names: cfg.axes.iter().take(n).map(|a| a.name).collect(),
             n,
-            linear,
+            path_axes: PathAxes::new(cfg),
             counts_per_unit,
             period: cfg.bus.period_s(),
             has_drive,
@@ -156,14 +157,9 @@ impl Recorder {
     /// Consumes one record.
     pub fn record(&mut self, s: &Status) {
         if let Some(prev) = &self.last {
-            let mut d2 = 0.0;
-            for i in 0..self.n {
-                if self.linear[i] {
-                    let d = s.cmd[i] - prev.cmd[i];
-                    d2 += d * d;
-                }
-            }
-            self.path_length += d2.sqrt();
+            self.path_length += self
+                .path_axes
+                .linear_distance(&AxisPos(prev.cmd), &AxisPos(s.cmd));
         }
         let coupling = self.track_taps(s);
         if self.trace.is_some() && self.trace_error.is_none() {

@@ -2,6 +2,7 @@
 //! `Copy` and heap-free: it travels through the status ring.
 
 use cnc402_config::MAX_AXES;
+pub use cnc402_motion::TapCoupling;
 use cnc402_motion::{MotionError, MoveEvent};
 
 use crate::link::DriveStop;
@@ -18,16 +19,6 @@ pub enum Phase {
     QuickStop,
     /// Program done; waiting for the drives to settle on the last setpoint.
     Settling,
-}
-
-/// A rigid-tap coupling in force during a move: `tool` axis moves `ratio` units per unit of
-/// the spindle axis `spindle` (degrees).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TapCoupling {
-    pub tool: u8,
-    pub spindle: u8,
-    /// Δtool / Δspindle of the move (mm per degree, signed).
-    pub ratio: f64,
 }
 
 /// One tick as the loop saw it. (`Default`: tick 0, running, every axis at 0 with no
@@ -54,7 +45,7 @@ pub struct Status {
     pub statusword: [u16; MAX_AXES],
     /// Non-motion program event finished on this tick.
     pub event: Option<MoveEvent>,
-    /// The rigid-tap coupling of the move executing, if it is one.
+    /// The rigid-tap coupling of the move executing, if it is one (from its planned move).
     pub tap: Option<TapCoupling>,
     /// The safety reaction raised on this tick, if any.
     pub stop: Option<DriveStop>,

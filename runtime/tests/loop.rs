@@ -530,3 +530,34 @@ fn a_full_status_ring_still_gives_ok_true() {
     assert!(plain.dropped_status > 0 && !plain.coupling_complete);
     assert!(plain.ok, "{:?}", plain.error);
 }
+
+/// The coupling comes from the segment kind, never from geometry: a rapid and a plain feed
+/// that move Z and C together are no taps (no coupling in the status, no tap window), while a
+/// programmed `G1 Z.. C..` and the G84 moves are, with the pitch they were programmed with.
+#[test]
+fn only_tap_segments_couple_z_and_c() {
+    let cfg = MachineConfig::default_machine();
+    let text = "G0 Z5.\nG0 Z-1. C90.\nG1 Z-5. C1050. F300.\nG0 Z5. C0\nM30\n";
+    let link = ModelLink::new(&cfg, [0.0; MAX_AXES], 1);
+    let (outcome, st, _, _) = drive(&cfg, link, text, |_, _| {});
+    assert_eq!(outcome, Outcome::Finished);
+    let coupled_lines: Vec<u32> = st
+        .iter()
+        .filter(|s| s.tap.is_some())
+        .map(|s| s.line)
+        .collect();
+    assert!(!coupled_lines.is_empty());
+    assert!(coupled_lines.iter().all(|&l| l == 3), "{coupled_lines:?}");
+    let c = st.iter().find_map(|s| s.tap).unwrap();
+    assert_eq!((c.tool, c.spindle), (2, 3));
+    // ΔZ −4 mm over ΔC 960°: 1.5 mm per turn, Z down while C counts up.
+    assert_eq!(c.ratio, -4.0 / 960.0 * 360.0 / 360.0);
+    let mut rec = Recorder::new(&cfg, st.len() as u64);
+    for s in &st {
+        rec.record(s);
+    }
+    rec.finish().unwrap();
+    assert_eq!(rec.taps.len(), 1, "{:?}", rec.taps);
+    assert!((rec.taps[0].pitch_mm - 1.5).abs() < 1e-12);
+    assert_eq!(rec.taps[0].line, 3);
+}

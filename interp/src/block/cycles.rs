@@ -37,6 +37,10 @@ struct Tap {
     c0: f64,
     /// Degrees of C per mm of drilling-axis travel into the hole (negative for G74).
     k: f64,
+    /// The thread pitch F/S (G94) or F (G95), mm per turn, > 0.
+    pitch: f64,
+    /// +1 for G84 (right hand), −1 for G74.
+    hand: f64,
 }
 
 impl Exec<'_> {
@@ -277,6 +281,8 @@ impl Exec<'_> {
             ic,
             c0: self.st.pos[ic],
             k: hand * 360.0 / pitch,
+            pitch,
+            hand,
         })
     }
 
@@ -315,13 +321,16 @@ impl Exec<'_> {
         self.linear(p, h.feed, &hint)
     }
 
-    /// A tap move to `level`, C coupled: C = c0 + |level − R| · k.
+    /// A tap move to `level`, C coupled: C = c0 + |level − R| · k. Every level lies between
+    /// R and the bottom, so Δd / ΔC = sign(bottom − R) / k: the signed pitch is
+    /// sign(bottom − R) · hand · pitch (negative for G84 into a hole below R).
     fn tap_d(&mut self, h: &Hole, t: Tap, level: f64) -> Result<(), NcError> {
         let mut p = self.st.pos;
         p[h.id] = level;
         p[t.ic] = t.c0 + (level - h.r_level).abs() * t.k;
         let hint = self.hint(h, level);
-        self.linear(p, h.feed, &hint)
+        let pitch = (h.bottom - h.r_level).signum() * t.hand * t.pitch;
+        self.tap(p, h.feed, h.id, pitch, &hint)
     }
 
     fn dwell_data(&mut self) {

@@ -6,12 +6,12 @@ use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Comment, Line, Span};
 use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{
-    ArcDir, AxisPos, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind,
+    ArcDir, AxisPos, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind, TapSegment,
 };
 
 use super::arc::{self, ArcError};
 use super::options::Options;
-use super::state::{Cycle, CycleData, ModalState, Motion};
+use super::state::{Cycle, CycleData, DEFAULT_PATH_TOLERANCE, ModalState, Motion};
 use super::words::{Arg, GGroup, Words, fmt_num};
 
 /// One block being executed.
@@ -99,11 +99,11 @@ impl Exec<'_> {
             })
     }
 
+    /// Adds a segment of `kind`, ending as the modal path mode says
+    /// ([`ModalState::segment`]).
     pub fn push(&mut self, kind: SegmentKind) {
-        self.out.push(Segment {
-            kind,
-            source: self.source.clone(),
-        });
+        let seg = self.st.segment(kind, self.source.clone());
+        self.out.push(seg);
     }
 
     /// Executes one block of `line` (from `src`), its words already collected in `w`, against
@@ -296,11 +296,36 @@ impl Exec<'_> {
         }
         if let Some((c, _)) = self.w.g_of(GGroup::PathMode) {
             self.st.path_mode = c;
+            if c == 64 {
+                self.st.path_tolerance = self.g64_tolerance()?;
+            }
         }
         if let Some((80, _)) = self.w.g_of(GGroup::Cycle) {
             self.cancel_cycle();
         }
         Ok(())
+    }
+
+    /// The tolerance of a G64 block: its `P` (LinuxCNC's meaning, in program units, > 0),
+    /// else [`DEFAULT_PATH_TOLERANCE`]. A block whose P is a dwell, a G10/G28/G30 selector or
+    /// canned-cycle data leaves that P alone.
+    fn g64_tolerance(&mut self) -> Result<f64, NcError> {
+        let p_taken = self.w.g_of(GGroup::NonModal).is_some()
+            || self.w.g_of(GGroup::Cycle).is_some_and(|g| g.0 != 80)
+            || self.st.cycle.is_some();
+        if p_taken {
+            return Ok(DEFAULT_PATH_TOLERANCE);
+        }
+        match self.w.take('P') {
+            None => Ok(DEFAULT_PATH_TOLERANCE),
+            Some(p) if p.v > 0.0 && p.v.is_finite() => Ok(p.v * self.st.unit()),
+            Some(p) => Err(self
+                .err(
+                    p.span,
+                    format!("G64 P{}: the path tolerance must be > 0", fmt_num(p.v)),
+                )
+                .with_expected("P > 0 (the path tolerance) or G64 without P")),
+        }
     }
 
     fn cancel_cycle(&mut self) {
@@ -575,6 +600,53 @@ impl Exec<'_> {
         Ok(())
     }
 
+    /// A feed move to `end` that couples linear axis `tool` with the spindle axis at `pitch`
+    /// (signed, see [`TapSegment`]): a `Tap` when both move, else a plain `Linear` (a move
+    /// that turns no spindle or feeds no tool couples nothing).
+    pub fn tap(
+        &mut self,
+        end: AxisPos,
+        feed: f64,
+        tool: usize,
+        pitch: f64,
+        hint: &[char],
+    ) -> Result<(), NcError> {
+        let Some(sp) = self.cfg.spindle_index() else {
+            return self.linear(end, feed, hint);
+        };
+        if end[tool] == self.st.pos[tool] || end[sp] == self.st.pos[sp] {
+            return self.linear(end, feed, hint);
+        }
+        self.check_limits(&end, hint)?;
+        self.push(SegmentKind::Tap(TapSegment {
+            end,
+            feed,
+            tool: tool as u8,
+            spindle: sp as u8,
+            pitch,
+        }));
+        self.st.pos = end;
+        Ok(())
+    }
+
+    /// A programmed feed move that moves the spindle axis as a position axis together with
+    /// linear axes, each with its own word (`G1 Z.. C.. F..`, as source-000 tapping cycles
+    /// program it): a rigid tap of the linear axis that moves most, with the pitch the two
+    /// moves give. `None` when the block is no such move (or the pitch overflows).
+    fn programmed_tap(&self, end: &AxisPos, worded: &[bool]) -> Option<(usize, f64)> {
+        let sp = self.cfg.spindle_index()?;
+        let dc = end[sp] - self.st.pos[sp];
+        if !worded[sp] || dc == 0.0 {
+            return None;
+        }
+        let (tool, dt) = (0..self.cfg.axes.len())
+            .filter(|&i| worded[i] && !self.cfg.axes[i].kind.is_rotary())
+            .map(|i| (i, end[i] - self.st.pos[i]))
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+        let pitch = dt / dc * 360.0;
+        (dt != 0.0 && pitch.is_finite()).then_some((tool, pitch))
+    }
+
     /// A programmed value of axis `i` (already in mm / degrees) → machine position, G90 or
     /// G91, with the work zero and the tool length offset. On the tool axis this (re)applies
     /// the offset vector: after it, `pos` includes all of it.
@@ -691,6 +763,12 @@ impl Exec<'_> {
             .unwrap_or(self.w.span);
         match self.st.motion {
             Motion::Rapid | Motion::Linear => {
+                let worded: Vec<bool> = self
+                    .cfg
+                    .axes
+                    .iter()
+                    .map(|a| self.w.peek(a.name).is_some())
+                    .collect();
                 let (end, any) = self.targets(g53.is_some());
                 // G53 to where the tool already is makes no segment, as G28/G30 do.
                 if !any || (g53.is_some() && end == self.st.pos) {
@@ -701,7 +779,10 @@ impl Exec<'_> {
                     self.rapid(end, &[])
                 } else {
                     let feed = self.feed_rate(motion_span)?;
-                    self.linear(end, feed, &[])
+                    match self.programmed_tap(&end, &worded) {
+                        Some((tool, pitch)) => self.tap(end, feed, tool, pitch, &[]),
+                        None => self.linear(end, feed, &[]),
+                    }
                 }
             }
             Motion::ArcCw | Motion::ArcCcw => self.arc(motion_span),

@@ -5,7 +5,9 @@
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::Line;
 use cnc402_lang::{NcError, SourceFile};
-use cnc402_motion::segment::{AxisPos, Plane, Segment, SegmentKind, arc_length};
+use cnc402_motion::segment::{
+    AxisPos, PathAxes, Plane, Segment, SegmentKind, TapSegment, path_length,
+};
 
 use super::exec::Exec;
 use super::options::Options;
@@ -58,41 +60,13 @@ impl Machine {
 
     /// Adds a handed-out segment's length to the path length.
     pub(crate) fn account(&mut self, s: &Segment) {
-        let lin = |a: &AxisPos, b: &AxisPos, cfg: &MachineConfig| {
-            let mut d2 = 0.0;
-            let mut r2 = 0.0;
-            for (i, ax) in cfg.axes.iter().enumerate() {
-                let d = b[i] - a[i];
-                if ax.kind.is_rotary() {
-                    r2 += d * d;
-                } else {
-                    d2 += d * d;
-                }
-            }
-            if d2 > 0.0 { d2.sqrt() } else { r2.sqrt() }
-        };
         match &s.kind {
-            SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => {
-                self.path_len += lin(&self.path_end, end, &self.cfg);
-                self.path_end = *end;
-            }
-            SegmentKind::Arc {
-                end,
-                center,
-                plane,
-                dir,
-                turns,
-                ..
-            } => {
-                let (a, b, n) = plane.letters();
-                let idx = |l: char| self.cfg.axis_index(l);
-                if let (Some(ia), Some(ib)) = (idx(a), idx(b)) {
-                    let start = [self.path_end[ia], self.path_end[ib]];
-                    let stop = [end[ia], end[ib]];
-                    let c = plane.center_in_plane(*center);
-                    let h = idx(n).map_or(0.0, |i| end[i] - self.path_end[i]);
-                    self.path_len += arc_length(start, stop, c, *dir, *turns).hypot(h);
-                }
+            SegmentKind::Rapid { end }
+            | SegmentKind::Linear { end, .. }
+            | SegmentKind::Tap(TapSegment { end, .. })
+            | SegmentKind::Arc { end, .. } => {
+                let axes = PathAxes::new(&self.cfg);
+                self.path_len += path_length(&self.path_end, &s.kind, &axes);
                 self.path_end = *end;
             }
             // G28/G30 C: program C reads the reference from here (the turn is no path).

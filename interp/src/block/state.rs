@@ -5,7 +5,13 @@
 //! that a change lasts for the run and the next run starts from the config again.
 
 use cnc402_config::{MAX_AXES, MachineConfig, PlaneDefault, ReturnPlane, ToolOffset, Units};
-use cnc402_motion::segment::{AxisPos, Plane, SpindleDir};
+use cnc402_motion::segment::{
+    AxisPos, Plane, Segment, SegmentEnd, SegmentKind, Source, SpindleDir,
+};
+
+/// The path tolerance (mm) of `G64` without `P`: how far a continuous path may pass from a
+/// segment's end point. (A config key comes later.)
+pub const DEFAULT_PATH_TOLERANCE: f64 = 0.01;
 
 /// Group 08: tool length compensation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -165,9 +171,12 @@ pub struct ModalState {
     pub tool_offsets: Vec<ToolOffset>,
     /// The last G28/G30 intermediate point (machine), per axis, for G29.
     pub ref_mid: [Option<f64>; MAX_AXES],
-    /// Group 15: 61 (exact stop), 63 (tapping), 64 (cutting; the default). Motion ends every
-    /// segment in exact stop in all three until the planner blends segments.
+    /// Group 15: 61 (exact stop), 63 (tapping), 64 (cutting; the default). Path segments
+    /// carry it as their [`SegmentEnd`]; motion ends every segment in exact stop in all three
+    /// until the planner blends segments.
     pub path_mode: u32,
+    /// The tolerance of G64 (mm, > 0): its `P` word, else [`DEFAULT_PATH_TOLERANCE`].
+    pub path_tolerance: f64,
     /// Coolant: M7 (mist), M8 (flood); M9 turns both off.
     pub mist: bool,
     pub flood: bool,
@@ -207,6 +216,7 @@ impl ModalState {
             tool_offsets: cfg.tool_offsets.clone(),
             ref_mid: [None; MAX_AXES],
             path_mode: 64,
+            path_tolerance: DEFAULT_PATH_TOLERANCE,
             mist: false,
             flood: false,
         }
@@ -242,6 +252,30 @@ impl ModalState {
             0.0
         };
         self.pos[i] - self.work_zero(i) - t
+    }
+
+    /// How a segment of `kind` made now ends: path segments as the path mode says (G64:
+    /// continuous within the tolerance; G61, G63: exact stop), taps and every other kind in an
+    /// exact stop.
+    pub fn segment_end(&self, kind: &SegmentKind) -> SegmentEnd {
+        let follows_mode = kind.is_path() && !matches!(kind, SegmentKind::Tap(_));
+        if follows_mode && self.path_mode == 64 {
+            SegmentEnd::Continuous {
+                tolerance: self.path_tolerance,
+            }
+        } else {
+            SegmentEnd::ExactStop
+        }
+    }
+
+    /// A segment of `kind` from `source`, ending as [`segment_end`](Self::segment_end) says:
+    /// every segment the interpreter makes is built here.
+    pub fn segment(&self, kind: SegmentKind, source: Source) -> Segment {
+        Segment {
+            ends: self.segment_end(&kind),
+            kind,
+            source,
+        }
     }
 
     /// mm per program length unit.

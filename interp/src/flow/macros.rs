@@ -251,17 +251,17 @@ impl Interpreter {
                     n: line.n.map(|n| n.value),
                 };
                 if !text.is_empty() {
-                    self.flow.queue.push_back(cnc402_motion::segment::Segment {
-                        kind: SegmentKind::Message { text },
-                        source: source.clone(),
-                    });
+                    let s = self
+                        .m
+                        .state
+                        .segment(SegmentKind::Message { text }, source.clone());
+                    self.flow.queue.push_back(s);
                 }
-                self.flow.queue.push_back(cnc402_motion::segment::Segment {
-                    kind: SegmentKind::Stop {
-                        kind: StopKind::Program,
-                    },
-                    source,
-                });
+                let stop = SegmentKind::Stop {
+                    kind: StopKind::Program,
+                };
+                let s = self.m.state.segment(stop, source);
+                self.flow.queue.push_back(s);
                 Ok(())
             }
             _ => self

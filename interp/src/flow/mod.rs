@@ -295,6 +295,7 @@ impl Interpreter {
                 s.kind,
                 SegmentKind::Rapid { .. }
                     | SegmentKind::Linear { .. }
+                    | SegmentKind::Tap(_)
                     | SegmentKind::Arc { .. }
                     | SegmentKind::Dwell { .. }
             )

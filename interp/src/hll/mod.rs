@@ -257,14 +257,12 @@ impl Running {
                 Req::Seg { file, span, kind } => {
                     let src = &self.prog.files[file];
                     let (line, _) = src.line_col(span.start as usize);
-                    self.queue.push_back(Segment {
-                        kind,
-                        source: Source {
-                            file: src.name.clone(),
-                            line,
-                            n: None,
-                        },
-                    });
+                    let source = Source {
+                        file: src.name.clone(),
+                        line,
+                        n: None,
+                    };
+                    self.queue.push_back(it.state.segment(kind, source));
                 }
                 Req::Read(what) => {
                     // The queue is empty: every earlier segment has been handed out.

@@ -19,6 +19,7 @@ pub fn seg(kind: SegmentKind, line: u32) -> Segment {
     Segment {
         kind,
         source: src(line),
+        ends: SegmentEnd::ExactStop,
     }
 }
 
