@@ -147,14 +147,8 @@ pub fn move_to(ctx: &mut Ctx, node: u8, target: f64, interrupt_after: Option<f64
     run(ctx, node, axis, lim, Plan::Move { target }, interrupt_after)
 }
 
-fn run(
-    ctx: &mut Ctx,
-    node: u8,
-    axis: AxisConfig,
-    lim: Limits,
-    plan: Plan,
-    interrupt_after: Option<f64>,
-) -> Result<()> {
+/// A master for the one axis, booted to Operation Enabled in cyclic synchronous position.
+fn boot_one(ctx: &mut Ctx, node: u8, axis: &AxisConfig) -> Result<Master> {
     let mut one = ctx.cfg.clone();
     one.axes = vec![axis.clone()];
     let options = MasterOptions {
@@ -170,10 +164,12 @@ fn run(
         ));
     }
     m.boot(&mut ctx.link)?;
-    let p0 = m.positions()[0];
-    let period = m.period().as_secs_f64();
-    let sim = ctx.link.sim().is_some();
-    let mut law = match plan {
+    Ok(m)
+}
+
+/// The motion law a plan starts with: a rest-to-rest move, or a ramp to the jog velocity.
+fn initial_law(plan: &Plan, p0: f64, lim: Limits) -> Result<Law> {
+    Ok(match *plan {
         Plan::Move { target } => {
             let d = target - p0;
             let profile = rest_to_rest(d.abs(), lim)
@@ -200,7 +196,22 @@ fn run(
             p0: 0.0,
             sign: 1.0,
         },
-    };
+    })
+}
+
+fn run(
+    ctx: &mut Ctx,
+    node: u8,
+    axis: AxisConfig,
+    lim: Limits,
+    plan: Plan,
+    interrupt_after: Option<f64>,
+) -> Result<()> {
+    let mut m = boot_one(ctx, node, &axis)?;
+    let p0 = m.positions()[0];
+    let period = m.period().as_secs_f64();
+    let sim = ctx.link.sim().is_some();
+    let mut law = initial_law(&plan, p0, lim)?;
     let stop_at = match plan {
         Plan::Jog { duration, .. } => duration,
         Plan::Move { .. } => None,

@@ -3,6 +3,8 @@
 //! every drive, a drive fault names node/EMCY/line, coupling windows are measured (and would
 //! catch a decoupling), and the real-time driver runs with its latency figures.
 
+mod common;
+
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -10,8 +12,7 @@ use std::time::Duration;
 use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_lang::SourceFile;
-use cnc402_runtime::controller::{AxisTable, CycleController, Step, start_position};
-use cnc402_runtime::feeder::Feeder;
+use cnc402_runtime::controller::{CycleController, Step};
 use cnc402_runtime::link::{DriveLink, FaultPlan, Startup, StopCause};
 use cnc402_runtime::recorder::Recorder;
 use cnc402_runtime::ring::{Consumer, move_ring, status_ring};
@@ -37,10 +38,7 @@ fn drive<L: DriveLink>(
             other => panic!("startup: {other:?}"),
         }
     };
-    let src = SourceFile::new("t.nc", text);
-    let ast = cnc402_lang::parse(&src).expect("parse");
-    let axes = AxisTable::new(cfg);
-    let mut feeder = Feeder::new(cfg, src, ast, start_position(&axes, &start));
+    let mut feeder = common::feeder(cfg, "t.nc", text, &start);
     let (mut mp, mc) = move_ring(64);
     let (sp, mut sc) = status_ring(1024);
     let stop = Arc::new(AtomicBool::new(false));
