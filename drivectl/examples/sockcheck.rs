@@ -34,7 +34,7 @@ fn burst_frame(i: u32) -> CanFrame {
     CanFrame::new(id, data).unwrap_or_else(|e| fail(format!("frame {i}: {e}")))
 }
 
-/// 1. A burst, received complete and in order. Receiving runs on a thread so the kernel's
+/// Check 1: a burst, received complete and in order. Receiving runs on a thread so the kernel's
 /// socket buffer never has to hold the whole burst. Gives the receiving socket back.
 fn check_burst(tx: &mut SocketCanBus, mut rx: SocketCanBus, frames: u32) -> SocketCanBus {
     let t0 = WallInstant::now();
@@ -90,7 +90,7 @@ fn check_burst(tx: &mut SocketCanBus, mut rx: SocketCanBus, frames: u32) -> Sock
     rx
 }
 
-/// 2. SDO uploads while a PDO stream runs: every streamed frame reaches the SDO helper's
+/// Check 2: SDO uploads while a PDO stream runs: every streamed frame reaches the SDO helper's
 /// "other frames" sink or the receive after it. Gives the receiving socket back.
 fn check_sdo_under_pdo_stream(
     mut tx: SocketCanBus,
@@ -154,7 +154,7 @@ fn check_sdo_under_pdo_stream(
     rx
 }
 
-/// 3. recv_timeout on a quiet bus: never returns empty before the timeout; how late it is
+/// Check 3: `recv_timeout` on a quiet bus: never returns empty before the timeout; how late it is
 /// is reported (timing in an emulated guest is loose).
 fn check_recv_timeout(rx: &mut SocketCanBus) {
     let mut late_us = Vec::new();

@@ -579,108 +579,72 @@ fn info_json(
     nmt: Option<&str>,
     pdo_json: Vec<Json>,
 ) -> Json {
-    let DriveInfo {
-        vendor,
-        product,
-        revision,
-        serial,
-        name,
-        modes,
-        display,
-        sw,
-        pos,
-        fe,
-        err_reg,
-        err_code,
-        errors,
-        hb,
-        consumers,
-        pdos: _,
-    } = info;
     json!({
         "node": n,
         "axis": ctx.names.get(n),
         "device_type": dt,
         "cia402": dt & 0xFFFF == 402,
-        "vendor": opt_json(vendor),
-        "product": opt_json(product),
-        "revision": opt_json(revision),
-        "serial": opt_json(serial),
-        "name": opt_json(name),
-        "supported_modes": match modes { Ok(m) => json!({ "raw": m, "modes": modes_text(*m) }), Err(e) => json!({ "error": e }) },
-        "mode_display": match display { Ok(d) => json!({ "raw": d, "mode": mode_name(*d) }), Err(e) => json!({ "error": e }) },
-        "statusword": match sw { Ok(s) => state_json(Statusword(*s)), Err(e) => json!({ "error": e }) },
-        "position_actual": opt_json(pos),
-        "following_error_actual": opt_json(fe),
-        "error_register": match err_reg { Ok(r) => json!({ "raw": r, "bits": error_register_bits(*r) }), Err(e) => json!({ "error": e }) },
-        "error_code": opt_json(err_code),
-        "error_history": errors.iter().map(|e| json!({ "raw": e, "code": e & 0xFFFF, "text": emcy_text((e & 0xFFFF) as u16), "info": e >> 16 })).collect::<Vec<_>>(),
-        "producer_heartbeat_ms": opt_json(hb),
+        "vendor": opt_json(&info.vendor),
+        "product": opt_json(&info.product),
+        "revision": opt_json(&info.revision),
+        "serial": opt_json(&info.serial),
+        "name": opt_json(&info.name),
+        "supported_modes": match &info.modes { Ok(m) => json!({ "raw": m, "modes": modes_text(*m) }), Err(e) => json!({ "error": e }) },
+        "mode_display": match &info.display { Ok(d) => json!({ "raw": d, "mode": mode_name(*d) }), Err(e) => json!({ "error": e }) },
+        "statusword": match &info.sw { Ok(s) => state_json(Statusword(*s)), Err(e) => json!({ "error": e }) },
+        "position_actual": opt_json(&info.pos),
+        "following_error_actual": opt_json(&info.fe),
+        "error_register": match &info.err_reg { Ok(r) => json!({ "raw": r, "bits": error_register_bits(*r) }), Err(e) => json!({ "error": e }) },
+        "error_code": opt_json(&info.err_code),
+        "error_history": info.errors.iter().map(|e| json!({ "raw": e, "code": e & 0xFFFF, "text": emcy_text((e & 0xFFFF) as u16), "info": e >> 16 })).collect::<Vec<_>>(),
+        "producer_heartbeat_ms": opt_json(&info.hb),
         "nmt": nmt,
-        "consumer_heartbeats": consumers.iter().map(|c| json!({ "node": (c >> 16) & 0x7F, "ms": c & 0xFFFF })).collect::<Vec<_>>(),
+        "consumer_heartbeats": info.consumers.iter().map(|c| json!({ "node": (c >> 16) & 0x7F, "ms": c & 0xFFFF })).collect::<Vec<_>>(),
         "pdos": pdo_json,
     })
 }
 
 /// `info` as text, up to the "PDO mapping" heading.
 fn say_info(ctx: &Ctx, n: u8, dt: u32, info: &DriveInfo, nmt: Option<&str>) {
-    let DriveInfo {
-        vendor,
-        product,
-        revision,
-        serial,
-        name,
-        modes,
-        display,
-        sw,
-        pos,
-        fe,
-        err_reg,
-        err_code,
-        errors,
-        hb,
-        consumers,
-        pdos: _,
-    } = info;
     ctx.say(format!("{} on {}", ctx.label(n), ctx.link.name()));
     ctx.say(format!("  device type       {}", device_type_text(dt)));
     ctx.say(format!(
         "  identity          vendor {}  product {}  revision {}  serial {}",
-        opt_text(vendor, |v| format!("{v:#010x}")),
-        opt_text(product, |v| format!("{v:#010x}")),
-        opt_text(revision, |v| format!("{v:#010x}")),
-        opt_text(serial, |v| v.to_string())
+        opt_text(&info.vendor, |v| format!("{v:#010x}")),
+        opt_text(&info.product, |v| format!("{v:#010x}")),
+        opt_text(&info.revision, |v| format!("{v:#010x}")),
+        opt_text(&info.serial, |v| v.to_string())
     ));
     ctx.say(format!(
         "  name              {}",
-        opt_text(name, |v| format!("\"{v}\""))
+        opt_text(&info.name, |v| format!("\"{v}\""))
     ));
     ctx.say(format!(
         "  supported modes   {}",
-        opt_text(modes, |m| format!(
+        opt_text(&info.modes, |m| format!(
             "{m:#010x}: {}",
             modes_text(*m).join(", ")
         ))
     ));
     ctx.say(format!(
         "  mode display      {}",
-        opt_text(display, |d| mode_name(*d))
+        opt_text(&info.display, |d| mode_name(*d))
     ));
     ctx.say(format!(
         "  statusword        {}",
-        opt_text(sw, |s| state_text(Statusword(*s)))
+        opt_text(&info.sw, |s| state_text(Statusword(*s)))
     ));
     ctx.say(format!(
         "  position actual   {}",
-        opt_text(pos, |p| format!("{p} counts"))
+        opt_text(&info.pos, |p| format!("{p} counts"))
     ));
     ctx.say(format!(
         "  following error   {}",
-        opt_text(fe, |p| format!("{p} counts"))
+        opt_text(&info.fe, |p| format!("{p} counts"))
     ));
     ctx.say(format!(
         "  error register    {}",
-        opt_text(err_reg, |r| format!(
+        opt_text(&info.err_reg, |r| format!(
             "{r:#04x}{}",
             if *r == 0 {
                 " (no error)".to_string()
@@ -691,12 +655,12 @@ fn say_info(ctx: &Ctx, n: u8, dt: u32, info: &DriveInfo, nmt: Option<&str>) {
     ));
     ctx.say(format!(
         "  error code 603F   {}",
-        opt_text(err_code, |c| format!("{c:#06x} ({})", emcy_text(*c)))
+        opt_text(&info.err_code, |c| format!("{c:#06x} ({})", emcy_text(*c)))
     ));
-    if errors.is_empty() {
+    if info.errors.is_empty() {
         ctx.say("  error history     (empty)");
     } else {
-        for (i, e) in errors.iter().enumerate() {
+        for (i, e) in info.errors.iter().enumerate() {
             ctx.say(format!(
                 "  error history [{}] {:#06x} {} (info {:#06x})",
                 i + 1,
@@ -708,15 +672,15 @@ fn say_info(ctx: &Ctx, n: u8, dt: u32, info: &DriveInfo, nmt: Option<&str>) {
     }
     ctx.say(format!(
         "  heartbeat         producer {}; consumers {}",
-        opt_text(hb, |h| if *h == 0 {
+        opt_text(&info.hb, |h| if *h == 0 {
             "off".to_string()
         } else {
             format!("{h} ms")
         }),
-        if consumers.is_empty() {
+        if info.consumers.is_empty() {
             "none".to_string()
         } else {
-            consumers
+            info.consumers
                 .iter()
                 .map(|c| format!("node {} {} ms", (c >> 16) & 0x7F, c & 0xFFFF))
                 .collect::<Vec<_>>()

@@ -235,30 +235,7 @@ pub fn decode(frame: &CanFrame, dict: &Dictionary, maps: &PdoMaps) -> Decoded {
                 Err(e) => format!("SDO response malformed ({e})"),
             },
         ),
-        Function::Heartbeat(n) => {
-            if frame.is_remote() {
-                return raw("guard", Some(n.get()), "node guarding request".into());
-            }
-            match HeartbeatRepr::parse(frame) {
-                Ok(h) if h.state == NmtState::BootUp => Decoded {
-                    kind: "boot_up",
-                    node: Some(n.get()),
-                    text: "boot-up".into(),
-                    fields: json!({ "state": "BOOT-UP" }),
-                },
-                Ok(h) => Decoded {
-                    kind: "heartbeat",
-                    node: Some(n.get()),
-                    text: format!("heartbeat {}", nmt_state_name(h.state)),
-                    fields: json!({ "state": nmt_state_name(h.state) }),
-                },
-                Err(e) => raw(
-                    "heartbeat",
-                    Some(n.get()),
-                    format!("heartbeat malformed ({e})"),
-                ),
-            }
-        }
+        Function::Heartbeat(n) => heartbeat(frame, n.get()),
         Function::Other(id) => raw("other", None, format!("{id:03X}#{}", hex(data))),
     }
 }
@@ -336,6 +313,34 @@ fn sdo_response_text(r: SdoResponse, dict: &Dictionary) -> String {
         SdoResponse::Abort { index, sub, code } => {
             format!("SDO abort by server {}: {code}", obj(dict, index, sub))
         }
+    }
+}
+
+/// A heartbeat (boot-up or NMT state) or a node-guarding request (a remote frame).
+fn heartbeat(frame: &CanFrame, node: u8) -> Decoded {
+    let raw = |kind: &'static str, text: String| Decoded {
+        kind,
+        node: Some(node),
+        text,
+        fields: json!({ "data": hex(frame.data()) }),
+    };
+    if frame.is_remote() {
+        return raw("guard", "node guarding request".into());
+    }
+    match HeartbeatRepr::parse(frame) {
+        Ok(h) if h.state == NmtState::BootUp => Decoded {
+            kind: "boot_up",
+            node: Some(node),
+            text: "boot-up".into(),
+            fields: json!({ "state": "BOOT-UP" }),
+        },
+        Ok(h) => Decoded {
+            kind: "heartbeat",
+            node: Some(node),
+            text: format!("heartbeat {}", nmt_state_name(h.state)),
+            fields: json!({ "state": nmt_state_name(h.state) }),
+        },
+        Err(e) => raw("heartbeat", format!("heartbeat malformed ({e})")),
     }
 }
 

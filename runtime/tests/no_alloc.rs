@@ -79,11 +79,7 @@ fn full_tick_path_allocates_nothing_through_a_tap() {
 
 #[test]
 fn full_tick_path_allocates_nothing_through_a_fault_and_stop() {
-    let plan = FaultPlan {
-        node: 3,
-        at: Duration::from_millis(1500),
-        emcy: 0x8611,
-    };
+    let plan = common::fault(3, 1500, 0x8611);
     let (n, outcome, ticks) = run_armed(Some(plan));
     assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
     assert_eq!(n, 0, "allocations in {ticks} ticks");
@@ -102,11 +98,7 @@ fn the_counter_counts() {
 #[test]
 fn full_tick_path_allocates_nothing_when_the_spindle_faults_mid_tap() {
     // The tool axis then follows the spindle's actual position (another code path).
-    let plan = FaultPlan {
-        node: 4,
-        at: Duration::from_millis(1500),
-        emcy: 0x8611,
-    };
+    let plan = common::fault(4, 1500, 0x8611);
     let (n, outcome, ticks) = run_armed(Some(plan));
     assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
     assert_eq!(n, 0, "allocations in {ticks} ticks");

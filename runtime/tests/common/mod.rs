@@ -7,9 +7,10 @@
 use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_lang::SourceFile;
+use cnc402_runtime::SimLink;
 use cnc402_runtime::controller::{AxisTable, start_position};
 use cnc402_runtime::feeder::Feeder;
-use cnc402_runtime::link::{DriveLink, Startup};
+use cnc402_runtime::link::{DriveLink, FaultPlan, Startup};
 use cnc402_runtime::ring::{LoopInput, MoveConsumer, MoveProducer, move_ring};
 
 /// The drives' positions once `link` reports ready at time zero (panics otherwise).
@@ -45,4 +46,20 @@ pub fn planned(
     }
     assert!(mp.try_push(LoopInput::End).is_ok());
     (mp, mc)
+}
+
+/// A drive fault injected on `node` at `at_ms` milliseconds, announced with EMCY `emcy`.
+pub fn fault(node: u8, at_ms: u64, emcy: u16) -> FaultPlan {
+    FaultPlan {
+        node,
+        at: core::time::Duration::from_millis(at_ms),
+        emcy,
+    }
+}
+
+/// The embedded simulated machine with `fault` planned.
+pub fn faulty_sim(cfg: &MachineConfig, fault: FaultPlan) -> SimLink {
+    SimLink::simulated(cfg, None)
+        .expect("sim link")
+        .with_fault(fault)
 }
