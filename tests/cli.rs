@@ -675,6 +675,17 @@ fn stops_program(test: &str) -> PathBuf {
     p
 }
 
+/// `cnc402 run PROG ARGS… --report <tmp REPORT>`, which must exit 0; its output and the report.
+fn run_ok_with_report(prog: &Path, report: &str, args: &[&str]) -> (Output, Value) {
+    let report = tmp(report);
+    let mut all = vec!["run", prog.to_str().unwrap()];
+    all.extend_from_slice(args);
+    all.extend(["--report", report.to_str().unwrap()]);
+    let o = cnc402(&all);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    (o, read_json(&report))
+}
+
 fn final_xyz(v: &Value) -> [f64; 3] {
     ["X", "Y", "Z"].map(|a| v["axes"][a]["final_position"].as_f64().unwrap())
 }
@@ -689,17 +700,7 @@ fn assert_at(v: &Value, want: [f64; 3]) {
 #[test]
 fn m0_with_at_stop_end_ends_there_ok_and_m1_needs_optional_stop() {
     let prog = stops_program("m0_with_at_stop_end_ends_there_ok_and_m1_needs_optional_stop");
-    let report = tmp("stops-end.json");
-    let o = cnc402(&[
-        "run",
-        prog.to_str().unwrap(),
-        "--at-stop",
-        "end",
-        "--report",
-        report.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let v = read_json(&report);
+    let (o, v) = run_ok_with_report(&prog, "stops-end.json", &["--at-stop", "end"]);
     assert_eq!(v["ok"], true);
     assert_at(&v, [10.0, 5.0, 5.0]);
     let stops = v["stops"].as_array().unwrap();
@@ -710,18 +711,11 @@ fn m0_with_at_stop_end_ends_there_ok_and_m1_needs_optional_stop() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("M0 at line 4: the program ended there"));
 
     // With optional stop on, M1 is a program stop too (the same policy applies to both).
-    let report1 = tmp("stops-m1.json");
-    let o = cnc402(&[
-        "run",
-        prog.to_str().unwrap(),
-        "--at-stop",
-        "continue",
-        "--optional-stop",
-        "--report",
-        report1.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let v = read_json(&report1);
+    let (_, v) = run_ok_with_report(
+        &prog,
+        "stops-m1.json",
+        &["--at-stop", "continue", "--optional-stop"],
+    );
     let lines: Vec<(u64, String)> = v["stops"]
         .as_array()
         .unwrap()
@@ -740,19 +734,11 @@ fn m0_with_at_stop_end_ends_there_ok_and_m1_needs_optional_stop() {
 fn m0_with_continue_runs_to_the_end_and_m1_passes_without_optional_stop() {
     let prog =
         stops_program("m0_with_continue_runs_to_the_end_and_m1_passes_without_optional_stop");
-    let report = tmp("stops-continue.json");
     // No --at-stop and stdin not a terminal: continue, and stderr says why.
-    let o = cnc402(&[
-        "run",
-        prog.to_str().unwrap(),
-        "--report",
-        report.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (o, v) = run_ok_with_report(&prog, "stops-continue.json", &[]);
     let err = stderr(&o);
     assert!(err.contains("no operator terminal is attached"), "{err}");
     assert!(err.contains("stops.nc:4"), "{err}");
-    let v = read_json(&report);
     assert_eq!(v["ok"], true);
     assert_at(&v, [4.0, 7.0, 2.0]);
     let stops = v["stops"].as_array().unwrap();
@@ -784,19 +770,12 @@ fn spawn_wait(report: &Path, extra: &[&str]) -> std::process::Child {
 
 #[test]
 fn m0_with_wait_holds_until_enter_and_the_report_shows_the_pause() {
-    let cont = tmp("stops-wait-ref.json");
-    let o = cnc402(&[
-        "run",
-        stops_program("m0_with_wait_holds_until_enter_and_the_report_shows_the_pause")
-            .to_str()
-            .unwrap(),
-        "--at-stop",
-        "continue",
-        "--report",
-        cont.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let t_cont = read_json(&cont)["program_time_s"].as_f64().unwrap();
+    let (_, v) = run_ok_with_report(
+        &stops_program("m0_with_wait_holds_until_enter_and_the_report_shows_the_pause"),
+        "stops-wait-ref.json",
+        &["--at-stop", "continue"],
+    );
+    let t_cont = v["program_time_s"].as_f64().unwrap();
 
     let report = tmp("stops-wait.json");
     let mut child = spawn_wait(&report, &[]);

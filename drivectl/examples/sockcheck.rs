@@ -34,27 +34,9 @@ fn burst_frame(i: u32) -> CanFrame {
     CanFrame::new(id, data).unwrap_or_else(|e| fail(format!("frame {i}: {e}")))
 }
 
-fn main() {
-    let mut iface = String::from("vcan0");
-    let mut frames: u32 = 5000;
-    let mut sdo_count: u32 = 50;
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        let v = args.next().unwrap_or_default();
-        match a.as_str() {
-            "--iface" => iface = v,
-            "--frames" => frames = v.parse().unwrap_or(frames),
-            "--sdo" => sdo_count = v.parse().unwrap_or(sdo_count),
-            _ => fail(format!("unknown argument {a}")),
-        }
-    }
-    let open =
-        |what: &str| SocketCanBus::open(&iface).unwrap_or_else(|e| fail(format!("{what}: {e}")));
-    let mut tx = open("sender");
-    let mut rx = open("receiver");
-
-    // 1. A burst, received complete and in order. Receiving runs on a thread so the
-    //    kernel's socket buffer never has to hold the whole burst.
+/// Check 1: a burst, received complete and in order. Receiving runs on a thread so the kernel's
+/// socket buffer never has to hold the whole burst. Gives the receiving socket back.
+fn check_burst(tx: &mut SocketCanBus, mut rx: SocketCanBus, frames: u32) -> SocketCanBus {
     let t0 = WallInstant::now();
     let receiver = std::thread::spawn(move || {
         let mut got: Vec<CanFrame> = Vec::with_capacity(frames as usize);
@@ -86,7 +68,7 @@ fn main() {
             }
         }
     }
-    let (mut rx, got) = receiver
+    let (rx, got) = receiver
         .join()
         .unwrap_or_else(|_| fail("receiver panicked".into()));
     if got.len() as u32 != frames {
@@ -105,8 +87,16 @@ fn main() {
         t0.elapsed().as_secs_f64() * 1e3,
         tx.tx_retries()
     );
+    rx
+}
 
-    // 2. SDO uploads while a PDO stream runs.
+/// Check 2: SDO uploads while a PDO stream runs: every streamed frame reaches the SDO helper's
+/// "other frames" sink or the receive after it. Gives the receiving socket back.
+fn check_sdo_under_pdo_stream(
+    mut tx: SocketCanBus,
+    mut rx: SocketCanBus,
+    sdo_count: u32,
+) -> SocketCanBus {
     let stop = Arc::new(AtomicBool::new(false));
     let stop2 = stop.clone();
     let streamer = std::thread::spawn(move || {
@@ -161,8 +151,12 @@ fn main() {
         "ok: {sdo_count} segmented SDO uploads ({:.2} ms each) while {sent} PDOs streamed: all {sent} PDOs handed on, in order",
         sdo_ms / sdo_count.max(1) as f64
     );
-    // 3. recv_timeout on a quiet bus: never returns empty before the timeout; how late it is
-    //    is reported (timing in an emulated guest is loose).
+    rx
+}
+
+/// Check 3: `recv_timeout` on a quiet bus: never returns empty before the timeout; how late it is
+/// is reported (timing in an emulated guest is loose).
+fn check_recv_timeout(rx: &mut SocketCanBus) {
     let mut late_us = Vec::new();
     for want_us in [300u64, 800, 2500] {
         for _ in 0..20 {
@@ -190,6 +184,30 @@ fn main() {
             late_us[late_us.len() / 2]
         );
     }
+}
+
+fn main() {
+    let mut iface = String::from("vcan0");
+    let mut frames: u32 = 5000;
+    let mut sdo_count: u32 = 50;
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        let v = args.next().unwrap_or_default();
+        match a.as_str() {
+            "--iface" => iface = v,
+            "--frames" => frames = v.parse().unwrap_or(frames),
+            "--sdo" => sdo_count = v.parse().unwrap_or(sdo_count),
+            _ => fail(format!("unknown argument {a}")),
+        }
+    }
+    let open =
+        |what: &str| SocketCanBus::open(&iface).unwrap_or_else(|e| fail(format!("{what}: {e}")));
+    let mut tx = open("sender");
+    let rx = open("receiver");
+
+    let rx = check_burst(&mut tx, rx, frames);
+    let mut rx = check_sdo_under_pdo_stream(tx, rx, sdo_count);
+    check_recv_timeout(&mut rx);
     let c = rx.counters();
     println!(
         "receiver counters: rx {} frames, {} bits; error frames {}",

@@ -12,7 +12,8 @@ use cnc402_drives::master::{
     BlockingSdo, SdoError, SdoErrorKind, TimedBus, emcy_text, send_nmt, sequence_over_sdo,
 };
 use cnc402_drives::wire::{
-    CanFrame, Function, HeartbeatRepr, NmtCommand, NmtState, NmtTarget, SdoRequest, SdoResponse,
+    CanFrame, Function, HeartbeatRepr, NmtCommand, NmtState, NmtTarget, NodeId, SdoRequest,
+    SdoResponse,
 };
 use serde_json::{Value as Json, json};
 
@@ -234,23 +235,7 @@ fn scan(ctx: &mut Ctx, listen: Duration, only: &[u8]) -> Result<()> {
     } else {
         only.to_vec()
     };
-    let mut answered: BTreeMap<u8, Option<u32>> = BTreeMap::new();
-    for &n in &nodes {
-        let req = SdoRequest::InitiateUpload {
-            index: obj::DEVICE_TYPE,
-            sub: 0,
-        }
-        .emit(node_id(n)?);
-        ctx.link.send(&req)?;
-        // Drain answers while sending so a slow bus does not overflow the receive side.
-        while let Some(f) = ctx.link.recv()? {
-            take_probe_answer(&f, &mut answered, &mut heard, &note);
-        }
-    }
-    let until = ctx.now() + ctx.timeout;
-    while let Some(f) = ctx.link.recv_until(until)? {
-        take_probe_answer(&f, &mut answered, &mut heard, &note);
-    }
+    let answered = probe(ctx, &nodes, &mut heard, &note)?;
     // 3. Identity of every node that answered.
     let mut rows = Vec::new();
     let mut json_nodes = Vec::new();
@@ -337,6 +322,34 @@ fn scan(ctx: &mut Ctx, listen: Duration, only: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// Sends an SDO upload of 0x1000:0 to every node at once and collects the answers (the
+/// device type, or none where the read aborted) for the timeout; heartbeats go to `note`.
+fn probe(
+    ctx: &mut Ctx,
+    nodes: &[u8],
+    heard: &mut BTreeMap<u8, NmtState>,
+    note: &impl Fn(&mut BTreeMap<u8, NmtState>, &CanFrame),
+) -> Result<BTreeMap<u8, Option<u32>>> {
+    let mut answered: BTreeMap<u8, Option<u32>> = BTreeMap::new();
+    for &n in nodes {
+        let req = SdoRequest::InitiateUpload {
+            index: obj::DEVICE_TYPE,
+            sub: 0,
+        }
+        .emit(node_id(n)?);
+        ctx.link.send(&req)?;
+        // Drain answers while sending so a slow bus does not overflow the receive side.
+        while let Some(f) = ctx.link.recv()? {
+            take_probe_answer(&f, &mut answered, heard, note);
+        }
+    }
+    let until = ctx.now() + ctx.timeout;
+    while let Some(f) = ctx.link.recv_until(until)? {
+        take_probe_answer(&f, &mut answered, heard, note);
+    }
+    Ok(answered)
+}
+
 fn take_probe_answer(
     f: &CanFrame,
     answered: &mut BTreeMap<u8, Option<u32>>,
@@ -366,12 +379,7 @@ fn take_probe_answer(
 /// A PDO's COB-ID, transmission type and mapping entries, or why it could not be read.
 type PdoInfo = core::result::Result<(u32, u8, Vec<u32>), String>;
 
-fn read_pdo(
-    sdo: &mut BlockingSdo<'_, Link>,
-    node: cnc402_drives::wire::NodeId,
-    comm: u16,
-    map: u16,
-) -> Result<PdoInfo> {
+fn read_pdo(sdo: &mut BlockingSdo<'_, Link>, node: NodeId, comm: u16, map: u16) -> Result<PdoInfo> {
     let cob = optional(sdo.read_u32(node, comm, 1))?;
     let cob = match cob {
         Ok(c) => c,
@@ -388,11 +396,45 @@ fn read_pdo(
     Ok(Ok((cob, tt, entries)))
 }
 
-fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
-    let node = node_id(n)?;
-    // The device type is mandatory: its failure (timeout: absent node) ends the command.
-    let dt = ctx.with_sdo(|sdo| sdo.read_u32(node, obj::DEVICE_TYPE, 0))?;
-    let r = ctx.with_sdo(|sdo| -> Result<_> {
+/// An optional object's value, or why it could not be read.
+type Read<T> = core::result::Result<T, String>;
+
+/// What `info` reads from one drive beside the (mandatory) device type.
+struct DriveInfo {
+    vendor: Read<u32>,
+    product: Read<u32>,
+    revision: Read<u32>,
+    serial: Read<u32>,
+    name: Read<String>,
+    modes: Read<u32>,
+    display: Read<i8>,
+    sw: Read<u16>,
+    pos: Read<i32>,
+    fe: Read<i32>,
+    err_reg: Read<u8>,
+    err_code: Read<u16>,
+    errors: Vec<u32>,
+    hb: Read<u16>,
+    consumers: Vec<u32>,
+    pdos: Vec<(&'static str, u16, PdoInfo)>,
+}
+
+/// Sub-indices 1.. of an array object whose sub-index 0 says how many there are (at most 16
+/// are read); entries that cannot be read are left out.
+fn read_array(sdo: &mut BlockingSdo<'_, Link>, node: NodeId, index: u16) -> Result<Vec<u32>> {
+    let mut values = Vec::new();
+    if let Ok(k) = optional(sdo.read_u8(node, index, 0))? {
+        for s in 1..=k.min(16) {
+            if let Ok(v) = optional(sdo.read_u32(node, index, s))? {
+                values.push(v);
+            }
+        }
+    }
+    Ok(values)
+}
+
+impl DriveInfo {
+    fn read(sdo: &mut BlockingSdo<'_, Link>, node: NodeId) -> Result<DriveInfo> {
         let vendor = optional(sdo.read_u32(node, obj::IDENTITY, 1))?;
         let product = optional(sdo.read_u32(node, obj::IDENTITY, 2))?;
         let revision = optional(sdo.read_u32(node, obj::IDENTITY, 3))?;
@@ -405,100 +447,58 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
         let fe = optional(sdo.read_i32(node, obj::FOLLOWING_ERROR_ACTUAL, 0))?;
         let err_reg = optional(sdo.read_u8(node, obj::ERROR_REGISTER, 0))?;
         let err_code = optional(sdo.read_u16(node, obj::ERROR_CODE, 0))?;
-        let n_err = optional(sdo.read_u8(node, obj::PREDEFINED_ERROR_FIELD, 0))?;
-        let mut errors = Vec::new();
-        if let Ok(k) = n_err {
-            for s in 1..=k.min(16) {
-                if let Ok(v) = optional(sdo.read_u32(node, obj::PREDEFINED_ERROR_FIELD, s))? {
-                    errors.push(v);
-                }
-            }
-        }
+        let errors = read_array(sdo, node, obj::PREDEFINED_ERROR_FIELD)?;
         let hb = optional(sdo.read_u16(node, obj::PRODUCER_HEARTBEAT_TIME, 0))?;
-        let n_cons = optional(sdo.read_u8(node, obj::CONSUMER_HEARTBEAT_TIME, 0))?;
-        let mut consumers = Vec::new();
-        if let Ok(k) = n_cons {
-            for s in 1..=k.min(16) {
-                if let Ok(v) = optional(sdo.read_u32(node, obj::CONSUMER_HEARTBEAT_TIME, s))? {
-                    consumers.push(v);
-                }
+        let consumers = read_array(sdo, node, obj::CONSUMER_HEARTBEAT_TIME)?;
+        let mut pdos = Vec::new();
+        for (kind, comm, map) in [
+            ("RPDO", obj::RPDO_COMMUNICATION, obj::RPDO_MAPPING),
+            ("TPDO", obj::TPDO_COMMUNICATION, obj::TPDO_MAPPING),
+        ] {
+            for i in 0..4u16 {
+                pdos.push((kind, i + 1, read_pdo(sdo, node, comm + i, map + i)?));
             }
         }
-        let mut pdos = Vec::new();
-        for i in 0..4u16 {
-            pdos.push((
-                "RPDO",
-                i + 1,
-                read_pdo(
-                    sdo,
-                    node,
-                    obj::RPDO_COMMUNICATION + i,
-                    obj::RPDO_MAPPING + i,
-                )?,
-            ));
-        }
-        for i in 0..4u16 {
-            pdos.push((
-                "TPDO",
-                i + 1,
-                read_pdo(
-                    sdo,
-                    node,
-                    obj::TPDO_COMMUNICATION + i,
-                    obj::TPDO_MAPPING + i,
-                )?,
-            ));
-        }
-        Ok((
-            vendor, product, revision, serial, name, modes, display, sw, pos, fe, err_reg,
-            err_code, errors, hb, consumers, pdos,
-        ))
-    })?;
-    let (
-        vendor,
-        product,
-        revision,
-        serial,
-        name,
-        modes,
-        display,
-        sw,
-        pos,
-        fe,
-        err_reg,
-        err_code,
-        errors,
-        hb,
-        consumers,
-        pdos,
-    ) = r;
-    // NMT state: from heartbeats that came in while the objects were read (drives with a
-    // producer heartbeat), else from the fact that the drive answers SDO.
-    let nmt = ctx
-        .other
-        .iter()
-        .rev()
-        .filter_map(heartbeat_of)
-        .find(|(k, _)| *k == n)
-        .map(|(_, s)| match s {
-            NmtState::BootUp => "PRE-OPERATIONAL (boot-up seen)",
-            s => nmt_state_name(s),
-        });
-    ctx.other.clear();
+        Ok(DriveInfo {
+            vendor,
+            product,
+            revision,
+            serial,
+            name,
+            modes,
+            display,
+            sw,
+            pos,
+            fe,
+            err_reg,
+            err_code,
+            errors,
+            hb,
+            consumers,
+            pdos,
+        })
+    }
+}
+
+/// The PDOs as text lines and as JSON values, mapping entries named from the dictionary.
+fn pdo_report(
+    pdos: &[(&'static str, u16, PdoInfo)],
+    dict: &crate::dict::Dictionary,
+) -> (Vec<String>, Vec<Json>) {
     let entry_text = |e: u32| {
         let a = ObjectAddr {
             index: (e >> 16) as u16,
             sub: (e >> 8) as u8,
         };
         let bits = e & 0xFF;
-        match ctx.dict.name(a) {
+        match dict.name(a) {
             Some(nm) => format!("{a} {nm} ({bits} bits)"),
             None => format!("{a} ({bits} bits)"),
         }
     };
     let mut pdo_json = Vec::new();
     let mut pdo_text = Vec::new();
-    for (kind, k, p) in &pdos {
+    for (kind, k, p) in pdos {
         match p {
             Ok((cob, tt, entries)) => {
                 let valid = cob & 0x8000_0000 == 0;
@@ -527,7 +527,7 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
                     "transmission_type": tt,
                     "mapping": entries.iter().map(|e| json!({
                         "index": e >> 16, "sub": (e >> 8) & 0xFF, "bits": e & 0xFF,
-                        "name": ctx.dict.name(ObjectAddr { index: (e >> 16) as u16, sub: (e >> 8) as u8 }),
+                        "name": dict.name(ObjectAddr { index: (e >> 16) as u16, sub: (e >> 8) as u8 }),
                     })).collect::<Vec<_>>(),
                 }));
             }
@@ -537,71 +537,114 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
             }
         }
     }
+    (pdo_text, pdo_json)
+}
+
+fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
+    let node = node_id(n)?;
+    // The device type is mandatory: its failure (timeout: absent node) ends the command.
+    let dt = ctx.with_sdo(|sdo| sdo.read_u32(node, obj::DEVICE_TYPE, 0))?;
+    let info = ctx.with_sdo(|sdo| DriveInfo::read(sdo, node))?;
+    // NMT state: from heartbeats that came in while the objects were read (drives with a
+    // producer heartbeat), else from the fact that the drive answers SDO.
+    let nmt = ctx
+        .other
+        .iter()
+        .rev()
+        .filter_map(heartbeat_of)
+        .find(|(k, _)| *k == n)
+        .map(|(_, s)| match s {
+            NmtState::BootUp => "PRE-OPERATIONAL (boot-up seen)",
+            s => nmt_state_name(s),
+        });
+    ctx.other.clear();
+    let (pdo_text, pdo_json) = pdo_report(&info.pdos, &ctx.dict);
     if ctx.json {
-        ctx.emit_json(&json!({
-            "node": n,
-            "axis": ctx.names.get(n),
-            "device_type": dt,
-            "cia402": dt & 0xFFFF == 402,
-            "vendor": opt_json(&vendor),
-            "product": opt_json(&product),
-            "revision": opt_json(&revision),
-            "serial": opt_json(&serial),
-            "name": opt_json(&name),
-            "supported_modes": match &modes { Ok(m) => json!({ "raw": m, "modes": modes_text(*m) }), Err(e) => json!({ "error": e }) },
-            "mode_display": match &display { Ok(d) => json!({ "raw": d, "mode": mode_name(*d) }), Err(e) => json!({ "error": e }) },
-            "statusword": match &sw { Ok(s) => state_json(Statusword(*s)), Err(e) => json!({ "error": e }) },
-            "position_actual": opt_json(&pos),
-            "following_error_actual": opt_json(&fe),
-            "error_register": match &err_reg { Ok(r) => json!({ "raw": r, "bits": error_register_bits(*r) }), Err(e) => json!({ "error": e }) },
-            "error_code": opt_json(&err_code),
-            "error_history": errors.iter().map(|e| json!({ "raw": e, "code": e & 0xFFFF, "text": emcy_text((e & 0xFFFF) as u16), "info": e >> 16 })).collect::<Vec<_>>(),
-            "producer_heartbeat_ms": opt_json(&hb),
-            "nmt": nmt,
-            "consumer_heartbeats": consumers.iter().map(|c| json!({ "node": (c >> 16) & 0x7F, "ms": c & 0xFFFF })).collect::<Vec<_>>(),
-            "pdos": pdo_json,
-        }));
+        ctx.emit_json(&info_json(ctx, n, dt, &info, nmt, pdo_json));
         return Ok(());
     }
+    say_info(ctx, n, dt, &info, nmt);
+    for l in pdo_text {
+        ctx.say(l);
+    }
+    Ok(())
+}
+
+/// `info --json`: one object with every value read (or why it could not be read).
+fn info_json(
+    ctx: &Ctx,
+    n: u8,
+    dt: u32,
+    info: &DriveInfo,
+    nmt: Option<&str>,
+    pdo_json: Vec<Json>,
+) -> Json {
+    json!({
+        "node": n,
+        "axis": ctx.names.get(n),
+        "device_type": dt,
+        "cia402": dt & 0xFFFF == 402,
+        "vendor": opt_json(&info.vendor),
+        "product": opt_json(&info.product),
+        "revision": opt_json(&info.revision),
+        "serial": opt_json(&info.serial),
+        "name": opt_json(&info.name),
+        "supported_modes": match &info.modes { Ok(m) => json!({ "raw": m, "modes": modes_text(*m) }), Err(e) => json!({ "error": e }) },
+        "mode_display": match &info.display { Ok(d) => json!({ "raw": d, "mode": mode_name(*d) }), Err(e) => json!({ "error": e }) },
+        "statusword": match &info.sw { Ok(s) => state_json(Statusword(*s)), Err(e) => json!({ "error": e }) },
+        "position_actual": opt_json(&info.pos),
+        "following_error_actual": opt_json(&info.fe),
+        "error_register": match &info.err_reg { Ok(r) => json!({ "raw": r, "bits": error_register_bits(*r) }), Err(e) => json!({ "error": e }) },
+        "error_code": opt_json(&info.err_code),
+        "error_history": info.errors.iter().map(|e| json!({ "raw": e, "code": e & 0xFFFF, "text": emcy_text((e & 0xFFFF) as u16), "info": e >> 16 })).collect::<Vec<_>>(),
+        "producer_heartbeat_ms": opt_json(&info.hb),
+        "nmt": nmt,
+        "consumer_heartbeats": info.consumers.iter().map(|c| json!({ "node": (c >> 16) & 0x7F, "ms": c & 0xFFFF })).collect::<Vec<_>>(),
+        "pdos": pdo_json,
+    })
+}
+
+/// `info` as text, up to the "PDO mapping" heading.
+fn say_info(ctx: &Ctx, n: u8, dt: u32, info: &DriveInfo, nmt: Option<&str>) {
     ctx.say(format!("{} on {}", ctx.label(n), ctx.link.name()));
     ctx.say(format!("  device type       {}", device_type_text(dt)));
     ctx.say(format!(
         "  identity          vendor {}  product {}  revision {}  serial {}",
-        opt_text(&vendor, |v| format!("{v:#010x}")),
-        opt_text(&product, |v| format!("{v:#010x}")),
-        opt_text(&revision, |v| format!("{v:#010x}")),
-        opt_text(&serial, |v| v.to_string())
+        opt_text(&info.vendor, |v| format!("{v:#010x}")),
+        opt_text(&info.product, |v| format!("{v:#010x}")),
+        opt_text(&info.revision, |v| format!("{v:#010x}")),
+        opt_text(&info.serial, |v| v.to_string())
     ));
     ctx.say(format!(
         "  name              {}",
-        opt_text(&name, |v| format!("\"{v}\""))
+        opt_text(&info.name, |v| format!("\"{v}\""))
     ));
     ctx.say(format!(
         "  supported modes   {}",
-        opt_text(&modes, |m| format!(
+        opt_text(&info.modes, |m| format!(
             "{m:#010x}: {}",
             modes_text(*m).join(", ")
         ))
     ));
     ctx.say(format!(
         "  mode display      {}",
-        opt_text(&display, |d| mode_name(*d))
+        opt_text(&info.display, |d| mode_name(*d))
     ));
     ctx.say(format!(
         "  statusword        {}",
-        opt_text(&sw, |s| state_text(Statusword(*s)))
+        opt_text(&info.sw, |s| state_text(Statusword(*s)))
     ));
     ctx.say(format!(
         "  position actual   {}",
-        opt_text(&pos, |p| format!("{p} counts"))
+        opt_text(&info.pos, |p| format!("{p} counts"))
     ));
     ctx.say(format!(
         "  following error   {}",
-        opt_text(&fe, |p| format!("{p} counts"))
+        opt_text(&info.fe, |p| format!("{p} counts"))
     ));
     ctx.say(format!(
         "  error register    {}",
-        opt_text(&err_reg, |r| format!(
+        opt_text(&info.err_reg, |r| format!(
             "{r:#04x}{}",
             if *r == 0 {
                 " (no error)".to_string()
@@ -612,12 +655,12 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
     ));
     ctx.say(format!(
         "  error code 603F   {}",
-        opt_text(&err_code, |c| format!("{c:#06x} ({})", emcy_text(*c)))
+        opt_text(&info.err_code, |c| format!("{c:#06x} ({})", emcy_text(*c)))
     ));
-    if errors.is_empty() {
+    if info.errors.is_empty() {
         ctx.say("  error history     (empty)");
     } else {
-        for (i, e) in errors.iter().enumerate() {
+        for (i, e) in info.errors.iter().enumerate() {
             ctx.say(format!(
                 "  error history [{}] {:#06x} {} (info {:#06x})",
                 i + 1,
@@ -629,15 +672,15 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
     }
     ctx.say(format!(
         "  heartbeat         producer {}; consumers {}",
-        opt_text(&hb, |h| if *h == 0 {
+        opt_text(&info.hb, |h| if *h == 0 {
             "off".to_string()
         } else {
             format!("{h} ms")
         }),
-        if consumers.is_empty() {
+        if info.consumers.is_empty() {
             "none".to_string()
         } else {
-            consumers
+            info.consumers
                 .iter()
                 .map(|c| format!("node {} {} ms", (c >> 16) & 0x7F, c & 0xFFFF))
                 .collect::<Vec<_>>()
@@ -649,10 +692,6 @@ fn info(ctx: &mut Ctx, n: u8) -> Result<()> {
         nmt.unwrap_or("PRE-OPERATIONAL or OPERATIONAL (answers SDO; no heartbeat seen)")
     ));
     ctx.say("  PDO mapping");
-    for l in pdo_text {
-        ctx.say(l);
-    }
-    Ok(())
 }
 
 // ---- sdo -------------------------------------------------------------------------------

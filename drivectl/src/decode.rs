@@ -203,135 +203,144 @@ pub fn decode(frame: &CanFrame, dict: &Dictionary, maps: &PdoMaps) -> Decoded {
             },
             Err(err) => raw("emcy", Some(n.get()), format!("EMCY malformed ({err})")),
         },
-        Function::Tpdo(p, n) => {
-            if p == 1 && data.len() == 6 {
-                let sw = Statusword(u16::from_le_bytes([data[0], data[1]]));
-                let pos = i32::from_le_bytes([data[2], data[3], data[4], data[5]]);
-                Decoded {
-                    kind: "tpdo1",
-                    node: Some(n.get()),
-                    text: format!("TPDO1 statusword {sw} position actual {pos}"),
-                    fields: json!({ "statusword": sw.0, "state": sw.state().map(|s| s.name()), "position_actual": pos }),
-                }
-            } else {
-                raw(
-                    pdo_kind(true, p),
-                    Some(n.get()),
-                    format!("TPDO{p} {}", hex(data)),
-                )
-            }
-        }
-        Function::Rpdo(p, n) => {
-            if p == 1 && data.len() == 6 {
-                let cw = u16::from_le_bytes([data[0], data[1]]);
-                let pos = i32::from_le_bytes([data[2], data[3], data[4], data[5]]);
-                Decoded {
-                    kind: "rpdo1",
-                    node: Some(n.get()),
-                    text: format!("RPDO1 controlword {cw:#06x} target position {pos}"),
-                    fields: json!({ "controlword": cw, "target_position": pos }),
-                }
-            } else {
-                raw(
-                    pdo_kind(false, p),
-                    Some(n.get()),
-                    format!("RPDO{p} {}", hex(data)),
-                )
-            }
-        }
-        Function::SdoRx(n) => match SdoRequest::parse_bytes(data) {
-            Ok(r) => {
-                let text = match r {
-                    SdoRequest::InitiateUpload { index, sub } => {
-                        format!("SDO read {}", obj(dict, index, sub))
-                    }
-                    SdoRequest::InitiateDownload { index, sub, kind } => {
-                        format!("SDO write {} {}", obj(dict, index, sub), initiate(&kind))
-                    }
-                    SdoRequest::DownloadSegment(s) => {
-                        format!(
-                            "SDO download segment t={} {}",
-                            s.toggle as u8,
-                            hex(s.data())
-                        )
-                    }
-                    SdoRequest::UploadSegment { toggle } => {
-                        format!("SDO upload segment request t={}", toggle as u8)
-                    }
-                    SdoRequest::Abort { index, sub, code } => {
-                        format!("SDO abort by client {}: {code}", obj(dict, index, sub))
-                    }
-                };
-                Decoded {
-                    kind: "sdo_req",
-                    node: Some(n.get()),
-                    text,
-                    fields: json!({ "data": hex(data) }),
-                }
-            }
-            Err(e) => raw(
-                "sdo_req",
+        Function::Tpdo(p, n) => match tpdo1(p, n.get(), data) {
+            Some(d) => d,
+            None => raw(
+                pdo_kind(true, p),
                 Some(n.get()),
-                format!("SDO request malformed ({e})"),
+                format!("TPDO{p} {}", hex(data)),
             ),
         },
-        Function::SdoTx(n) => match SdoResponse::parse_bytes(data) {
-            Ok(r) => {
-                let text = match r {
-                    SdoResponse::InitiateUpload { index, sub, kind } => {
-                        format!("SDO read {} → {}", obj(dict, index, sub), initiate(&kind))
-                    }
-                    SdoResponse::InitiateDownload { index, sub } => {
-                        format!("SDO write {} confirmed", obj(dict, index, sub))
-                    }
-                    SdoResponse::UploadSegment(s) => {
-                        format!("SDO upload segment t={} {}", s.toggle as u8, hex(s.data()))
-                    }
-                    SdoResponse::DownloadSegment { toggle } => {
-                        format!("SDO download segment confirmed t={}", toggle as u8)
-                    }
-                    SdoResponse::Abort { index, sub, code } => {
-                        format!("SDO abort by server {}: {code}", obj(dict, index, sub))
-                    }
-                };
-                Decoded {
-                    kind: "sdo_resp",
-                    node: Some(n.get()),
-                    text,
-                    fields: json!({ "data": hex(data) }),
-                }
-            }
-            Err(e) => raw(
-                "sdo_resp",
+        Function::Rpdo(p, n) => match rpdo1(p, n.get(), data) {
+            Some(d) => d,
+            None => raw(
+                pdo_kind(false, p),
                 Some(n.get()),
-                format!("SDO response malformed ({e})"),
+                format!("RPDO{p} {}", hex(data)),
             ),
         },
-        Function::Heartbeat(n) => {
-            if frame.is_remote() {
-                return raw("guard", Some(n.get()), "node guarding request".into());
-            }
-            match HeartbeatRepr::parse(frame) {
-                Ok(h) if h.state == NmtState::BootUp => Decoded {
-                    kind: "boot_up",
-                    node: Some(n.get()),
-                    text: "boot-up".into(),
-                    fields: json!({ "state": "BOOT-UP" }),
-                },
-                Ok(h) => Decoded {
-                    kind: "heartbeat",
-                    node: Some(n.get()),
-                    text: format!("heartbeat {}", nmt_state_name(h.state)),
-                    fields: json!({ "state": nmt_state_name(h.state) }),
-                },
-                Err(e) => raw(
-                    "heartbeat",
-                    Some(n.get()),
-                    format!("heartbeat malformed ({e})"),
-                ),
-            }
-        }
+        Function::SdoRx(n) => raw(
+            "sdo_req",
+            Some(n.get()),
+            match SdoRequest::parse_bytes(data) {
+                Ok(r) => sdo_request_text(r, dict),
+                Err(e) => format!("SDO request malformed ({e})"),
+            },
+        ),
+        Function::SdoTx(n) => raw(
+            "sdo_resp",
+            Some(n.get()),
+            match SdoResponse::parse_bytes(data) {
+                Ok(r) => sdo_response_text(r, dict),
+                Err(e) => format!("SDO response malformed ({e})"),
+            },
+        ),
+        Function::Heartbeat(n) => heartbeat(frame, n.get()),
         Function::Other(id) => raw("other", None, format!("{id:03X}#{}", hex(data))),
+    }
+}
+
+/// TPDO1 in cnc402's mapping (statusword + position actual), if the frame is one.
+fn tpdo1(pdo: u8, node: u8, data: &[u8]) -> Option<Decoded> {
+    if pdo != 1 || data.len() != 6 {
+        return None;
+    }
+    let sw = Statusword(u16::from_le_bytes([data[0], data[1]]));
+    let pos = i32::from_le_bytes([data[2], data[3], data[4], data[5]]);
+    Some(Decoded {
+        kind: "tpdo1",
+        node: Some(node),
+        text: format!("TPDO1 statusword {sw} position actual {pos}"),
+        fields: json!({ "statusword": sw.0, "state": sw.state().map(|s| s.name()), "position_actual": pos }),
+    })
+}
+
+/// RPDO1 in cnc402's mapping (controlword + target position), if the frame is one.
+fn rpdo1(pdo: u8, node: u8, data: &[u8]) -> Option<Decoded> {
+    if pdo != 1 || data.len() != 6 {
+        return None;
+    }
+    let cw = u16::from_le_bytes([data[0], data[1]]);
+    let pos = i32::from_le_bytes([data[2], data[3], data[4], data[5]]);
+    Some(Decoded {
+        kind: "rpdo1",
+        node: Some(node),
+        text: format!("RPDO1 controlword {cw:#06x} target position {pos}"),
+        fields: json!({ "controlword": cw, "target_position": pos }),
+    })
+}
+
+/// The text of a parsed SDO request (client to server).
+fn sdo_request_text(r: SdoRequest, dict: &Dictionary) -> String {
+    match r {
+        SdoRequest::InitiateUpload { index, sub } => {
+            format!("SDO read {}", obj(dict, index, sub))
+        }
+        SdoRequest::InitiateDownload { index, sub, kind } => {
+            format!("SDO write {} {}", obj(dict, index, sub), initiate(&kind))
+        }
+        SdoRequest::DownloadSegment(s) => {
+            format!(
+                "SDO download segment t={} {}",
+                s.toggle as u8,
+                hex(s.data())
+            )
+        }
+        SdoRequest::UploadSegment { toggle } => {
+            format!("SDO upload segment request t={}", toggle as u8)
+        }
+        SdoRequest::Abort { index, sub, code } => {
+            format!("SDO abort by client {}: {code}", obj(dict, index, sub))
+        }
+    }
+}
+
+/// The text of a parsed SDO response (server to client).
+fn sdo_response_text(r: SdoResponse, dict: &Dictionary) -> String {
+    match r {
+        SdoResponse::InitiateUpload { index, sub, kind } => {
+            format!("SDO read {} → {}", obj(dict, index, sub), initiate(&kind))
+        }
+        SdoResponse::InitiateDownload { index, sub } => {
+            format!("SDO write {} confirmed", obj(dict, index, sub))
+        }
+        SdoResponse::UploadSegment(s) => {
+            format!("SDO upload segment t={} {}", s.toggle as u8, hex(s.data()))
+        }
+        SdoResponse::DownloadSegment { toggle } => {
+            format!("SDO download segment confirmed t={}", toggle as u8)
+        }
+        SdoResponse::Abort { index, sub, code } => {
+            format!("SDO abort by server {}: {code}", obj(dict, index, sub))
+        }
+    }
+}
+
+/// A heartbeat (boot-up or NMT state) or a node-guarding request (a remote frame).
+fn heartbeat(frame: &CanFrame, node: u8) -> Decoded {
+    let raw = |kind: &'static str, text: String| Decoded {
+        kind,
+        node: Some(node),
+        text,
+        fields: json!({ "data": hex(frame.data()) }),
+    };
+    if frame.is_remote() {
+        return raw("guard", "node guarding request".into());
+    }
+    match HeartbeatRepr::parse(frame) {
+        Ok(h) if h.state == NmtState::BootUp => Decoded {
+            kind: "boot_up",
+            node: Some(node),
+            text: "boot-up".into(),
+            fields: json!({ "state": "BOOT-UP" }),
+        },
+        Ok(h) => Decoded {
+            kind: "heartbeat",
+            node: Some(node),
+            text: format!("heartbeat {}", nmt_state_name(h.state)),
+            fields: json!({ "state": nmt_state_name(h.state) }),
+        },
+        Err(e) => raw("heartbeat", format!("heartbeat malformed ({e})")),
     }
 }
 

@@ -16,7 +16,7 @@ use cnc402_drives::wire::CanFrame;
 use serde_json::json;
 
 use crate::Ctx;
-use crate::decode::decode;
+use crate::decode::{Decoded, decode};
 use crate::error::{CliError, Exit, Result};
 
 /// One line of a `candump -l` log: `(1700000000.123456) can0 601#4041600000000000`.
@@ -313,6 +313,66 @@ pub fn read_mappings(ctx: &mut Ctx) -> Result<()> {
     Ok(())
 }
 
+/// One received frame, decoded, as text or JSON.
+fn say_frame(ctx: &Ctx, rel: f64, f: &CanFrame, d: &Decoded) {
+    if ctx.json {
+        ctx.emit_json(&json!({
+            "t": rel, "id": f.id(), "data": crate::values::hex(f.data()), "kind": d.kind,
+            "node": d.node, "axis": d.node.and_then(|n| ctx.names.get(n)),
+            "text": d.text, "fields": d.fields,
+        }));
+    } else {
+        let who = d.node.map(|n| ctx.label(n)).unwrap_or_default();
+        ctx.say(format!(
+            "{rel:>10.6}  {:03X}  {:<16} {}",
+            f.id(),
+            who,
+            d.text
+        ));
+    }
+}
+
+/// The end-of-monitor summary: frames, bus load, frames by kind and the SYNC period.
+fn say_summary(
+    ctx: &Ctx,
+    span: Duration,
+    total_frames: u64,
+    total_bits: u64,
+    bitrate: u32,
+    kinds: &BTreeMap<&'static str, u64>,
+    sync: &PeriodStats,
+) {
+    let load = if span.is_zero() {
+        0.0
+    } else {
+        100.0 * total_bits as f64 / (bitrate as f64 * span.as_secs_f64())
+    };
+    let s = sync.summary();
+    if ctx.json {
+        ctx.emit_json(&json!({ "summary": {
+            "seconds": span.as_secs_f64(), "frames": total_frames, "load_percent": load,
+            "by_kind": kinds,
+            "sync_period_us": s.map(|(n, mean, p50, p99, max)| json!({ "n": n, "mean": mean, "p50": p50, "p99": p99, "max": max })),
+        }}));
+    } else {
+        ctx.say(format!(
+            "{total_frames} frames in {:.3} s, bus load {load:.1} % at {} kbit/s; {}",
+            span.as_secs_f64(),
+            bitrate / 1000,
+            kinds
+                .iter()
+                .map(|(k, n)| format!("{k} {n}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+        if let Some((n, mean, p50, p99, max)) = s {
+            ctx.say(format!(
+                "SYNC period: mean {mean:.1} µs, p50 {p50:.1}, p99 {p99:.1}, max {max:.1} (n={n})"
+            ));
+        }
+    }
+}
+
 /// `drivectl monitor`.
 pub fn monitor(
     ctx: &mut Ctx,
@@ -387,22 +447,7 @@ pub fn monitor(
             log_err = Some(e);
         }
         if !quiet {
-            let rel = t.saturating_since(start).as_secs_f64();
-            if ctx.json {
-                ctx.emit_json(&json!({
-                    "t": rel, "id": f.id(), "data": crate::values::hex(f.data()), "kind": d.kind,
-                    "node": d.node, "axis": d.node.and_then(|n| ctx.names.get(n)),
-                    "text": d.text, "fields": d.fields,
-                }));
-            } else {
-                let who = d.node.map(|n| ctx.label(n)).unwrap_or_default();
-                ctx.say(format!(
-                    "{rel:>10.6}  {:03X}  {:<16} {}",
-                    f.id(),
-                    who,
-                    d.text
-                ));
-            }
+            say_frame(ctx, t.saturating_since(start).as_secs_f64(), f, &d);
         }
         Ok(())
     };
@@ -412,36 +457,15 @@ pub fn monitor(
     {
         log_err.get_or_insert(e);
     }
-    let span = stop.saturating_since(start);
-    let load = if span.is_zero() {
-        0.0
-    } else {
-        100.0 * total_bits as f64 / (bitrate as f64 * span.as_secs_f64())
-    };
-    let s = sync.summary();
-    if ctx.json {
-        ctx.emit_json(&json!({ "summary": {
-            "seconds": span.as_secs_f64(), "frames": total_frames, "load_percent": load,
-            "by_kind": kinds,
-            "sync_period_us": s.map(|(n, mean, p50, p99, max)| json!({ "n": n, "mean": mean, "p50": p50, "p99": p99, "max": max })),
-        }}));
-    } else {
-        ctx.say(format!(
-            "{total_frames} frames in {:.3} s, bus load {load:.1} % at {} kbit/s; {}",
-            span.as_secs_f64(),
-            bitrate / 1000,
-            kinds
-                .iter()
-                .map(|(k, n)| format!("{k} {n}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
-        if let Some((n, mean, p50, p99, max)) = s {
-            ctx.say(format!(
-                "SYNC period: mean {mean:.1} µs, p50 {p50:.1}, p99 {p99:.1}, max {max:.1} (n={n})"
-            ));
-        }
-    }
+    say_summary(
+        ctx,
+        stop.saturating_since(start),
+        total_frames,
+        total_bits,
+        bitrate,
+        &kinds,
+        &sync,
+    );
     if let Some(e) = log_err {
         return Err(CliError::new(
             Exit::Other,

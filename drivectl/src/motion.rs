@@ -147,14 +147,8 @@ pub fn move_to(ctx: &mut Ctx, node: u8, target: f64, interrupt_after: Option<f64
     run(ctx, node, axis, lim, Plan::Move { target }, interrupt_after)
 }
 
-fn run(
-    ctx: &mut Ctx,
-    node: u8,
-    axis: AxisConfig,
-    lim: Limits,
-    plan: Plan,
-    interrupt_after: Option<f64>,
-) -> Result<()> {
+/// A master for the one axis, booted to Operation Enabled in cyclic synchronous position.
+fn boot_one(ctx: &mut Ctx, node: u8, axis: &AxisConfig) -> Result<Master> {
     let mut one = ctx.cfg.clone();
     one.axes = vec![axis.clone()];
     let options = MasterOptions {
@@ -170,10 +164,12 @@ fn run(
         ));
     }
     m.boot(&mut ctx.link)?;
-    let p0 = m.positions()[0];
-    let period = m.period().as_secs_f64();
-    let sim = ctx.link.sim().is_some();
-    let mut law = match plan {
+    Ok(m)
+}
+
+/// The motion law a plan starts with: a rest-to-rest move, or a ramp to the jog velocity.
+fn initial_law(plan: &Plan, p0: f64, lim: Limits) -> Result<Law> {
+    Ok(match *plan {
         Plan::Move { target } => {
             let d = target - p0;
             let profile = rest_to_rest(d.abs(), lim)
@@ -200,7 +196,67 @@ fn run(
             p0: 0.0,
             sign: 1.0,
         },
+    })
+}
+
+/// Why a run stops on Ctrl-C (or the tests' interrupt time).
+const STOP_CTRL_C: &str = "Ctrl-C";
+/// Why a jog stops before a soft limit.
+const STOP_SOFT_LIMIT: &str = "soft limit ahead";
+
+/// Whether a ramp to standstill starting at `t` on `law` would end outside the axis's soft
+/// limits (none: never).
+fn passes_soft_limit(law: &Law, t: f64, axis: &AxisConfig, lim: Limits) -> bool {
+    let Some((lo, hi)) = axis.soft_limits else {
+        return false;
     };
+    let end = Law::stop_from(law.at(t), 0.0, lim).at(f64::MAX / 4.0).s;
+    end > hi || end < lo
+}
+
+/// Sleeps until `t` seconds after `wall0` on the wall clock (at once if that has passed).
+fn sleep_until(wall0: WallInstant, t: f64) {
+    let wall = wall0.elapsed().as_secs_f64();
+    if t > wall {
+        std::thread::sleep(Duration::from_secs_f64(t - wall));
+    }
+}
+
+/// Ten more cycles holding `cmd` after cycle `k` (each `period` s after `t_start`), the last
+/// actual position into `actual`; returns the number of the last cycle.
+fn settle(
+    ctx: &mut Ctx,
+    m: &mut Master,
+    t_start: cnc402_drives::Instant,
+    period: f64,
+    mut k: u64,
+    cmd: f64,
+    actual: &mut f64,
+) -> u64 {
+    for _ in 0..10 {
+        k += 1;
+        let when = t_start + Duration::from_secs_f64(k as f64 * period);
+        ctx.link.pass_until(when);
+        if let Ok(fb) = m.cycle(&mut ctx.link, when, &[cmd]) {
+            *actual = fb.actual[0];
+        }
+    }
+    k
+}
+
+fn run(
+    ctx: &mut Ctx,
+    node: u8,
+    axis: AxisConfig,
+    lim: Limits,
+    plan: Plan,
+    interrupt_after: Option<f64>,
+) -> Result<()> {
+    let mut m = boot_one(ctx, node, &axis)?;
+    let p0 = m.positions()[0];
+    let period = m.period().as_secs_f64();
+    let sim = ctx.link.sim().is_some();
+    let mut law = initial_law(&plan, p0, lim)?;
     let stop_at = match plan {
         Plan::Jog { duration, .. } => duration,
         Plan::Move { .. } => None,
@@ -221,23 +277,19 @@ fn run(
         // Decide on a stop (Ctrl-C, the jog time, a soft limit ahead) from the state now.
         if !stopping {
             let now_state = law.at(t);
-            let mut why = None;
-            if ctx.interrupted() || interrupt_after.is_some_and(|s| t >= s) {
-                interrupted = true;
-                why = Some("Ctrl-C");
+            let why = if ctx.interrupted() || interrupt_after.is_some_and(|s| t >= s) {
+                Some(STOP_CTRL_C)
             } else if stop_at.is_some_and(|d| t >= d) {
-                why = Some("jog time over");
+                Some("jog time over")
             } else if matches!(plan, Plan::Jog { .. })
-                && let Some((lo, hi)) = axis.soft_limits
+                && passes_soft_limit(&law, t + period, &axis, lim)
             {
-                // Where would a ramp starting one period from now end?
-                let ahead = law.at(t + period);
-                let end = Law::stop_from(ahead, 0.0, lim).at(f64::MAX / 4.0).s;
-                if end > hi || end < lo {
-                    soft_stop = true;
-                    why = Some("soft limit ahead");
-                }
-            }
+                Some(STOP_SOFT_LIMIT)
+            } else {
+                None
+            };
+            interrupted |= why == Some(STOP_CTRL_C);
+            soft_stop |= why == Some(STOP_SOFT_LIMIT);
             if let Some(w) = why {
                 if !ctx.json {
                     ctx.say(format!(
@@ -254,10 +306,7 @@ fn run(
         let when = t_start + Duration::from_secs_f64(t);
         if sim {
             // Live on the simulator too: pace virtual time to the wall clock.
-            let wall = wall0.elapsed().as_secs_f64();
-            if t > wall {
-                std::thread::sleep(Duration::from_secs_f64(t - wall));
-            }
+            sleep_until(wall0, t);
         }
         ctx.link.pass_until(when);
         match m.cycle(&mut ctx.link, when, &[cmd]) {
@@ -286,14 +335,7 @@ fn run(
     }
     // Settle a few cycles at the end point, then disable.
     if result.is_ok() {
-        for _ in 0..10 {
-            k += 1;
-            let when = t_start + Duration::from_secs_f64(k as f64 * period);
-            ctx.link.pass_until(when);
-            if let Ok(fb) = m.cycle(&mut ctx.link, when, &[cmd]) {
-                actual = fb.actual[0];
-            }
-        }
+        k = settle(ctx, &mut m, t_start, period, k, cmd, &mut actual);
     }
     let fe_max = m.max_following_errors()[0];
     let disabled = m.disable(&mut ctx.link);

@@ -563,6 +563,16 @@ impl CouplingChecker {
 mod tests {
     use super::*;
 
+    /// A sample in which both drives follow their commands exactly.
+    fn followed(z: i64, c: i64) -> CountSample {
+        CountSample {
+            z_cmd: z,
+            c_cmd: c,
+            z_act: z,
+            c_act: c,
+        }
+    }
+
     const Z_CPU: f64 = 10000.0;
     const C_CPU: f64 = 131072.0 / 360.0;
 
@@ -861,12 +871,7 @@ mod tests {
                 z += 0.0003;
             }
             let (zc, cc) = ((z * Z_CPU).round() as i64, (c * C_CPU).round() as i64);
-            ch.feed_counts(CountSample {
-                z_cmd: zc,
-                c_cmd: cc,
-                z_act: zc,
-                c_act: cc,
-            });
+            ch.feed_counts(followed(zc, cc));
         }
         for _ in 0..5 {
             ch.feed_counts(CountSample::default());
@@ -935,12 +940,7 @@ mod tests {
         let mut ch = CouplingChecker::new(Z_CPU, C_CPU);
         for t in 0..600i64 {
             let z = -(t.clamp(200, 400) - 200) * 30;
-            ch.feed_counts(CountSample {
-                z_cmd: z,
-                c_cmd: t * 3641,
-                z_act: z,
-                c_act: t * 3641,
-            });
+            ch.feed_counts(followed(z, t * 3641));
         }
         ch.finish();
         let e = ch.windows();
@@ -959,12 +959,7 @@ mod tests {
             for step in std::iter::repeat_n(-10, 300).chain(std::iter::repeat_n(30, 100)) {
                 z += step;
                 t += 1;
-                ch.feed_counts(CountSample {
-                    z_cmd: z,
-                    c_cmd: t * 3641,
-                    z_act: z,
-                    c_act: t * 3641,
-                });
+                ch.feed_counts(followed(z, t * 3641));
             }
         }
         ch.finish();

@@ -4,15 +4,15 @@
 //! review. Regenerate deliberately with `CNC402_BLESS=1 cargo test -p cnc402-runtime --test
 //! golden` and say why in the commit.
 
+mod common;
+
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
-use cnc402_lang::SourceFile;
-use cnc402_runtime::controller::{AxisTable, CycleController, Step, start_position};
-use cnc402_runtime::feeder::Feeder;
+use cnc402_runtime::controller::{CycleController, Step};
 use cnc402_runtime::ring::{Consumer, move_ring, status_ring};
 use cnc402_runtime::testing::ModelLink;
 use cnc402_runtime::{Outcome, Status};
@@ -33,14 +33,7 @@ fn stream() -> Vec<Status> {
     let cfg = MachineConfig::default_machine();
     let start = [0.0; MAX_AXES];
     let link = ModelLink::new(&cfg, start, 1);
-    let src = SourceFile::new("golden.nc", PROGRAM);
-    let ast = cnc402_lang::parse(&src).unwrap();
-    let mut feeder = Feeder::new(
-        &cfg,
-        src,
-        ast,
-        start_position(&AxisTable::new(&cfg), &start),
-    );
+    let mut feeder = common::feeder(&cfg, "golden.nc", PROGRAM, &start);
     let (mut mp, mc) = move_ring(64);
     let (sp, mut sc) = status_ring(256);
     let mut ctrl =

@@ -3,6 +3,8 @@
 //! every drive, a drive fault names node/EMCY/line, coupling windows are measured (and would
 //! catch a decoupling), and the real-time driver runs with its latency figures.
 
+mod common;
+
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -10,8 +12,7 @@ use std::time::Duration;
 use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_lang::SourceFile;
-use cnc402_runtime::controller::{AxisTable, CycleController, Step, start_position};
-use cnc402_runtime::feeder::Feeder;
+use cnc402_runtime::controller::{CycleController, Step};
 use cnc402_runtime::link::{DriveLink, FaultPlan, Startup, StopCause};
 use cnc402_runtime::recorder::Recorder;
 use cnc402_runtime::ring::{Consumer, move_ring, status_ring};
@@ -37,10 +38,7 @@ fn drive<L: DriveLink>(
             other => panic!("startup: {other:?}"),
         }
     };
-    let src = SourceFile::new("t.nc", text);
-    let ast = cnc402_lang::parse(&src).expect("parse");
-    let axes = AxisTable::new(cfg);
-    let mut feeder = Feeder::new(cfg, src, ast, start_position(&axes, &start));
+    let mut feeder = common::feeder(cfg, "t.nc", text, &start);
     let (mut mp, mc) = move_ring(64);
     let (sp, mut sc) = status_ring(1024);
     let stop = Arc::new(AtomicBool::new(false));
@@ -165,13 +163,7 @@ fn operator_stop_mid_tap_keeps_z_and_c_coupled_and_quick_stops_every_drive() {
 #[test]
 fn drive_fault_names_node_emcy_and_line_and_stops_all_axes() {
     let cfg = MachineConfig::default_machine();
-    let link = SimLink::simulated(&cfg, None)
-        .unwrap()
-        .with_fault(FaultPlan {
-            node: 4,
-            at: Duration::from_millis(2300),
-            emcy: 0x8611,
-        });
+    let link = common::faulty_sim(&cfg, common::fault(4, 2300, 0x8611));
     let (outcome, st, _, link) = drive(&cfg, link, TAP, |_, _| {});
     let Outcome::Stopped { stop, line, .. } = outcome else {
         panic!("{outcome:?}")
@@ -201,11 +193,7 @@ fn drive_fault_names_node_emcy_and_line_and_stops_all_axes() {
 #[test]
 fn model_link_fault_and_motion_are_reported_the_same_way() {
     let cfg = MachineConfig::default_machine();
-    let link = ModelLink::new(&cfg, [0.0; MAX_AXES], 1).with_fault(FaultPlan {
-        node: 3,
-        at: Duration::from_millis(500),
-        emcy: 0x2310,
-    });
+    let link = ModelLink::new(&cfg, [0.0; MAX_AXES], 1).with_fault(common::fault(3, 500, 0x2310));
     let (outcome, _, _, _) = drive(&cfg, link, TAP, |_, _| {});
     let Outcome::Stopped { stop, .. } = outcome else {
         panic!("{outcome:?}")
@@ -429,13 +417,7 @@ fn a_spindle_fault_mid_tap_slaves_the_tool_axis_to_the_spindle() {
     // path-coupled stop alone would drive Z 0.6 mm past the thread. Z follows C's actual
     // position instead.
     let cfg = MachineConfig::default_machine();
-    let link = SimLink::simulated(&cfg, None)
-        .unwrap()
-        .with_fault(FaultPlan {
-            node: 4,
-            at: Duration::from_millis(1800),
-            emcy: 0x8611,
-        });
+    let link = common::faulty_sim(&cfg, common::fault(4, 1800, 0x8611));
     let (outcome, st, _, _) = drive(&cfg, link, TAP, |_, _| {});
     let Outcome::Stopped { stop, line, .. } = outcome else {
         panic!("{outcome:?}")

@@ -3,17 +3,17 @@
 //! drives, status ring — through a rigid tap, an injected drive fault, the path-coupled stop
 //! and quick stop.
 
+mod common;
+
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use cnc402_config::MachineConfig;
 use cnc402_drives::Instant;
-use cnc402_lang::SourceFile;
 use cnc402_runtime::controller::{CycleController, Step};
-use cnc402_runtime::feeder::Feeder;
-use cnc402_runtime::link::{DriveLink, FaultPlan, Startup};
-use cnc402_runtime::ring::{Consumer, LoopInput, Producer, move_ring, status_ring};
+use cnc402_runtime::link::FaultPlan;
+use cnc402_runtime::ring::{Consumer, status_ring};
 use cnc402_runtime::{Outcome, SimLink};
 
 use cnc402_testkit::{CountingAlloc, allocs, arm};
@@ -34,25 +34,9 @@ fn run_armed(fault: Option<FaultPlan>) -> (u64, Outcome, u64) {
     if let Some(f) = fault {
         link = link.with_fault(f);
     }
-    let start = match link.startup(Instant::ZERO) {
-        Startup::Ready(p) => p,
-        other => panic!("startup: {other:?}"),
-    };
+    let start = common::started(&mut link);
     // Plan the whole program before arming: the feeder runs outside the loop.
-    let src = SourceFile::new("tap.nc", TAP);
-    let ast = cnc402_lang::parse(&src).expect("parse");
-    let axes = cnc402_runtime::controller::AxisTable::new(&cfg);
-    let mut feeder = Feeder::new(
-        &cfg,
-        src,
-        ast,
-        cnc402_runtime::controller::start_position(&axes, &start),
-    );
-    let (mut mp, mc) = move_ring(4096);
-    while let Some(mv) = feeder.next_move().expect("plan") {
-        assert!(mp.try_push(LoopInput::Move(mv)).is_ok());
-    }
-    assert!(mp.try_push(LoopInput::End).is_ok());
+    let (_mp, mc) = common::planned(&cfg, "tap.nc", TAP, &start, 4096);
     let (sp, mut sc) = status_ring(1 << 16);
     let mut ctrl =
         CycleController::new(&cfg, start, link, mc, sp, Arc::new(AtomicBool::new(false)));
@@ -95,11 +79,7 @@ fn full_tick_path_allocates_nothing_through_a_tap() {
 
 #[test]
 fn full_tick_path_allocates_nothing_through_a_fault_and_stop() {
-    let plan = FaultPlan {
-        node: 3,
-        at: Duration::from_millis(1500),
-        emcy: 0x8611,
-    };
+    let plan = common::fault(3, 1500, 0x8611);
     let (n, outcome, ticks) = run_armed(Some(plan));
     assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
     assert_eq!(n, 0, "allocations in {ticks} ticks");
@@ -118,11 +98,7 @@ fn the_counter_counts() {
 #[test]
 fn full_tick_path_allocates_nothing_when_the_spindle_faults_mid_tap() {
     // The tool axis then follows the spindle's actual position (another code path).
-    let plan = FaultPlan {
-        node: 4,
-        at: Duration::from_millis(1500),
-        emcy: 0x8611,
-    };
+    let plan = common::fault(4, 1500, 0x8611);
     let (n, outcome, ticks) = run_armed(Some(plan));
     assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
     assert_eq!(n, 0, "allocations in {ticks} ticks");
@@ -152,24 +128,9 @@ fn holding_at_m0_allocates_nothing_and_holds_position() {
     use cnc402_runtime::{AtStop, StopGate};
     let cfg = machine();
     let mut link = SimLink::simulated(&cfg, None).expect("sim link");
-    let start = match link.startup(Instant::ZERO) {
-        Startup::Ready(p) => p,
-        other => panic!("startup: {other:?}"),
-    };
-    let src = SourceFile::new("m0.nc", "G21 G90\nG1 X5 F1200\nM0\nG1 X9 F1200\nM30\n");
-    let ast = cnc402_lang::parse(&src).expect("parse");
-    let axes = cnc402_runtime::controller::AxisTable::new(&cfg);
-    let mut feeder = Feeder::new(
-        &cfg,
-        src,
-        ast,
-        cnc402_runtime::controller::start_position(&axes, &start),
-    );
-    let (mut mp, mc) = move_ring(64);
-    while let Some(mv) = feeder.next_move().expect("plan") {
-        assert!(mp.try_push(LoopInput::Move(mv)).is_ok());
-    }
-    assert!(mp.try_push(LoopInput::End).is_ok());
+    let start = common::started(&mut link);
+    let program = "G21 G90\nG1 X5 F1200\nM0\nG1 X9 F1200\nM30\n";
+    let (_mp, mc) = common::planned(&cfg, "m0.nc", program, &start, 64);
     let (sp, mut sc) = status_ring(1 << 16);
     let gate = Arc::new(StopGate::new(AtStop::Wait, false));
     let mut ctrl =

@@ -88,37 +88,33 @@ pub trait CanBus {
     fn counters(&self) -> BusCounters;
 }
 
-impl<B: CanBus + ?Sized> CanBus for &mut B {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        (**self).send(frame)
-    }
-    fn recv(&mut self) -> Result<Option<CanFrame>, BusError> {
-        (**self).recv()
-    }
-    fn recv_timeout(&mut self, timeout: Duration) -> Result<Option<CanFrame>, BusError> {
-        (**self).recv_timeout(timeout)
-    }
-    fn counters(&self) -> BusCounters {
-        (**self).counters()
-    }
+/// Forwards every [`CanBus`] method through a pointer type to the bus it points at.
+macro_rules! forward_can_bus {
+    ($(#[$doc:meta])* $pointer:ty) => {
+        $(#[$doc])*
+        impl<B: CanBus + ?Sized> CanBus for $pointer {
+            fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+                (**self).send(frame)
+            }
+            fn recv(&mut self) -> Result<Option<CanFrame>, BusError> {
+                (**self).recv()
+            }
+            fn recv_timeout(&mut self, timeout: Duration) -> Result<Option<CanFrame>, BusError> {
+                (**self).recv_timeout(timeout)
+            }
+            fn counters(&self) -> BusCounters {
+                (**self).counters()
+            }
+        }
+    };
 }
 
-/// A boxed transport (e.g. chosen at run time: SocketCAN or simulated) is a bus too, and so a
-/// [`FrameSink`] for devices (`&mut dyn CanBus` itself cannot be turned into one).
-impl<B: CanBus + ?Sized> CanBus for Box<B> {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
-        (**self).send(frame)
-    }
-    fn recv(&mut self) -> Result<Option<CanFrame>, BusError> {
-        (**self).recv()
-    }
-    fn recv_timeout(&mut self, timeout: Duration) -> Result<Option<CanFrame>, BusError> {
-        (**self).recv_timeout(timeout)
-    }
-    fn counters(&self) -> BusCounters {
-        (**self).counters()
-    }
-}
+forward_can_bus!(&mut B);
+forward_can_bus!(
+    /// A boxed transport (e.g. chosen at run time: SocketCAN or simulated) is a bus too, and so
+    /// a [`FrameSink`] for devices (`&mut dyn CanBus` itself cannot be turned into one).
+    Box<B>
+);
 
 /// Where a device puts the frames it transmits: the simulated bus, or a real socket in the
 /// `simdrive` process (every [`CanBus`] is one).

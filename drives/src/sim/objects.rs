@@ -39,12 +39,24 @@ pub struct DriveParams {
 
 /// Builds the power-on dictionary.
 pub fn build(p: &DriveParams) -> ObjectDictionary {
-    use Access::*;
-    let id = p.node.get() as u32;
     let mut od = ObjectDictionary::new();
-    let var = |od: &mut ObjectDictionary, index, e| od.insert_var(index, e);
+    insert_communication_area(&mut od, p);
+    insert_pdo_parameters(&mut od, u32::from(p.node.get()));
+    insert_device_profile(&mut od, p);
+    od
+}
+
+/// Inserts a single-entry object (sub-index 0).
+fn var(od: &mut ObjectDictionary, index: u16, e: Entry) {
+    od.insert_var(index, e);
+}
+
+/// The communication profile area (0x1000..0x1018, CiA 301) but for the PDO parameters.
+fn insert_communication_area(od: &mut ObjectDictionary, p: &DriveParams) {
+    use Access::*;
+    let id = u32::from(p.node.get());
     var(
-        &mut od,
+        od,
         o::DEVICE_TYPE,
         Entry::new(
             "device type",
@@ -53,7 +65,7 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         ),
     );
     var(
-        &mut od,
+        od,
         o::ERROR_REGISTER,
         Entry::new("error register", ReadOnly, Value::U8(0)),
     );
@@ -70,17 +82,17 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         );
     }
     var(
-        &mut od,
+        od,
         o::SYNC_COB_ID,
         Entry::new("COB-ID SYNC", ReadWrite, Value::U32(0x80)),
     );
     var(
-        &mut od,
+        od,
         o::COMMUNICATION_CYCLE_PERIOD,
         Entry::new("communication cycle period", ReadWrite, Value::U32(0)),
     );
     var(
-        &mut od,
+        od,
         o::DEVICE_NAME,
         Entry::new(
             "manufacturer device name",
@@ -89,12 +101,12 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         ),
     );
     var(
-        &mut od,
+        od,
         0x1014,
         Entry::new("COB-ID EMCY", ReadOnly, Value::U32(0x80 + id)),
     );
     var(
-        &mut od,
+        od,
         o::PRODUCER_HEARTBEAT_TIME,
         Entry::new("producer heartbeat time", ReadWrite, Value::U16(0)),
     );
@@ -110,7 +122,7 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         Entry::new("consumer heartbeat time 1", ReadWrite, Value::U32(0)),
     );
     var(
-        &mut od,
+        od,
         o::ABORT_CONNECTION_OPTION,
         Entry::new("abort connection option code", ReadWrite, Value::I16(1)).range(0, 3),
     );
@@ -139,7 +151,11 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         4,
         Entry::new("serial number", ReadOnly, Value::U32(id)),
     );
+}
 
+/// The PDO communication and mapping parameters (0x1400.., 0x1600.., 0x1800.., 0x1A00..).
+fn insert_pdo_parameters(od: &mut ObjectDictionary, id: u32) {
+    use Access::*;
     for n in 0..4u16 {
         // Pre-defined connection set; PDO 1 valid (RPDO1 = controlword, TPDO1 = statusword,
         // event driven), PDOs 2..4 exist but are invalid and unmapped.
@@ -212,24 +228,28 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
             }
         }
     }
+}
 
+/// The CiA 402 device profile area (0x603F..).
+fn insert_device_profile(od: &mut ObjectDictionary, p: &DriveParams) {
+    use Access::*;
     var(
-        &mut od,
+        od,
         o::ERROR_CODE,
         Entry::new("error code", ReadOnly, Value::U16(0)),
     );
     var(
-        &mut od,
+        od,
         o::CONTROLWORD,
         Entry::new("controlword", ReadWrite, Value::U16(0)).mappable(),
     );
     var(
-        &mut od,
+        od,
         o::STATUSWORD,
         Entry::new("statusword", ReadOnly, Value::U16(0)).mappable(),
     );
     var(
-        &mut od,
+        od,
         o::QUICK_STOP_OPTION,
         Entry::new(
             "quick stop option code",
@@ -239,27 +259,27 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         .range(0, 8),
     );
     var(
-        &mut od,
+        od,
         o::MODES_OF_OPERATION,
         Entry::new("modes of operation", ReadWrite, Value::I8(0)).mappable(),
     );
     var(
-        &mut od,
+        od,
         o::MODES_OF_OPERATION_DISPLAY,
         Entry::new("modes of operation display", ReadOnly, Value::I8(0)).mappable(),
     );
     var(
-        &mut od,
+        od,
         o::POSITION_DEMAND,
         Entry::new("position demand value", ReadOnly, Value::I32(0)).mappable(),
     );
     var(
-        &mut od,
+        od,
         o::POSITION_ACTUAL,
         Entry::new("position actual value", ReadOnly, Value::I32(0)).mappable(),
     );
     var(
-        &mut od,
+        od,
         o::FOLLOWING_ERROR_WINDOW,
         Entry::new(
             "following error window",
@@ -268,7 +288,7 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         ),
     );
     var(
-        &mut od,
+        od,
         o::FOLLOWING_ERROR_TIMEOUT,
         Entry::new(
             "following error time out",
@@ -277,17 +297,17 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         ),
     );
     var(
-        &mut od,
+        od,
         o::VELOCITY_ACTUAL,
         Entry::new("velocity actual value", ReadOnly, Value::I32(0)).mappable(),
     );
     var(
-        &mut od,
+        od,
         o::TARGET_POSITION,
         Entry::new("target position", ReadWrite, Value::I32(0)).mappable(),
     );
     var(
-        &mut od,
+        od,
         o::QUICK_STOP_DECELERATION,
         Entry::new(
             "quick stop deceleration",
@@ -296,6 +316,26 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         )
         .range(1, u32::MAX as i64),
     );
+    insert_interpolation_period(od, p.interpolation_period);
+    var(
+        od,
+        o::FOLLOWING_ERROR_ACTUAL,
+        Entry::new("following error actual value", ReadOnly, Value::I32(0)).mappable(),
+    );
+    var(
+        od,
+        o::SUPPORTED_DRIVE_MODES,
+        Entry::new(
+            "supported drive modes",
+            Const,
+            Value::U32(OperationMode::CyclicSyncPosition.supported_bit()),
+        ),
+    );
+}
+
+/// 0x60C2, the interpolation time period as (value, exponent) (CiA 402).
+fn insert_interpolation_period(od: &mut ObjectDictionary, (value, exponent): (u8, i8)) {
+    use Access::*;
     od.insert(
         o::INTERPOLATION_TIME_PERIOD,
         0,
@@ -307,34 +347,14 @@ pub fn build(p: &DriveParams) -> ObjectDictionary {
         Entry::new(
             "interpolation time period value",
             ReadWrite,
-            Value::U8(p.interpolation_period.0),
+            Value::U8(value),
         ),
     );
     od.insert(
         o::INTERPOLATION_TIME_PERIOD,
         o::INTERPOLATION_TIME_PERIOD_INDEX_SUB,
-        Entry::new(
-            "interpolation time index",
-            ReadWrite,
-            Value::I8(p.interpolation_period.1),
-        )
-        .range(-6, 0),
+        Entry::new("interpolation time index", ReadWrite, Value::I8(exponent)).range(-6, 0),
     );
-    var(
-        &mut od,
-        o::FOLLOWING_ERROR_ACTUAL,
-        Entry::new("following error actual value", ReadOnly, Value::I32(0)).mappable(),
-    );
-    var(
-        &mut od,
-        o::SUPPORTED_DRIVE_MODES,
-        Entry::new(
-            "supported drive modes",
-            Const,
-            Value::U32(OperationMode::CyclicSyncPosition.supported_bit()),
-        ),
-    );
-    od
 }
 
 /// 0x60C2 (value, exponent) for a period in µs: the largest exponent that represents it

@@ -102,143 +102,181 @@ impl SdoServer {
                 self.transfer = Transfer::Idle;
                 None
             }
-            SdoRequest::InitiateUpload { index, sub } => {
-                self.transfer = Transfer::Idle;
-                let data = match od.upload(index, sub) {
-                    Ok(d) => d,
-                    Err(code) => return self.abort(index, sub, code),
-                };
-                if !data.is_empty() && data.len() <= 4 {
-                    let e = ExpeditedData::new(&data).ok()?;
-                    Some(SdoResponse::InitiateUpload {
-                        index,
-                        sub,
-                        kind: InitiateKind::Expedited(e),
-                    })
-                } else {
-                    let size = u32::try_from(data.len()).unwrap_or(u32::MAX);
-                    self.transfer = Transfer::Upload {
-                        index,
-                        sub,
-                        data,
-                        pos: 0,
-                        toggle: false,
-                    };
-                    Some(SdoResponse::InitiateUpload {
-                        index,
-                        sub,
-                        kind: InitiateKind::Segmented { size: Some(size) },
-                    })
-                }
-            }
-            SdoRequest::UploadSegment { toggle } => {
-                let Transfer::Upload {
-                    index,
-                    sub,
-                    data,
-                    pos,
-                    toggle: expected,
-                } = &mut self.transfer
-                else {
-                    return self.abort(0, 0, AbortCode::BadCommand);
-                };
-                let (index, sub) = (*index, *sub);
-                if toggle != *expected {
-                    return self.abort(index, sub, AbortCode::ToggleNotAlternated);
-                }
-                let end = (*pos + 7).min(data.len());
-                let last = end == data.len();
-                let seg = SdoSegment::new(toggle, last, &data[*pos..end]).ok()?;
-                *pos = end;
-                *expected = !toggle;
-                if last {
-                    self.transfer = Transfer::Idle;
-                }
-                Some(SdoResponse::UploadSegment(seg))
-            }
+            SdoRequest::InitiateUpload { index, sub } => self.initiate_upload(index, sub, od),
+            SdoRequest::UploadSegment { toggle } => self.upload_segment(toggle),
             SdoRequest::InitiateDownload { index, sub, kind } => {
                 self.transfer = Transfer::Idle;
                 match kind {
-                    InitiateKind::Expedited(e) => {
-                        let bytes = match e.size() {
-                            Some(_) => e.bytes(),
-                            // No size: the type says how many of the four bytes count.
-                            None => match od.download_check(index, sub) {
-                                Ok(Some(n)) if n <= 4 => &e.bytes()[..n],
-                                Ok(_) => e.bytes(),
-                                Err(code) => return self.abort(index, sub, code),
-                            },
-                        };
-                        match od.download(index, sub, bytes) {
-                            Ok(()) => Some(SdoResponse::InitiateDownload { index, sub }),
-                            Err(code) => self.abort(index, sub, code),
-                        }
-                    }
+                    InitiateKind::Expedited(e) => self.expedited_download(index, sub, e, od),
                     InitiateKind::Segmented { size } => {
-                        let fixed = match od.download_check(index, sub) {
-                            Ok(f) => f,
-                            Err(code) => return self.abort(index, sub, code),
-                        };
-                        if let Some(s) = size {
-                            if s as usize > Self::MAX_DOWNLOAD {
-                                return self.abort(index, sub, AbortCode::OutOfMemory);
-                            }
-                            if let Some(n) = fixed {
-                                if s as usize > n {
-                                    return self.abort(index, sub, AbortCode::LengthTooHigh);
-                                }
-                                if (s as usize) < n {
-                                    return self.abort(index, sub, AbortCode::LengthTooLow);
-                                }
-                            }
-                        }
-                        self.transfer = Transfer::Download {
-                            index,
-                            sub,
-                            data: Vec::new(),
-                            size,
-                            toggle: false,
-                        };
-                        Some(SdoResponse::InitiateDownload { index, sub })
+                        self.initiate_segmented_download(index, sub, size, od)
                     }
                 }
             }
-            SdoRequest::DownloadSegment(seg) => {
-                let Transfer::Download {
-                    index,
-                    sub,
-                    data,
-                    size,
-                    toggle,
-                } = &mut self.transfer
-                else {
-                    return self.abort(0, 0, AbortCode::BadCommand);
-                };
-                let (index, sub, size) = (*index, *sub, *size);
-                if seg.toggle != *toggle {
-                    return self.abort(index, sub, AbortCode::ToggleNotAlternated);
-                }
-                if data.len() + seg.data().len() > Self::MAX_DOWNLOAD {
-                    return self.abort(index, sub, AbortCode::OutOfMemory);
-                }
-                data.extend_from_slice(seg.data());
-                *toggle = !*toggle;
-                if size.is_some_and(|s| data.len() > s as usize) {
+            SdoRequest::DownloadSegment(seg) => self.download_segment(seg, od),
+        }
+    }
+
+    /// Reads the object: expedited when it fits in four bytes, else starts a segmented upload.
+    fn initiate_upload(
+        &mut self,
+        index: u16,
+        sub: u8,
+        od: &mut dyn ObjectAccess,
+    ) -> Option<SdoResponse> {
+        self.transfer = Transfer::Idle;
+        let data = match od.upload(index, sub) {
+            Ok(d) => d,
+            Err(code) => return self.abort(index, sub, code),
+        };
+        if !data.is_empty() && data.len() <= 4 {
+            let e = ExpeditedData::new(&data).ok()?;
+            Some(SdoResponse::InitiateUpload {
+                index,
+                sub,
+                kind: InitiateKind::Expedited(e),
+            })
+        } else {
+            let size = u32::try_from(data.len()).unwrap_or(u32::MAX);
+            self.transfer = Transfer::Upload {
+                index,
+                sub,
+                data,
+                pos: 0,
+                toggle: false,
+            };
+            Some(SdoResponse::InitiateUpload {
+                index,
+                sub,
+                kind: InitiateKind::Segmented { size: Some(size) },
+            })
+        }
+    }
+
+    /// The next (at most seven-byte) segment of the upload under way.
+    fn upload_segment(&mut self, toggle: bool) -> Option<SdoResponse> {
+        let Transfer::Upload {
+            index,
+            sub,
+            data,
+            pos,
+            toggle: expected,
+        } = &mut self.transfer
+        else {
+            return self.abort(0, 0, AbortCode::BadCommand);
+        };
+        let (index, sub) = (*index, *sub);
+        if toggle != *expected {
+            return self.abort(index, sub, AbortCode::ToggleNotAlternated);
+        }
+        let end = (*pos + 7).min(data.len());
+        let last = end == data.len();
+        let seg = SdoSegment::new(toggle, last, &data[*pos..end]).ok()?;
+        *pos = end;
+        *expected = !toggle;
+        if last {
+            self.transfer = Transfer::Idle;
+        }
+        Some(SdoResponse::UploadSegment(seg))
+    }
+
+    /// Writes an expedited (at most four-byte) download.
+    fn expedited_download(
+        &mut self,
+        index: u16,
+        sub: u8,
+        e: ExpeditedData,
+        od: &mut dyn ObjectAccess,
+    ) -> Option<SdoResponse> {
+        let bytes = match e.size() {
+            Some(_) => e.bytes(),
+            // No size: the type says how many of the four bytes count.
+            None => match od.download_check(index, sub) {
+                Ok(Some(n)) if n <= 4 => &e.bytes()[..n],
+                Ok(_) => e.bytes(),
+                Err(code) => return self.abort(index, sub, code),
+            },
+        };
+        match od.download(index, sub, bytes) {
+            Ok(()) => Some(SdoResponse::InitiateDownload { index, sub }),
+            Err(code) => self.abort(index, sub, code),
+        }
+    }
+
+    /// Starts a segmented download after checking the announced size against the object.
+    fn initiate_segmented_download(
+        &mut self,
+        index: u16,
+        sub: u8,
+        size: Option<u32>,
+        od: &mut dyn ObjectAccess,
+    ) -> Option<SdoResponse> {
+        let fixed = match od.download_check(index, sub) {
+            Ok(f) => f,
+            Err(code) => return self.abort(index, sub, code),
+        };
+        if let Some(s) = size {
+            if s as usize > Self::MAX_DOWNLOAD {
+                return self.abort(index, sub, AbortCode::OutOfMemory);
+            }
+            if let Some(n) = fixed {
+                if s as usize > n {
                     return self.abort(index, sub, AbortCode::LengthTooHigh);
                 }
-                if !seg.last {
-                    return Some(SdoResponse::DownloadSegment { toggle: seg.toggle });
-                }
-                let data = std::mem::take(data);
-                self.transfer = Transfer::Idle;
-                if size.is_some_and(|s| data.len() < s as usize) {
+                if (s as usize) < n {
                     return self.abort(index, sub, AbortCode::LengthTooLow);
                 }
-                match od.download(index, sub, &data) {
-                    Ok(()) => Some(SdoResponse::DownloadSegment { toggle: seg.toggle }),
-                    Err(code) => self.abort(index, sub, code),
-                }
             }
+        }
+        self.transfer = Transfer::Download {
+            index,
+            sub,
+            data: Vec::new(),
+            size,
+            toggle: false,
+        };
+        Some(SdoResponse::InitiateDownload { index, sub })
+    }
+
+    /// Appends one segment of the download under way; writes the object after the last.
+    fn download_segment(
+        &mut self,
+        seg: SdoSegment,
+        od: &mut dyn ObjectAccess,
+    ) -> Option<SdoResponse> {
+        let Transfer::Download {
+            index,
+            sub,
+            data,
+            size,
+            toggle,
+        } = &mut self.transfer
+        else {
+            return self.abort(0, 0, AbortCode::BadCommand);
+        };
+        let (index, sub, size) = (*index, *sub, *size);
+        if seg.toggle != *toggle {
+            return self.abort(index, sub, AbortCode::ToggleNotAlternated);
+        }
+        if data.len() + seg.data().len() > Self::MAX_DOWNLOAD {
+            return self.abort(index, sub, AbortCode::OutOfMemory);
+        }
+        data.extend_from_slice(seg.data());
+        *toggle = !*toggle;
+        if size.is_some_and(|s| data.len() > s as usize) {
+            return self.abort(index, sub, AbortCode::LengthTooHigh);
+        }
+        if !seg.last {
+            return Some(SdoResponse::DownloadSegment { toggle: seg.toggle });
+        }
+        let data = std::mem::take(data);
+        self.transfer = Transfer::Idle;
+        if size.is_some_and(|s| data.len() < s as usize) {
+            return self.abort(index, sub, AbortCode::LengthTooLow);
+        }
+        match od.download(index, sub, &data) {
+            Ok(()) => Some(SdoResponse::DownloadSegment { toggle: seg.toggle }),
+            Err(code) => self.abort(index, sub, code),
         }
     }
 }
@@ -333,14 +371,7 @@ mod tests {
             },
             &mut od,
         );
-        assert_eq!(
-            r,
-            Some(SdoResponse::Abort {
-                index: 0x2000,
-                sub: 0,
-                code: AbortCode::LengthMismatch
-            })
-        );
+        assert_eq!(r, abort(0x2000, AbortCode::LengthMismatch));
         let r = s.handle(
             SdoRequest::InitiateUpload {
                 index: 0x4000,
@@ -446,95 +477,58 @@ mod tests {
         }
     }
 
+    /// The abort the server answers with for sub-index 0 of `index`.
+    fn abort(index: u16, code: AbortCode) -> Option<SdoResponse> {
+        Some(SdoResponse::Abort {
+            index,
+            sub: 0,
+            code,
+        })
+    }
+
+    /// Starts a segmented download of `size` bytes to sub-index 0 of `index`.
+    fn initiate_segmented(
+        s: &mut SdoServer,
+        od: &mut Map,
+        index: u16,
+        size: u32,
+    ) -> Option<SdoResponse> {
+        s.handle(
+            SdoRequest::InitiateDownload {
+                index,
+                sub: 0,
+                kind: InitiateKind::Segmented { size: Some(size) },
+            },
+            od,
+        )
+    }
+
     #[test]
     fn toggle_size_and_sequence_errors_abort() {
         let mut s = SdoServer::new();
         let mut od = Map::default();
         // Toggle wrong on the first download segment.
-        s.handle(
-            SdoRequest::InitiateDownload {
-                index: 0x1008,
-                sub: 0,
-                kind: InitiateKind::Segmented { size: Some(3) },
-            },
-            &mut od,
-        );
+        initiate_segmented(&mut s, &mut od, 0x1008, 3);
         let r = s.handle(
             SdoRequest::DownloadSegment(SdoSegment::new(true, true, b"abc").unwrap()),
             &mut od,
         );
-        assert_eq!(
-            r,
-            Some(SdoResponse::Abort {
-                index: 0x1008,
-                sub: 0,
-                code: AbortCode::ToggleNotAlternated
-            })
-        );
+        assert_eq!(r, abort(0x1008, AbortCode::ToggleNotAlternated));
         assert!(!s.busy());
         // Size indicated 3, 5 bytes sent.
         let r = download(&mut s, &mut od, b"abcde", Some(3));
-        assert_eq!(
-            r,
-            Some(SdoResponse::Abort {
-                index: 0x1008,
-                sub: 0,
-                code: AbortCode::LengthTooHigh
-            })
-        );
+        assert_eq!(r, abort(0x1008, AbortCode::LengthTooHigh));
         // Size indicated 9, 5 bytes sent.
         let r = download(&mut s, &mut od, b"abcde", Some(9));
-        assert_eq!(
-            r,
-            Some(SdoResponse::Abort {
-                index: 0x1008,
-                sub: 0,
-                code: AbortCode::LengthTooLow
-            })
-        );
+        assert_eq!(r, abort(0x1008, AbortCode::LengthTooLow));
         // Segment without a transfer.
         let r = s.handle(SdoRequest::UploadSegment { toggle: false }, &mut od);
-        assert_eq!(
-            r,
-            Some(SdoResponse::Abort {
-                index: 0,
-                sub: 0,
-                code: AbortCode::BadCommand
-            })
-        );
+        assert_eq!(r, abort(0, AbortCode::BadCommand));
         // Segmented download to a read-only or fixed-size object aborts at initiate.
-        let r = s.handle(
-            SdoRequest::InitiateDownload {
-                index: 0x3000,
-                sub: 0,
-                kind: InitiateKind::Segmented { size: Some(9) },
-            },
-            &mut od,
-        );
-        assert_eq!(
-            r,
-            Some(SdoResponse::Abort {
-                index: 0x3000,
-                sub: 0,
-                code: AbortCode::WriteReadOnly
-            })
-        );
-        let r = s.handle(
-            SdoRequest::InitiateDownload {
-                index: 0x2000,
-                sub: 0,
-                kind: InitiateKind::Segmented { size: Some(9) },
-            },
-            &mut od,
-        );
-        assert_eq!(
-            r,
-            Some(SdoResponse::Abort {
-                index: 0x2000,
-                sub: 0,
-                code: AbortCode::LengthTooHigh
-            })
-        );
+        let r = initiate_segmented(&mut s, &mut od, 0x3000, 9);
+        assert_eq!(r, abort(0x3000, AbortCode::WriteReadOnly));
+        let r = initiate_segmented(&mut s, &mut od, 0x2000, 9);
+        assert_eq!(r, abort(0x2000, AbortCode::LengthTooHigh));
         // Upload toggle error mid-transfer.
         od.0.insert((0x1008, 0), vec![1; 20]);
         s.handle(
@@ -546,14 +540,7 @@ mod tests {
         );
         s.handle(SdoRequest::UploadSegment { toggle: false }, &mut od);
         let r = s.handle(SdoRequest::UploadSegment { toggle: false }, &mut od);
-        assert_eq!(
-            r,
-            Some(SdoResponse::Abort {
-                index: 0x1008,
-                sub: 0,
-                code: AbortCode::ToggleNotAlternated
-            })
-        );
+        assert_eq!(r, abort(0x1008, AbortCode::ToggleNotAlternated));
         // A client abort ends the transfer silently.
         s.handle(
             SdoRequest::InitiateUpload {
@@ -577,11 +564,7 @@ mod tests {
         assert!(!s.busy());
         assert_eq!(
             s.handle_unparsable(&[0xC0, 0x08, 0x10, 0, 0, 0, 0, 0]),
-            Some(SdoResponse::Abort {
-                index: 0x1008,
-                sub: 0,
-                code: AbortCode::BadCommand
-            })
+            abort(0x1008, AbortCode::BadCommand)
         );
     }
 }

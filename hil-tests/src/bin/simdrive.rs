@@ -99,6 +99,52 @@ fn grants(no_rt: bool, prio: i32) -> String {
     format!("{m}, {f}")
 }
 
+/// Answers frames and polls the drives' timers (at least every `tick`) until a signal, the
+/// end of `--duration`, or a receive failure (returned).
+fn serve(
+    host: &mut DriveHost,
+    bus: &mut SocketCanBus,
+    tick: Duration,
+    end: Option<cnc402_drives::Instant>,
+) -> Option<String> {
+    let mut failure: Option<String> = None;
+    host.poll(TimedBus::now(bus), bus);
+    while !STOP.load(Ordering::SeqCst) {
+        let now = TimedBus::now(bus);
+        if end.is_some_and(|e| now >= e) {
+            break;
+        }
+        match bus.recv_timeout(tick) {
+            Ok(Some(frame)) => {
+                let now = TimedBus::now(bus);
+                host.on_frame(&frame, now, bus);
+                // Drain what is already queued before polling timers.
+                loop {
+                    match bus.recv() {
+                        Ok(Some(f)) => {
+                            let now = TimedBus::now(bus);
+                            host.on_frame(&f, now, bus);
+                        }
+                        Ok(None) => break,
+                        Err(e) => {
+                            failure = Some(format!("receive failed: {e}"));
+                            break;
+                        }
+                    }
+                }
+            }
+            Ok(None) => {}
+            Err(e) => failure = Some(format!("receive failed: {e}")),
+        }
+        if failure.is_some() {
+            break;
+        }
+        let now = TimedBus::now(bus);
+        host.poll(now, bus);
+    }
+    failure
+}
+
 fn main() -> ExitCode {
     let args = Args::parse();
     let cfg = match MachineConfig::load(&args.config) {
@@ -154,41 +200,7 @@ fn main() -> ExitCode {
         .map(|s| TimedBus::now(&bus) + Duration::from_secs_f64(s));
     // Timers (heartbeat, boot, following-error time-out) need a poll at least this often.
     let tick = Duration::from_micros(250);
-    let mut failure: Option<String> = None;
-    host.poll(TimedBus::now(&bus), &mut bus);
-    while !STOP.load(Ordering::SeqCst) {
-        let now = TimedBus::now(&bus);
-        if end.is_some_and(|e| now >= e) {
-            break;
-        }
-        match bus.recv_timeout(tick) {
-            Ok(Some(frame)) => {
-                let now = TimedBus::now(&bus);
-                host.on_frame(&frame, now, &mut bus);
-                // Drain what is already queued before polling timers.
-                loop {
-                    match bus.recv() {
-                        Ok(Some(f)) => {
-                            let now = TimedBus::now(&bus);
-                            host.on_frame(&f, now, &mut bus);
-                        }
-                        Ok(None) => break,
-                        Err(e) => {
-                            failure = Some(format!("receive failed: {e}"));
-                            break;
-                        }
-                    }
-                }
-            }
-            Ok(None) => {}
-            Err(e) => failure = Some(format!("receive failed: {e}")),
-        }
-        if failure.is_some() {
-            break;
-        }
-        let now = TimedBus::now(&bus);
-        host.poll(now, &mut bus);
-    }
+    let failure = serve(&mut host, &mut bus, tick, end);
     host.finish();
     let elapsed = Duration::from_nanos(TimedBus::now(&bus).nanos());
     let c = bus.counters();

@@ -1044,6 +1044,38 @@ impl<'a> Cx<'a> {
         }
     }
 
+    /// A number literal; statements take C exponents (`1e-6`), G-code values do not (`E` is an
+    /// address there).
+    fn c_number(&self, i: &'a str, ecx: ECx) -> PResult<'a, Expr> {
+        let number = |r: &'a str, v| {
+            Ok((
+                r,
+                Expr {
+                    kind: ExprKind::Number(v),
+                    span: self.span(i, r),
+                },
+            ))
+        };
+        let (r, (v, _)) = self.unsigned(i)?;
+        let rb = r.as_bytes();
+        if !ecx.in_block && matches!(rb.first(), Some(b'e' | b'E')) {
+            let k = 1 + usize::from(matches!(rb.get(1), Some(b'+' | b'-')));
+            let digits = rb[k.min(rb.len())..]
+                .iter()
+                .take_while(|b| b.is_ascii_digit())
+                .count();
+            if digits > 0 {
+                let end = self.off(r) + k + digits;
+                let text = &self.text[self.off(i)..end];
+                return match text.parse::<f64>() {
+                    Ok(v) => number(&self.text[end..], v),
+                    Err(_) => fail(i, text.len(), "not a valid number"),
+                };
+            }
+        }
+        number(r, v)
+    }
+
     fn c_primary(&self, i: &'a str, depth: u32, ecx: ECx) -> PResult<'a, Expr> {
         let mk = |r: &'a str, kind| {
             Ok((
@@ -1056,28 +1088,7 @@ impl<'a> Cx<'a> {
         };
         let b = i.as_bytes();
         match b.first() {
-            Some(c) if c.is_ascii_digit() || *c == b'.' => {
-                let (r, (v, _)) = self.unsigned(i)?;
-                // Statements take C exponents (`1e-6`); G-code values do not (`E` is an
-                // address there).
-                let rb = r.as_bytes();
-                if !ecx.in_block && matches!(rb.first(), Some(b'e' | b'E')) {
-                    let k = 1 + usize::from(matches!(rb.get(1), Some(b'+' | b'-')));
-                    let digits = rb[k.min(rb.len())..]
-                        .iter()
-                        .take_while(|b| b.is_ascii_digit())
-                        .count();
-                    if digits > 0 {
-                        let end = self.off(r) + k + digits;
-                        let text = &self.text[self.off(i)..end];
-                        return match text.parse::<f64>() {
-                            Ok(v) => mk(&self.text[end..], ExprKind::Number(v)),
-                            Err(_) => fail(i, text.len(), "not a valid number"),
-                        };
-                    }
-                }
-                mk(r, ExprKind::Number(v))
-            }
+            Some(c) if c.is_ascii_digit() || *c == b'.' => self.c_number(i, ecx),
             Some(b'"') => {
                 let (r, s) = self.string_lit(i)?;
                 mk(r, ExprKind::Str(s))

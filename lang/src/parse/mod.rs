@@ -13,7 +13,7 @@ use std::borrow::Cow;
 use nom::error::{ErrorKind, ParseError};
 use nom::{IResult, Offset, Parser};
 
-use crate::ast::{Expr, Line, LineKind, Program, Span};
+use crate::ast::{Expr, Line, LineKind, Program, Span, Stmt};
 use crate::diag::{NcError, SourceFile};
 
 /// Parses a whole NC program into one [`crate::ast::Line`] per physical line.
@@ -130,32 +130,8 @@ pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
                 }
             };
             let consumed = &rest[..rest.len() - end.len()];
-            let extra = consumed.bytes().filter(|&b| b == b'\n').count() as u32;
-            let body = line_text.strip_suffix('\r').unwrap_or(line_text);
-            lines.push(Line {
-                line_no,
-                span: cx.span_at(line_text, body.len()),
-                block_delete: false,
-                n: None,
-                kind: if stmts.is_empty() {
-                    LineKind::Empty
-                } else {
-                    LineKind::Stmts(stmts)
-                },
-                comments: Vec::new(),
-            });
-            for k in 1..=extra {
-                let no = line_no + k;
-                let span = src.line_span(no);
-                lines.push(Line {
-                    line_no: no,
-                    span,
-                    block_delete: false,
-                    n: None,
-                    kind: LineKind::Continued,
-                    comments: Vec::new(),
-                });
-            }
+            let extra =
+                push_statement_lines(&mut lines, &cx, src, line_no, line_text, consumed, stmts);
             line_no = line_no.saturating_add(extra);
             match end.strip_prefix('\n') {
                 Some(a) if !a.is_empty() => rest = a,
@@ -184,6 +160,46 @@ pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
         line_no = line_no.saturating_add(1);
     }
     Ok(Program { lines })
+}
+
+/// Pushes a C-like statement's line (its statements, or empty) and one `Continued` line for
+/// each further line the statement ran over (`consumed`); returns how many those are.
+fn push_statement_lines(
+    lines: &mut Vec<Line>,
+    cx: &Cx<'_>,
+    src: &SourceFile,
+    line_no: u32,
+    line_text: &str,
+    consumed: &str,
+    stmts: Vec<Stmt>,
+) -> u32 {
+    let extra = consumed.bytes().filter(|&b| b == b'\n').count() as u32;
+    let body = line_text.strip_suffix('\r').unwrap_or(line_text);
+    lines.push(Line {
+        line_no,
+        span: cx.span_at(line_text, body.len()),
+        block_delete: false,
+        n: None,
+        kind: if stmts.is_empty() {
+            LineKind::Empty
+        } else {
+            LineKind::Stmts(stmts)
+        },
+        comments: Vec::new(),
+    });
+    for k in 1..=extra {
+        let no = line_no + k;
+        let span = src.line_span(no);
+        lines.push(Line {
+            line_no: no,
+            span,
+            block_delete: false,
+            n: None,
+            kind: LineKind::Continued,
+            comments: Vec::new(),
+        });
+    }
+    extra
 }
 
 /// Parses one expression in the Fanuc grammar (the text between `[` and `]`, or after `=`),
