@@ -83,11 +83,13 @@
 // host traits, expressions, variables, block execution (and segment output), the C-like
 // language, program flow, the file-system host.
 mod block;
+pub mod canon;
 pub mod dump;
 mod expr;
 mod flow;
 pub mod hll;
 pub mod host;
+pub mod lower;
 mod vars;
 
 // The public paths of the modules as they were before the layers.

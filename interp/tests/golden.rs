@@ -1,11 +1,14 @@
 //! Whole programs under `tests/programs/*.nc` against their reviewed segment dumps
-//! (`*.jsonl`), byte for byte. `UPDATE_GOLDEN=1 cargo test -p cnc402-interp --test golden`
-//! rewrites the dumps; review every changed line before committing it.
+//! (`*.jsonl`) and canonical dumps (`*.canon.jsonl`), byte for byte. `UPDATE_GOLDEN=1 cargo
+//! test -p cnc402-interp --test golden` rewrites the dumps; review every changed line before
+//! committing it. The canonical stream lowered again must give the segment stream exactly.
 
 use std::path::Path;
 
 use cnc402_config::MachineConfig;
+use cnc402_interp::dump::canon::canon_to_jsonl;
 use cnc402_interp::dump::{json_str, segments_to_jsonl};
+use cnc402_interp::lower::{lower, xyz_indices};
 use cnc402_interp::run_program;
 use cnc402_lang::SourceFile;
 
@@ -43,6 +46,38 @@ fn dump(cfg: &MachineConfig, name: &str, text: &str) -> String {
     out
 }
 
+/// The canonical dump of a program (and an `{"error": …}` line), checking on the way that
+/// lowering the operations gives exactly the segments `next_segment` gives.
+fn canon_dump(cfg: &MachineConfig, name: &str, text: &str) -> String {
+    let src = SourceFile::new(name, text);
+    let Ok(p) = cnc402_lang::parse(&src) else {
+        return String::new();
+    };
+    let mut it = cnc402_interp::Interpreter::new(cfg);
+    it.load(src, p);
+    let (mut ops, mut lowered, mut out) = (Vec::new(), Vec::new(), String::new());
+    loop {
+        match it.next_canon() {
+            Ok(Some(op)) => {
+                lower(&op, xyz_indices(cfg), &mut lowered);
+                ops.push(op);
+            }
+            Ok(None) => break,
+            Err(e) => {
+                out = format!("{{\"error\":{}}}\n", json_str(&e.to_string()));
+                break;
+            }
+        }
+    }
+    let segs = segments_to_jsonl(&lowered, cfg);
+    let seg_dump = dump(cfg, name, text);
+    assert!(
+        seg_dump.starts_with(&segs),
+        "{name}: lowered canon ≠ segments"
+    );
+    canon_to_jsonl(&ops, cfg) + &out
+}
+
 #[test]
 fn golden_programs() {
     let cfg = MachineConfig::default_machine();
@@ -59,11 +94,22 @@ fn golden_programs() {
     for p in names {
         let file = p.file_name().unwrap().to_string_lossy().to_string();
         let text = std::fs::read_to_string(&p).unwrap();
-        let got = dump(&cfg, &format!("programs/{file}"), &text);
+        let name = format!("programs/{file}");
+        let canon = canon_dump(&cfg, &name, &text);
+        let canon_golden = p.with_extension("canon.jsonl");
+        let got = dump(&cfg, &name, &text);
         let golden = p.with_extension("jsonl");
         if update {
             std::fs::write(&golden, &got).unwrap();
+            std::fs::write(&canon_golden, &canon).unwrap();
             continue;
+        }
+        let want_canon = std::fs::read_to_string(&canon_golden).unwrap_or_default();
+        if want_canon != canon {
+            failed.push(format!(
+                "{file}: canonical dump differs from {}",
+                canon_golden.display()
+            ));
         }
         let want = std::fs::read_to_string(&golden).unwrap_or_default();
         if want != got {

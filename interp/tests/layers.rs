@@ -1,7 +1,8 @@
 //! The interpreter's layers stay one-way: every `crate::…` path in a source file (in `use`
 //! lines and in code, comments left out) must name a module of the file's own layer or a lower
-//! one. The order, lowest first: host traits, expressions, variables, block execution, segment
-//! output, the C-like language, program flow, the file-system host. `lib.rs` is the crate's
+//! one. The order, lowest first: host traits, expressions, variables, the canonical operations,
+//! lowering (canonical → segments), block execution, output (segment and canonical dumps), the
+//! C-like language, program flow, the file-system host. `lib.rs` is the crate's
 //! face and may name anything. Inside a layer, the files must not use each other in a circle
 //! either (`super::x`, `crate::layer::x`, a `mod.rs` naming its child `x::`).
 
@@ -30,6 +31,8 @@ fn layer_of_name(name: &str) -> Option<u32> {
         "host" | "ExactStop" | "MotionSync" | "PersistentVars" | "ProgramLibrary" | "UsedFile" => 0,
         "expr" | "eval" => 10,
         "vars" | "nvfile" | "NvTable" | "VarFileError" => 20,
+        "canon" => 24,
+        "lower" => 27,
         "block" | "arc" | "cycles" | "offsets" | "state" | "words" | "ModalState" => 30,
         "dump" | "segment_to_json" => 40,
         "hll" => 50,

@@ -6,7 +6,6 @@
 
 use cnc402_config::MachineConfig;
 use cnc402_interp::run_program;
-use cnc402_interp::state::DEFAULT_PATH_TOLERANCE;
 use cnc402_lang::SourceFile;
 use cnc402_motion::segment::{Segment, SegmentEnd, SegmentKind, TapSegment};
 
@@ -88,12 +87,18 @@ fn path_modes_set_how_segments_end() {
     let ends =
         |line: u32| -> Vec<SegmentEnd> { on_line(&segs, line).iter().map(|s| s.ends).collect() };
     // The default is G64 with the default tolerance.
-    assert_eq!(ends(1), [cont(DEFAULT_PATH_TOLERANCE)]);
+    assert_eq!(
+        ends(1),
+        [cont(MachineConfig::default_machine().interp.path_tolerance)]
+    );
     assert_eq!(ends(2), [cont(0.05)]);
     assert_eq!(ends(3), [SegmentEnd::ExactStop]);
     assert_eq!(ends(4), [SegmentEnd::ExactStop]);
     // G64 without P is the default again, not the last P.
-    assert_eq!(ends(5), [cont(DEFAULT_PATH_TOLERANCE)]);
+    assert_eq!(
+        ends(5),
+        [cont(MachineConfig::default_machine().interp.path_tolerance)]
+    );
     // P in program units (inch), rapids too.
     let SegmentEnd::Continuous { tolerance } = ends(6)[0] else {
         panic!("{:?}", ends(6))
@@ -102,7 +107,10 @@ fn path_modes_set_how_segments_end() {
     // A dwell is no path: exact stop; in a G64 block with G4 the P is the dwell's.
     assert_eq!(ends(7), [SegmentEnd::ExactStop]);
     assert!(matches!(on_line(&segs, 8)[0].kind, SegmentKind::Dwell { seconds } if seconds == 0.02));
-    assert_eq!(ends(9), [cont(DEFAULT_PATH_TOLERANCE)]);
+    assert_eq!(
+        ends(9),
+        [cont(MachineConfig::default_machine().interp.path_tolerance)]
+    );
     // Non-path segments end in an exact stop whatever the mode.
     let stop = segs.last().unwrap();
     assert!(matches!(stop.kind, SegmentKind::Stop { .. }));
@@ -121,11 +129,11 @@ fn g64_p_must_be_positive() {
     }
 }
 
-/// A canned tap under G64 still ends every tap move in an exact stop; its rapids follow the
-/// path mode.
+/// A canned cycle under G64 ends every move in an exact stop (it must reach each level it
+/// names: R, the bottom, the return level), taps included; the moves around it follow G64.
 #[test]
 fn a_g84_hole_under_g64_gives_exact_stop_taps() {
-    let segs = run("M3 S500\nG0 Z10\nG64 P0.05\nG84 X5 Y5 Z-6 R2 F750\nM30\n");
+    let segs = run("M3 S500\nG0 Z10\nG64 P0.05\nG84 X5 Y5 Z-6 R2 F750\nG80 G0 Z20\nM30\n");
     let hole = on_line(&segs, 4);
     let taps: Vec<_> = hole
         .iter()
@@ -139,9 +147,9 @@ fn a_g84_hole_under_g64_gives_exact_stop_taps() {
         assert_eq!(t.pitch, -1.5);
         assert_eq!(ends, SegmentEnd::ExactStop);
     }
-    assert!(
-        hole.iter()
-            .any(|s| matches!(s.kind, SegmentKind::Rapid { .. })
-                && s.ends == SegmentEnd::Continuous { tolerance: 0.05 })
+    assert!(hole.iter().all(|s| s.ends == SegmentEnd::ExactStop));
+    assert_eq!(
+        on_line(&segs, 5)[0].ends,
+        SegmentEnd::Continuous { tolerance: 0.05 }
     );
 }

@@ -1,46 +1,34 @@
-//! Fanuc canned cycles G73 G74 G76 G81–G89 expanded into rapid, feed, dwell and spindle
-//! segments, in any plane (G17 drills along Z, G18 along Y, G19 along X). G74/G84 are rigid
-//! taps: the drilling axis and the spindle axis C move together, one turn per pitch.
-//!
-//! Conventions (documented in the crate docs): G76/G87 orient the spindle by stopping it and
-//! turning it to the physical angle `interp.spindle_orient_angle` (a `SpindleOrient` segment
-//! that motion resolves), then shift by Q along +first plane axis
-//! (G17: +X, G18: +Z, G19: +Y; Fanuc RD2,RD1 = 0,0). G87 always returns to the initial level.
+//! Fanuc canned cycles G73 G74 G76 G81–G89 as the block layer executes them: the cycle data
+//! Fanuc keeps, the checks (with the word to blame), and one canonical [`CannedCycle`]
+//! operation per drilling block with its holes. The moves themselves come from
+//! `lower::cycle::expand`, which the block runs here to check every move against the soft
+//! limits and to know where the block leaves the tool, and lowering runs again to make the
+//! segments. Any plane: G17 drills along Z, G18 along Y, G19 along X. G74/G84 are rigid taps.
 
 use cnc402_lang::NcError;
 use cnc402_lang::ast::Span;
-use cnc402_motion::segment::{AxisPos, SegmentKind, SpindleDir, StopKind};
+use cnc402_motion::segment::{SegmentKind, SpindleDir};
 
 use super::exec::Exec;
 use super::state::Cycle;
-use super::words::fmt_num;
+use super::words::{Arg, fmt_num};
+use crate::canon::{CannedCycle, CanonKind, CanonOp, CanonState, CyclePlan, CycleWords, TapPlan};
+use crate::lower::cycle::Expander;
 
 /// Lengths closer than this are the same point.
 const EPS: f64 = 1e-9;
 
-/// What one hole needs, resolved from the block and the modal cycle data.
-struct Hole {
-    /// Indices of first plane axis and drilling axis.
-    ia: usize,
-    id: usize,
-    /// Machine levels along the drilling axis.
-    r_level: f64,
-    bottom: f64,
-    ret: f64,
-    feed: f64,
-}
-
-/// Rigid-tap coupling: C = c0 + |d − r_level| · k.
-#[derive(Clone, Copy)]
-struct Tap {
-    ic: usize,
-    c0: f64,
-    /// Degrees of C per mm of drilling-axis travel into the hole (negative for G74).
-    k: f64,
-    /// The thread pitch F/S (G94) or F (G95), mm per turn, > 0.
-    pitch: f64,
-    /// +1 for G84 (right hand), −1 for G74.
-    hand: f64,
+/// The block's hole-position words and what the cycle needs besides the modal data.
+struct Drill {
+    cyc: Cycle,
+    span: Span,
+    /// Plane axes and drilling axis: letters and indices.
+    letters: (char, char, char),
+    axes: [usize; 3],
+    /// The plane-axis words (program units).
+    wa: Option<Arg>,
+    wb: Option<Arg>,
+    reps: u32,
 }
 
 impl Exec<'_> {
@@ -94,117 +82,194 @@ impl Exec<'_> {
         if (wa.is_none() && wb.is_none() && wd.is_none() && wr.is_none()) || reps == 0 {
             return Ok(()); // Fanuc: data stored, no drilling.
         }
+        self.drill(Drill {
+            cyc,
+            span: cyc_span,
+            letters: (la, lb, ld),
+            axes: [ia, ib, id],
+            wa,
+            wb,
+            reps,
+        })
+    }
+
+    /// A drilling block: checks the data, resolves the levels, runs the expansion hole by
+    /// hole (G91 repeats count from where the last hole left the tool) to check every move,
+    /// and emits the block as one canonical operation.
+    fn drill(&mut self, d: Drill) -> Result<(), NcError> {
+        let (cyc, (la, lb, ld), [ia, ib, id]) = (d.cyc, d.letters, d.axes);
+        let name = format!("G{}", cyc.code());
         let data = self.st.cycle_data;
         let Some(r) = data.r else {
             return Err(self
-                .err(
-                    cyc_span,
-                    format!("canned cycle {name} needs R (the R level)"),
-                )
+                .err(d.span, format!("canned cycle {name} needs R (the R level)"))
                 .with_expected("an R word"));
         };
         let Some(z) = data.z else {
             return Err(self
                 .err(
-                    cyc_span,
+                    d.span,
                     format!("canned cycle {name} needs {ld} (the bottom of the hole)"),
                 )
                 .with_expected(format!("a {ld} word")));
         };
         if matches!(cyc, Cycle::G73 | Cycle::G83) && data.q.is_none() {
             return Err(self
-                .err(cyc_span, format!("{name} needs Q (the peck depth)"))
+                .err(d.span, format!("{name} needs Q (the peck depth)"))
                 .with_expected("a Q word > 0"));
         }
         let tap = match cyc {
-            Cycle::G84 | Cycle::G74 => Some(self.tap_setup(cyc, cyc_span)?),
+            Cycle::G84 | Cycle::G74 => Some(self.tap_setup(cyc, d.span)?),
             _ => None,
         };
-        let feed = self.feed_rate(cyc_span)?;
+        let feed = self.feed_rate(d.span)?;
         let turning = self.st.spindle_turning();
-        let (speed, dir) = (self.st.speed, self.st.spindle);
         if cyc == Cycle::G87 && !turning {
             return Err(self
-                .err(cyc_span, "G87 (back boring) needs the spindle turning")
+                .err(d.span, "G87 (back boring) needs the spindle turning")
                 .with_expected("M3 or M4 with S > 0 before G87"));
         }
-        let restore = |ex: &mut Self| {
-            if turning {
-                ex.push(SegmentKind::Spindle { rpm: speed, dir });
-            }
+        // The levels include the work zero, the G92 shift and the tool length offset. In G91
+        // the R level is a distance from the initial level that carries the part of the
+        // offset vector G28/G30/G53 took out at the reference, as any G91 Z move does.
+        let r_level = if self.st.incremental {
+            data.initial + data.initial_tlo_pending + r
+        } else {
+            r + self.st.origin(id)
         };
-        if tap.is_some() && turning {
-            self.push(SegmentKind::Spindle {
-                rpm: 0.0,
-                dir: SpindleDir::Stop,
-            });
+        let bottom = if self.st.incremental {
+            r_level + z
+        } else {
+            z + self.st.origin(id)
+        };
+        // The drilling moves carry the whole offset vector (restored after G28).
+        self.st.restore_tlo(id);
+        self.check_levels(&name, ld, cyc, r_level, bottom)?;
+        let ret = if self.st.return_to_r && cyc != Cycle::G87 {
+            r_level
+        } else {
+            data.initial
+        };
+        let state = self.canon_state();
+        let o = state.offset.0[id];
+        let mut cc = CannedCycle {
+            code: cyc.code(),
+            words: CycleWords {
+                r: data.r,
+                z: data.z,
+                q: data.q,
+                p: data.p,
+                f: self.st.feed,
+                repeats: d.reps,
+                incremental: self.st.incremental,
+                return_to_r: self.st.return_to_r,
+            },
+            axes: [ia, ib, id],
+            start: state.to_work(&self.st.pos),
+            holes: Vec::new(),
+            initial_level: data.initial - o,
+            r_level: r_level - o,
+            bottom: bottom - o,
+            return_level: ret - o,
+            feed,
+            tap,
+            plan: CyclePlan {
+                peck_retract: self.cfg.interp.peck_retract,
+                peck_clearance: self.cfg.interp.peck_clearance,
+                orient_angle: self
+                    .cfg
+                    .spindle_index()
+                    .map(|_| self.cfg.interp.spindle_orient_angle),
+                spindle_turning: turning,
+                speed: self.st.speed,
+                spindle_dir: self.st.spindle,
+            },
+        };
+        let holes = self.run_holes(&d, &cc, &state, [r_level, bottom, ret])?;
+        cc.holes = holes;
+        let _ = (la, lb);
+        self.out.push(CanonOp {
+            kind: CanonKind::CannedCycle(Box::new(cc)),
+            source: self.source.clone(),
+            state,
+        });
+        Ok(())
+    }
+
+    /// Bottom ≠ R; G87 starts below the part.
+    fn check_levels(
+        &self,
+        name: &str,
+        ld: char,
+        cyc: Cycle,
+        r_level: f64,
+        bottom: f64,
+    ) -> Result<(), NcError> {
+        if (bottom - r_level).abs() < EPS {
+            return Err(self
+                .err(
+                    self.span_of(&[ld, 'R']),
+                    format!("{name}: the bottom equals the R level"),
+                )
+                .with_expected(format!("{ld} different from R")));
         }
-        for _ in 0..reps {
+        // Fanuc: back boring starts below the part (R) and bores up to Z.
+        if cyc == Cycle::G87 && r_level > bottom {
+            return Err(self
+                .err(
+                    self.span_of(&[ld, 'R']),
+                    format!(
+                        "G87 (back boring) starts below the part: the R level must be below {ld}"
+                    ),
+                )
+                .with_expected(format!("R below {ld} (R is the bottom of the bore)")));
+        }
+        Ok(())
+    }
+
+    /// Runs the expansion from the tool's machine position with the block's machine
+    /// `levels` (R, bottom, return), hole by hole; checks every move against the soft limits
+    /// (blaming the step's words) and leaves `pos` where the block ends. The hole positions,
+    /// in work coordinates.
+    fn run_holes(
+        &mut self,
+        d: &Drill,
+        cc: &CannedCycle,
+        state: &CanonState,
+        levels: [f64; 3],
+    ) -> Result<Vec<[f64; 2]>, NcError> {
+        let [ia, ib, _] = d.axes;
+        let unit = self.st.unit();
+        let mut ex = Expander::at_machine(cc, state, self.st.pos, levels);
+        ex.begin();
+        let mut holes = Vec::with_capacity(d.reps as usize);
+        for _ in 0..d.reps {
+            self.st.pos = ex.position();
             let mut pos = self.st.pos;
-            for (w, i) in [(wa, ia), (wb, ib)] {
+            for (w, i) in [(d.wa, ia), (d.wb, ib)] {
                 if let Some(a) = w {
                     pos[i] = self.word_target(i, a.v * unit);
                 }
             }
-            // The levels include the work zero, the G92 shift and the tool length offset. In
-            // G91 the R level is a distance from the initial level that carries the part of
-            // the offset vector G28/G30/G53 took out at the reference, as any G91 Z move does.
-            let r_level = if self.st.incremental {
-                data.initial + data.initial_tlo_pending + r
-            } else {
-                r + self.st.origin(id)
-            };
-            let bottom = if self.st.incremental {
-                r_level + z
-            } else {
-                z + self.st.origin(id)
-            };
-            // The drilling moves carry the whole offset vector (restored after G28).
-            self.st.restore_tlo(id);
-            if (bottom - r_level).abs() < EPS {
-                return Err(self
-                    .err(
-                        self.span_of(&[ld, 'R']),
-                        format!("{name}: the bottom equals the R level"),
-                    )
-                    .with_expected(format!("{ld} different from R")));
-            }
-            // Fanuc: back boring starts below the part (R) and bores up to Z.
-            if cyc == Cycle::G87 && r_level > bottom {
-                return Err(self
-                    .err(
-                        self.span_of(&[ld, 'R']),
-                        format!(
-                            "G87 (back boring) starts below the part: the R level must be below {ld}"
-                        ),
-                    )
-                    .with_expected(format!("R below {ld} (R is the bottom of the bore)")));
-            }
-            let ret = if self.st.return_to_r && cyc != Cycle::G87 {
-                r_level
-            } else {
-                data.initial
-            };
-            let h = Hole {
-                ia,
-                id,
-                r_level,
-                bottom,
-                ret,
-                feed,
-            };
-            // Positioning in the plane at the current level.
-            self.rapid_to(pos, &[la, lb])?;
-            match cyc {
-                Cycle::G87 => self.back_boring(&h, data.q.unwrap_or(0.0), speed, dir)?,
-                _ => {
-                    self.rapid_d(&h, r_level)?;
-                    self.hole_body(cyc, &h, tap, turning, speed, dir)?;
-                }
-            }
+            holes.push([pos[ia] - state.offset.0[ia], pos[ib] - state.offset.0[ib]]);
+            ex.hole(pos[ia], pos[ib]);
+            self.check_steps(&mut ex)?;
         }
-        if tap.is_some() {
-            restore(self);
+        ex.finish();
+        self.st.pos = ex.position();
+        Ok(holes)
+    }
+
+    /// The soft-limit check of the moves expanded so far.
+    fn check_steps(&self, ex: &mut Expander) -> Result<(), NcError> {
+        for step in ex.take_steps() {
+            let end = match &step.kind {
+                SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => end,
+                SegmentKind::Tap(t) => &t.end,
+                _ => continue,
+            };
+            let hint: Vec<char> = step.hint.into_iter().filter(|&c| c != '\0').collect();
+            self.check_limits(end, &hint)?;
         }
         Ok(())
     }
@@ -230,7 +295,7 @@ impl Exec<'_> {
     }
 
     /// Checks a rigid tap can run and returns its coupling.
-    fn tap_setup(&self, cyc: Cycle, span: Span) -> Result<Tap, NcError> {
+    fn tap_setup(&self, cyc: Cycle, span: Span) -> Result<TapPlan, NcError> {
         let (name, want, wrong, hand) = if cyc == Cycle::G84 {
             ("G84 (right-hand tap)", "M3", SpindleDir::Ccw, 1.0)
         } else {
@@ -277,68 +342,17 @@ impl Exec<'_> {
                 .err(at, "zero feed in a motion block")
                 .with_expected("an F word > 0 (the tap's feed gives its pitch)"));
         }
-        Ok(Tap {
-            ic,
-            c0: self.st.pos[ic],
-            k: hand * 360.0 / pitch,
+        Ok(TapPlan {
+            spindle: ic,
             pitch,
-            hand,
+            dir: if hand > 0.0 {
+                SpindleDir::Cw
+            } else {
+                SpindleDir::Ccw
+            },
+            peck: self.st.cycle_data.q,
+            peck_retract: self.cfg.interp.tap_peck_retract,
         })
-    }
-
-    fn rapid_to(&mut self, p: AxisPos, hint: &[char]) -> Result<(), NcError> {
-        if p.0
-            .iter()
-            .zip(self.st.pos.0.iter())
-            .any(|(a, b)| (a - b).abs() > EPS)
-        {
-            self.rapid(p, hint)?;
-        }
-        Ok(())
-    }
-
-    /// Words to blame for a drilling-axis target out of limits: R for the R level.
-    fn hint(&self, h: &Hole, level: f64) -> [char; 2] {
-        let d = self.plane_letters().2;
-        if level == h.r_level {
-            ['R', d]
-        } else {
-            [d, 'R']
-        }
-    }
-
-    fn rapid_d(&mut self, h: &Hole, level: f64) -> Result<(), NcError> {
-        let mut p = self.st.pos;
-        p[h.id] = level;
-        let hint = self.hint(h, level);
-        self.rapid_to(p, &hint)
-    }
-
-    fn feed_d(&mut self, h: &Hole, level: f64) -> Result<(), NcError> {
-        let mut p = self.st.pos;
-        p[h.id] = level;
-        let hint = self.hint(h, level);
-        self.linear(p, h.feed, &hint)
-    }
-
-    /// A tap move to `level`, C coupled: C = c0 + |level − R| · k. Every level lies between
-    /// R and the bottom, so Δd / ΔC = sign(bottom − R) / k: the signed pitch is
-    /// sign(bottom − R) · hand · pitch (negative for G84 into a hole below R).
-    fn tap_d(&mut self, h: &Hole, t: Tap, level: f64) -> Result<(), NcError> {
-        let mut p = self.st.pos;
-        p[h.id] = level;
-        p[t.ic] = t.c0 + (level - h.r_level).abs() * t.k;
-        let hint = self.hint(h, level);
-        let pitch = (h.bottom - h.r_level).signum() * t.hand * t.pitch;
-        self.tap(p, h.feed, h.id, pitch, &hint)
-    }
-
-    fn dwell_data(&mut self) {
-        if let Some(s) = self.st.cycle_data.p
-            && s > 0.0
-        {
-            self.push(SegmentKind::Dwell { seconds: s });
-        }
     }
 
     /// Spindle orientation (G76, G87, M19): stop, then turn the spindle to the physical angle
@@ -356,169 +370,6 @@ impl Exec<'_> {
                 program: None,
             });
         }
-        Ok(())
-    }
-
-    fn shift(&mut self, h: &Hole, by: f64) -> Result<(), NcError> {
-        let mut p = self.st.pos;
-        p[h.ia] += by;
-        let l = self.plane_letters().0;
-        self.rapid_to(p, &['Q', l])
-    }
-
-    /// Level at distance `t` from R into the hole.
-    fn level(h: &Hole, t: f64) -> f64 {
-        h.r_level + (h.bottom - h.r_level).signum() * t
-    }
-
-    /// From the R level: the cycle's drilling, bottom action and return.
-    fn hole_body(
-        &mut self,
-        cyc: Cycle,
-        h: &Hole,
-        tap: Option<Tap>,
-        turning: bool,
-        speed: f64,
-        dir: SpindleDir,
-    ) -> Result<(), NcError> {
-        let depth = (h.bottom - h.r_level).abs();
-        let q = self.st.cycle_data.q;
-        let restore = |ex: &mut Self| {
-            if turning {
-                ex.push(SegmentKind::Spindle { rpm: speed, dir });
-            }
-        };
-        match cyc {
-            Cycle::G81 => {
-                self.feed_d(h, h.bottom)?;
-                self.rapid_d(h, h.ret)?;
-            }
-            Cycle::G82 => {
-                self.feed_d(h, h.bottom)?;
-                self.dwell_data();
-                self.rapid_d(h, h.ret)?;
-            }
-            Cycle::G73 | Cycle::G83 => {
-                let q = q.unwrap_or(depth);
-                let d = if cyc == Cycle::G73 {
-                    self.cfg.interp.peck_retract
-                } else {
-                    self.cfg.interp.peck_clearance
-                };
-                let mut t = 0.0;
-                loop {
-                    let mut nt = (t + q).min(depth);
-                    if depth - nt < 1e-6 {
-                        nt = depth;
-                    }
-                    self.feed_d(h, Self::level(h, nt))?;
-                    if nt >= depth {
-                        break;
-                    }
-                    if cyc == Cycle::G73 {
-                        self.rapid_d(h, Self::level(h, (nt - d).max(0.0)))?;
-                    } else {
-                        self.rapid_d(h, h.r_level)?;
-                        self.rapid_d(h, Self::level(h, (nt - d).max(0.0)))?;
-                    }
-                    t = nt;
-                }
-                self.rapid_d(h, h.ret)?;
-            }
-            Cycle::G84 | Cycle::G74 => {
-                let t_ = tap.expect("tap set up for G74/G84");
-                match q {
-                    Some(q) => {
-                        let d = self.cfg.interp.tap_peck_retract;
-                        let mut t = 0.0;
-                        loop {
-                            let mut nt = (t + q).min(depth);
-                            if depth - nt < 1e-6 {
-                                nt = depth;
-                            }
-                            self.tap_d(h, t_, Self::level(h, nt))?;
-                            if nt >= depth {
-                                break;
-                            }
-                            self.tap_d(h, t_, Self::level(h, (nt - d).max(0.0)))?;
-                            t = nt;
-                        }
-                    }
-                    None => self.tap_d(h, t_, h.bottom)?,
-                }
-                self.dwell_data();
-                self.tap_d(h, t_, h.r_level)?;
-                self.rapid_d(h, h.ret)?;
-            }
-            Cycle::G85 => {
-                self.feed_d(h, h.bottom)?;
-                self.feed_d(h, h.r_level)?;
-                self.rapid_d(h, h.ret)?;
-            }
-            Cycle::G89 => {
-                self.feed_d(h, h.bottom)?;
-                self.dwell_data();
-                self.feed_d(h, h.r_level)?;
-                self.rapid_d(h, h.ret)?;
-            }
-            Cycle::G86 => {
-                self.feed_d(h, h.bottom)?;
-                self.push(SegmentKind::Spindle {
-                    rpm: 0.0,
-                    dir: SpindleDir::Stop,
-                });
-                self.rapid_d(h, h.ret)?;
-                restore(self);
-            }
-            Cycle::G88 => {
-                self.feed_d(h, h.bottom)?;
-                self.dwell_data();
-                self.push(SegmentKind::Spindle {
-                    rpm: 0.0,
-                    dir: SpindleDir::Stop,
-                });
-                self.push(SegmentKind::Stop {
-                    kind: StopKind::Program,
-                });
-                self.rapid_d(h, h.ret)?;
-                restore(self);
-            }
-            Cycle::G76 => {
-                let q = q.unwrap_or(0.0);
-                self.feed_d(h, h.bottom)?;
-                self.dwell_data();
-                self.orient()?;
-                self.shift(h, q)?;
-                self.rapid_d(h, h.ret)?;
-                self.shift(h, -q)?;
-                restore(self);
-            }
-            Cycle::G87 => unreachable!("G87 has its own sequence"),
-        }
-        Ok(())
-    }
-
-    /// G87: orient, shift, rapid to the R level (the bottom of the bore), shift back, spindle
-    /// on, feed up to Z, dwell, orient, shift, rapid to the initial level, shift back, spindle on.
-    fn back_boring(
-        &mut self,
-        h: &Hole,
-        q: f64,
-        speed: f64,
-        dir: SpindleDir,
-    ) -> Result<(), NcError> {
-        self.orient()?;
-        self.shift(h, q)?;
-        self.rapid_d(h, h.r_level)?;
-        self.shift(h, -q)?;
-        self.push(SegmentKind::Spindle { rpm: speed, dir });
-        self.feed_d(h, h.bottom)?;
-        self.dwell_data();
-        self.orient()?;
-        self.shift(h, q)?;
-        self.rapid_d(h, h.ret)?;
-        self.shift(h, -q)?;
-        self.push(SegmentKind::Spindle { rpm: speed, dir });
         Ok(())
     }
 }

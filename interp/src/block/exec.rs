@@ -2,17 +2,53 @@
 //! become [`Segment`]s (modes, feed and speed, M codes, dwell, straight and arc motion; the
 //! offsets and canned cycles are in their own files and extend `Exec`).
 
+use std::sync::Arc;
+
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Comment, Line, Span};
 use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{
-    ArcDir, AxisPos, Plane, Segment, SegmentKind, Source, SpindleDir, StopKind, TapSegment,
+    ArcDir, AxisPos, Plane, SegmentKind, Source, SpindleDir, StopKind, TapSegment,
 };
 
 use super::arc::{self, ArcError};
 use super::options::Options;
-use super::state::{Cycle, CycleData, DEFAULT_PATH_TOLERANCE, ModalState, Motion};
+use super::state::{Cycle, CycleData, ModalState, Motion};
 use super::words::{Arg, GGroup, Words, fmt_num};
+use crate::canon::{CanonKind, CanonOp, CanonState};
+use crate::lower::xyz_indices;
+
+/// The modal state as canonical operations carry it, shared with the previous operation
+/// (`last`) when nothing in it changed, so a long program does not copy it per move.
+pub(crate) fn shared_state(st: &ModalState, last: &mut Option<Arc<CanonState>>) -> Arc<CanonState> {
+    let now = st.canon_state();
+    match last.as_ref() {
+        Some(s) if **s == now => s.clone(),
+        _ => {
+            let s = Arc::new(now);
+            *last = Some(s.clone());
+            s
+        }
+    }
+}
+
+/// The canonical operation one segment of `kind` is: machine positions (as the block layer
+/// computes them) recorded in work coordinates under the current state.
+pub(crate) fn single_op(
+    cfg: &MachineConfig,
+    st: &ModalState,
+    last: &mut Option<Arc<CanonState>>,
+    kind: SegmentKind,
+    source: Source,
+) -> CanonOp {
+    let state = shared_state(st, last);
+    let kind = state.convert(kind, xyz_indices(cfg), false);
+    CanonOp {
+        kind: CanonKind::Single(kind),
+        source,
+        state,
+    }
+}
 
 /// One block being executed.
 pub(crate) struct Exec<'a> {
@@ -23,7 +59,10 @@ pub(crate) struct Exec<'a> {
     pub w: Words,
     pub source: Source,
     pub line_span: Span,
-    pub out: Vec<Segment>,
+    /// The canonical operations the block makes, in order.
+    pub out: Vec<CanonOp>,
+    /// The state the last operation ran under, shared by the next while it is the same.
+    pub canon: &'a mut Option<Arc<CanonState>>,
     /// M2/M30 was executed.
     pub end: bool,
     /// The block programs the tool length offset (G43/G44/G49, or H in G43/G44): the tool
@@ -99,11 +138,17 @@ impl Exec<'_> {
             })
     }
 
-    /// Adds a segment of `kind`, ending as the modal path mode says
-    /// ([`ModalState::segment`]).
+    /// Adds the operation that one segment of `kind` is (its positions in machine
+    /// coordinates, as the block computes them), recorded in work coordinates under the
+    /// state it runs in.
     pub fn push(&mut self, kind: SegmentKind) {
-        let seg = self.st.segment(kind, self.source.clone());
-        self.out.push(seg);
+        let op = single_op(self.cfg, self.st, self.canon, kind, self.source.clone());
+        self.out.push(op);
+    }
+
+    /// The modal state as canonical operations carry it (see [`shared_state`]).
+    pub fn canon_state(&mut self) -> Arc<CanonState> {
+        shared_state(self.st, self.canon)
     }
 
     /// Executes one block of `line` (from `src`), its words already collected in `w`, against
@@ -112,15 +157,16 @@ impl Exec<'_> {
         cfg: &MachineConfig,
         opts: &Options,
         src: &SourceFile,
-        st: &mut ModalState,
+        (st, canon): (&mut ModalState, &mut Option<Arc<CanonState>>),
         w: Words,
         line: &Line,
-    ) -> Result<(Vec<Segment>, bool), NcError> {
+    ) -> Result<(Vec<CanonOp>, bool), NcError> {
         let mut ex = Exec {
             cfg,
             opts,
             src,
             st,
+            canon,
             w,
             source: Source {
                 file: src.name.clone(),
@@ -307,17 +353,17 @@ impl Exec<'_> {
     }
 
     /// The tolerance of a G64 block: its `P` (LinuxCNC's meaning, in program units, > 0),
-    /// else [`DEFAULT_PATH_TOLERANCE`]. A block whose P is a dwell, a G10/G28/G30 selector or
+    /// else the config's `interp.path_tolerance`. A block whose P is a dwell, a G10/G28/G30 selector or
     /// canned-cycle data leaves that P alone.
     fn g64_tolerance(&mut self) -> Result<f64, NcError> {
         let p_taken = self.w.g_of(GGroup::NonModal).is_some()
             || self.w.g_of(GGroup::Cycle).is_some_and(|g| g.0 != 80)
             || self.st.cycle.is_some();
         if p_taken {
-            return Ok(DEFAULT_PATH_TOLERANCE);
+            return Ok(self.cfg.interp.path_tolerance);
         }
         match self.w.take('P') {
-            None => Ok(DEFAULT_PATH_TOLERANCE),
+            None => Ok(self.cfg.interp.path_tolerance),
             Some(p) if p.v > 0.0 && p.v.is_finite() => Ok(p.v * self.st.unit()),
             Some(p) => Err(self
                 .err(

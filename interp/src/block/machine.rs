@@ -6,13 +6,16 @@ use cnc402_config::MachineConfig;
 use cnc402_lang::ast::Line;
 use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{
-    AxisPos, PathAxes, Plane, Segment, SegmentKind, TapSegment, path_length,
+    AxisPos, PathAxes, Plane, Segment, SegmentKind, Source, TapSegment, path_length,
 };
+
+use std::sync::Arc;
 
 use super::exec::Exec;
 use super::options::Options;
 use super::state::{ModalState, Motion};
 use super::words::Words;
+use crate::canon::{CanonOp, CanonState};
 use crate::host::{ExactStop, MotionSync};
 use crate::vars::{MVal, VarClass};
 
@@ -25,6 +28,8 @@ pub struct Machine {
     /// Length of every segment handed out so far (mm), and where the last one ended.
     pub(crate) path_len: f64,
     pub(crate) path_end: AxisPos,
+    /// The state of the last canonical operation (shared by the next while unchanged).
+    pub(crate) canon: Option<Arc<CanonState>>,
 }
 
 impl Machine {
@@ -36,6 +41,7 @@ impl Machine {
             sync: Box::new(ExactStop),
             path_len: 0.0,
             path_end: opts.start,
+            canon: None,
             opts,
         }
     }
@@ -45,6 +51,13 @@ impl Machine {
         self.state = ModalState::new(&self.cfg, self.opts.start);
         self.path_len = 0.0;
         self.path_end = self.opts.start;
+        self.canon = None;
+    }
+
+    /// The canonical operation of one segment of `kind` (machine positions) from `source`,
+    /// made outside a block's execution (`#3006`'s message and stop).
+    pub(crate) fn single_op(&mut self, kind: SegmentKind, source: Source) -> CanonOp {
+        super::exec::single_op(&self.cfg, &self.state, &mut self.canon, kind, source)
     }
 
     /// Runs one block of `line` with its words collected: its segments, and whether it ended
@@ -54,8 +67,15 @@ impl Machine {
         src: &SourceFile,
         words: Words,
         line: &Line,
-    ) -> Result<(Vec<Segment>, bool), NcError> {
-        Exec::execute(&self.cfg, &self.opts, src, &mut self.state, words, line)
+    ) -> Result<(Vec<CanonOp>, bool), NcError> {
+        Exec::execute(
+            &self.cfg,
+            &self.opts,
+            src,
+            (&mut self.state, &mut self.canon),
+            words,
+            line,
+        )
     }
 
     /// Adds a handed-out segment's length to the path length.

@@ -5,13 +5,9 @@
 //! that a change lasts for the run and the next run starts from the config again.
 
 use cnc402_config::{MAX_AXES, MachineConfig, PlaneDefault, ReturnPlane, ToolOffset, Units};
-use cnc402_motion::segment::{
-    AxisPos, Plane, Segment, SegmentEnd, SegmentKind, Source, SpindleDir,
-};
+use cnc402_motion::segment::{AxisPos, Plane, SpindleDir};
 
-/// The path tolerance (mm) of `G64` without `P`: how far a continuous path may pass from a
-/// segment's end point. (A config key comes later.)
-pub const DEFAULT_PATH_TOLERANCE: f64 = 0.01;
+use crate::canon::{CanonState, FeedMode, PathMode, ProgramUnits};
 
 /// Group 08: tool length compensation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -175,7 +171,8 @@ pub struct ModalState {
     /// carry it as their [`SegmentEnd`]; motion ends every segment in exact stop in all three
     /// until the planner blends segments.
     pub path_mode: u32,
-    /// The tolerance of G64 (mm, > 0): its `P` word, else [`DEFAULT_PATH_TOLERANCE`].
+    /// The tolerance of G64 (mm, > 0): its `P` word, else the config's
+    /// `interp.path_tolerance`.
     pub path_tolerance: f64,
     /// Coolant: M7 (mist), M8 (flood); M9 turns both off.
     pub mist: bool,
@@ -216,7 +213,7 @@ impl ModalState {
             tool_offsets: cfg.tool_offsets.clone(),
             ref_mid: [None; MAX_AXES],
             path_mode: 64,
-            path_tolerance: DEFAULT_PATH_TOLERANCE,
+            path_tolerance: cfg.interp.path_tolerance,
             mist: false,
             flood: false,
         }
@@ -254,27 +251,44 @@ impl ModalState {
         self.pos[i] - self.work_zero(i) - t
     }
 
-    /// How a segment of `kind` made now ends: path segments as the path mode says (G64:
-    /// continuous within the tolerance; G61, G63: exact stop), taps and every other kind in an
-    /// exact stop.
-    pub fn segment_end(&self, kind: &SegmentKind) -> SegmentEnd {
-        let follows_mode = kind.is_path() && !matches!(kind, SegmentKind::Tap(_));
-        if follows_mode && self.path_mode == 64 {
-            SegmentEnd::Continuous {
-                tolerance: self.path_tolerance,
-            }
-        } else {
-            SegmentEnd::ExactStop
+    /// The state canonical operations carry ([`CanonState`]): modes, the work → machine
+    /// offset of every axis as the position carries it, tool and tool length.
+    pub fn canon_state(&self) -> CanonState {
+        let mut offset = AxisPos::default();
+        for i in 0..MAX_AXES {
+            let tlo = if self.tool_axis == Some(i) {
+                self.tlo_in_pos
+            } else {
+                0.0
+            };
+            offset.0[i] = self.work_zero(i) + tlo;
         }
-    }
-
-    /// A segment of `kind` from `source`, ending as [`segment_end`](Self::segment_end) says:
-    /// every segment the interpreter makes is built here.
-    pub fn segment(&self, kind: SegmentKind, source: Source) -> Segment {
-        Segment {
-            ends: self.segment_end(&kind),
-            kind,
-            source,
+        CanonState {
+            plane: self.plane,
+            units: if self.inch {
+                ProgramUnits::Inch
+            } else {
+                ProgramUnits::Mm
+            },
+            feed_mode: if self.feed_per_rev {
+                FeedMode::PerRevolution
+            } else {
+                FeedMode::PerMinute
+            },
+            path_mode: match self.path_mode {
+                61 => PathMode::ExactStop,
+                63 => PathMode::Tapping,
+                _ => PathMode::Continuous {
+                    tolerance: self.path_tolerance,
+                },
+            },
+            work_offset: self.work_offset,
+            offset,
+            tool: self.tool_loaded,
+            tool_length_mode: self.tool_length.code(),
+            h: self.h,
+            tool_length: self.tlo,
+            tool_axis: self.tool_axis,
         }
     }
 

@@ -7,10 +7,8 @@
 use std::sync::Arc;
 
 use cnc402_motion::segment::{
-    ArcDir, AxisPos, MAX_AXES, Plane, SegmentEnd, Source, SpindleDir, StopKind,
+    AxisPos, MAX_AXES, Plane, SegmentEnd, SegmentKind, Source, SpindleDir, TapSegment,
 };
-
-pub mod json;
 
 /// One canonical operation: what, from where, under which state.
 #[derive(Clone, Debug, PartialEq)]
@@ -113,27 +111,61 @@ impl CanonState {
         w
     }
 
-    /// An X Y Z point (arc centres) in machine coordinates, given the machine's axis
-    /// indices of X, Y and Z.
-    pub fn xyz_to_machine(&self, p: [f64; 3], xyz: [Option<usize>; 3]) -> [f64; 3] {
+    /// An X Y Z point (arc centres) shifted by `sign` × the offset, given the machine's axis
+    /// indices of X, Y and Z (+1: work → machine, −1: machine → work).
+    fn xyz_shift(&self, p: [f64; 3], xyz: [Option<usize>; 3], sign: f64) -> [f64; 3] {
         let mut m = p;
         for (k, i) in xyz.into_iter().enumerate() {
             if let Some(i) = i {
-                m[k] = p[k] + self.offset.0[i];
+                m[k] = p[k] + sign * self.offset.0[i];
             }
         }
         m
     }
 
-    /// An X Y Z machine point in work coordinates.
-    pub fn xyz_to_work(&self, p: [f64; 3], xyz: [Option<usize>; 3]) -> [f64; 3] {
-        let mut w = p;
-        for (k, i) in xyz.into_iter().enumerate() {
-            if let Some(i) = i {
-                w[k] = p[k] - self.offset.0[i];
+    /// `kind` with its positions (end, arc centre) moved from work to machine coordinates
+    /// (`to_machine: true`) or back.
+    pub fn convert(
+        &self,
+        kind: SegmentKind,
+        xyz: [Option<usize>; 3],
+        to_machine: bool,
+    ) -> SegmentKind {
+        let pos = |p: &AxisPos| {
+            if to_machine {
+                self.to_machine(p)
+            } else {
+                self.to_work(p)
             }
+        };
+        let sign = if to_machine { 1.0 } else { -1.0 };
+        match kind {
+            SegmentKind::Rapid { end } => SegmentKind::Rapid { end: pos(&end) },
+            SegmentKind::Linear { end, feed } => SegmentKind::Linear {
+                end: pos(&end),
+                feed,
+            },
+            SegmentKind::Tap(t) => SegmentKind::Tap(TapSegment {
+                end: pos(&t.end),
+                ..t
+            }),
+            SegmentKind::Arc {
+                end,
+                center,
+                plane,
+                dir,
+                turns,
+                feed,
+            } => SegmentKind::Arc {
+                end: pos(&end),
+                center: self.xyz_shift(center, xyz, sign),
+                plane,
+                dir,
+                turns,
+                feed,
+            },
+            other => other,
         }
-        w
     }
 }
 
@@ -141,53 +173,16 @@ impl CanonState {
 /// (mm / degrees; C, the spindle axis, is the program's view).
 #[derive(Clone, Debug, PartialEq)]
 pub enum CanonKind {
-    /// G0.
-    Rapid { end: AxisPos },
-    /// G1 (feed in mm/min over the linear axes that move).
-    Linear { end: AxisPos, feed: f64 },
-    /// G2/G3 with an optional helical part; `center` is X Y Z in work coordinates.
-    Arc {
-        end: AxisPos,
-        center: [f64; 3],
-        plane: Plane,
-        dir: ArcDir,
-        turns: u32,
-        feed: f64,
-    },
-    /// A programmed coupled move of the tool axis with the spindle axis in position mode
-    /// (the C-like language's `G1 Z.. C..` of source 000): one rigid-tap stroke.
-    RigidTap(RigidTapStroke),
+    /// An operation that is one motion segment: rapid (G0), linear (G1), arc or helix
+    /// (G2/G3, centre X Y Z in work coordinates), rigid-tap stroke (`Tap`: a programmed
+    /// coupled move of the tool axis with the spindle axis, `G1 Z.. C..` as the source-000
+    /// cycles write it), dwell, spindle, orientation, tool change, coolant, program stop,
+    /// message. The same kinds as [`SegmentKind`], so nothing is lost or renamed on the way
+    /// down; only the positions differ (work here, machine there).
+    Single(SegmentKind),
     /// A canned cycle block (G73–G89) that drilled: its kind, words and holes. Lowering
     /// expands it into positioning, feed, tap, dwell and spindle segments.
     CannedCycle(Box<CannedCycle>),
-    /// G4 (seconds).
-    Dwell { seconds: f64 },
-    /// M3/M4/M5 with S.
-    Spindle { rpm: f64, dir: SpindleDir },
-    /// M19, G28/G30 C: see `SegmentKind::SpindleOrient`.
-    SpindleOrient { angle: f64, program: Option<f64> },
-    /// T with M6.
-    ToolChange { tool: u32 },
-    /// M7/M8/M9.
-    Coolant { mist: bool, flood: bool },
-    /// M0/M1/M2/M30.
-    ProgramStop { kind: StopKind },
-    /// An operator message.
-    Message { text: String },
-}
-
-/// One rigid-tap stroke: the tool axis and the spindle axis move together, one spindle turn
-/// per `pitch` mm of tool-axis travel.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RigidTapStroke {
-    pub end: AxisPos,
-    /// mm/min along the tool axis.
-    pub feed: f64,
-    /// Axis indices.
-    pub tool: u8,
-    pub spindle: u8,
-    /// Signed mm of tool-axis travel per spindle revolution: Δtool = pitch · Δspindle / 360.
-    pub pitch: f64,
 }
 
 /// A canned cycle (group 09) as Fanuc keeps it, resolved to levels along the drilling axis.
@@ -267,34 +262,11 @@ pub struct CyclePlan {
 }
 
 impl CanonKind {
-    /// The name `cnc402 canon` prints.
-    pub fn name(&self) -> &'static str {
-        match self {
-            CanonKind::Rapid { .. } => "rapid",
-            CanonKind::Linear { .. } => "linear",
-            CanonKind::Arc { .. } => "arc",
-            CanonKind::RigidTap(_) => "rigid_tap",
-            CanonKind::CannedCycle(_) => "canned_cycle",
-            CanonKind::Dwell { .. } => "dwell",
-            CanonKind::Spindle { .. } => "spindle",
-            CanonKind::SpindleOrient { .. } => "spindle_orient",
-            CanonKind::ToolChange { .. } => "tool_change",
-            CanonKind::Coolant { .. } => "coolant",
-            CanonKind::ProgramStop { .. } => "program_stop",
-            CanonKind::Message { .. } => "message",
-        }
-    }
-
     /// Whether this operation moves an axis or waits (what resets the runaway counter).
     pub fn is_motion(&self) -> bool {
-        matches!(
-            self,
-            CanonKind::Rapid { .. }
-                | CanonKind::Linear { .. }
-                | CanonKind::Arc { .. }
-                | CanonKind::RigidTap(_)
-                | CanonKind::CannedCycle(_)
-                | CanonKind::Dwell { .. }
-        )
+        match self {
+            CanonKind::Single(k) => k.is_path() || matches!(k, SegmentKind::Dwell { .. }),
+            CanonKind::CannedCycle(_) => true,
+        }
     }
 }

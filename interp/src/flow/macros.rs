@@ -251,17 +251,16 @@ impl Interpreter {
                     n: line.n.map(|n| n.value),
                 };
                 if !text.is_empty() {
-                    let s = self
+                    let op = self
                         .m
-                        .state
-                        .segment(SegmentKind::Message { text }, source.clone());
-                    self.flow.queue.push_back(s);
+                        .single_op(SegmentKind::Message { text }, source.clone());
+                    self.flow.queue.push_back(op);
                 }
                 let stop = SegmentKind::Stop {
                     kind: StopKind::Program,
                 };
-                let s = self.m.state.segment(stop, source);
-                self.flow.queue.push_back(s);
+                let op = self.m.single_op(stop, source);
+                self.flow.queue.push_back(op);
                 Ok(())
             }
             _ => self

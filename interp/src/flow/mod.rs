@@ -15,15 +15,17 @@ use std::sync::Arc;
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Block, Line, Program, Span};
 use cnc402_lang::{NcError, SourceFile};
-use cnc402_motion::segment::{Segment, SegmentKind};
+use cnc402_motion::segment::Segment;
 
 use crate::block::Machine;
 use crate::block::state::ModalState;
 use crate::block::words::Words;
 pub use crate::block::{MainM99, Options};
+use crate::canon::CanonOp;
 use crate::expr::{self, C_LIKE_ONLY};
 use crate::hll::Hll;
 use crate::host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary};
+use crate::lower::{self, xyz_indices};
 use crate::vars::{NvTable, VarTable};
 use units::{Frame, ModalCall, Runaway, Unit};
 
@@ -67,7 +69,10 @@ struct Flow {
     /// Last M code, N number (for `#4113`, `#4114`).
     last_m: Option<f64>,
     last_n: Option<f64>,
-    queue: VecDeque<Segment>,
+    /// Operations of executed blocks not given out yet.
+    queue: VecDeque<CanonOp>,
+    /// Segments of the last operation not given out yet.
+    lowered: VecDeque<Segment>,
     /// A `%` after the first block, M2/M30, an error, or the end of the text.
     done: bool,
     seen_block: bool,
@@ -113,6 +118,7 @@ impl Interpreter {
                 last_m: None,
                 last_n: None,
                 queue: VecDeque::new(),
+                lowered: VecDeque::new(),
                 done: true,
                 seen_block: false,
                 main_m99_line: None,
@@ -193,24 +199,61 @@ impl Interpreter {
         self.flow.last_n = None;
         self.flow.load_error = self.vars.error.clone();
         self.flow.queue.clear();
+        self.flow.lowered.clear();
         self.flow.done = false;
         self.flow.seen_block = false;
         self.flow.main_m99_line = None;
     }
 
-    /// The next segment, `Ok(None)` at the end of the program, or the error that ends it.
+    /// The next segment, `Ok(None)` at the end of the program, or the error that ends it:
+    /// the canonical operations ([`next_canon`](Self::next_canon)) lowered to machine
+    /// coordinates. Use one of the two per run: the segments of an operation taken with
+    /// `next_canon` are not given out here.
     pub fn next_segment(&mut self) -> Result<Option<Segment>, NcError> {
+        loop {
+            if let Some(s) = self.flow.lowered.pop_front() {
+                return Ok(Some(s));
+            }
+            let Some(op) = self.next_op()? else {
+                return Ok(None);
+            };
+            let mut segs = Vec::new();
+            lower::lower(&op, xyz_indices(&self.m.cfg), &mut segs);
+            self.flow.lowered.extend(segs);
+        }
+    }
+
+    /// The next canonical operation (work coordinates, canned cycles whole, with the state
+    /// each ran under), `Ok(None)` at the end of the program, or the error that ends it.
+    pub fn next_canon(&mut self) -> Result<Option<CanonOp>, NcError> {
+        self.next_op()
+    }
+
+    /// The next operation; its lowered segments count into the path length here (what
+    /// `@ITPPATH` and the motion sync read), whichever of the two APIs hands them out.
+    fn next_op(&mut self) -> Result<Option<CanonOp>, NcError> {
+        let op = self.pull_op()?;
+        if let Some(op) = &op {
+            let mut segs = Vec::new();
+            lower::lower(op, xyz_indices(&self.m.cfg), &mut segs);
+            for s in &segs {
+                self.m.account(s);
+            }
+        }
+        Ok(op)
+    }
+
+    fn pull_op(&mut self) -> Result<Option<CanonOp>, NcError> {
         if let Some(e) = self.flow.load_error.take() {
             self.flow.done = true;
             return Err(NcError::new(&self.flow.main_src, Span::default(), e));
         }
         if self.hll.active() {
-            return self.hll.next_segment(&mut self.m);
+            return self.hll.next_op(&mut self.m);
         }
         loop {
-            if let Some(s) = self.flow.queue.pop_front() {
-                self.m.account(&s);
-                return Ok(Some(s));
+            if let Some(op) = self.flow.queue.pop_front() {
+                return Ok(Some(op));
             }
             if self.flow.done {
                 return Ok(None);
@@ -290,16 +333,7 @@ impl Interpreter {
             self.flow.last_m = Some(f64::from(m.0));
         }
         let (out, end) = self.m.execute(&unit.src, words, line)?;
-        if out.iter().any(|s| {
-            matches!(
-                s.kind,
-                SegmentKind::Rapid { .. }
-                    | SegmentKind::Linear { .. }
-                    | SegmentKind::Tap(_)
-                    | SegmentKind::Arc { .. }
-                    | SegmentKind::Dwell { .. }
-            )
-        }) {
+        if out.iter().any(|op| op.kind.is_motion()) {
             self.flow.runaway.reset();
         }
         self.flow.queue.extend(out);
@@ -356,7 +390,7 @@ pub fn run_program_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use cnc402_motion::segment::{AxisPos, SpindleDir};
+    use cnc402_motion::segment::{AxisPos, SegmentKind, SpindleDir};
 
     fn cfg() -> MachineConfig {
         MachineConfig::default_machine()

@@ -17,11 +17,11 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Line, LineKind, Program, Span};
 use cnc402_lang::{NcError, SourceFile};
-use cnc402_motion::segment::{Segment, Source};
+use cnc402_motion::segment::Source;
 
 use crate::block::Machine;
-use crate::block::exec::Exec;
 use crate::block::words::{GGroup, Words};
+use crate::canon::CanonOp;
 
 pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
 use req::{Read, Req};
@@ -45,7 +45,7 @@ struct Running {
     /// Requests received in a batch, not handled yet.
     inbox: VecDeque<Req>,
     waiting: Arc<AtomicBool>,
-    queue: VecDeque<Segment>,
+    queue: VecDeque<CanonOp>,
     error: Option<NcError>,
     done: bool,
     /// The executor thread, joined on drop (after `halt` is set and the channels are gone).
@@ -186,8 +186,9 @@ pub fn global_number(it: &impl AsRef<Hll>, name: &str, index: Option<i64>) -> Op
 }
 
 impl Hll {
-    /// The interpreter's next segment for a C-like program, its blocks run on `it`.
-    pub(crate) fn next_segment(&mut self, it: &mut Machine) -> Result<Option<Segment>, NcError> {
+    /// The interpreter's next canonical operation for a C-like program, its blocks run on
+    /// `it`.
+    pub(crate) fn next_op(&mut self, it: &mut Machine) -> Result<Option<CanonOp>, NcError> {
         let Some(mut r) = self.run.take() else {
             return Ok(None);
         };
@@ -208,11 +209,10 @@ impl Running {
         self.chan = None;
     }
 
-    fn next(&mut self, it: &mut Machine) -> Result<Option<Segment>, NcError> {
+    fn next(&mut self, it: &mut Machine) -> Result<Option<CanonOp>, NcError> {
         loop {
-            if let Some(s) = self.queue.pop_front() {
-                it.account(&s);
-                return Ok(Some(s));
+            if let Some(op) = self.queue.pop_front() {
+                return Ok(Some(op));
             }
             if let Some(e) = self.error.take() {
                 self.stop();
@@ -262,7 +262,7 @@ impl Running {
                         line,
                         n: None,
                     };
-                    self.queue.push_back(it.state.segment(kind, source));
+                    self.queue.push_back(it.single_op(kind, source));
                 }
                 Req::Read(what) => {
                     // The queue is empty: every earlier segment has been handed out.
@@ -311,7 +311,7 @@ impl Running {
                 ),
             ));
         }
-        let (out, end) = Exec::execute(&it.cfg, &it.opts, &src, &mut it.state, w, line)?;
+        let (out, end) = it.execute(&src, w, line)?;
         self.queue.extend(out);
         if end {
             self.done = true;

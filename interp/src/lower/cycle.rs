@@ -7,7 +7,7 @@
 //! `interp.spindle_orient_angle`, then shift by Q along +first plane axis (G17 +X, G18 +Z,
 //! G19 +Y). G87 always returns to the initial level.
 
-use cnc402_motion::segment::{AxisPos, SegmentKind, SpindleDir, StopKind};
+use cnc402_motion::segment::{AxisPos, SegmentKind, SpindleDir, StopKind, TapSegment};
 
 use crate::canon::{CannedCycle, CanonState};
 
@@ -31,18 +31,25 @@ struct Hole {
 
 /// Expands `cc` (recorded under `state`) into machine-coordinate steps.
 pub fn expand(cc: &CannedCycle, state: &CanonState) -> Vec<CycleStep> {
-    let mut ex = Expander::new(cc, state);
-    ex.run();
+    let o = state.offset.0[cc.axes[2]];
+    let levels = [cc.r_level + o, cc.bottom + o, cc.return_level + o];
+    let mut ex = Expander::at_machine(cc, state, state.to_machine(&cc.start), levels);
+    ex.begin();
+    let [ia, ib, _] = cc.axes;
+    for &[a, b] in &cc.holes {
+        ex.hole(a + state.offset.0[ia], b + state.offset.0[ib]);
+    }
+    ex.finish();
     ex.out
 }
 
-struct Expander<'a> {
+/// A cycle being expanded hole by hole (the interpreter computes each hole's position from
+/// where the previous one left the tool, as G91 repeats need).
+pub(crate) struct Expander<'a> {
     cc: &'a CannedCycle,
     /// Letters of the plane's first, second and drilling axis.
     letters: (char, char, char),
     pos: AxisPos,
-    /// Work → machine offset of every axis (holes and levels are work coordinates).
-    offset: AxisPos,
     /// Machine levels of the block's holes.
     hole: Hole,
     /// Tap coupling: C at the block's start, degrees of C per mm into the hole.
@@ -51,52 +58,73 @@ struct Expander<'a> {
 }
 
 impl<'a> Expander<'a> {
-    fn new(cc: &'a CannedCycle, state: &CanonState) -> Self {
-        let [_, _, id] = cc.axes;
-        let o = state.offset.0[id];
-        let pos = state.to_machine(&cc.start);
+    /// Starts at machine position `start` with the machine drilling-axis `levels` (R,
+    /// bottom, return); `cc.start`, `cc.holes` and the levels in `cc` are not read (the
+    /// interpreter has the machine values exactly; [`expand`] derives them from `cc`).
+    pub(crate) fn at_machine(
+        cc: &'a CannedCycle,
+        state: &CanonState,
+        start: AxisPos,
+        levels: [f64; 3],
+    ) -> Self {
         let tap = cc.tap.map(|t| {
             let hand = if t.dir == SpindleDir::Ccw { -1.0 } else { 1.0 };
-            (t.spindle, pos.0[t.spindle], hand * 360.0 / t.pitch)
+            (t.spindle, start.0[t.spindle], hand * 360.0 / t.pitch)
         });
         Expander {
             cc,
             letters: state.plane.letters(),
-            pos,
-            offset: state.offset,
+            pos: start,
             hole: Hole {
-                r_level: cc.r_level + o,
-                bottom: cc.bottom + o,
-                ret: cc.return_level + o,
+                r_level: levels[0],
+                bottom: levels[1],
+                ret: levels[2],
             },
             tap,
             out: Vec::new(),
         }
     }
 
-    fn run(&mut self) {
-        let [ia, ib, _] = self.cc.axes;
-        let plan = self.cc.plan;
-        if self.tap.is_some() && plan.spindle_turning {
+    /// Before the first hole: a tap stops a turning spindle (it turns as a position axis).
+    pub(crate) fn begin(&mut self) {
+        if self.tap.is_some() && self.cc.plan.spindle_turning {
             self.spindle_stop();
         }
-        for &[a, b] in &self.cc.holes {
-            let mut p = self.pos;
-            p[ia] = a + self.offset.0[ia];
-            p[ib] = b + self.offset.0[ib];
-            let (la, lb, _) = self.letters;
-            self.rapid_to(p, [la, lb]);
-            if self.cc.code == 87 {
-                self.back_boring();
-            } else {
-                let r = self.hole.r_level;
-                self.rapid_d(r);
-                self.hole_body();
-            }
+    }
+
+    /// One hole at machine position (`a`, `b`) of the plane's first and second axis:
+    /// positioning at the current level, then the cycle's sequence.
+    pub(crate) fn hole(&mut self, a: f64, b: f64) {
+        let [ia, ib, _] = self.cc.axes;
+        let mut p = self.pos;
+        p[ia] = a;
+        p[ib] = b;
+        let (la, lb, _) = self.letters;
+        self.rapid_to(p, [la, lb]);
+        if self.cc.code == 87 {
+            self.back_boring();
+        } else {
+            let r = self.hole.r_level;
+            self.rapid_d(r);
+            self.hole_body();
         }
+    }
+
+    /// After the last hole: a tap turns the spindle on again as the block found it.
+    pub(crate) fn finish(&mut self) {
         if self.tap.is_some() {
             self.restore();
         }
+    }
+
+    /// Where the steps so far leave the tool (machine coordinates).
+    pub(crate) fn position(&self) -> AxisPos {
+        self.pos
+    }
+
+    /// The steps made since the last call.
+    pub(crate) fn take_steps(&mut self) -> Vec<CycleStep> {
+        std::mem::take(&mut self.out)
     }
 
     fn push(&mut self, kind: SegmentKind, hint: [char; 2]) {
@@ -169,29 +197,42 @@ impl<'a> Expander<'a> {
         self.pos = p;
     }
 
-    /// A tap move to `level`, C coupled: C = c0 + |level − R| · k.
+    /// A tap move to `level`, C coupled: C = c0 + |level − R| · k. A move that turns no
+    /// spindle or feeds no tool couples nothing: a plain feed (as the interpreter's `tap`).
     fn tap_d(&mut self, level: f64) {
-        let Some((ic, c0, k)) = self.tap else {
+        let Some((ic, c0, _)) = self.tap else {
+            return;
+        };
+        let Some(t) = self.cc.tap else {
             return;
         };
         let id = self.cc.axes[2];
         let mut p = self.pos;
         p[id] = level;
-        p[ic] = c0 + (level - self.hole.r_level).abs() * k;
+        p[ic] = c0 + (level - self.hole.r_level).abs() * self.tap_k();
         let hint = self.hint(level);
-        let kind = super::tap_segment(p, self.cc.feed, id, ic, self.tap_pitch());
+        let feed = self.cc.feed;
+        let kind = if p[id] == self.pos[id] || p[ic] == self.pos[ic] {
+            SegmentKind::Linear { end: p, feed }
+        } else {
+            // Δd / ΔC = sign(bottom − R) / k: the signed pitch (negative for G84 into a hole
+            // below R), exact from the programmed pitch.
+            let hand = if t.dir == SpindleDir::Ccw { -1.0 } else { 1.0 };
+            SegmentKind::Tap(TapSegment {
+                end: p,
+                feed,
+                tool: id as u8,
+                spindle: ic as u8,
+                pitch: (self.hole.bottom - self.hole.r_level).signum() * hand * t.pitch,
+            })
+        };
         self.push(kind, hint);
         self.pos = p;
     }
 
-    /// Signed pitch of the tap's coupling: Δtool = pitch · ΔC / 360 on the way in and out.
-    fn tap_pitch(&self) -> f64 {
-        let Some((_, _, k)) = self.tap else {
-            return 0.0;
-        };
-        // Into the hole C grows by k per mm while the tool moves towards the bottom.
-        let into = (self.hole.bottom - self.hole.r_level).signum();
-        into * 360.0 / k
+    /// Degrees of C per mm into the hole (negative for G74).
+    fn tap_k(&self) -> f64 {
+        self.tap.map_or(0.0, |(_, _, k)| k)
     }
 
     fn dwell_data(&mut self) {
@@ -279,7 +320,10 @@ impl<'a> Expander<'a> {
                 self.rapid_d(ret);
             }
             84 | 74 => {
-                let peck = self.cc.tap.and_then(|t| t.peck.map(|q| (q, t.peck_retract)));
+                let peck = self
+                    .cc
+                    .tap
+                    .and_then(|t| t.peck.map(|q| (q, t.peck_retract)));
                 match peck {
                     Some((q, d)) => {
                         for (nt, last) in Self::pecks(q, depth) {

@@ -29,8 +29,11 @@ use std::fmt::Write;
 use cnc402_config::MachineConfig;
 
 use crate::words::fmt_num;
+
+pub mod canon;
 use cnc402_motion::segment::{
-    ArcDir, AxisPos, Plane, Segment, SegmentEnd, SegmentKind, SpindleDir, StopKind, TapSegment,
+    ArcDir, AxisPos, Plane, Segment, SegmentEnd, SegmentKind, Source, SpindleDir, StopKind,
+    TapSegment,
 };
 
 /// `v` rounded to 1e-6 in its shortest decimal form ([`fmt_num`], the interpreter's one number
@@ -73,8 +76,9 @@ pub fn json_str(s: &str) -> String {
     o
 }
 
-fn end_obj(o: &mut String, end: &AxisPos, cfg: &MachineConfig) {
-    o.push_str(",\"end\":{");
+/// `,"<key>":{"X":…}` with every configured axis.
+pub(crate) fn axes_obj(o: &mut String, key: &str, end: &AxisPos, cfg: &MachineConfig) {
+    let _ = write!(o, ",\"{key}\":{{");
     for (i, ax) in cfg.axes.iter().enumerate() {
         if i > 0 {
             o.push(',');
@@ -84,26 +88,9 @@ fn end_obj(o: &mut String, end: &AxisPos, cfg: &MachineConfig) {
     o.push('}');
 }
 
-/// One segment as a single-line JSON object (no trailing newline).
-///
-/// ```
-/// use cnc402_config::MachineConfig;
-/// use cnc402_interp::dump::segment_to_json;
-/// use cnc402_motion::segment::{AxisPos, Segment, SegmentEnd, SegmentKind, Source};
-/// let cfg = MachineConfig::default_machine();
-/// let mut end = AxisPos::default();
-/// end[0] = 12.5;
-/// let seg = Segment {
-///     kind: SegmentKind::Linear { end, feed: 300.0 },
-///     source: Source { file: "a.nc".into(), line: 3, n: Some(30) },
-///     ends: SegmentEnd::Continuous { tolerance: 0.01 },
-/// };
-/// assert_eq!(segment_to_json(&seg, &cfg),
-///     r#"{"kind":"linear","file":"a.nc","line":3,"n":30,"end":{"X":12.5,"Y":0,"Z":0,"C":0},"feed":300,"ends":"continuous","tolerance":0.01}"#);
-/// ```
-pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
-    let mut o = String::with_capacity(160);
-    let kind = match seg.kind {
+/// The `kind` a segment prints as.
+pub fn kind_name(kind: &SegmentKind) -> &'static str {
+    match kind {
         SegmentKind::Rapid { .. } => "rapid",
         SegmentKind::Linear { .. } => "linear",
         SegmentKind::Tap(_) => "tap",
@@ -115,23 +102,31 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
         SegmentKind::Coolant { .. } => "coolant",
         SegmentKind::Stop { .. } => "stop",
         SegmentKind::Message { .. } => "message",
-    };
+    }
+}
+
+/// `{"<key>":"<name>","file":…,"line":…,"n":…` (the object stays open).
+pub(crate) fn source_keys(o: &mut String, key: &str, name: &str, source: &Source) {
     let _ = write!(
         o,
-        "{{\"kind\":\"{kind}\",\"file\":{},\"line\":{},\"n\":",
-        json_str(&seg.source.file),
-        seg.source.line
+        "{{\"{key}\":\"{name}\",\"file\":{},\"line\":{},\"n\":",
+        json_str(&source.file),
+        source.line
     );
-    match seg.source.n {
+    match source.n {
         Some(n) => {
             let _ = write!(o, "{n}");
         }
         None => o.push_str("null"),
     }
-    match &seg.kind {
-        SegmentKind::Rapid { end } => end_obj(&mut o, end, cfg),
+}
+
+/// The keys of `kind` after the source keys: positions, feed, arc, event data.
+pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig) {
+    match kind {
+        SegmentKind::Rapid { end } => axes_obj(o, "end", end, cfg),
         SegmentKind::Linear { end, feed } => {
-            end_obj(&mut o, end, cfg);
+            axes_obj(o, "end", end, cfg);
             let _ = write!(o, ",\"feed\":{}", num(*feed));
         }
         SegmentKind::Tap(TapSegment {
@@ -141,7 +136,7 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
             spindle,
             pitch,
         }) => {
-            end_obj(&mut o, end, cfg);
+            axes_obj(o, "end", end, cfg);
             let name = |i: u8| cfg.axes.get(usize::from(i)).map_or('?', |a| a.name);
             let _ = write!(
                 o,
@@ -160,7 +155,7 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
             turns,
             feed,
         } => {
-            end_obj(&mut o, end, cfg);
+            axes_obj(o, "end", end, cfg);
             let plane = match plane {
                 Plane::XY => "XY",
                 Plane::ZX => "ZX",
@@ -215,6 +210,29 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
             let _ = write!(o, ",\"text\":{}", json_str(text));
         }
     }
+}
+
+/// One segment as a single-line JSON object (no trailing newline).
+///
+/// ```
+/// use cnc402_config::MachineConfig;
+/// use cnc402_interp::dump::segment_to_json;
+/// use cnc402_motion::segment::{AxisPos, Segment, SegmentEnd, SegmentKind, Source};
+/// let cfg = MachineConfig::default_machine();
+/// let mut end = AxisPos::default();
+/// end[0] = 12.5;
+/// let seg = Segment {
+///     kind: SegmentKind::Linear { end, feed: 300.0 },
+///     source: Source { file: "a.nc".into(), line: 3, n: Some(30) },
+///     ends: SegmentEnd::Continuous { tolerance: 0.01 },
+/// };
+/// assert_eq!(segment_to_json(&seg, &cfg),
+///     r#"{"kind":"linear","file":"a.nc","line":3,"n":30,"end":{"X":12.5,"Y":0,"Z":0,"C":0},"feed":300,"ends":"continuous","tolerance":0.01}"#);
+/// ```
+pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
+    let mut o = String::with_capacity(160);
+    source_keys(&mut o, "kind", kind_name(&seg.kind), &seg.source);
+    kind_keys(&mut o, &seg.kind, cfg);
     match seg.ends {
         SegmentEnd::ExactStop => o.push_str(",\"ends\":\"exact_stop\""),
         SegmentEnd::Continuous { tolerance } => {
