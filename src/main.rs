@@ -42,6 +42,15 @@ enum Command {
         /// The NC program.
         program: PathBuf,
     },
+    /// Print the canonical operations of a program as JSON Lines: what the interpreter
+    /// decided the program does, in work coordinates, each with the modal state it ran under
+    /// (a canned cycle stays one operation with its words and holes).
+    ///
+    /// Example: cnc402 canon examples/bolt-circle-drilling.nc
+    Canon {
+        /// The NC program.
+        program: PathBuf,
+    },
     /// Run a program on the configured machine (the embedded simulated drives when
     /// `bus.interface = "sim"`), print a summary, and exit non-zero on any error.
     ///
@@ -127,7 +136,11 @@ fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Segments { program } => {
             let cfg = load_config(&cli.config)?;
-            segments(&cfg, &program)
+            dump(&cfg, &program, Dump::Segments)
+        }
+        Command::Canon { program } => {
+            let cfg = load_config(&cli.config)?;
+            dump(&cfg, &program, Dump::Canon)
         }
         Command::Run(args) => {
             let cfg = load_config(&cli.config)?;
@@ -153,12 +166,24 @@ pub(crate) fn load_program(path: &std::path::Path) -> Result<cnc402_lang::Source
     ))
 }
 
-fn segments(cfg: &cnc402_config::MachineConfig, program: &std::path::Path) -> Result<(), CliError> {
+/// What `segments` and `canon` print.
+#[derive(Clone, Copy)]
+enum Dump {
+    Segments,
+    Canon,
+}
+
+/// Prints a program's segments or canonical operations as JSON Lines.
+fn dump(
+    cfg: &cnc402_config::MachineConfig,
+    program: &std::path::Path,
+    what: Dump,
+) -> Result<(), CliError> {
     use std::io::Write;
     let src = load_program(program)?;
     let ast = cnc402_lang::parse(&src).map_err(CliError::Program)?;
     // The interpreter does no I/O: sub-programs, `#use` files and the variables file come
-    // from the file system through host_fs. Segments never write the variables file.
+    // from the file system through host_fs. A dump never writes the variables file.
     let mut interp = cnc402_interp::host_fs::interpreter(
         cfg,
         cnc402_interp::Options::default(),
@@ -167,15 +192,26 @@ fn segments(cfg: &cnc402_config::MachineConfig, program: &std::path::Path) -> Re
     interp.load(src, ast);
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
-    while let Some(seg) = interp.next_segment().map_err(CliError::Program)? {
-        writeln!(out, "{}", cnc402_interp::dump::segment_to_json(&seg, cfg))
-            .map_err(|e| CliError::Io(e.to_string()))?;
+    let io = |e: std::io::Error| CliError::Io(e.to_string());
+    loop {
+        let line = match what {
+            Dump::Segments => interp
+                .next_segment()
+                .map_err(CliError::Program)?
+                .map(|s| cnc402_interp::dump::segment_to_json(&s, cfg)),
+            Dump::Canon => interp
+                .next_canon()
+                .map_err(CliError::Program)?
+                .map(|op| cnc402_interp::dump::canon::canon_to_json(&op, cfg)),
+        };
+        let Some(line) = line else { break };
+        writeln!(out, "{line}").map_err(io)?;
     }
-    out.flush().map_err(|e| CliError::Io(e.to_string()))?;
+    out.flush().map_err(io)?;
     if let Some(line) = interp.main_m99_line() {
         eprintln!(
             "note: M99 at line {line} ends the main program: `cnc402 run` (like a Fanuc \
-             control) starts it over there, endlessly; these are the segments of one pass"
+             control) starts it over there, endlessly; this is one pass"
         );
     }
     Ok(())

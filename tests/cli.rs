@@ -84,6 +84,35 @@ fn segments_of_every_example_are_json_lines() {
     }
 }
 
+/// `canon` prints every example's canonical operations: valid JSON Lines with the state each
+/// ran under; a drilling example keeps its canned cycles whole, with their holes.
+#[test]
+fn canon_of_every_example_is_json_lines_with_cycles_whole() {
+    for ex in EXAMPLES {
+        let o = cnc402(&["canon", ex]);
+        assert_eq!(o.status.code(), Some(0), "{ex}: {}", stderr(&o));
+        let text = String::from_utf8(o.stdout).unwrap();
+        let ops: Vec<Value> = text
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{ex}: {e}: {l}")))
+            .collect();
+        assert!(!ops.is_empty(), "{ex}");
+        for v in &ops {
+            assert!(v["op"].is_string() && v["line"].is_u64(), "{v}");
+            assert!(v["state"]["work_offset"].is_string(), "{v}");
+        }
+        if ex.contains("bolt-circle") {
+            let cycles: Vec<_> = ops.iter().filter(|v| v["op"] == "canned_cycle").collect();
+            assert!(!cycles.is_empty(), "{ex}: no canned cycle");
+            assert!(
+                cycles
+                    .iter()
+                    .all(|c| !c["holes"].as_array().unwrap().is_empty())
+            );
+        }
+    }
+}
+
 /// One count of the tool axis or the tool-axis equivalent of one spindle count, in µm, from
 /// the shipped config: Z 10000 counts/mm, C 131072 counts/rev.
 fn coupling_bound_um(pitch_mm: f64) -> f64 {
