@@ -1,9 +1,14 @@
 //! The NC interpreter: executes a parsed program ([`cnc402_lang::ast::Program`]) against a
-//! modal state and produces motion [`Segment`](cnc402_motion::segment::Segment)s one at a time,
-//! each with its source (file, line, N). No I/O, no clock.
+//! modal state and produces [canonical operations](canon::CanonOp) one at a time
+//! ([`Interpreter::next_canon`]: work coordinates, each with its source (file, line, N) and
+//! the state it ran under; a canned cycle stays one operation), or the motion
+//! [`Segment`](cnc402_motion::segment::Segment)s they [lower](lower::lower) to
+//! ([`Interpreter::next_segment`]: machine coordinates, cycles expanded). No I/O, no clock.
 //!
 //! Behaviour follows Fanuc (M series); where LinuxCNC differs the tests say so. Decisions worth
 //! knowing:
+//! - Positions in canonical operations are work coordinates (mm; the `CanonState` carries the
+//!   work → machine offset of every axis: work zero, G92, tool length on the tool axis).
 //! - Positions in segments are absolute machine coordinates of every configured axis (work
 //!   offset G54–G59 applied, inches converted to mm). The program starts at
 //!   [`Options::start`] (machine 0 by default). Numbers without a decimal point are read as
@@ -37,8 +42,9 @@
 //!   makes no segment. Tables changed by a program (G10, `#5221…`, `#1xxxx`) and
 //!   the G92 shift last for the run: `load` starts from the config again.
 //! - M7/M8/M9 make a `Coolant` segment before the block's motion; M2/M30 turn coolant off.
-//!   G61/G63/G64 set how path segments end (`Segment::ends`; `G64 P` the tolerance), but
-//!   motion still stops at every segment.
+//!   G61/G63/G64 set how path segments end (`Segment::ends`; `G64 P` the tolerance, else
+//!   `interp.path_tolerance`); taps and every move of a canned cycle end in an exact stop.
+//!   Motion still stops at every segment (blending comes with the lookahead planner).
 //! - M1 stops only with [`Options::optional_stop`]; `/` blocks are skipped with
 //!   [`Options::block_delete`]; M2/M30 end the run; a `%` after the first block ends it.
 //!
@@ -80,8 +86,9 @@
 #![allow(clippy::result_large_err)]
 
 // The layers, lowest first; a layer uses only the ones before it (`tests/layers.rs` checks):
-// host traits, expressions, variables, block execution (and segment output), the C-like
-// language, program flow, the file-system host.
+// host traits, expressions, variables, canonical operations, lowering, block execution,
+// output (segment and canonical dumps), the C-like language, program flow, the file-system
+// host. docs/architecture.md draws the whole chain.
 mod block;
 pub mod canon;
 pub mod dump;
