@@ -12,6 +12,7 @@ pub mod error;
 pub mod link;
 pub mod monitor;
 pub mod motion;
+pub mod period;
 pub mod tui;
 pub mod values;
 

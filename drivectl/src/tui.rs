@@ -16,7 +16,7 @@ use ratatui::widgets::{Block, Paragraph};
 
 use crate::decode::{Decoded, NodeNames, PdoMaps, decode};
 use crate::dict::Dictionary;
-use crate::monitor::PeriodStats;
+use crate::period::PeriodStats;
 
 /// What is known about one drive.
 #[derive(Clone, Debug, Default, PartialEq)]

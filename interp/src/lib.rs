@@ -127,7 +127,7 @@ facade! {
     /// A block's words sorted for execution.
     words => crate::block::words;
 }
-pub use host::fs as host_fs;
+pub mod host_fs;
 
 pub use dump::segment_to_json;
 pub use flow::{Interpreter, MainM99, Options, run_program, run_program_with};

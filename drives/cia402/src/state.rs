@@ -169,6 +169,61 @@ impl fmt::Display for Command {
     }
 }
 
+// The words' meaning as states and commands lives here, so that `words` (the bits) depends
+// on nothing and the state machine on the words.
+impl Controlword {
+    /// The state machine command encoded in bits 0..=3 (CiA 402 table of device control
+    /// commands). Every bit pattern is one command; fault reset is an edge of bit 7 and
+    /// is not returned here.
+    ///
+    /// ```
+    /// use cia402::{Command, Controlword};
+    /// assert_eq!(Controlword(0x000F).command(), Command::EnableOperation);
+    /// assert_eq!(Controlword(0x000B).command(), Command::QuickStop);
+    /// ```
+    pub const fn command(self) -> Command {
+        if !self.enable_voltage() {
+            Command::DisableVoltage
+        } else if self.quick_stop_requested() {
+            Command::QuickStop
+        } else if !self.switch_on() {
+            Command::Shutdown
+        } else if !self.enable_operation() {
+            Command::SwitchOn
+        } else {
+            Command::EnableOperation
+        }
+    }
+}
+
+impl From<Command> for Controlword {
+    fn from(c: Command) -> Controlword {
+        c.controlword()
+    }
+}
+
+impl fmt::Display for Controlword {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:#06x} ({})", self.0, self.command())
+    }
+}
+
+impl Statusword {
+    /// The power state, or `None` for a bit pattern no state has.
+    pub const fn state(self) -> Option<State> {
+        State::from_statusword(self)
+    }
+}
+
+impl fmt::Display for Statusword {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.state() {
+            Some(s) => write!(f, "{:#06x} ({s})", self.0),
+            None => write!(f, "{:#06x} (no state)", self.0),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,9 +1,5 @@
 //! Controlword (0x6040) and statusword (0x6041) as newtypes with named bits.
 
-use core::fmt;
-
-use crate::state::{Command, State};
-
 /// The controlword 0x6040 the master writes (bits 0..=3 and 7 drive the state machine).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Controlword(pub u16);
@@ -79,41 +75,6 @@ impl Controlword {
     pub const fn halt(self) -> bool {
         self.has(Self::HALT)
     }
-
-    /// The state machine command encoded in bits 0..=3 (CiA 402 table of device control
-    /// commands). Every bit pattern is one command; fault reset is an edge of bit 7 and
-    /// is not returned here.
-    ///
-    /// ```
-    /// use cia402::{Command, Controlword};
-    /// assert_eq!(Controlword(0x000F).command(), Command::EnableOperation);
-    /// assert_eq!(Controlword(0x000B).command(), Command::QuickStop);
-    /// ```
-    pub const fn command(self) -> Command {
-        if !self.enable_voltage() {
-            Command::DisableVoltage
-        } else if self.quick_stop_requested() {
-            Command::QuickStop
-        } else if !self.switch_on() {
-            Command::Shutdown
-        } else if !self.enable_operation() {
-            Command::SwitchOn
-        } else {
-            Command::EnableOperation
-        }
-    }
-}
-
-impl From<Command> for Controlword {
-    fn from(c: Command) -> Controlword {
-        c.controlword()
-    }
-}
-
-impl fmt::Display for Controlword {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{:#06x} ({})", self.0, self.command())
-    }
 }
 
 /// The statusword 0x6041 the drive reports.
@@ -169,10 +130,6 @@ impl Statusword {
             Statusword(self.0 & !mask)
         }
     }
-    /// The power state, or `None` for a bit pattern no state has.
-    pub const fn state(self) -> Option<State> {
-        State::from_statusword(self)
-    }
     /// Bit 3.
     pub const fn fault(self) -> bool {
         self.has(Self::FAULT)
@@ -200,14 +157,5 @@ impl Statusword {
     /// Bit 13 (CSP): following error.
     pub const fn following_error(self) -> bool {
         self.has(Self::FOLLOWING_ERROR)
-    }
-}
-
-impl fmt::Display for Statusword {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.state() {
-            Some(s) => write!(f, "{:#06x} ({s})", self.0),
-            None => write!(f, "{:#06x} (no state)", self.0),
-        }
     }
 }

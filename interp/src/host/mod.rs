@@ -1,9 +1,7 @@
 //! What the interpreter needs from the machine around it, as traits: motion sync for position
 //! variables ([`MotionSync`]), program and `#use` file lookup ([`ProgramLibrary`]) and durable
 //! non-volatile variables ([`PersistentVars`]). The interpreter's defaults do no I/O: exact
-//! stop, no library, variables in memory. File-system implementations: [`fs`].
-
-pub mod fs;
+//! stop, no library, variables in memory. File-system implementations: [`crate::host_fs`].
 
 use cnc402_lang::SourceFile;
 use cnc402_motion::segment::AxisPos;
@@ -37,7 +35,7 @@ impl MotionSync for ExactStop {
 
 /// Where programs come from besides the running file: `M98 P9001` / `G65 P9001` look up
 /// `O9001` here, and a C-like `#use "cycles.c"` names a file resolved here. The interpreter has
-/// none by default (every lookup fails); [`fs::FsLibrary`] is the file system's.
+/// none by default (every lookup fails); [`crate::host_fs::FsLibrary`] is the file system's.
 pub trait ProgramLibrary: Send {
     /// The file holding program `O<number>`, `Ok(None)` if there is none. `main` is the name
     /// of the main program's file (a file-system library searches its folder first).

@@ -1,7 +1,7 @@
 //! The non-volatile macro variables `#500–#999` in a text file with a CRC-32, written durably:
 //! new file, fsync, rename over the old one, fsync the directory. A crash leaves the old or the
 //! new file, never a torn one; a damaged file is an error at load, never silent zeros.
-//! [`NvTable`] is the table; [`crate::host::fs::FileVarStore`] plugs it into the interpreter.
+//! [`NvTable`] is the table; [`crate::host_fs::FileVarStore`] plugs it into the interpreter.
 
 use std::fmt;
 use std::fs::{self, File};
