@@ -128,8 +128,9 @@ fn no_crate_has_a_module_cycle() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut found = Vec::new();
     for c in CRATES {
-        let g = graph(&root.join(c).join("src"));
-        assert!(!g.is_empty(), "{c}: no modules found");
+        let src = root.join(c).join("src");
+        assert!(src.join("lib.rs").exists() || src.join("main.rs").exists(), "{c}: no src");
+        let g = graph(&src);
         for m in g.keys() {
             if let Some(cycle) = cycle_from(&g, m) {
                 found.push(format!("{c}: {} → {m}", cycle.join(" → ")));
