@@ -129,7 +129,10 @@ fn no_crate_has_a_module_cycle() {
     let mut found = Vec::new();
     for c in CRATES {
         let src = root.join(c).join("src");
-        assert!(src.join("lib.rs").exists() || src.join("main.rs").exists(), "{c}: no src");
+        assert!(
+            src.join("lib.rs").exists() || src.join("main.rs").exists(),
+            "{c}: no src"
+        );
         let g = graph(&src);
         for m in g.keys() {
             if let Some(cycle) = cycle_from(&g, m) {

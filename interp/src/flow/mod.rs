@@ -73,6 +73,8 @@ struct Flow {
     queue: VecDeque<CanonOp>,
     /// Segments of the last operation not given out yet.
     lowered: VecDeque<Segment>,
+    /// The machine indices of X, Y and Z (arc centres), for lowering.
+    xyz: [Option<usize>; 3],
     /// A `%` after the first block, M2/M30, an error, or the end of the text.
     done: bool,
     seen_block: bool,
@@ -119,6 +121,7 @@ impl Interpreter {
                 last_n: None,
                 queue: VecDeque::new(),
                 lowered: VecDeque::new(),
+                xyz: xyz_indices(cfg),
                 done: true,
                 seen_block: false,
                 main_m99_line: None,
@@ -214,30 +217,31 @@ impl Interpreter {
             if let Some(s) = self.flow.lowered.pop_front() {
                 return Ok(Some(s));
             }
-            let Some(op) = self.next_op()? else {
+            if self.next_op(true)?.is_none() {
                 return Ok(None);
-            };
-            let mut segs = Vec::new();
-            lower::lower(&op, xyz_indices(&self.m.cfg), &mut segs);
-            self.flow.lowered.extend(segs);
+            }
         }
     }
 
     /// The next canonical operation (work coordinates, canned cycles whole, with the state
     /// each ran under), `Ok(None)` at the end of the program, or the error that ends it.
     pub fn next_canon(&mut self) -> Result<Option<CanonOp>, NcError> {
-        self.next_op()
+        self.next_op(false)
     }
 
-    /// The next operation; its lowered segments count into the path length here (what
-    /// `@ITPPATH` and the motion sync read), whichever of the two APIs hands them out.
-    fn next_op(&mut self) -> Result<Option<CanonOp>, NcError> {
+    /// The next operation, lowered: its segments count into the path length here (what
+    /// `@ITPPATH` and the motion sync read), whichever of the two APIs hands them out, and
+    /// are kept for [`next_segment`](Self::next_segment) when `keep`.
+    fn next_op(&mut self, keep: bool) -> Result<Option<CanonOp>, NcError> {
         let op = self.pull_op()?;
         if let Some(op) = &op {
-            let mut segs = Vec::new();
-            lower::lower(op, xyz_indices(&self.m.cfg), &mut segs);
-            for s in &segs {
+            let before = self.flow.lowered.len();
+            lower::lower(op, self.flow.xyz, &mut self.flow.lowered);
+            for s in self.flow.lowered.range(before..) {
                 self.m.account(s);
+            }
+            if !keep {
+                self.flow.lowered.truncate(before);
             }
         }
         Ok(op)

@@ -30,17 +30,17 @@ fn ends(op: &CanonOp, kind: &SegmentKind) -> SegmentEnd {
     }
 }
 
-/// Lowers `op` into machine-coordinate segments, appended to `out`. `xyz` comes from
-/// [`xyz_indices`].
-pub fn lower(op: &CanonOp, xyz: [Option<usize>; 3], out: &mut Vec<Segment>) {
+/// Lowers `op` into machine-coordinate segments, appended to `out` (a `Vec` or a
+/// `VecDeque`). `xyz` comes from [`xyz_indices`].
+pub fn lower(op: &CanonOp, xyz: [Option<usize>; 3], out: &mut impl Extend<Segment>) {
     match &op.kind {
         CanonKind::Single(kind) => {
             let kind = op.state.convert(kind.clone(), xyz, true);
-            out.push(Segment {
+            out.extend(std::iter::once(Segment {
                 ends: ends(op, &kind),
                 kind,
                 source: op.source.clone(),
-            });
+            }));
         }
         CanonKind::CannedCycle(cc) => {
             // A cycle reaches every level it names (Fanuc checks in-position there).
