@@ -43,7 +43,15 @@ pub(crate) fn compile(
     let sig_list = signatures(&defs);
     let mut funcs = Vec::new();
     for &(fid, fun) in &defs {
-        let mut cx = Cx::new(cfg, &files[fid], fid, &sigs, &sig_list, ty_of(fun.ret), true);
+        let mut cx = Cx::new(
+            cfg,
+            &files[fid],
+            fid,
+            &sigs,
+            &sig_list,
+            ty_of(fun.ret),
+            true,
+        );
         funcs.push(cx.function(fun)?);
     }
     let mut bodies = Vec::new();
@@ -519,7 +527,13 @@ impl<'a> Cx<'a> {
                 body,
             } => {
                 self.scopes.push(HashMap::new());
-                let r = self.for_loop(init.as_deref(), cond.as_ref(), step.as_deref(), body, s.span);
+                let r = self.for_loop(
+                    init.as_deref(),
+                    cond.as_ref(),
+                    step.as_deref(),
+                    body,
+                    s.span,
+                );
                 self.scopes.pop();
                 r?
             }
@@ -941,10 +955,9 @@ impl<'a> Cx<'a> {
                 }
                 Ok((Ex::Sys(Sys::AxisByName(Box::new(ix)), sp), Ty::Double))
             }
-            ExprKind::SysVar(n) if n.eq_ignore_ascii_case("CH") => Err(self.err(
-                sp,
-                "@CH[n] needs a field: @CH[n].MODE or @CH[n].STATE",
-            )),
+            ExprKind::SysVar(n) if n.eq_ignore_ascii_case("CH") => {
+                Err(self.err(sp, "@CH[n] needs a field: @CH[n].MODE or @CH[n].STATE"))
+            }
             _ => {
                 self.check_index(i.span, it)?;
                 match &a.kind {
