@@ -14,7 +14,7 @@ use cnc402_config::{AxisConfig, AxisKind, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_drives::bus::{CanDevice, FrameSink};
 use cnc402_drives::coupling::{CountSample, CouplingChecker, TapWindow};
-use cnc402_drives::sim::{FaultKind, NmtStatus, SimDrive, SimDriveOptions};
+use cnc402_drives::sim::{FaultKind, NmtStatus, SimDrive, SimDriveOptions, SimDriveStats};
 use cnc402_drives::wire::{CanFrame, NodeId, SdoRequest, WireError};
 use serde_json::{Value, json};
 
@@ -39,17 +39,27 @@ pub struct FaultSpec {
     pub at_s: f64,
 }
 
-/// Errors of the command-line value parsers.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct SpecError(pub String);
+/// An error that is its message: `pub struct $name(pub String)`, displayed as the message.
+macro_rules! message_error {
+    ($(#[$doc:meta])* $name:ident) => {
+        $(#[$doc])*
+        #[derive(Clone, Debug, PartialEq, Eq)]
+        pub struct $name(pub String);
 
-impl fmt::Display for SpecError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
+        impl fmt::Display for $name {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(&self.0)
+            }
+        }
+
+        impl std::error::Error for $name {}
+    };
 }
 
-impl std::error::Error for SpecError {}
+message_error!(
+    /// Errors of the command-line value parsers.
+    SpecError
+);
 
 fn parse_node(s: &str, whole: &str) -> Result<u8, SpecError> {
     match s.trim().parse::<u8>() {
@@ -168,17 +178,10 @@ impl Default for HostOptions {
     }
 }
 
-/// Why a host could not be built.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct HostError(pub String);
-
-impl fmt::Display for HostError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for HostError {}
+message_error!(
+    /// Why a host could not be built.
+    HostError
+);
 
 /// Unwraps an i32 position that may wrap around (a spindle turning for minutes).
 #[derive(Clone, Copy, Debug, Default)]
@@ -218,6 +221,44 @@ struct Hosted {
 }
 
 impl Hosted {
+    /// This drive's entry in the report's `drives` (`s`: its counters).
+    fn report(&self, s: &SimDriveStats) -> Value {
+        let sw = self.drive.statusword().0;
+        let position = if self.actual.last.is_some() {
+            self.actual.value
+        } else {
+            self.drive.position_actual() as i64
+        };
+        json!({
+            "axis": self.axis.to_string(),
+            "nmt": format!("{:?}", self.drive.nmt()),
+            "state": format!("{:?}", self.drive.state()),
+            "statusword": format!("0x{sw:04x}"),
+            "position": position as f64 / self.counts_per_unit,
+            "position_counts": self.drive.position_actual(),
+            "position_wraps": self.actual.wraps,
+            "target_wraps": self.target.wraps,
+            "fault_code": self.drive.fault_code().map(|c| format!("0x{c:04x}")),
+            "last_fault_code": self.last_emcy_code.map(|c| format!("0x{c:04x}")),
+            "reached_operation_enabled": self.reached_enabled,
+            "faults_entered": self.faults_entered,
+            "fault_resets": self.fault_resets,
+            "state_history": self.state_history.iter().map(|s| format!("{s:?}")).collect::<Vec<_>>(),
+            "max_following_error": s.max_following_error as f64 / self.counts_per_unit,
+            "syncs": s.syncs,
+            "rpdos": s.rpdos_applied,
+            "tpdos_sent": s.tpdos_sent,
+            "tpdos_dropped": s.tpdos_dropped,
+            "sdo_requests": s.sdo_requests,
+            "sdo_aborts": s.sdo_aborts,
+            "emcys_sent": s.emcys_sent,
+            "heartbeats_sent": s.heartbeats_sent,
+            "boot_ups": s.boot_ups,
+            "unexpected_frames": s.unexpected_frames,
+            "pdo_length_errors": s.pdo_length_errors,
+        })
+    }
+
     fn note_state(&mut self) {
         let s = self.drive.state();
         let prev = self.state_history.last().copied();
@@ -557,6 +598,92 @@ impl DriveHost {
     /// The JSON report (see the crate README's "Scenarios" for the keys).
     pub fn report(&self, bus: Option<&BusFigures>) -> Value {
         let mut checks = Vec::new();
+        let (taps, others) = self.coupling_checks(&mut checks);
+        // Frames of or for other nodes (a scan probing every id, other devices) are counted
+        // apart: not a protocol error on a bus that may carry other devices; the scenarios
+        // assert them separately. Requests for a hosted node it cannot take are errors.
+        let mut unexpected =
+            self.counters.bad_syncs + self.counters.unaccepted + self.counters.bad_sdo_requests;
+        let mut pdo_len = 0;
+        let mut sdo_aborts = 0;
+        let mut tx_errors = 0;
+        let mut emcys = 0;
+        let mut drives = serde_json::Map::new();
+        for h in &self.drives {
+            let s = h.drive.stats();
+            unexpected += s.unexpected_frames;
+            pdo_len += s.pdo_length_errors;
+            sdo_aborts += s.sdo_aborts;
+            tx_errors += s.tx_errors;
+            emcys += s.emcys_sent;
+            drives.insert(h.drive.node().get().to_string(), h.report(&s));
+        }
+        checks.push(json!({
+            "name": "no unexpected frames", "value": unexpected, "limit": 0,
+            "pass": unexpected == 0,
+        }));
+        checks.push(json!({
+            "name": "no PDO length errors", "value": pdo_len, "limit": 0, "pass": pdo_len == 0,
+        }));
+        checks.push(json!({
+            "name": "no transmit errors", "value": tx_errors, "limit": 0, "pass": tx_errors == 0,
+        }));
+        let ok = checks
+            .iter()
+            .all(|c| c.get("pass").and_then(Value::as_bool) == Some(true));
+        let period_ns = u64::try_from(self.period.as_nanos()).unwrap_or(u64::MAX);
+        let faults: Vec<Value> = self
+            .faults
+            .iter()
+            .map(|f| {
+                json!({
+                    "node": f.spec.node,
+                    "kind": format!("{:?}", f.spec.kind),
+                    "at_s": f.spec.at_s,
+                    "applied_at_s": f.applied_at_s,
+                })
+            })
+            .collect();
+        let mut v = json!({
+            "ok": ok,
+            "checks": checks,
+            "period_us": period_ns as f64 / 1000.0,
+            "sync_period_us": self.sync_figures(period_ns),
+            "coupling_samples": self.coupling_samples,
+            "tap_windows": taps,
+            "spindle_windows": others,
+            "protocol_errors": {
+                "unexpected_frames": unexpected,
+                "unaddressed_frames": self.counters.unaddressed,
+                "other_node_frames": self.counters.other_nodes,
+                "unaccepted_requests": self.counters.unaccepted,
+                "bad_sdo_requests": self.counters.bad_sdo_requests,
+                "bad_syncs": self.counters.bad_syncs,
+                "pdo_length_errors": pdo_len,
+                "sdo_aborts_sent": sdo_aborts,
+                "tx_errors": tx_errors,
+            },
+            "emcys_sent": emcys,
+            "frames_received": self.counters.frames,
+            "faults": faults,
+            "drives": Value::Object(drives),
+        });
+        if let Some(b) = bus {
+            v["bus"] = json!({
+                "iface": b.iface,
+                "seconds": b.seconds,
+                "rx_frames": b.rx_frames,
+                "tx_frames": b.tx_frames,
+                "load_percent": b.load_percent,
+                "error_frames": b.error_frames,
+            });
+        }
+        v
+    }
+
+    /// The report's checks of every Z+C window (a tap is judged on its setpoints; a window
+    /// with the spindle running is reported only), and how many were taps and how many not.
+    fn coupling_checks(&self, checks: &mut Vec<Value>) -> (usize, usize) {
         let mut taps = 0;
         let mut others = 0;
         for (i, w) in self.coupling.windows().iter().enumerate() {
@@ -594,73 +721,14 @@ impl DriveHost {
                 "informational": true,
             }));
         }
-        // Frames of or for other nodes (a scan probing every id, other devices) are counted
-        // apart: not a protocol error on a bus that may carry other devices; the scenarios
-        // assert them separately. Requests for a hosted node it cannot take are errors.
-        let mut unexpected =
-            self.counters.bad_syncs + self.counters.unaccepted + self.counters.bad_sdo_requests;
-        let mut pdo_len = 0;
-        let mut sdo_aborts = 0;
-        let mut tx_errors = 0;
-        let mut emcys = 0;
-        let mut drives = serde_json::Map::new();
-        for h in &self.drives {
-            let s = h.drive.stats();
-            unexpected += s.unexpected_frames;
-            pdo_len += s.pdo_length_errors;
-            sdo_aborts += s.sdo_aborts;
-            tx_errors += s.tx_errors;
-            emcys += s.emcys_sent;
-            let sw = h.drive.statusword().0;
-            drives.insert(
-                h.drive.node().get().to_string(),
-                json!({
-                    "axis": h.axis.to_string(),
-                    "nmt": format!("{:?}", h.drive.nmt()),
-                    "state": format!("{:?}", h.drive.state()),
-                    "statusword": format!("0x{sw:04x}"),
-                    "position": if h.actual.last.is_some() { h.actual.value } else { h.drive.position_actual() as i64 } as f64 / h.counts_per_unit,
-                    "position_counts": h.drive.position_actual(),
-                    "position_wraps": h.actual.wraps,
-                    "target_wraps": h.target.wraps,
-                    "fault_code": h.drive.fault_code().map(|c| format!("0x{c:04x}")),
-                    "last_fault_code": h.last_emcy_code.map(|c| format!("0x{c:04x}")),
-                    "reached_operation_enabled": h.reached_enabled,
-                    "faults_entered": h.faults_entered,
-                    "fault_resets": h.fault_resets,
-                    "state_history": h.state_history.iter().map(|s| format!("{s:?}")).collect::<Vec<_>>(),
-                    "max_following_error": s.max_following_error as f64 / h.counts_per_unit,
-                    "syncs": s.syncs,
-                    "rpdos": s.rpdos_applied,
-                    "tpdos_sent": s.tpdos_sent,
-                    "tpdos_dropped": s.tpdos_dropped,
-                    "sdo_requests": s.sdo_requests,
-                    "sdo_aborts": s.sdo_aborts,
-                    "emcys_sent": s.emcys_sent,
-                    "heartbeats_sent": s.heartbeats_sent,
-                    "boot_ups": s.boot_ups,
-                    "unexpected_frames": s.unexpected_frames,
-                    "pdo_length_errors": s.pdo_length_errors,
-                }),
-            );
-        }
-        checks.push(json!({
-            "name": "no unexpected frames", "value": unexpected, "limit": 0,
-            "pass": unexpected == 0,
-        }));
-        checks.push(json!({
-            "name": "no PDO length errors", "value": pdo_len, "limit": 0, "pass": pdo_len == 0,
-        }));
-        checks.push(json!({
-            "name": "no transmit errors", "value": tx_errors, "limit": 0, "pass": tx_errors == 0,
-        }));
-        let ok = checks
-            .iter()
-            .all(|c| c.get("pass").and_then(Value::as_bool) == Some(true));
+        (taps, others)
+    }
+
+    /// The SYNC intervals seen, in µs, against the period (`period_ns`).
+    fn sync_figures(&self, period_ns: u64) -> Value {
         let mut sorted = self.sync_intervals_ns.clone();
         sorted.sort_unstable();
         let us = |ns: Option<u64>| ns.map(|v| v as f64 / 1000.0);
-        let period_ns = u64::try_from(self.period.as_nanos()).unwrap_or(u64::MAX);
         let jitter_ns = if sorted.is_empty() {
             None
         } else {
@@ -670,61 +738,15 @@ impl DriveHost {
                     .max(period_ns.saturating_sub(self.sync_min_ns)),
             )
         };
-        let faults: Vec<Value> = self
-            .faults
-            .iter()
-            .map(|f| {
-                json!({
-                    "node": f.spec.node,
-                    "kind": format!("{:?}", f.spec.kind),
-                    "at_s": f.spec.at_s,
-                    "applied_at_s": f.applied_at_s,
-                })
-            })
-            .collect();
-        let mut v = json!({
-            "ok": ok,
-            "checks": checks,
-            "period_us": period_ns as f64 / 1000.0,
-            "sync_period_us": {
-                "count": self.counters.syncs,
-                "intervals": sorted.len(),
-                "p50": us(percentile(&sorted, 50)),
-                "p99": us(percentile(&sorted, 99)),
-                "max": us(sorted.last().copied()),
-                "min": us(sorted.first().copied()),
-                "max_deviation": us(jitter_ns),
-            },
-            "coupling_samples": self.coupling_samples,
-            "tap_windows": taps,
-            "spindle_windows": others,
-            "protocol_errors": {
-                "unexpected_frames": unexpected,
-                "unaddressed_frames": self.counters.unaddressed,
-                "other_node_frames": self.counters.other_nodes,
-                "unaccepted_requests": self.counters.unaccepted,
-                "bad_sdo_requests": self.counters.bad_sdo_requests,
-                "bad_syncs": self.counters.bad_syncs,
-                "pdo_length_errors": pdo_len,
-                "sdo_aborts_sent": sdo_aborts,
-                "tx_errors": tx_errors,
-            },
-            "emcys_sent": emcys,
-            "frames_received": self.counters.frames,
-            "faults": faults,
-            "drives": Value::Object(drives),
-        });
-        if let Some(b) = bus {
-            v["bus"] = json!({
-                "iface": b.iface,
-                "seconds": b.seconds,
-                "rx_frames": b.rx_frames,
-                "tx_frames": b.tx_frames,
-                "load_percent": b.load_percent,
-                "error_frames": b.error_frames,
-            });
-        }
-        v
+        json!({
+            "count": self.counters.syncs,
+            "intervals": sorted.len(),
+            "p50": us(percentile(&sorted, 50)),
+            "p99": us(percentile(&sorted, 99)),
+            "max": us(sorted.last().copied()),
+            "min": us(sorted.first().copied()),
+            "max_deviation": us(jitter_ns),
+        })
     }
 }
 

@@ -379,21 +379,13 @@ impl Interpolator {
         match &mut self.job {
             Job::Path { mv, k, stop } => {
                 let now = mv.profile.sample(*k as f64 * self.period);
-                let sp = velocity_change(now, 0.0, mv.limits.acceleration, mv.limits.jerk);
-                // The ramp turns back only if the acceleration in hand cannot be taken out
-                // before v reaches 0 — then we are already braking to the end point, and the
-                // planned profile is itself the quickest stop. Same if it would overrun.
-                let reverses = -now.v - now.a * now.a.abs() / (2.0 * mv.limits.jerk) > 0.0;
-                if !reverses && sp.end().s <= mv.length {
+                if let Some(sp) = stop_ramp(now, mv.limits, mv.length) {
                     *stop = Some((sp, *k));
                 }
             }
             Job::Orient { orient, k, stop } => {
                 let now = orient.profile.sample(*k as f64 * self.period);
-                let lim = orient.limits;
-                let sp = velocity_change(now, 0.0, lim.acceleration, lim.jerk);
-                let reverses = -now.v - now.a * now.a.abs() / (2.0 * lim.jerk) > 0.0;
-                if !reverses && sp.end().s <= orient.profile.end().s {
+                if let Some(sp) = stop_ramp(now, orient.limits, orient.profile.end().s) {
                     *stop = Some((sp, *k));
                 }
             }
@@ -423,132 +415,23 @@ impl Interpolator {
 
     /// Advances one period and returns the setpoints for it.
     pub fn tick(&mut self) -> Tick {
-        let p = self.period;
-        let mut finished = false;
-        let mut event = None;
-        let mut path_velocity = 0.0;
-        let mut state;
-
         // The spindle first: a ramp move completes when it is at speed.
-        let mut spindle_pos = None;
-        let mut spindle_velocity = 0.0;
-        let mut ramp_done = true;
-        if let (Some(sp), SpindleRun::Speed { profile, k }) = (self.spindle, &mut self.spin) {
-            *k += 1;
-            let t = *k as f64 * p;
-            let st = profile.sample(t);
-            ramp_done = t >= profile.duration();
-            if ramp_done && profile.end().v == 0.0 {
-                // At rest: position mode again, re-based so that program C continues from
-                // where the spindle stopped.
-                let c = profile.end().s;
-                self.offset = c - self.prog.0[sp.index];
-                self.spin = SpindleRun::Position;
-                spindle_pos = Some(c);
-            } else {
-                spindle_pos = Some(st.s);
-                spindle_velocity = st.v;
-            }
-        }
-
-        match &mut self.job {
-            Job::Idle => state = TickState::Idle,
-            Job::Held => state = TickState::Stopping,
-            Job::Path { mv, k, stop } => {
-                *k += 1;
-                state = TickState::Moving;
-                match stop {
-                    Some((sp, k0)) => {
-                        let t = (*k - *k0) as f64 * p;
-                        let st = sp.sample(t);
-                        self.prog = mv.point(st.s);
-                        path_velocity = st.v;
-                        if t >= sp.duration() {
-                            self.job = Job::Held;
-                        }
-                    }
-                    None if *k >= mv.ticks => {
-                        self.prog = mv.end;
-                        if self.stopping {
-                            self.job = Job::Held;
-                        } else {
-                            finished = true;
-                            self.job = Job::Idle;
-                        }
-                    }
-                    None => {
-                        let st = mv.profile.sample(*k as f64 * p);
-                        self.prog = mv.point(st.s);
-                        path_velocity = st.v;
-                    }
-                }
-            }
-            Job::Orient { orient, k, stop } => {
-                *k += 1;
-                state = TickState::Moving;
-                let o = *orient;
-                let (c, done) = match stop {
-                    Some((sp, k0)) => {
-                        let t = (*k - *k0) as f64 * p;
-                        let st = sp.sample(t);
-                        path_velocity = st.v;
-                        (o.from + o.sign * st.s, t >= sp.duration())
-                    }
-                    None if *k >= o.ticks => (o.target, true),
-                    None => {
-                        let st = o.profile.sample(*k as f64 * p);
-                        path_velocity = st.v;
-                        (o.from + o.sign * st.s, false)
-                    }
-                };
-                spindle_pos = Some(c);
-                if done {
-                    // Program C stays (or was set when the move started); the turn goes into
-                    // the offset (as after a speed run).
-                    if let Some(sp) = self.spindle {
-                        self.offset = c - self.prog.0[sp.index];
-                    }
-                    if self.stopping {
-                        self.job = Job::Held;
-                    } else {
-                        finished = true;
-                        self.job = Job::Idle;
-                    }
-                }
-            }
-            Job::Dwell { left } => {
-                *left = left.saturating_sub(1);
-                state = TickState::Dwelling { remaining: *left };
-                if *left == 0 {
-                    finished = true;
-                    self.job = Job::Idle;
-                }
-            }
-            Job::SpindleRamp => {
-                state = TickState::SpindleRamp;
-                if ramp_done {
-                    finished = true;
-                    self.job = Job::Idle;
-                }
-            }
-            Job::Event(e) => {
-                state = TickState::Event;
-                event = Some(*e);
-                finished = true;
-                self.job = Job::Idle;
-            }
-        }
-        if self.stopping {
-            state = if self.is_held() {
-                TickState::Held
-            } else {
-                TickState::Stopping
-            };
-        }
-
+        let spin = self.advance_spindle();
+        let job = self.advance_job(spin.ramp_done);
+        let state = if !self.stopping {
+            job.state
+        } else if self.is_held() {
+            TickState::Held
+        } else {
+            TickState::Stopping
+        };
         let mut pos = self.prog;
         if let Some(sp) = self.spindle {
-            pos.0[sp.index] = spindle_pos.unwrap_or(self.prog.0[sp.index] + self.offset);
+            // An orientation commands the spindle axis itself, over a speed run.
+            pos.0[sp.index] = job
+                .spindle_pos
+                .or(spin.pos)
+                .unwrap_or(self.prog.0[sp.index] + self.offset);
         }
         self.last = pos;
         Tick {
@@ -556,11 +439,206 @@ impl Interpolator {
             line: self.line,
             n: self.n,
             state,
-            finished,
-            event,
-            path_velocity,
-            spindle_velocity,
+            finished: job.finished,
+            event: job.event,
+            path_velocity: job.path_velocity,
+            spindle_velocity: spin.velocity,
         }
+    }
+
+    /// One period of a speed run (none: no spindle position of its own, and no ramp to wait
+    /// for). A ramp that ends at rest returns the spindle to position mode.
+    #[inline]
+    fn advance_spindle(&mut self) -> SpindleTick {
+        let (Some(sp), SpindleRun::Speed { profile, k }) = (self.spindle, &mut self.spin) else {
+            return SpindleTick {
+                pos: None,
+                velocity: 0.0,
+                ramp_done: true,
+            };
+        };
+        *k += 1;
+        let t = *k as f64 * self.period;
+        let st = profile.sample(t);
+        let ramp_done = t >= profile.duration();
+        if ramp_done && profile.end().v == 0.0 {
+            // At rest: position mode again, re-based so that program C continues from
+            // where the spindle stopped.
+            let c = profile.end().s;
+            self.offset = c - self.prog.0[sp.index];
+            self.spin = SpindleRun::Position;
+            SpindleTick {
+                pos: Some(c),
+                velocity: 0.0,
+                ramp_done,
+            }
+        } else {
+            SpindleTick {
+                pos: Some(st.s),
+                velocity: st.v,
+                ramp_done,
+            }
+        }
+    }
+
+    /// One period of the current job (`ramp_done`: the spindle is at its commanded speed).
+    #[inline]
+    fn advance_job(&mut self, ramp_done: bool) -> JobTick {
+        let p = self.period;
+        let mut out = JobTick {
+            state: TickState::Moving,
+            finished: false,
+            event: None,
+            path_velocity: 0.0,
+            spindle_pos: None,
+        };
+        match &mut self.job {
+            Job::Idle => out.state = TickState::Idle,
+            Job::Held => out.state = TickState::Stopping,
+            Job::Path { mv, k, stop } => {
+                *k += 1;
+                match along(&mv.profile, mv.ticks, stop, *k, p) {
+                    Along::On(st) => {
+                        self.prog = mv.point(st.s);
+                        out.path_velocity = st.v;
+                    }
+                    Along::StopDone(st) => {
+                        self.prog = mv.point(st.s);
+                        out.path_velocity = st.v;
+                        self.job = Job::Held;
+                    }
+                    Along::End => {
+                        self.prog = mv.end;
+                        out.finished = self.end_job();
+                    }
+                }
+            }
+            Job::Orient { orient, k, stop } => {
+                *k += 1;
+                let o = *orient;
+                let (c, done) = match along(&o.profile, o.ticks, stop, *k, p) {
+                    Along::On(st) => {
+                        out.path_velocity = st.v;
+                        (o.from + o.sign * st.s, false)
+                    }
+                    Along::StopDone(st) => {
+                        out.path_velocity = st.v;
+                        (o.from + o.sign * st.s, true)
+                    }
+                    Along::End => (o.target, true),
+                };
+                out.spindle_pos = Some(c);
+                if done {
+                    // Program C stays (or was set when the move started); the turn goes into
+                    // the offset (as after a speed run).
+                    if let Some(sp) = self.spindle {
+                        self.offset = c - self.prog.0[sp.index];
+                    }
+                    out.finished = self.end_job();
+                }
+            }
+            Job::Dwell { left } => {
+                *left = left.saturating_sub(1);
+                out.state = TickState::Dwelling { remaining: *left };
+                if *left == 0 {
+                    out.finished = true;
+                    self.job = Job::Idle;
+                }
+            }
+            Job::SpindleRamp => {
+                out.state = TickState::SpindleRamp;
+                if ramp_done {
+                    out.finished = true;
+                    self.job = Job::Idle;
+                }
+            }
+            Job::Event(e) => {
+                out.state = TickState::Event;
+                out.event = Some(*e);
+                out.finished = true;
+                self.job = Job::Idle;
+            }
+        }
+        out
+    }
+
+    /// A move has reached its end: held there while a stop is under way, else finished
+    /// (true) and idle.
+    #[inline]
+    fn end_job(&mut self) -> bool {
+        if self.stopping {
+            self.job = Job::Held;
+            false
+        } else {
+            self.job = Job::Idle;
+            true
+        }
+    }
+}
+
+/// What one period of a speed run gave [`Interpolator::tick`].
+struct SpindleTick {
+    /// Machine C, when the speed run commands it.
+    pos: Option<f64>,
+    velocity: f64,
+    /// The ramp has reached its speed (true without a speed run).
+    ramp_done: bool,
+}
+
+/// What one period of the job gave [`Interpolator::tick`].
+struct JobTick {
+    /// The state unless a stop is under way.
+    state: TickState,
+    finished: bool,
+    event: Option<MoveEvent>,
+    path_velocity: f64,
+    /// Machine C, when an orientation commands it.
+    spindle_pos: Option<f64>,
+}
+
+/// The ramp from `now` to rest within `lim`, for a move of `length`: none when the
+/// planned profile is itself the quickest stop.
+fn stop_ramp(now: State, lim: Limits, length: f64) -> Option<JerkProfile> {
+    let sp = velocity_change(now, 0.0, lim.acceleration, lim.jerk);
+    // The ramp turns back only if the acceleration in hand cannot be taken out before v
+    // reaches 0 — then we are already braking to the end point, and the planned profile is
+    // itself the quickest stop. Same if it would overrun.
+    let reverses = -now.v - now.a * now.a.abs() / (2.0 * lim.jerk) > 0.0;
+    (!reverses && sp.end().s <= length).then_some(sp)
+}
+
+/// Where a move is on one tick.
+enum Along {
+    /// Along its profile, or its stop ramp.
+    On(State),
+    /// At the end of its stop ramp: at rest.
+    StopDone(State),
+    /// On its last tick: at its end point.
+    End,
+}
+
+/// Where a move of `ticks` periods is on tick `k`: on its stop ramp (started on tick `k0`)
+/// if one was begun, else on its own profile.
+#[inline]
+fn along(
+    profile: &JerkProfile,
+    ticks: u64,
+    stop: &Option<(JerkProfile, u64)>,
+    k: u64,
+    period: f64,
+) -> Along {
+    match stop {
+        Some((sp, k0)) => {
+            let t = (k - *k0) as f64 * period;
+            let st = sp.sample(t);
+            if t >= sp.duration() {
+                Along::StopDone(st)
+            } else {
+                Along::On(st)
+            }
+        }
+        None if k >= ticks => Along::End,
+        None => Along::On(profile.sample(k as f64 * period)),
     }
 }
 

@@ -218,22 +218,37 @@ impl Planner {
     pub fn plan(&mut self, seg: &Segment) -> Result<PlannedMove, MotionError> {
         let line = seg.source.line;
         let n = seg.source.n;
-        let err = |kind| MotionError { line, n, kind };
-        let kind = match &seg.kind {
+        let kind = self
+            .move_kind(&seg.kind)
+            .map_err(|kind| MotionError { line, n, kind })?;
+        if let MoveKind::Path(m) = &kind {
+            self.pos = m.end;
+        }
+        Ok(PlannedMove {
+            line,
+            n,
+            kind,
+            ends: seg.ends,
+        })
+    }
+
+    /// What the interpolator does for `kind`. On error nothing changes.
+    fn move_kind(&mut self, kind: &SegmentKind) -> Result<MoveKind, MotionErrorKind> {
+        Ok(match kind {
             SegmentKind::Rapid { end } => {
-                let end = self.check_end(end).map_err(err)?;
-                MoveKind::Path(self.line_move(end, f64::INFINITY, true).map_err(err)?)
+                let end = self.check_end(end)?;
+                MoveKind::Path(self.line_move(end, f64::INFINITY, true)?)
             }
             SegmentKind::Linear { end, feed } => {
-                check_feed(*feed).map_err(err)?;
-                let end = self.check_end(end).map_err(err)?;
-                MoveKind::Path(self.line_move(end, feed / 60.0, false).map_err(err)?)
+                check_feed(*feed)?;
+                let end = self.check_end(end)?;
+                MoveKind::Path(self.line_move(end, feed / 60.0, false)?)
             }
             SegmentKind::Tap(tap) => {
-                check_feed(tap.feed).map_err(err)?;
-                self.check_tap(tap).map_err(err)?;
-                let end = self.check_end(&tap.end).map_err(err)?;
-                let mut m = self.line_move(end, tap.feed / 60.0, false).map_err(err)?;
+                check_feed(tap.feed)?;
+                self.check_tap(tap)?;
+                let end = self.check_end(&tap.end)?;
+                let mut m = self.line_move(end, tap.feed / 60.0, false)?;
                 m.tap = Some(tap.coupling());
                 MoveKind::Path(m)
             }
@@ -245,19 +260,16 @@ impl Planner {
                 turns,
                 feed,
             } => {
-                check_feed(*feed).map_err(err)?;
-                let end = self.check_end(end).map_err(err)?;
+                check_feed(*feed)?;
+                let end = self.check_end(end)?;
                 if center.iter().any(|c| !c.is_finite()) {
-                    return Err(err(MotionErrorKind::NonFinite { axis: '?' }));
+                    return Err(MotionErrorKind::NonFinite { axis: '?' });
                 }
-                let m = self
-                    .arc_move(end, *center, *plane, *dir, *turns, feed / 60.0)
-                    .map_err(err)?;
-                MoveKind::Path(m)
+                MoveKind::Path(self.arc_move(end, *center, *plane, *dir, *turns, feed / 60.0)?)
             }
             SegmentKind::Dwell { seconds } => {
                 if !(seconds.is_finite() && *seconds >= 0.0) {
-                    return Err(err(MotionErrorKind::BadDwell(*seconds)));
+                    return Err(MotionErrorKind::BadDwell(*seconds));
                 }
                 let ticks = ((seconds / self.period).ceil() as u64).max(1);
                 MoveKind::Dwell {
@@ -265,68 +277,8 @@ impl Planner {
                     ticks,
                 }
             }
-            SegmentKind::Spindle { rpm, dir } => {
-                let si = self.spindle.ok_or(err(MotionErrorKind::NoSpindle))?;
-                if !(rpm.is_finite() && *rpm >= 0.0) {
-                    return Err(err(MotionErrorKind::BadRpm(*rpm)));
-                }
-                let ax = self.axes[si];
-                let max_rpm = ax.max_rpm.min(ax.v / 6.0);
-                let sign = match dir {
-                    SpindleDir::Cw => 1.0,
-                    SpindleDir::Ccw => -1.0,
-                    SpindleDir::Stop => 0.0,
-                };
-                if sign != 0.0 && *rpm > max_rpm * (1.0 + 1e-12) {
-                    return Err(err(MotionErrorKind::SpindleTooFast { rpm: *rpm, max_rpm }));
-                }
-                let velocity = sign * rpm.min(max_rpm) * 6.0;
-                self.spindle_running = velocity != 0.0;
-                MoveKind::Spindle {
-                    velocity,
-                    acceleration: ax.a,
-                    jerk: ax.j,
-                }
-            }
-            SegmentKind::SpindleOrient { angle, program } => {
-                let si = self.spindle.ok_or(err(MotionErrorKind::NoSpindle))?;
-                if !(angle.is_finite() && (0.0..360.0).contains(angle)) {
-                    return Err(err(MotionErrorKind::BadOrientAngle(*angle)));
-                }
-                if let Some(c) = *program
-                    && !orient_program_agrees(*angle, c)
-                {
-                    return Err(err(MotionErrorKind::BadOrientProgram {
-                        angle: *angle,
-                        program: c,
-                    }));
-                }
-                if self.spindle_running {
-                    return Err(err(MotionErrorKind::SpindleRunning));
-                }
-                let ax = self.axes[si];
-                let max_rpm = if ax.max_rpm > 0.0 {
-                    ax.max_rpm
-                } else {
-                    f64::INFINITY
-                };
-                let limits = Limits {
-                    velocity: ax.v.min(max_rpm * 6.0),
-                    acceleration: ax.a,
-                    jerk: ax.j,
-                };
-                if !limits.is_valid() {
-                    return Err(err(MotionErrorKind::BadLimits));
-                }
-                if let Some(c) = *program {
-                    self.pos.0[si] = c;
-                }
-                MoveKind::SpindleOrient {
-                    angle: *angle,
-                    limits,
-                    program: *program,
-                }
-            }
+            SegmentKind::Spindle { rpm, dir } => self.spindle_move(*rpm, *dir)?,
+            SegmentKind::SpindleOrient { angle, program } => self.orient_move(*angle, *program)?,
             SegmentKind::ToolChange { tool } => MoveKind::ToolChange { tool: *tool },
             SegmentKind::Coolant { mist, flood } => MoveKind::Coolant {
                 mist: *mist,
@@ -334,15 +286,74 @@ impl Planner {
             },
             SegmentKind::Stop { kind } => MoveKind::ProgramStop { kind: *kind },
             SegmentKind::Message { .. } => MoveKind::Message,
-        };
-        if let MoveKind::Path(m) = &kind {
-            self.pos = m.end;
+        })
+    }
+
+    /// M3/M4/M5 at `rpm`: the spindle's new speed (deg/s) and its ramp limits.
+    fn spindle_move(&mut self, rpm: f64, dir: SpindleDir) -> Result<MoveKind, MotionErrorKind> {
+        let si = self.spindle.ok_or(MotionErrorKind::NoSpindle)?;
+        if !(rpm.is_finite() && rpm >= 0.0) {
+            return Err(MotionErrorKind::BadRpm(rpm));
         }
-        Ok(PlannedMove {
-            line,
-            n,
-            kind,
-            ends: seg.ends,
+        let ax = self.axes[si];
+        let max_rpm = ax.max_rpm.min(ax.v / 6.0);
+        let sign = match dir {
+            SpindleDir::Cw => 1.0,
+            SpindleDir::Ccw => -1.0,
+            SpindleDir::Stop => 0.0,
+        };
+        if sign != 0.0 && rpm > max_rpm * (1.0 + 1e-12) {
+            return Err(MotionErrorKind::SpindleTooFast { rpm, max_rpm });
+        }
+        let velocity = sign * rpm.min(max_rpm) * 6.0;
+        self.spindle_running = velocity != 0.0;
+        Ok(MoveKind::Spindle {
+            velocity,
+            acceleration: ax.a,
+            jerk: ax.j,
+        })
+    }
+
+    /// M19 to `angle` (program C reads `program` afterwards, when given): the spindle at rest
+    /// turns there within its axis limits.
+    fn orient_move(
+        &mut self,
+        angle: f64,
+        program: Option<f64>,
+    ) -> Result<MoveKind, MotionErrorKind> {
+        let si = self.spindle.ok_or(MotionErrorKind::NoSpindle)?;
+        if !(angle.is_finite() && (0.0..360.0).contains(&angle)) {
+            return Err(MotionErrorKind::BadOrientAngle(angle));
+        }
+        if let Some(c) = program
+            && !orient_program_agrees(angle, c)
+        {
+            return Err(MotionErrorKind::BadOrientProgram { angle, program: c });
+        }
+        if self.spindle_running {
+            return Err(MotionErrorKind::SpindleRunning);
+        }
+        let ax = self.axes[si];
+        let max_rpm = if ax.max_rpm > 0.0 {
+            ax.max_rpm
+        } else {
+            f64::INFINITY
+        };
+        let limits = Limits {
+            velocity: ax.v.min(max_rpm * 6.0),
+            acceleration: ax.a,
+            jerk: ax.j,
+        };
+        if !limits.is_valid() {
+            return Err(MotionErrorKind::BadLimits);
+        }
+        if let Some(c) = program {
+            self.pos.0[si] = c;
+        }
+        Ok(MoveKind::SpindleOrient {
+            angle,
+            limits,
+            program,
         })
     }
 

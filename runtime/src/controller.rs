@@ -243,45 +243,14 @@ impl<L: DriveLink> CycleController<L> {
 
     /// Runs one period at `now`. Allocation-free.
     pub fn step(&mut self, now: Instant) -> Step {
-        if self.phase == Phase::Running && self.stop_request.load(Ordering::Relaxed) {
-            self.begin_stop(DriveStop {
-                cause: StopCause::Operator,
-                node: 0,
-                statusword: 0,
-                emcy: None,
-            });
-        }
-        // Held at a program stop: released by the operator's resume, or ended there.
-        if self.held
-            && let Some(g) = &self.gate
-        {
-            if g.end_requested() {
-                self.held = false;
-                self.input_done = true;
-            } else if g.released() {
-                self.held = false;
-            }
-        }
+        self.take_requests();
         if self.phase == Phase::Running && self.interp.is_idle() && !self.held {
             self.next_move();
         }
 
         let t = self.interp.tick();
-        // A program stop (M0, M1 with optional stop): the interpolator is idle after it, so
-        // holding here means no next move is started (atomics only, no lock or allocation).
-        if let (Some(cnc402_motion::MoveEvent::ProgramStop { kind }), Some(g)) =
-            (t.event, &self.gate)
-            && self.phase == Phase::Running
-        {
-            match g.decide(kind) {
-                crate::program_stop::StopDecision::Hold => {
-                    g.hold();
-                    self.held = true;
-                }
-                crate::program_stop::StopDecision::End => self.input_done = true,
-                crate::program_stop::StopDecision::Continue
-                | crate::program_stop::StopDecision::Pass => {}
-            }
+        if let Some(cnc402_motion::MoveEvent::ProgramStop { kind }) = t.event {
+            self.program_stop(kind);
         }
         self.last_line = t.line;
         self.commands = t.pos.0;
@@ -305,6 +274,66 @@ impl<L: DriveLink> CycleController<L> {
             }
             false
         };
+        self.track_spindle();
+        if let Some(s) = raised {
+            self.begin_stop(s);
+        }
+        self.publish_status(&t, raised);
+        self.tick += 1;
+        self.phase_ticks = self.phase_ticks.saturating_add(1);
+        self.advance_phase(all_stopped)
+    }
+
+    /// The operator's stop request, and the release (or end) of a hold at a program stop.
+    #[inline]
+    fn take_requests(&mut self) {
+        if self.phase == Phase::Running && self.stop_request.load(Ordering::Relaxed) {
+            self.begin_stop(DriveStop {
+                cause: StopCause::Operator,
+                node: 0,
+                statusword: 0,
+                emcy: None,
+            });
+        }
+        // Held at a program stop: released by the operator's resume, or ended there.
+        if self.held
+            && let Some(g) = &self.gate
+        {
+            if g.end_requested() {
+                self.held = false;
+                self.input_done = true;
+            } else if g.released() {
+                self.held = false;
+            }
+        }
+    }
+
+    /// A program stop (M0, M1 with optional stop) of `kind` reached: the interpolator is idle
+    /// after it, so holding here means no next move is started (atomics only, no lock or
+    /// allocation).
+    #[inline]
+    fn program_stop(&mut self, kind: cnc402_motion::StopKind) {
+        let Some(g) = &self.gate else {
+            return;
+        };
+        if self.phase != Phase::Running {
+            return;
+        }
+        match g.decide(kind) {
+            crate::program_stop::StopDecision::Hold => {
+                g.hold();
+                self.held = true;
+            }
+            crate::program_stop::StopDecision::End => self.input_done = true,
+            crate::program_stop::StopDecision::Continue
+            | crate::program_stop::StopDecision::Pass => {}
+        }
+    }
+
+    /// The spindle's actual velocity from its feedback, per tick, updated when the drive has
+    /// sampled a newer position.
+    #[inline]
+    fn track_spindle(&mut self) {
         if let Some(sp) = self.axes.spindle {
             let s = &self.feedback[sp];
             let sampled = self.tick.saturating_sub(s.age as u64);
@@ -318,9 +347,12 @@ impl<L: DriveLink> CycleController<L> {
                 None => tr.last = Some((sampled, s.actual)),
             }
         }
-        if let Some(s) = raised {
-            self.begin_stop(s);
-        }
+    }
+
+    /// Records this tick's status (a full ring drops it, counted) and the largest following
+    /// errors.
+    #[inline]
+    fn publish_status(&mut self, t: &cnc402_motion::Tick, raised: Option<DriveStop>) {
         let mut st = Status {
             tick: self.tick,
             line: t.line,
@@ -361,9 +393,12 @@ impl<L: DriveLink> CycleController<L> {
         if self.status.try_push(st).is_err() {
             self.dropped += 1;
         }
-        self.tick += 1;
-        self.phase_ticks = self.phase_ticks.saturating_add(1);
+    }
 
+    /// The phase this tick ends in, and whether the run is over (`all_stopped`: every drive
+    /// reported standstill in a quick stop).
+    #[inline]
+    fn advance_phase(&mut self, all_stopped: bool) -> Step {
         match self.phase {
             Phase::Running => {
                 if self.input_done && self.interp.is_idle() {

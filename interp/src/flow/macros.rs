@@ -440,124 +440,25 @@ impl Interpreter {
         w: &mut Words,
         ijk: &[(char, MVal, Span)],
     ) -> Result<Option<After>, NcError> {
-        let err = |span: Span, m: String| NcError::new(&unit.src, span, m);
         if let Some(&(code, _, gspan)) = w.g.iter().find(|g| g.1 == GGroup::MacroCall) {
-            if let Some(other) = w.g.iter().find(|g| g.2 != gspan) {
-                return Err(err(
-                    other.2,
-                    format!("G{} cannot share a block with G{code}", other.0),
-                ));
-            }
-            // With G65/G66, M is argument #13 (it is not executed).
-            if let Some(m) = w.m.get(1) {
-                return Err(err(
-                    m.1,
-                    format!("address M given twice in a G{code} block"),
-                ));
-            }
-            let m_arg = w.m.first().map(|m| (m.1.start, f64::from(m.0)));
-            if code == 67 {
-                self.flow.modal_call = None;
-                return match w.first_unused() {
-                    Some((c, a)) => Err(err(a.span, format!("address {c} is not used with G67"))),
-                    None => Ok(None),
-                };
-            }
-            let Some(p) = w.take('P') else {
-                return Err(err(gspan, format!("G{code} needs P (the program number)"))
-                    .with_expected(format!("G{code} P9001 …")));
-            };
-            let number = whole(p.v)
-                .filter(|&n| n <= 9999)
-                .ok_or_else(|| err(p.span, format!("P{} is not a program number", fmt_num(p.v))))?;
-            let times = match w.take('L') {
-                Some(l) => whole(l.v).ok_or_else(|| {
-                    err(l.span, format!("L{} is not a repeat count", fmt_num(l.v)))
-                })?,
-                None => 1,
-            };
-            // (source offset, variable, value): a variable given twice (D and the second
-            // set's I are both #7) takes the later word, as Fanuc mixes the specifications.
-            let mut given = Vec::new();
-            for c in 'A'..='Z' {
-                if let Some(i) = arg_var(c)
-                    && let Some(a) = w.take(c)
-                {
-                    given.push((a.span.start, i, a.v));
-                }
-            }
-            if let Some((at, m)) = m_arg {
-                given.push((at, 13, m));
-            }
-            given.extend(spec2_vars(ijk).map_err(|s| {
-                err(
-                    s,
-                    format!("G{code}: more than 10 I/J/K sets (argument specification II)"),
-                )
-                .with_expected("at most I10 J10 K10 (#33)")
-            })?);
-            given.sort_by_key(|g| g.0);
-            let mut args = [None; 33];
-            for (_, i, v) in given {
-                args[i - 1] = Some(v);
-            }
-            if let Some((c, a)) = w.first_unused() {
-                return Err(
-                    err(a.span, format!("address {c} is not an argument of G{code}"))
-                        .with_expected(
-                            "A-F, H, I-K, M, Q-Z (argument specification I; I J K may repeat: II)",
-                        ),
-                );
-            }
-            if code == 65 {
-                self.call(number, times, Some(args), &unit.src, gspan)?;
-            } else {
-                // Check the program exists now, where the G66 is.
-                self.find_program(number, &unit.src, gspan)?;
-                self.flow.modal_call = Some(ModalCall {
-                    number,
-                    times,
-                    args,
-                    depth: self.flow.frames.len(),
-                });
-            }
+            self.macro_call(unit, w, ijk, code, gspan)?;
             return Ok(None);
         }
+        let src = &unit.src;
         let m98 = w.m.iter().find(|m| m.0 == 98).map(|m| m.1);
         let m99 = w.m.iter().find(|m| m.0 == 99).map(|m| m.1);
         if let (Some(_), Some(s)) = (m98, m99) {
-            return Err(err(s, "M98 and M99 in one block".into()));
+            return Err(NcError::new(src, s, "M98 and M99 in one block"));
         }
         w.m.retain(|m| m.0 != 98 && m.0 != 99);
         if let Some(span) = m98 {
-            let Some(p) = w.take('P') else {
-                return Err(
-                    err(span, "M98 needs P (the program number)".into()).with_expected("M98 P9001")
-                );
-            };
-            let pv = whole(p.v)
-                .ok_or_else(|| err(p.span, format!("P{} is not a program number", fmt_num(p.v))))?;
-            // Fanuc 0: more than four digits = repeat count, then the program number.
-            let (mut times, number) = if pv > 9999 {
-                (pv / 10000, pv % 10000)
-            } else {
-                (1, pv)
-            };
-            if let Some(l) = w.take('L') {
-                times = whole(l.v).ok_or_else(|| {
-                    err(l.span, format!("L{} is not a repeat count", fmt_num(l.v)))
-                })?;
-            }
-            return Ok(Some(After::Call {
-                number,
-                times,
-                span,
-            }));
+            return m98_call(src, w, span).map(Some);
         }
         if let Some(span) = m99 {
             let seq = match w.take('P') {
                 Some(p) => Some(whole(p.v).filter(|&n| n > 0).ok_or_else(|| {
-                    err(
+                    NcError::new(
+                        src,
                         p.span,
                         format!("P{} is not a sequence number", fmt_num(p.v)),
                     )
@@ -567,6 +468,62 @@ impl Interpreter {
             return Ok(Some(After::Return { seq, span }));
         }
         Ok(Some(After::Nothing))
+    }
+
+    /// A `G65`/`G66`/`G67` block (`code`, its G word at `gspan`): the block does nothing
+    /// else, so every other word must be an argument.
+    fn macro_call(
+        &mut self,
+        unit: &Unit,
+        w: &mut Words,
+        ijk: &[(char, MVal, Span)],
+        code: u32,
+        gspan: Span,
+    ) -> Result<(), NcError> {
+        let err = |span: Span, m: String| NcError::new(&unit.src, span, m);
+        if let Some(other) = w.g.iter().find(|g| g.2 != gspan) {
+            return Err(err(
+                other.2,
+                format!("G{} cannot share a block with G{code}", other.0),
+            ));
+        }
+        // With G65/G66, M is argument #13 (it is not executed).
+        if let Some(m) = w.m.get(1) {
+            return Err(err(
+                m.1,
+                format!("address M given twice in a G{code} block"),
+            ));
+        }
+        let m_arg = w.m.first().map(|m| (m.1.start, f64::from(m.0)));
+        if code == 67 {
+            self.flow.modal_call = None;
+            return match w.first_unused() {
+                Some((c, a)) => Err(err(a.span, format!("address {c} is not used with G67"))),
+                None => Ok(()),
+            };
+        }
+        let Some(p) = w.take('P') else {
+            return Err(err(gspan, format!("G{code} needs P (the program number)"))
+                .with_expected(format!("G{code} P9001 …")));
+        };
+        let number = whole(p.v)
+            .filter(|&n| n <= 9999)
+            .ok_or_else(|| err(p.span, format!("P{} is not a program number", fmt_num(p.v))))?;
+        let times = take_repeats(&unit.src, w)?.unwrap_or(1);
+        let args = macro_args(&unit.src, w, ijk, code, m_arg)?;
+        if code == 65 {
+            self.call(number, times, Some(args), &unit.src, gspan)?;
+        } else {
+            // Check the program exists now, where the G66 is.
+            self.find_program(number, &unit.src, gspan)?;
+            self.flow.modal_call = Some(ModalCall {
+                number,
+                times,
+                args,
+                depth: self.flow.frames.len(),
+            });
+        }
+        Ok(())
     }
 
     /// After a block's words: `M98` call, `M99` return, or a `G66` modal call.
@@ -712,6 +669,97 @@ impl Interpreter {
         let d = dest(self)?;
         self.write_var(d, Some(result)).map_err(|m| err(p_span, m))
     }
+}
+
+/// `M98 P… [L…]` (the M98 at `span`): the call to make after the block's own words.
+fn m98_call(src: &SourceFile, w: &mut Words, span: Span) -> Result<After, NcError> {
+    let Some(p) = w.take('P') else {
+        return Err(
+            NcError::new(src, span, "M98 needs P (the program number)").with_expected("M98 P9001")
+        );
+    };
+    let pv = whole(p.v).ok_or_else(|| {
+        NcError::new(
+            src,
+            p.span,
+            format!("P{} is not a program number", fmt_num(p.v)),
+        )
+    })?;
+    // Fanuc 0: more than four digits = repeat count, then the program number.
+    let (mut times, number) = if pv > 9999 {
+        (pv / 10000, pv % 10000)
+    } else {
+        (1, pv)
+    };
+    if let Some(l) = take_repeats(src, w)? {
+        times = l;
+    }
+    Ok(After::Call {
+        number,
+        times,
+        span,
+    })
+}
+
+/// The repeat count `L`, if the block gives one.
+fn take_repeats(src: &SourceFile, w: &mut Words) -> Result<Option<u32>, NcError> {
+    w.take('L')
+        .map(|l| {
+            whole(l.v).ok_or_else(|| {
+                NcError::new(
+                    src,
+                    l.span,
+                    format!("L{} is not a repeat count", fmt_num(l.v)),
+                )
+            })
+        })
+        .transpose()
+}
+
+/// The local variables `#1`…`#33` a `G<code>` call passes: its address words (specification
+/// I), its I/J/K sets (II) and M (`m_arg`, #13), each at its source offset; a variable given
+/// twice (D and the second set's I are both #7) takes the later word, as Fanuc mixes the
+/// specifications. Any word left over is an error.
+fn macro_args(
+    src: &SourceFile,
+    w: &mut Words,
+    ijk: &[(char, MVal, Span)],
+    code: u32,
+    m_arg: Option<(u32, f64)>,
+) -> Result<[MVal; 33], NcError> {
+    let err = |span: Span, m: String| NcError::new(src, span, m);
+    // (source offset, variable, value)
+    let mut given = Vec::new();
+    for c in 'A'..='Z' {
+        if let Some(i) = arg_var(c)
+            && let Some(a) = w.take(c)
+        {
+            given.push((a.span.start, i, a.v));
+        }
+    }
+    if let Some((at, m)) = m_arg {
+        given.push((at, 13, m));
+    }
+    given.extend(spec2_vars(ijk).map_err(|s| {
+        err(
+            s,
+            format!("G{code}: more than 10 I/J/K sets (argument specification II)"),
+        )
+        .with_expected("at most I10 J10 K10 (#33)")
+    })?);
+    given.sort_by_key(|g| g.0);
+    let mut args = [None; 33];
+    for (_, i, v) in given {
+        args[i - 1] = Some(v);
+    }
+    if let Some((c, a)) = w.first_unused() {
+        return Err(
+            err(a.span, format!("address {c} is not an argument of G{code}")).with_expected(
+                "A-F, H, I-K, M, Q-Z (argument specification I; I J K may repeat: II)",
+            ),
+        );
+    }
+    Ok(args)
 }
 
 /// The value of the old macro instruction `G65 H<code>` on Q and R, for the instructions that

@@ -38,6 +38,42 @@ pub(crate) fn compile(
     program: Program,
     mut library: Option<&mut dyn ProgramLibrary>,
 ) -> Result<Prog, NcError> {
+    let files = load(main, program, &mut library)?;
+    let (sigs, defs) = collect_functions(&files)?;
+    let sig_list = signatures(&defs);
+    let mut funcs = Vec::new();
+    for &(fid, fun) in &defs {
+        let mut cx = Cx::new(
+            cfg,
+            &files[fid],
+            fid,
+            &sigs,
+            &sig_list,
+            ty_of(fun.ret),
+            true,
+        );
+        funcs.push(cx.function(fun)?);
+    }
+    let mut bodies = Vec::new();
+    for (fid, f) in files.iter().enumerate() {
+        let mut cx = Cx::new(cfg, f, fid, &sigs, &sig_list, Ty::Void, false);
+        let body = cx.top_level()?;
+        bodies.push(funcs.len());
+        funcs.push(body);
+    }
+    Ok(Prog {
+        files: files.into_iter().map(|f| f.src).collect(),
+        funcs,
+        bodies,
+    })
+}
+
+/// `main` and every file it uses, `main` first.
+fn load(
+    main: SourceFile,
+    program: Program,
+    library: &mut Option<&mut dyn ProgramLibrary>,
+) -> Result<Vec<File>, NcError> {
     let mut files: Vec<File> = Vec::new();
     let mut keys: Vec<String> = Vec::new();
     let main = Arc::new(main);
@@ -51,11 +87,18 @@ pub(crate) fn compile(
         uses: HashMap::new(),
     });
     let mut stack = vec![0usize];
-    resolve_uses(0, &mut files, &mut keys, &mut stack, &mut library)?;
+    resolve_uses(0, &mut files, &mut keys, &mut stack, library)?;
+    Ok(files)
+}
 
-    // Functions of every file, by name.
+/// A function definition and the file it is in.
+type Def<'a> = (FileId, &'a cnc402_lang::ast::Function);
+
+/// The functions of every file (in file order), and each one's index by name; a function
+/// named like a built-in, or defined twice, is an error.
+fn collect_functions(files: &[File]) -> Result<(HashMap<String, usize>, Vec<Def<'_>>), NcError> {
     let mut sigs: HashMap<String, usize> = HashMap::new();
-    let mut defs: Vec<(FileId, &cnc402_lang::ast::Function)> = Vec::new();
+    let mut defs: Vec<Def<'_>> = Vec::new();
     for (fid, f) in files.iter().enumerate() {
         for line in &f.prog.lines {
             let LineKind::Stmts(stmts) = &line.kind else {
@@ -83,8 +126,12 @@ pub(crate) fn compile(
             }
         }
     }
-    let sig_list: Vec<(Ty, Vec<ParamTy>)> = defs
-        .iter()
+    Ok((sigs, defs))
+}
+
+/// Each function's return type and parameters, as declared (in `defs` order).
+fn signatures(defs: &[Def<'_>]) -> Vec<(Ty, Vec<ParamTy>)> {
+    defs.iter()
         .map(|(_, f)| {
             let ps = f.params.iter().map(|p| ParamTy {
                 ty: ty_of(p.ty),
@@ -93,65 +140,7 @@ pub(crate) fn compile(
             });
             (ty_of(f.ret), ps.collect())
         })
-        .collect();
-
-    let mut funcs = Vec::new();
-    for (fid, fun) in &defs {
-        let f = &files[*fid];
-        let mut cx = Cx::new(cfg, f, *fid, &sigs, &sig_list, ty_of(fun.ret), true);
-        cx.scopes.push(HashMap::new());
-        let mut params = Vec::new();
-        for p in &fun.params {
-            let ty = ty_of(p.ty);
-            if ty == Ty::Void {
-                return Err(cx.err(p.span, format!("parameter `{}` cannot be void", p.name)));
-            }
-            // Parameters take slots 0..n, in order: the executor stores the arguments there.
-            cx.declare(&p.name, ty, p.array, p.span)?;
-            if p.konst {
-                cx.make_const(&p.name);
-            }
-            params.push(ParamTy {
-                ty,
-                array: p.array,
-                konst: p.konst,
-            });
-        }
-        let body = cx.stmts(&fun.body)?;
-        funcs.push(Func {
-            name: fun.name.clone(),
-            file: *fid,
-            ret: ty_of(fun.ret),
-            params,
-            slots: cx.next_slot,
-            body,
-            span: fun.span,
-        });
-    }
-    let mut bodies = Vec::new();
-    for (fid, f) in files.iter().enumerate() {
-        let mut cx = Cx::new(cfg, f, fid, &sigs, &sig_list, Ty::Void, false);
-        cx.scopes.push(HashMap::new());
-        let mut body = Vec::new();
-        for line in &f.prog.lines {
-            cx.top_line(line, &mut body)?;
-        }
-        bodies.push(funcs.len());
-        funcs.push(Func {
-            name: f.src.name.to_string(),
-            file: fid,
-            ret: Ty::Void,
-            params: Vec::new(),
-            slots: cx.next_slot,
-            body,
-            span: Span::default(),
-        });
-    }
-    Ok(Prog {
-        files: files.into_iter().map(|f| f.src).collect(),
-        funcs,
-        bodies,
-    })
+        .collect()
 }
 
 /// Loads the files `files[id]` names with `#use` (depth first, in order), each once.
@@ -398,6 +387,57 @@ impl<'a> Cx<'a> {
         }
     }
 
+    /// Checks the function `fun` (this checker's file and return type are its own).
+    fn function(&mut self, fun: &cnc402_lang::ast::Function) -> Result<Func, NcError> {
+        self.scopes.push(HashMap::new());
+        let mut params = Vec::new();
+        for p in &fun.params {
+            let ty = ty_of(p.ty);
+            if ty == Ty::Void {
+                return Err(self.err(p.span, format!("parameter `{}` cannot be void", p.name)));
+            }
+            // Parameters take slots 0..n, in order: the executor stores the arguments there.
+            self.declare(&p.name, ty, p.array, p.span)?;
+            if p.konst {
+                self.make_const(&p.name);
+            }
+            params.push(ParamTy {
+                ty,
+                array: p.array,
+                konst: p.konst,
+            });
+        }
+        let body = self.stmts(&fun.body)?;
+        Ok(Func {
+            name: fun.name.clone(),
+            file: self.fid,
+            ret: ty_of(fun.ret),
+            params,
+            slots: self.next_slot,
+            body,
+            span: fun.span,
+        })
+    }
+
+    /// Checks this checker's file's top level, as the function the file runs as.
+    fn top_level(&mut self) -> Result<Func, NcError> {
+        self.scopes.push(HashMap::new());
+        let file = self.file;
+        let mut body = Vec::new();
+        for line in &file.prog.lines {
+            self.top_line(line, &mut body)?;
+        }
+        Ok(Func {
+            name: file.src.name.to_string(),
+            file: self.fid,
+            ret: Ty::Void,
+            params: Vec::new(),
+            slots: self.next_slot,
+            body,
+            span: Span::default(),
+        })
+    }
+
     /// One line of a file's top level.
     fn top_line(&mut self, line: &Line, out: &mut Vec<St>) -> Result<(), NcError> {
         match &line.kind {
@@ -457,83 +497,8 @@ impl<'a> Cx<'a> {
                     "functions are defined at the top level of a file, not inside a statement",
                 ));
             }
-            StmtKind::Decl { ty, vars } => {
-                let ty = ty_of(*ty);
-                if ty == Ty::Void {
-                    return Err(self.err(s.span, "a variable cannot be void"));
-                }
-                let mut out = Vec::new();
-                for d in vars {
-                    let size = match &d.size {
-                        Some(e) => {
-                            let (x, t) = self.expr(e)?;
-                            if !matches!(t, Ty::Int | Ty::Dyn) {
-                                return Err(self.err(
-                                    e.span,
-                                    format!("an array size must be an int, not {}", t.name()),
-                                ));
-                            }
-                            if d.init.is_some() {
-                                return Err(self.err(d.span, "an array cannot have an initialiser"));
-                            }
-                            Some(x)
-                        }
-                        None => None,
-                    };
-                    let init = match &d.init {
-                        Some(e) => {
-                            let (x, t) = self.expr(e)?;
-                            self.assignable(ty, t, e.span, &d.name)?;
-                            Some(x)
-                        }
-                        None => None,
-                    };
-                    // Declared after its initialiser is checked: `int a = a;` is an error.
-                    let slot = self.declare(&d.name, ty, size.is_some(), d.span)?;
-                    out.push(St::Decl {
-                        slot,
-                        ty,
-                        size,
-                        init,
-                        span: d.span,
-                    });
-                }
-                if out.len() == 1 {
-                    out.pop().expect("one")
-                } else {
-                    // Several declarators: keep them in the enclosing scope, in order.
-                    St::If(Ex::Lit(Val::Bool(true)), out, Vec::new())
-                }
-            }
-            StmtKind::Assign { target, op, value } => {
-                if let Some((n, _)) = self.array_named(target) {
-                    return Err(self.err(
-                        target.span,
-                        format!("`{n}` is an array: assign an element (C cannot assign arrays)"),
-                    ));
-                }
-                let (v, vt) = self.expr(value)?;
-                let (tg, tt, name) = self.target(target)?;
-                if *op == AssignOp::Set {
-                    self.assignable(tt, vt, value.span, &name)?;
-                } else {
-                    let bop = match op {
-                        AssignOp::Add => BinaryOp::Add,
-                        AssignOp::Sub => BinaryOp::Sub,
-                        AssignOp::Mul => BinaryOp::Mul,
-                        AssignOp::Div => BinaryOp::Div,
-                        _ => BinaryOp::Mod,
-                    };
-                    let rt = self.bin_type(bop, tt, vt, s.span)?;
-                    self.assignable(tt, rt, value.span, &name)?;
-                }
-                St::Set {
-                    target: tg,
-                    op: *op,
-                    value: v,
-                    span: s.span,
-                }
-            }
+            StmtKind::Decl { ty, vars } => self.decl(*ty, vars, s.span)?,
+            StmtKind::Assign { target, op, value } => self.assign(target, *op, value, s.span)?,
             StmtKind::Call(e) => St::Eval(self.expr(e)?.0),
             StmtKind::If {
                 cond,
@@ -562,24 +527,13 @@ impl<'a> Cx<'a> {
                 body,
             } => {
                 self.scopes.push(HashMap::new());
-                let r = (|| {
-                    let i = match init {
-                        Some(i) => vec![self.stmt(i)?],
-                        None => Vec::new(),
-                    };
-                    let c = match cond {
-                        Some(c) => Some(self.cond(c)?),
-                        None => None,
-                    };
-                    let st = match step {
-                        Some(s) => vec![self.stmt(s)?],
-                        None => Vec::new(),
-                    };
-                    self.loops += 1;
-                    let b = self.scoped(body);
-                    self.loops -= 1;
-                    Ok(St::For(i, c, st, b?, s.span))
-                })();
+                let r = self.for_loop(
+                    init.as_deref(),
+                    cond.as_ref(),
+                    step.as_deref(),
+                    body,
+                    s.span,
+                );
                 self.scopes.pop();
                 r?
             }
@@ -599,43 +553,162 @@ impl<'a> Cx<'a> {
                     St::Continue
                 }
             }
-            StmtKind::Return(e) => {
-                if !self.in_function {
-                    return Err(self.err(
-                        s.span,
-                        "return outside a function (end the program with M02 or terminate())",
-                    ));
-                }
-                match (e, self.ret) {
-                    (None, Ty::Void) => St::Return(None),
-                    (None, t) => {
-                        return Err(self.err(
-                            s.span,
-                            format!("this function returns {}: `return` needs a value", t.name()),
-                        ));
-                    }
-                    (Some(e), Ty::Void) => {
-                        return Err(self.err(e.span, "a void function returns no value"));
-                    }
-                    (Some(e), t) => {
-                        if let Some((n, _)) = self.array_named(e) {
-                            return Err(self.err(
-                                e.span,
-                                format!(
-                                    "a function cannot return an array (C cannot either): \
-                                     `{n}` is an array; pass one as a parameter to fill, \
-                                     `void f(double a[])`"
-                                ),
-                            ));
-                        }
-                        let (x, xt) = self.expr(e)?;
-                        self.assignable(t, xt, e.span, "the return value")?;
-                        St::Return(Some(x))
-                    }
-                }
-            }
+            StmtKind::Return(e) => self.return_stmt(e.as_ref(), s.span)?,
             StmtKind::Gcode(line) => self.gcode(line)?,
         })
+    }
+
+    /// `ty a, b[n], c = e;`: one `St::Decl` per declarator, each declared after its own
+    /// size and initialiser are checked.
+    fn decl(
+        &mut self,
+        ty: Type,
+        vars: &[cnc402_lang::ast::Declarator],
+        span: Span,
+    ) -> Result<St, NcError> {
+        let ty = ty_of(ty);
+        if ty == Ty::Void {
+            return Err(self.err(span, "a variable cannot be void"));
+        }
+        let mut out = Vec::new();
+        for d in vars {
+            let size = match &d.size {
+                Some(e) => {
+                    let (x, t) = self.expr(e)?;
+                    if !matches!(t, Ty::Int | Ty::Dyn) {
+                        return Err(self.err(
+                            e.span,
+                            format!("an array size must be an int, not {}", t.name()),
+                        ));
+                    }
+                    if d.init.is_some() {
+                        return Err(self.err(d.span, "an array cannot have an initialiser"));
+                    }
+                    Some(x)
+                }
+                None => None,
+            };
+            let init = match &d.init {
+                Some(e) => {
+                    let (x, t) = self.expr(e)?;
+                    self.assignable(ty, t, e.span, &d.name)?;
+                    Some(x)
+                }
+                None => None,
+            };
+            // Declared after its initialiser is checked: `int a = a;` is an error.
+            let slot = self.declare(&d.name, ty, size.is_some(), d.span)?;
+            out.push(St::Decl {
+                slot,
+                ty,
+                size,
+                init,
+                span: d.span,
+            });
+        }
+        Ok(if out.len() == 1 {
+            out.pop().expect("one")
+        } else {
+            // Several declarators: keep them in the enclosing scope, in order.
+            St::If(Ex::Lit(Val::Bool(true)), out, Vec::new())
+        })
+    }
+
+    /// `target op value;` (the statement at `span`).
+    fn assign(
+        &mut self,
+        target: &Expr,
+        op: AssignOp,
+        value: &Expr,
+        span: Span,
+    ) -> Result<St, NcError> {
+        if let Some((n, _)) = self.array_named(target) {
+            return Err(self.err(
+                target.span,
+                format!("`{n}` is an array: assign an element (C cannot assign arrays)"),
+            ));
+        }
+        let (v, vt) = self.expr(value)?;
+        let (tg, tt, name) = self.target(target)?;
+        if op == AssignOp::Set {
+            self.assignable(tt, vt, value.span, &name)?;
+        } else {
+            let bop = match op {
+                AssignOp::Add => BinaryOp::Add,
+                AssignOp::Sub => BinaryOp::Sub,
+                AssignOp::Mul => BinaryOp::Mul,
+                AssignOp::Div => BinaryOp::Div,
+                _ => BinaryOp::Mod,
+            };
+            let rt = self.bin_type(bop, tt, vt, span)?;
+            self.assignable(tt, rt, value.span, &name)?;
+        }
+        Ok(St::Set {
+            target: tg,
+            op,
+            value: v,
+            span,
+        })
+    }
+
+    /// `for (init; cond; step) body`, inside the scope the caller opened for `init`.
+    fn for_loop(
+        &mut self,
+        init: Option<&Stmt>,
+        cond: Option<&Expr>,
+        step: Option<&Stmt>,
+        body: &Stmt,
+        span: Span,
+    ) -> Result<St, NcError> {
+        let i = match init {
+            Some(i) => vec![self.stmt(i)?],
+            None => Vec::new(),
+        };
+        let c = match cond {
+            Some(c) => Some(self.cond(c)?),
+            None => None,
+        };
+        let st = match step {
+            Some(s) => vec![self.stmt(s)?],
+            None => Vec::new(),
+        };
+        self.loops += 1;
+        let b = self.scoped(body);
+        self.loops -= 1;
+        Ok(St::For(i, c, st, b?, span))
+    }
+
+    /// `return;` or `return e;` (at `span`), checked against the function's return type.
+    fn return_stmt(&mut self, e: Option<&Expr>, span: Span) -> Result<St, NcError> {
+        if !self.in_function {
+            return Err(self.err(
+                span,
+                "return outside a function (end the program with M02 or terminate())",
+            ));
+        }
+        match (e, self.ret) {
+            (None, Ty::Void) => Ok(St::Return(None)),
+            (None, t) => Err(self.err(
+                span,
+                format!("this function returns {}: `return` needs a value", t.name()),
+            )),
+            (Some(e), Ty::Void) => Err(self.err(e.span, "a void function returns no value")),
+            (Some(e), t) => {
+                if let Some((n, _)) = self.array_named(e) {
+                    return Err(self.err(
+                        e.span,
+                        format!(
+                            "a function cannot return an array (C cannot either): \
+                             `{n}` is an array; pass one as a parameter to fill, \
+                             `void f(double a[])`"
+                        ),
+                    ));
+                }
+                let (x, xt) = self.expr(e)?;
+                self.assignable(t, xt, e.span, "the return value")?;
+                Ok(St::Return(Some(x)))
+            }
+        }
     }
 
     /// Whether a value of type `src` may be stored where `dst` is declared.
@@ -763,115 +836,14 @@ impl<'a> Cx<'a> {
     fn expr(&mut self, e: &Expr) -> Result<(Ex, Ty), NcError> {
         let sp = e.span;
         Ok(match &e.kind {
-            ExprKind::Number(v) => {
-                let text = self.file.src.text.get(sp.range()).unwrap_or("");
-                // Whole-number literals are ints from their digits (the parsed f64 loses
-                // precision above 2^53); beyond i64 they stay doubles.
-                let digits = text.trim();
-                let exact = (!digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()))
-                    .then(|| digits.parse::<i64>().ok())
-                    .flatten();
-                let is_int = !text.contains(['.', 'e', 'E']) && v.fract() == 0.0 && v.abs() < 9e15;
-                match exact {
-                    Some(i) => (Ex::Lit(Val::Int(i)), Ty::Int),
-                    None if is_int => (Ex::Lit(Val::Int(*v as i64)), Ty::Int),
-                    None => (Ex::Lit(Val::Dbl(*v)), Ty::Double),
-                }
-            }
+            ExprKind::Number(v) => self.number(*v, sp),
             ExprKind::Str(s) => (Ex::Lit(Val::Str(Arc::from(s.as_str()))), Ty::Str),
             ExprKind::Bool(b) => (Ex::Lit(Val::Bool(*b)), Ty::Bool),
-            ExprKind::Ident(n) => match self.lookup(n) {
-                Some(v) if v.array => {
-                    return Err(
-                        self.err(sp, format!("`{n}` is an array: use an element, `{n}[i]`"))
-                    );
-                }
-                Some(v) => (Ex::Local(v.slot), v.ty),
-                None if n == "M_PI" => (Ex::Lit(Val::Dbl(std::f64::consts::PI)), Ty::Double),
-                None => {
-                    let hint = if self.in_function {
-                        " (functions see only their parameters, their locals and $globals)"
-                    } else {
-                        ""
-                    };
-                    return Err(self.err(sp, format!("undefined name `{n}`{hint}")));
-                }
-            },
+            ExprKind::Ident(n) => self.ident(n, sp)?,
             ExprKind::Global(n) => (Ex::Global(n.as_str().into(), None, sp), Ty::Dyn),
-            ExprKind::SysVar(n) => {
-                let u = n.to_ascii_uppercase();
-                if u == "ITPPATH" {
-                    (Ex::Sys(Sys::ItpPath, sp), Ty::Double)
-                } else if let Some(i) = (u.len() == 1)
-                    .then(|| u.chars().next().and_then(|c| self.cfg.axis_index(c)))
-                    .flatten()
-                {
-                    (Ex::Sys(Sys::Axis(i), sp), Ty::Double)
-                } else {
-                    return Err(self.err(
-                        sp,
-                        format!(
-                            "unknown system variable @{n} (known: @ITPPATH, @<axis> such as @{}, \
-                             @POS[name], @CH[n].MODE, @CH[n].STATE)",
-                            self.cfg.axes.first().map_or('X', |a| a.name)
-                        ),
-                    ));
-                }
-            }
-            ExprKind::Index(a, i) => {
-                let (ix, it) = self.expr(i)?;
-                match &a.kind {
-                    ExprKind::SysVar(n) if n.eq_ignore_ascii_case("POS") => {
-                        if !matches!(it, Ty::Str | Ty::Dyn) {
-                            return Err(self.err(i.span, "@POS[…] takes an axis name (a string)"));
-                        }
-                        (Ex::Sys(Sys::AxisByName(Box::new(ix)), sp), Ty::Double)
-                    }
-                    ExprKind::SysVar(n) if n.eq_ignore_ascii_case("CH") => {
-                        return Err(
-                            self.err(sp, "@CH[n] needs a field: @CH[n].MODE or @CH[n].STATE")
-                        );
-                    }
-                    _ => {
-                        self.check_index(i.span, it)?;
-                        match &a.kind {
-                            ExprKind::Ident(n) => {
-                                let v = self.lookup_array(n, a.span)?;
-                                (Ex::Elem(v.slot, v.ty, Box::new(ix), sp), v.ty)
-                            }
-                            ExprKind::Global(n) => (
-                                Ex::Global(n.as_str().into(), Some(Box::new(ix)), sp),
-                                Ty::Dyn,
-                            ),
-                            _ => return Err(self.err(sp, "only arrays can be indexed")),
-                        }
-                    }
-                }
-            }
-            ExprKind::Field(base, field) => {
-                let ExprKind::Index(ch, n) = &base.kind else {
-                    return Err(self.err(sp, format!("unknown field .{field}")));
-                };
-                if !matches!(&ch.kind, ExprKind::SysVar(c) if c.eq_ignore_ascii_case("CH")) {
-                    return Err(self.err(sp, format!("unknown field .{field}")));
-                }
-                let (nx, nt) = self.expr(n)?;
-                if !nt.numeric() {
-                    return Err(self.err(n.span, "a channel number is an int"));
-                }
-                let f = field.to_ascii_uppercase();
-                let sys = match f.as_str() {
-                    "MODE" => Sys::ChMode(Box::new(nx)),
-                    "STATE" => Sys::ChState(Box::new(nx)),
-                    _ => {
-                        return Err(self.err(
-                            sp,
-                            format!("unknown channel field .{field} (known: .MODE, .STATE)"),
-                        ));
-                    }
-                };
-                (Ex::Sys(sys, sp), Ty::Int)
-            }
+            ExprKind::SysVar(n) => self.sys_var(n, sp)?,
+            ExprKind::Index(a, i) => self.index(a, i, sp)?,
+            ExprKind::Field(base, field) => self.channel_field(base, field, sp)?,
             ExprKind::Unary(op, x) => {
                 let (v, t) = self.expr(x)?;
                 if !t.numeric() {
@@ -913,6 +885,120 @@ impl<'a> Cx<'a> {
                 ));
             }
         })
+    }
+
+    /// A number literal (parsed as `v`, written at `sp`): an int if written as a whole number.
+    fn number(&self, v: f64, sp: Span) -> (Ex, Ty) {
+        let text = self.file.src.text.get(sp.range()).unwrap_or("");
+        // Whole-number literals are ints from their digits (the parsed f64 loses
+        // precision above 2^53); beyond i64 they stay doubles.
+        let digits = text.trim();
+        let exact = (!digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()))
+            .then(|| digits.parse::<i64>().ok())
+            .flatten();
+        let is_int = !text.contains(['.', 'e', 'E']) && v.fract() == 0.0 && v.abs() < 9e15;
+        match exact {
+            Some(i) => (Ex::Lit(Val::Int(i)), Ty::Int),
+            None if is_int => (Ex::Lit(Val::Int(v as i64)), Ty::Int),
+            None => (Ex::Lit(Val::Dbl(v)), Ty::Double),
+        }
+    }
+
+    /// A name read as a value: a local (not a whole array) or `M_PI`.
+    fn ident(&self, n: &str, sp: Span) -> Result<(Ex, Ty), NcError> {
+        match self.lookup(n) {
+            Some(v) if v.array => {
+                Err(self.err(sp, format!("`{n}` is an array: use an element, `{n}[i]`")))
+            }
+            Some(v) => Ok((Ex::Local(v.slot), v.ty)),
+            None if n == "M_PI" => Ok((Ex::Lit(Val::Dbl(std::f64::consts::PI)), Ty::Double)),
+            None => {
+                let hint = if self.in_function {
+                    " (functions see only their parameters, their locals and $globals)"
+                } else {
+                    ""
+                };
+                Err(self.err(sp, format!("undefined name `{n}`{hint}")))
+            }
+        }
+    }
+
+    /// `@n` without an index: `@ITPPATH` or an axis (`@X`).
+    fn sys_var(&self, n: &str, sp: Span) -> Result<(Ex, Ty), NcError> {
+        let u = n.to_ascii_uppercase();
+        if u == "ITPPATH" {
+            Ok((Ex::Sys(Sys::ItpPath, sp), Ty::Double))
+        } else if let Some(i) = (u.len() == 1)
+            .then(|| u.chars().next().and_then(|c| self.cfg.axis_index(c)))
+            .flatten()
+        {
+            Ok((Ex::Sys(Sys::Axis(i), sp), Ty::Double))
+        } else {
+            Err(self.err(
+                sp,
+                format!(
+                    "unknown system variable @{n} (known: @ITPPATH, @<axis> such as @{}, \
+                     @POS[name], @CH[n].MODE, @CH[n].STATE)",
+                    self.cfg.axes.first().map_or('X', |a| a.name)
+                ),
+            ))
+        }
+    }
+
+    /// `a[i]` read as a value: an element of a local or `$` array, or `@POS[name]`.
+    fn index(&mut self, a: &Expr, i: &Expr, sp: Span) -> Result<(Ex, Ty), NcError> {
+        let (ix, it) = self.expr(i)?;
+        match &a.kind {
+            ExprKind::SysVar(n) if n.eq_ignore_ascii_case("POS") => {
+                if !matches!(it, Ty::Str | Ty::Dyn) {
+                    return Err(self.err(i.span, "@POS[…] takes an axis name (a string)"));
+                }
+                Ok((Ex::Sys(Sys::AxisByName(Box::new(ix)), sp), Ty::Double))
+            }
+            ExprKind::SysVar(n) if n.eq_ignore_ascii_case("CH") => {
+                Err(self.err(sp, "@CH[n] needs a field: @CH[n].MODE or @CH[n].STATE"))
+            }
+            _ => {
+                self.check_index(i.span, it)?;
+                match &a.kind {
+                    ExprKind::Ident(n) => {
+                        let v = self.lookup_array(n, a.span)?;
+                        Ok((Ex::Elem(v.slot, v.ty, Box::new(ix), sp), v.ty))
+                    }
+                    ExprKind::Global(n) => Ok((
+                        Ex::Global(n.as_str().into(), Some(Box::new(ix)), sp),
+                        Ty::Dyn,
+                    )),
+                    _ => Err(self.err(sp, "only arrays can be indexed")),
+                }
+            }
+        }
+    }
+
+    /// `base.field`: only `@CH[n].MODE` and `@CH[n].STATE` exist.
+    fn channel_field(&mut self, base: &Expr, field: &str, sp: Span) -> Result<(Ex, Ty), NcError> {
+        let ExprKind::Index(ch, n) = &base.kind else {
+            return Err(self.err(sp, format!("unknown field .{field}")));
+        };
+        if !matches!(&ch.kind, ExprKind::SysVar(c) if c.eq_ignore_ascii_case("CH")) {
+            return Err(self.err(sp, format!("unknown field .{field}")));
+        }
+        let (nx, nt) = self.expr(n)?;
+        if !nt.numeric() {
+            return Err(self.err(n.span, "a channel number is an int"));
+        }
+        let f = field.to_ascii_uppercase();
+        let sys = match f.as_str() {
+            "MODE" => Sys::ChMode(Box::new(nx)),
+            "STATE" => Sys::ChState(Box::new(nx)),
+            _ => {
+                return Err(self.err(
+                    sp,
+                    format!("unknown channel field .{field} (known: .MODE, .STATE)"),
+                ));
+            }
+        };
+        Ok((Ex::Sys(sys, sp), Ty::Int))
     }
 
     fn call(&mut self, name: &str, args: &[Expr], sp: Span) -> Result<(Ex, Ty), NcError> {
@@ -1077,7 +1163,6 @@ impl<'a> Cx<'a> {
             }
             named.push((ax, v, n.span));
         }
-        let _ = self.fid;
         Ok(St::Gcode(Box::new(GLine {
             line: Line {
                 kind: LineKind::Empty,
