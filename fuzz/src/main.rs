@@ -96,13 +96,12 @@ fn files_in(dir: &Path, exts: &[&str], out: &mut Vec<Vec<u8>>) {
     for p in paths {
         if p.is_dir() {
             files_in(&p, exts, out);
-        } else if exts.is_empty()
+        } else if (exts.is_empty()
             || p.extension()
-                .is_some_and(|x| exts.iter().any(|e| x.eq_ignore_ascii_case(e)))
+                .is_some_and(|x| exts.iter().any(|e| x.eq_ignore_ascii_case(e))))
+            && let Ok(b) = std::fs::read(&p)
         {
-            if let Ok(b) = std::fs::read(&p) {
-                out.push(b);
-            }
+            out.push(b);
         }
     }
 }
