@@ -11,7 +11,7 @@ use cnc402_lang::SourceFile;
 use crate::block::Options;
 use crate::flow::Interpreter;
 use crate::host::{PersistentVars, ProgramLibrary, UsedFile};
-use crate::vars::nv::{NvTable, VarFileError};
+use crate::vars::nv::{self, NV_FIRST, NV_LAST, NvTable, VarFileError};
 
 /// Extensions a program file may have (compared case-insensitively).
 pub const PROGRAM_EXTENSIONS: &[&str] = &["nc", "cnc", "ngc", "tap", "txt", "mpf", "spf"];
@@ -169,10 +169,18 @@ impl ProgramLibrary for FsLibrary {
     }
 }
 
-/// The interpreter's [`PersistentVars`] on a file.
+/// The interpreter's [`PersistentVars`] on a file, shared with other writers (`cnc402 vars
+/// set` during a run, another run): each store is an [`nv::update`] that writes only the
+/// variables this program changed since the store last read or wrote them, merged into the
+/// file as it is now. A variable written from outside meanwhile keeps the outside value
+/// unless the program writes it again (per variable, the last writer wins); the program sees
+/// outside values when the table is read again (at the resume of a program stop).
 #[derive(Clone, Debug)]
 pub struct FileVarStore {
     pub path: PathBuf,
+    /// The table as the program last gave it to this store (or as opened): what it has
+    /// changed since is what differs from this.
+    seen: NvTable,
 }
 
 impl FileVarStore {
@@ -180,15 +188,37 @@ impl FileVarStore {
     pub fn open(path: impl Into<PathBuf>) -> Result<(Self, NvTable), VarFileError> {
         let path = path.into();
         let t = NvTable::load(&path)?;
-        Ok((FileVarStore { path }, t))
+        Ok((
+            FileVarStore {
+                path,
+                seen: t.clone(),
+            },
+            t,
+        ))
+    }
+
+    /// Merges into the file the variables of `vars` that differ from what this store last
+    /// saw, and `#written` if given (a write of an unchanged value still wins).
+    fn merge(&mut self, written: Option<u32>, vars: &[Option<f64>]) -> Result<(), String> {
+        let now = NvTable::from_slice(vars);
+        let same = |a: Option<f64>, b: Option<f64>| a.map(f64::to_bits) == b.map(f64::to_bits);
+        let changed: Vec<(u32, Option<f64>)> = (NV_FIRST..=NV_LAST)
+            .filter(|&n| Some(n) == written || !same(now.get(n), self.seen.get(n)))
+            .map(|n| (n, now.get(n)))
+            .collect();
+        nv::set_vars(&self.path, &changed).map_err(|e| e.to_string())?;
+        self.seen = now;
+        Ok(())
     }
 }
 
 impl PersistentVars for FileVarStore {
     fn store(&mut self, vars: &[Option<f64>]) -> Result<(), String> {
-        NvTable::from_slice(vars)
-            .save(&self.path)
-            .map_err(|e| e.to_string())
+        self.merge(None, vars)
+    }
+
+    fn store_write(&mut self, n: u32, vars: &[Option<f64>]) -> Result<(), String> {
+        self.merge(Some(n), vars)
     }
 }
 
@@ -203,11 +233,18 @@ pub enum VarsAccess {
 
 /// Gives `it` the non-volatile variables of the config's `interp.variables_file` (nothing if
 /// the config names none). A damaged file is not an error here: it becomes the first
-/// `next_segment` error of every program `it` loads, at the main file.
+/// `next_segment` error of every program `it` loads, at the main file. With
+/// [`VarsAccess::Write`] the start also removes temporary files a writer killed mid-save left
+/// (see [`nv::WriteLock::acquire`]).
 pub fn attach_variables_file(it: &mut Interpreter, cfg: &MachineConfig, access: VarsAccess) {
     let Some(path) = cfg.variables_file() else {
         return;
     };
+    if access == VarsAccess::Write {
+        // Best effort: a folder where the lock cannot be taken fails the program's first
+        // write with that error at its line; a program that writes nothing must still run.
+        drop(nv::WriteLock::acquire(&path));
+    }
     match FileVarStore::open(&path) {
         Ok((store, table)) => {
             let store: Option<Box<dyn PersistentVars>> = match access {
