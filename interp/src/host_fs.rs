@@ -282,6 +282,69 @@ pub fn run_program(
 mod tests {
     use super::*;
 
+    fn fresh_file(tag: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("cnc402-host-fs-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join("vars.txt")
+    }
+
+    /// Steps `it` until the `nth` dwell (1-based) has been given out.
+    fn to_dwell(it: &mut Interpreter, nth: usize) {
+        let mut seen = 0;
+        while seen < nth {
+            let seg = it.next_segment().unwrap().expect("program ended early");
+            if matches!(seg.kind, cnc402_motion::segment::SegmentKind::Dwell { .. }) {
+                seen += 1;
+            }
+        }
+    }
+
+    #[test]
+    fn vars_set_during_a_run_is_not_overwritten_by_the_runs_next_save() {
+        let path = fresh_file("merge");
+        nv::set_vars(&path, &[(510, Some(5.0))]).unwrap();
+        let mut cfg = MachineConfig::default_machine();
+        cfg.interp.variables_file = Some(path.clone());
+        let mut it = Interpreter::new(&cfg);
+        attach_variables_file(&mut it, &cfg, VarsAccess::Write);
+        // The program writes #500 between dwells and re-writes #503 with the value it holds.
+        let text = "#500=1\n#503=4\nG4 P10\n#500=2\nG4 P10\n#500=3\n#503=#503\nG4 P10\nM30\n";
+        let src = SourceFile::new("p.nc", text);
+        it.load(src.clone(), cnc402_lang::parse(&src).unwrap());
+        to_dwell(&mut it, 1);
+        // The operator, while the program runs: a variable the program never writes, one it
+        // writes again later (#500: the program's later write wins) and one it writes again
+        // with the value it already had (#503: still the program's, the last writer).
+        let at_set =
+            nv::set_vars(&path, &[(501, Some(7.0)), (500, Some(99.0)), (503, Some(8.0))])
+                .unwrap();
+        assert!(at_set.get(500) == Some(99.0), "{at_set:?}");
+        while it.next_segment().unwrap().is_some() {}
+        let t = NvTable::load(&path).unwrap();
+        let got: Vec<_> = t.iter().collect();
+        assert_eq!(got, [(500, 3.0), (501, 7.0), (503, 4.0), (510, 5.0)]);
+        // What the operator set is what the program reads once the table is read again.
+        assert_eq!(it.var(501), None, "not seen before a re-read");
+        std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
+    }
+
+    #[test]
+    fn a_store_of_the_whole_table_keeps_outside_values_the_program_did_not_change() {
+        let path = fresh_file("untouched");
+        nv::set_vars(&path, &[(520, Some(1.0))]).unwrap();
+        let (mut store, _) = FileVarStore::open(&path).unwrap();
+        nv::set_vars(&path, &[(521, Some(2.0))]).unwrap();
+        // The store's table still has #521 vacant: unchanged, so the outside value stays.
+        let mut vars = vec![None; (NV_LAST - NV_FIRST + 1) as usize];
+        vars[20] = Some(1.0);
+        store.store(&vars).unwrap();
+        let t = NvTable::load(&path).unwrap();
+        assert_eq!((t.get(520), t.get(521)), (Some(1.0), Some(2.0)));
+        std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
+    }
+
     #[test]
     fn program_files_match_case_insensitively() {
         let n = |s: &str| matches_name(Path::new(s), &["o9001".into(), "o9001".into()]);

@@ -427,4 +427,63 @@ mod tests {
         assert_eq!(NvTable::load(&p).unwrap(), NvTable::default());
         fs::remove_dir_all(&dir).unwrap();
     }
+
+    fn fresh_dir(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("cnc402-nv-{tag}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn concurrent_set_vars_of_different_variables_lose_none() {
+        // Each thread opens its own lock file handle (flock is per open file), as separate
+        // processes would; tests/vars_cli.rs does the same with `cnc402 vars set` processes.
+        let dir = fresh_dir("threads");
+        let p = dir.join("vars.txt");
+        const WRITERS: u32 = 4;
+        const SETS: u32 = 40;
+        std::thread::scope(|s| {
+            for w in 0..WRITERS {
+                let p = &p;
+                s.spawn(move || {
+                    for i in 1..=SETS {
+                        set_vars(p, &[(500 + w, Some(f64::from(i)))]).unwrap();
+                    }
+                });
+            }
+        });
+        let t = NvTable::load(&p).unwrap();
+        for w in 0..WRITERS {
+            assert_eq!(t.get(500 + w), Some(f64::from(SETS)), "#{}", 500 + w);
+        }
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn stale_temp_files_are_removed_by_the_next_writer_and_nothing_else() {
+        let dir = fresh_dir("stale");
+        let p = dir.join("vars.txt");
+        let stale = [".vars.txt.tmp123", ".vars.txt.tmp7"];
+        let others = [
+            ".vars.txt.tmp",
+            ".vars.txt.tmpx1",
+            "vars.txt.tmp5",
+            ".other.txt.tmp5",
+            ".vars.txt.lock2",
+        ];
+        for f in stale.iter().chain(&others) {
+            fs::write(dir.join(f), "x").unwrap();
+        }
+        set_vars(&p, &[(500, Some(1.0))]).unwrap();
+        for f in stale {
+            assert!(!dir.join(f).exists(), "{f} left");
+        }
+        for f in others {
+            assert!(dir.join(f).exists(), "{f} removed");
+        }
+        assert!(is_temp_file_of("v", ".v.tmp0"));
+        assert!(!is_temp_file_of("v", ".v.tmp0a"));
+        fs::remove_dir_all(&dir).unwrap();
+    }
 }
