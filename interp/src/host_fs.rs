@@ -283,8 +283,7 @@ mod tests {
     use super::*;
 
     fn fresh_file(tag: &str) -> PathBuf {
-        let dir =
-            std::env::temp_dir().join(format!("cnc402-host-fs-{tag}-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("cnc402-host-fs-{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         dir.join("vars.txt")
@@ -317,9 +316,11 @@ mod tests {
         // The operator, while the program runs: a variable the program never writes, one it
         // writes again later (#500: the program's later write wins) and one it writes again
         // with the value it already had (#503: still the program's, the last writer).
-        let at_set =
-            nv::set_vars(&path, &[(501, Some(7.0)), (500, Some(99.0)), (503, Some(8.0))])
-                .unwrap();
+        let at_set = nv::set_vars(
+            &path,
+            &[(501, Some(7.0)), (500, Some(99.0)), (503, Some(8.0))],
+        )
+        .unwrap();
         assert!(at_set.get(500) == Some(99.0), "{at_set:?}");
         while it.next_segment().unwrap().is_some() {}
         let t = NvTable::load(&path).unwrap();
