@@ -1,6 +1,7 @@
 //! `cnc402 vars`: list, set and clear the non-volatile macro variables `#500–#999` kept in
 //! `interp.variables_file`, so that an operator fills parameter pages (source 001) without a
-//! program. Every change is written durably (see `cnc402_interp::nvfile`).
+//! program. Every change is a locked read-modify-write of the file, durable and merged with
+//! other writers such as a running program (see `cnc402_interp::nvfile`).
 
 use std::path::{Path, PathBuf};
 

@@ -11,7 +11,7 @@ use cnc402_lang::SourceFile;
 use crate::block::Options;
 use crate::flow::Interpreter;
 use crate::host::{PersistentVars, ProgramLibrary, UsedFile};
-use crate::vars::nv::{NvTable, VarFileError};
+use crate::vars::nv::{self, NV_FIRST, NV_LAST, NvTable, VarFileError};
 
 /// Extensions a program file may have (compared case-insensitively).
 pub const PROGRAM_EXTENSIONS: &[&str] = &["nc", "cnc", "ngc", "tap", "txt", "mpf", "spf"];
@@ -169,10 +169,18 @@ impl ProgramLibrary for FsLibrary {
     }
 }
 
-/// The interpreter's [`PersistentVars`] on a file.
+/// The interpreter's [`PersistentVars`] on a file, shared with other writers (`cnc402 vars
+/// set` during a run, another run): each store is an [`nv::update`] that writes only the
+/// variables this program changed since the store last read or wrote them, merged into the
+/// file as it is now. A variable written from outside meanwhile keeps the outside value
+/// unless the program writes it again (per variable, the last writer wins); the program sees
+/// outside values when the table is read again (at the resume of a program stop).
 #[derive(Clone, Debug)]
 pub struct FileVarStore {
     pub path: PathBuf,
+    /// The table as the program last gave it to this store (or as opened): what it has
+    /// changed since is what differs from this.
+    seen: NvTable,
 }
 
 impl FileVarStore {
@@ -180,15 +188,37 @@ impl FileVarStore {
     pub fn open(path: impl Into<PathBuf>) -> Result<(Self, NvTable), VarFileError> {
         let path = path.into();
         let t = NvTable::load(&path)?;
-        Ok((FileVarStore { path }, t))
+        Ok((
+            FileVarStore {
+                path,
+                seen: t.clone(),
+            },
+            t,
+        ))
+    }
+
+    /// Merges into the file the variables of `vars` that differ from what this store last
+    /// saw, and `#written` if given (a write of an unchanged value still wins).
+    fn merge(&mut self, written: Option<u32>, vars: &[Option<f64>]) -> Result<(), String> {
+        let now = NvTable::from_slice(vars);
+        let same = |a: Option<f64>, b: Option<f64>| a.map(f64::to_bits) == b.map(f64::to_bits);
+        let changed: Vec<(u32, Option<f64>)> = (NV_FIRST..=NV_LAST)
+            .filter(|&n| Some(n) == written || !same(now.get(n), self.seen.get(n)))
+            .map(|n| (n, now.get(n)))
+            .collect();
+        nv::set_vars(&self.path, &changed).map_err(|e| e.to_string())?;
+        self.seen = now;
+        Ok(())
     }
 }
 
 impl PersistentVars for FileVarStore {
     fn store(&mut self, vars: &[Option<f64>]) -> Result<(), String> {
-        NvTable::from_slice(vars)
-            .save(&self.path)
-            .map_err(|e| e.to_string())
+        self.merge(None, vars)
+    }
+
+    fn store_write(&mut self, n: u32, vars: &[Option<f64>]) -> Result<(), String> {
+        self.merge(Some(n), vars)
     }
 }
 
@@ -203,11 +233,18 @@ pub enum VarsAccess {
 
 /// Gives `it` the non-volatile variables of the config's `interp.variables_file` (nothing if
 /// the config names none). A damaged file is not an error here: it becomes the first
-/// `next_segment` error of every program `it` loads, at the main file.
+/// `next_segment` error of every program `it` loads, at the main file. With
+/// [`VarsAccess::Write`] the start also removes temporary files a writer killed mid-save left
+/// (see [`nv::WriteLock::acquire`]).
 pub fn attach_variables_file(it: &mut Interpreter, cfg: &MachineConfig, access: VarsAccess) {
     let Some(path) = cfg.variables_file() else {
         return;
     };
+    if access == VarsAccess::Write {
+        // Best effort: a folder where the lock cannot be taken fails the program's first
+        // write with that error at its line; a program that writes nothing must still run.
+        drop(nv::WriteLock::acquire(&path));
+    }
     match FileVarStore::open(&path) {
         Ok((store, table)) => {
             let store: Option<Box<dyn PersistentVars>> = match access {
@@ -244,6 +281,70 @@ pub fn run_program(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn fresh_file(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("cnc402-host-fs-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join("vars.txt")
+    }
+
+    /// Steps `it` until the `nth` dwell (1-based) has been given out.
+    fn to_dwell(it: &mut Interpreter, nth: usize) {
+        let mut seen = 0;
+        while seen < nth {
+            let seg = it.next_segment().unwrap().expect("program ended early");
+            if matches!(seg.kind, cnc402_motion::segment::SegmentKind::Dwell { .. }) {
+                seen += 1;
+            }
+        }
+    }
+
+    #[test]
+    fn vars_set_during_a_run_is_not_overwritten_by_the_runs_next_save() {
+        let path = fresh_file("merge");
+        nv::set_vars(&path, &[(510, Some(5.0))]).unwrap();
+        let mut cfg = MachineConfig::default_machine();
+        cfg.interp.variables_file = Some(path.clone());
+        let mut it = Interpreter::new(&cfg);
+        attach_variables_file(&mut it, &cfg, VarsAccess::Write);
+        // The program writes #500 between dwells and re-writes #503 with the value it holds.
+        let text = "#500=1\n#503=4\nG4 P10\n#500=2\nG4 P10\n#500=3\n#503=#503\nG4 P10\nM30\n";
+        let src = SourceFile::new("p.nc", text);
+        it.load(src.clone(), cnc402_lang::parse(&src).unwrap());
+        to_dwell(&mut it, 1);
+        // The operator, while the program runs: a variable the program never writes, one it
+        // writes again later (#500: the program's later write wins) and one it writes again
+        // with the value it already had (#503: still the program's, the last writer).
+        let at_set = nv::set_vars(
+            &path,
+            &[(501, Some(7.0)), (500, Some(99.0)), (503, Some(8.0))],
+        )
+        .unwrap();
+        assert!(at_set.get(500) == Some(99.0), "{at_set:?}");
+        while it.next_segment().unwrap().is_some() {}
+        let t = NvTable::load(&path).unwrap();
+        let got: Vec<_> = t.iter().collect();
+        assert_eq!(got, [(500, 3.0), (501, 7.0), (503, 4.0), (510, 5.0)]);
+        // What the operator set is what the program reads once the table is read again.
+        assert_eq!(it.var(501), None, "not seen before a re-read");
+        std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
+    }
+
+    #[test]
+    fn a_store_of_the_whole_table_keeps_outside_values_the_program_did_not_change() {
+        let path = fresh_file("untouched");
+        nv::set_vars(&path, &[(520, Some(1.0))]).unwrap();
+        let (mut store, _) = FileVarStore::open(&path).unwrap();
+        nv::set_vars(&path, &[(521, Some(2.0))]).unwrap();
+        // The store's table still has #521 vacant: unchanged, so the outside value stays.
+        let mut vars = vec![None; (NV_LAST - NV_FIRST + 1) as usize];
+        vars[20] = Some(1.0);
+        store.store(&vars).unwrap();
+        let t = NvTable::load(&path).unwrap();
+        assert_eq!((t.get(520), t.get(521)), (Some(1.0), Some(2.0)));
+        std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
+    }
 
     #[test]
     fn program_files_match_case_insensitively() {

@@ -2,13 +2,15 @@
 //! as `writer_child`) saves ever-increasing values; it is killed (SIGKILL) at random moments
 //! hundreds of times. After every kill the file must load (checksum good) and hold either the
 //! last value the writer reported saved or the one it was saving — never a torn or mixed file.
+//! A kill between a save's create and rename leaves its temporary file; the next start (taking
+//! the write lock, as `cnc402 run` and every writer do first) must remove it.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use cnc402_interp::NvTable;
+use cnc402_interp::{NvTable, nvfile};
 
 const ENV_FILE: &str = "CNC402_NV_WRITER_FILE";
 
@@ -21,7 +23,7 @@ fn table(v: f64) -> NvTable {
     t
 }
 
-/// The writer: runs only when started by `kill_the_writer_at_random_points`.
+/// The writer: runs only when started by the kill test below.
 #[test]
 fn writer_child() {
     let Ok(path) = std::env::var(ENV_FILE) else {
@@ -54,6 +56,18 @@ impl Rng {
     }
 }
 
+/// The temporary files of the variables file at `path` now in its folder.
+fn temp_files(path: &Path) -> usize {
+    let name = path.file_name().unwrap().to_str().unwrap();
+    std::fs::read_dir(path.parent().unwrap())
+        .unwrap()
+        .filter(|e| {
+            let f = e.as_ref().unwrap().file_name();
+            f.to_str().is_some_and(|f| nvfile::is_temp_file_of(name, f))
+        })
+        .count()
+}
+
 fn check(path: &Path, last_saved: f64) -> f64 {
     let t = NvTable::load(path).unwrap_or_else(|e| panic!("unreadable after a kill: {e}"));
     let v = t.get(500).expect("#500 set");
@@ -68,7 +82,7 @@ fn check(path: &Path, last_saved: f64) -> f64 {
 }
 
 #[test]
-fn kill_the_writer_at_random_points() {
+fn kill_9_of_a_writer_leaves_old_or_new_and_no_temp_files_after_the_next_start() {
     let dir = std::env::temp_dir().join(format!("cnc402-nv-crash-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("vars.txt");
@@ -84,6 +98,8 @@ fn kill_the_writer_at_random_points() {
     let t0 = Instant::now();
     let mut kills = 0;
     let mut value = 0.0;
+    // Temporary files found after a kill (all removed by the next start).
+    let mut stale = 0;
     // 300 kills, or at least 100 whatever the time: a loaded machine takes longer per child
     // but must still make the 100 (the 120 s cap only guards against a hang).
     while kills < 300
@@ -120,10 +136,18 @@ fn kill_the_writer_at_random_points() {
             }
         }
         value = check(&path, last);
+        let left = temp_files(&path);
+        stale += left;
+        drop(nvfile::WriteLock::acquire(&path).unwrap());
+        assert_eq!(
+            temp_files(&path),
+            0,
+            "{left} temporary files left after the next start"
+        );
         kills += 1;
     }
     assert!(kills >= 100, "only {kills} kills in the time");
     assert!(value > 0.0);
     std::fs::remove_dir_all(&dir).unwrap();
-    eprintln!("{kills} kills, {value} saves, seed {seed}");
+    eprintln!("{kills} kills, {value} saves, {stale} stale temporary files removed, seed {seed}");
 }

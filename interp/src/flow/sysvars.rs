@@ -46,8 +46,8 @@ impl Interpreter {
             return Err("#0 is always vacant and cannot be written".into());
         }
         if self.vars.table.write(class, v) {
-            if let (VarClass::NonVolatile(_), Some(s)) = (class, self.vars.store.as_mut()) {
-                s.store(self.vars.table.nv.as_slice())
+            if let (VarClass::NonVolatile(nv), Some(s)) = (class, self.vars.store.as_mut()) {
+                s.store_write(nv, self.vars.table.nv.as_slice())
                     .map_err(|e| format!("#{n} could not be stored (non-volatile): {e}"))?;
             }
             return Ok(());

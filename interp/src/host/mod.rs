@@ -68,4 +68,12 @@ pub trait PersistentVars: Send {
     /// Stores the whole table (`vars[0]` is `#500`); returns only when the values would
     /// survive a power cut. An `Err` stops the program at the writing line.
     fn store(&mut self, vars: &[Option<f64>]) -> Result<(), String>;
+
+    /// Stores the table after the program wrote `#n` (even a write of the value it already
+    /// had: for a store shared with other writers, such as the variables file, that write is
+    /// the newest and must win). Default: [`store`](Self::store).
+    fn store_write(&mut self, n: u32, vars: &[Option<f64>]) -> Result<(), String> {
+        let _ = n;
+        self.store(vars)
+    }
 }

@@ -1,10 +1,23 @@
-//! The non-volatile macro variables `#500–#999` in a text file with a CRC-32, written durably:
-//! new file, fsync, rename over the old one, fsync the directory. A crash leaves the old or the
-//! new file, never a torn one; a damaged file is an error at load, never silent zeros.
-//! [`NvTable`] is the table; [`crate::host_fs::FileVarStore`] plugs it into the interpreter.
+//! The non-volatile macro variables `#500–#999` in a text file with a CRC-32. [`NvTable`] is the
+//! table; [`crate::host_fs::FileVarStore`] plugs it into the interpreter.
+//!
+//! Durability: a write goes to `.<name>.tmp<pid>` beside the file, is fsynced, renamed over
+//! the file, and the directory is fsynced, so a crash or `kill -9` at any instant leaves the
+//! old or the new file, never a torn one; a damaged file is an error at load, never silent
+//! zeros. A crash between create and rename leaves the temporary file behind: the next writer
+//! removes such files (only names of that pattern, only beside this file) once it holds the
+//! lock, when no other writer can be between create and rename.
+//!
+//! One writer at a time: every write is a read-modify-write under an exclusive advisory lock
+//! (`flock`, [`std::fs::File::lock`]) on `.<name>.lock` beside the file, across processes
+//! ([`WriteLock`]). Each writer re-reads the file under the lock and changes only its own
+//! variables, so writers of different variables never lose each other's values; for one
+//! variable the last writer wins. Readers take no lock: the rename makes every read see a
+//! whole file. The lock file is never removed (removing it would let two writers lock two
+//! different files).
 
 use std::fmt;
-use std::fs::{self, File};
+use std::fs::{self, File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -187,23 +200,23 @@ impl NvTable {
         }
     }
 
-    /// Writes the table to `path` durably: a temporary file in the same directory, fsync,
-    /// rename over `path`, fsync the directory. Returns when the new contents would survive a
-    /// power cut.
+    /// Replaces the whole file at `path` with this table, under the [`WriteLock`], durably
+    /// (returns when the new contents would survive a power cut). To change some variables and
+    /// keep the others use [`update`].
     pub fn save(&self, path: &Path) -> Result<(), VarFileError> {
+        let _lock = WriteLock::acquire(path)?;
+        self.write_durably(path)
+    }
+
+    /// Temporary file, fsync, rename over `path`, fsync the directory. The caller holds the
+    /// [`WriteLock`].
+    fn write_durably(&self, path: &Path) -> Result<(), VarFileError> {
         let io = |err| VarFileError::Io {
             path: path.to_path_buf(),
             err,
         };
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "vars".into());
-        let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
+        let (dir, name) = dir_and_name(path);
+        let tmp = dir.join(format!(".{name}{TEMP_INFIX}{}", std::process::id()));
         {
             let mut f = File::create(&tmp).map_err(io)?;
             f.write_all(self.to_text().as_bytes()).map_err(io)?;
@@ -215,15 +228,110 @@ impl NvTable {
     }
 }
 
-/// Sets variables in the file at `path` (load, change, durable save): the library call behind
+/// What follows `.<name>` in a temporary file's name, before the writer's process id.
+const TEMP_INFIX: &str = ".tmp";
+
+/// The folder of `path` (`.` for a bare name) and its file name.
+fn dir_and_name(path: &Path) -> (PathBuf, String) {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "vars".into());
+    (dir, name)
+}
+
+/// True for the name of a temporary file of the variables file `name`: `.<name>.tmp<digits>`.
+pub fn is_temp_file_of(name: &str, candidate: &str) -> bool {
+    candidate
+        .strip_prefix('.')
+        .and_then(|c| c.strip_prefix(name))
+        .and_then(|c| c.strip_prefix(TEMP_INFIX))
+        .is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// The exclusive right to write the variables file: an advisory lock (`flock`) on
+/// `.<name>.lock` beside it, held until dropped (the kernel also drops it when the process
+/// dies, `kill -9` included). Acquiring waits for the current writer, whose hold lasts one
+/// read, one write and two fsyncs. Locks are per open file, so two threads with their own
+/// `WriteLock`s exclude each other too; taking a second one in a thread that holds one
+/// would wait forever, which is why only this module takes them.
+#[derive(Debug)]
+pub struct WriteLock {
+    _file: File,
+}
+
+impl WriteLock {
+    /// Waits for and takes the lock of the variables file `path`, then removes the
+    /// temporary files a writer killed mid-save left behind (none can be in use now).
+    pub fn acquire(path: &Path) -> Result<WriteLock, VarFileError> {
+        let (dir, name) = dir_and_name(path);
+        let lock_path = dir.join(format!(".{name}.lock"));
+        let io = |err| VarFileError::Io {
+            path: lock_path.clone(),
+            err,
+        };
+        let file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&lock_path)
+            .map_err(io)?;
+        file.lock().map_err(io)?;
+        remove_stale_temps(&dir, &name).map_err(|err| VarFileError::Io {
+            path: dir.clone(),
+            err,
+        })?;
+        Ok(WriteLock { _file: file })
+    }
+}
+
+/// Removes `.<name>.tmp<pid>` files in `dir`; the caller holds the [`WriteLock`].
+fn remove_stale_temps(dir: &Path, name: &str) -> std::io::Result<()> {
+    for ent in fs::read_dir(dir)? {
+        let ent = ent?;
+        if ent
+            .file_name()
+            .to_str()
+            .is_some_and(|f| is_temp_file_of(name, f))
+        {
+            match fs::remove_file(ent.path()) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
+                _ => {}
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The read-modify-write behind every change of the file: under the [`WriteLock`], reads the
+/// file as it is now (a missing file is an empty table), applies `change`, writes durably.
+/// Variables `change` does not touch keep what other writers gave them. Nothing is written
+/// if `change` fails.
+pub fn update(
+    path: &Path,
+    change: impl FnOnce(&mut NvTable) -> Result<(), VarFileError>,
+) -> Result<NvTable, VarFileError> {
+    let _lock = WriteLock::acquire(path)?;
+    let mut t = NvTable::load(path)?;
+    change(&mut t)?;
+    t.write_durably(path)?;
+    Ok(t)
+}
+
+/// Sets variables in the file at `path` ([`update`]): the library call behind
 /// `cnc402 vars set 520=3 521=800`. Nothing is written if any number is out of range.
 pub fn set_vars(path: &Path, sets: &[(u32, Option<f64>)]) -> Result<NvTable, VarFileError> {
-    let mut t = NvTable::load(path)?;
-    for &(n, v) in sets {
-        t.set(n, v)?;
-    }
-    t.save(path)?;
-    Ok(t)
+    update(path, |t| {
+        for &(n, v) in sets {
+            t.set(n, v)?;
+        }
+        Ok(())
+    })
 }
 
 /// Makes `#from..=#to` vacant in the file (`cnc402 vars clear [N..M]`). A damaged file can be
@@ -234,16 +342,17 @@ pub fn clear_vars(path: &Path, from: u32, to: u32) -> Result<NvTable, VarFileErr
             return Err(VarFileError::NotNonVolatile(n));
         }
     }
-    let mut t = if from <= NV_FIRST && to >= NV_LAST {
-        NvTable::default()
-    } else {
-        NvTable::load(path)?
-    };
-    for n in from..=to {
-        t.set(n, None)?;
+    if from <= NV_FIRST && to >= NV_LAST {
+        let t = NvTable::default();
+        t.save(path)?;
+        return Ok(t);
     }
-    t.save(path)?;
-    Ok(t)
+    update(path, |t| {
+        for n in from..=to {
+            t.set(n, None)?;
+        }
+        Ok(())
+    })
 }
 
 /// CRC-32 (IEEE 802.3, reflected, as zlib's `crc32`). Written out (twenty lines) rather than a
@@ -316,6 +425,65 @@ mod tests {
         assert!(e.contains("checksum mismatch"), "{e}");
         clear_vars(&p, 500, 999).unwrap();
         assert_eq!(NvTable::load(&p).unwrap(), NvTable::default());
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    fn fresh_dir(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("cnc402-nv-{tag}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn concurrent_set_vars_of_different_variables_lose_none() {
+        // Each thread opens its own lock file handle (flock is per open file), as separate
+        // processes would; tests/vars_cli.rs does the same with `cnc402 vars set` processes.
+        let dir = fresh_dir("threads");
+        let p = dir.join("vars.txt");
+        const WRITERS: u32 = 4;
+        const SETS: u32 = 40;
+        std::thread::scope(|s| {
+            for w in 0..WRITERS {
+                let p = &p;
+                s.spawn(move || {
+                    for i in 1..=SETS {
+                        set_vars(p, &[(500 + w, Some(f64::from(i)))]).unwrap();
+                    }
+                });
+            }
+        });
+        let t = NvTable::load(&p).unwrap();
+        for w in 0..WRITERS {
+            assert_eq!(t.get(500 + w), Some(f64::from(SETS)), "#{}", 500 + w);
+        }
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn stale_temp_files_are_removed_by_the_next_writer_and_nothing_else() {
+        let dir = fresh_dir("stale");
+        let p = dir.join("vars.txt");
+        let stale = [".vars.txt.tmp123", ".vars.txt.tmp7"];
+        let others = [
+            ".vars.txt.tmp",
+            ".vars.txt.tmpx1",
+            "vars.txt.tmp5",
+            ".other.txt.tmp5",
+            ".vars.txt.lock2",
+        ];
+        for f in stale.iter().chain(&others) {
+            fs::write(dir.join(f), "x").unwrap();
+        }
+        set_vars(&p, &[(500, Some(1.0))]).unwrap();
+        for f in stale {
+            assert!(!dir.join(f).exists(), "{f} left");
+        }
+        for f in others {
+            assert!(dir.join(f).exists(), "{f} removed");
+        }
+        assert!(is_temp_file_of("v", ".v.tmp0"));
+        assert!(!is_temp_file_of("v", ".v.tmp0a"));
         fs::remove_dir_all(&dir).unwrap();
     }
 }
