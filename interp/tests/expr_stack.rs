@@ -71,13 +71,17 @@ fn corpus_runs_to_a_clear_result() {
         let text = src.text.to_string();
         let r = std::thread::Builder::new()
             .stack_size(SMALLEST_STACK)
-            .spawn(move || cnc402_interp::run_program(&cfg(), &src).map(|s| s.len()))
+            .spawn(move || {
+                cnc402_interp::run_program(&cfg(), &src)
+                    .map(|s| s.len())
+                    .map_err(|e| (e.line, e.col, e.file.to_string(), e.to_string()))
+            })
             .expect("spawn")
             .join()
             .expect("no panic");
-        if let Err(e) = r {
-            assert!(e.line >= 1 && e.col >= 1, "{name}: {e}");
-            assert!(e.file.contains(&name) || text.is_empty(), "{name}: {e}");
+        if let Err((line, col, file, e)) = r {
+            assert!(line >= 1 && col >= 1, "{name}: {e}");
+            assert!(file.contains(&name) || text.is_empty(), "{name}: {e}");
         }
     }
 }
