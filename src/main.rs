@@ -158,11 +158,11 @@ fn load_config(path: &std::path::Path) -> Result<cnc402_config::MachineConfig, C
 }
 
 pub(crate) fn load_program(path: &std::path::Path) -> Result<cnc402_lang::SourceFile, CliError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| CliError::Io(format!("{}: {e}", path.display())))?;
-    Ok(cnc402_lang::SourceFile::new(
+    let bytes =
+        std::fs::read(path).map_err(|e| CliError::Io(format!("{}: {e}", path.display())))?;
+    Ok(cnc402_lang::SourceFile::from_bytes(
         path.display().to_string(),
-        text,
+        bytes,
     ))
 }
 

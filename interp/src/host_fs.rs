@@ -59,8 +59,7 @@ impl ProgramDir {
 
 fn read_source(p: &Path) -> Result<SourceFile, String> {
     let bytes = std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()))?;
-    let text = String::from_utf8_lossy(&bytes).into_owned();
-    Ok(SourceFile::new(p.display().to_string(), text))
+    Ok(SourceFile::from_bytes(p.display().to_string(), bytes))
 }
 
 fn matches_name(p: &Path, names: &[String]) -> bool {

@@ -69,3 +69,18 @@ fn deepest_recursion_runs_on_the_executor_stack() {
         assert!(e.message.contains("recursion too deep"), "{kind}: {e}");
     }
 }
+
+/// The recursive call at the bottom of the longest chain the parser accepts, at every one
+/// of `MAX_CALL_DEPTH` levels: the executor evaluates a chain by recursion, one frame per
+/// operator, so `MAX_HEIGHT` times `MAX_CALL_DEPTH` frames must fit its stack.
+#[test]
+fn deepest_chain_recursion_runs_on_the_executor_stack() {
+    // `F(n - 1)` is two levels high (the call and its `-`): the sum is MAX_HEIGHT high.
+    let chain = " + 1".repeat(cnc402_lang::MAX_HEIGHT as usize - 2);
+    let top = MAX_CALL_DEPTH - 1;
+    let text = format!(
+        "int F(int n) {{\nif (n > 0) {{\nreturn F(n - 1){chain};\n}}\nreturn 0;\n}}\nMSG(\"\" + F({top}));\nM02\n"
+    );
+    let r = cnc402_interp::run_program(&cfg(), &SourceFile::new("chain.nc", text.as_str()));
+    assert!(!r.expect("runs").is_empty());
+}

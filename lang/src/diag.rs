@@ -6,7 +6,7 @@
 use std::fmt;
 use std::sync::Arc;
 
-use miette::{LabeledSpan, NamedSource, SourceCode};
+use miette::{LabeledSpan, MietteError, MietteSpanContents, SourceCode, SourceSpan, SpanContents};
 
 use crate::ast::Span;
 
@@ -45,6 +45,26 @@ impl SourceFile {
             text,
             line_starts,
         }
+    }
+
+    /// Wraps a program read from a file: UTF-8 where the whole file is valid UTF-8, else
+    /// Latin-1 (ISO 8859-1, every byte one character), as older controls and CAM systems
+    /// write comments. Whatever is then not acceptable text (a NUL, a control character
+    /// outside a comment) is the parser's error at its line and column, never a read error.
+    ///
+    /// ```
+    /// use cnc402_lang::SourceFile;
+    /// let src = SourceFile::from_bytes("a.nc", b"(Fr\xe4se)\nG0 X1\n".to_vec());
+    /// assert_eq!(src.line_text(1), "(Fräse)");
+    /// let utf8 = SourceFile::from_bytes("b.nc", "(Fräse)".as_bytes().to_vec());
+    /// assert_eq!(utf8.line_text(1), "(Fräse)");
+    /// ```
+    pub fn from_bytes(name: impl Into<Arc<str>>, bytes: Vec<u8>) -> Self {
+        let text = match String::from_utf8(bytes) {
+            Ok(text) => text,
+            Err(e) => e.into_bytes().iter().map(|&b| char::from(b)).collect(),
+        };
+        SourceFile::new(name, text)
     }
 
     /// Byte offsets of line starts (crate-internal, for the parser's line numbers).
@@ -143,7 +163,7 @@ pub struct NcError {
     pub message: String,
     /// What would have been accepted at this point, if that is known.
     pub expected: Option<String>,
-    source: NamedSource<Arc<str>>,
+    snippet: Snippet,
 }
 
 impl NcError {
@@ -162,7 +182,7 @@ impl NcError {
             block: src.line_text(line).to_string(),
             message: message.into(),
             expected: None,
-            source: NamedSource::new(&*src.name, src.text.clone()),
+            snippet: Snippet::new(src, line, span),
         }
     }
 
@@ -184,7 +204,12 @@ impl fmt::Display for NcError {
         if let Some(e) = &self.expected {
             write!(f, " (expected {e})")?;
         }
-        write!(f, "\n    {}", self.block)
+        // The line as the snippet shows it: cut around the error when it is very long.
+        write!(
+            f,
+            "\n    {}",
+            &self.snippet.text[self.snippet.block.clone()]
+        )
     }
 }
 
@@ -210,7 +235,7 @@ impl miette::Diagnostic for NcError {
     }
 
     fn source_code(&self) -> Option<&dyn SourceCode> {
-        Some(&self.source)
+        Some(&self.snippet)
     }
 
     fn labels(&self) -> Option<Box<dyn Iterator<Item = LabeledSpan> + '_>> {
@@ -219,7 +244,98 @@ impl miette::Diagnostic for NcError {
             None => "here".to_string(),
         };
         Some(Box::new(std::iter::once(
-            LabeledSpan::new_primary_with_span(Some(label), self.span.range()),
+            LabeledSpan::new_primary_with_span(Some(label), self.snippet.span.clone()),
+        )))
+    }
+}
+
+/// Widest line of a report's snippet, in characters. A longer line is shown as a window of
+/// this many characters around the error: the renderer pads to the column with a width
+/// that cannot pass 65,535, and a 200,000-character line helps no reader anyway.
+const SNIPPET_CHARS: usize = 240;
+
+/// What a report shows of the program: the error's line and the lines on either side,
+/// each cut to the same window of characters, with the error's span inside it.
+#[derive(Clone, Debug, PartialEq)]
+struct Snippet {
+    name: Arc<str>,
+    text: String,
+    /// 0-based number of the first line of `text` in the program.
+    first_line: usize,
+    /// Bytes cut from the start of the error's line, less the `…` put there instead
+    /// (0 when nothing was cut): added back to the columns the renderer counts.
+    col_shift: usize,
+    /// The error's span in `text`.
+    span: std::ops::Range<usize>,
+    /// The error's line (as cut) in `text`.
+    block: std::ops::Range<usize>,
+}
+
+impl Snippet {
+    fn new(src: &SourceFile, line: u32, span: Span) -> Self {
+        let err_line = src.line_text(line);
+        let err_start = src.line_span(line).start as usize;
+        let col = err_line
+            .get(..(span.start as usize).saturating_sub(err_start))
+            .map_or(0, |s| s.chars().count());
+        let skip = if err_line.chars().count() <= SNIPPET_CHARS {
+            0
+        } else {
+            col.saturating_sub(SNIPPET_CHARS / 2)
+        };
+        let first = line.saturating_sub(1).max(1);
+        let last = (line + 1).min(src.line_count()).max(line);
+        let mut text = String::new();
+        let mut snippet = Snippet {
+            name: src.name.clone(),
+            text: String::new(),
+            first_line: first as usize - 1,
+            col_shift: 0,
+            span: 0..0,
+            block: 0..0,
+        };
+        for n in first..=last {
+            let full = src.line_text(n);
+            let line_start = text.len();
+            let cut = full.char_indices().nth(skip).map_or(full.len(), |(b, _)| b);
+            if cut > 0 && cut < full.len() {
+                text.push('…');
+            }
+            let prefix = text.len() - line_start;
+            let kept: String = full[cut..].chars().take(SNIPPET_CHARS).collect();
+            if n == line {
+                snippet.col_shift = cut.saturating_sub(prefix);
+                let to_here = |at: usize| {
+                    (line_start + prefix + at.saturating_sub(err_start + cut))
+                        .min(line_start + prefix + kept.len())
+                };
+                let start = to_here(span.start as usize);
+                snippet.span = start..to_here(span.end as usize).max(start);
+                snippet.block = line_start..line_start + prefix + kept.len();
+            }
+            text.push_str(&kept);
+            text.push('\n');
+        }
+        snippet.text = text;
+        snippet
+    }
+}
+
+impl SourceCode for Snippet {
+    fn read_span<'a>(
+        &'a self,
+        span: &SourceSpan,
+        before: usize,
+        after: usize,
+    ) -> Result<Box<dyn SpanContents<'a> + 'a>, MietteError> {
+        let inner = self.text.as_str().read_span(span, before, after)?;
+        Ok(Box::new(MietteSpanContents::new_named(
+            self.name.to_string(),
+            inner.data(),
+            *inner.span(),
+            inner.line() + self.first_line,
+            inner.column() + self.col_shift,
+            inner.line_count(),
         )))
     }
 }

@@ -7,4 +7,4 @@ pub mod diag;
 mod parse;
 
 pub use diag::{NcError, SourceFile};
-pub use parse::{parse, parse_expr};
+pub use parse::{MAX_HEIGHT, parse, parse_expr};

@@ -734,17 +734,31 @@ impl Executor {
                     ));
                 }
             },
-            Ex::Bin(op, a, b, span) => {
-                let x = self.ev(f, a)?;
-                let y = self.ev(f, b)?;
-                bin(*op, x, y).map_err(|m| self.err(f, *span, m))?
-            }
+            Ex::Bin(..) => self.bin_chain(f, e)?,
             Ex::And(a, b) => Val::Bool(self.truth(f, a)? && self.truth(f, b)?),
             Ex::Or(a, b) => Val::Bool(self.truth(f, a)? || self.truth(f, b)?),
             Ex::Not(x, _) => Val::Bool(!self.truth(f, x)?),
             Ex::Call(k, args, span) => self.call(f, *k, args, *span)?,
             Ex::Builtin(b, args, span) => self.builtin(f, *b, args, *span)?,
         })
+    }
+
+    /// A chain of binary operators, `a + b - c …` (a left-leaning tree): the left spine is
+    /// walked in a loop, so the chain costs one frame here, not one per operator (a call at
+    /// its bottom is then MAX_CALL_DEPTH deep on the executor's stack, not times the chain).
+    fn bin_chain(&mut self, f: &mut Frame, e: &Ex) -> R<Val> {
+        let mut spine = Vec::new();
+        let mut at = e;
+        while let Ex::Bin(op, a, b, span) = at {
+            spine.push((*op, &**b, *span));
+            at = a;
+        }
+        let mut x = self.ev(f, at)?;
+        for (op, b, span) in spine.into_iter().rev() {
+            let y = self.ev(f, b)?;
+            x = bin(op, x, y).map_err(|m| self.err(f, span, m))?;
+        }
+        Ok(x)
     }
 
     fn call(&mut self, f: &mut Frame, k: usize, args: &[Ex], span: Span) -> R<Val> {

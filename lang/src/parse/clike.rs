@@ -2,7 +2,7 @@
 //! Statements may span lines and hold G-code lines; expressions use C precedence. Which
 //! lines are statements is decided by [`classify`] from the start of the line.
 
-use super::expr::{FUNCS, MAX_DEPTH};
+use super::expr::{FUNCS, MAX_DEPTH, height, join_height};
 use super::lex::{char_len, starts_with_kw};
 use super::{Cx, PResult, fail, fail_exp};
 use crate::ast::{
@@ -863,12 +863,14 @@ impl<'a> Cx<'a> {
             }
         };
         let (mut i, mut lhs) = operand(i)?;
+        let mut lhs_height = None;
         loop {
             let (j, ()) = self.c_ws(i, ecx.nl)?;
             if !j.starts_with(tok) {
                 return Ok((i, lhs));
             }
             let (r, rhs) = self.c_operand(&j[2..], ecx, tok, operand)?;
+            join_height(j, &mut lhs_height, &lhs, height(&rhs))?;
             let span = lhs.span.join(rhs.span);
             lhs = Expr {
                 kind: ExprKind::Logical(op, Box::new(lhs), Box::new(rhs)),
@@ -908,6 +910,7 @@ impl<'a> Cx<'a> {
             }
         };
         let (mut i, mut lhs) = operand(i)?;
+        let mut lhs_height = None;
         loop {
             let (j, ()) = self.c_ws(i, ecx.nl)?;
             let b = j.as_bytes();
@@ -928,6 +931,7 @@ impl<'a> Cx<'a> {
                 return Ok((i, lhs));
             };
             let (r, rhs) = self.c_operand(&j[tok.len()..], ecx, tok, operand)?;
+            join_height(j, &mut lhs_height, &lhs, height(&rhs))?;
             let span = lhs.span.join(rhs.span);
             lhs = Expr {
                 kind: ExprKind::Binary(op, Box::new(lhs), Box::new(rhs)),
@@ -969,6 +973,7 @@ impl<'a> Cx<'a> {
 
     fn c_postfix(&self, i: &'a str, depth: u32, ecx: ECx) -> PResult<'a, Expr> {
         let (mut r, mut e) = self.c_primary(i, depth, ecx)?;
+        let mut e_height = None;
         loop {
             let (j, ()) = if ecx.in_block {
                 (r, ())
@@ -986,6 +991,7 @@ impl<'a> Cx<'a> {
                 let (q, idx) = self
                     .c_expr_req_at(inner, depth + 1, NESTED, "as the index")
                     .and_then(|(q, x)| self.c_close(j, q, ']', x))?;
+                join_height(j, &mut e_height, &e, height(&idx))?;
                 let span = self.span(i, q);
                 e = Expr {
                     kind: ExprKind::Index(Box::new(e), Box::new(idx)),
@@ -998,6 +1004,7 @@ impl<'a> Cx<'a> {
                     return fail_exp(k, char_len(k), "missing field name after `.`", "a name");
                 }
                 let q = &k[n..];
+                join_height(j, &mut e_height, &e, 0)?;
                 e = Expr {
                     kind: ExprKind::Field(Box::new(e), k[..n].to_string()),
                     span: self.span(i, q),

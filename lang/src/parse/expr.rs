@@ -13,6 +13,52 @@ use crate::ast::{BinaryOp, Expr, ExprKind, Func, UnaryOp};
 /// overflow. (Fanuc allows five levels of brackets.)
 pub(crate) const MAX_DEPTH: u32 = 32;
 
+/// Most operators on any path from an expression's root to an operand (`1+1+…+1` with
+/// `MAX_HEIGHT + 1` terms is an error). Everything that walks an expression — evaluation,
+/// the C-like compiler and executor, `Drop` — recurses once per level, so this bound, not
+/// the length of the line, is what their stacks must hold (`interp/tests/expr_stack.rs`
+/// runs the deepest expressions on the smallest stack the product gives them).
+pub const MAX_HEIGHT: u32 = 64;
+
+/// Operator levels below `e`'s root (an operand is 0). The recursion is bounded: every
+/// expression the parser returns is at most [`MAX_HEIGHT`] (plus its brackets) high.
+pub(crate) fn height(e: &Expr) -> u32 {
+    let sub = |x: &Expr| height(x) + 1;
+    match &e.kind {
+        ExprKind::Unary(_, a) | ExprKind::IndirectVar(a) | ExprKind::Not(a) => sub(a),
+        ExprKind::Field(a, _) => sub(a),
+        ExprKind::Binary(_, a, b) | ExprKind::Logical(_, a, b) | ExprKind::Index(a, b) => {
+            sub(a).max(sub(b))
+        }
+        ExprKind::Call(_, args) | ExprKind::CallNamed(_, args) => {
+            args.iter().map(sub).max().unwrap_or(0)
+        }
+        _ => 0,
+    }
+}
+
+/// Sets `lhs_height` (`lhs`'s height, if known) to the height of a node joining `lhs` to an
+/// operand `rhs_height` high, or gives the error at `at` (the operator) when it would pass
+/// [`MAX_HEIGHT`]. Chains are folded in loops, so this check is what bounds them.
+pub(crate) fn join_height<'a>(
+    at: &'a str,
+    lhs_height: &mut Option<u32>,
+    lhs: &Expr,
+    rhs_height: u32,
+) -> Result<(), nom::Err<super::PErr<'a>>> {
+    let h = lhs_height.unwrap_or_else(|| height(lhs)).max(rhs_height) + 1;
+    if h > MAX_HEIGHT {
+        return fail::<()>(
+            at,
+            char_len(at),
+            format!("expression nested too deeply (more than {MAX_HEIGHT} levels of operators)"),
+        )
+        .map(|_| ());
+    }
+    *lhs_height = Some(h);
+    Ok(())
+}
+
 const CMP_OPS: [(&str, BinaryOp); 6] = [
     ("EQ", BinaryOp::Eq),
     ("NE", BinaryOp::Ne),
@@ -82,6 +128,7 @@ impl<'a> Cx<'a> {
             }
         };
         let (mut i, mut lhs) = operand(i)?;
+        let mut lhs_height = None;
         loop {
             let j = ws(i);
             let Some((len, op)) = match_op(j, ops) else {
@@ -100,6 +147,7 @@ impl<'a> Cx<'a> {
                 }
                 r => r?,
             };
+            join_height(j, &mut lhs_height, &lhs, height(&rhs))?;
             let span = lhs.span.join(rhs.span);
             lhs = Expr {
                 kind: ExprKind::Binary(op, Box::new(lhs), Box::new(rhs)),

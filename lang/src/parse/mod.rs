@@ -5,6 +5,8 @@
 
 mod clike;
 mod expr;
+
+pub use expr::MAX_HEIGHT;
 mod lex;
 mod line;
 
