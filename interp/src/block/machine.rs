@@ -14,7 +14,7 @@ use std::sync::Arc;
 use super::exec::Exec;
 use super::options::Options;
 use super::state::{ModalState, Motion};
-use super::words::{Words, fmt_num};
+use super::words::Words;
 use crate::canon::{CanonOp, CanonState};
 use crate::host::{ExactStop, MotionSync};
 use crate::vars::{MVal, VarClass};
@@ -165,12 +165,12 @@ impl Machine {
     /// Writes `#n` of a class this layer owns (work and tool offsets): `Ok(false)` for the
     /// other classes; an error if the value in mm overflows (an inch value past f64's range).
     pub(crate) fn write_class(&mut self, class: VarClass, v: MVal) -> Result<bool, String> {
-        let mm = |v: f64, unit: f64| {
+        let mm = |v: f64, unit: f64| -> Result<f64, String> {
             let m = v * unit;
             if m.is_finite() {
                 Ok(m)
             } else {
-                Err(format!("{} overflows in mm", fmt_num(v)))
+                Err("the offset overflows in mm (not a finite number)".to_string())
             }
         };
         match class {
