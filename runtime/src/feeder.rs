@@ -316,3 +316,33 @@ pub fn dry_run_bounded(
     d.repeats_at = f.interp.main_m99_line();
     Ok(d)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dry(text: &str, max_moves: u64) -> Result<DryRun, NcError> {
+        let mut cfg = MachineConfig::default_machine();
+        cfg.interp.variables_file = None;
+        let src = SourceFile::new("d.nc", text);
+        let program = cnc402_lang::parse(&src).expect("parses");
+        dry_run_bounded(&cfg, &src, &program, AxisPos::default(), None, max_moves)
+    }
+
+    /// Regression (issue 18): `N1 G91 G0 X1`, `G0 X-1`, `GOTO1` never reached its end, so
+    /// `run` never started it.
+    #[test]
+    fn endless_goto_loop_with_motion_dry_run_is_bounded() {
+        let text = include_str!("../../interp/tests/corpus/goto_loop_with_motion_is_endless.nc");
+        let d = dry(text, 500).expect("no error");
+        assert_eq!(d.checked_only, Some(500));
+        assert_eq!(d.moves, 500);
+    }
+
+    #[test]
+    fn a_program_that_ends_is_checked_whole() {
+        let d = dry("G91 G0 X1\nX-1\nM30\n", 500).expect("no error");
+        assert_eq!(d.checked_only, None);
+        assert_eq!(d.moves, 3);
+    }
+}
