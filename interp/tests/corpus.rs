@@ -57,7 +57,10 @@ fn replay(name: &str) {
             Ok(Some(s)) => {
                 assert!(finite(&s.kind), "{name}: a non-finite segment {s:?}");
                 let json = cnc402_interp::dump::segment_to_json(&s, &cfg);
-                assert!(!json.contains("inf") && !json.contains("NaN"), "{name}: {json}");
+                assert!(
+                    !json.contains("inf") && !json.contains("NaN"),
+                    "{name}: {json}"
+                );
                 pulled += 1;
             }
             Ok(None) => break Some(Ok(())),

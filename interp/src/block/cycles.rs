@@ -241,9 +241,7 @@ impl Exec<'_> {
     ) -> Result<(), NcError> {
         let q = self.st.cycle_data.q;
         let pecks = match (cyc, q) {
-            (Cycle::G73 | Cycle::G83 | Cycle::G74 | Cycle::G84, Some(q)) => {
-                peck_count(q, depth)
-            }
+            (Cycle::G73 | Cycle::G83 | Cycle::G74 | Cycle::G84, Some(q)) => peck_count(q, depth),
             _ => 1.0,
         };
         if pecks > MAX_PECKS {

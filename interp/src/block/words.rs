@@ -252,7 +252,7 @@ fn whole_code(v: f64) -> Option<u32> {
 /// assert_eq!(fmt_num(f64::MAX), format!("{}", f64::MAX));
 /// ```
 pub fn fmt_num(v: f64) -> String {
-    if !(v.abs() < 1e15) {
+    if v.is_nan() || v.abs() >= 1e15 {
         return format!("{v}");
     }
     let r = (v * 1e6).round() / 1e6;

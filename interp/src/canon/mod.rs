@@ -280,7 +280,12 @@ pub fn makes_motion(ops: &[CanonOp], from: &AxisPos) -> bool {
             },
         };
         let end = op.state.to_machine(end);
-        if end.0.iter().zip(pos.0.iter()).any(|(a, b)| (a - b).abs() > 1e-9) {
+        if end
+            .0
+            .iter()
+            .zip(pos.0.iter())
+            .any(|(a, b)| (a - b).abs() > 1e-9)
+        {
             return true;
         }
         pos = end;

@@ -298,7 +298,8 @@ impl Running {
                     };
                     let from = it.state.pos;
                     let op = it.single_op(kind, source);
-                    if let Err(e) = self.count_idle(it, std::slice::from_ref(&op), &from, file, span)
+                    if let Err(e) =
+                        self.count_idle(it, std::slice::from_ref(&op), &from, file, span)
                     {
                         self.stop();
                         return Err(e);
