@@ -193,7 +193,18 @@ fn dump(
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let io = |e: std::io::Error| CliError::Io(e.to_string());
+    // An endless program with motion never ends: print what `run`'s dry run checks.
+    let mut printed = 0;
     loop {
+        if printed == cnc402_runtime::feeder::DRY_RUN_MOVES {
+            out.flush().map_err(io)?;
+            eprintln!(
+                "note: printed the first {printed} lines, as many as `cnc402 run` checks before \
+                 motion; the program goes on past them"
+            );
+            return Ok(());
+        }
+        printed += 1;
         let line = match what {
             Dump::Segments => interp
                 .next_segment()

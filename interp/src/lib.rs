@@ -79,8 +79,9 @@
 //!   [`ExactStop`]); `#5081+i` the tool length offset vector; `#5221+20k+i` work offsets
 //!   G54–G59 and the tool offsets `#10001–#13400` (`#2001–#2400`), read/write (for the run
 //!   only, the config file is not changed).
-//! - `interp.block_limit` blocks in a row without motion (feed, rapid, arc or dwell) end the
-//!   program as a runaway, naming the lines the loop ran over.
+//! - `interp.block_limit` blocks in a row without motion end the program as a runaway, naming
+//!   the lines the loop ran over. Motion is [`canon::makes_motion`]: a move that changes a
+//!   position, an arc, a canned cycle, a dwell > 0 (messages and zero moves are not).
 
 // NcError (lang's) is large; an error ends the run, so its size costs nothing that matters.
 #![allow(clippy::result_large_err)]

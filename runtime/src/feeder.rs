@@ -219,6 +219,13 @@ impl Feeder {
     }
 }
 
+/// Most moves the dry run checks before motion (and `cnc402 segments`/`canon` print). An
+/// endless program with motion (`GOTO` back to a move) is legal and must start: past this
+/// many moves the dry run stops checking and says so ([`DryRun::checked_only`]); the rest
+/// is checked as it runs. A million moves plan in a few seconds and cover any program that
+/// ends (the largest examples make tens of thousands).
+pub const DRY_RUN_MOVES: u64 = 1_000_000;
+
 /// What a dry run of the whole program (interpreter + planner, no motion) found.
 #[derive(Clone, Debug, Default)]
 pub struct DryRun {
@@ -236,6 +243,9 @@ pub struct DryRun {
     /// variables during the stop; it is the run's to report if it still happens. (An error
     /// past the stop that reads none of them is refused before motion, as any other.)
     pub after_hold: Option<(u32, NcError)>,
+    /// The dry run stopped after this many moves ([`DRY_RUN_MOVES`]) with the program going
+    /// on past them: only those were checked.
+    pub checked_only: Option<u64>,
 }
 
 /// Interprets and plans the whole program without moving anything, so that a program error
@@ -250,11 +260,27 @@ pub fn dry_run(
     start: AxisPos,
     gate: Option<&crate::program_stop::StopGate>,
 ) -> Result<DryRun, NcError> {
+    dry_run_bounded(cfg, src, program, start, gate, DRY_RUN_MOVES)
+}
+
+/// [`dry_run`] checking at most `max_moves` moves.
+pub fn dry_run_bounded(
+    cfg: &MachineConfig,
+    src: &SourceFile,
+    program: &Program,
+    start: AxisPos,
+    gate: Option<&crate::program_stop::StopGate>,
+    max_moves: u64,
+) -> Result<DryRun, NcError> {
     let mut f = Feeder::dry(cfg, src.clone(), program.clone(), start);
     let mut d = DryRun::default();
     // The first stop that holds, and the non-volatile reads made before it.
     let mut held_at: Option<(u32, u64)> = None;
     loop {
+        if d.moves >= max_moves {
+            d.checked_only = Some(d.moves);
+            break;
+        }
         let mv = match f.next_move() {
             Ok(Some(mv)) => mv,
             Ok(None) => break,
@@ -289,4 +315,34 @@ pub fn dry_run(
     }
     d.repeats_at = f.interp.main_m99_line();
     Ok(d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dry(text: &str, max_moves: u64) -> Result<DryRun, NcError> {
+        let mut cfg = MachineConfig::default_machine();
+        cfg.interp.variables_file = None;
+        let src = SourceFile::new("d.nc", text);
+        let program = cnc402_lang::parse(&src).expect("parses");
+        dry_run_bounded(&cfg, &src, &program, AxisPos::default(), None, max_moves)
+    }
+
+    /// Regression (issue 18): `N1 G91 G0 X1`, `G0 X-1`, `GOTO1` never reached its end, so
+    /// `run` never started it.
+    #[test]
+    fn endless_goto_loop_with_motion_dry_run_is_bounded() {
+        let text = include_str!("../../interp/tests/corpus/goto_loop_with_motion_is_endless.nc");
+        let d = dry(text, 500).expect("no error");
+        assert_eq!(d.checked_only, Some(500));
+        assert_eq!(d.moves, 500);
+    }
+
+    #[test]
+    fn a_program_that_ends_is_checked_whole() {
+        let d = dry("G91 G0 X1\nX-1\nM30\n", 500).expect("no error");
+        assert_eq!(d.checked_only, None);
+        assert_eq!(d.moves, 3);
+    }
 }

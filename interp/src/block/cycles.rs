@@ -13,7 +13,7 @@ use super::exec::Exec;
 use super::state::Cycle;
 use super::words::{Arg, fmt_num};
 use crate::canon::{CannedCycle, CanonKind, CanonOp, CanonState, CyclePlan, CycleWords, TapPlan};
-use crate::lower::cycle::Expander;
+use crate::lower::cycle::{Expander, MAX_CYCLE_MOVES, MAX_PECKS, moves_per_hole, peck_count};
 
 /// Lengths closer than this are the same point.
 const EPS: f64 = 1e-9;
@@ -145,6 +145,7 @@ impl Exec<'_> {
         // The drilling moves carry the whole offset vector (restored after G28).
         self.st.restore_tlo(id);
         self.check_levels(&name, ld, cyc, r_level, bottom)?;
+        self.check_work(&name, cyc, ld, (r_level - bottom).abs(), d.reps)?;
         let ret = if self.st.return_to_r && cyc != Cycle::G87 {
             r_level
         } else {
@@ -223,6 +224,51 @@ impl Exec<'_> {
                     ),
                 )
                 .with_expected(format!("R below {ld} (R is the bottom of the bore)")));
+        }
+        Ok(())
+    }
+
+    /// Bounds the work of one block before anything is expanded: at most [`MAX_PECKS`] a
+    /// hole (G73/G83, and G74/G84 with Q) and [`MAX_CYCLE_MOVES`] moves in all (holes ×
+    /// moves a hole), blaming the Q word, then K or L.
+    fn check_work(
+        &self,
+        name: &str,
+        cyc: Cycle,
+        ld: char,
+        depth: f64,
+        reps: u32,
+    ) -> Result<(), NcError> {
+        let q = self.st.cycle_data.q;
+        let pecks = match (cyc, q) {
+            (Cycle::G73 | Cycle::G83 | Cycle::G74 | Cycle::G84, Some(q)) => peck_count(q, depth),
+            _ => 1.0,
+        };
+        if pecks > MAX_PECKS {
+            let q_prog = self
+                .w
+                .peek('Q')
+                .map_or_else(|| q.unwrap_or(0.0) / self.st.unit(), |a| a.v);
+            return Err(self
+                .err(
+                    self.span_of(&['Q', ld, 'R']),
+                    format!(
+                        "{name} Q{} makes {pecks} pecks (more than {MAX_PECKS})",
+                        fmt_num(q_prog)
+                    ),
+                )
+                .with_expected("a larger Q (peck depth)"));
+        }
+        let moves = f64::from(reps) * moves_per_hole(pecks);
+        if moves > MAX_CYCLE_MOVES {
+            return Err(self
+                .err(
+                    self.span_of(&['K', 'L', 'Q', ld]),
+                    format!(
+                        "{name} with {reps} repeats of {pecks} pecks makes up to {moves} moves in one block (more than {MAX_CYCLE_MOVES})"
+                    ),
+                )
+                .with_expected("fewer repeats (K/L) or a larger Q"));
         }
         Ok(())
     }

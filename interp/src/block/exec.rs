@@ -212,12 +212,105 @@ impl Exec<'_> {
             self.st.set_tool_length(super::state::ToolLength::Off, 0.0);
         }
         self.m_after_motion();
+        self.check_finite()?;
         if let Some((c, a)) = self.w.first_unused() {
             return Err(self
                 .err(a.span, format!("address {c} is not used in this block"))
                 .with_expected(self.expected_here()));
         }
         Ok(())
+    }
+
+    /// Every number the block computed is finite: a target, feed, speed, dwell, arc centre or
+    /// offset past f64's range is an error at the word it came from ("X overflows"), so that
+    /// no `inf` or `NaN` reaches a segment, the planner or the output.
+    fn check_finite(&self) -> Result<(), NcError> {
+        let Some((letters, what)) = self.first_non_finite() else {
+            return Ok(());
+        };
+        Err(self
+            .err(
+                self.span_of(&letters),
+                format!("{what} overflows (not a finite number)"),
+            )
+            .with_expected("values that stay within ±1.8e308"))
+    }
+
+    /// The words to blame and what overflowed, for the first non-finite number of the
+    /// block's operations or of the modal state it leaves.
+    fn first_non_finite(&self) -> Option<(Vec<char>, String)> {
+        let names: Vec<char> = self.cfg.axes.iter().map(|a| a.name).collect();
+        let bad_axis = |p: &AxisPos| {
+            (0..names.len())
+                .find(|&i| !p.0[i].is_finite())
+                .map(|i| (vec![names[i]], names[i].to_string()))
+        };
+        let bad = |ok: bool, letters: &[char], what: &str| {
+            (!ok).then(|| (letters.to_vec(), what.to_string()))
+        };
+        let feed = ['F', 'S'];
+        for op in &self.out {
+            let found = match &op.kind {
+                CanonKind::Single(k) => match k {
+                    SegmentKind::Rapid { end } => bad_axis(end),
+                    SegmentKind::Linear { end, feed: f } => {
+                        bad_axis(end).or_else(|| bad(f.is_finite(), &feed, "the feed"))
+                    }
+                    SegmentKind::Tap(t) => bad_axis(&t.end)
+                        .or_else(|| bad(t.feed.is_finite(), &feed, "the feed"))
+                        .or_else(|| bad(t.pitch.is_finite(), &feed, "the tap pitch")),
+                    SegmentKind::Arc {
+                        end,
+                        center,
+                        feed: f,
+                        ..
+                    } => bad_axis(end)
+                        .or_else(|| {
+                            let ok = center.iter().all(|c| c.is_finite());
+                            bad(ok, &['R', 'I', 'J', 'K'], "the arc centre")
+                        })
+                        .or_else(|| bad(f.is_finite(), &feed, "the feed")),
+                    SegmentKind::Dwell { seconds } => {
+                        bad(seconds.is_finite(), &['P', 'X'], "the dwell")
+                    }
+                    SegmentKind::Spindle { rpm, .. } => bad(rpm.is_finite(), &['S'], "the speed"),
+                    SegmentKind::SpindleOrient { angle, program } => bad(
+                        angle.is_finite() && program.is_none_or(f64::is_finite),
+                        &['C'],
+                        "the spindle angle",
+                    ),
+                    _ => None,
+                },
+                CanonKind::CannedCycle(cc) => {
+                    let [ia, ib, id] = cc.axes.map(|i| names.get(i).copied().unwrap_or('Z'));
+                    let levels = [cc.initial_level, cc.r_level, cc.bottom, cc.return_level];
+                    bad_axis(&cc.start)
+                        .or_else(|| {
+                            let ok = cc.holes.iter().flatten().all(|v| v.is_finite());
+                            bad(ok, &[ia, ib], "a hole position")
+                        })
+                        .or_else(|| {
+                            let ok = levels.iter().all(|v| v.is_finite());
+                            bad(ok, &['R', id], "a drilling level")
+                        })
+                        .or_else(|| bad(cc.feed.is_finite(), &feed, "the feed"))
+                }
+            };
+            if found.is_some() {
+                return found;
+            }
+            if let Some((l, what)) = bad_axis(&op.state.offset) {
+                return Some((l, format!("the offset on {what}")));
+            }
+        }
+        let st = &*self.st;
+        bad_axis(&st.pos)
+            .or_else(|| {
+                bad_axis(&AxisPos(st.shift)).map(|(l, w)| (l, format!("the G92 shift on {w}")))
+            })
+            .or_else(|| bad(st.feed.is_finite(), &feed, "the feed"))
+            .or_else(|| bad(st.speed.is_finite(), &['S'], "the speed"))
+            .or_else(|| bad(st.tlo.is_finite(), &['H'], "the tool length offset"))
     }
 
     fn expected_here(&self) -> String {

@@ -163,8 +163,16 @@ impl Machine {
     }
 
     /// Writes `#n` of a class this layer owns (work and tool offsets): `Ok(false)` for the
-    /// other classes.
-    pub(crate) fn write_class(&mut self, class: VarClass, v: MVal) -> bool {
+    /// other classes; an error if the value in mm overflows (an inch value past f64's range).
+    pub(crate) fn write_class(&mut self, class: VarClass, v: MVal) -> Result<bool, String> {
+        let mm = |v: f64, unit: f64| -> Result<f64, String> {
+            let m = v * unit;
+            if m.is_finite() {
+                Ok(m)
+            } else {
+                Err("the offset overflows in mm (not a finite number)".to_string())
+            }
+        };
         match class {
             VarClass::WorkOffset { k, axis } => {
                 let unit = if self.cfg.axes[axis].kind.is_rotary() {
@@ -172,15 +180,16 @@ impl Machine {
                 } else {
                     self.state.unit()
                 };
-                self.state.set_work_offset(k, axis, v.unwrap_or(0.0) * unit);
+                self.state
+                    .set_work_offset(k, axis, mm(v.unwrap_or(0.0), unit)?);
             }
             VarClass::ToolOffset { k, field } => {
-                let v = v.unwrap_or(0.0) * self.state.unit();
+                let v = mm(v.unwrap_or(0.0), self.state.unit())?;
                 self.state.set_tool_offset(k, field, v);
             }
-            _ => return false,
+            _ => return Ok(false),
         }
-        true
+        Ok(true)
     }
 
     /// `#4000+g`: the code of modal group `g` (groups cnc402 lacks read vacant, or the

@@ -231,8 +231,10 @@ impl Exec<'_> {
                 for i in 0..self.cfg.axes.len() {
                     if let Some(a) = self.w.take(self.cfg.axes[i].name) {
                         let v = self.axis_value(i, a);
-                        let o = &mut self.st.work_offsets[k][i];
-                        *o = if add { *o + v } else { v };
+                        let o = self.st.work_offsets[k][i];
+                        let new = if add { o + v } else { v };
+                        self.overflow(new, a.span, "the work offset")?;
+                        self.st.work_offsets[k][i] = new;
                     }
                 }
                 Ok(())
@@ -261,7 +263,8 @@ impl Exec<'_> {
                 let v = r.v * self.st.unit();
                 let t = &mut self.st.tool_offsets[n - 1];
                 let new = if add { field.get(t) + v } else { v };
-                field.set(t, new);
+                self.overflow(new, r.span, "the tool offset")?;
+                field.set(&mut self.st.tool_offsets[n - 1], new);
                 Ok(())
             }
             20 => Err(self
@@ -274,6 +277,16 @@ impl Exec<'_> {
                 .err(l.span, format!("G10 L{} is not supported", fmt_num(l.v)))
                 .with_expected("L2 (work offsets G54-G59) or L10-L13 (tool offsets, memory C)")),
         }
+    }
+
+    /// An error at `span` if the offset value `v` is not finite (G91 G10 adds to it).
+    fn overflow(&self, v: f64, span: Span, what: &str) -> Result<(), NcError> {
+        if v.is_finite() {
+            return Ok(());
+        }
+        Err(self
+            .err(span, format!("{what} overflows (not a finite number)"))
+            .with_expected("values that stay within ±1.8e308"))
     }
 
     /// G92: shifts every work coordinate system so that the programmed position of each named

@@ -131,6 +131,15 @@ impl Words {
             let Some(v) = eval::value_in(src, &word.value, vars)? else {
                 continue;
             };
+            if !v.is_finite() {
+                // A literal of more than 308 digits: nothing after this may see `inf`.
+                return Err(NcError::new(
+                    src,
+                    word.span,
+                    format!("{} is not a finite number", word.letter),
+                )
+                .with_expected("a number within ±1.8e308"));
+            }
             let has_point = match &word.value {
                 Value::Number(n) => n.has_point,
                 Value::Expr(_) => true,
@@ -231,16 +240,21 @@ fn whole_code(v: f64) -> Option<u32> {
 }
 
 /// A number for a message or the segment dump: rounded to 1e-6, shortest decimal form, no
-/// trailing zeros, `-0` as `0` (`10`, `-2.5`, `0.333333`). Non-finite values print as Rust
-/// does (`NaN`, `inf`); the dump maps them to `null` (see `dump::num`).
+/// trailing zeros, `-0` as `0` (`10`, `-2.5`, `0.333333`). Numbers of 1e15 and more are not
+/// rounded (scaling them by 1e6 could overflow to `inf`): they print in full. Non-finite
+/// values print as Rust does (`NaN`, `inf`); none reaches a segment (see `dump::num`).
 ///
 /// ```
 /// use cnc402_interp::words::fmt_num;
 /// assert_eq!(fmt_num(-2.50000004), "-2.5");
 /// assert_eq!(fmt_num(-0.0000001), "0");
 /// assert_eq!(fmt_num(f64::NAN), "NaN");
+/// assert_eq!(fmt_num(f64::MAX), format!("{}", f64::MAX));
 /// ```
 pub fn fmt_num(v: f64) -> String {
+    if v.is_nan() || v.abs() >= 1e15 {
+        return format!("{v}");
+    }
     let r = (v * 1e6).round() / 1e6;
     if r == 0.0 { "0".into() } else { format!("{r}") }
 }

@@ -261,12 +261,34 @@ pub struct CyclePlan {
     pub spindle_dir: SpindleDir,
 }
 
-impl CanonKind {
-    /// Whether this operation moves an axis or waits (what resets the runaway counter).
-    pub fn is_motion(&self) -> bool {
-        match self {
-            CanonKind::Single(k) => k.is_path() || matches!(k, SegmentKind::Dwell { .. }),
-            CanonKind::CannedCycle(_) => true,
+/// Whether `ops`, run from machine position `from`, make real motion: a move that changes a
+/// position (by more than 1e-9), an arc, a canned cycle, or a dwell longer than 0. The one
+/// rule for what resets the runaway guard (G-code blocks and the C-like program's requests
+/// alike): messages, zero dwells and zero-length moves are not motion, so a loop of them
+/// ends as a runaway instead of spinning forever.
+pub fn makes_motion(ops: &[CanonOp], from: &AxisPos) -> bool {
+    let mut pos = *from;
+    for op in ops {
+        let end = match &op.kind {
+            CanonKind::CannedCycle(_) => return true,
+            CanonKind::Single(k) => match k {
+                SegmentKind::Arc { .. } => return true,
+                SegmentKind::Dwell { seconds } if *seconds > 0.0 => return true,
+                SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => end,
+                SegmentKind::Tap(t) => &t.end,
+                _ => continue,
+            },
+        };
+        let end = op.state.to_machine(end);
+        if end
+            .0
+            .iter()
+            .zip(pos.0.iter())
+            .any(|(a, b)| (a - b).abs() > 1e-9)
+        {
+            return true;
         }
+        pos = end;
     }
+    false
 }

@@ -37,7 +37,9 @@ use cnc402_motion::segment::{
 };
 
 /// `v` rounded to 1e-6 in its shortest decimal form ([`fmt_num`], the interpreter's one number
-/// format); `-0` prints as `0`, non-finite as `null`.
+/// format); `-0` prints as `0`. The block layer refuses any non-finite number at its word,
+/// so none comes from the interpreter; a hand-made segment's prints as `null`, never as
+/// invalid JSON.
 ///
 /// ```
 /// use cnc402_interp::dump::num;

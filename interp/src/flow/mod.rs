@@ -21,7 +21,7 @@ use crate::block::Machine;
 use crate::block::state::ModalState;
 use crate::block::words::Words;
 pub use crate::block::{MainM99, Options};
-use crate::canon::CanonOp;
+use crate::canon::{self, CanonOp};
 use crate::expr::{self, C_LIKE_ONLY};
 use crate::hll::Hll;
 use crate::host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary};
@@ -336,8 +336,9 @@ impl Interpreter {
         if let Some(m) = words.m.last() {
             self.flow.last_m = Some(f64::from(m.0));
         }
+        let from = self.m.state.pos;
         let (out, end) = self.m.execute(&unit.src, words, line)?;
-        if out.iter().any(|op| op.kind.is_motion()) {
+        if canon::makes_motion(&out, &from) {
             self.flow.runaway.reset();
         }
         self.flow.queue.extend(out);

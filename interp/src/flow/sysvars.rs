@@ -52,7 +52,7 @@ impl Interpreter {
             }
             return Ok(());
         }
-        if self.m.write_class(class, v) {
+        if self.m.write_class(class, v)? {
             return Ok(());
         }
         Err(format!(

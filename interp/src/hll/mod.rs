@@ -17,11 +17,11 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Line, LineKind, Program, Span};
 use cnc402_lang::{NcError, SourceFile};
-use cnc402_motion::segment::Source;
+use cnc402_motion::segment::{AxisPos, Source};
 
 use crate::block::Machine;
 use crate::block::words::{GGroup, Words};
-use crate::canon::CanonOp;
+use crate::canon::{self, CanonOp};
 
 pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
 use req::{Read, Req};
@@ -52,6 +52,9 @@ struct Running {
     thread: Option<std::thread::JoinHandle<()>>,
     /// Tells the executor to stop at its next statement or loop turn.
     halt: Arc<AtomicBool>,
+    /// Blocks, messages and dwells in a row without motion (`canon::makes_motion`): the
+    /// executor counts statements only, so a loop of `MSG` or `sleep(0)` is caught here.
+    idle: u64,
 }
 
 impl Drop for Running {
@@ -125,6 +128,7 @@ impl Hll {
             done: false,
             thread: None,
             halt: Arc::new(AtomicBool::new(false)),
+            idle: 0,
         };
         match compile::compile(cfg, src.clone(), program.clone(), library) {
             Ok(prog) => {
@@ -199,6 +203,36 @@ impl Hll {
 }
 
 impl Running {
+    /// The runaway guard of the requests: `ops` (run from `from`) without motion count one
+    /// more, past `interp.block_limit` an error at the statement (`span` of `file`).
+    fn count_idle(
+        &mut self,
+        it: &Machine,
+        ops: &[CanonOp],
+        from: &AxisPos,
+        file: ir::FileId,
+        span: Span,
+    ) -> Result<(), NcError> {
+        if canon::makes_motion(ops, from) {
+            self.idle = 0;
+            return Ok(());
+        }
+        self.idle += 1;
+        let limit = it.cfg.interp.block_limit;
+        if self.idle <= limit {
+            return Ok(());
+        }
+        Err(NcError::new(
+            &self.prog.files[file],
+            span,
+            format!(
+                "runaway: {limit} blocks, messages or dwells in a row without motion (config \
+                 interp.block_limit)"
+            ),
+        )
+        .with_expected("a loop that ends, or motion inside it"))
+    }
+
     fn stop(&mut self) {
         // A computing executor stops at its next statement; the drop joins it.
         self.halt.store(true, Ordering::Relaxed);
@@ -262,7 +296,15 @@ impl Running {
                         line,
                         n: None,
                     };
-                    self.queue.push_back(it.single_op(kind, source));
+                    let from = it.state.pos;
+                    let op = it.single_op(kind, source);
+                    if let Err(e) =
+                        self.count_idle(it, std::slice::from_ref(&op), &from, file, span)
+                    {
+                        self.stop();
+                        return Err(e);
+                    }
+                    self.queue.push_back(op);
                 }
                 Req::Read(what) => {
                     // The queue is empty: every earlier segment has been handed out.
@@ -311,7 +353,9 @@ impl Running {
                 ),
             ));
         }
+        let from = it.state.pos;
         let (out, end) = it.execute(&src, w, line)?;
+        self.count_idle(it, &out, &from, file, line.span)?;
         self.queue.extend(out);
         if end {
             self.done = true;

@@ -14,6 +14,30 @@ use crate::canon::{CannedCycle, CanonState};
 /// Lengths closer than this are the same point.
 const EPS: f64 = 1e-9;
 
+/// Most pecks one hole may take (G73, G83, and G74/G84 with Q): 10,000 pecks drill a
+/// 100 mm hole at 0.01 mm a peck, far finer than any real peck depth.
+pub const MAX_PECKS: f64 = 10_000.0;
+/// Most moves one canned-cycle block may expand to (holes × moves a hole takes): the
+/// expansion is held in memory by lowering, and 100,000 moves are a few MB; 9,999 repeats
+/// (the most K/L allows) of a G81 hole are 30,000.
+pub const MAX_CYCLE_MOVES: f64 = 100_000.0;
+
+/// How many pecks a hole `depth` deep takes at `q` a peck (as [`Expander`] makes them; an
+/// `f64`, so that an absurd count is a number to report, never an overflow).
+pub fn peck_count(q: f64, depth: f64) -> f64 {
+    if depth - q < 1e-6 {
+        1.0
+    } else {
+        ((depth - 1e-6) / q).ceil().max(1.0)
+    }
+}
+
+/// At most how many moves one hole of `pecks` pecks takes (positioning, up to three moves a
+/// peck, and the spindle, dwell, orientation and shift steps around them).
+pub fn moves_per_hole(pecks: f64) -> f64 {
+    3.0 * pecks + 12.0
+}
+
 /// One step of an expanded cycle, in machine coordinates.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CycleStep {

@@ -173,6 +173,13 @@ pub fn run_program(
             e.message
         );
     }
+    if let Some(n) = dry.checked_only {
+        log::warn!(
+            "{}: dry run checked the first {n} segments; the program goes on past them (the \
+             rest is checked as it runs)",
+            src.name
+        );
+    }
     if let Some(line) = dry.repeats_at {
         log::warn!(
             "{}:{line}: M99 in the main program: it starts over from its first block, endlessly \

@@ -1,0 +1,9 @@
+G91
+WHILE[#1 LT 3000]DO1
+(MSG, a)
+(MSG, b)
+G4 P0
+G0 X0.001
+#1=#1+1
+END1
+M30

@@ -1,0 +1,5 @@
+WHILE[1]DO1
+G4 P0
+(MSG, waiting)
+END1
+M30
