@@ -130,14 +130,15 @@ impl MachineConfig {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawConfig {
+    #[serde(deserialize_with = "check::table")]
     bus: bus::RawBus,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "check::table")]
     interp: interp::RawInterp,
     #[serde(default)]
     work_offsets: work_offsets::RawWorkOffsets,
     #[serde(default)]
     tool_offsets: tool_offsets::RawToolOffsets,
-    axis: Vec<axes::RawAxis>,
+    axis: Vec<check::Table<axes::RawAxis>>,
 }
 
 /// Validates the sections in file order of dependence: the bus first (the axes check their
@@ -146,17 +147,19 @@ struct RawConfig {
 fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
     let bus = raw.bus.validate()?;
     let interp = raw.interp.validate()?;
-    let axes = axes::validate(&raw.axis, bus.master_node_id)?;
+    let axes = axes::validate(&raw.axis, &bus)?;
     let work_offsets = work_offsets::validate(&raw.work_offsets, &axes)?;
     let tool_offsets = tool_offsets::validate(&raw.tool_offsets)?;
-    Ok(MachineConfig {
+    let config = MachineConfig {
         path: path.to_path_buf(),
         axes,
         bus,
         interp,
         work_offsets,
         tool_offsets,
-    })
+    };
+    raw.interp.check_paths(&config)?;
+    Ok(config)
 }
 
 #[cfg(test)]
