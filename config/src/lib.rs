@@ -2,7 +2,9 @@
 //! offsets and tool offsets. Text is parsed into a raw, span-carrying form, then validated
 //! section by section (one module per TOML section: `bus`, `interp`, `axes`, `work_offsets`,
 //! `tool_offsets`) into [`MachineConfig`], the plain plan every other crate reads. Every
-//! error, syntactic or semantic, names the file, line, column and key path.
+//! error, syntactic or semantic, names the file, line, column and key path. Every value is
+//! checked where it will be read (the drive's 32-bit counts, 0x60C2, the planner, the file
+//! system); `docs/config.md` has the table of each key's valid range and why.
 
 mod axes;
 mod bus;
