@@ -37,7 +37,9 @@ fn period_us_999_is_not_representable_in_0x60c2() {
         let e = refused(&text, "bus.period_us", "period_us =");
         assert!(e.message.contains("0x60C2"), "{e}");
     }
-    for good in [100, 125, 250, 255, 500, 1000, 2000, 2500, 4000, 25_500, 100_000] {
+    for good in [
+        100, 125, 250, 255, 500, 1000, 2000, 2500, 4000, 25_500, 100_000,
+    ] {
         let text = with("period_us = 1000", &format!("period_us = {good}"));
         assert_eq!(parse(&text).unwrap().bus.period_us, good, "{good}");
     }
@@ -65,7 +67,11 @@ fn counts_per_unit_1e300_is_beyond_the_32_bit_position() {
         "counts_per_unit = 10000      # 0.1 µm",
         "counts_per_unit = 7158279",
     );
-    refused(&text, "axis[0].counts_per_unit", "counts_per_unit = 7158279");
+    refused(
+        &text,
+        "axis[0].counts_per_unit",
+        "counts_per_unit = 7158279",
+    );
     // A rotary axis: one turn must fit.
     let text = with("counts_per_rev = 131072", "counts_per_unit = 6e6");
     refused(&text, "axis[3].counts_per_unit", "counts_per_unit = 6e6");
@@ -77,7 +83,11 @@ fn counts_per_rev_1_5_is_not_a_whole_number() {
     let e = refused(&text, "axis[3].counts_per_rev", "counts_per_rev = 1.5");
     assert!(e.message.contains("whole number"), "{e}");
     let text = with("counts_per_rev = 131072", "counts_per_rev = 4294967296");
-    refused(&text, "axis[3].counts_per_rev", "counts_per_rev = 4294967296");
+    refused(
+        &text,
+        "axis[3].counts_per_rev",
+        "counts_per_rev = 4294967296",
+    );
     let text = with("counts_per_rev = 131072", "counts_per_rev = 131072.0");
     assert!(parse(&text).is_ok());
 }
@@ -119,7 +129,11 @@ fn max_acceleration_1e200_is_above_the_ceiling() {
         "max_acceleration = 2000.0    # mm/s²",
         "max_acceleration = 1e200",
     );
-    let e = refused(&text, "axis[0].max_acceleration", "max_acceleration = 1e200");
+    let e = refused(
+        &text,
+        "axis[0].max_acceleration",
+        "max_acceleration = 1e200",
+    );
     assert!(e.message.contains("at most"), "{e}");
     // Negative: the old message.
     let text = with(
@@ -193,7 +207,10 @@ fn keys_differing_in_case_are_unknown_keys() {
     assert!(e.message.contains("unknown field `Max_jerk`"), "{e}");
     let text = with("[bus]", "[Bus]");
     assert!(parse(&text).is_err());
-    let text = with("block_limit = 1000000", "block_limit = 1000000\nBlock_limit = 5");
+    let text = with(
+        "block_limit = 1000000",
+        "block_limit = 1000000\nBlock_limit = 5",
+    );
     assert!(parse(&text).unwrap_err().message.contains("unknown field"));
 }
 
@@ -233,7 +250,11 @@ fn sim_as_an_empty_array_is_not_a_table_of_defaults() {
         "sim = { delay_cycles = 1, bandwidth_hz = 150.0 }",
         "sim = { bandwidth_hz = 1e7 }",
     );
-    refused(&text, "axis[0].sim.bandwidth_hz", "sim = { bandwidth_hz = 1e7 }");
+    refused(
+        &text,
+        "axis[0].sim.bandwidth_hz",
+        "sim = { bandwidth_hz = 1e7 }",
+    );
 }
 
 #[test]
@@ -258,7 +279,10 @@ fn variables_file_naming_a_folder_is_refused_at_its_key() {
     std::fs::write(dir.join("lib.nc"), "").unwrap();
     std::fs::write(
         &path,
-        with("library_dir = \"examples/axioma\"", "library_dir = \"lib.nc\""),
+        with(
+            "library_dir = \"examples/axioma\"",
+            "library_dir = \"lib.nc\"",
+        ),
     )
     .unwrap();
     let e = MachineConfig::load(&path).unwrap_err();
