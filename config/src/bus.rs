@@ -136,7 +136,7 @@ fn period_us(v: &Spanned<i64>) -> Result<u32, Invalid> {
     let us = int_in(v, "bus.period_us", 100, 100_000)? as u32;
     let exact = [1000, 100, 10, 1]
         .iter()
-        .any(|&unit| us % unit == 0 && (1..=255).contains(&(us / unit)));
+        .any(|&unit| us.is_multiple_of(unit) && (1..=255).contains(&(us / unit)));
     if exact {
         Ok(us)
     } else {
