@@ -6,8 +6,22 @@
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::MAX_AXES;
-use crate::check::{Invalid, int_in, positive, sp};
+use crate::check::{Invalid, Table, int_in, positive, positive_at_most, sp, table};
+use crate::{BusConfig, MAX_AXES};
+
+/// Largest |position| the drive's INT32 position objects (0x607A, 0x6064, 0x60F4) hold.
+pub(crate) const MAX_COUNTS: f64 = i32::MAX as f64;
+/// Ceilings of the dynamic limits (units/s, /s², /s³): far beyond any machine (10 km/s,
+/// 10⁵ g), low enough that the planner's products (a², v·j ≤ 10¹⁹) stay exact enough.
+const MAX_VELOCITY: f64 = 1e7;
+const MAX_ACCELERATION: f64 = 1e9;
+const MAX_JERK: f64 = 1e12;
+/// Longest ramp from rest to max_velocity the limits may ask for (s): the planner's moves
+/// and stops are made of such ramps, so a longer one means absurd tick counts (and with
+/// max_jerk = 1e-300, a non-finite one).
+const MAX_RAMP_S: f64 = 60.0;
+/// Ceiling of the simulated drive's tracking bandwidth (Hz): beyond it the loop is ideal.
+const MAX_BANDWIDTH_HZ: f64 = 1e6;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AxisKind {
@@ -92,7 +106,7 @@ pub(crate) struct RawAxis {
     second_reference: Option<Spanned<f64>>,
     third_reference: Option<Spanned<f64>>,
     fourth_reference: Option<Spanned<f64>>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "table")]
     sim: RawSim,
 }
 
@@ -127,9 +141,12 @@ fn default_bandwidth() -> Spanned<f64> {
     sp(150.0)
 }
 
-/// Checks the `[[axis]]` list in order; `master_node_id` is `bus.master_node_id`, which no
-/// axis may use.
-pub(crate) fn validate(raw: &[RawAxis], master_node_id: u8) -> Result<Vec<AxisConfig>, Invalid> {
+/// Checks the `[[axis]]` list in order against the bus (no axis may use
+/// `bus.master_node_id`; a cycle's step must fit the wire).
+pub(crate) fn validate(
+    raw: &[Table<RawAxis>],
+    bus: &BusConfig,
+) -> Result<Vec<AxisConfig>, Invalid> {
     if raw.is_empty() {
         return Err((
             0..0,
@@ -139,14 +156,14 @@ pub(crate) fn validate(raw: &[RawAxis], master_node_id: u8) -> Result<Vec<AxisCo
     }
     if raw.len() > MAX_AXES {
         return Err((
-            raw[MAX_AXES].name.span(),
+            raw[MAX_AXES].0.name.span(),
             format!("axis[{MAX_AXES}]"),
             format!("at most {MAX_AXES} axes"),
         ));
     }
     let mut axes: Vec<AxisConfig> = Vec::new();
     for (k, a) in raw.iter().enumerate() {
-        let axis = a.validate(k, &axes, master_node_id)?;
+        let axis = a.0.validate(k, &axes, bus)?;
         axes.push(axis);
     }
     Ok(axes)
@@ -159,17 +176,19 @@ impl RawAxis {
         &self,
         k: usize,
         earlier: &[AxisConfig],
-        master_node_id: u8,
+        bus: &BusConfig,
     ) -> Result<AxisConfig, Invalid> {
         let a = self;
         let key = |f: &str| format!("axis[{k}].{f}");
         let name = a.name(k, earlier)?;
         let kind = a.kind(k, earlier)?;
-        let node = a.node(k, earlier, master_node_id)?;
+        let node = a.node(k, earlier, bus.master_node_id)?;
         let counts_per_unit = a.counts_per_unit(k, kind)?;
         let soft_limits = a.soft_limits(k, kind)?;
-        let max_rpm = a.max_rpm(k, kind)?;
-        let references = a.references(k, soft_limits)?;
+        a.counts_fit(k, counts_per_unit, soft_limits)?;
+        let (max_velocity, max_acceleration, max_jerk) = a.dynamics(k, counts_per_unit, bus)?;
+        let max_rpm = a.max_rpm(k, kind, max_velocity)?;
+        let references = a.references(k, soft_limits, counts_per_unit)?;
         let bw = *a.sim.bandwidth_hz.get_ref();
         if !(bw.is_finite() && bw >= 0.0) {
             return Err((
@@ -178,19 +197,23 @@ impl RawAxis {
                 format!("must be ≥ 0, got {bw}"),
             ));
         }
+        if bw > MAX_BANDWIDTH_HZ {
+            return Err((
+                a.sim.bandwidth_hz.span(),
+                key("sim.bandwidth_hz"),
+                format!("must be at most {MAX_BANDWIDTH_HZ}, got {bw}"),
+            ));
+        }
         Ok(AxisConfig {
             name,
             kind,
             node,
             counts_per_unit,
-            max_velocity: positive(&a.max_velocity, &key("max_velocity"))?,
-            max_acceleration: positive(&a.max_acceleration, &key("max_acceleration"))?,
-            max_jerk: positive(&a.max_jerk, &key("max_jerk"))?,
+            max_velocity,
+            max_acceleration,
+            max_jerk,
             soft_limits,
-            following_error_window: positive(
-                &a.following_error_window,
-                &key("following_error_window"),
-            )?,
+            following_error_window: a.following_error_window(k, counts_per_unit)?,
             following_error_timeout_ms: int_in(
                 &a.following_error_timeout_ms,
                 &key("following_error_timeout_ms"),
@@ -310,7 +333,17 @@ impl RawAxis {
         let key = |f: &str| format!("axis[{k}].{f}");
         match (&self.counts_per_unit, &self.counts_per_rev) {
             (Some(c), None) => positive(c, &key("counts_per_unit")),
-            (None, Some(c)) if kind.is_rotary() => Ok(positive(c, &key("counts_per_rev"))? / 360.0),
+            (None, Some(c)) if kind.is_rotary() => {
+                let n = positive(c, &key("counts_per_rev"))?;
+                if n.fract() != 0.0 || n > MAX_COUNTS {
+                    return Err((
+                        c.span(),
+                        key("counts_per_rev"),
+                        format!("must be a whole number of counts 1..={MAX_COUNTS}, got {n}"),
+                    ));
+                }
+                Ok(n / 360.0)
+            }
             (None, Some(c)) => Err((
                 c.span(),
                 key("counts_per_rev"),
@@ -362,11 +395,26 @@ impl RawAxis {
         }
     }
 
-    /// `max_rpm`: required on the spindle, refused elsewhere.
-    fn max_rpm(&self, k: usize, kind: AxisKind) -> Result<Option<f64>, Invalid> {
+    /// `max_rpm`: required on the spindle, refused elsewhere; at most `max_velocity` / 6
+    /// (deg/s per rpm), which the planner caps the spindle at: a larger one let the
+    /// interpreter take an S word the planner then refused.
+    fn max_rpm(&self, k: usize, kind: AxisKind, max_velocity: f64) -> Result<Option<f64>, Invalid> {
         let key = format!("axis[{k}].max_rpm");
         match (&self.max_rpm, kind) {
-            (Some(r), AxisKind::Spindle) => Ok(Some(positive(r, &key)?)),
+            (Some(r), AxisKind::Spindle) => {
+                let rpm = positive(r, &key)?;
+                if rpm * 6.0 > max_velocity * (1.0 + 1e-12) {
+                    return Err((
+                        r.span(),
+                        key,
+                        format!(
+                            "must be at most max_velocity / 6 = {} rpm, got {rpm}",
+                            max_velocity / 6.0
+                        ),
+                    ));
+                }
+                Ok(Some(rpm))
+            }
             (None, AxisKind::Spindle) => {
                 Err((self.kind.span(), key, "a spindle needs max_rpm".into()))
             }
@@ -376,12 +424,14 @@ impl RawAxis {
     }
 
     /// The four reference positions (the first defaults to 0): finite, inside the soft
-    /// limits.
+    /// limits (linear axes) or the drive's 32-bit position (rotary axes).
     fn references(
         &self,
         k: usize,
         soft_limits: Option<(f64, f64)>,
+        counts_per_unit: f64,
     ) -> Result<[Option<f64>; 4], Invalid> {
+        let reach = MAX_COUNTS / counts_per_unit;
         let mut references = [Some(0.0), None, None, None];
         for (slot, (v, name)) in [
             (&self.reference, "reference"),
@@ -396,10 +446,13 @@ impl RawAxis {
             let x = *v.get_ref();
             let bad = if !x.is_finite() {
                 Some("must be a finite number".to_string())
+            } else if let Some((lo, hi)) = soft_limits {
+                (x < lo || x > hi)
+                    .then(|| format!("{x} is outside the axis's soft limits {lo}..{hi}"))
             } else {
-                soft_limits
-                    .filter(|&(lo, hi)| x < lo || x > hi)
-                    .map(|(lo, hi)| format!("{x} is outside the axis's soft limits {lo}..{hi}"))
+                (x.abs() > reach).then(|| {
+                    format!("{x} is beyond the drive's 32-bit position (±{reach} at this scale)")
+                })
             };
             if let Some(m) = bad {
                 return Err((v.span(), format!("axis[{k}].{name}"), m));
@@ -407,5 +460,117 @@ impl RawAxis {
             references[slot] = Some(x);
         }
         Ok(references)
+    }
+
+    /// The span and key of the scale as written (`counts_per_unit` or `counts_per_rev`).
+    fn scale_key(&self, k: usize) -> (std::ops::Range<usize>, String) {
+        match (&self.counts_per_unit, &self.counts_per_rev) {
+            (None, Some(c)) => (c.span(), format!("axis[{k}].counts_per_rev")),
+            (c, _) => (
+                c.as_ref().map_or(self.name.span(), |c| c.span()),
+                format!("axis[{k}].counts_per_unit"),
+            ),
+        }
+    }
+
+    /// The drive's position is INT32 counts: every position of a linear axis's soft-limit
+    /// range, and one turn of a rotary axis (whose counts wrap), must fit in it.
+    fn counts_fit(
+        &self,
+        k: usize,
+        counts_per_unit: f64,
+        soft_limits: Option<(f64, f64)>,
+    ) -> Result<(), Invalid> {
+        let (reach, what) = match soft_limits {
+            Some((lo, hi)) if lo.abs() > hi.abs() => (lo.abs(), format!("the soft limit {lo}")),
+            Some((_, hi)) => (hi.abs(), format!("the soft limit {hi}")),
+            None => (360.0, "one turn (360°)".to_string()),
+        };
+        let counts = reach * counts_per_unit;
+        if counts <= MAX_COUNTS {
+            return Ok(());
+        }
+        let (span, key) = self.scale_key(k);
+        Err((
+            span,
+            key,
+            format!(
+                "{what} is {counts:e} counts, beyond the drive's 32-bit position (±{MAX_COUNTS})"
+            ),
+        ))
+    }
+
+    /// `following_error_window`: positive, and in counts (0x6065, UNSIGNED32; 0x60F4 is
+    /// INT32) at least 1 (a smaller one rounds to 0, which the master wrote as 0xFFFFFFFF,
+    /// supervision off) and at most 2^31 − 1 (a following error can never exceed it).
+    fn following_error_window(&self, k: usize, counts_per_unit: f64) -> Result<f64, Invalid> {
+        let key = format!("axis[{k}].following_error_window");
+        let w = positive(&self.following_error_window, &key)?;
+        let counts = w * counts_per_unit;
+        if (1.0..=MAX_COUNTS).contains(&counts) {
+            return Ok(w);
+        }
+        Err((
+            self.following_error_window.span(),
+            key,
+            format!(
+                "{w} is {counts:e} counts at this axis's scale; the drive's window takes 1..={MAX_COUNTS} counts"
+            ),
+        ))
+    }
+
+    /// `max_velocity`, `max_acceleration`, `max_jerk`: positive, at most their ceilings; the
+    /// velocity at least 1 count/s and at most 2^31 − 1 counts per bus cycle (so that
+    /// consecutive INT32 setpoints differ by their true difference across the wrap); and the
+    /// ramp from rest to max_velocity (the double-S's acceleration phase) at most
+    /// [`MAX_RAMP_S`].
+    fn dynamics(
+        &self,
+        k: usize,
+        counts_per_unit: f64,
+        bus: &BusConfig,
+    ) -> Result<(f64, f64, f64), Invalid> {
+        let key = |f: &str| format!("axis[{k}].{f}");
+        let v = positive_at_most(&self.max_velocity, &key("max_velocity"), MAX_VELOCITY)?;
+        let per_second = v * counts_per_unit;
+        let per_cycle = per_second * bus.period_s();
+        if per_second < 1.0 || per_cycle > MAX_COUNTS {
+            return Err((
+                self.max_velocity.span(),
+                key("max_velocity"),
+                format!(
+                    "{v} is {per_second:e} counts/s ({per_cycle:e} per bus cycle): it must be \
+                     at least 1 count/s and at most {MAX_COUNTS} counts per cycle"
+                ),
+            ));
+        }
+        let a = positive_at_most(
+            &self.max_acceleration,
+            &key("max_acceleration"),
+            MAX_ACCELERATION,
+        )?;
+        let j = positive_at_most(&self.max_jerk, &key("max_jerk"), MAX_JERK)?;
+        // The double-S acceleration phase to v (see motion::profile::rest_to_rest).
+        let ramp = if v * j >= a * a {
+            v / a + a / j
+        } else {
+            2.0 * (v / j).sqrt()
+        };
+        if ramp <= MAX_RAMP_S {
+            return Ok((v, a, j));
+        }
+        let (blamed, field) = if v / a > MAX_RAMP_S {
+            (&self.max_acceleration, "max_acceleration")
+        } else {
+            (&self.max_jerk, "max_jerk")
+        };
+        Err((
+            blamed.span(),
+            key(field),
+            format!(
+                "max_velocity {v} takes {ramp:e} s to reach from rest at max_acceleration {a} \
+                 and max_jerk {j}; at most {MAX_RAMP_S} s"
+            ),
+        ))
     }
 }

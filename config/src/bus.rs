@@ -84,10 +84,20 @@ impl RawBus {
                 "must name \"sim\" or a CAN interface".into(),
             ));
         }
+        if interface != "sim" && !is_interface_name(&interface) {
+            return Err((
+                b.interface.span(),
+                "bus.interface".into(),
+                format!(
+                    "{interface:?} cannot be a network interface: at most 15 bytes (Linux \
+                     IFNAMSIZ), no '/', ':' or white space"
+                ),
+            ));
+        }
         let bus = BusConfig {
             interface,
             bitrate: int_in(&b.bitrate, "bus.bitrate", 10_000, 1_000_000)? as u32,
-            period_us: int_in(&b.period_us, "bus.period_us", 100, 100_000)? as u32,
+            period_us: period_us(&b.period_us)?,
             heartbeat_ms: int_in(&b.heartbeat_ms, "bus.heartbeat_ms", 0, 65535)? as u16,
             heartbeat_timeout_ms: int_in(
                 &b.heartbeat_timeout_ms,
@@ -116,4 +126,37 @@ impl RawBus {
         }
         Ok(bus)
     }
+}
+
+/// `period_us`: in 100..=100 000 µs and exactly writable to 0x60C2 the way the master writes
+/// it (`drives::master::InterpolationPeriod::from_micros`): a mantissa 1..=255 times
+/// 10^-3, 10^-4, 10^-5 or 10^-6 s. So 1000, 250, 125, 2500 and 4000 are periods, 999, 1001
+/// and 2560 are not (the drive would interpolate at a different period than the bus runs).
+fn period_us(v: &Spanned<i64>) -> Result<u32, Invalid> {
+    let us = int_in(v, "bus.period_us", 100, 100_000)? as u32;
+    let exact = [1000, 100, 10, 1]
+        .iter()
+        .any(|&unit| us.is_multiple_of(unit) && (1..=255).contains(&(us / unit)));
+    if exact {
+        Ok(us)
+    } else {
+        Err((
+            v.span(),
+            "bus.period_us".into(),
+            format!(
+                "{us} µs cannot be written to the drives' interpolation period 0x60C2 (a \
+                 value 1..=255 times 1000, 100, 10 or 1 µs, e.g. 1000, 2500, 250, 125)"
+            ),
+        ))
+    }
+}
+
+/// A name Linux accepts for a network interface (SocketCAN opens it by this name).
+fn is_interface_name(name: &str) -> bool {
+    name.len() <= 15
+        && name != "."
+        && name != ".."
+        && !name
+            .chars()
+            .any(|c| c == '/' || c == ':' || c.is_whitespace())
 }

@@ -2,6 +2,11 @@
 //! span of the offending text, the dotted key and the message (`ConfigError` adds file, line
 //! and column).
 
+use std::fmt;
+use std::marker::PhantomData;
+
+use serde::de::value::MapAccessDeserializer;
+use serde::de::{Deserialize, Deserializer, MapAccess, Visitor};
 use toml::Spanned;
 
 /// A failed check: span of the value, key path, message.
@@ -52,4 +57,65 @@ pub(crate) fn int_in(v: &Spanned<i64>, key: &str, lo: i64, hi: i64) -> Result<i6
             format!("must be in {lo}..={hi}, got {x}"),
         ))
     }
+}
+
+/// A positive number no larger than `hi` (the key's sane ceiling, see the crate's table).
+pub(crate) fn positive_at_most(v: &Spanned<f64>, key: &str, hi: f64) -> Result<f64, Invalid> {
+    let x = positive(v, key)?;
+    if x <= hi {
+        Ok(x)
+    } else {
+        Err((
+            v.span(),
+            key.to_string(),
+            format!("must be at most {hi}, got {x}"),
+        ))
+    }
+}
+
+/// A finite number with |x| ≤ `bound`; `what` says where the bound comes from.
+pub(crate) fn finite_within(
+    v: &Spanned<f64>,
+    key: &str,
+    bound: f64,
+    what: &str,
+) -> Result<f64, Invalid> {
+    let x = *v.get_ref();
+    if !x.is_finite() {
+        return Err((v.span(), key.to_string(), "must be finite".into()));
+    }
+    if x.abs() > bound {
+        return Err((
+            v.span(),
+            key.to_string(),
+            format!("must be within ±{bound} ({what}), got {x}"),
+        ));
+    }
+    Ok(x)
+}
+
+/// A value that must be written as a TOML table (`{ … }` or a `[section]`). serde's derived
+/// structs also take an array, filling their fields by position (`sim = []` meant "all
+/// defaults", `sim = [5]` set `delay_cycles`); this wrapper refuses anything but a table.
+pub(crate) struct Table<T>(pub T);
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Table<T> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct TableOnly<T>(PhantomData<T>);
+        impl<'de, T: Deserialize<'de>> Visitor<'de> for TableOnly<T> {
+            type Value = T;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a table")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<T, A::Error> {
+                T::deserialize(MapAccessDeserializer::new(map))
+            }
+        }
+        d.deserialize_map(TableOnly(PhantomData)).map(Table)
+    }
+}
+
+/// `#[serde(deserialize_with)]` form of [`Table`].
+pub(crate) fn table<'de, D: Deserializer<'de>, T: Deserialize<'de>>(d: D) -> Result<T, D::Error> {
+    Table::deserialize(d).map(|t| t.0)
 }

@@ -6,7 +6,12 @@ use std::path::PathBuf;
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::check::{Invalid, angle_in_turn, int_in, positive, sp};
+use crate::MachineConfig;
+use crate::check::{Invalid, angle_in_turn, int_in, positive_at_most, sp};
+
+/// Ceiling of the interpreter's lengths (retracts, clearances, tolerances; mm): one metre,
+/// beyond any cycle amount or tolerance.
+const MAX_LENGTH: f64 = 1000.0;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Units {
@@ -182,19 +187,32 @@ impl RawInterp {
                     ));
                 }
             },
-            peck_retract: positive(&i.peck_retract, "interp.peck_retract")?,
-            peck_clearance: positive(&i.peck_clearance, "interp.peck_clearance")?,
+            peck_retract: positive_at_most(&i.peck_retract, "interp.peck_retract", MAX_LENGTH)?,
+            peck_clearance: positive_at_most(
+                &i.peck_clearance,
+                "interp.peck_clearance",
+                MAX_LENGTH,
+            )?,
             tap_peck_retract: match &i.tap_peck_retract {
-                Some(v) => positive(v, "interp.tap_peck_retract")?,
-                None => positive(&i.peck_retract, "interp.peck_retract")?,
+                Some(v) => positive_at_most(v, "interp.tap_peck_retract", MAX_LENGTH)?,
+                None => positive_at_most(&i.peck_retract, "interp.peck_retract", MAX_LENGTH)?,
             },
-            arc_tolerance: positive(&i.arc_tolerance, "interp.arc_tolerance")?,
-            path_tolerance: positive(&i.path_tolerance, "interp.path_tolerance")?,
+            arc_tolerance: positive_at_most(&i.arc_tolerance, "interp.arc_tolerance", MAX_LENGTH)?,
+            path_tolerance: positive_at_most(
+                &i.path_tolerance,
+                "interp.path_tolerance",
+                MAX_LENGTH,
+            )?,
             spindle_orient_angle: angle_in_turn(
                 &i.spindle_orient_angle,
                 "interp.spindle_orient_angle",
             )?,
-            program_dir: PathBuf::from(i.program_dir.get_ref()),
+            program_dir: optional_path(
+                &Some(i.program_dir.clone()),
+                "interp.program_dir",
+                "leave the key out for \"examples\"",
+            )?
+            .unwrap_or_default(),
             block_limit: int_in(&i.block_limit, "interp.block_limit", 1, i64::MAX)? as u64,
             variables_file: optional_path(
                 &i.variables_file,
@@ -225,5 +243,44 @@ fn optional_path(
             format!("must not be empty ({hint})"),
         )),
         Some(f) => Ok(Some(PathBuf::from(f.get_ref()))),
+    }
+}
+
+impl RawInterp {
+    /// What only the file system can tell: `variables_file` must not name a folder, nor
+    /// `program_dir` and `library_dir` a file (where they exist; a missing one is created or
+    /// reported when used). Checked at load, so that the error names the key and its line
+    /// rather than the program's first line.
+    pub(crate) fn check_paths(&self, cfg: &MachineConfig) -> Result<(), Invalid> {
+        if let (Some(v), Some(f)) = (&self.variables_file, cfg.variables_file())
+            && f.is_dir()
+        {
+            return Err((
+                v.span(),
+                "interp.variables_file".into(),
+                format!("{} is a folder, not a file", f.display()),
+            ));
+        }
+        let folders = [
+            (
+                Some(&self.program_dir),
+                Some(cfg.program_dir()),
+                "program_dir",
+            ),
+            (self.library_dir.as_ref(), cfg.library_dir(), "library_dir"),
+        ];
+        for (v, dir, key) in folders {
+            if let (Some(v), Some(dir)) = (v, dir)
+                && dir.exists()
+                && !dir.is_dir()
+            {
+                return Err((
+                    v.span(),
+                    format!("interp.{key}"),
+                    format!("{} is a file, not a folder", dir.display()),
+                ));
+            }
+        }
+        Ok(())
     }
 }

@@ -2,7 +2,9 @@
 //! offsets and tool offsets. Text is parsed into a raw, span-carrying form, then validated
 //! section by section (one module per TOML section: `bus`, `interp`, `axes`, `work_offsets`,
 //! `tool_offsets`) into [`MachineConfig`], the plain plan every other crate reads. Every
-//! error, syntactic or semantic, names the file, line, column and key path.
+//! error, syntactic or semantic, names the file, line, column and key path. Every value is
+//! checked where it will be read (the drive's 32-bit counts, 0x60C2, the planner, the file
+//! system); `docs/config.md` has the table of each key's valid range and why.
 
 mod axes;
 mod bus;
@@ -130,14 +132,15 @@ impl MachineConfig {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawConfig {
+    #[serde(deserialize_with = "check::table")]
     bus: bus::RawBus,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "check::table")]
     interp: interp::RawInterp,
     #[serde(default)]
     work_offsets: work_offsets::RawWorkOffsets,
     #[serde(default)]
     tool_offsets: tool_offsets::RawToolOffsets,
-    axis: Vec<axes::RawAxis>,
+    axis: Vec<check::Table<axes::RawAxis>>,
 }
 
 /// Validates the sections in file order of dependence: the bus first (the axes check their
@@ -146,17 +149,19 @@ struct RawConfig {
 fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
     let bus = raw.bus.validate()?;
     let interp = raw.interp.validate()?;
-    let axes = axes::validate(&raw.axis, bus.master_node_id)?;
+    let axes = axes::validate(&raw.axis, &bus)?;
     let work_offsets = work_offsets::validate(&raw.work_offsets, &axes)?;
     let tool_offsets = tool_offsets::validate(&raw.tool_offsets)?;
-    Ok(MachineConfig {
+    let config = MachineConfig {
         path: path.to_path_buf(),
         axes,
         bus,
         interp,
         work_offsets,
         tool_offsets,
-    })
+    };
+    raw.interp.check_paths(&config)?;
+    Ok(config)
 }
 
 #[cfg(test)]

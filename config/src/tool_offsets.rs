@@ -6,10 +6,14 @@ use std::collections::BTreeMap;
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::check::Invalid;
+use crate::check::{Invalid, Table};
 
 /// How many tool offset numbers there are (H1..H400, D1..D400), as Fanuc's 400-offset option.
 pub const TOOL_OFFSETS: usize = 400;
+
+/// Largest |value| of a tool offset (mm): 10 m, longer than any tool or tool holder. A larger
+/// one was taken and sent the axis off its soft limits at the program's G43.
+const MAX_TOOL_OFFSET: f64 = 10_000.0;
 
 /// One tool offset number (Fanuc memory C): tool length (H) and radius (D), geometry and wear,
 /// in mm. The length used by G43/G44 is `length + length_wear`.
@@ -23,7 +27,7 @@ pub struct ToolOffset {
 
 /// `[tool_offsets]` as written. Plain keys, so that an error inside an entry names it
 /// (`tool_offsets.1.length`); a bad number is reported at the entry's value.
-pub(crate) type RawToolOffsets = BTreeMap<String, Spanned<RawToolOffset>>;
+pub(crate) type RawToolOffsets = BTreeMap<String, Spanned<Table<RawToolOffset>>>;
 
 /// `[tool_offsets]` entry: `1 = { length = 120.0, radius = 5.0 }`; keys left out are 0.
 #[derive(Deserialize)]
@@ -53,7 +57,12 @@ pub(crate) fn validate(raw: &RawToolOffsets) -> Result<Vec<ToolOffset>, Invalid>
         let value = |v: &Option<Spanned<f64>>, field: &str| -> Result<f64, Invalid> {
             match v {
                 None => Ok(0.0),
-                Some(v) if v.get_ref().is_finite() => Ok(*v.get_ref()),
+                Some(v) if v.get_ref().abs() <= MAX_TOOL_OFFSET => Ok(*v.get_ref()),
+                Some(v) if v.get_ref().is_finite() => Err((
+                    v.span(),
+                    format!("tool_offsets.{n}.{field}"),
+                    format!("must be within ±{MAX_TOOL_OFFSET} mm, got {}", v.get_ref()),
+                )),
                 Some(v) => Err((
                     v.span(),
                     format!("tool_offsets.{n}.{field}"),
@@ -61,7 +70,7 @@ pub(crate) fn validate(raw: &RawToolOffsets) -> Result<Vec<ToolOffset>, Invalid>
                 )),
             }
         };
-        let t = t.get_ref();
+        let t = &t.get_ref().0;
         tool_offsets[slot - 1] = ToolOffset {
             length: value(&t.length, "length")?,
             length_wear: value(&t.length_wear, "length_wear")?,

@@ -67,9 +67,9 @@ pub struct Global {
     /// Vendor EDS/DCF (CiA 306): object names and data types in every printout
     #[arg(long, global = true, value_name = "FILE")]
     pub eds: Option<PathBuf>,
-    /// SDO response timeout and probe/listen windows, in ms [default: the config's
-    /// bus.sdo_timeout_ms]
-    #[arg(long, global = true, value_name = "MS")]
+    /// SDO response timeout and probe/listen windows, in ms, 1..=60000 [default: the
+    /// config's bus.sdo_timeout_ms]
+    #[arg(long, global = true, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=MAX_WAIT_MS))]
     pub timeout_ms: Option<u64>,
     /// Simulator only: prepare a condition before the command (repeatable):
     /// enable:NODE, fault:NODE[:CODE], fault-persistent:NODE[:CODE], sdo:NODE (stops
@@ -77,6 +77,13 @@ pub struct Global {
     #[arg(long, global = true, value_name = "ACTION:NODE[:CODE]")]
     pub sim_setup: Vec<SimSetup>,
 }
+
+/// Longest SDO timeout or listen window (ms), as the config's `bus.sdo_timeout_ms`: a
+/// larger one (up to 2^64 ms was taken) waited for ever, or overflowed the clock.
+pub const MAX_WAIT_MS: u64 = 60_000;
+/// Longest `--for`/`--duration`/`--stats-every` (s): a week; without the option, `jog`,
+/// `monitor` and `emcy` run until Ctrl-C.
+pub const MAX_SECONDS: f64 = 604_800.0;
 
 /// A node id or `all` (NMT).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -158,8 +165,8 @@ pub enum Command {
     /// Find nodes: listen for boot-ups/heartbeats, then probe 1..127 by SDO (0x1000)
     #[command(after_help = "Example: drivectl --iface can0 scan --json")]
     Scan {
-        /// How long to listen for heartbeats before probing, in ms
-        #[arg(long, default_value_t = 300, value_name = "MS")]
+        /// How long to listen for heartbeats before probing, in ms, 0..=60000
+        #[arg(long, default_value_t = 300, value_name = "MS", value_parser = clap::value_parser!(u64).range(0..=MAX_WAIT_MS))]
         listen_ms: u64,
         /// Probe only these nodes (default 1..=127)
         #[arg(long, value_delimiter = ',', value_parser = parse_node, value_name = "N,N")]
@@ -331,11 +338,11 @@ pub enum Command {
 /// Options of the state machine commands.
 #[derive(Debug, Args, Clone, Copy)]
 pub struct SeqArgs {
-    /// Give up (and say where it is stuck and why) after this many ms
-    #[arg(long, default_value_t = 2000, value_name = "MS")]
+    /// Give up (and say where it is stuck and why) after this many ms, 0..=600000
+    #[arg(long, default_value_t = 2000, value_name = "MS", value_parser = clap::value_parser!(u64).range(0..=10 * MAX_WAIT_MS))]
     pub within_ms: u64,
-    /// Time between steps in ms
-    #[arg(long, default_value_t = 10, value_name = "MS")]
+    /// Time between steps in ms, 0..=60000
+    #[arg(long, default_value_t = 10, value_name = "MS", value_parser = clap::value_parser!(u64).range(0..=MAX_WAIT_MS))]
     pub step_ms: u64,
 }
 

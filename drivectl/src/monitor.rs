@@ -93,9 +93,11 @@ impl Clock {
 fn seconds(d: Option<f64>, what: &str) -> Result<Option<Duration>> {
     match d {
         None => Ok(None),
-        Some(s) if s.is_finite() && s >= 0.0 => Duration::try_from_secs_f64(s)
-            .map(Some)
-            .map_err(|_| CliError::usage(format!("{what} {s} is too long"))),
+        Some(s) if s.is_finite() && s > crate::cli::MAX_SECONDS => Err(CliError::usage(format!(
+            "{what} {s} is too long (at most {} s; leave it out to run until Ctrl-C)",
+            crate::cli::MAX_SECONDS
+        ))),
+        Some(s) if s.is_finite() && s >= 0.0 => Ok(Some(Duration::from_secs_f64(s))),
         Some(s) => Err(CliError::usage(format!(
             "{what} {s} is not a time in seconds"
         ))),

@@ -90,6 +90,19 @@ fn check_soft(axis: &AxisConfig, p: f64) -> Result<()> {
     Ok(())
 }
 
+/// A target must be a position the drive can take: INT32 counts (0x607A). Rotary axes have
+/// no soft limits, so `move 4 1e12` was taken and ran for days of wrapping counts.
+fn check_counts(axis: &AxisConfig, p: f64) -> Result<()> {
+    let reach = i32::MAX as f64 / axis.counts_per_unit;
+    if p.abs() > reach {
+        return Err(CliError::usage(format!(
+            "axis {}: {p} is beyond the drive's 32-bit position (±{reach} at {} counts per unit)",
+            axis.name, axis.counts_per_unit
+        )));
+    }
+    Ok(())
+}
+
 /// What to run: a move to a target, or a jog.
 enum Plan {
     Move {
@@ -118,10 +131,11 @@ pub fn jog(
         )));
     }
     if let Some(d) = duration
-        && !(d.is_finite() && d >= 0.0)
+        && !(d.is_finite() && (0.0..=crate::cli::MAX_SECONDS).contains(&d))
     {
         return Err(CliError::usage(format!(
-            "--for {d} is not a time in seconds"
+            "--for {d} is not a time in seconds 0..={}",
+            crate::cli::MAX_SECONDS
         )));
     }
     run(
@@ -144,6 +158,7 @@ pub fn move_to(ctx: &mut Ctx, node: u8, target: f64, interrupt_after: Option<f64
         )));
     }
     check_soft(&axis, target)?;
+    check_counts(&axis, target)?;
     run(ctx, node, axis, lim, Plan::Move { target }, interrupt_after)
 }
 

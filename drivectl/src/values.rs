@@ -40,34 +40,46 @@ pub fn parse_int(s: &str) -> Option<i128> {
     }
 }
 
-/// Parses `INDEX[:SUB]`: the index is hex (with or without `0x`), the sub-index hex with
-/// `0x` or decimal without it (`6041`, `0x6041:0`, `1018:4`, `1018:0x04`).
+/// Parses `INDEX[:SUB]`: index and sub-index are both hex, with or without `0x`, as the help
+/// and every printout write them (`6041`, `0x6041:0`, `1018:4`, `1018:0x04`, `1018:0a`).
 ///
 /// ```
 /// use drivectl::values::{ObjectAddr, parse_object};
 /// assert_eq!(parse_object("0x1018:4").unwrap(), ObjectAddr { index: 0x1018, sub: 4 });
 /// assert_eq!(parse_object("6041").unwrap(), ObjectAddr { index: 0x6041, sub: 0 });
-/// assert!(parse_object("6041:300").is_err());
+/// assert_eq!(parse_object("0x1018:10").unwrap(), ObjectAddr { index: 0x1018, sub: 0x10 });
+/// assert_eq!(parse_object("1A00:ff").unwrap(), ObjectAddr { index: 0x1A00, sub: 0xff });
+/// assert!(parse_object("6041:100").is_err());
 /// ```
 pub fn parse_object(s: &str) -> core::result::Result<ObjectAddr, String> {
     let (i, sub) = match s.split_once(':') {
         Some((i, sub)) => (i, Some(sub)),
         None => (s, None),
     };
-    let i = i.trim();
-    let hex = i
-        .strip_prefix("0x")
-        .or_else(|| i.strip_prefix("0X"))
-        .unwrap_or(i);
-    let index = u16::from_str_radix(hex, 16)
-        .map_err(|_| format!("`{s}`: index `{i}` is not a 16-bit hex number (e.g. 6041)"))?;
+    // Hex digits only: from_str_radix alone also takes a sign (`1018:+1`).
+    let hex = |t: &str| {
+        let t = t.trim();
+        let h = t
+            .strip_prefix("0x")
+            .or_else(|| t.strip_prefix("0X"))
+            .unwrap_or(t);
+        if h.chars().all(|c| c.is_ascii_hexdigit()) {
+            h.to_string()
+        } else {
+            String::new()
+        }
+    };
+    let index = u16::from_str_radix(&hex(i), 16).map_err(|_| {
+        format!(
+            "`{s}`: index `{}` is not a 16-bit hex number (e.g. 6041)",
+            i.trim()
+        )
+    })?;
     let sub = match sub {
         None => 0,
-        Some(t) => {
-            let v =
-                parse_uint(t).ok_or_else(|| format!("`{s}`: sub-index `{t}` is not a number"))?;
-            u8::try_from(v).map_err(|_| format!("`{s}`: sub-index {v} above 255"))?
-        }
+        Some(t) => u8::from_str_radix(&hex(t), 16).map_err(|_| {
+            format!("`{s}`: sub-index `{t}` is not a hex number 0..ff (e.g. 1018:0a)")
+        })?,
     };
     Ok(ObjectAddr { index, sub })
 }
@@ -357,6 +369,8 @@ mod tests {
             }
         );
         assert!(parse_object("zz").is_err());
+        assert!(parse_object("1018:").is_err());
+        assert!(parse_object("1018:+1").is_err());
         assert!(parse_object("12345").is_err());
     }
 }

@@ -569,3 +569,98 @@ fn unreadable_files_are_file_errors() {
         "--duration -1 is not a time",
     );
 }
+
+#[test]
+fn sub_index_10_is_hex_as_the_help_says_not_decimal() {
+    // It read 0x1018:0a; `:ff` was refused as a number above 255... of decimal digits.
+    check(
+        &sim(&["sdo", "read", "1", "0x1018:10"]),
+        3,
+        "SDO read of 0x1018:10",
+    );
+    check(
+        &sim(&["sdo", "read", "1", "0x1018:ff"]),
+        3,
+        "SDO read of 0x1018:ff",
+    );
+    check(
+        &sim(&["sdo", "read", "1", "1018:04", "u32"]),
+        0,
+        "0x1018:04",
+    );
+    check(&sim(&["sdo", "read", "1", "1018:100"]), 2, "sub-index");
+}
+
+#[test]
+fn timeout_ms_and_listen_ms_beyond_a_minute_are_usage_errors() {
+    // 2^64 - 1 ms waited for ever (the simulator's virtual clock never got there).
+    for args in [
+        &[
+            "--timeout-ms",
+            "18446744073709551615",
+            "sdo",
+            "read",
+            "9",
+            "0x1000",
+        ][..],
+        &["--timeout-ms", "60001", "sdo", "read", "9", "0x1000"],
+        &["--timeout-ms", "0", "sdo", "read", "9", "0x1000"],
+        &[
+            "scan",
+            "--listen-ms",
+            "18446744073709551615",
+            "--nodes",
+            "1",
+        ],
+        &["enable", "1", "--within-ms", "18446744073709551615"],
+        &["enable", "1", "--step-ms", "60001"],
+    ] {
+        let o = sim(args);
+        assert_eq!(o.code, 2, "{args:?}: {}", o.all());
+        assert!(o.stderr.contains("not in"), "{args:?}: {}", o.all());
+    }
+    check(
+        &sim(&[
+            "--timeout-ms",
+            "60000",
+            "scan",
+            "--listen-ms",
+            "0",
+            "--nodes",
+            "1",
+        ]),
+        0,
+        "node 1",
+    );
+}
+
+#[test]
+fn durations_beyond_a_week_are_usage_errors() {
+    check(
+        &sim(&["emcy", "--duration", "1e18"]),
+        2,
+        "--duration 1000000000000000000 is too long",
+    );
+    check(
+        &sim(&["monitor", "--stats-every", "1e300", "--duration", "0.01"]),
+        2,
+        "--stats-every",
+    );
+    check(
+        &sim(&["jog", "3", "--velocity", "1", "--for", "1e12"]),
+        2,
+        "--for 1000000000000 is not a time in seconds",
+    );
+}
+
+#[test]
+fn move_4_1e12_is_beyond_the_drives_32_bit_position() {
+    // The spindle has no soft limits: the move was taken and ran for 2.7e7 s.
+    check(
+        &sim(&["move", "4", "1e12"]),
+        2,
+        "beyond the drive's 32-bit position",
+    );
+    check(&sim(&["move", "4", "-6e6"]), 2, "32-bit position");
+    check(&sim(&["move", "1", "1e12"]), 2, "outside the soft limits");
+}

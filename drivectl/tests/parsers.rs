@@ -34,3 +34,25 @@ proptest! {
         prop_assert_eq!(decode(t, &bytes).unwrap().1, serde_json::json!(u));
     }
 }
+
+#[test]
+fn sub_index_is_hex_like_the_index() {
+    use drivectl::values::ObjectAddr;
+    for (text, sub) in [
+        ("0x1018:10", 0x10),
+        ("1018:ff", 0xff),
+        ("1018:FF", 0xff),
+        ("1018:0x0a", 0x0a),
+        ("1018:a", 0x0a),
+        ("1018:4", 4),
+    ] {
+        assert_eq!(
+            parse_object(text).unwrap(),
+            ObjectAddr { index: 0x1018, sub },
+            "{text}"
+        );
+    }
+    for bad in ["1018:100", "1018:-1", "1018:g", "1018:"] {
+        assert!(parse_object(bad).is_err(), "{bad}");
+    }
+}
