@@ -277,8 +277,12 @@ impl Master {
             }
             Function::Emcy(node) => match (self.slot_of(node), EmcyRepr::parse(frame)) {
                 (Some(i), Ok(e)) => {
-                    if e.code != 0 {
-                        self.axes[i].emcy = Some(e.into());
+                    // The first EMCY since the last clear is the cause; the ones after it (a
+                    // drive sending one per cycle) are only counted: fixed memory, no log.
+                    let a = &mut self.axes[i];
+                    a.emcys = a.emcys.wrapping_add(1);
+                    if e.code != 0 && a.emcy.is_none() {
+                        a.emcy = Some(e.into());
                     }
                 }
                 _ => self.unexpected_frames += 1,
@@ -286,6 +290,9 @@ impl Master {
             Function::Heartbeat(node) => match (self.slot_of(node), HeartbeatRepr::parse(frame)) {
                 (Some(i), Ok(hb)) => {
                     let a = &mut self.axes[i];
+                    if hb.state == NmtState::BootUp {
+                        a.boot_ups = a.boot_ups.saturating_add(1);
+                    }
                     a.last_heartbeat = Some(now);
                     a.nmt = Some(hb.state);
                     a.booted = true;
