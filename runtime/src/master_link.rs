@@ -7,6 +7,7 @@ use cia402::State;
 use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_drives::bus::BusCounters;
+use cnc402_drives::wire::NmtState;
 use cnc402_drives::master::{
     Master, MasterConfigError, MasterOptions, Phase, SafetyStop, StopMode, StopReason, TimedBus,
 };
@@ -210,6 +211,7 @@ pub fn drive_stop(s: &SafetyStop) -> DriveStop {
     let cause = match s.reason {
         StopReason::DriveFault => StopCause::DriveFault,
         StopReason::Emergency => StopCause::Emergency,
+        StopReason::NmtState(NmtState::BootUp) => StopCause::DriveRebooted,
         StopReason::NotEnabled | StopReason::NmtState(_) => StopCause::NotEnabled,
         StopReason::HeartbeatLost { .. } => StopCause::HeartbeatLost,
         StopReason::TpdoMissing { .. } => StopCause::TpdoMissing,

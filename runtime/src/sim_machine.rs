@@ -5,7 +5,7 @@
 
 use core::time::Duration;
 
-use cnc402_config::{MAX_AXES, MachineConfig};
+use cnc402_config::{AxisConfig, MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_drives::bus::{FaultInjector, FaultRule, SimBus};
 
@@ -29,6 +29,19 @@ pub enum SimFault {
     BusOff(Duration),
     /// From now on this rule acts on the frames the master sends or receives.
     Frames(FaultRule),
+    /// A second device on node id `node`, a copy of the configured drive there (at power-on
+    /// only: scheduled later, it is ignored).
+    SecondDevice(u8),
+}
+
+/// A [`SimFault`] and when: `at` after the first cyclic SYNC, or `None` at power-on (before
+/// the master boots the drives).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimFaultPlan {
+    /// When, after the first cyclic SYNC; `None`: at power-on.
+    pub at: Option<Duration>,
+    /// What.
+    pub fault: SimFault,
 }
 
 /// The simulated bus and drives; see the module doc.
@@ -36,6 +49,9 @@ pub struct SimMachine {
     bus: FaultInjector<SimBus<SimDrive>>,
     /// Faults by time since the first cyclic SYNC, and whether each was applied.
     schedule: Vec<(Duration, SimFault, bool)>,
+    /// The configured drives (for a second device on a node id) and the period.
+    axes: Vec<AxisConfig>,
+    period: Duration,
 }
 
 /// The CANopen master on the embedded simulated machine.
@@ -71,6 +87,8 @@ impl SimMachine {
         Ok(SimMachine {
             bus: FaultInjector::new(bus),
             schedule: Vec::new(),
+            axes: cfg.axes.clone(),
+            period,
         })
     }
 
@@ -106,8 +124,28 @@ impl SimMachine {
         self.schedule.push((at, fault, false));
     }
 
+    /// Arms `plan`: applied now when it is for power-on, else scheduled.
+    pub fn arm(&mut self, plan: SimFaultPlan) {
+        match plan.at {
+            Some(at) => self.schedule(at, plan.fault),
+            None => {
+                let now = self.bus.inner().now();
+                self.apply(plan.fault, now);
+            }
+        }
+    }
+
     fn apply(&mut self, fault: SimFault, t: Instant) {
         match fault {
+            SimFault::SecondDevice(node) => {
+                // Allocates: only ever applied at power-on (`arm`), never in a cycle.
+                if let Some(a) = self.axes.iter().find(|a| a.node == Some(node))
+                    && let Ok(id) = NodeId::new(node)
+                {
+                    let d = SimDrive::new(a, id, self.period);
+                    self.bus.inner_mut().attach(d);
+                }
+            }
             SimFault::Drive { node, kind } => {
                 self.inject(node, kind);
             }
@@ -129,7 +167,9 @@ impl CycleBus for SimMachine {
             let (at, fault, done) = self.schedule[k];
             if !done && since_start >= at {
                 self.schedule[k].2 = true;
-                self.apply(fault, t);
+                if !matches!(fault, SimFault::SecondDevice(_)) {
+                    self.apply(fault, t);
+                }
             }
         }
         // Only held frames are sent here, and a failure is the master's to see at its next
@@ -168,6 +208,12 @@ impl MasterLink<SimMachine> {
     /// Arms `fault` at `at` after the first cyclic SYNC.
     pub fn with_sim_fault(mut self, at: Duration, fault: SimFault) -> SimLink {
         self.bus.schedule(at, fault);
+        self
+    }
+
+    /// Arms `plan` (see [`SimMachine::arm`]); call before start-up for power-on faults.
+    pub fn with_plan(mut self, plan: SimFaultPlan) -> SimLink {
+        self.bus.arm(plan);
         self
     }
 

@@ -394,12 +394,18 @@ impl Master {
         None
     }
 
-    /// Latches `stop` and starts the stop reaction.
+    /// Latches `stop` and starts the stop reaction. Following the path, the drive that
+    /// tripped gets quick stop unless it only sent an EMCY and is still enabled: it can take
+    /// the decelerating path like the others (in a tap, quick-stopping Z or C alone would
+    /// decouple them).
     fn trip(&mut self, stop: SafetyStop) {
         self.stop = Some(stop);
         self.phase = Phase::Stopping;
+        let still_follows = stop.reason == StopReason::Emergency;
         for (i, a) in self.axes[..self.n_axes].iter_mut().enumerate() {
-            if self.options.stop_mode == StopMode::QuickStop || stop.axis_index == Some(i) {
+            if self.options.stop_mode == StopMode::QuickStop
+                || (stop.axis_index == Some(i) && !still_follows)
+            {
                 a.quick_stop = true;
             }
         }
