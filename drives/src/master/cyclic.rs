@@ -890,6 +890,34 @@ mod tests {
     }
 
     #[test]
+    fn an_emcy_storm_stops_once_with_the_first_code_and_is_only_counted_after() {
+        let (mut m, mut bus, now) = running();
+        let emcy = |code| {
+            EmcyRepr {
+                node: NodeId::new(3).unwrap(),
+                code,
+                register: 0x01,
+                manufacturer: [0; 5],
+            }
+            .emit()
+        };
+        let s = step(&mut m, &mut bus, now, &[emcy(0x5530), emcy(0x3210), emcy(0x5530)])
+            .unwrap_err();
+        assert_eq!((s.reason, s.node), (StopReason::Emergency, Some(3)));
+        assert_eq!(s.emcy.map(|e| e.code), Some(0x5530), "the first one");
+        for _ in 0..100 {
+            assert!(
+                step(&mut m, &mut bus, now, &[emcy(0x4210)])
+                    .unwrap()
+                    .stopping
+            );
+        }
+        assert_eq!(m.emcys_received(2), 103);
+        assert_eq!(m.last_emcy(2).map(|e| e.code), Some(0x5530));
+        assert_eq!(m.unexpected_frames(), 0);
+    }
+
+    #[test]
     fn error_reset_emcy_is_not_a_stop() {
         let (mut m, mut bus, now) = running();
         let e = EmcyRepr {
