@@ -52,10 +52,7 @@ fn a_wrong_device_type_refuses_boot_naming_node_and_object() {
     );
     assert!(e.to_string().contains("0x1000"), "{e}");
     // The value survives the reset communication boot sends: it is the drive's identity.
-    assert_eq!(
-        rig.drive(2).od().get_u64(0x1000, 0),
-        Some(0x0002_0191)
-    );
+    assert_eq!(rig.drive(2).od().get_u64(0x1000, 0), Some(0x0002_0191));
 }
 
 #[test]
@@ -68,7 +65,10 @@ fn a_drive_silent_to_sdo_at_boot_ends_boot_with_a_timeout_naming_node_and_object
     };
     assert_eq!((s.node, s.index, s.sub), (2, 0x1000, 0));
     assert!(matches!(s.kind, SdoErrorKind::Timeout { .. }), "{s:?}");
-    assert!(e.to_string().starts_with("node 2: SDO read of 0x1000:00"), "{e}");
+    assert!(
+        e.to_string().starts_with("node 2: SDO read of 0x1000:00"),
+        "{e}"
+    );
 }
 
 #[test]

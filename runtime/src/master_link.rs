@@ -7,10 +7,10 @@ use cia402::State;
 use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_drives::bus::BusCounters;
-use cnc402_drives::wire::NmtState;
 use cnc402_drives::master::{
     Master, MasterConfigError, MasterOptions, Phase, SafetyStop, StopMode, StopReason, TimedBus,
 };
+use cnc402_drives::wire::NmtState;
 
 use crate::link::{DriveFeedback, DriveLink, DriveStop, Startup, StopCause};
 

@@ -13,7 +13,9 @@ use cnc402_drives::bus::{Action, Direction, FaultRule, FrameFilter};
 use cnc402_drives::sim::FaultKind;
 use cnc402_lang::SourceFile;
 use cnc402_runtime::link::StopCause;
-use cnc402_runtime::{Outcome, RunOptions, RunReport, SimFault, SimFaultPlan, SimLink, run_program};
+use cnc402_runtime::{
+    Outcome, RunOptions, RunReport, SimFault, SimFaultPlan, SimLink, run_program,
+};
 
 /// The G84 is line 5 (R3, Z-16, pitch 1.5 mm at S500: F750).
 const TAP: &str = "%\nG21 G90 G17 G94 G54\nG0 X10. Y10. Z10.\nM29 S500\nG98 G84 X10. Y10. Z-16. R3. F750.\nG80\nG0 Z20.\nM30\n%\n";
@@ -99,7 +101,10 @@ fn a_drive_rebooting_mid_tap_is_a_stop_naming_node_and_line() {
     let r = report(&faults);
     assert_stopped(&r, StopCause::DriveRebooted, 3);
     let (outcome, followed, _, err_um) = at_rest(&faults);
-    assert!(matches!(outcome, Outcome::Stopped { line: 5, .. }), "{outcome:?}");
+    assert!(
+        matches!(outcome, Outcome::Stopped { line: 5, .. }),
+        "{outcome:?}"
+    );
     assert!(followed, "C follows the stopped Z");
     assert!(err_um <= dead_stop_bound_um(), "{err_um} µm");
 }
@@ -206,13 +211,19 @@ fn a_wrong_device_type_refuses_start_up_naming_node_and_object() {
         node: 2,
         kind: FaultKind::DeviceType(0x0002_0191),
     })]);
-    assert_refused(&r, &["node 2", "0x1000", "0x00020191", "not a CiA 402 drive"]);
+    assert_refused(
+        &r,
+        &["node 2", "0x1000", "0x00020191", "not a CiA 402 drive"],
+    );
 }
 
 #[test]
 fn a_duplicate_node_id_refuses_start_up_naming_the_node() {
     let r = report(&[at_power_on(SimFault::SecondDevice(2))]);
-    assert_refused(&r, &["node 2", "2 boot-up messages", "two devices on node id 2"]);
+    assert_refused(
+        &r,
+        &["node 2", "2 boot-up messages", "two devices on node id 2"],
+    );
 }
 
 #[test]
@@ -221,5 +232,8 @@ fn a_drive_silent_to_sdo_at_boot_refuses_start_up_naming_node_and_object() {
         node: 2,
         kind: FaultKind::SdoSilence,
     })]);
-    assert_refused(&r, &["node 2", "SDO read of 0x1000:00", "no response within"]);
+    assert_refused(
+        &r,
+        &["node 2", "SDO read of 0x1000:00", "no response within"],
+    );
 }

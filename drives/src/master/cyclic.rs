@@ -901,8 +901,13 @@ mod tests {
             }
             .emit()
         };
-        let s = step(&mut m, &mut bus, now, &[emcy(0x5530), emcy(0x3210), emcy(0x5530)])
-            .unwrap_err();
+        let s = step(
+            &mut m,
+            &mut bus,
+            now,
+            &[emcy(0x5530), emcy(0x3210), emcy(0x5530)],
+        )
+        .unwrap_err();
         assert_eq!((s.reason, s.node), (StopReason::Emergency, Some(3)));
         assert_eq!(s.emcy.map(|e| e.code), Some(0x5530), "the first one");
         for _ in 0..100 {

@@ -124,7 +124,10 @@ impl fmt::Display for StopReason {
                 write!(f, "heartbeat lost (none for {silent_ms} ms)")
             }
             StopReason::NmtState(NmtState::BootUp) => {
-                write!(f, "drive rebooted (boot-up message during cyclic operation)")
+                write!(
+                    f,
+                    "drive rebooted (boot-up message during cyclic operation)"
+                )
             }
             StopReason::NmtState(s) => write!(f, "drive left NMT OPERATIONAL ({s:?})"),
             StopReason::TpdoMissing { cycles } => {
