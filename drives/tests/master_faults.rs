@@ -112,3 +112,18 @@ fn a_fault_injector_without_rules_changes_nothing() {
     master.boot(&mut bus).unwrap();
     assert_eq!(master.unexpected_frames(), 0);
 }
+
+#[test]
+fn a_drive_powering_up_as_the_master_resets_it_is_no_duplicate() {
+    // Boot-up at power-on (no delay), then the reset communication's: two boot-ups from one
+    // device, and its SDO answers match the requests.
+    let mut rig = Rig::new(|_| SimDriveOptions {
+        boot_delay: Duration::ZERO,
+        ..SimDriveOptions::default()
+    });
+    let report = rig
+        .master
+        .boot(&mut rig.bus)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(report.drives.len(), 4);
+}

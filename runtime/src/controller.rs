@@ -291,6 +291,7 @@ impl<L: DriveLink> CycleController<L> {
         if let Some(s) = raised {
             self.begin_stop(s);
         }
+        self.follow_if_left_enabled();
         self.publish_status(&t, raised);
         self.tick += 1;
         self.phase_ticks = self.phase_ticks.saturating_add(1);
@@ -467,17 +468,28 @@ impl<L: DriveLink> CycleController<L> {
         if self.stop.is_none() && self.motion_error.is_none() {
             self.stop = Some((stop, self.last_line, self.moves_started));
         }
-        // The spindle (or tool axis) drive itself stopped following in the middle of a tap:
-        // its setpoints no longer move it, so the other axis follows where it actually is.
-        // A drive that only sent an EMCY still follows the path (the master keeps it so).
+        // A drive that only sent an EMCY still follows the path (the master keeps it so)
+        // until its statusword shows otherwise (`follow_if_left_enabled`).
+        if stop.cause != StopCause::Emergency {
+            self.follow_node(stop.node);
+        }
+        if matches!(self.phase, Phase::Running | Phase::Settling) {
+            self.interp.request_stop();
+            self.enter(Phase::Stopping);
+        }
+    }
+
+    /// The drive at `node` itself stopped following in the middle of a tap: if it is the
+    /// spindle's or the tool axis's, its setpoints no longer move it, so the other axis of
+    /// the pair follows where it actually is.
+    fn follow_node(&mut self, node: u8) {
         if let Some(c) = self.tap
             && self.follow.is_none()
-            && stop.node != 0
-            && stop.cause != StopCause::Emergency
+            && node != 0
             && !self.interp.is_idle()
         {
-            let spindle_leads = stop.node == self.axes.nodes[c.spindle as usize];
-            if spindle_leads || stop.node == self.axes.nodes[c.tool as usize] {
+            let spindle_leads = node == self.axes.nodes[c.spindle as usize];
+            if spindle_leads || node == self.axes.nodes[c.tool as usize] {
                 self.follow = Some(TapFollow {
                     c,
                     anchor: self.tap_anchor,
@@ -485,9 +497,29 @@ impl<L: DriveLink> CycleController<L> {
                 });
             }
         }
-        if matches!(self.phase, Phase::Running | Phase::Settling) {
-            self.interp.request_stop();
-            self.enter(Phase::Stopping);
+    }
+
+    /// After an EMCY stop, the drive that sent it may go on to show FAULT (or leave
+    /// OPERATION ENABLED) a cycle later: from then on it no longer follows.
+    fn follow_if_left_enabled(&mut self) {
+        let Some((stop, _, _)) = self.stop else {
+            return;
+        };
+        // Only while the path decelerates: the quick stop at rest takes every drive out of
+        // OPERATION ENABLED anyway.
+        if self.phase != Phase::Stopping
+            || self.follow.is_some()
+            || stop.cause != StopCause::Emergency
+            || stop.node == 0
+        {
+            return;
+        }
+        let Some(i) = (0..self.axes.n).find(|&i| self.axes.nodes[i] == stop.node) else {
+            return;
+        };
+        let state = cia402::Statusword(self.feedback[i].statusword).state();
+        if state != Some(cia402::State::OperationEnabled) {
+            self.follow_node(stop.node);
         }
     }
 

@@ -11,7 +11,7 @@ use core::time::Duration;
 
 use cia402::{EnableSequencer, Goal, Progress, State, Statusword, Stuck, objects as obj};
 
-use super::sdo::{BlockingSdo, SdoError};
+use super::sdo::{BlockingSdo, SdoError, SdoErrorKind};
 use super::stop::{Emcy, SafetyStop};
 use super::timed::TimedBus;
 use super::{COMMAND_HISTORY, Master, Phase};
@@ -139,9 +139,9 @@ pub enum BootError {
         /// How long the master tried.
         waited: Duration,
     },
-    /// More than one boot-up from this node after the master's reset communication while it
-    /// was being configured: two devices answer on one node id (their SDO answers would
-    /// mix), or the drive reset itself and lost the configuration.
+    /// More than one boot-up from this node after the master's reset communication, and SDO
+    /// answers that did not match the requests while it was being configured: two devices
+    /// answer on one node id, or the drive reset itself in the middle.
     DuplicateBootUp {
         /// Axis letter.
         axis: char,
@@ -657,9 +657,15 @@ impl Master {
         };
         let setup = self.drive_setup(i, node);
         let configured = self.with_sdo(bus, |sdo| configure(sdo, &setup, seen_at));
-        // A second device on the node mixes its SDO answers into the transfer: the boot-ups
-        // name the cause better than the protocol error they lead to.
-        self.check_single_boot_up(i)?;
+        // A second device on the node answers every request too: its answer to one request
+        // arrives during the next, a protocol error. With two boot-ups since the reset, that
+        // names the cause better. (Two boot-ups alone are no proof: a drive powering up just
+        // as the master resets it sends its power-on boot-up and then the reset's.)
+        if let Err(BootError::Sdo(e)) = &configured
+            && matches!(e.kind, SdoErrorKind::Protocol { .. })
+        {
+            self.check_single_boot_up(i)?;
+        }
         let mut ident = configured?;
         bus.send(
             &NmtRepr {
