@@ -961,3 +961,89 @@ fn fault_injector_between_master_and_drive() {
     assert_eq!(emcy, vec![0x8210], "the truncated RPDO is reported");
     assert!(f.inner().device(0).unwrap().stats().tpdos_sent >= 3);
 }
+
+#[test]
+fn injected_reboot_announces_itself_and_forgets_its_configuration() {
+    let mut r = Rig::operational();
+    let p0 = r.enable();
+    r.write(0x1017, 0, &10u16.to_le_bytes()).unwrap();
+    r.cycle(0x0F, p0 + 100);
+    r.take(0x705);
+    r.inject(FaultKind::Reboot);
+    r.run(Duration::from_millis(2));
+    let boot_up = r.take(0x705);
+    assert_eq!(boot_up.first().map(|f| f.data().to_vec()), Some(vec![0]));
+    assert_eq!(r.drive().nmt(), NmtStatus::PreOperational);
+    assert_eq!(r.drive().state(), cia402::State::SwitchOnDisabled);
+    // The producer heartbeat time is back at its default and no PDO flows.
+    assert_eq!(r.read(0x1017, 0).unwrap(), vec![0, 0]);
+    assert!(r.cycle(0x0F, p0 + 200).is_none());
+    assert_eq!(r.drive().position_actual(), p0 + 100, "the motor stays put");
+}
+
+#[test]
+fn emcy_storm_sends_one_emcy_per_sync_and_the_drive_keeps_following() {
+    let mut r = Rig::operational();
+    let p0 = r.enable();
+    r.take(0x85);
+    r.inject(FaultKind::EmcyStorm(0x5530));
+    for k in 1..=5 {
+        assert!(r.cycle(0x0F, p0 + k * 10).is_some());
+    }
+    let emcys = r.take(0x85);
+    assert_eq!(emcys.len(), 5);
+    assert!(
+        emcys
+            .iter()
+            .all(|f| EmcyRepr::parse(f).is_ok_and(|e| e.code == 0x5530))
+    );
+    assert_eq!(r.drive().state(), cia402::State::OperationEnabled);
+    assert_eq!(r.drive().position_actual(), p0 + 50);
+}
+
+#[test]
+fn a_drive_deaf_to_sync_applies_no_rpdo_and_sends_no_tpdo() {
+    let mut r = Rig::operational();
+    let p0 = r.enable();
+    r.inject(FaultKind::StopSync);
+    assert!(r.cycle(0x0F, p0 + 100).is_none());
+    assert_eq!(r.drive().position_actual(), p0);
+    assert_eq!(r.drive().state(), cia402::State::OperationEnabled);
+    // SDO still answers; clearing the injection brings SYNC back.
+    assert_eq!(r.read_u32(0x1000, 0), 0x0002_0192);
+    r.drive_mut().clear_injected();
+    assert!(r.cycle(0x0F, p0 + 100).is_some());
+}
+
+#[test]
+fn injected_device_type_survives_a_reset() {
+    let mut r = Rig::booted();
+    r.inject(FaultKind::DeviceType(0x0001_0191));
+    assert_eq!(r.read_u32(0x1000, 0), 0x0001_0191);
+    r.nmt(NmtCommand::ResetNode);
+    assert_eq!(r.read_u32(0x1000, 0), 0x0001_0191);
+}
+
+#[test]
+fn new_fault_kinds_parse_and_bad_ones_are_refused() {
+    for (s, k) in [
+        ("reboot", FaultKind::Reboot),
+        ("emcy-storm", FaultKind::EmcyStorm(0x1000)),
+        ("emcy-storm:0x5530", FaultKind::EmcyStorm(0x5530)),
+        ("stop-sync", FaultKind::StopSync),
+        ("device-type:0x20191", FaultKind::DeviceType(0x20191)),
+        ("device-type:4294967295", FaultKind::DeviceType(u32::MAX)),
+    ] {
+        assert_eq!(s.parse::<FaultKind>(), Ok(k), "{s}");
+    }
+    for s in [
+        "device-type",
+        "fault:0x10000",
+        "emcy-storm:x",
+        "reboot:1",
+        "stop-sync:0",
+        "device-type:0x100000000",
+    ] {
+        assert!(s.parse::<FaultKind>().is_err(), "{s}");
+    }
+}

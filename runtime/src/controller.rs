@@ -98,25 +98,37 @@ pub struct CycleController<L: DriveLink> {
     moves_started: u64,
     /// Tool and spindle command at the start of the current tap move.
     tap_anchor: (f64, f64),
-    /// Set when the spindle drive itself faults during a tap: the tool axis follows the
-    /// spindle's actual position instead of the path (see `follow_spindle`).
-    follow: Option<SpindleFollow>,
+    /// Set when the spindle or the tool axis drive itself stops during a tap: the other
+    /// axis of the pair follows its actual position instead of the path (see `follow_actual`).
+    follow: Option<TapFollow>,
     spindle_track: SpindleTrack,
+    /// The tool axis's actual motion during a tap (for a follow led by the tool axis).
+    tool_track: SpindleTrack,
     /// Program stops (M0/M1): `None` passes them (log and go on).
     gate: Option<Arc<crate::program_stop::StopGate>>,
     /// Holding at a program stop until the gate releases it.
     held: bool,
 }
 
-/// The tool axis slaved to the spindle's actual position after a spindle drive fault, so
-/// that the thread stays coupled while the spindle brakes on its own.
+/// One axis of a tap slaved to the other's actual position after that one's drive stopped
+/// following (fault, reboot, lost SYNC or feedback), so that the thread stays coupled while
+/// the leader brakes on its own: the tool axis after the spindle (the usual case), or the
+/// spindle after the tool axis.
 #[derive(Clone, Copy, Debug)]
-struct SpindleFollow {
+struct TapFollow {
     c: TapCoupling,
     anchor: (f64, f64),
+    /// The spindle leads (the tool axis follows); else the tool axis leads.
+    spindle_leads: bool,
 }
 
-/// The spindle's actual motion as the feedback shows it: last sample, the tick it was taken
+/// Cycles over which a leader's motion is extrapolated past its last sample: its feedback
+/// normally lags one or two cycles; when it stops coming (a drive that rebooted or lost
+/// SYNC stands still), extrapolating further would drive the follower away on a stale
+/// velocity.
+const MAX_EXTRAPOLATION_TICKS: u64 = 2;
+
+/// An axis's actual motion as the feedback shows it: last sample, the tick it was taken
 /// at (tick − age), and its velocity in units per cycle.
 #[derive(Clone, Copy, Debug, Default)]
 struct SpindleTrack {
@@ -167,6 +179,7 @@ impl<L: DriveLink> CycleController<L> {
             tap_anchor: (0.0, 0.0),
             follow: None,
             spindle_track: SpindleTrack::default(),
+            tool_track: SpindleTrack::default(),
             gate: None,
             held: false,
         }
@@ -255,14 +268,14 @@ impl<L: DriveLink> CycleController<L> {
         self.last_line = t.line;
         self.commands = t.pos.0;
         if let Some(f) = &self.follow {
-            let z = follow_spindle(
+            let (i, v) = follow_actual(
                 f,
-                &self.spindle_track,
+                [&self.tool_track, &self.spindle_track],
                 &self.axes,
                 self.tick,
                 &self.feedback,
             );
-            self.commands[f.c.tool as usize] = z;
+            self.commands[i] = v;
         }
 
         let mut raised = None;
@@ -278,6 +291,7 @@ impl<L: DriveLink> CycleController<L> {
         if let Some(s) = raised {
             self.begin_stop(s);
         }
+        self.follow_if_left_enabled();
         self.publish_status(&t, raised);
         self.tick += 1;
         self.phase_ticks = self.phase_ticks.saturating_add(1);
@@ -330,22 +344,16 @@ impl<L: DriveLink> CycleController<L> {
         }
     }
 
-    /// The spindle's actual velocity from its feedback, per tick, updated when the drive has
-    /// sampled a newer position.
+    /// The spindle's (and in a tap the tool axis's) actual velocity from its feedback, per
+    /// tick, updated when the drive has sampled a newer position.
     #[inline]
     fn track_spindle(&mut self) {
         if let Some(sp) = self.axes.spindle {
-            let s = &self.feedback[sp];
-            let sampled = self.tick.saturating_sub(s.age as u64);
-            let tr = &mut self.spindle_track;
-            match tr.last {
-                Some((t0, c0)) if sampled > t0 => {
-                    tr.velocity = (s.actual - c0) / (sampled - t0) as f64;
-                    tr.last = Some((sampled, s.actual));
-                }
-                Some(_) => {}
-                None => tr.last = Some((sampled, s.actual)),
-            }
+            self.spindle_track.update(&self.feedback[sp], self.tick);
+        }
+        if let Some(c) = self.tap.or(self.follow.map(|f| f.c)) {
+            self.tool_track
+                .update(&self.feedback[c.tool as usize], self.tick);
         }
     }
 
@@ -460,22 +468,58 @@ impl<L: DriveLink> CycleController<L> {
         if self.stop.is_none() && self.motion_error.is_none() {
             self.stop = Some((stop, self.last_line, self.moves_started));
         }
-        // The spindle drive itself stopped following in the middle of a tap: its setpoints
-        // no longer move it, so the tool axis follows where the spindle actually is.
-        if let (Some(c), Some(sp)) = (self.tap, self.axes.spindle)
-            && self.follow.is_none()
-            && stop.node != 0
-            && stop.node == self.axes.nodes[sp]
-            && !self.interp.is_idle()
-        {
-            self.follow = Some(SpindleFollow {
-                c,
-                anchor: self.tap_anchor,
-            });
+        // A drive that only sent an EMCY still follows the path (the master keeps it so)
+        // until its statusword shows otherwise (`follow_if_left_enabled`).
+        if stop.cause != StopCause::Emergency {
+            self.follow_node(stop.node);
         }
         if matches!(self.phase, Phase::Running | Phase::Settling) {
             self.interp.request_stop();
             self.enter(Phase::Stopping);
+        }
+    }
+
+    /// The drive at `node` itself stopped following in the middle of a tap: if it is the
+    /// spindle's or the tool axis's, its setpoints no longer move it, so the other axis of
+    /// the pair follows where it actually is.
+    fn follow_node(&mut self, node: u8) {
+        if let Some(c) = self.tap
+            && self.follow.is_none()
+            && node != 0
+            && !self.interp.is_idle()
+        {
+            let spindle_leads = node == self.axes.nodes[c.spindle as usize];
+            if spindle_leads || node == self.axes.nodes[c.tool as usize] {
+                self.follow = Some(TapFollow {
+                    c,
+                    anchor: self.tap_anchor,
+                    spindle_leads,
+                });
+            }
+        }
+    }
+
+    /// After an EMCY stop, the drive that sent it may go on to show FAULT (or leave
+    /// OPERATION ENABLED) a cycle later: from then on it no longer follows.
+    fn follow_if_left_enabled(&mut self) {
+        let Some((stop, _, _)) = self.stop else {
+            return;
+        };
+        // Only while the path decelerates: the quick stop at rest takes every drive out of
+        // OPERATION ENABLED anyway.
+        if self.phase != Phase::Stopping
+            || self.follow.is_some()
+            || stop.cause != StopCause::Emergency
+            || stop.node == 0
+        {
+            return;
+        }
+        let Some(i) = (0..self.axes.n).find(|&i| self.axes.nodes[i] == stop.node) else {
+            return;
+        };
+        let state = cia402::Statusword(self.feedback[i].statusword).state();
+        if state != Some(cia402::State::OperationEnabled) {
+            self.follow_node(stop.node);
         }
     }
 
@@ -515,24 +559,50 @@ impl<L: DriveLink> CycleController<L> {
     }
 }
 
-/// The tool axis command that keeps the thread on the spindle's actual position: the last
-/// spindle sample extrapolated with its velocity over the feedback age, one period and the
-/// tool drive's dead time, so that the hand-over from the path is smooth and the tool meets
-/// the spindle where it will be when the command takes effect.
-fn follow_spindle(
-    f: &SpindleFollow,
-    track: &SpindleTrack,
+impl SpindleTrack {
+    /// Takes in the axis's feedback at `tick` (a newer sample updates the velocity).
+    fn update(&mut self, f: &DriveFeedback, tick: u64) {
+        let sampled = tick.saturating_sub(f.age as u64);
+        match self.last {
+            Some((t0, p0)) if sampled > t0 => {
+                self.velocity = (f.actual - p0) / (sampled - t0) as f64;
+                self.last = Some((sampled, f.actual));
+            }
+            Some(_) => {}
+            None => self.last = Some((sampled, f.actual)),
+        }
+    }
+}
+
+/// The follower's command (axis index, position) that keeps the thread on the leader's
+/// actual position: the leader's last sample extrapolated with its velocity over the
+/// feedback age (at most [`MAX_EXTRAPOLATION_TICKS`]), one period and the follower drive's
+/// dead time, so that the hand-over from the path is smooth and the follower meets the
+/// leader where it will be when the command takes effect. `tracks` = [tool, spindle].
+fn follow_actual(
+    f: &TapFollow,
+    tracks: [&SpindleTrack; 2],
     axes: &AxisTable,
     tick: u64,
     fb: &[DriveFeedback; MAX_AXES],
-) -> f64 {
-    let ti = f.c.tool as usize;
-    let (sampled, c) = track
-        .last
-        .unwrap_or((tick, fb[f.c.spindle as usize].actual));
-    let lead = tick.saturating_sub(sampled) as f64 + 1.0 + axes.delay_cycles[ti] as f64;
-    let c = c + track.velocity * lead;
-    f.anchor.0 + f.c.ratio * (c - f.anchor.1)
+) -> (usize, f64) {
+    let (ti, si) = (f.c.tool as usize, f.c.spindle as usize);
+    let (leader, follower, track) = if f.spindle_leads {
+        (si, ti, tracks[1])
+    } else {
+        (ti, si, tracks[0])
+    };
+    let (sampled, p) = track.last.unwrap_or((tick, fb[leader].actual));
+    let stale = tick.saturating_sub(sampled).min(MAX_EXTRAPOLATION_TICKS);
+    let lead = stale as f64 + 1.0 + axes.delay_cycles[follower] as f64;
+    let p = p + track.velocity * lead;
+    if f.spindle_leads {
+        (ti, f.anchor.0 + f.c.ratio * (p - f.anchor.1))
+    } else if f.c.ratio != 0.0 {
+        (si, f.anchor.1 + (p - f.anchor.0) / f.c.ratio)
+    } else {
+        (si, fb[si].actual)
+    }
 }
 
 /// The start position of the configured axes (entries past them are 0).

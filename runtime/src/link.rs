@@ -44,6 +44,9 @@ pub enum StopCause {
     Bus,
     /// A drive left OPERATION ENABLED (or NMT OPERATIONAL) without a fault.
     NotEnabled,
+    /// A drive sent its boot-up message during cyclic operation: it reset itself (watchdog,
+    /// power dip) and lost its configuration.
+    DriveRebooted,
     /// A commanded position was not finite.
     BadSetpoint,
     /// The operator asked (SIGINT).
@@ -63,6 +66,7 @@ impl StopCause {
             StopCause::FollowingError => "following error beyond window",
             StopCause::Bus => "CAN bus error",
             StopCause::NotEnabled => "drive left operation enabled",
+            StopCause::DriveRebooted => "drive rebooted (boot-up during cyclic operation)",
             StopCause::BadSetpoint => "commanded position not finite",
             StopCause::Operator => "operator stop (SIGINT)",
             StopCause::Motion => "motion error",

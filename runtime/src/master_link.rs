@@ -10,6 +10,7 @@ use cnc402_drives::bus::BusCounters;
 use cnc402_drives::master::{
     Master, MasterConfigError, MasterOptions, Phase, SafetyStop, StopMode, StopReason, TimedBus,
 };
+use cnc402_drives::wire::NmtState;
 
 use crate::link::{DriveFeedback, DriveLink, DriveStop, Startup, StopCause};
 
@@ -210,6 +211,7 @@ pub fn drive_stop(s: &SafetyStop) -> DriveStop {
     let cause = match s.reason {
         StopReason::DriveFault => StopCause::DriveFault,
         StopReason::Emergency => StopCause::Emergency,
+        StopReason::NmtState(NmtState::BootUp) => StopCause::DriveRebooted,
         StopReason::NotEnabled | StopReason::NmtState(_) => StopCause::NotEnabled,
         StopReason::HeartbeatLost { .. } => StopCause::HeartbeatLost,
         StopReason::TpdoMissing { .. } => StopCause::TpdoMissing,

@@ -53,8 +53,8 @@ pub struct Status {
     pub moves_started: u64,
     /// The interpolator has nothing to do after this tick.
     pub idle: bool,
-    /// The spindle drive stopped following its setpoints during a tap and the tool axis
-    /// follows the spindle's actual position instead (the spindle setpoints mean nothing).
+    /// The spindle (or tool axis) drive stopped following its setpoints during a tap and the
+    /// other axis follows its actual position instead (the path setpoints mean nothing).
     pub spindle_follow: bool,
 }
 

@@ -1,6 +1,7 @@
 //! A fault-injecting wrapper around any [`CanBus`] (smoltcp's `FaultInjector` idea): drop,
 //! corrupt, truncate or delay frames that match a filter, in either direction, on every n-th
-//! match, a bounded number of times. Deterministic: no randomness, so a failing test replays.
+//! match, a bounded number of times; and a bus-off window in which the wrapped endpoint can
+//! neither send nor receive. Deterministic: no randomness, so a failing test replays.
 
 use core::time::Duration;
 
@@ -146,6 +147,8 @@ pub struct FaultInjector<B: CanBus> {
     held_tx: Vec<(Instant, CanFrame)>,
     held_rx: Vec<(Instant, CanFrame)>,
     dropped: u64,
+    /// From when until when the endpoint is bus-off (`[from, until)`).
+    bus_off: Option<(Instant, Instant)>,
 }
 
 enum Verdict {
@@ -159,12 +162,26 @@ impl<B: CanBus> FaultInjector<B> {
     pub fn new(inner: B) -> FaultInjector<B> {
         FaultInjector {
             inner,
-            rules: Vec::new(),
+            // Room for a few rules so that arming one in a cycle does not allocate.
+            rules: Vec::with_capacity(8),
             now: Instant::ZERO,
             held_tx: Vec::new(),
             held_rx: Vec::new(),
             dropped: 0,
+            bus_off: None,
         }
+    }
+    /// Makes the endpoint bus-off from `from` for `duration` (time from
+    /// [`set_now`](Self::set_now)): every send and receive fails with [`BusError::BusOff`] and
+    /// the frames that reach it meanwhile are lost; afterwards it works again (recovery, as a
+    /// CAN controller's after 128 × 11 recessive bits).
+    pub fn set_bus_off(&mut self, from: Instant, duration: Duration) {
+        self.bus_off = Some((from, from + duration));
+    }
+    /// Whether the endpoint is bus-off now.
+    pub fn is_bus_off(&self) -> bool {
+        self.bus_off
+            .is_some_and(|(from, until)| self.now >= from && self.now < until)
     }
     /// Adds a rule; returns its number (for [`applied`](Self::applied)).
     pub fn add_rule(&mut self, rule: FaultRule) -> usize {
@@ -194,6 +211,9 @@ impl<B: CanBus> FaultInjector<B> {
     /// Sets the time for delays and sends delayed transmit frames that are due.
     pub fn set_now(&mut self, now: Instant) -> Result<(), BusError> {
         self.now = now;
+        if self.is_bus_off() {
+            return Ok(());
+        }
         let mut i = 0;
         while i < self.held_tx.len() {
             if self.held_tx[i].0 <= now {
@@ -247,6 +267,9 @@ impl<B: CanBus> FaultInjector<B> {
 
 impl<B: CanBus> CanBus for FaultInjector<B> {
     fn send(&mut self, frame: &CanFrame) -> Result<(), BusError> {
+        if self.is_bus_off() {
+            return Err(BusError::BusOff);
+        }
         match self.judge(frame, Direction::Tx) {
             Verdict::Pass(f) => self.inner.send(&f),
             Verdict::Drop => {
@@ -261,6 +284,13 @@ impl<B: CanBus> CanBus for FaultInjector<B> {
     }
 
     fn recv(&mut self) -> Result<Option<CanFrame>, BusError> {
+        if self.is_bus_off() {
+            // What the others send meanwhile never reaches a bus-off controller.
+            while self.inner.recv()?.is_some() {
+                self.dropped += 1;
+            }
+            return Err(BusError::BusOff);
+        }
         if let Some(i) = self.held_rx.iter().position(|(t, _)| *t <= self.now) {
             return Ok(Some(self.held_rx.remove(i).1));
         }
@@ -370,6 +400,22 @@ mod tests {
             drain(&mut b),
             vec![f(0x201, &[1, 0xFD, 3]), f(0x202, &[1, 2]), f(0x203, &[1])]
         );
+    }
+
+    #[test]
+    fn bus_off_refuses_sends_and_loses_frames_then_recovers() {
+        let mut b = FaultInjector::new(Loop::default());
+        b.set_bus_off(Instant::from_millis(1), Duration::from_millis(2));
+        b.send(&f(0x181, &[1])).unwrap();
+        b.set_now(Instant::from_millis(1)).unwrap();
+        assert!(b.is_bus_off());
+        assert_eq!(b.send(&f(0x181, &[2])), Err(BusError::BusOff));
+        assert_eq!(b.recv(), Err(BusError::BusOff));
+        assert_eq!(b.counters().dropped, 1, "the frame in flight was lost");
+        b.set_now(Instant::from_millis(3)).unwrap();
+        assert!(!b.is_bus_off());
+        b.send(&f(0x181, &[3])).unwrap();
+        assert_eq!(drain(&mut b), vec![f(0x181, &[3])]);
     }
 
     #[test]

@@ -11,7 +11,7 @@ use core::time::Duration;
 
 use cia402::{EnableSequencer, Goal, Progress, State, Statusword, Stuck, objects as obj};
 
-use super::sdo::{BlockingSdo, SdoError};
+use super::sdo::{BlockingSdo, SdoError, SdoErrorKind};
 use super::stop::{Emcy, SafetyStop};
 use super::timed::TimedBus;
 use super::{COMMAND_HISTORY, Master, Phase};
@@ -139,6 +139,17 @@ pub enum BootError {
         /// How long the master tried.
         waited: Duration,
     },
+    /// More than one boot-up from this node after the master's reset communication, and SDO
+    /// answers that did not match the requests while it was being configured: two devices
+    /// answer on one node id, or the drive reset itself in the middle.
+    DuplicateBootUp {
+        /// Axis letter.
+        axis: char,
+        /// Node id.
+        node: u8,
+        /// Boot-up messages seen.
+        boot_ups: u32,
+    },
     /// A monitor tripped while enabling.
     Stopped(SafetyStop),
     /// The transport failed.
@@ -188,6 +199,15 @@ impl fmt::Display for BootError {
                 }
                 Ok(())
             }
+            BootError::DuplicateBootUp {
+                axis,
+                node,
+                boot_ups,
+            } => write!(
+                f,
+                "axis {axis} (node {node}): {boot_ups} boot-up messages after one reset: two \
+                 devices on node id {node}, or the drive reset itself while being configured"
+            ),
             BootError::Stopped(s) => write!(f, "while enabling: {s}"),
             BootError::Bus(e) => write!(f, "{e}"),
             BootError::WrongPhase(p) => write!(f, "not possible in phase {p:?}"),
@@ -523,6 +543,7 @@ impl Master {
                 )?;
             }
             self.axes[i].booted = false;
+            self.axes[i].boot_ups = 0;
             self.axes[i].last_heartbeat = None;
         }
         Ok(())
@@ -591,7 +612,7 @@ impl Master {
     }
 
     /// Runs `transfer` with a blocking SDO client on `bus`; the other frames that arrive
-    /// meanwhile are taken in when it has succeeded.
+    /// meanwhile are taken in afterwards, whether it succeeded or not.
     fn with_sdo<B: TimedBus + ?Sized, T, E>(
         &mut self,
         bus: &mut B,
@@ -603,10 +624,24 @@ impl Master {
             &mut *bus,
             self.sdo_timeout,
             &mut push,
-        ))?;
+        ));
         let now = bus.now();
         self.absorb_all(&mut queue, now);
-        Ok(value)
+        value
+    }
+
+    /// [`BootError::DuplicateBootUp`] when drive axis `i` announced itself more than once
+    /// since the reset communication.
+    fn check_single_boot_up(&self, i: usize) -> Result<(), BootError> {
+        let a = &self.axes[i];
+        if a.boot_ups > 1 {
+            return Err(BootError::DuplicateBootUp {
+                axis: a.name,
+                node: a.node.map(NodeId::get).unwrap_or(0),
+                boot_ups: a.boot_ups,
+            });
+        }
+        Ok(())
     }
 
     /// Configures drive axis `i` (seen booted at `seen_at`), starts it (NMT) and holds its
@@ -621,7 +656,17 @@ impl Master {
             return Ok(None);
         };
         let setup = self.drive_setup(i, node);
-        let mut ident = self.with_sdo(bus, |sdo| configure(sdo, &setup, seen_at))?;
+        let configured = self.with_sdo(bus, |sdo| configure(sdo, &setup, seen_at));
+        // A second device on the node answers every request too: its answer to one request
+        // arrives during the next, a protocol error. With two boot-ups since the reset, that
+        // names the cause better. (Two boot-ups alone are no proof: a drive powering up just
+        // as the master resets it sends its power-on boot-up and then the reset's.)
+        if let Err(BootError::Sdo(e)) = &configured
+            && matches!(e.kind, SdoErrorKind::Protocol { .. })
+        {
+            self.check_single_boot_up(i)?;
+        }
+        let mut ident = configured?;
         bus.send(
             &NmtRepr {
                 command: NmtCommand::Start,

@@ -277,8 +277,12 @@ impl Master {
             }
             Function::Emcy(node) => match (self.slot_of(node), EmcyRepr::parse(frame)) {
                 (Some(i), Ok(e)) => {
-                    if e.code != 0 {
-                        self.axes[i].emcy = Some(e.into());
+                    // The first EMCY since the last clear is the cause; the ones after it (a
+                    // drive sending one per cycle) are only counted: fixed memory, no log.
+                    let a = &mut self.axes[i];
+                    a.emcys = a.emcys.wrapping_add(1);
+                    if e.code != 0 && a.emcy.is_none() {
+                        a.emcy = Some(e.into());
                     }
                 }
                 _ => self.unexpected_frames += 1,
@@ -286,6 +290,9 @@ impl Master {
             Function::Heartbeat(node) => match (self.slot_of(node), HeartbeatRepr::parse(frame)) {
                 (Some(i), Ok(hb)) => {
                     let a = &mut self.axes[i];
+                    if hb.state == NmtState::BootUp {
+                        a.boot_ups = a.boot_ups.saturating_add(1);
+                    }
                     a.last_heartbeat = Some(now);
                     a.nmt = Some(hb.state);
                     a.booted = true;
@@ -387,12 +394,18 @@ impl Master {
         None
     }
 
-    /// Latches `stop` and starts the stop reaction.
+    /// Latches `stop` and starts the stop reaction. Following the path, the drive that
+    /// tripped gets quick stop unless it only sent an EMCY and is still enabled: it can take
+    /// the decelerating path like the others (in a tap, quick-stopping Z or C alone would
+    /// decouple them).
     fn trip(&mut self, stop: SafetyStop) {
         self.stop = Some(stop);
         self.phase = Phase::Stopping;
+        let still_follows = stop.reason == StopReason::Emergency;
         for (i, a) in self.axes[..self.n_axes].iter_mut().enumerate() {
-            if self.options.stop_mode == StopMode::QuickStop || stop.axis_index == Some(i) {
+            if self.options.stop_mode == StopMode::QuickStop
+                || (stop.axis_index == Some(i) && !still_follows)
+            {
                 a.quick_stop = true;
             }
         }
@@ -874,6 +887,39 @@ mod tests {
         );
         // Reported once; later cycles carry on with the stop reaction.
         assert!(step(&mut m, &mut bus, now, &[]).unwrap().stopping);
+    }
+
+    #[test]
+    fn an_emcy_storm_stops_once_with_the_first_code_and_is_only_counted_after() {
+        let (mut m, mut bus, now) = running();
+        let emcy = |code| {
+            EmcyRepr {
+                node: NodeId::new(3).unwrap(),
+                code,
+                register: 0x01,
+                manufacturer: [0; 5],
+            }
+            .emit()
+        };
+        let s = step(
+            &mut m,
+            &mut bus,
+            now,
+            &[emcy(0x5530), emcy(0x3210), emcy(0x5530)],
+        )
+        .unwrap_err();
+        assert_eq!((s.reason, s.node), (StopReason::Emergency, Some(3)));
+        assert_eq!(s.emcy.map(|e| e.code), Some(0x5530), "the first one");
+        for _ in 0..100 {
+            assert!(
+                step(&mut m, &mut bus, now, &[emcy(0x4210)])
+                    .unwrap()
+                    .stopping
+            );
+        }
+        assert_eq!(m.emcys_received(2), 103);
+        assert_eq!(m.last_emcy(2).map(|e| e.code), Some(0x5530));
+        assert_eq!(m.unexpected_frames(), 0);
     }
 
     #[test]

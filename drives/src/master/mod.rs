@@ -202,6 +202,11 @@ pub(crate) struct AxisSlot {
     pub nmt: Option<NmtState>,
     pub booted: bool,
     pub emcy: Option<Emcy>,
+    /// EMCY messages received since boot (the first since a clear is kept in `emcy`).
+    pub emcys: u64,
+    /// Boot-up messages since the last NMT reset communication (two mean two devices on one
+    /// node id, or a drive that reset itself while being configured).
+    pub boot_ups: u32,
     /// Commands in axis units, a ring indexed by the cycle count.
     pub history: [f64; COMMAND_HISTORY],
     pub last_command: f64,
@@ -251,6 +256,8 @@ impl AxisSlot {
             nmt: None,
             booted: false,
             emcy: None,
+            emcys: 0,
+            boot_ups: 0,
             history: [0.0; COMMAND_HISTORY],
             last_command: 0.0,
             following_error: 0.0,
@@ -523,8 +530,15 @@ impl Master {
             .position(|a| a.node.map(NodeId::get) == Some(node))
     }
 
-    /// The last EMCY drive `axis` sent since the last clear (boot, enable).
+    /// The first EMCY (code not 0) drive `axis` sent since the last clear (boot, enable):
+    /// the cause, when more follow.
     pub fn last_emcy(&self, axis: usize) -> Option<Emcy> {
         self.axes.get(axis).and_then(|a| a.emcy)
+    }
+
+    /// EMCY messages received from axis `axis`'s drive since the master was built (an EMCY
+    /// storm is counted here, never stored or logged per message).
+    pub fn emcys_received(&self, axis: usize) -> u64 {
+        self.axes.get(axis).map(|a| a.emcys).unwrap_or(0)
     }
 }

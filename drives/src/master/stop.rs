@@ -123,6 +123,12 @@ impl fmt::Display for StopReason {
             StopReason::HeartbeatLost { silent_ms } => {
                 write!(f, "heartbeat lost (none for {silent_ms} ms)")
             }
+            StopReason::NmtState(NmtState::BootUp) => {
+                write!(
+                    f,
+                    "drive rebooted (boot-up message during cyclic operation)"
+                )
+            }
             StopReason::NmtState(s) => write!(f, "drive left NMT OPERATIONAL ({s:?})"),
             StopReason::TpdoMissing { cycles } => {
                 write!(f, "TPDO1 missing for {cycles} consecutive cycles")
@@ -150,7 +156,7 @@ pub struct SafetyStop {
     pub node: Option<u8>,
     /// The drive's last statusword (its state decodes with `Statusword::state`).
     pub statusword: Option<Statusword>,
-    /// The last EMCY the drive sent since enabling.
+    /// The first EMCY the drive sent since enabling (the cause when more followed).
     pub emcy: Option<Emcy>,
     /// When the master noticed.
     pub at: Instant,

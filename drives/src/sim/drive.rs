@@ -75,6 +75,18 @@ pub enum FaultKind {
     SdoSilence,
     /// Stop sending TPDOs (`tpdo`).
     DropTpdos,
+    /// The drive resets itself (`reboot`): boot-up message, PRE-OPERATIONAL, its dictionary
+    /// (PDO mapping included) back to the power-on defaults — a watchdog or power dip.
+    Reboot,
+    /// An EMCY with this code after every SYNC from now on, the drive staying enabled
+    /// (`emcy-storm`, `emcy-storm:0x5530`; default 0x1000 generic).
+    EmcyStorm(u16),
+    /// The drive stops acting on SYNC (`stop-sync`): no RPDO applied, no motion step, no
+    /// synchronous TPDO; heartbeat and SDO go on.
+    StopSync,
+    /// 0x1000 reads this device type from now on, surviving resets (`device-type:0x20191`);
+    /// injected before boot, the drive looks like something other than a CiA 402 servo.
+    DeviceType(u32),
 }
 
 /// A `FaultKind` that did not parse.
@@ -85,7 +97,8 @@ impl fmt::Display for FaultKindError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "unknown fault kind `{}` (expected fault[:CODE], fault-persistent[:CODE], heartbeat, sdo, tpdo)",
+            "unknown fault kind `{}` (expected fault[:CODE], fault-persistent[:CODE], heartbeat, \
+             sdo, tpdo, reboot, emcy-storm[:CODE], stop-sync, device-type:VALUE)",
             self.0
         )
     }
@@ -95,12 +108,16 @@ impl std::error::Error for FaultKindError {}
 
 impl FromStr for FaultKind {
     type Err = FaultKindError;
-    /// Parses `fault`, `fault:0x7300`, `fault-persistent[:CODE]`, `heartbeat`, `sdo`, `tpdo`.
+    /// Parses `fault`, `fault:0x7300`, `fault-persistent[:CODE]`, `heartbeat`, `sdo`, `tpdo`,
+    /// `reboot`, `emcy-storm[:CODE]`, `stop-sync`, `device-type:VALUE` (codes 16 bit, the
+    /// device type 32 bit; hex with `0x` or decimal).
     ///
     /// ```
     /// use cnc402_drives::sim::FaultKind;
     /// assert_eq!("fault:0x8611".parse(), Ok(FaultKind::Fault(0x8611)));
     /// assert_eq!("tpdo".parse(), Ok(FaultKind::DropTpdos));
+    /// assert_eq!("emcy-storm:0x5530".parse(), Ok(FaultKind::EmcyStorm(0x5530)));
+    /// assert_eq!("device-type:0x20191".parse(), Ok(FaultKind::DeviceType(0x20191)));
     /// ```
     fn from_str(s: &str) -> Result<FaultKind, FaultKindError> {
         let err = || FaultKindError(s.to_string());
@@ -108,7 +125,7 @@ impl FromStr for FaultKind {
             Some((k, c)) => {
                 let c = c.trim();
                 let v = match c.strip_prefix("0x").or_else(|| c.strip_prefix("0X")) {
-                    Some(h) => u16::from_str_radix(h, 16),
+                    Some(h) => u32::from_str_radix(h, 16),
                     None => c.parse(),
                 }
                 .map_err(|_| err())?;
@@ -116,12 +133,20 @@ impl FromStr for FaultKind {
             }
             None => (s, None),
         };
+        let code16 = |c: Option<u32>| match c {
+            None => Ok(emcy_code::GENERIC),
+            Some(c) => u16::try_from(c).map_err(|_| err()),
+        };
         Ok(match (kind.trim(), code) {
-            ("fault", c) => FaultKind::Fault(c.unwrap_or(emcy_code::GENERIC)),
-            ("fault-persistent", c) => FaultKind::PersistentFault(c.unwrap_or(emcy_code::GENERIC)),
+            ("fault", c) => FaultKind::Fault(code16(c)?),
+            ("fault-persistent", c) => FaultKind::PersistentFault(code16(c)?),
+            ("emcy-storm", c) => FaultKind::EmcyStorm(code16(c)?),
+            ("device-type", Some(v)) => FaultKind::DeviceType(v),
             ("heartbeat", None) => FaultKind::HeartbeatSilence,
             ("sdo", None) => FaultKind::SdoSilence,
             ("tpdo", None) => FaultKind::DropTpdos,
+            ("reboot", None) => FaultKind::Reboot,
+            ("stop-sync", None) => FaultKind::StopSync,
             _ => return Err(err()),
         })
     }
@@ -238,6 +263,10 @@ pub struct SimDrive {
     heartbeat_silent: bool,
     sdo_silent: bool,
     drop_tpdos: bool,
+    /// `EmcyStorm`: the code sent after every SYNC.
+    emcy_storm: Option<u16>,
+    /// `StopSync`: SYNCs are ignored.
+    sync_deaf: bool,
     outbox: Vec<CanFrame>,
     stats: SimDriveStats,
     nominal_period: Duration,
@@ -339,6 +368,8 @@ impl SimDrive {
             heartbeat_silent: false,
             sdo_silent: false,
             drop_tpdos: false,
+            emcy_storm: None,
+            sync_deaf: false,
             outbox: Vec::with_capacity(32),
             stats: SimDriveStats::default(),
             nominal_period: period,
@@ -436,6 +467,18 @@ impl SimDrive {
             FaultKind::HeartbeatSilence => self.heartbeat_silent = true,
             FaultKind::SdoSilence => self.sdo_silent = true,
             FaultKind::DropTpdos => self.drop_tpdos = true,
+            FaultKind::Reboot => {
+                self.reset_node();
+                for r in &mut self.rpdo {
+                    r.pending = None;
+                }
+            }
+            FaultKind::EmcyStorm(code) => self.emcy_storm = Some(code),
+            FaultKind::StopSync => self.sync_deaf = true,
+            FaultKind::DeviceType(v) => {
+                let _ = self.defaults.set_raw(o::DEVICE_TYPE, 0, v as u64);
+                let _ = self.od.set_raw(o::DEVICE_TYPE, 0, v as u64);
+            }
         }
     }
 
@@ -446,6 +489,8 @@ impl SimDrive {
         self.heartbeat_silent = false;
         self.sdo_silent = false;
         self.drop_tpdos = false;
+        self.emcy_storm = None;
+        self.sync_deaf = false;
     }
 
     // ---- internals ----------------------------------------------------------------------
@@ -786,8 +831,11 @@ impl SimDrive {
     }
 
     fn on_sync(&mut self) {
-        if self.nmt != NmtStatus::Operational {
+        if self.nmt != NmtStatus::Operational || self.sync_deaf {
             return;
+        }
+        if let Some(code) = self.emcy_storm {
+            self.emcy(code);
         }
         self.stats.syncs += 1;
         self.last_sync = Some(self.now);

@@ -30,7 +30,7 @@ use crate::recorder::Recorder;
 use crate::report::RunReport;
 use crate::ring::{MOVE_RING, STATUS_RING, StatusConsumer, move_ring, status_ring};
 use crate::rt::request_realtime;
-use crate::sim_machine::SimLink;
+use crate::sim_machine::{SimFaultPlan, SimLink};
 use crate::socket_machine::SocketLink;
 use crate::status::Outcome;
 use cyclic::{LoopEnd, LoopIo, run_cyclic};
@@ -57,6 +57,9 @@ pub struct RunOptions {
     pub timing: Timing,
     /// A fault to inject into the simulated drives (tests, demos).
     pub fault: Option<FaultPlan>,
+    /// Further faults for the simulated machine (bus-off, a drive rebooting, an EMCY storm,
+    /// corrupted frames, …; tests and demos). Refused on a CAN interface like `fault`.
+    pub sim_faults: Vec<SimFaultPlan>,
     /// Where to write the CSV trace.
     pub trace: Option<Box<dyn Write>>,
     /// Raised by the caller (SIGINT) to stop the machine the way a fault does.
@@ -87,6 +90,7 @@ impl Default for RunOptions {
         RunOptions {
             timing: Timing::Virtual,
             fault: None,
+            sim_faults: Vec::new(),
             trace: None,
             stop_request: Arc::new(AtomicBool::new(false)),
             #[cfg(any(test, feature = "testing"))]
@@ -109,8 +113,18 @@ pub fn make_link(
     fault: Option<FaultPlan>,
     timeouts: Option<LinkTimeouts>,
 ) -> Result<Box<dyn DriveLink>, RunError> {
+    make_link_with(cfg, fault, &[], timeouts)
+}
+
+/// [`make_link`] with further simulated faults armed (power-on ones before boot).
+fn make_link_with(
+    cfg: &MachineConfig,
+    fault: Option<FaultPlan>,
+    sim_faults: &[SimFaultPlan],
+    timeouts: Option<LinkTimeouts>,
+) -> Result<Box<dyn DriveLink>, RunError> {
     if !cfg.bus.is_sim() {
-        if fault.is_some() {
+        if fault.is_some() || !sim_faults.is_empty() {
             return Err(RunError::Io(format!(
                 "bus interface {:?}: faults can only be injected into the simulated drives \
                  (interface = \"sim\"); on a CAN bus use simdrive --fault",
@@ -128,13 +142,17 @@ pub fn make_link(
     if let Some(f) = fault {
         link = link.with_fault(f);
     }
+    for &p in sim_faults {
+        link = link.with_plan(p);
+    }
     Ok(Box::new(link))
 }
 
 /// Which drive link a run uses (see [`make_link`]).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct LinkSpec {
     fault: Option<FaultPlan>,
+    sim_faults: Vec<SimFaultPlan>,
     /// The bus-less test double (only ever set with the `testing` feature).
     #[cfg(any(test, feature = "testing"))]
     model: bool,
@@ -147,7 +165,7 @@ fn link_for(cfg: &MachineConfig, spec: &LinkSpec) -> Result<Box<dyn DriveLink>, 
     if spec.model {
         return Ok(Box::new(crate::testing::model_link(cfg, spec.fault)));
     }
-    make_link(cfg, spec.fault, spec.timeouts)
+    make_link_with(cfg, spec.fault, &spec.sim_faults, spec.timeouts)
 }
 
 /// Runs `program` on the machine `cfg` describes and reports. Program errors found before
@@ -189,6 +207,7 @@ pub fn run_program(
     }
     let spec = LinkSpec {
         fault: opts.fault,
+        sim_faults: opts.sim_faults.clone(),
         #[cfg(any(test, feature = "testing"))]
         model: opts.model_link,
         timeouts: opts.timeouts,
@@ -204,7 +223,7 @@ pub fn run_program(
     if !cfg.bus.is_sim() && !model {
         // Fail before anything else when the interface cannot be opened (or a fault is asked
         // of drives that are not simulated).
-        make_link(cfg, opts.fault, opts.timeouts)?;
+        make_link_with(cfg, opts.fault, &opts.sim_faults, opts.timeouts)?;
     }
     let mut recorder = Recorder::new(cfg, dry.ticks);
     let RunOptions {

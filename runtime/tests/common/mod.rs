@@ -63,3 +63,39 @@ pub fn faulty_sim(cfg: &MachineConfig, fault: FaultPlan) -> SimLink {
         .expect("sim link")
         .with_fault(fault)
 }
+
+/// Runs `text` (file `t.nc`) on `link` tick by tick from start-up to the end of the cyclic
+/// phase; returns the outcome, every status and the link.
+pub fn run_on<L: DriveLink>(
+    cfg: &MachineConfig,
+    link: L,
+    text: &str,
+) -> (cnc402_runtime::Outcome, Vec<cnc402_runtime::Status>, L) {
+    use cnc402_runtime::controller::{CycleController, Step};
+    use cnc402_runtime::ring::{Consumer, status_ring};
+    use std::sync::Arc;
+    use std::sync::atomic::AtomicBool;
+    let period = core::time::Duration::from_micros(cfg.bus.period_us as u64);
+    let mut link = link;
+    let start = started(&mut link);
+    let mut feeder = feeder(cfg, "t.nc", text, &start);
+    let (mut mp, mc) = move_ring(64);
+    let (sp, mut sc) = status_ring(1024);
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut ctrl = CycleController::new(cfg, start, link, mc, sp, stop);
+    let mut out = Vec::new();
+    let mut now = Instant::ZERO;
+    let outcome = loop {
+        feeder.fill(&mut mp).expect("program");
+        now += period;
+        let step = ctrl.step(now);
+        while let Some(s) = sc.try_pop() {
+            out.push(s);
+        }
+        if let Step::Done(o) = step {
+            break o;
+        }
+        assert!(out.len() < 200_000, "runaway");
+    };
+    (outcome, out, ctrl.into_link())
+}
