@@ -262,4 +262,30 @@ mod tests {
             assert!(parse_fault(bad).is_err(), "{bad}");
         }
     }
+
+    #[test]
+    fn stats_every_is_bounded_and_stats_line_is_key_value() {
+        assert_eq!(parse_stats_every(60.0), Ok(Duration::from_secs(60)));
+        for bad in [0.0, 0.001, -1.0, f64::NAN, f64::INFINITY, 1e9] {
+            assert!(parse_stats_every(bad).is_err(), "{bad}");
+        }
+        let mut s = StatsSample {
+            wall_s: 60.04,
+            tick: 59_000,
+            following_error_max: [0.0; cnc402_config::MAX_AXES],
+            ..StatsSample::default()
+        };
+        s.following_error_max[1] = 0.0125;
+        assert_eq!(
+            stats_line(&['X', 'Z'], &s),
+            "stats: wall_s=60.0 tick=59000 fe_max=X:0.000000,Z:0.012500"
+        );
+        s.real_time = true;
+        (s.wakeups, s.late, s.skipped, s.wake_max_us) = (59_001, 12, 3, 1250.4);
+        assert_eq!(
+            stats_line(&['X'], &s),
+            "stats: wall_s=60.0 tick=59000 wakeups=59001 late=12 skipped=3 wake_max_us=1250 \
+             fe_max=X:0.000000"
+        );
+    }
 }

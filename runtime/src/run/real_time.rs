@@ -33,7 +33,11 @@ pub(super) struct RealTimeClock {
 impl RealTimeClock {
     /// A clock ticking every `period_ns` from now; `grant` is what the loop thread was given;
     /// each wake-up is also counted in `counters`.
-    pub(super) fn new(period_ns: u64, grant: RtGrant, counters: Arc<LoopCounters>) -> RealTimeClock {
+    pub(super) fn new(
+        period_ns: u64,
+        grant: RtGrant,
+        counters: Arc<LoopCounters>,
+    ) -> RealTimeClock {
         let t0 = monotonic_ns();
         RealTimeClock {
             period_ns,

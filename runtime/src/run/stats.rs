@@ -142,6 +142,9 @@ mod tests {
         // The next interval starts empty; the grid stays at multiples of 10 s.
         assert_eq!(st.due(t0 + Duration::from_secs(29), 10), None);
         let b = st.due(t0 + Duration::from_secs(30), 11).unwrap();
-        assert_eq!((b.wakeups, b.wake_max_us, b.following_error_max[1]), (2, 0.0, 0.0));
+        assert_eq!(
+            (b.wakeups, b.wake_max_us, b.following_error_max[1]),
+            (2, 0.0, 0.0)
+        );
     }
 }
