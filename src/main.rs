@@ -103,6 +103,11 @@ struct RunArgs {
     /// optional-stop switch, off unless turned on).
     #[arg(long)]
     optional_stop: bool,
+    /// Every SECONDS of wall clock, print one `stats:` line on stderr: wake-ups, late
+    /// wake-ups and deadlines let pass so far, the interval's largest wake-up latency and
+    /// largest following error per axis (for long runs: hil-tests/soak.sh).
+    #[arg(long, value_name = "SECONDS")]
+    stats_every: Option<f64>,
     /// Testing: make drive NODE fault with EMCY CODE (hex) SECONDS after enable.
     #[arg(long, hide = true, value_name = "NODE:CODE@SECONDS")]
     inject_fault: Option<String>,

@@ -8,7 +8,9 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use cnc402_config::MachineConfig;
-use cnc402_runtime::{AtStop, FaultPlan, LinkTimeouts, Progress, RunError, RunOptions, Timing};
+use cnc402_runtime::{
+    AtStop, FaultPlan, LinkTimeouts, Progress, RunError, RunOptions, StatsSample, Timing,
+};
 
 use crate::RunArgs;
 use crate::cli_error::CliError;
@@ -58,6 +60,40 @@ fn timeouts(args: &RunArgs) -> Result<Option<LinkTimeouts>, String> {
     Ok(Some(t))
 }
 
+/// A `--stats-every` value: seconds, at least 0.01 and at most a day.
+fn parse_stats_every(secs: f64) -> Result<Duration, String> {
+    if secs.is_finite() && (0.01..=86_400.0).contains(&secs) {
+        Ok(Duration::from_secs_f64(secs))
+    } else {
+        Err(format!(
+            "--stats-every {secs}: expected seconds, at least 0.01 and at most 86400"
+        ))
+    }
+}
+
+/// The `stats:` line of one `--stats-every` interval (key=value, for scripts: soak.sh).
+fn stats_line(axes: &[char], s: &StatsSample) -> String {
+    let fe: Vec<String> = axes
+        .iter()
+        .zip(s.following_error_max)
+        .map(|(a, fe)| format!("{a}:{fe:.6}"))
+        .collect();
+    let wake = if s.real_time {
+        format!(
+            " wakeups={} late={} skipped={} wake_max_us={:.0}",
+            s.wakeups, s.late, s.skipped, s.wake_max_us
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "stats: wall_s={:.1} tick={}{wake} fe_max={}",
+        s.wall_s,
+        s.tick,
+        fe.join(",")
+    )
+}
+
 /// The error of a run that could not go on; with `--report`, the report says why too (for
 /// scripts that read only the report).
 fn not_run(cfg: &MachineConfig, args: &RunArgs, e: RunError) -> CliError {
@@ -105,6 +141,10 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         )));
     }
     let timeouts = timeouts(args).map_err(CliError::Usage)?;
+    let stats_every = match args.stats_every {
+        Some(s) => Some(parse_stats_every(s).map_err(CliError::Usage)?),
+        None => None,
+    };
     let src = crate::load_program(&args.program)?;
     let ast = match cnc402_lang::parse(&src) {
         Ok(a) => a,
@@ -141,6 +181,7 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         at_stop,
         optional_stop: args.optional_stop,
         no_operator_terminal,
+        stats_every,
         ..RunOptions::default()
     };
 
@@ -156,7 +197,15 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         None
     };
     let name = src.name.clone();
+    let axes: Vec<char> = cfg.axes.iter().map(|a| a.name).collect();
     let mut on_progress = |p: &Progress| {
+        if let Some(s) = &p.stats {
+            let line = stats_line(&axes, s);
+            match &bar {
+                Some(b) => b.println(line),
+                None => eprintln!("{line}"),
+            }
+        }
         if let Some(b) = &bar {
             b.set_length(p.expected_ticks.max(p.tick + 1));
             b.set_position(p.tick);
@@ -212,5 +261,31 @@ mod tests {
         ] {
             assert!(parse_fault(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn stats_every_is_bounded_and_stats_line_is_key_value() {
+        assert_eq!(parse_stats_every(60.0), Ok(Duration::from_secs(60)));
+        for bad in [0.0, 0.001, -1.0, f64::NAN, f64::INFINITY, 1e9] {
+            assert!(parse_stats_every(bad).is_err(), "{bad}");
+        }
+        let mut s = StatsSample {
+            wall_s: 60.04,
+            tick: 59_000,
+            following_error_max: [0.0; cnc402_config::MAX_AXES],
+            ..StatsSample::default()
+        };
+        s.following_error_max[1] = 0.0125;
+        assert_eq!(
+            stats_line(&['X', 'Z'], &s),
+            "stats: wall_s=60.0 tick=59000 fe_max=X:0.000000,Z:0.012500"
+        );
+        s.real_time = true;
+        (s.wakeups, s.late, s.skipped, s.wake_max_us) = (59_001, 12, 3, 1250.4);
+        assert_eq!(
+            stats_line(&['X'], &s),
+            "stats: wall_s=60.0 tick=59000 wakeups=59001 late=12 skipped=3 wake_max_us=1250 \
+             fe_max=X:0.000000"
+        );
     }
 }

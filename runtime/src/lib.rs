@@ -29,7 +29,7 @@ pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, Startup, StopCaus
 pub use master_link::{CycleBus, LinkTimeouts, MasterLink};
 pub use program_stop::{AtStop, StopDecision, StopGate, StopPolicy, StopRecord};
 pub use report::{RunReport, write_plot};
-pub use run::{Progress, RunError, RunOptions, Timing, make_link, run_program};
+pub use run::{Progress, RunError, RunOptions, StatsSample, Timing, make_link, run_program};
 pub use sim_machine::{SimFault, SimFaultPlan, SimLink, SimMachine};
 pub use socket_machine::{SocketLink, SocketMachine};
 pub use status::{Outcome, Phase, Status};

@@ -57,6 +57,10 @@ struct Args {
     /// Stop after this many seconds (default: run until SIGTERM/SIGINT).
     #[arg(long, value_name = "S")]
     duration: Option<f64>,
+    /// Every S seconds print one `simdrive: stats` line on stderr: SYNCs and frames so far,
+    /// the interval's longest SYNC interval and its SYNC intervals over 1.5 periods.
+    #[arg(long, value_name = "S")]
+    stats_every: Option<f64>,
     /// Do not ask for mlockall and SCHED_FIFO.
     #[arg(long)]
     no_rt: bool,
@@ -99,20 +103,44 @@ fn grants(no_rt: bool, prio: i32) -> String {
     format!("{m}, {f}")
 }
 
+/// The `--stats-every` line for the stretch of the run that ends at `now`.
+fn stats_line(host: &mut DriveHost, bus: &SocketCanBus, now: cnc402_drives::Instant) -> String {
+    let w = host.take_sync_window();
+    let c = bus.counters();
+    format!(
+        "simdrive: stats t_s={:.1} syncs={} rx={} tx={} sync_intervals={} sync_max_us={:.0} sync_long={}",
+        Duration::from_nanos(now.nanos()).as_secs_f64(),
+        host.counters().syncs,
+        c.rx_frames,
+        c.tx_frames,
+        w.intervals,
+        w.max_ns as f64 / 1000.0,
+        w.long
+    )
+}
+
 /// Answers frames and polls the drives' timers (at least every `tick`) until a signal, the
-/// end of `--duration`, or a receive failure (returned).
+/// end of `--duration`, or a receive failure (returned); a stats line every `stats_every`.
 fn serve(
     host: &mut DriveHost,
     bus: &mut SocketCanBus,
     tick: Duration,
     end: Option<cnc402_drives::Instant>,
+    stats_every: Option<Duration>,
 ) -> Option<String> {
     let mut failure: Option<String> = None;
     host.poll(TimedBus::now(bus), bus);
+    let mut next_stats = stats_every.map(|e| TimedBus::now(bus) + e);
     while !STOP.load(Ordering::SeqCst) {
         let now = TimedBus::now(bus);
         if end.is_some_and(|e| now >= e) {
             break;
+        }
+        if let (Some(due), Some(every)) = (next_stats, stats_every)
+            && now >= due
+        {
+            eprintln!("{}", stats_line(host, bus, now));
+            next_stats = Some(due + every);
         }
         match bus.recv_timeout(tick) {
             Ok(Some(frame)) => {
@@ -177,6 +205,16 @@ fn main() -> ExitCode {
         eprintln!("simdrive: --duration must be a positive number of seconds");
         return ExitCode::from(2);
     }
+    let stats_every = match args.stats_every {
+        None => None,
+        Some(s) if s.is_finite() && (0.01..=86_400.0).contains(&s) => {
+            Some(Duration::from_secs_f64(s))
+        }
+        Some(_) => {
+            eprintln!("simdrive: --stats-every must be seconds from 0.01 to 86400");
+            return ExitCode::from(2);
+        }
+    };
     install_signals();
     let mut bus = match SocketCanBus::open(&args.iface) {
         Ok(b) => b,
@@ -200,7 +238,7 @@ fn main() -> ExitCode {
         .map(|s| TimedBus::now(&bus) + Duration::from_secs_f64(s));
     // Timers (heartbeat, boot, following-error time-out) need a poll at least this often.
     let tick = Duration::from_micros(250);
-    let failure = serve(&mut host, &mut bus, tick, end);
+    let failure = serve(&mut host, &mut bus, tick, end, stats_every);
     host.finish();
     let elapsed = Duration::from_nanos(TimedBus::now(&bus).nanos());
     let c = bus.counters();

@@ -10,6 +10,7 @@ mod prompt;
 mod real_time;
 mod report;
 mod side;
+mod stats;
 mod virtual_time;
 
 use std::io::Write;
@@ -41,6 +42,8 @@ use report::build_report;
 pub use report::coupling_bound_um;
 pub use side::Progress;
 use side::{FeederStart, Side};
+pub use stats::StatsSample;
+use stats::{LoopCounters, Stats};
 use virtual_time::VirtualClock;
 
 /// How time advances.
@@ -83,6 +86,8 @@ pub struct RunOptions {
     /// `Continue` was chosen only because no operator terminal is attached: each stop passed
     /// says so on stderr.
     pub no_operator_terminal: bool,
+    /// Hand the progress callback a [`StatsSample`] every this often (wall clock).
+    pub stats_every: Option<Duration>,
 }
 
 impl Default for RunOptions {
@@ -101,6 +106,7 @@ impl Default for RunOptions {
             at_stop: AtStop::Continue,
             optional_stop: false,
             no_operator_terminal: false,
+            stats_every: None,
         }
     }
 }
@@ -231,6 +237,7 @@ pub fn run_program(
         trace,
         stop_request,
         no_operator_terminal,
+        stats_every,
         ..
     } = opts;
     if let Some(t) = trace {
@@ -238,6 +245,9 @@ pub fn run_program(
     }
     let prompt = OperatorPrompt::new(gate, no_operator_terminal);
     let mut side = Side::new(cfg, recorder, progress, dry.ticks, prompt, &src.name);
+    let counters = std::sync::Arc::new(LoopCounters::default());
+    let real_time = timing == Timing::RealTime;
+    side.stats = stats_every.map(|e| Stats::new(e, real_time.then(|| counters.clone())));
     let src_keep = src.clone();
     let (moves_tx, moves_rx) = move_ring(MOVE_RING);
     let (status_tx, status_rx) = status_ring(status_cap);
@@ -255,7 +265,7 @@ pub fn run_program(
     };
     let end = match timing {
         Timing::Virtual => run_virtual(cfg, spec, feed, io, status_rx, &mut side),
-        Timing::RealTime => run_realtime(cfg, spec, feed, io, status_rx, &mut side),
+        Timing::RealTime => run_realtime(cfg, spec, feed, io, status_rx, &mut side, counters),
     };
     side.stop_feeder();
     let end = end?;
@@ -298,6 +308,7 @@ fn run_realtime(
     io: LoopIo,
     mut status: StatusConsumer,
     side: &mut Side,
+    counters: std::sync::Arc<LoopCounters>,
 ) -> Result<LoopEnd, RunError> {
     let (ready_tx, ready_rx) = std::sync::mpsc::sync_channel::<[f64; MAX_AXES]>(1);
     let cfg_t = cfg.clone();
@@ -316,7 +327,7 @@ fn run_realtime(
             }
             let wall0 = std::time::Instant::now();
             let link = link_for(&cfg_t, &spec)?;
-            let mut clock = RealTimeClock::new(period_ns, grant);
+            let mut clock = RealTimeClock::new(period_ns, grant, counters);
             run_cyclic(&mut clock, &cfg_t, link, io, wall0, |_, start| {
                 let _ = ready_tx.send(*start);
                 Ok(())

@@ -2,12 +2,14 @@
 //! CLOCK_MONOTONIC deadlines on the loop's own thread, each wake-up's lateness recorded, and a
 //! wake-up a whole period late or more skipping the missed deadlines instead of bursting.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use cnc402_drives::Instant;
 use nix::errno::Errno;
 
 use super::cyclic::{ClockEnd, CycleClock, LoopState};
+use super::stats::LoopCounters;
 use crate::controller::Step;
 use crate::rt::{LatencyHistogram, RtGrant, monotonic_ns, sleep_until, tick_deadline};
 
@@ -24,11 +26,18 @@ pub(super) struct RealTimeClock {
     /// Deadlines let pass (see `LatencySummary::skipped`).
     skipped: u64,
     grant: RtGrant,
+    /// The same wake-ups, for the reporting side's periodic figures (`--stats-every`).
+    counters: Arc<LoopCounters>,
 }
 
 impl RealTimeClock {
-    /// A clock ticking every `period_ns` from now; `grant` is what the loop thread was given.
-    pub(super) fn new(period_ns: u64, grant: RtGrant) -> RealTimeClock {
+    /// A clock ticking every `period_ns` from now; `grant` is what the loop thread was given;
+    /// each wake-up is also counted in `counters`.
+    pub(super) fn new(
+        period_ns: u64,
+        grant: RtGrant,
+        counters: Arc<LoopCounters>,
+    ) -> RealTimeClock {
         let t0 = monotonic_ns();
         RealTimeClock {
             period_ns,
@@ -38,6 +47,7 @@ impl RealTimeClock {
             latency: LatencyHistogram::new(5000, period_ns / 2),
             skipped: 0,
             grant,
+            counters,
         }
     }
 }
@@ -63,9 +73,13 @@ impl CycleClock for RealTimeClock {
         self.next += self.period_ns;
         sleep_until(self.next)?;
         let woke = monotonic_ns();
-        self.latency.record(woke.saturating_sub(self.next));
+        let latency_ns = woke.saturating_sub(self.next);
+        self.latency.record(latency_ns);
         // Missed whole deadlines: this tick runs now and the next is a period later.
         let (at, missed) = tick_deadline(self.next, woke, self.period_ns);
+        // Same late threshold as the histogram's (half a period).
+        self.counters
+            .woke(latency_ns, latency_ns > self.period_ns / 2, missed);
         self.next = at;
         self.skipped += missed;
         // The cycle's time is its deadline (the master's contract); lateness is measured.

@@ -13,6 +13,7 @@ use cnc402_motion::MoveEvent;
 
 use super::error::RunError;
 use super::prompt::OperatorPrompt;
+use super::stats::{Stats, StatsSample};
 use crate::controller::{AxisTable, start_position};
 use crate::feeder::Feeder;
 use crate::recorder::Recorder;
@@ -27,6 +28,8 @@ pub struct Progress {
     /// Ticks the dry run expects (spindle ramps excluded, so `tick` may pass it).
     pub expected_ticks: u64,
     pub line: u32,
+    /// With `RunOptions::stats_every`: the interval's figures, when one has just ended.
+    pub stats: Option<StatsSample>,
 }
 
 /// The program, and where the feeder that plans it sends its moves.
@@ -54,6 +57,8 @@ pub(super) struct Side<'a> {
     /// Coolant on as the last coolant event left it (turned off at the end of the run when a
     /// stop, fault or end at a program stop left it on; M2/M30 turn it off themselves).
     pub(super) coolant_on: bool,
+    /// Periodic figures (`RunOptions::stats_every`).
+    pub(super) stats: Option<Stats>,
 }
 
 impl<'a> Side<'a> {
@@ -80,6 +85,7 @@ impl<'a> Side<'a> {
             prompt,
             src_name: src_name.to_string(),
             coolant_on: false,
+            stats: None,
         }
     }
 
@@ -126,6 +132,9 @@ impl<'a> Side<'a> {
                 self.program_ticks = s.tick + 1;
             }
             self.recorder.record(&s);
+            if let Some(st) = &mut self.stats {
+                st.observe(&s);
+            }
             self.idle_ticks = if s.idle {
                 self.idle_ticks.saturating_add(1)
             } else {
@@ -137,10 +146,15 @@ impl<'a> Side<'a> {
             let n = self.cfg.axes.len().min(MAX_AXES);
             self.shared
                 .publish(&s, self.idle_ticks, n, self.recorder.path_length);
+            let stats = self
+                .stats
+                .as_mut()
+                .and_then(|st| st.due(std::time::Instant::now(), s.tick));
             (self.progress)(&Progress {
                 tick: s.tick,
                 expected_ticks: self.expected,
                 line: s.line,
+                stats,
             });
         }
     }
