@@ -117,7 +117,9 @@ early=""
 n=0
 while :; do
     n=$((n + 1))
-    next=$((t0 + n * every))
+    # Half an interval after each periodic line is due, so a sample reads that line, not the
+    # one before (on the grid itself a sample raced the line and repeated the last interval).
+    next=$((t0 + n * every + every / 2))
     ((next > deadline)) && next=$deadline
     while ((SECONDS < next)); do
         kill -0 "$run_pid" 2>/dev/null || break
