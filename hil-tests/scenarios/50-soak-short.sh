@@ -10,7 +10,7 @@ bash "$HIL_REPO/hil-tests/soak.sh" --minutes 1.5 --every 10 --warmup 30 --out "$
 rc=$?
 s="$HIL_OUT/summary.txt"
 figs=$(grep -E '^(cnc402|simdrive): (RSS|[0-9]+ ticks|ok)' "$s" 2>/dev/null |
-    sed -E 's/RSS [0-9]+ kB at start, /RSS /; s/program time .* wall \(/(/' | paste -sd'|')
+    sed -E 's/RSS [0-9]+ kB at the first sample \([0-9]+ s\), /RSS /; s/program time .* wall \(/(/' | paste -sd'|')
 figs="${figs//|/ | }"
 if [[ $rc == 0 ]]; then
     echo "PASS $name: $figs" | tee "$HIL_OUT/result.txt"

@@ -1,5 +1,5 @@
 %
-O7002 (HIL SOAK: ONE PASS OF ABOUT 20 S, REPEATED BY M99 UNTIL CTRL-C)
+O7002 (HIL SOAK: ONE PASS OF ABOUT 12.6 S, REPEATED BY M99 UNTIL CTRL-C)
 (Two rigid taps, a line, an arc and rapids: every kind of motion the loop runs.)
 N10 G21 G90 G17 G94 G54
 N20 G0 X0 Y0 Z10.
