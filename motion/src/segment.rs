@@ -392,6 +392,38 @@ impl SegmentKind {
                 | SegmentKind::Arc { .. }
         )
     }
+
+    /// A feed move from `from` to `end` that couples axis `tool` with axis `spindle` at
+    /// `pitch`: a `Tap` when both move, else a plain `Linear` (a move that turns no spindle
+    /// or feeds no tool couples nothing). The one rule for programmed and canned taps.
+    pub fn tap_or_feed(
+        from: &AxisPos,
+        end: AxisPos,
+        feed: f64,
+        (tool, spindle): (usize, usize),
+        pitch: f64,
+    ) -> SegmentKind {
+        if end[tool] == from[tool] || end[spindle] == from[spindle] {
+            SegmentKind::Linear { end, feed }
+        } else {
+            SegmentKind::Tap(TapSegment {
+                end,
+                feed,
+                tool: tool as u8,
+                spindle: spindle as u8,
+                pitch,
+            })
+        }
+    }
+
+    /// Where a straight move (rapid, linear, tap) ends; `None` for arcs and events.
+    pub fn line_end(&self) -> Option<&AxisPos> {
+        match self {
+            SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => Some(end),
+            SegmentKind::Tap(t) => Some(&t.end),
+            _ => None,
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -309,13 +309,9 @@ impl Exec<'_> {
     /// The soft-limit check of the moves expanded so far.
     fn check_steps(&self, ex: &mut Expander) -> Result<(), NcError> {
         for step in ex.take_steps() {
-            let end = match &step.kind {
-                SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => end,
-                SegmentKind::Tap(t) => &t.end,
-                _ => continue,
-            };
-            let hint: Vec<char> = step.hint.into_iter().filter(|&c| c != '\0').collect();
-            self.check_limits(end, &hint)?;
+            if let Some(end) = step.kind.line_end() {
+                self.check_limits(end, &step.hint)?;
+            }
         }
         Ok(())
     }

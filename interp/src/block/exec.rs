@@ -7,9 +7,7 @@ use std::sync::Arc;
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Comment, Line, Span};
 use cnc402_lang::{NcError, SourceFile};
-use cnc402_motion::segment::{
-    ArcDir, AxisPos, Plane, SegmentKind, Source, SpindleDir, StopKind, TapSegment,
-};
+use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, Source, SpindleDir, StopKind};
 
 use super::arc::{self, ArcError};
 use super::options::Options;
@@ -753,17 +751,14 @@ impl Exec<'_> {
         let Some(sp) = self.cfg.spindle_index() else {
             return self.linear(end, feed, hint);
         };
-        if end[tool] == self.st.pos[tool] || end[sp] == self.st.pos[sp] {
-            return self.linear(end, feed, hint);
-        }
         self.check_limits(&end, hint)?;
-        self.push(SegmentKind::Tap(TapSegment {
+        self.push(SegmentKind::tap_or_feed(
+            &self.st.pos,
             end,
             feed,
-            tool: tool as u8,
-            spindle: sp as u8,
+            (tool, sp),
             pitch,
-        }));
+        ));
         self.st.pos = end;
         Ok(())
     }

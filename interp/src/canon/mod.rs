@@ -274,9 +274,10 @@ pub fn makes_motion(ops: &[CanonOp], from: &AxisPos) -> bool {
             CanonKind::Single(k) => match k {
                 SegmentKind::Arc { .. } => return true,
                 SegmentKind::Dwell { seconds } if *seconds > 0.0 => return true,
-                SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => end,
-                SegmentKind::Tap(t) => &t.end,
-                _ => continue,
+                _ => match k.line_end() {
+                    Some(end) => end,
+                    None => continue,
+                },
             },
         };
         let end = op.state.to_machine(end);

@@ -7,7 +7,7 @@
 //! `interp.spindle_orient_angle`, then shift by Q along +first plane axis (G17 +X, G18 +Z,
 //! G19 +Y). G87 always returns to the initial level.
 
-use cnc402_motion::segment::{AxisPos, SegmentKind, SpindleDir, StopKind, TapSegment};
+use cnc402_motion::segment::{AxisPos, SegmentKind, SpindleDir, StopKind};
 
 use crate::canon::{CannedCycle, CanonState};
 
@@ -42,8 +42,22 @@ pub fn moves_per_hole(pecks: f64) -> f64 {
 #[derive(Clone, Debug, PartialEq)]
 pub struct CycleStep {
     pub kind: SegmentKind,
-    /// For a move: the program letters to blame, in order, if its end is out of limits.
+    /// For a move: the program letters to blame, in order, if its end is out of limits
+    /// (events carry [`NO_HINT`]; only moves are checked).
     pub hint: [char; 2],
+}
+
+/// The hint of a step that is no move.
+pub const NO_HINT: [char; 2] = ['\0'; 2];
+
+/// A rigid tap's coupling for the block: C = c0 + |d − R| · k, and the signed pitch the tap
+/// segments carry (Δd = pitch · ΔC / 360; negative for G84 into a hole below R).
+#[derive(Clone, Copy)]
+struct TapCoupling {
+    spindle: usize,
+    c0: f64,
+    k: f64,
+    pitch: f64,
 }
 
 /// The hole being drilled: machine levels along the drilling axis.
@@ -76,8 +90,7 @@ pub(crate) struct Expander<'a> {
     pos: AxisPos,
     /// Machine levels of the block's holes.
     hole: Hole,
-    /// Tap coupling: C at the block's start, degrees of C per mm into the hole.
-    tap: Option<(usize, f64, f64)>,
+    tap: Option<TapCoupling>,
     out: Vec<CycleStep>,
 }
 
@@ -93,7 +106,13 @@ impl<'a> Expander<'a> {
     ) -> Self {
         let tap = cc.tap.map(|t| {
             let hand = if t.dir == SpindleDir::Ccw { -1.0 } else { 1.0 };
-            (t.spindle, start.0[t.spindle], hand * 360.0 / t.pitch)
+            TapCoupling {
+                spindle: t.spindle,
+                c0: start.0[t.spindle],
+                k: hand * 360.0 / t.pitch,
+                // Exact from the programmed pitch (Δd / ΔC = sign(bottom − R) / k).
+                pitch: (levels[1] - levels[0]).signum() * hand * t.pitch,
+            }
         });
         Expander {
             cc,
@@ -161,7 +180,7 @@ impl<'a> Expander<'a> {
                 rpm: 0.0,
                 dir: SpindleDir::Stop,
             },
-            ['\0'; 2],
+            NO_HINT,
         );
     }
 
@@ -174,7 +193,7 @@ impl<'a> Expander<'a> {
                     rpm: plan.speed,
                     dir: plan.spindle_dir,
                 },
-                ['\0'; 2],
+                NO_HINT,
             );
         }
     }
@@ -222,48 +241,26 @@ impl<'a> Expander<'a> {
     }
 
     /// A tap move to `level`, C coupled: C = c0 + |level − R| · k. A move that turns no
-    /// spindle or feeds no tool couples nothing: a plain feed (as the interpreter's `tap`).
+    /// spindle or feeds no tool couples nothing ([`SegmentKind::tap_or_feed`]).
     fn tap_d(&mut self, level: f64) {
-        let Some((ic, c0, _)) = self.tap else {
-            return;
-        };
-        let Some(t) = self.cc.tap else {
+        let Some(t) = self.tap else {
             return;
         };
         let id = self.cc.axes[2];
         let mut p = self.pos;
         p[id] = level;
-        p[ic] = c0 + (level - self.hole.r_level).abs() * self.tap_k();
+        p[t.spindle] = t.c0 + (level - self.hole.r_level).abs() * t.k;
         let hint = self.hint(level);
-        let feed = self.cc.feed;
-        let kind = if p[id] == self.pos[id] || p[ic] == self.pos[ic] {
-            SegmentKind::Linear { end: p, feed }
-        } else {
-            // Δd / ΔC = sign(bottom − R) / k: the signed pitch (negative for G84 into a hole
-            // below R), exact from the programmed pitch.
-            let hand = if t.dir == SpindleDir::Ccw { -1.0 } else { 1.0 };
-            SegmentKind::Tap(TapSegment {
-                end: p,
-                feed,
-                tool: id as u8,
-                spindle: ic as u8,
-                pitch: (self.hole.bottom - self.hole.r_level).signum() * hand * t.pitch,
-            })
-        };
+        let kind = SegmentKind::tap_or_feed(&self.pos, p, self.cc.feed, (id, t.spindle), t.pitch);
         self.push(kind, hint);
         self.pos = p;
-    }
-
-    /// Degrees of C per mm into the hole (negative for G74).
-    fn tap_k(&self) -> f64 {
-        self.tap.map_or(0.0, |(_, _, k)| k)
     }
 
     fn dwell_data(&mut self) {
         if let Some(s) = self.cc.words.p
             && s > 0.0
         {
-            self.push(SegmentKind::Dwell { seconds: s }, ['\0'; 2]);
+            self.push(SegmentKind::Dwell { seconds: s }, NO_HINT);
         }
     }
 
@@ -275,7 +272,7 @@ impl<'a> Expander<'a> {
                     angle,
                     program: None,
                 },
-                ['\0'; 2],
+                NO_HINT,
             );
         }
     }
@@ -389,7 +386,7 @@ impl<'a> Expander<'a> {
                     SegmentKind::Stop {
                         kind: StopKind::Program,
                     },
-                    ['\0'; 2],
+                    NO_HINT,
                 );
                 self.rapid_d(ret);
                 self.restore();
@@ -422,13 +419,13 @@ impl<'a> Expander<'a> {
         self.shift(q);
         self.rapid_d(self.hole.r_level);
         self.shift(-q);
-        self.push(on.clone(), ['\0'; 2]);
+        self.push(on.clone(), NO_HINT);
         self.feed_d(self.hole.bottom);
         self.dwell_data();
         self.orient();
         self.shift(q);
         self.rapid_d(self.hole.ret);
         self.shift(-q);
-        self.push(on, ['\0'; 2]);
+        self.push(on, NO_HINT);
     }
 }
