@@ -165,8 +165,10 @@ impl<B: CanBus> FaultInjector<B> {
             // Room for a few rules so that arming one in a cycle does not allocate.
             rules: Vec::with_capacity(8),
             now: Instant::ZERO,
-            held_tx: Vec::new(),
-            held_rx: Vec::new(),
+            // Room for the frames a delay rule holds at a time (a few cycles' worth), so that
+            // holding one inside a simulated cycle does not allocate.
+            held_tx: Vec::with_capacity(64),
+            held_rx: Vec::with_capacity(64),
             dropped: 0,
             bus_off: None,
         }
