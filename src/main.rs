@@ -41,6 +41,10 @@ enum Command {
     Segments {
         /// The NC program.
         program: PathBuf,
+        /// Read the program in this dialect (fanuc, haas, linuxcnc), whatever its header or
+        /// the config's `interp.dialect` says.
+        #[arg(long, value_name = "NAME")]
+        dialect: Option<cnc402_lang::Dialect>,
     },
     /// Print the canonical operations of a program as JSON Lines: what the interpreter
     /// decided the program does, in work coordinates, each with the modal state it ran under
@@ -50,6 +54,10 @@ enum Command {
     Canon {
         /// The NC program.
         program: PathBuf,
+        /// Read the program in this dialect (fanuc, haas, linuxcnc), whatever its header or
+        /// the config's `interp.dialect` says.
+        #[arg(long, value_name = "NAME")]
+        dialect: Option<cnc402_lang::Dialect>,
     },
     /// Run a program on the configured machine (the embedded simulated drives when
     /// `bus.interface = "sim"`), print a summary, and exit non-zero on any error.
@@ -73,6 +81,10 @@ enum Command {
 struct RunArgs {
     /// The NC program.
     program: PathBuf,
+    /// Read the program in this dialect (fanuc, haas, linuxcnc), whatever its header or the
+    /// config's `interp.dialect` says.
+    #[arg(long, value_name = "NAME")]
+    dialect: Option<cnc402_lang::Dialect>,
     /// Write the JSON report here.
     #[arg(long, value_name = "FILE.json")]
     report: Option<PathBuf>,
@@ -139,13 +151,13 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
-        Command::Segments { program } => {
+        Command::Segments { program, dialect } => {
             let cfg = load_config(&cli.config)?;
-            dump(&cfg, &program, Dump::Segments)
+            dump(&cfg, &program, dialect, Dump::Segments)
         }
-        Command::Canon { program } => {
+        Command::Canon { program, dialect } => {
             let cfg = load_config(&cli.config)?;
-            dump(&cfg, &program, Dump::Canon)
+            dump(&cfg, &program, dialect, Dump::Canon)
         }
         Command::Run(args) => {
             let cfg = load_config(&cli.config)?;
@@ -182,11 +194,12 @@ enum Dump {
 fn dump(
     cfg: &cnc402_config::MachineConfig,
     program: &std::path::Path,
+    dialect: Option<cnc402_lang::Dialect>,
     what: Dump,
 ) -> Result<(), CliError> {
     use std::io::Write;
     let src = load_program(program)?;
-    let ast = cnc402_lang::parse(&src).map_err(CliError::Program)?;
+    let ast = cnc402_interp::parse_program(cfg, &src, dialect).map_err(CliError::Program)?;
     // The interpreter does no I/O: sub-programs, `#use` files and the variables file come
     // from the file system through host_fs. A dump never writes the variables file.
     let mut interp = cnc402_interp::host_fs::interpreter(

@@ -146,7 +146,7 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         None => None,
     };
     let src = crate::load_program(&args.program)?;
-    let ast = match cnc402_lang::parse(&src) {
+    let ast = match cnc402_interp::parse_program(cfg, &src, args.dialect) {
         Ok(a) => a,
         Err(e) => return Err(not_run(cfg, args, RunError::Program(e))),
     };

@@ -3,6 +3,8 @@
 
 use std::path::PathBuf;
 
+use cnc402_lang::Dialect;
+use cnc402_lang::dialect::UnknownDialect;
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -36,6 +38,9 @@ pub enum ReturnPlane {
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct InterpDefaults {
+    /// The dialect programs are read in unless their header or the command line names
+    /// another (`"fanuc"`, `"haas"`, `"linuxcnc"`; default `"fanuc"`).
+    pub dialect: Dialect,
     pub units: Units,
     pub plane: PlaneDefault,
     pub return_plane: ReturnPlane,
@@ -72,6 +77,8 @@ pub struct InterpDefaults {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawInterp {
+    #[serde(default)]
+    dialect: Option<Spanned<String>>,
     #[serde(default = "default_units")]
     units: Spanned<String>,
     #[serde(default = "default_plane")]
@@ -103,6 +110,7 @@ pub(crate) struct RawInterp {
 impl Default for RawInterp {
     fn default() -> Self {
         RawInterp {
+            dialect: None,
             units: default_units(),
             plane: default_plane(),
             return_plane: default_return(),
@@ -153,6 +161,12 @@ impl RawInterp {
     pub(crate) fn validate(&self) -> Result<InterpDefaults, Invalid> {
         let i = self;
         Ok(InterpDefaults {
+            dialect: match &i.dialect {
+                None => Dialect::default(),
+                Some(d) => d.get_ref().parse().map_err(|e: UnknownDialect| {
+                    (d.span(), "interp.dialect".into(), e.to_string())
+                })?,
+            },
             units: match i.units.get_ref().as_str() {
                 "mm" => Units::Mm,
                 "inch" => Units::Inch,

@@ -342,3 +342,16 @@ fn hil_and_example_configs_still_load() {
         MachineConfig::load(root.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
     }
 }
+
+#[test]
+fn interp_dialect_names_a_known_dialect() {
+    use cnc402_lang::Dialect;
+    assert_eq!(parse(SHIPPED).unwrap().interp.dialect, Dialect::Fanuc);
+    for (name, d) in [("haas", Dialect::Haas), ("LinuxCNC", Dialect::LinuxCnc)] {
+        let text = with("dialect = \"fanuc\"", &format!("dialect = \"{name}\""));
+        assert_eq!(parse(&text).unwrap().interp.dialect, d);
+    }
+    let text = with("dialect = \"fanuc\"", "dialect = \"sinumerik\"");
+    let e = refused(&text, "interp.dialect", "dialect = \"sinumerik\"");
+    assert!(e.message.contains("fanuc, haas or linuxcnc"), "{e}");
+}

@@ -271,7 +271,7 @@ pub fn run_program(
     cfg: &MachineConfig,
     src: &SourceFile,
 ) -> Result<Vec<cnc402_motion::segment::Segment>, cnc402_lang::NcError> {
-    let program = cnc402_lang::parse(src)?;
+    let program = crate::flow::parse_program(cfg, src, None)?;
     let mut it = interpreter(cfg, Options::default(), VarsAccess::ReadOnly);
     it.load(src.clone(), program);
     it.collect()

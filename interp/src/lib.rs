@@ -131,7 +131,7 @@ facade! {
 pub mod host_fs;
 
 pub use dump::segment_to_json;
-pub use flow::{Interpreter, MainM99, Options, run_program, run_program_with};
+pub use flow::{Interpreter, MainM99, Options, parse_program, run_program, run_program_with};
 pub use host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary, UsedFile};
 pub use nvfile::{NvTable, VarFileError};
 pub use state::ModalState;

@@ -202,11 +202,12 @@ const CASES: &[(&str, u32, u32, &str)] = &[
     ("G7 X1\n", 1, 1, "unknown G code G7"),
     ("G0 X1\nG100\n", 2, 1, "unknown G code G100"),
     ("M18\n", 1, 1, "unknown M code M18"),
+    ("G1.5 X1\n", 1, 1, "unknown G code G1.5"),
     (
-        "G1.5 X1\n",
+        "G1.25 X1\n",
         1,
         1,
-        "G1.5 is not a G code: G codes here are whole numbers",
+        "G1.25 is not a G code: G codes here are whole numbers",
     ),
     ("M3.5\n", 1, 1, "M3.5 is not a M code"),
     (

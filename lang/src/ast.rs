@@ -35,6 +35,8 @@ impl Span {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Program {
     pub lines: Vec<Line>,
+    /// The dialect the program was read in (its header's, or the one the caller chose).
+    pub dialect: crate::dialect::Dialect,
 }
 
 /// One physical line of NC text.

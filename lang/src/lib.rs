@@ -4,7 +4,9 @@
 
 pub mod ast;
 pub mod diag;
+pub mod dialect;
 mod parse;
 
 pub use diag::{NcError, SourceFile};
-pub use parse::{MAX_HEIGHT, parse, parse_expr};
+pub use dialect::{Dialect, choose_dialect, declared_dialect};
+pub use parse::{MAX_HEIGHT, parse, parse_expr, parse_in};

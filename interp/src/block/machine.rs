@@ -3,6 +3,7 @@
 //! blocks ([`Exec`]) and answers the system variables that read or change this state.
 
 use cnc402_config::MachineConfig;
+use cnc402_lang::Dialect;
 use cnc402_lang::ast::Line;
 use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{
@@ -30,6 +31,9 @@ pub struct Machine {
     pub(crate) path_end: AxisPos,
     /// The state of the last canonical operation (shared by the next while unchanged).
     pub(crate) canon: Option<Arc<CanonState>>,
+    /// The dialect of the running main program (sub-programs without a header of their own
+    /// are read in it).
+    pub(crate) dialect: Dialect,
 }
 
 impl Machine {
@@ -42,6 +46,7 @@ impl Machine {
             path_len: 0.0,
             path_end: opts.start,
             canon: None,
+            dialect: cfg.interp.dialect,
             opts,
         }
     }

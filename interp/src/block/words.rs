@@ -49,9 +49,39 @@ pub enum GGroup {
     Cancel(u8),
 }
 
-/// The modal group of G code `code`, or the reason it cannot be run.
+/// G codes with one decimal (`G90.1`) are numbered `DECIMAL_G + 10·whole + tenth`: a code
+/// stays one `u32` that `match` takes plainly, and never equals a whole code (those are at
+/// most 9999). Write them with [`g_dec`]; print any code with [`g_name`].
+pub const DECIMAL_G: u32 = 100_000;
+
+/// The code of `G<whole>.<tenth>`.
+///
+/// ```
+/// use cnc402_interp::words::{g_dec, g_name};
+/// assert_eq!(g_name(g_dec(90, 1)), "G90.1");
+/// assert_eq!(g_name(1), "G1");
+/// ```
+pub const fn g_dec(whole: u32, tenth: u32) -> u32 {
+    DECIMAL_G + whole * 10 + tenth
+}
+
+/// `G1`, `G90.1`: a G code as written.
+pub fn g_name(code: u32) -> String {
+    if code >= DECIMAL_G {
+        let d = code - DECIMAL_G;
+        format!("G{}.{}", d / 10, d % 10)
+    } else {
+        format!("G{code}")
+    }
+}
+
+/// The modal group of G code `code` (see [`DECIMAL_G`] for `G90.1` and the like), or the
+/// reason it cannot be run.
 pub fn g_group(code: u32) -> Result<GGroup, String> {
     use GGroup::*;
+    if code >= DECIMAL_G {
+        return decimal_g_group(code);
+    }
     Ok(match code {
         4 | 10 | 28..=30 | 53 | 92 => NonModal,
         0..=3 => Motion,
@@ -86,6 +116,21 @@ pub fn g_group(code: u32) -> Result<GGroup, String> {
         }
         _ => return Err(format!("unknown G code G{code}")),
     })
+}
+
+/// [`g_group`] of the codes with a decimal.
+fn decimal_g_group(code: u32) -> Result<GGroup, String> {
+    let name = g_name(code);
+    let what = match code {
+        c if c == g_dec(90, 1) || c == g_dec(91, 1) => "arc centre distance mode",
+        c if c == g_dec(5, 1) => "AI contour control",
+        c if (g_dec(92, 1)..=g_dec(92, 3)).contains(&c) => "G92 offset reset and restore",
+        c if (g_dec(38, 2)..=g_dec(38, 5)).contains(&c) => "probing",
+        c if c == g_dec(43, 1) => "dynamic tool length offset",
+        c if c == g_dec(33, 1) => "LinuxCNC rigid tapping",
+        _ => return Err(format!("unknown G code {name}")),
+    };
+    Err(format!("{name} ({what}) is not supported yet"))
 }
 
 /// The words of one block.
@@ -146,6 +191,11 @@ impl Words {
             };
             let here = |m: String| NcError::new(src, word.span, m);
             match word.letter {
+                'G' if decimal_g_code(v).is_some() => {
+                    let code = decimal_g_code(v).unwrap_or_default();
+                    let grp = g_group(code).map_err(here)?;
+                    w.g.push((code, grp, word.span));
+                }
                 'G' | 'M' => {
                     let l = word.letter;
                     let code = whole_code(v).ok_or_else(|| {
@@ -230,6 +280,17 @@ impl Words {
     }
 }
 
+/// `v` as a G code with one decimal (`90.1`), if it is one (and not whole): see [`DECIMAL_G`].
+fn decimal_g_code(v: f64) -> Option<u32> {
+    let tenths = v * 10.0;
+    let rounded = tenths.round();
+    if v.fract() == 0.0 || !(0.0..=99_999.0).contains(&rounded) || (tenths - rounded).abs() > 1e-6 {
+        return None;
+    }
+    let t = rounded as u32;
+    Some(g_dec(t / 10, t % 10))
+}
+
 /// `v` as a whole code number, if it is one.
 fn whole_code(v: f64) -> Option<u32> {
     if (0.0..=9999.0).contains(&v) && v.fract() == 0.0 {
@@ -304,8 +365,20 @@ mod tests {
 
     #[test]
     fn rejects_fractional_codes_duplicates_and_unknown_g() {
+        let e = words("G1.25 X1").unwrap_err();
+        assert!(e.message.contains("G1.25 is not a G code"), "{e}");
+        // One decimal names a code of its own (G90.1), known or not.
         let e = words("G1.5 X1").unwrap_err();
-        assert!(e.message.contains("G1.5 is not a G code"), "{e}");
+        assert_eq!((e.col, e.message.as_str()), (1, "unknown G code G1.5"));
+        let e = words("G90.1 X1").unwrap_err();
+        assert!(
+            e.message.contains("G90.1 (arc centre distance mode)"),
+            "{e}"
+        );
+        let e = words("G[92+0.1]").unwrap_err();
+        assert!(e.message.starts_with("G92.1 "), "{e}");
+        let e = words("M3.5").unwrap_err();
+        assert!(e.message.contains("M3.5 is not a M code"), "{e}");
         let e = words("G1 X1 X2").unwrap_err();
         assert_eq!(
             (e.col, e.message.as_str()),

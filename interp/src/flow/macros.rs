@@ -376,7 +376,8 @@ impl Interpreter {
                 lib.describe()
             )));
         };
-        let program = Arc::new(cnc402_lang::parse(&file)?);
+        let dialect = cnc402_lang::choose_dialect(&file, None, self.m.dialect)?;
+        let program = Arc::new(cnc402_lang::parse_in(&file, dialect)?);
         let file = Arc::new(file);
         let (units, main) = split_units(&file, &program);
         let u = units

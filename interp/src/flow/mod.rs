@@ -191,6 +191,7 @@ impl Interpreter {
         let program = Arc::new(program);
         let (units, main) = units::split_units(&src, &program);
         self.m.reset();
+        self.m.dialect = program.dialect;
         self.flow.main_src = src;
         self.flow.units = units;
         self.flow.lib_cache.clear();
@@ -380,13 +381,35 @@ pub fn run_program(cfg: &MachineConfig, src: &SourceFile) -> Result<Vec<Segment>
     run_program_with(cfg, Options::default(), src)
 }
 
+/// Parses `src` in the dialect it is to run in on machine `cfg`: `forced` (the command line's
+/// `--dialect`) if given, else its header's ([`cnc402_lang::declared_dialect`]), else the
+/// config's `interp.dialect`.
+///
+/// ```
+/// use cnc402_interp::parse_program;
+/// use cnc402_lang::{Dialect, SourceFile};
+/// let cfg = cnc402_config::MachineConfig::default_machine();
+/// let src = SourceFile::new("p.nc", "(dialect: haas)\nG0 X1\n");
+/// assert_eq!(parse_program(&cfg, &src, None).unwrap().dialect, Dialect::Haas);
+/// assert_eq!(parse_program(&cfg, &src, Some(Dialect::Fanuc)).unwrap().dialect, Dialect::Fanuc);
+/// ```
+#[allow(clippy::result_large_err)]
+pub fn parse_program(
+    cfg: &cnc402_config::MachineConfig,
+    src: &cnc402_lang::SourceFile,
+    forced: Option<cnc402_lang::Dialect>,
+) -> Result<cnc402_lang::ast::Program, cnc402_lang::NcError> {
+    let dialect = cnc402_lang::choose_dialect(src, forced, cfg.interp.dialect)?;
+    cnc402_lang::parse_in(src, dialect)
+}
+
 /// [`run_program`] with explicit operator switches.
 pub fn run_program_with(
     cfg: &MachineConfig,
     opts: Options,
     src: &SourceFile,
 ) -> Result<Vec<Segment>, NcError> {
-    let program = cnc402_lang::parse(src)?;
+    let program = parse_program(cfg, src, None)?;
     let mut it = Interpreter::with_options(cfg, opts);
     it.load(src.clone(), program);
     it.collect()

@@ -17,6 +17,7 @@ use nom::{IResult, Offset, Parser};
 
 use crate::ast::{Expr, Line, LineKind, Program, Span, Stmt};
 use crate::diag::{NcError, SourceFile};
+use crate::dialect::Dialect;
 
 /// Parses a whole NC program into one [`crate::ast::Line`] per physical line.
 ///
@@ -67,6 +68,21 @@ use crate::diag::{NcError, SourceFile};
 // per parse, so boxing it would only make the API clumsier.
 #[allow(clippy::result_large_err)]
 pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
+    let dialect = crate::dialect::declared_dialect(src)?.unwrap_or_default();
+    parse_in(src, dialect)
+}
+
+/// [`parse`] in `dialect`, whatever the program's header says (the caller has chosen it, see
+/// [`crate::dialect::choose_dialect`]).
+///
+/// ```
+/// use cnc402_lang::{parse_in, Dialect, SourceFile};
+/// let src = SourceFile::new("p.nc", "(dialect: haas)\nG0 X1\n");
+/// assert_eq!(parse_in(&src, Dialect::Fanuc).unwrap().dialect, Dialect::Fanuc);
+/// assert_eq!(cnc402_lang::parse(&src).unwrap().dialect, Dialect::Haas);
+/// ```
+#[allow(clippy::result_large_err)]
+pub fn parse_in(src: &SourceFile, dialect: Dialect) -> Result<Program, NcError> {
     let text: &str = &src.text;
     let statement_lines = text
         .split('\n')
@@ -78,6 +94,7 @@ pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
         text,
         line_starts: src.line_starts(),
         c_like,
+        dialect,
     };
     let mut lines = Vec::with_capacity(text.len() / 24 + 1);
     let mut rest = text;
@@ -161,7 +178,7 @@ pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
         }
         line_no = line_no.saturating_add(1);
     }
-    Ok(Program { lines })
+    Ok(Program { lines, dialect })
 }
 
 /// Pushes a C-like statement's line (its statements, or empty) and one `Continued` line for
@@ -220,6 +237,7 @@ pub fn parse_expr(src: &SourceFile) -> Result<Expr, NcError> {
         text,
         line_starts: src.line_starts(),
         c_like: false,
+        dialect: Dialect::Fanuc,
     };
     let r = (|i| {
         let (i, e) = cx.expr(i, 0)?;
@@ -311,6 +329,9 @@ pub(crate) struct Cx<'a> {
     /// The program uses the C-like language: G-code lines take C expressions after `=`,
     /// `AXSTR(…)=` words and `//` comments.
     c_like: bool,
+    /// The dialect the program is read in (LinuxCNC: O-word flow, `#<name>`, polar words).
+    #[allow(dead_code)]
+    dialect: Dialect,
 }
 
 impl<'a> Cx<'a> {
@@ -321,6 +342,7 @@ impl<'a> Cx<'a> {
             text,
             line_starts: &[],
             c_like: false,
+            dialect: Dialect::Fanuc,
         }
     }
 
