@@ -8,5 +8,7 @@ pub mod dialect;
 mod parse;
 
 pub use diag::{NcError, SourceFile};
-pub use dialect::{Dialect, choose_dialect, declared_dialect};
-pub use parse::{MAX_HEIGHT, parse, parse_expr, parse_in};
+pub use dialect::Dialect;
+pub use parse::{
+    HEADER_LINES, MAX_HEIGHT, choose_dialect, declared_dialect, parse, parse_expr, parse_in,
+};

@@ -5,6 +5,9 @@
 
 mod clike;
 mod expr;
+mod header;
+
+pub use header::{HEADER_LINES, choose_dialect, declared_dialect};
 
 pub use expr::MAX_HEIGHT;
 mod lex;
@@ -68,12 +71,12 @@ use crate::dialect::Dialect;
 // per parse, so boxing it would only make the API clumsier.
 #[allow(clippy::result_large_err)]
 pub fn parse(src: &SourceFile) -> Result<Program, NcError> {
-    let dialect = crate::dialect::declared_dialect(src)?.unwrap_or_default();
+    let dialect = header::declared_dialect(src)?.unwrap_or_default();
     parse_in(src, dialect)
 }
 
 /// [`parse`] in `dialect`, whatever the program's header says (the caller has chosen it, see
-/// [`crate::dialect::choose_dialect`]).
+/// [`choose_dialect`]).
 ///
 /// ```
 /// use cnc402_lang::{parse_in, Dialect, SourceFile};
