@@ -119,11 +119,14 @@ fn run_cnc402(cfg: &MachineConfig, dir: &Path, rel: &str, dialect: &str) -> Run 
     let bytes = std::fs::read(dir.join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"));
     let src = SourceFile::from_bytes(rel, bytes);
     // As the `cnc402` binary runs it: sub-programs from `program_dir`, variables in memory.
-    let segments = cnc402_lang::parse(&src).and_then(|program| {
-        let mut it = interpreter(cfg, options(dialect), VarsAccess::ReadOnly);
-        it.load(src.clone(), program);
-        it.collect::<Result<Vec<Segment>, _>>()
-    });
+    let segments = match cnc402_lang::parse(&src) {
+        Ok(program) => {
+            let mut it = interpreter(cfg, options(dialect), VarsAccess::ReadOnly);
+            it.load(src.clone(), program);
+            it.collect::<Result<Vec<Segment>, _>>()
+        }
+        Err(e) => Err(e),
+    };
     match segments {
         Ok(segs) => Run::Runs(moves_of(&segs)),
         Err(e) => Run::Refused(first_line(&e.to_string())),
