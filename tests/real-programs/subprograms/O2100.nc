@@ -1,0 +1,11 @@
+%
+O2100 (INCREMENTAL SQUARE POCKET, CALLED BY hand-fanuc/subprogram-call.nc)
+G91 G1 Z-5. F100.
+X20. F400.
+Y20.
+X-20.
+Y-20.
+G0 Z5.
+G90
+M99
+%
