@@ -109,19 +109,17 @@ fn programs(dir: &Path) -> Vec<String> {
     out
 }
 
-/// The dialect's interpreter switches. Today every program runs with the defaults (Fanuc);
-/// the dialect work selects `dialect` here.
-fn options(_dialect: &str) -> Options {
-    Options::default()
-}
-
 fn run_cnc402(cfg: &MachineConfig, dir: &Path, rel: &str, dialect: &str) -> Run {
     let bytes = std::fs::read(dir.join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"));
     let src = SourceFile::from_bytes(rel, bytes);
-    // As the `cnc402` binary runs it: sub-programs from `program_dir`, variables in memory.
-    let segments = match cnc402_lang::parse(&src) {
+    // As `cnc402 segments --dialect D` runs it: sub-programs from `program_dir`, variables
+    // in memory.
+    let dialect: cnc402_lang::Dialect = dialect
+        .parse()
+        .unwrap_or_else(|e| panic!("{rel}: expected.toml: {e}"));
+    let segments = match cnc402_interp::parse_program(cfg, &src, Some(dialect)) {
         Ok(program) => {
-            let mut it = interpreter(cfg, options(dialect), VarsAccess::ReadOnly);
+            let mut it = interpreter(cfg, Options::default(), VarsAccess::ReadOnly);
             it.load(src.clone(), program);
             it.collect::<Result<Vec<Segment>, _>>()
         }
@@ -187,7 +185,8 @@ fn find_rs274() -> Option<PathBuf> {
 }
 
 /// `rs274 -g FILE` with the corpus's tool table (every tool of length 0), in a fresh working
-/// directory of its own (rs274 keeps its parameter file there).
+/// directory of its own that is also its HOME (rs274 keeps its parameter file and its tool
+/// table's shared memory file there).
 fn run_rs274(exe: &Path, file: &Path) -> Run {
     let stem = file
         .file_stem()
@@ -197,8 +196,11 @@ fn run_rs274(exe: &Path, file: &Path) -> Run {
         std::process::id()
     ));
     std::fs::create_dir_all(&cwd).expect("a working directory for rs274");
+    // rs274 shares its tool table through `$HOME/.tool.mmap`: two rs274 at once (tests in
+    // parallel, other checkouts) read each other's tables unless each has a HOME of its own.
     let out = Command::new(exe)
         .current_dir(&cwd)
+        .env("HOME", &cwd)
         .arg("-t")
         .arg(corpus_dir().join("tools.tbl"))
         .arg("-g")

@@ -93,7 +93,10 @@ fn rs274_moves_with(exe: &Path, file: &Path, tools: Option<&Path>) -> Vec<Move> 
     std::fs::create_dir_all(&cwd).expect("a working directory for rs274");
     let file = &std::path::absolute(file).expect("an absolute program path");
     let mut cmd = Command::new(exe);
-    cmd.current_dir(&cwd);
+    // rs274 shares its tool table through `$HOME/.tool.mmap`: rs274 processes of other test
+    // binaries or checkouts running at once read each other's tables unless each has a HOME
+    // of its own (the lock above only orders this binary's own).
+    cmd.current_dir(&cwd).env("HOME", &cwd);
     if let Some(t) = tools {
         cmd.arg("-t")
             .arg(std::path::absolute(t).expect("an absolute tool table path"));
