@@ -54,6 +54,10 @@ struct Args {
     /// A drive in FAULT at power-on (EMCY CODE, default 0x1000). Repeatable.
     #[arg(long, value_name = "NODE[:CODE]", value_parser = parse_start_in_fault)]
     start_in_fault: Vec<(u8, u16)>,
+    /// Simulate only these nodes of the config (comma-separated; default: every node). Two
+    /// simdrive processes on one node id are a duplicate node id on the bus.
+    #[arg(long, value_name = "NODE,..", value_delimiter = ',')]
+    nodes: Vec<u8>,
     /// Stop after this many seconds (default: run until SIGTERM/SIGINT).
     #[arg(long, value_name = "S")]
     duration: Option<f64>,
@@ -191,6 +195,7 @@ fn main() -> ExitCode {
         },
         boot_delays: args.boot_delay.clone(),
         start_in_fault: args.start_in_fault.clone(),
+        only_nodes: args.nodes.clone(),
     };
     let mut host = match DriveHost::new(&cfg, &opts) {
         Ok(h) => h,
@@ -273,7 +278,7 @@ fn main() -> ExitCode {
     );
     if let Some(path) = &args.report {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
-        if let Err(e) = std::fs::write(path, text + "\n") {
+        if let Err(e) = cnc402_durable::write_atomic(path, (text + "\n").as_bytes()) {
             eprintln!("simdrive: cannot write {}: {e}", path.display());
             return ExitCode::from(4);
         }
