@@ -59,15 +59,17 @@ fn log_time(sim: bool, wall0: SystemTime, start: Instant, t: Instant) -> f64 {
 }
 
 /// Creates the `--log` file (buffered, written under a temporary name and put in place whole
-/// by `commit` when the capture ends); an error is exit 1 naming the path.
+/// when the capture ends, however it ends); an error is exit 1 naming the path.
 fn create_log(log: Option<&Path>) -> Result<Option<AtomicFile>> {
     log.map(|p| {
-        AtomicFile::create(p).map_err(|e| {
-            CliError::new(
-                Exit::Other,
-                format!("cannot create log {}: {e}", p.display()),
-            )
-        })
+        AtomicFile::create(p)
+            .map(AtomicFile::commit_on_drop)
+            .map_err(|e| {
+                CliError::new(
+                    Exit::Other,
+                    format!("cannot create log {}: {e}", p.display()),
+                )
+            })
     })
     .transpose()
 }
