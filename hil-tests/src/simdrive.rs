@@ -719,6 +719,7 @@ impl DriveHost {
                 "tx_frames": b.tx_frames,
                 "load_percent": b.load_percent,
                 "error_frames": b.error_frames,
+                "down_events": b.down_events,
             });
         }
         v
@@ -802,6 +803,8 @@ pub struct BusFigures {
     pub tx_frames: u64,
     pub load_percent: f64,
     pub error_frames: u64,
+    /// Receives that found the interface down (the drives wait for it to come back).
+    pub down_events: u64,
 }
 
 fn hosted(axis: &AxisConfig, node: NodeId, period: Duration, o: SimDriveOptions) -> Hosted {
