@@ -10,6 +10,7 @@ use core::fmt;
 use core::time::Duration;
 
 use cia402::{EnableSequencer, Goal, Progress, State, Statusword, Stuck, objects as obj};
+use cnc402_config::ExpectedIdentity;
 
 use super::sdo::{BlockingSdo, SdoError, SdoErrorKind};
 use super::stop::{Emcy, SafetyStop};
@@ -21,7 +22,6 @@ use crate::wire::{
     AbortCode, CanFrame, MappingEntry, NmtCommand, NmtRepr, NmtTarget, NodeId, PdoDirection,
     PdoLayout, PdoObject,
 };
-use cnc402_config::ExpectedIdentity;
 
 /// The 0x60C2 representation of the cycle period: `value · 10^exponent` seconds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
