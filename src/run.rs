@@ -116,15 +116,11 @@ fn not_run(cfg: &MachineConfig, args: &RunArgs, e: RunError) -> CliError {
     err
 }
 
+/// Writes the JSON report whole or not at all (a reader never sees half a report).
 fn write_report(p: &Path, report: &cnc402_runtime::RunReport) -> Result<(), CliError> {
-    let text = serde_json::to_string_pretty(&report.to_json())
-        .map_err(|e| CliError::Io(format!("{}: {e}", p.display())))?;
-    let mut f = create(p)?;
-    writeln!(f, "{text}").map_err(|e| CliError::Io(format!("{}: {e}", p.display())))
-}
-
-fn create(path: &Path) -> Result<std::fs::File, CliError> {
-    std::fs::File::create(path).map_err(|e| CliError::Io(format!("{}: {e}", path.display())))
+    let io = |e: &dyn std::fmt::Display| CliError::Io(format!("{}: {e}", p.display()));
+    let text = serde_json::to_string_pretty(&report.to_json()).map_err(|e| io(&e))?;
+    cnc402_durable::write_atomic(p, format!("{text}\n").as_bytes()).map_err(|e| io(&e))
 }
 
 /// Runs the program and reports; see the subcommand's help.
@@ -151,7 +147,13 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         Err(e) => return Err(not_run(cfg, args, RunError::Program(e))),
     };
     let trace: Option<Box<dyn Write>> = match &args.trace {
-        Some(p) => Some(Box::new(std::io::BufWriter::new(create(p)?))),
+        // Written to `.<name>.tmp<pid>` while the run goes on, put in place when the run is
+        // done with it, however it ended; a killed run leaves the previous trace.
+        Some(p) => Some(Box::new(
+            cnc402_durable::AtomicFile::create(p)
+                .map_err(|e| CliError::Io(format!("{}: {e}", p.display())))?
+                .commit_on_drop(),
+        )),
         None => None,
     };
     if let Err(e) = cnc402_runtime::rt::install_sigint_handler() {

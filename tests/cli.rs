@@ -1171,3 +1171,36 @@ fn a_variables_file_removed_during_a_stop_stops_the_program_at_the_resume() {
     assert!(err.contains("ask.nc:4"), "{err}");
     assert!(err.contains("was removed during the stop"), "{err}");
 }
+
+#[test]
+fn report_trace_and_plot_replace_old_files_whole_and_leave_no_temp_files() {
+    let dir = test_dir("durable-outputs");
+    let (report, trace, plot) = (dir.join("r.json"), dir.join("t.csv"), dir.join("p.svg"));
+    for p in [&report, &trace, &plot] {
+        std::fs::write(p, "old").unwrap();
+    }
+    let o = cnc402(&[
+        "run",
+        "examples/peck-tap.nc",
+        "--report",
+        report.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(read_json(&report)["ok"], true);
+    assert!(
+        std::fs::read_to_string(&trace)
+            .unwrap()
+            .starts_with("t,line,")
+    );
+    assert!(std::fs::read_to_string(&plot).unwrap().contains("<svg"));
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["p.svg", "r.json", "t.csv"], "temporary files left");
+}

@@ -68,7 +68,24 @@ pub struct AxisConfig {
     /// default 0), `[1..4]` the second to fourth (G30 P2..P4; `second_reference`,
     /// `third_reference`, `fourth_reference`; `None` when not configured).
     pub references: [Option<f64>; 4],
+    /// The drive this axis must have (`identity = { vendor = …, product = …, revision_min =
+    /// … }`): boot compares it with the drive's 0x1018 and refuses start-up on a mismatch.
+    pub identity: Option<ExpectedIdentity>,
     pub sim: SimDynamics,
+}
+
+/// The identity (0x1018) an axis's drive must report: the right device on the right node,
+/// before anything is written to it (a swapped cable or a replacement drive of another model
+/// would otherwise be configured and enabled with this axis's scaling).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ExpectedIdentity {
+    /// 0x1018:1 vendor id (CiA-assigned): must be equal.
+    pub vendor: u32,
+    /// 0x1018:2 product code: must be equal when given.
+    pub product: Option<u32>,
+    /// 0x1018:3 revision number (major in the high word, minor in the low word): must be at
+    /// least this when given (a firmware the machine was commissioned with, or newer).
+    pub revision_min: Option<u32>,
 }
 
 /// How the simulated drive of an axis follows its CSP setpoints.
@@ -106,8 +123,18 @@ pub(crate) struct RawAxis {
     second_reference: Option<Spanned<f64>>,
     third_reference: Option<Spanned<f64>>,
     fourth_reference: Option<Spanned<f64>>,
+    identity: Option<Spanned<RawIdentity>>,
     #[serde(default, deserialize_with = "table")]
     sim: RawSim,
+}
+
+/// `identity = { vendor = 0x…, product = 0x…, revision_min = 0x… }` as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawIdentity {
+    vendor: Spanned<i64>,
+    product: Option<Spanned<i64>>,
+    revision_min: Option<Spanned<i64>>,
 }
 
 fn default_fe_timeout() -> Spanned<i64> {
@@ -189,6 +216,7 @@ impl RawAxis {
         let (max_velocity, max_acceleration, max_jerk) = a.dynamics(k, counts_per_unit, bus)?;
         let max_rpm = a.max_rpm(k, kind, max_velocity)?;
         let references = a.references(k, soft_limits, counts_per_unit)?;
+        let identity = a.identity(k, node)?;
         let bw = *a.sim.bandwidth_hz.get_ref();
         if !(bw.is_finite() && bw >= 0.0) {
             return Err((
@@ -228,6 +256,7 @@ impl RawAxis {
                 16,
             )? as u32,
             references,
+            identity,
             sim: SimDynamics {
                 delay_cycles: int_in(&a.sim.delay_cycles, &key("sim.delay_cycles"), 0, 100)? as u32,
                 bandwidth_hz: bw,
@@ -259,6 +288,31 @@ impl RawAxis {
             ));
         }
         Ok(name)
+    }
+
+    /// `identity`: UNSIGNED32 values, on an axis with a drive.
+    fn identity(&self, k: usize, node: Option<u8>) -> Result<Option<ExpectedIdentity>, Invalid> {
+        let Some(raw) = &self.identity else {
+            return Ok(None);
+        };
+        let key = |f: &str| format!("axis[{k}].identity.{f}");
+        if node.is_none() {
+            return Err((
+                raw.span(),
+                format!("axis[{k}].identity"),
+                "a virtual axis has no drive to identify".into(),
+            ));
+        }
+        let r = raw.get_ref();
+        let u32_at =
+            |v: &Spanned<i64>, f: &str| int_in(v, &key(f), 0, u32::MAX as i64).map(|x| x as u32);
+        let optional =
+            |v: &Option<Spanned<i64>>, f: &str| v.as_ref().map(|v| u32_at(v, f)).transpose();
+        Ok(Some(ExpectedIdentity {
+            vendor: u32_at(&r.vendor, "vendor")?,
+            product: optional(&r.product, "product")?,
+            revision_min: optional(&r.revision_min, "revision_min")?,
+        }))
     }
 
     /// The kind; at most one spindle.

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-pub use axes::{AxisConfig, AxisKind, SimDynamics};
+pub use axes::{AxisConfig, AxisKind, ExpectedIdentity, SimDynamics};
 pub use bus::BusConfig;
 pub use error::ConfigError;
 pub use interp::{InterpDefaults, PlaneDefault, ReturnPlane, Units};

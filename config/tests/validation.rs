@@ -355,3 +355,50 @@ fn interp_dialect_names_a_known_dialect() {
     let e = refused(&text, "interp.dialect", "dialect = \"sinumerik\"");
     assert!(e.message.contains("fanuc, haas or linuxcnc"), "{e}");
 }
+
+#[test]
+fn axis_identity_is_read_and_its_values_are_checked_with_key_and_line() {
+    let y = "node = 2\n";
+    let text = with(
+        y,
+        "node = 2\nidentity = { vendor = 0x00C40402, product = 0x1, revision_min = 0x00010000 }\n",
+    );
+    let cfg = parse(&text).unwrap();
+    let id = cfg.axes[1].identity.unwrap();
+    assert_eq!(
+        (id.vendor, id.product, id.revision_min),
+        (0x00C4_0402, Some(1), Some(0x0001_0000))
+    );
+    assert_eq!(cfg.axes[0].identity, None);
+    // Vendor alone is an expectation too.
+    let text = with(y, "node = 2\nidentity = { vendor = 154 }\n");
+    let id = parse(&text).unwrap().axes[1].identity.unwrap();
+    assert_eq!((id.vendor, id.product, id.revision_min), (154, None, None));
+    // Values are UNSIGNED32.
+    for (bad, key) in [
+        ("vendor = 0x100000000", "axis[1].identity.vendor"),
+        ("vendor = 1, product = -1", "axis[1].identity.product"),
+        (
+            "vendor = 1, revision_min = 4294967296",
+            "axis[1].identity.revision_min",
+        ),
+    ] {
+        let text = with(y, &format!("node = 2\nidentity = {{ {bad} }}\n"));
+        let e = refused(&text, key, "identity =");
+        assert!(e.message.contains("0..=4294967295"), "{e}");
+    }
+    // Unknown keys and a missing vendor are refused on the identity's line.
+    for bad in ["vendor = 1, serial_no = 2", "product = 1"] {
+        let text = with(y, &format!("node = 2\nidentity = {{ {bad} }}\n"));
+        let e = parse(&text).unwrap_err();
+        let line = text.lines().position(|l| l.contains("identity =")).unwrap() + 1;
+        assert_eq!(e.line, line, "{e}");
+    }
+}
+
+#[test]
+fn identity_on_a_virtual_axis_is_refused() {
+    let text = with("node = 2\n", "virtual = true\nidentity = { vendor = 1 }\n");
+    let e = refused(&text, "axis[1].identity", "identity =");
+    assert!(e.message.contains("virtual"), "{e}");
+}

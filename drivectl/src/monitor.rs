@@ -4,14 +4,14 @@
 
 use core::time::Duration;
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::Path;
 use std::time::{Instant as WallInstant, SystemTime, UNIX_EPOCH};
 
 use cnc402_drives::Instant;
 use cnc402_drives::master::TimedBus;
 use cnc402_drives::wire::CanFrame;
+use cnc402_durable::AtomicFile;
 use serde_json::json;
 
 use crate::Ctx;
@@ -58,15 +58,18 @@ fn log_time(sim: bool, wall0: SystemTime, start: Instant, t: Instant) -> f64 {
     }
 }
 
-/// Creates the `--log` file (buffered); an error is exit 1 naming the path.
-fn create_log(log: Option<&Path>) -> Result<Option<BufWriter<File>>> {
+/// Creates the `--log` file (buffered, written under a temporary name and put in place whole
+/// when the capture ends, however it ends); an error is exit 1 naming the path.
+fn create_log(log: Option<&Path>) -> Result<Option<AtomicFile>> {
     log.map(|p| {
-        File::create(p).map(BufWriter::new).map_err(|e| {
-            CliError::new(
-                Exit::Other,
-                format!("cannot create log {}: {e}", p.display()),
-            )
-        })
+        AtomicFile::create(p)
+            .map(AtomicFile::commit_on_drop)
+            .map_err(|e| {
+                CliError::new(
+                    Exit::Other,
+                    format!("cannot create log {}: {e}", p.display()),
+                )
+            })
     })
     .transpose()
 }
@@ -370,8 +373,8 @@ pub fn monitor(
         Ok(())
     };
     let stop = receive_loop(ctx, end, every, &mut on)?;
-    if let Some(mut w) = log
-        && let Err(e) = w.flush()
+    if let Some(w) = log
+        && let Err(e) = w.commit()
     {
         log_err.get_or_insert(e);
     }
@@ -533,8 +536,8 @@ pub fn monitor_tui(ctx: &mut Ctx, log: Option<&Path>, duration: Option<f64>) -> 
     };
     let r = receive_loop(ctx, end, Duration::from_millis(100), &mut on);
     ratatui::restore();
-    if let Some(mut w) = log {
-        w.flush()
+    if let Some(w) = log {
+        w.commit()
             .map_err(|e| CliError::new(Exit::Other, format!("writing the log failed: {e}")))?;
     }
     r.map(|_| ())

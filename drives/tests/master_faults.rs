@@ -7,10 +7,10 @@ mod master_common;
 
 use std::time::Duration;
 
-use cnc402_config::MachineConfig;
+use cnc402_config::{ExpectedIdentity, MachineConfig};
 use cnc402_drives::bus::{BusError, FaultInjector};
 use cnc402_drives::master::{BootError, Master, SdoErrorKind, StopReason};
-use cnc402_drives::sim::{FaultKind, SimDrive, SimDriveOptions};
+use cnc402_drives::sim::{FaultKind, PRODUCT_CODE, REVISION, SimDrive, SimDriveOptions, VENDOR_ID};
 use cnc402_drives::wire::NodeId;
 use master_common::{FaultRig, Rig, sim_bus};
 
@@ -53,6 +53,116 @@ fn a_wrong_device_type_refuses_boot_naming_node_and_object() {
     assert!(e.to_string().contains("0x1000"), "{e}");
     // The value survives the reset communication boot sends: it is the drive's identity.
     assert_eq!(rig.drive(2).od().get_u64(0x1000, 0), Some(0x0002_0191));
+}
+
+/// The default machine with Z (node 3) expecting `identity`.
+fn z_expecting(identity: ExpectedIdentity) -> Rig {
+    let mut config = MachineConfig::default_machine();
+    config.axes[2].identity = Some(identity);
+    Rig::for_machine(config)
+}
+
+const SIM_IDENTITY: ExpectedIdentity = ExpectedIdentity {
+    vendor: VENDOR_ID,
+    product: Some(PRODUCT_CODE),
+    revision_min: Some(REVISION),
+};
+
+#[test]
+fn a_drive_of_the_expected_identity_boots() {
+    let mut rig = z_expecting(SIM_IDENTITY);
+    let report = rig.master.boot(&mut rig.bus).unwrap();
+    assert_eq!(report.drives[2].vendor, VENDOR_ID);
+    // A newer revision than the least one is fine; vendor alone is a valid expectation.
+    for identity in [
+        ExpectedIdentity {
+            revision_min: Some(REVISION - 1),
+            ..SIM_IDENTITY
+        },
+        ExpectedIdentity {
+            vendor: VENDOR_ID,
+            product: None,
+            revision_min: None,
+        },
+    ] {
+        let mut rig = z_expecting(identity);
+        rig.master.boot(&mut rig.bus).unwrap();
+    }
+}
+
+#[test]
+fn a_wrong_identity_refuses_boot_naming_node_object_and_both_values() {
+    // Another product of the same vendor on node 3.
+    let mut rig = z_expecting(SIM_IDENTITY);
+    rig.inject(
+        2,
+        FaultKind::Identity {
+            vendor: VENDOR_ID,
+            product: 0x0000_0002,
+            revision: None,
+        },
+    );
+    let e = rig.master.boot(&mut rig.bus).unwrap_err();
+    assert_eq!(
+        e,
+        BootError::WrongIdentity {
+            axis: 'Z',
+            node: 3,
+            sub: 2,
+            expected: PRODUCT_CODE,
+            actual: Some(2)
+        }
+    );
+    let msg = e.to_string();
+    for part in ["node 3", "0x1018:2", "0x00000002", "expects 0x00000001"] {
+        assert!(msg.contains(part), "{msg} lacks {part}");
+    }
+    // Refused before it was configured or enabled.
+    assert_eq!(rig.drive(2).state(), cia402::State::SwitchOnDisabled);
+
+    // Another vendor, and a revision older than the least one.
+    let mut rig = z_expecting(SIM_IDENTITY);
+    rig.inject(
+        2,
+        FaultKind::Identity {
+            vendor: 0x9A,
+            product: PRODUCT_CODE,
+            revision: None,
+        },
+    );
+    let e = rig.master.boot(&mut rig.bus).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            BootError::WrongIdentity {
+                sub: 1,
+                expected: VENDOR_ID,
+                actual: Some(0x9A),
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert!(
+        e.to_string().contains("0x1018:1 vendor id 0x0000009a"),
+        "{e}"
+    );
+    let mut rig = z_expecting(SIM_IDENTITY);
+    rig.inject(
+        2,
+        FaultKind::Identity {
+            vendor: VENDOR_ID,
+            product: PRODUCT_CODE,
+            revision: Some(REVISION - 1),
+        },
+    );
+    let e = rig.master.boot(&mut rig.bus).unwrap_err();
+    assert!(
+        e.to_string().contains(
+            "0x1018:3 revision number 0x0000ffff, the config expects at least 0x00010000"
+        ),
+        "{e}"
+    );
 }
 
 #[test]

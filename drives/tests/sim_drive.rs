@@ -1025,6 +1025,20 @@ fn injected_device_type_survives_a_reset() {
 }
 
 #[test]
+fn injected_identity_survives_a_reset_and_keeps_what_it_does_not_name() {
+    let mut r = Rig::booted();
+    r.inject(FaultKind::Identity {
+        vendor: 0x9A,
+        product: 0x0003_0924,
+        revision: None,
+    });
+    r.nmt(NmtCommand::ResetNode);
+    assert_eq!(r.read_u32(0x1018, 1), 0x9A);
+    assert_eq!(r.read_u32(0x1018, 2), 0x0003_0924);
+    assert_eq!(r.read_u32(0x1018, 3), cnc402_drives::sim::REVISION);
+}
+
+#[test]
 fn new_fault_kinds_parse_and_bad_ones_are_refused() {
     for (s, k) in [
         ("reboot", FaultKind::Reboot),
@@ -1033,6 +1047,22 @@ fn new_fault_kinds_parse_and_bad_ones_are_refused() {
         ("stop-sync", FaultKind::StopSync),
         ("device-type:0x20191", FaultKind::DeviceType(0x20191)),
         ("device-type:4294967295", FaultKind::DeviceType(u32::MAX)),
+        (
+            "identity:0x9a:0x30924",
+            FaultKind::Identity {
+                vendor: 0x9a,
+                product: 0x30924,
+                revision: None,
+            },
+        ),
+        (
+            "identity:1:2:0x20000",
+            FaultKind::Identity {
+                vendor: 1,
+                product: 2,
+                revision: Some(0x20000),
+            },
+        ),
     ] {
         assert_eq!(s.parse::<FaultKind>(), Ok(k), "{s}");
     }
@@ -1043,6 +1073,10 @@ fn new_fault_kinds_parse_and_bad_ones_are_refused() {
         "reboot:1",
         "stop-sync:0",
         "device-type:0x100000000",
+        "identity",
+        "identity:1",
+        "identity:1:0x100000000",
+        "identity:1:2:3:4",
     ] {
         assert!(s.parse::<FaultKind>().is_err(), "{s}");
     }

@@ -143,7 +143,7 @@ fn save(t: Target, kind: &str, input: &[u8], what: &str) {
         (h ^ u64::from(*b)).wrapping_mul(0x100_0000_01b3)
     });
     let p = dir.join(format!("{kind}-{h:016x}"));
-    let _ = std::fs::write(&p, input);
+    let _ = cnc402_durable::write_atomic(&p, input);
     let what: String = what.chars().take(300).collect();
     println!("{} {kind}: {what} -> {}", t.name(), p.display());
 }
@@ -203,6 +203,9 @@ fn main() -> ExitCode {
             }
             runs += 1;
             let _ = std::fs::create_dir_all(root().join("fuzz/crashes"));
+            // Not through cnc402_durable: an fsync per input would cut the fuzzer's rate
+            // many times over, and the file is read only after this process died running
+            // the input, which it wrote in full before.
             let _ = std::fs::write(inflight(t), &input);
             let result = run_bounded(t, input.clone(), p.hang);
             let _ = std::fs::remove_file(inflight(t));

@@ -67,12 +67,15 @@ scenario_run() {
         local trace="$HIL_OUT/trace.csv"
         hil_bg run "$HIL_BIN/cnc402" --config "$cfg" run "$prog" --report "$RUN_JSON" \
             --trace "$trace"
-        # The trace lags the loop by the recorder's buffer (~80 rows); the condition must
-        # hold long enough in program time for that and for the signal's delivery.
-        if hil_wait_until run "$run_limit" trace_row_matches "$trace" "$SIGINT_WHEN"; then
+        # cnc402 writes the trace to .trace.csv.tmp<pid> and renames it at the end (crash-safe
+        # writes, docs/faults.md): watch that file. The trace lags the loop by the recorder's
+        # buffer (~80 rows); the condition must hold long enough in program time for that and
+        # for the signal's delivery.
+        local live="$HIL_OUT/.trace.csv.tmp${HIL_PIDS[run]}"
+        if hil_wait_until run "$run_limit" trace_row_matches "$live" "$SIGINT_WHEN"; then
             # Program time of the last complete row when the signal went (for the figures).
             # shellcheck disable=SC2034 # used by the scenario scripts
-            SIGINT_AT_S=$(awk -F, 'NR == 1 { n = NF } NR > 1 && NF == n { t = $1 } END { print t }' "$trace")
+            SIGINT_AT_S=$(awk -F, 'NR == 1 { n = NF } NR > 1 && NF == n { t = $1 } END { print t }' "$live")
             kill -INT "${HIL_PIDS[run]}" 2>/dev/null || sc_fail "cnc402 run had ended before SIGINT"
         else
             sc_fail "the trace never showed ${SIGINT_WHEN}: no SIGINT sent"
@@ -114,6 +117,21 @@ act_coupling_bound_um() {
         stall = sync_max > wake_max ? sync_max : wake_max
         # mm/s * µs = nm; /1000 = µm
         printf "%.1f\n", v * (stall + 2 * period) / 1000 + 1
+    }'
+}
+
+# tap_rest_error_um R PITCH: after a stop in the first hole's tap, how far (µm) Z's actual
+# position at rest in simdrive's report is from the thread that C's actual angle cuts from the
+# R plane (C starts that tap at 0°, turning PITCH mm per turn: Z = R - C * PITCH / 360), on
+# the simulated drives' own positions; nothing without simdrive's report. The in-process
+# fault tests (runtime/tests/faults.rs) make the same comparison.
+tap_rest_error_um() {
+    [[ -s "$DRIVE_JSON" ]] || return 0
+    local zc
+    zc=$("$HIL_BIN/hilcheck" -f "$DRIVE_JSON" -p '{drives.3.position} {drives.4.position}' 2>/dev/null) || return 0
+    awk -v r="$1" -v p="$2" -v zc="$zc" 'BEGIN {
+        split(zc, x, " "); e = (x[1] - (r - x[2] * p / 360)) * 1000
+        printf "%.1f\n", e < 0 ? -e : e
     }'
 }
 

@@ -165,6 +165,9 @@ pub struct HostOptions {
     pub boot_delays: Vec<(u8, f64)>,
     /// Per node: start in FAULT with this EMCY code.
     pub start_in_fault: Vec<(u8, u16)>,
+    /// Host only these nodes of the config (empty: all). A second simdrive with one node of
+    /// the first one's config is a second device on that node id (a duplicate node id).
+    pub only_nodes: Vec<u8>,
 }
 
 impl Default for HostOptions {
@@ -174,6 +177,7 @@ impl Default for HostOptions {
             fault_clock: FaultClock::FirstSync,
             boot_delays: Vec::new(),
             start_in_fault: Vec::new(),
+            only_nodes: Vec::new(),
         }
     }
 }
@@ -381,11 +385,18 @@ impl DriveHost {
     /// that the options mention but the config has not.
     pub fn new(cfg: &MachineConfig, opts: &HostOptions) -> Result<DriveHost, HostError> {
         let period = Duration::from_micros(cfg.bus.period_us as u64);
+        let in_config = |n: u8| cfg.axes.iter().any(|a| a.node == Some(n));
+        if let Some(n) = opts.only_nodes.iter().find(|&&n| !in_config(n)) {
+            return Err(HostError(format!("--nodes: node {n} is not in the config")));
+        }
         let mut drives = Vec::new();
         for axis in &cfg.axes {
             let Some(node) = axis.node.and_then(|n| NodeId::new(n).ok()) else {
                 continue;
             };
+            if !opts.only_nodes.is_empty() && !opts.only_nodes.contains(&node.get()) {
+                continue;
+            }
             let mut o = SimDriveOptions::default();
             if let Some((_, s)) = opts.boot_delays.iter().find(|(n, _)| *n == node.get()) {
                 o.boot_delay = Duration::from_secs_f64(*s);
@@ -411,11 +422,16 @@ impl DriveHost {
             }
         }
         let z = drives.iter().position(|d| d.axis == 'Z');
+        // By node among the hosted drives (with --nodes they are a subset of the config's).
+        let spindle_node = cfg
+            .axes
+            .iter()
+            .find(|a| a.kind == AxisKind::Spindle)
+            .and_then(|a| a.node);
         let c = drives.iter().position(|d| d.axis == 'C').or_else(|| {
-            cfg.axes
+            drives
                 .iter()
-                .filter(|a| a.node.is_some())
-                .position(|a| a.kind == AxisKind::Spindle)
+                .position(|d| Some(d.drive.node().get()) == spindle_node)
         });
         let z_cpu = z.map(|i| drives[i].counts_per_unit).unwrap_or(1.0);
         let c_cpu = c.map(|i| drives[i].counts_per_unit).unwrap_or(1.0);
@@ -703,6 +719,7 @@ impl DriveHost {
                 "tx_frames": b.tx_frames,
                 "load_percent": b.load_percent,
                 "error_frames": b.error_frames,
+                "down_events": b.down_events,
             });
         }
         v
@@ -786,6 +803,8 @@ pub struct BusFigures {
     pub tx_frames: u64,
     pub load_percent: f64,
     pub error_frames: u64,
+    /// Receives that found the interface down (the drives wait for it to come back).
+    pub down_events: u64,
 }
 
 fn hosted(axis: &AxisConfig, node: NodeId, period: Duration, o: SimDriveOptions) -> Hosted {
@@ -1190,5 +1209,25 @@ mod tests {
         assert!("3:tpdo@-1".parse::<FaultSpec>().is_err());
         assert!(parse_boot_delay("3").is_err());
         assert!(parse_start_in_fault("3:zz").is_err());
+    }
+
+    #[test]
+    fn only_nodes_hosts_just_those_and_refuses_nodes_not_in_the_config() {
+        let cfg = MachineConfig::default_machine();
+        let opts = HostOptions {
+            only_nodes: vec![2],
+            ..HostOptions::default()
+        };
+        assert_eq!(DriveHost::new(&cfg, &opts).unwrap().nodes(), vec![2]);
+        let opts = HostOptions {
+            only_nodes: vec![9],
+            ..HostOptions::default()
+        };
+        assert!(
+            DriveHost::new(&cfg, &opts)
+                .unwrap_err()
+                .0
+                .contains("--nodes: node 9")
+        );
     }
 }

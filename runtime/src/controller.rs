@@ -307,6 +307,7 @@ impl<L: DriveLink> CycleController<L> {
                 node: 0,
                 statusword: 0,
                 emcy: None,
+                bus: None,
             });
         }
         // Held at a program stop: released by the operator's resume, or ended there.
@@ -546,6 +547,7 @@ impl<L: DriveLink> CycleController<L> {
                         node: 0,
                         statusword: 0,
                         emcy: None,
+                        bus: None,
                     });
                 }
             }

@@ -5,7 +5,7 @@
 
 use cnc402_config::MAX_AXES;
 use cnc402_drives::Instant;
-use cnc402_drives::bus::BusCounters;
+use cnc402_drives::bus::{BusCounters, BusError};
 
 /// What one drive reported in one cycle.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -84,6 +84,30 @@ pub struct DriveStop {
     pub statusword: u16,
     /// The EMCY error code it sent, if any.
     pub emcy: Option<u16>,
+    /// For a bus stop: what failed (bus-off, interface down, I/O error).
+    pub bus: Option<BusError>,
+}
+
+impl DriveStop {
+    /// The cause for a person: `describe()`, with the kind of a bus error in brackets
+    /// ("CAN bus error (bus-off)"). Not for the loop: it allocates.
+    pub fn cause_text(&self) -> String {
+        let cause = self.cause.describe();
+        match self.bus {
+            None => cause.to_string(),
+            Some(e) => format!("{cause} ({})", bus_error_kind(e)),
+        }
+    }
+}
+
+/// A bus error's kind in a few words.
+fn bus_error_kind(e: BusError) -> String {
+    match e {
+        BusError::BusOff => "bus-off".into(),
+        BusError::Down => "interface down".into(),
+        BusError::TxQueueFull => "transmit queue full".into(),
+        BusError::Io(errno) => format!("I/O error, errno {errno}"),
+    }
 }
 
 /// Progress of start-up, polled once per period.
@@ -167,3 +191,27 @@ pub const SW_OPERATION_ENABLED: u16 = 0x0237;
 pub const SW_FAULT: u16 = 0x0218;
 /// Statusword of a drive in QUICK STOP ACTIVE.
 pub const SW_QUICK_STOP_ACTIVE: u16 = 0x0217;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bus_stop_names_its_kind_and_other_stops_do_not_change() {
+        let stop = |cause, bus| DriveStop {
+            cause,
+            node: 0,
+            statusword: 0,
+            emcy: None,
+            bus,
+        };
+        let text = |bus| stop(StopCause::Bus, Some(bus)).cause_text();
+        assert_eq!(text(BusError::BusOff), "CAN bus error (bus-off)");
+        assert_eq!(text(BusError::Down), "CAN bus error (interface down)");
+        assert_eq!(text(BusError::Io(5)), "CAN bus error (I/O error, errno 5)");
+        assert_eq!(
+            stop(StopCause::Operator, None).cause_text(),
+            "operator stop (SIGINT)"
+        );
+    }
+}

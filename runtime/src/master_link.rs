@@ -224,6 +224,10 @@ pub fn drive_stop(s: &SafetyStop) -> DriveStop {
         node: s.node.unwrap_or(0),
         statusword: s.statusword.map_or(0, |w| w.0),
         emcy: s.emcy.map(|e| e.code),
+        bus: match s.reason {
+            StopReason::Bus(e) => Some(e),
+            _ => None,
+        },
     }
 }
 

@@ -180,7 +180,7 @@ impl RunReport {
         );
         if let Some(s) = &self.stop {
             v["stop"] = json!({
-                "cause": s.stop.cause.describe(),
+                "cause": s.stop.cause_text(),
                 "node": s.stop.node,
                 "axis": s.axis.map(|c| c.to_string()),
                 "statusword": format!("0x{:04x}", s.stop.statusword),
@@ -284,12 +284,25 @@ impl RunReport {
 /// Draws Z and C setpoints against time (top, two y axes) and the coupling error of the
 /// setpoints and of the actual positions in µm with the one-count bound (bottom) into an SVG
 /// file.
+/// The file is replaced whole (drawn in memory, then written with
+/// [`cnc402_durable::write_atomic`]).
 pub fn write_plot(path: &Path, report: &RunReport, title: &str) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let mut svg = String::new();
+    draw_plot(&mut svg, report, title, &err)?;
+    cnc402_durable::write_atomic(path, svg.as_bytes()).map_err(|e| err(&e))
+}
+
+fn draw_plot(
+    svg: &mut String,
+    report: &RunReport,
+    title: &str,
+    err: &dyn Fn(&dyn std::fmt::Display) -> String,
+) -> Result<(), String> {
     use plotters::prelude::*;
     let points: &[PlotPoint] = &report.plot;
     let bound = report.coupling_bound_um;
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = SVGBackend::new(path, (1000, 700)).into_drawing_area();
+    let root = SVGBackend::with_string(svg, (1000, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let (top, bottom) = root.split_vertically(430);
     let t_max = points.last().map_or(1.0, |p| p.t).max(1e-3);

@@ -137,6 +137,7 @@ impl DriveLink for ModelLink {
                     node: plan.node,
                     statusword: SW_FAULT,
                     emcy: Some(plan.emcy),
+                    bus: None,
                 });
             }
         }

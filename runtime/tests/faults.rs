@@ -47,14 +47,18 @@ fn at_power_on(fault: SimFault) -> SimFaultPlan {
 
 /// The run's report with `faults` armed.
 fn report(faults: &[SimFaultPlan]) -> RunReport {
-    let cfg = MachineConfig::default_machine();
+    report_for(&MachineConfig::default_machine(), faults)
+}
+
+/// The run's report on machine `cfg` with `faults` armed.
+fn report_for(cfg: &MachineConfig, faults: &[SimFaultPlan]) -> RunReport {
     let src = SourceFile::new("t.nc", TAP);
     let ast = cnc402_lang::parse(&src).unwrap();
     let opts = RunOptions {
         sim_faults: faults.to_vec(),
         ..RunOptions::default()
     };
-    run_program(&cfg, src, ast, opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:?}"))
+    run_program(cfg, src, ast, opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:?}"))
 }
 
 /// Asserts the report of a stopped run: cause, node, program line, and the message naming
@@ -154,6 +158,13 @@ fn bus_off_mid_tap_is_a_bus_stop_at_the_line_and_stays_coupled() {
     let faults = [mid_tap(SimFault::BusOff(Duration::from_millis(5)))];
     let r = report(&faults);
     assert_stopped(&r, StopCause::Bus, 0);
+    // The kind of bus error is named, in the message and in the report's cause.
+    let msg = r.error.as_deref().unwrap_or("");
+    assert!(
+        msg.starts_with("CAN bus error (bus-off), while executing t.nc:5"),
+        "{msg}"
+    );
+    assert_eq!(r.to_json()["stop"]["cause"], "CAN bus error (bus-off)");
     let (_, _, _, err_um) = at_rest(&faults);
     assert!(err_um <= PATH_STOP_BOUND_UM, "{err_um} µm");
 }
@@ -215,6 +226,34 @@ fn a_wrong_device_type_refuses_start_up_naming_node_and_object() {
         &r,
         &["node 2", "0x1000", "0x00020191", "not a CiA 402 drive"],
     );
+}
+
+#[test]
+fn a_wrong_identity_refuses_start_up_naming_node_object_and_both_values() {
+    let mut cfg = MachineConfig::default_machine();
+    cfg.axes[1].identity = Some(cnc402_config::ExpectedIdentity {
+        vendor: cnc402_drives::sim::VENDOR_ID,
+        product: Some(cnc402_drives::sim::PRODUCT_CODE),
+        revision_min: None,
+    });
+    let fault = at_power_on(SimFault::Drive {
+        node: 2,
+        kind: FaultKind::Identity {
+            vendor: cnc402_drives::sim::VENDOR_ID,
+            product: 0x0003_0924,
+            revision: None,
+        },
+    });
+    assert_refused(
+        &report_for(&cfg, &[fault]),
+        &[
+            "axis Y (node 2)",
+            "0x1018:2 product code 0x00030924",
+            "expects 0x00000001",
+        ],
+    );
+    // The same config runs against the drive it expects.
+    assert!(report_for(&cfg, &[]).ok);
 }
 
 #[test]

@@ -10,6 +10,7 @@ use core::fmt;
 use core::time::Duration;
 
 use cia402::{EnableSequencer, Goal, Progress, State, Statusword, Stuck, objects as obj};
+use cnc402_config::ExpectedIdentity;
 
 use super::sdo::{BlockingSdo, SdoError, SdoErrorKind};
 use super::stop::{Emcy, SafetyStop};
@@ -139,6 +140,19 @@ pub enum BootError {
         /// How long the master tried.
         waited: Duration,
     },
+    /// 0x1018 differs from the identity the config expects for this axis.
+    WrongIdentity {
+        /// Axis letter.
+        axis: char,
+        /// Node id.
+        node: u8,
+        /// The 0x1018 sub-index (1 vendor, 2 product, 3 revision).
+        sub: u8,
+        /// The value expected (for the revision: the least one).
+        expected: u32,
+        /// The value read (`None`: the drive has no such sub-index).
+        actual: Option<u32>,
+    },
     /// More than one boot-up from this node after the master's reset communication, and SDO
     /// answers that did not match the requests while it was being configured: two devices
     /// answer on one node id, or the drive reset itself in the middle.
@@ -208,6 +222,29 @@ impl fmt::Display for BootError {
                 "axis {axis} (node {node}): {boot_ups} boot-up messages after one reset: two \
                  devices on node id {node}, or the drive reset itself while being configured"
             ),
+            BootError::WrongIdentity {
+                axis,
+                node,
+                sub,
+                expected,
+                actual,
+            } => {
+                let (what, rule) = match sub {
+                    1 => ("vendor id", ""),
+                    2 => ("product code", ""),
+                    _ => ("revision number", "at least "),
+                };
+                write!(f, "axis {axis} (node {node}): 0x1018:{sub} {what} ")?;
+                match actual {
+                    Some(v) => write!(f, "{v:#010x}")?,
+                    None => write!(f, "absent")?,
+                }
+                write!(
+                    f,
+                    ", the config expects {rule}{expected:#010x} (axis identity): another \
+                     device than the one commissioned on this node"
+                )
+            }
             BootError::Stopped(s) => write!(f, "while enabling: {s}"),
             BootError::Bus(e) => write!(f, "{e}"),
             BootError::WrongPhase(p) => write!(f, "not possible in phase {p:?}"),
@@ -313,6 +350,41 @@ struct DriveSetup {
     /// The master's node id and the drive's consumer timeout for it (0: no supervision).
     master_node: NodeId,
     master_timeout_ms: u16,
+    /// The identity the config expects (checked before anything is written).
+    identity: Option<ExpectedIdentity>,
+}
+
+/// 0x1018 as read against the identity the config expects: the first sub-index that differs.
+fn check_identity(
+    d: &DriveSetup,
+    vendor: u32,
+    product: Option<u32>,
+    revision: Option<u32>,
+) -> Result<(), BootError> {
+    let Some(want) = d.identity else {
+        return Ok(());
+    };
+    let wrong = |sub, expected, actual| BootError::WrongIdentity {
+        axis: d.axis,
+        node: d.node.get(),
+        sub,
+        expected,
+        actual,
+    };
+    if vendor != want.vendor {
+        return Err(wrong(1, want.vendor, Some(vendor)));
+    }
+    if let Some(p) = want.product
+        && product != Some(p)
+    {
+        return Err(wrong(2, p, product));
+    }
+    if let Some(r) = want.revision_min
+        && revision.is_none_or(|v| v < r)
+    {
+        return Err(wrong(3, r, revision));
+    }
+    Ok(())
 }
 
 /// RPDO1 and TPDO1 as the layouts say, synchronous; TPDO2..4 off.
@@ -438,6 +510,7 @@ fn configure<B: TimedBus + ?Sized>(
     let vendor = sdo.read_u32(n, obj::IDENTITY, 1)?;
     let product = optional(sdo.read_u32(n, obj::IDENTITY, 2))?;
     let revision = optional(sdo.read_u32(n, obj::IDENTITY, 3))?;
+    check_identity(d, vendor, product, revision)?;
     let serial = optional(sdo.read_u32(n, obj::IDENTITY, 4))?;
     let name = optional(sdo.read_string(n, obj::DEVICE_NAME, 0))?;
 
@@ -608,6 +681,7 @@ impl Master {
             } else {
                 0
             },
+            identity: a.identity,
         }
     }
 

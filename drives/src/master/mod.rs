@@ -37,7 +37,7 @@ use core::fmt;
 use core::time::Duration;
 
 use cia402::{Controlword, EnableSequencer, Goal, Statusword};
-use cnc402_config::{MAX_AXES, MachineConfig};
+use cnc402_config::{ExpectedIdentity, MAX_AXES, MachineConfig};
 
 use crate::time::Instant;
 use crate::wire::{NmtState, NodeId, frame_bits};
@@ -161,6 +161,8 @@ pub(crate) struct AxisSlot {
     pub window: f64,
     pub window_counts: u32,
     pub fe_timeout_ms: u16,
+    /// The identity (0x1018) the config expects, checked at boot.
+    pub identity: Option<ExpectedIdentity>,
     /// `following_error_timeout_ms` in whole cycles: the monitor trips when |error| has been
     /// beyond the window in more consecutive fresh, comparable samples than this.
     pub fe_timeout_cycles: u32,
@@ -231,6 +233,7 @@ impl AxisSlot {
             window: 0.0,
             window_counts: 0,
             fe_timeout_ms: 0,
+            identity: None,
             fe_timeout_cycles: 0,
             fe_beyond: 0,
             fe_comparable: true,
@@ -376,6 +379,7 @@ impl Master {
                 u32::MAX // 0xFFFF_FFFF: monitoring off in the drive
             };
             s.fe_timeout_ms = a.following_error_timeout_ms.min(u16::MAX as u32) as u16;
+            s.identity = a.identity;
             s.fe_timeout_cycles = (u64::from(a.following_error_timeout_ms) * 1000
                 / u64::from(config.bus.period_us.max(1)))
             .min(u64::from(u32::MAX)) as u32;

@@ -87,6 +87,14 @@ pub enum FaultKind {
     /// 0x1000 reads this device type from now on, surviving resets (`device-type:0x20191`);
     /// injected before boot, the drive looks like something other than a CiA 402 servo.
     DeviceType(u32),
+    /// 0x1018 reads this vendor id, product code and revision number from now on, surviving
+    /// resets (`identity:VENDOR:PRODUCT[:REVISION]`): another model (or another maker's drive)
+    /// on this node.
+    Identity {
+        vendor: u32,
+        product: u32,
+        revision: Option<u32>,
+    },
 }
 
 /// A `FaultKind` that did not parse.
@@ -98,7 +106,8 @@ impl fmt::Display for FaultKindError {
         write!(
             f,
             "unknown fault kind `{}` (expected fault[:CODE], fault-persistent[:CODE], heartbeat, \
-             sdo, tpdo, reboot, emcy-storm[:CODE], stop-sync, device-type:VALUE)",
+             sdo, tpdo, reboot, emcy-storm[:CODE], stop-sync, device-type:VALUE, \
+             identity:VENDOR:PRODUCT[:REVISION])",
             self.0
         )
     }
@@ -118,9 +127,16 @@ impl FromStr for FaultKind {
     /// assert_eq!("tpdo".parse(), Ok(FaultKind::DropTpdos));
     /// assert_eq!("emcy-storm:0x5530".parse(), Ok(FaultKind::EmcyStorm(0x5530)));
     /// assert_eq!("device-type:0x20191".parse(), Ok(FaultKind::DeviceType(0x20191)));
+    /// assert_eq!(
+    ///     "identity:0x9a:0x30924".parse(),
+    ///     Ok(FaultKind::Identity { vendor: 0x9a, product: 0x30924, revision: None })
+    /// );
     /// ```
     fn from_str(s: &str) -> Result<FaultKind, FaultKindError> {
         let err = || FaultKindError(s.to_string());
+        if let Some(values) = s.trim().strip_prefix("identity:") {
+            return parse_identity(values).ok_or_else(err);
+        }
         let (kind, code) = match s.split_once(':') {
             Some((k, c)) => {
                 let c = c.trim();
@@ -150,6 +166,33 @@ impl FromStr for FaultKind {
             _ => return Err(err()),
         })
     }
+}
+
+/// `VENDOR:PRODUCT[:REVISION]` of an `identity` fault (32-bit values, hex with 0x or
+/// decimal).
+fn parse_identity(values: &str) -> Option<FaultKind> {
+    let value = |v: &str| {
+        let v = v.trim();
+        match v.strip_prefix("0x").or_else(|| v.strip_prefix("0X")) {
+            Some(h) => u32::from_str_radix(h, 16).ok(),
+            None => v.parse().ok(),
+        }
+    };
+    let mut parts = values.split(':');
+    let vendor = value(parts.next()?)?;
+    let product = value(parts.next()?)?;
+    let revision = match parts.next() {
+        Some(r) => Some(value(r)?),
+        None => None,
+    };
+    if parts.next().is_some() {
+        return None;
+    }
+    Some(FaultKind::Identity {
+        vendor,
+        product,
+        revision,
+    })
 }
 
 /// Protocol-level counters of one drive (for `simdrive`'s report and tests).
@@ -478,6 +521,19 @@ impl SimDrive {
             FaultKind::DeviceType(v) => {
                 let _ = self.defaults.set_raw(o::DEVICE_TYPE, 0, v as u64);
                 let _ = self.od.set_raw(o::DEVICE_TYPE, 0, v as u64);
+            }
+            FaultKind::Identity {
+                vendor,
+                product,
+                revision,
+            } => {
+                let subs = [(1, Some(vendor)), (2, Some(product)), (3, revision)];
+                for (sub, v) in subs {
+                    if let Some(v) = v {
+                        let _ = self.defaults.set_raw(o::IDENTITY, sub, v as u64);
+                        let _ = self.od.set_raw(o::IDENTITY, sub, v as u64);
+                    }
+                }
             }
         }
     }

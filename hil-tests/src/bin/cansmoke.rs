@@ -360,7 +360,7 @@ fn finish(
                 return ExitCode::from(3);
             }
         };
-        if let Err(e) = std::fs::write(path, json + "\n") {
+        if let Err(e) = cnc402_durable::write_atomic(path, (json + "\n").as_bytes()) {
             eprintln!("cansmoke: cannot write {}: {e}", path.display());
             return ExitCode::from(3);
         }

@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use clap::Parser;
 use cnc402_config::MachineConfig;
-use cnc402_drives::bus::{CanBus, CanDevice};
+use cnc402_drives::bus::{BusError, CanBus, CanDevice};
 use cnc402_drives::master::TimedBus;
 use cnc402_drives::socketcan::SocketCanBus;
 use cnc402_hil::rt;
@@ -54,6 +54,10 @@ struct Args {
     /// A drive in FAULT at power-on (EMCY CODE, default 0x1000). Repeatable.
     #[arg(long, value_name = "NODE[:CODE]", value_parser = parse_start_in_fault)]
     start_in_fault: Vec<(u8, u16)>,
+    /// Simulate only these nodes of the config (comma-separated; default: every node). Two
+    /// simdrive processes on one node id are a duplicate node id on the bus.
+    #[arg(long, value_name = "NODE,..", value_delimiter = ',')]
+    nodes: Vec<u8>,
     /// Stop after this many seconds (default: run until SIGTERM/SIGINT).
     #[arg(long, value_name = "S")]
     duration: Option<f64>,
@@ -121,12 +125,16 @@ fn stats_line(host: &mut DriveHost, bus: &SocketCanBus, now: cnc402_drives::Inst
 
 /// Answers frames and polls the drives' timers (at least every `tick`) until a signal, the
 /// end of `--duration`, or a receive failure (returned); a stats line every `stats_every`.
+/// The interface going down is no failure: drives outlive their master's interface, so they
+/// go on (their sends fail, counted) and take frames again when it is back up; each receive
+/// that found it down is counted in `down_events`.
 fn serve(
     host: &mut DriveHost,
     bus: &mut SocketCanBus,
     tick: Duration,
     end: Option<cnc402_drives::Instant>,
     stats_every: Option<Duration>,
+    down_events: &mut u64,
 ) -> Option<String> {
     let mut failure: Option<String> = None;
     host.poll(TimedBus::now(bus), bus);
@@ -154,6 +162,10 @@ fn serve(
                             host.on_frame(&f, now, bus);
                         }
                         Ok(None) => break,
+                        Err(BusError::Down) => {
+                            *down_events += 1;
+                            break;
+                        }
                         Err(e) => {
                             failure = Some(format!("receive failed: {e}"));
                             break;
@@ -162,6 +174,13 @@ fn serve(
                 }
             }
             Ok(None) => {}
+            Err(BusError::Down) => {
+                if *down_events == 0 {
+                    eprintln!("simdrive: the interface is down: waiting for it to come back");
+                }
+                *down_events += 1;
+                std::thread::sleep(tick);
+            }
             Err(e) => failure = Some(format!("receive failed: {e}")),
         }
         if failure.is_some() {
@@ -191,6 +210,7 @@ fn main() -> ExitCode {
         },
         boot_delays: args.boot_delay.clone(),
         start_in_fault: args.start_in_fault.clone(),
+        only_nodes: args.nodes.clone(),
     };
     let mut host = match DriveHost::new(&cfg, &opts) {
         Ok(h) => h,
@@ -238,7 +258,15 @@ fn main() -> ExitCode {
         .map(|s| TimedBus::now(&bus) + Duration::from_secs_f64(s));
     // Timers (heartbeat, boot, following-error time-out) need a poll at least this often.
     let tick = Duration::from_micros(250);
-    let failure = serve(&mut host, &mut bus, tick, end, stats_every);
+    let mut down_events = 0;
+    let failure = serve(
+        &mut host,
+        &mut bus,
+        tick,
+        end,
+        stats_every,
+        &mut down_events,
+    );
     host.finish();
     let elapsed = Duration::from_nanos(TimedBus::now(&bus).nanos());
     let c = bus.counters();
@@ -249,6 +277,7 @@ fn main() -> ExitCode {
         tx_frames: c.tx_frames,
         load_percent: c.load_percent(cfg.bus.bitrate, elapsed),
         error_frames: bus.error_frames(),
+        down_events,
     };
     let mut report = host.report(Some(&figures));
     report["realtime_grant"] = granted.into();
@@ -273,7 +302,7 @@ fn main() -> ExitCode {
     );
     if let Some(path) = &args.report {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
-        if let Err(e) = std::fs::write(path, text + "\n") {
+        if let Err(e) = cnc402_durable::write_atomic(path, (text + "\n").as_bytes()) {
             eprintln!("simdrive: cannot write {}: {e}", path.display());
             return ExitCode::from(4);
         }

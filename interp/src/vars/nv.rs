@@ -18,8 +18,9 @@
 
 use std::fmt;
 use std::fs::{self, File, OpenOptions};
-use std::io::Write;
 use std::path::{Path, PathBuf};
+
+use cnc402_durable::{StaleRule, dir_and_name, remove_stale_temps};
 
 /// First non-volatile variable number.
 pub const NV_FIRST: u32 = 500;
@@ -208,49 +209,21 @@ impl NvTable {
         self.write_durably(path)
     }
 
-    /// Temporary file, fsync, rename over `path`, fsync the directory. The caller holds the
-    /// [`WriteLock`].
+    /// Temporary file, fsync, rename over `path`, fsync the directory
+    /// ([`cnc402_durable::write_atomic`]). The caller holds the [`WriteLock`].
     fn write_durably(&self, path: &Path) -> Result<(), VarFileError> {
-        let io = |err| VarFileError::Io {
-            path: path.to_path_buf(),
-            err,
-        };
-        let (dir, name) = dir_and_name(path);
-        let tmp = dir.join(format!(".{name}{TEMP_INFIX}{}", std::process::id()));
-        {
-            let mut f = File::create(&tmp).map_err(io)?;
-            f.write_all(self.to_text().as_bytes()).map_err(io)?;
-            f.sync_all().map_err(io)?;
-        }
-        fs::rename(&tmp, path).map_err(io)?;
-        File::open(&dir).and_then(|d| d.sync_all()).map_err(io)?;
-        Ok(())
+        cnc402_durable::write_atomic(path, self.to_text().as_bytes()).map_err(|err| {
+            VarFileError::Io {
+                path: path.to_path_buf(),
+                err,
+            }
+        })
     }
-}
-
-/// What follows `.<name>` in a temporary file's name, before the writer's process id.
-const TEMP_INFIX: &str = ".tmp";
-
-/// The folder of `path` (`.` for a bare name) and its file name.
-fn dir_and_name(path: &Path) -> (PathBuf, String) {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "vars".into());
-    (dir, name)
 }
 
 /// True for the name of a temporary file of the variables file `name`: `.<name>.tmp<digits>`.
 pub fn is_temp_file_of(name: &str, candidate: &str) -> bool {
-    candidate
-        .strip_prefix('.')
-        .and_then(|c| c.strip_prefix(name))
-        .and_then(|c| c.strip_prefix(TEMP_INFIX))
-        .is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
+    cnc402_durable::temp_file_pid(name, candidate).is_some()
 }
 
 /// The exclusive right to write the variables file: an advisory lock (`flock`) on
@@ -282,30 +255,13 @@ impl WriteLock {
             .open(&lock_path)
             .map_err(io)?;
         file.lock().map_err(io)?;
-        remove_stale_temps(&dir, &name).map_err(|err| VarFileError::Io {
+        // Under the lock no other writer is between create and rename: every temp is stale.
+        remove_stale_temps(&dir, &name, StaleRule::All).map_err(|err| VarFileError::Io {
             path: dir.clone(),
             err,
         })?;
         Ok(WriteLock { _file: file })
     }
-}
-
-/// Removes `.<name>.tmp<pid>` files in `dir`; the caller holds the [`WriteLock`].
-fn remove_stale_temps(dir: &Path, name: &str) -> std::io::Result<()> {
-    for ent in fs::read_dir(dir)? {
-        let ent = ent?;
-        if ent
-            .file_name()
-            .to_str()
-            .is_some_and(|f| is_temp_file_of(name, f))
-        {
-            match fs::remove_file(ent.path()) {
-                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
-                _ => {}
-            }
-        }
-    }
-    Ok(())
 }
 
 /// The read-modify-write behind every change of the file: under the [`WriteLock`], reads the

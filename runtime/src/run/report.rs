@@ -129,7 +129,7 @@ fn stop_report(
     let text = source_for(file.as_deref().unwrap_or(&src.name), src);
     let location = format!("{}:{}", text.name, line);
     let block = text.line_text(line).trim().to_string();
-    let mut msg = stop.cause.describe().to_string();
+    let mut msg = stop.cause_text();
     if stop.node != 0 {
         msg.push_str(&format!(" on node {}", stop.node));
         if let Some(a) = axis {
