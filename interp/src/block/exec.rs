@@ -9,7 +9,7 @@ use cnc402_lang::ast::{Comment, Line, Span};
 use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, Source, SpindleDir, StopKind};
 
-use super::arc::{self, ArcError};
+use super::arc::{self, ArcError, ArcGeom, ArcTolerance};
 use super::options::Options;
 use super::state::{Cycle, CycleData, ModalState, Motion};
 use super::words::{Arg, GGroup, Words, fmt_num};
@@ -958,9 +958,9 @@ impl Exec<'_> {
         let unit = self.st.unit();
         let start = (self.st.pos[ia], self.st.pos[ib]);
         let stop = (end[ia], end[ib]);
-        let tol = self.cfg.interp.arc_tolerance;
+        let tol = self.arc_tolerance();
         let g = match r {
-            Some(r) => arc::arc_radius(start, stop, r.v * unit, cw, tol),
+            Some(r) => arc::arc_radius(start, stop, r.v * unit, cw, arc::R_TOLERANCE_INCH * 25.4),
             None => {
                 if wa.is_none() && wb.is_none() {
                     return Err(self
@@ -977,7 +977,9 @@ impl Exec<'_> {
                     wa.map_or(0.0, |a| a.v * unit),
                     wb.map_or(0.0, |a| a.v * unit),
                 );
-                arc::arc_center(start, stop, off, cw, tol)
+                arc::arc_center(start, stop, off, cw, tol).and_then(|g| {
+                    self.planner_circle(g, start, stop, cw, tol)
+                })
             }
         };
         let g = g.map_err(|e| {
@@ -991,11 +993,12 @@ impl Exec<'_> {
                     .err(
                         self.span_of(&[la, lb]),
                         format!(
-                            "arc end point is not on the circle: start radius {}, end radius {} (difference {} > tolerance {})",
-                            fmt_num(start_radius),
-                            fmt_num(end_radius),
-                            fmt_num((start_radius - end_radius).abs()),
-                            fmt_num(tol)
+                            "arc end point is not on the circle: start radius {}, end radius {} (difference {} > tolerance {} and > {} % of the radius)",
+                            fmt_num(start_radius / unit),
+                            fmt_num(end_radius / unit),
+                            fmt_num((start_radius - end_radius).abs() / unit),
+                            fmt_num(tol.absolute / unit),
+                            fmt_num(tol.relative * 100.0)
                         ),
                     )
                     .with_expected("an end point at the start point's distance from the centre"),
@@ -1036,5 +1039,42 @@ impl Exec<'_> {
         });
         self.st.pos = end;
         Ok(())
+    }
+
+    /// The I/J/K radius tolerance of the program's units (`interp.arc_tolerance` in mm,
+    /// `interp.arc_tolerance_inch` in inches, `interp.arc_tolerance_relative`), in mm.
+    fn arc_tolerance(&self) -> ArcTolerance {
+        let i = &self.cfg.interp;
+        ArcTolerance {
+            absolute: if self.st.inch {
+                i.arc_tolerance_inch * 25.4
+            } else {
+                i.arc_tolerance
+            },
+            relative: i.arc_tolerance_relative,
+        }
+    }
+
+    /// `g` as the planner takes it: an arc whose radii differ by more than the planner's
+    /// spiral limit (`interp.arc_tolerance`, mm) gets its centre moved onto the chord's
+    /// bisector; if that is more than `100 ×` the tolerance away, the arc is refused.
+    fn planner_circle(
+        &self,
+        g: ArcGeom,
+        start: (f64, f64),
+        stop: (f64, f64),
+        cw: bool,
+        tol: ArcTolerance,
+    ) -> Result<ArcGeom, ArcError> {
+        let end_radius = (stop.0 - g.center.0).hypot(stop.1 - g.center.1);
+        if (g.radius - end_radius).abs() <= self.cfg.interp.arc_tolerance {
+            return Ok(g);
+        }
+        arc::equal_radii(&g, start, stop, cw, 100.0 * tol.absolute).ok_or(
+            ArcError::NotOnCircle {
+                start_radius: g.radius,
+                end_radius,
+            },
+        )
     }
 }

@@ -1,0 +1,87 @@
+//! Habits of real programs from CAM posts and shop controls (issue 20): arc tolerance like a
+//! control, G90.1/G91.1, zero offsets off the plane, corner rounding and chamfers, machine M
+//! codes from the config, Haas habits. Each test is named after the habit it pins.
+
+use cnc402_config::MachineConfig;
+use cnc402_interp::run_program;
+use cnc402_lang::SourceFile;
+use cnc402_motion::Planner;
+use cnc402_motion::segment::{Segment, SegmentKind};
+
+fn cfg() -> MachineConfig {
+    MachineConfig::default_machine()
+}
+
+fn run(text: &str) -> Result<Vec<Segment>, cnc402_lang::NcError> {
+    run_program(&cfg(), &SourceFile::new("t.nc", text))
+}
+
+/// Every segment through the planner (which checks arcs once more).
+fn plans(segs: &[Segment]) {
+    let mut p = Planner::new(&cfg());
+    for s in segs {
+        p.plan(s).unwrap_or_else(|e| panic!("{s:?}: {e}"));
+    }
+}
+
+fn arcs(segs: &[Segment]) -> Vec<([f64; 3], cnc402_motion::segment::AxisPos)> {
+    segs.iter()
+        .filter_map(|s| match &s.kind {
+            SegmentKind::Arc { center, end, .. } => Some((*center, *end)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Regression: 4-decimal inch CAM output (every coordinate rounded to 0.0001") was refused
+/// because 0.0001" = 0.00254 mm is more than the old 0.002 mm arc tolerance.
+#[test]
+fn four_decimal_inch_cam_arcs_are_accepted() {
+    // A 1.25" radius quarter arc about (0, 0) from (1.25, 0): the end (0.8839, 0.8839) is
+    // 1.25 · cos 45° = 0.883883… rounded, 0.00009" off the circle; I/J rounded too.
+    let text = "G20 G90 G17\nG0 X1.25 Y0\nG3 X0.8839 Y0.8839 I-1.2501 J0.0001 F20\n\
+                G2 X1.2501 Y0.0001 I-0.8838 J-0.8840\nM30\n";
+    let segs = run(text).unwrap();
+    assert_eq!(arcs(&segs).len(), 2);
+    plans(&segs);
+}
+
+/// A large arc off by more than the absolute tolerance but less than 0.1 % of its radius is
+/// accepted (LinuxCNC's rule); the planner still takes it (its centre moved onto the chord's
+/// bisector).
+#[test]
+fn large_arc_within_the_relative_tolerance_is_accepted_and_planned() {
+    let text = "G0 X150 Y0\nG3 X0 Y150.1 I-150 J0 F500\nM30\n";
+    let segs = run(text).unwrap();
+    let a = arcs(&segs);
+    assert_eq!(a.len(), 1);
+    let (c, end) = a[0];
+    let rs = (150.0 - c[0]).hypot(0.0 - c[1]);
+    let re = (end.0[0] - c[0]).hypot(end.0[1] - c[1]);
+    assert!((rs - re).abs() < 1e-9, "{rs} {re}");
+    assert!(c[0].hypot(c[1]) < 0.2, "{c:?}");
+    plans(&segs);
+}
+
+/// A really wrong arc is still refused, naming both radii.
+#[test]
+fn wrong_arc_is_refused_naming_both_radii() {
+    let e = run("G0 X10 Y0\nG3 X0 Y10.5 I-10 J0 F100\n").unwrap_err();
+    assert_eq!(e.line, 2);
+    assert!(
+        e.message
+            .starts_with("arc end point is not on the circle: start radius 10, end radius 10.5"),
+        "{}",
+        e.message
+    );
+    // In inch programs the radii are in inches.
+    let e = run("G20\nG0 X1 Y0\nG3 X0 Y1.01 I-1 J0 F10\n").unwrap_err();
+    assert!(
+        e.message.contains("start radius 1, end radius 1.01"),
+        "{}",
+        e.message
+    );
+    // Over 100 × the absolute tolerance (2.83 mm) even on a huge radius.
+    let e = run("G0 X0 Y0\nG3 X0 Y250 I-10000 J0 F100\n").unwrap_err();
+    assert!(e.message.starts_with("arc end point is not on the circle"), "{}", e.message);
+}
