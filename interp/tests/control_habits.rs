@@ -85,3 +85,49 @@ fn wrong_arc_is_refused_naming_both_radii() {
     let e = run("G0 X0 Y0\nG3 X0 Y250 I-10000 J0 F100\n").unwrap_err();
     assert!(e.message.starts_with("arc end point is not on the circle"), "{}", e.message);
 }
+
+/// G90.1: I/J/K are the centre in work coordinates (G54 here, with a G92 shift on top);
+/// G91.1 goes back to Fanuc's incremental centre; a program starts in G91.1.
+#[test]
+fn g90_1_takes_the_arc_centre_absolute_and_g91_1_incremental() {
+    let text = "G0 X10 Y0\nG90.1 G3 X0 Y10 I0 J0 F100\nG91.1 G3 X-10 Y0 I0 J-10\n\
+                G90.1 G92 X0 Y10\nG3 X-10 Y0 I0 J0\nM30\n";
+    let segs = run(text).unwrap();
+    let a = arcs(&segs);
+    assert_eq!(a.len(), 3);
+    assert_eq!((a[0].0[0], a[0].0[1]), (0.0, 0.0));
+    assert_eq!((a[1].0[0], a[1].0[1]), (0.0, 0.0));
+    // G92 X0 Y10 at machine (-10, 0): work (0, 0) is machine (-10, -10).
+    assert_eq!((a[2].0[0], a[2].0[1]), (-10.0, -10.0));
+    // A new program starts in G91.1.
+    let segs = run("G0 X10 Y0\nG3 X0 Y10 I-10 J0 F100\n").unwrap();
+    assert_eq!((arcs(&segs)[0].0[0], arcs(&segs)[0].0[1]), (0.0, 0.0));
+}
+
+/// In G90.1 both centre words are needed (an omitted one is not the start point's
+/// coordinate); two codes of the group in one block are an error naming them as written.
+#[test]
+fn g90_1_arc_without_both_centre_words_is_refused() {
+    let e = run("G0 X10 Y0\nG90.1 G3 X0 Y10 J0 F100\n").unwrap_err();
+    assert_eq!((e.line, e.col), (2, 7));
+    assert!(e.message.starts_with("I word missing in an absolute centre arc (G90.1)"), "{}", e.message);
+    let e = run("G90.1 G91.1\n").unwrap_err();
+    assert!(e.message.starts_with("G90.1 and G91.1 are both in modal group"), "{}", e.message);
+}
+
+/// FreeCAD posts write `K0` on G17 arcs (and `J0` on G18, `I0` on G19): accepted when zero,
+/// refused when not; in the linuxcnc dialect refused even at 0, as `rs274` does.
+#[test]
+fn zero_centre_offset_off_the_plane_is_accepted() {
+    let segs = run("G0 X10 Y0\nG3 X0 Y10 I-10 J0 K0 F100\nM30\n").unwrap();
+    assert_eq!(arcs(&segs).len(), 1);
+    let segs = run("G18 G0 X10 Z0\nG3 X0 Z-10 I-10 K0 J0 F100\nM30\n").unwrap();
+    assert_eq!(arcs(&segs).len(), 1);
+    let segs = run("G19 G0 Y10 Z0\nG3 Y0 Z10 J-10 K0 I0 F100\nM30\n").unwrap();
+    assert_eq!(arcs(&segs).len(), 1);
+    let e = run("G0 X10 Y0\nG3 X0 Y10 I-10 J0 K0.5 F100\n").unwrap_err();
+    assert_eq!((e.line, e.col), (2, 19));
+    assert!(e.message.starts_with("K0.5 in a G17 (XY) arc"), "{}", e.message);
+    let e = run("(dialect: linuxcnc)\nG0 X10 Y0\nG3 X0 Y10 I-10 J0 K0 F100\n").unwrap_err();
+    assert!(e.message.starts_with("K word given for an arc in the G17 (XY) plane"), "{}", e.message);
+}

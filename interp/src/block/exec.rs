@@ -6,13 +6,13 @@ use std::sync::Arc;
 
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Comment, Line, Span};
-use cnc402_lang::{NcError, SourceFile};
+use cnc402_lang::{Dialect, NcError, SourceFile};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, Source, SpindleDir, StopKind};
 
 use super::arc::{self, ArcError, ArcGeom, ArcTolerance};
 use super::options::Options;
 use super::state::{Cycle, CycleData, ModalState, Motion};
-use super::words::{Arg, GGroup, Words, fmt_num};
+use super::words::{Arg, GGroup, Words, fmt_num, g_dec, g_name};
 use crate::canon::{CanonKind, CanonOp, CanonState};
 use crate::lower::xyz_indices;
 
@@ -53,6 +53,8 @@ pub(crate) struct Exec<'a> {
     pub cfg: &'a MachineConfig,
     pub opts: &'a Options,
     pub src: &'a SourceFile,
+    /// The dialect the program is read in (where controls differ).
+    pub dialect: Dialect,
     pub st: &'a mut ModalState,
     pub w: Words,
     pub source: Source,
@@ -88,6 +90,7 @@ fn group_name(g: GGroup) -> &'static str {
         GGroup::Motion => "01 (motion)",
         GGroup::Plane => "02 (plane)",
         GGroup::Distance => "03 (G90/G91)",
+        GGroup::ArcDistance => "(G90.1/G91.1, arc centre distance)",
         GGroup::FeedMode => "05 (feed mode)",
         GGroup::Units => "06 (units)",
         GGroup::Cycle => "09 (canned cycle)",
@@ -154,7 +157,7 @@ impl Exec<'_> {
     pub(crate) fn execute(
         cfg: &MachineConfig,
         opts: &Options,
-        src: &SourceFile,
+        (src, dialect): (&SourceFile, Dialect),
         (st, canon): (&mut ModalState, &mut Option<Arc<CanonState>>),
         w: Words,
         line: &Line,
@@ -163,6 +166,7 @@ impl Exec<'_> {
             cfg,
             opts,
             src,
+            dialect,
             st,
             canon,
             w,
@@ -346,7 +350,9 @@ impl Exec<'_> {
                 return Err(self.err(
                     span,
                     format!(
-                        "G{c0} and G{code} are both in modal group {}: a block takes one G code of each group",
+                        "{} and {} are both in modal group {}: a block takes one G code of each group",
+                        g_name(c0),
+                        g_name(code),
                         group_name(grp)
                     ),
                 ));
@@ -421,6 +427,9 @@ impl Exec<'_> {
         }
         if let Some((c, _)) = self.w.g_of(GGroup::Distance) {
             self.st.incremental = c == 91;
+        }
+        if let Some((c, _)) = self.w.g_of(GGroup::ArcDistance) {
+            self.st.arc_center_absolute = c == g_dec(90, 1);
         }
         if let Some((c, _)) = self.w.g_of(GGroup::FeedMode) {
             self.st.feed_per_rev = c == 95;
@@ -947,6 +956,7 @@ impl Exec<'_> {
         } else {
             (self.w.take(oa), self.w.take(ob))
         };
+        self.off_plane_offset(r.is_some())?;
         if !any && r.is_none() && wa.is_none() && wb.is_none() {
             return Ok(());
         }
@@ -973,10 +983,7 @@ impl Exec<'_> {
                         )
                         .with_expected(format!("{oa}/{ob} or R")));
                 }
-                let off = (
-                    wa.map_or(0.0, |a| a.v * unit),
-                    wb.map_or(0.0, |a| a.v * unit),
-                );
+                let off = self.centre_offset(span, (ia, ib), (oa, ob), (wa, wb), start)?;
                 arc::arc_center(start, stop, off, cw, tol).and_then(|g| {
                     self.planner_circle(g, start, stop, cw, tol)
                 })
@@ -1076,5 +1083,68 @@ impl Exec<'_> {
                 end_radius,
             },
         )
+    }
+
+    /// The arc centre minus the start point, from the plane's centre words `(wa, wb)`
+    /// (letters `(oa, ob)`, of axes `(ia, ib)`): incremental from the start (G91.1, Fanuc's
+    /// only mode; a word left out is 0) or the centre in work coordinates (G90.1; both words
+    /// needed, as LinuxCNC says "I word missing in absolute center arc").
+    fn centre_offset(
+        &self,
+        span: Span,
+        (ia, ib): (usize, usize),
+        (oa, ob): (char, char),
+        (wa, wb): (Option<Arg>, Option<Arg>),
+        start: (f64, f64),
+    ) -> Result<(f64, f64), NcError> {
+        let unit = self.st.unit();
+        if !self.st.arc_center_absolute {
+            return Ok((wa.map_or(0.0, |a| a.v * unit), wb.map_or(0.0, |a| a.v * unit)));
+        }
+        let (Some(a), Some(b)) = (wa, wb) else {
+            let missing = if wa.is_none() { oa } else { ob };
+            return Err(self
+                .err(span, format!("{missing} word missing in an absolute centre arc (G90.1)"))
+                .with_expected(format!("both {oa} and {ob}, the centre in work coordinates")));
+        };
+        Ok((
+            a.v * unit + self.st.origin(ia) - start.0,
+            b.v * unit + self.st.origin(ib) - start.1,
+        ))
+    }
+
+    /// The centre word along the plane's normal (`K` in a G17 arc, `J` in G18, `I` in G19):
+    /// CAM posts write `K0`. Zero is accepted and means nothing; another value is refused. In
+    /// the linuxcnc dialect any such word is refused, as `rs274` does (`K word given for arc
+    /// in xy plane`). With R the centre words are ignored (Fanuc), this one too.
+    fn off_plane_offset(&mut self, with_r: bool) -> Result<(), NcError> {
+        let (letter, plane) = match self.st.plane {
+            Plane::XY => ('K', "G17 (XY)"),
+            Plane::ZX => ('J', "G18 (ZX)"),
+            Plane::YZ => ('I', "G19 (YZ)"),
+        };
+        let Some(w) = self.w.take(letter) else {
+            return Ok(());
+        };
+        if with_r {
+            return Ok(());
+        }
+        if self.dialect == Dialect::LinuxCnc {
+            return Err(self
+                .err(w.span, format!("{letter} word given for an arc in the {plane} plane"))
+                .with_expected(format!("no {letter} (LinuxCNC refuses it, even 0)")));
+        }
+        if w.v != 0.0 {
+            return Err(self
+                .err(
+                    w.span,
+                    format!(
+                        "{letter}{} in a {plane} arc: the centre offset along the plane's normal must be 0",
+                        fmt_num(w.v)
+                    ),
+                )
+                .with_expected(format!("{letter}0 or no {letter}")));
+        }
+        Ok(())
     }
 }

@@ -76,7 +76,7 @@ impl Machine {
         Exec::execute(
             &self.cfg,
             &self.opts,
-            src,
+            (src, self.dialect),
             (&mut self.state, &mut self.canon),
             words,
             line,

@@ -123,6 +123,9 @@ pub struct ModalState {
     pub inch: bool,
     /// G91 (true) / G90.
     pub incremental: bool,
+    /// G90.1 (true: I/J/K are the centre in work coordinates) / G91.1 (incremental from the
+    /// start point, Fanuc's only mode; the default at program start).
+    pub arc_center_absolute: bool,
     /// G95 (true) / G94.
     pub feed_per_rev: bool,
     /// 0..=5 for G54..G59.
@@ -193,6 +196,7 @@ impl ModalState {
             },
             inch: cfg.interp.units == Units::Inch,
             incremental: false,
+            arc_center_absolute: false,
             feed_per_rev: false,
             work_offset: 0,
             return_to_r: cfg.interp.return_plane == ReturnPlane::R,

@@ -27,6 +27,8 @@ pub enum GGroup {
     Plane,
     /// 03: G90 G91.
     Distance,
+    /// G90.1 (I/J/K absolute) G91.1 (incremental, Fanuc's only mode): LinuxCNC's group 4.
+    ArcDistance,
     /// 05: G94 G95.
     FeedMode,
     /// 06: G20 G21.
@@ -121,8 +123,10 @@ pub fn g_group(code: u32) -> Result<GGroup, String> {
 /// [`g_group`] of the codes with a decimal.
 fn decimal_g_group(code: u32) -> Result<GGroup, String> {
     let name = g_name(code);
+    if code == g_dec(90, 1) || code == g_dec(91, 1) {
+        return Ok(GGroup::ArcDistance);
+    }
     let what = match code {
-        c if c == g_dec(90, 1) || c == g_dec(91, 1) => "arc centre distance mode",
         c if c == g_dec(5, 1) => "AI contour control",
         c if (g_dec(92, 1)..=g_dec(92, 3)).contains(&c) => "G92 offset reset and restore",
         c if (g_dec(38, 2)..=g_dec(38, 5)).contains(&c) => "probing",
