@@ -374,11 +374,10 @@ mod tests {
         // One decimal names a code of its own (G90.1), known or not.
         let e = words("G1.5 X1").unwrap_err();
         assert_eq!((e.col, e.message.as_str()), (1, "unknown G code G1.5"));
-        let e = words("G90.1 X1").unwrap_err();
-        assert!(
-            e.message.contains("G90.1 (arc centre distance mode)"),
-            "{e}"
-        );
+        let e = words("G5.1 X1").unwrap_err();
+        assert!(e.message.contains("G5.1 (AI contour control)"), "{e}");
+        let w = words("G90.1 X1").unwrap();
+        assert_eq!(w.g_of(GGroup::ArcDistance).map(|g| g.0), Some(g_dec(90, 1)));
         let e = words("G[92+0.1]").unwrap_err();
         assert!(e.message.starts_with("G92.1 "), "{e}");
         let e = words("M3.5").unwrap_err();
