@@ -131,3 +131,20 @@ fn zero_centre_offset_off_the_plane_is_accepted() {
     let e = run("(dialect: linuxcnc)\nG0 X10 Y0\nG3 X0 Y10 I-10 J0 K0 F100\n").unwrap_err();
     assert!(e.message.starts_with("K word given for an arc in the G17 (XY) plane"), "{}", e.message);
 }
+
+/// Fanuc lets a macro keyword be written as its first two letters: `WH[…]DO1` … `EN1`,
+/// `GO`, `IF[…]GO`, `IF[…]TH`.
+#[test]
+fn wh_do_and_other_macro_abbreviations_run() {
+    let text = "#1=0\nWH[#1LT3]DO1\nG91 G1 X1 F100\n#1=#1+1\nEN1\n\
+                IF[#1EQ3]GO20\nG1 X50\nN20 IF[#1EQ3]TH #2=7\nG90 G1 Y#2\nGO30\nG1 X99\nN30 M30\n";
+    let segs = run(text).unwrap();
+    let ends: Vec<(f64, f64)> = segs
+        .iter()
+        .filter_map(|s| match &s.kind {
+            SegmentKind::Linear { end, .. } => Some((end.0[0], end.0[1])),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(ends, vec![(1.0, 0.0), (2.0, 0.0), (3.0, 0.0), (3.0, 7.0)]);
+}
