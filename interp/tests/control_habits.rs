@@ -148,3 +148,116 @@ fn wh_do_and_other_macro_abbreviations_run() {
         .collect();
     assert_eq!(ends, vec![(1.0, 0.0), (2.0, 0.0), (3.0, 0.0), (3.0, 7.0)]);
 }
+
+/// A library holding `O9001` (M98-style) and `O9020` (G65-style: moves to X#24).
+struct Macros;
+
+impl cnc402_interp::host::ProgramLibrary for Macros {
+    fn find(&mut self, number: u32, _main: &str) -> Result<Option<SourceFile>, String> {
+        Ok(match number {
+            9001 => Some(SourceFile::new("O9001.nc", "O9001\nG4 P250\nM99\n")),
+            9020 => Some(SourceFile::new("O9020.nc", "O9020\nG0 X#24\nM99\n")),
+            _ => None,
+        })
+    }
+    fn resolve_use(
+        &mut self,
+        _path: &str,
+        _including: &str,
+    ) -> Result<Option<cnc402_interp::host::UsedFile>, String> {
+        Ok(None)
+    }
+    fn describe(&self) -> String {
+        "in the test library".into()
+    }
+}
+
+fn run_with(cfg: &MachineConfig, text: &str) -> Result<Vec<Segment>, cnc402_lang::NcError> {
+    let src = SourceFile::new("t.nc", text);
+    let p = cnc402_lang::parse(&src).unwrap();
+    let mut it = cnc402_interp::Interpreter::new(cfg);
+    it.set_program_library(Some(Box::new(Macros)));
+    it.load(src, p);
+    let mut v = Vec::new();
+    while let Some(s) = it.next_segment()? {
+        v.push(s);
+    }
+    Ok(v)
+}
+
+fn kinds(segs: &[Segment]) -> Vec<String> {
+    segs.iter()
+        .map(|s| match &s.kind {
+            SegmentKind::Spindle { rpm, dir } => format!("spindle {rpm} {dir:?}"),
+            SegmentKind::Coolant { mist, flood } => format!("coolant {mist} {flood}"),
+            SegmentKind::Message { text } => format!("msg {text}"),
+            SegmentKind::Dwell { seconds } => format!("dwell {seconds}"),
+            SegmentKind::Rapid { end } => format!("rapid {}", end.0[0]),
+            SegmentKind::Stop { .. } => "stop".into(),
+            k => format!("{k:?}"),
+        })
+        .collect()
+}
+
+/// Regression: machine M codes (M13, M31 …) were "unknown M code"; the shipped `[mcodes]`
+/// maps M13 to M3 + M8, M31 to an output event and M10 to a note given once a run.
+#[test]
+fn machine_m_codes_from_the_config_run() {
+    let segs = run("S1000 M13\nM31\nM10\nM10\nM5 M9\nM30\n").unwrap();
+    assert_eq!(
+        kinds(&segs),
+        vec![
+            "spindle 1000 Cw",
+            "coolant false true",
+            "msg M31: output chip_conveyor = 1",
+            "msg M10 ignored on this machine ([mcodes]): rotary axis brake clamp: no brake on this machine",
+            "spindle 0 Stop",
+            "coolant false false",
+            "stop",
+        ]
+    );
+    let e = run("G0 X1\nM66\n").unwrap_err();
+    assert_eq!((e.line, e.col), (2, 1));
+    assert!(e.message.starts_with("unknown M code M66"), "{}", e.message);
+    // An alias conflicts like the codes it stands for.
+    let e = run("M13 M5\n").unwrap_err();
+    assert!(e.message.contains("contradict"), "{}", e.message);
+}
+
+/// `dwell` and `wait` actions; a macro M code calls its program like M98, or like G65 with
+/// the block's words as arguments (Fanuc's M-code macro call); a missing program is an error
+/// at the block.
+#[test]
+fn machine_m_code_dwell_wait_and_macro_calls() {
+    use cnc402_config::MAction;
+    let mut cfg = cfg();
+    cfg.mcodes.insert(50, MAction::Dwell { seconds: 1.5 });
+    cfg.mcodes.insert(
+        66,
+        MAction::Wait {
+            name: "door".into(),
+            value: true,
+            timeout_s: 5.0,
+        },
+    );
+    cfg.mcodes.insert(101, MAction::Macro { program: 9001, args: false });
+    cfg.mcodes.insert(102, MAction::Macro { program: 9020, args: true });
+    cfg.mcodes.insert(103, MAction::Macro { program: 9003, args: false });
+    let segs = run_with(&cfg, "M50\nM66\nG0 X5 M101\nM102 X7\nM30\n").unwrap();
+    assert_eq!(
+        kinds(&segs),
+        vec![
+            "dwell 1.5",
+            "msg M66: wait for input door = 1 (timeout 5 s): no inputs are wired yet, taken as met",
+            "rapid 5",
+            "dwell 0.25",
+            "rapid 7",
+            "stop",
+        ]
+    );
+    let e = run_with(&cfg, "G0 X1\nM103\n").unwrap_err();
+    assert_eq!(e.line, 2);
+    assert!(e.message.contains("9003"), "{}", e.message);
+    let e = run_with(&cfg, "M101 P5\n").unwrap_err();
+    assert!(e.message.contains("cannot give P too"), "{}", e.message);
+}

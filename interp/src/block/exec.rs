@@ -191,6 +191,7 @@ impl Exec<'_> {
                 self.push(SegmentKind::Message { text });
             }
         }
+        self.machine_m_codes()?;
         self.check_groups()?;
         self.modes()?;
         self.feed_word()?;

@@ -177,6 +177,9 @@ pub struct ModalState {
     /// The tolerance of G64 (mm, > 0): its `P` word, else the config's
     /// `interp.path_tolerance`.
     pub path_tolerance: f64,
+    /// Machine M codes (`[mcodes]`) whose once-a-run note was given (at most one per
+    /// configured code).
+    pub noted_mcodes: Vec<u32>,
     /// Coolant: M7 (mist), M8 (flood); M9 turns both off.
     pub mist: bool,
     pub flood: bool,
@@ -218,6 +221,7 @@ impl ModalState {
             ref_mid: [None; MAX_AXES],
             path_mode: 64,
             path_tolerance: cfg.interp.path_tolerance,
+            noted_mcodes: Vec::new(),
             mist: false,
             flood: false,
         }

@@ -267,6 +267,19 @@ impl Words {
         let _ = self.take(letter);
     }
 
+    /// Gives `letter` the value `a` (a word the interpreter adds: the `P` of an M code that
+    /// calls a program); `false` if the block has that letter already.
+    pub fn put(&mut self, letter: char, a: Arg) -> bool {
+        let i = (letter as u8).wrapping_sub(b'A') as usize;
+        match self.args.get_mut(i) {
+            Some(slot @ None) => {
+                *slot = Some(a);
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// The first (in source order) address that was given but not used.
     pub fn first_unused(&self) -> Option<(char, Arg)> {
         (0..26)
