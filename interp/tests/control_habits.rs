@@ -261,3 +261,53 @@ fn machine_m_code_dwell_wait_and_macro_calls() {
     let e = run_with(&cfg, "M101 P5\n").unwrap_err();
     assert!(e.message.contains("cannot give P too"), "{}", e.message);
 }
+
+/// Haas: a bare `G28` sends every axis (not the spindle) straight to its reference, in one
+/// rapid; Fanuc (cnc402's fanuc dialect) refuses it: it needs the axes named.
+#[test]
+fn haas_bare_g28_homes_all_axes() {
+    let segs = run("(dialect: haas)\nG0 X10 Y20 Z-5\nG28\nM30\n").unwrap();
+    let rapids: Vec<[f64; 3]> = segs
+        .iter()
+        .filter_map(|s| match &s.kind {
+            SegmentKind::Rapid { end } => Some([end.0[0], end.0[1], end.0[2]]),
+            _ => None,
+        })
+        .collect();
+    let c = cfg();
+    let r = |l: char| c.axes[c.axis_index(l).unwrap()].references[0].unwrap();
+    assert_eq!(rapids, vec![[10.0, 20.0, -5.0], [r('X'), r('Y'), r('Z')]]);
+    let e = run("G0 X10\nG28\n").unwrap_err();
+    assert!(e.message.starts_with("G28 needs the axes to return"), "{}", e.message);
+    // Named axes: as Fanuc, in haas too.
+    let segs = run("(dialect: haas)\nG0 X10 Y20\nG91 G28 Z0\nM30\n").unwrap();
+    let last = segs
+        .iter()
+        .rev()
+        .find_map(|s| match s.kind {
+            SegmentKind::Rapid { end } => Some(end),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!((last.0[0], last.0[1], last.0[2]), (10.0, 20.0, r('Z')));
+}
+
+/// Haas: a dwell `P` with a decimal point is seconds (`G82 … P0.5`), without one
+/// milliseconds; Fanuc refuses `P0.5` (P is whole milliseconds there).
+#[test]
+fn haas_decimal_p_dwell_is_seconds() {
+    let dwells = |text: &str| -> Vec<f64> {
+        run(text)
+            .unwrap()
+            .iter()
+            .filter_map(|s| match s.kind {
+                SegmentKind::Dwell { seconds } => Some(seconds),
+                _ => None,
+            })
+            .collect()
+    };
+    let cycle = "G0 Z10\nG82 X0 Y0 R2 Z-5 P0.5 F100\nG80\nG4 P250\nG4 P1.5\nM30\n";
+    assert_eq!(dwells(&format!("(dialect: haas)\n{cycle}")), vec![0.5, 0.25, 1.5]);
+    let e = run(cycle).unwrap_err();
+    assert!(e.message.starts_with("P0.5 is not a dwell"), "{}", e.message);
+}

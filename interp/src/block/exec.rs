@@ -637,8 +637,15 @@ impl Exec<'_> {
         Ok(())
     }
 
-    /// A Fanuc `P` dwell: whole milliseconds → seconds.
+    /// A Fanuc `P` dwell: whole milliseconds → seconds. In the haas dialect a `P` written
+    /// with a decimal point is seconds (`P0.5`, as Haas reads it in G4 and canned cycles).
     pub fn dwell_p(&self, p: Arg) -> Result<f64, NcError> {
+        if self.dialect == Dialect::Haas && p.has_point {
+            if p.v < 0.0 {
+                return Err(self.err(p.span, "dwell time must not be negative"));
+            }
+            return Ok(p.v);
+        }
         if p.v < 0.0 || p.v.fract() != 0.0 {
             return Err(self
                 .err(
