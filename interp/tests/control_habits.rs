@@ -311,3 +311,86 @@ fn haas_decimal_p_dwell_is_seconds() {
     let e = run(cycle).unwrap_err();
     assert!(e.message.starts_with("P0.5 is not a dwell"), "{}", e.message);
 }
+
+fn path(segs: &[Segment]) -> Vec<String> {
+    segs.iter()
+        .filter_map(|s| match &s.kind {
+            SegmentKind::Linear { end, .. } => {
+                Some(format!("L {} {} @{}", fmt(end.0[0]), fmt(end.0[1]), s.source.line))
+            }
+            SegmentKind::Arc { end, center, dir, .. } => Some(format!(
+                "A {} {} c {} {} {dir:?} @{}",
+                fmt(end.0[0]),
+                fmt(end.0[1]),
+                fmt(center[0]),
+                fmt(center[1]),
+                s.source.line
+            )),
+            _ => None,
+        })
+        .collect()
+}
+
+fn fmt(v: f64) -> String {
+    let r = (v * 1e6).round() / 1e6;
+    format!("{}", if r == 0.0 { 0.0 } else { r })
+}
+
+/// Fanuc corner rounding `,R` and chamfer `,C` between two G1 moves: the first move is
+/// shortened, the corner element inserted (with the first block's line), the second starts
+/// where it ends. Chained corners and G91 work; a plain `R` in G1 is the same as `,R`.
+#[test]
+fn corner_rounding_and_chamfer_between_two_g1_moves() {
+    let segs = run("G0 X0 Y0\nG1 X10 ,R2 F100\nY10 ,C1\nX0\nM30\n").unwrap();
+    assert_eq!(
+        path(&segs),
+        vec![
+            "L 8 0 @2",
+            "A 10 2 c 8 2 Ccw @2",
+            "L 10 9 @3",
+            "L 9 10 @3",
+            "L 0 10 @4",
+        ]
+    );
+    // A right turn is clockwise; G91 targets are from the programmed corner.
+    let segs = run("G0 X0 Y0\nG91 G1 X10 R2 F100\nY-10\nM30\n").unwrap();
+    assert_eq!(
+        path(&segs),
+        vec!["L 8 0 @2", "A 10 -2 c 8 -2 Cw @2", "L 10 -10 @3"]
+    );
+    // A 45° corner: the tangent points are r·tan(22.5°) from it.
+    let segs = run("G1 X10 Y0 ,R1 F100\nX20 Y10\nM30\n").unwrap();
+    let t = (std::f64::consts::PI / 8.0).tan();
+    let p = path(&segs);
+    assert_eq!(p[0], format!("L {} 0 @1", fmt(10.0 - t)));
+    plans(&segs);
+}
+
+/// A corner element that does not fit, a next block that is not a G1 move, a corner word on
+/// a G0/G2 block, and a program that ends after the held move are errors at the word.
+#[test]
+fn corner_that_does_not_fit_is_refused_at_its_word() {
+    let e = run("G1 X10 ,R20 F100\nY10\n").unwrap_err();
+    assert_eq!((e.line, e.col), (1, 8));
+    assert!(
+        e.message
+            .starts_with("corner rounding/chamfer: ,R20 does not fit: it needs 20 of each move, the moves are 10 and 10 long"),
+        "{}",
+        e.message
+    );
+    let e = run("G1 X10 ,C2 F100\nG0 Y10\n").unwrap_err();
+    assert_eq!((e.line, e.col), (1, 8));
+    assert!(e.message.contains("the next block is not a G1 move"), "{}", e.message);
+    let e = run("G0 X10 ,R2\n").unwrap_err();
+    assert!(e.message.starts_with(",R (corner rounding/chamfer) is only for a G1 move"), "{}", e.message);
+    let e = run("G1 X10 ,R2 F100\n").unwrap_err();
+    assert_eq!((e.line, e.col), (1, 8));
+    assert!(e.message.contains("the program ends after this move"), "{}", e.message);
+    let e = run("G1 X10 ,R2 F100\nX20\n").unwrap_err();
+    assert!(e.message.contains("make no corner"), "{}", e.message);
+    let e = run("G1 X10 ,R2 F100\nY10 Z5\n").unwrap_err();
+    assert!(e.message.contains("lie in the plane"), "{}", e.message);
+    // On this machine C is the spindle axis: a plain C is the axis, not a chamfer.
+    let e = run("G1 X10 ,R-1 F100\nY10\n").unwrap_err();
+    assert!(e.message.starts_with("corner R-1 must be > 0"), "{}", e.message);
+}

@@ -70,6 +70,8 @@ pub(crate) struct Exec<'a> {
     pub tlo_commanded: bool,
     /// G49 in a G28/G30/G53 block: the offset is cancelled after the block's moves.
     pub tlo_cancel_after: bool,
+    /// The block's move finished a held corner move or was held itself.
+    pub corner_done: bool,
 }
 
 /// `(MSG, text)` → `text`.
@@ -180,6 +182,7 @@ impl Exec<'_> {
             end: false,
             tlo_commanded: false,
             tlo_cancel_after: false,
+            corner_done: false,
         };
         ex.run(line)?;
         Ok((ex.out, ex.end))
@@ -215,6 +218,7 @@ impl Exec<'_> {
             self.st.set_tool_length(super::state::ToolLength::Off, 0.0);
         }
         self.m_after_motion();
+        self.check_corner_words()?;
         self.check_finite()?;
         if let Some((c, a)) = self.w.first_unused() {
             return Err(self
@@ -932,7 +936,11 @@ impl Exec<'_> {
                     let feed = self.feed_rate(motion_span)?;
                     match self.programmed_tap(&end, &worded) {
                         Some((tool, pitch)) => self.tap(end, feed, tool, pitch, &[]),
-                        None => self.linear(end, feed, &[]),
+                        None => {
+                            let corner = self.corner_word()?;
+                            self.corner_done = true;
+                            self.linear_with_corners(end, feed, corner)
+                        }
                     }
                 }
             }
@@ -1152,6 +1160,22 @@ impl Exec<'_> {
                     ),
                 )
                 .with_expected(format!("{letter}0 or no {letter}")));
+        }
+        Ok(())
+    }
+
+    /// A corner word nothing took (not a G1 move), or a held corner move this block did not
+    /// finish: errors.
+    fn check_corner_words(&mut self) -> Result<(), NcError> {
+        if let Some((l, a)) = self.w.corner.take() {
+            return Err(self
+                .err(a.span, format!(",{l} (corner rounding/chamfer) is only for a G1 move"))
+                .with_expected("G1 and a move in the plane"));
+        }
+        if !self.corner_done
+            && let Some(p) = &self.st.pending_corner
+        {
+            return Err(self.corner_unfinished(p, "the next block is not a G1 move"));
         }
         Ok(())
     }

@@ -4,6 +4,7 @@
 //! variable layers below it; knows nothing of program flow.
 
 pub mod arc;
+pub mod corner;
 pub mod cycles;
 pub(crate) mod exec;
 pub(crate) mod machine;

@@ -177,6 +177,8 @@ pub struct ModalState {
     /// The tolerance of G64 (mm, > 0): its `P` word, else the config's
     /// `interp.path_tolerance`.
     pub path_tolerance: f64,
+    /// A G1 move held back by its `,R`/`,C` corner word until the next block's move.
+    pub pending_corner: Option<super::corner::PendingCorner>,
     /// Machine M codes (`[mcodes]`) whose once-a-run note was given (at most one per
     /// configured code).
     pub noted_mcodes: Vec<u32>,
@@ -221,6 +223,7 @@ impl ModalState {
             ref_mid: [None; MAX_AXES],
             path_mode: 64,
             path_tolerance: cfg.interp.path_tolerance,
+            pending_corner: None,
             noted_mcodes: Vec::new(),
             mist: false,
             flood: false,

@@ -142,6 +142,9 @@ fn decimal_g_group(code: u32) -> Result<GGroup, String> {
 pub struct Words {
     /// G codes in source order, with their group.
     pub g: Vec<(u32, GGroup, Span)>,
+    /// The corner word `,R` (`'R'`) or `,C` (`'C'`) of Fanuc's corner rounding and
+    /// chamfer, if the block has one; taken (set to `None`) by the code that uses it.
+    pub corner: Option<(char, Arg)>,
     /// M codes in source order.
     pub m: Vec<(u32, Span)>,
     args: [Option<Arg>; 26],
@@ -166,6 +169,7 @@ impl Words {
     ) -> Result<Words, NcError> {
         let mut w = Words {
             g: Vec::new(),
+            corner: None,
             m: Vec::new(),
             args: [None; 26],
             used: 0,
@@ -221,6 +225,17 @@ impl Words {
                         "address {} is only allowed at the start of a line",
                         word.letter
                     )));
+                }
+                'r' | 'c' => {
+                    if w.corner.is_some() {
+                        return Err(here("a block takes one corner word, `,R` or `,C`".into()));
+                    }
+                    let a = Arg {
+                        v,
+                        span: word.span,
+                        has_point,
+                    };
+                    w.corner = Some((word.letter.to_ascii_uppercase(), a));
                 }
                 c if c.is_ascii_uppercase() => {
                     let i = (c as u8 - b'A') as usize;

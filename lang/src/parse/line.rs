@@ -339,10 +339,38 @@ impl<'a> Cx<'a> {
                 i = r;
                 continue;
             }
-            let (r, w) = self.word(i)?;
+            let (r, w) = match i.strip_prefix(',') {
+                Some(after) => self.comma_word(i, after)?,
+                None => self.word(i)?,
+            };
             words.push(w);
             i = r;
         }
+    }
+
+    /// `,R` (corner rounding) or `,C` (chamfer), Fanuc's comma addresses: a word whose
+    /// letter is the lower-case `r` or `c` ([`Word::comma_letter`]); `i` starts at the comma.
+    ///
+    /// ```
+    /// let src = cnc402_lang::SourceFile::new("p.nc", "G1 X10 ,R2\n");
+    /// let p = cnc402_lang::parse(&src).unwrap();
+    /// let cnc402_lang::ast::LineKind::Block(b) = &p.lines[0].kind else { panic!() };
+    /// assert_eq!(b.words[2].comma_letter(), Some('R'));
+    /// ```
+    fn comma_word(&self, i: &'a str, after: &'a str) -> PResult<'a, Word> {
+        let after = ws(after);
+        if !matches!(after.as_bytes().first(), Some(b'R' | b'r' | b'C' | b'c')) {
+            return fail_exp(
+                i,
+                1,
+                "a comma must be followed by R (corner rounding) or C (chamfer)",
+                "`,R` or `,C` and a value",
+            );
+        }
+        let (rest, mut w) = self.word(after)?;
+        w.letter = w.letter.to_ascii_lowercase();
+        w.span = self.span(i, rest);
+        Ok((rest, w))
     }
 
     /// `AXSTR(name)=value` (C-like programs).
