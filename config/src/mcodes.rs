@@ -116,14 +116,26 @@ fn action(m: &RawMCode, key: &str, at: std::ops::Range<usize>) -> Result<MAction
             ));
         }
     };
-    if let Some((k, Some(span))) = given.iter().find(|(k, s)| s.is_some() && !allowed.contains(k)) {
+    if let Some((k, Some(span))) = given
+        .iter()
+        .find(|(k, s)| s.is_some() && !allowed.contains(k))
+    {
         return Err((
             span.clone(),
             format!("{key}.{k}"),
-            format!("not a key of action \"{a}\" (its keys: {})", allowed.join(", ")),
+            format!(
+                "not a key of action \"{a}\" (its keys: {})",
+                allowed.join(", ")
+            ),
         ));
     }
-    let need = |k: &str| (at.clone(), key.to_string(), format!("action \"{a}\" needs `{k}`"));
+    let need = |k: &str| {
+        (
+            at.clone(),
+            key.to_string(),
+            format!("action \"{a}\" needs `{k}`"),
+        )
+    };
     let name = |v: &Option<Spanned<String>>, k: &str| -> Result<String, Invalid> {
         let v = v.as_ref().ok_or_else(|| need(k))?;
         let s = v.get_ref().trim();
@@ -251,7 +263,12 @@ pub(crate) fn check_targets(
             let found = program_file(program_dir, *program)
                 .map_err(|e| (t.span(), format!("mcodes.{n}.program"), e))?;
             if found.is_none() {
-                let span = t.get_ref().0.program.as_ref().map_or(t.span(), Spanned::span);
+                let span = t
+                    .get_ref()
+                    .0
+                    .program
+                    .as_ref()
+                    .map_or(t.span(), Spanned::span);
                 return Err((
                     span,
                     format!("mcodes.{n}.program"),
@@ -264,4 +281,20 @@ pub(crate) fn check_targets(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn program_files_match_case_insensitively() {
+        let n = |s: &str| is_program_file(Path::new(s), &["o9001".into(), "o9001".into()]);
+        assert!(n("/x/O9001.CNC"));
+        assert!(n("/x/o9001.nc"));
+        assert!(n("O9001.Nc"));
+        assert!(!n("O9001"));
+        assert!(!n("O9001.bak"));
+        assert!(!n("O90011.nc"));
+    }
 }

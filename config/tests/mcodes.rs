@@ -53,12 +53,27 @@ fn bad_entries_are_refused_with_key_and_line() {
     let cases = [
         ("66 = { action = \"blink\" }", "mcodes.66.action"),
         ("66 = { action = \"dwell\" }", "mcodes.66"),
-        ("66 = { action = \"dwell\", seconds = -1.0 }", "mcodes.66.seconds"),
-        ("66 = { action = \"dwell\", seconds = 1.0, output = \"x\" }", "mcodes.66.output"),
-        ("66 = { action = \"wait\", input = \" \", timeout_s = 1.0 }", "mcodes.66.input"),
-        ("66 = { action = \"alias\", codes = [98] }", "mcodes.66.codes"),
+        (
+            "66 = { action = \"dwell\", seconds = -1.0 }",
+            "mcodes.66.seconds",
+        ),
+        (
+            "66 = { action = \"dwell\", seconds = 1.0, output = \"x\" }",
+            "mcodes.66.output",
+        ),
+        (
+            "66 = { action = \"wait\", input = \" \", timeout_s = 1.0 }",
+            "mcodes.66.input",
+        ),
+        (
+            "66 = { action = \"alias\", codes = [98] }",
+            "mcodes.66.codes",
+        ),
         ("66 = { action = \"alias\", codes = [] }", "mcodes.66.codes"),
-        ("66 = { action = \"macro\", program = 0 }", "mcodes.66.program"),
+        (
+            "66 = { action = \"macro\", program = 0 }",
+            "mcodes.66.program",
+        ),
         ("066 = { action = \"ignore\" }", "mcodes.066"),
         ("10000 = { action = \"ignore\" }", "mcodes.10000"),
     ];

@@ -330,7 +330,11 @@ fn arc_tolerances_out_of_range_are_refused() {
         "arc_tolerance_relative = 0.001",
         "arc_tolerance_relative = 1.5",
     );
-    refused(&text, "interp.arc_tolerance_relative", "arc_tolerance_relative = 1.5");
+    refused(
+        &text,
+        "interp.arc_tolerance_relative",
+        "arc_tolerance_relative = 1.5",
+    );
     let text = SHIPPED.replace("arc_tolerance_inch = 0.0028284", "arc_tolerance_inch = 0");
     refused(&text, "interp.arc_tolerance_inch", "arc_tolerance_inch = 0");
     let cfg = parse(SHIPPED).unwrap();

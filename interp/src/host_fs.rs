@@ -318,15 +318,4 @@ mod tests {
         assert_eq!((t.get(520), t.get(521)), (Some(1.0), Some(2.0)));
         std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
     }
-
-    #[test]
-    fn program_files_match_case_insensitively() {
-        let n = |s: &str| matches_name(Path::new(s), &["o9001".into(), "o9001".into()]);
-        assert!(n("/x/O9001.CNC"));
-        assert!(n("/x/o9001.nc"));
-        assert!(n("O9001.Nc"));
-        assert!(!n("O9001"));
-        assert!(!n("O9001.bak"));
-        assert!(!n("O90011.nc"));
-    }
 }

@@ -1,6 +1,7 @@
 //! Habits of real programs from CAM posts and shop controls (issue 20): arc tolerance like a
 //! control, G90.1/G91.1, zero offsets off the plane, corner rounding and chamfers, machine M
 //! codes from the config, Haas habits. Each test is named after the habit it pins.
+#![allow(clippy::result_large_err)]
 
 use cnc402_config::MachineConfig;
 use cnc402_interp::run_program;
@@ -83,7 +84,11 @@ fn wrong_arc_is_refused_naming_both_radii() {
     );
     // Over 100 × the absolute tolerance (2.83 mm) even on a huge radius.
     let e = run("G0 X0 Y0\nG3 X0 Y250 I-10000 J0 F100\n").unwrap_err();
-    assert!(e.message.starts_with("arc end point is not on the circle"), "{}", e.message);
+    assert!(
+        e.message.starts_with("arc end point is not on the circle"),
+        "{}",
+        e.message
+    );
 }
 
 /// G90.1: I/J/K are the centre in work coordinates (G54 here, with a G92 shift on top);
@@ -110,9 +115,19 @@ fn g90_1_takes_the_arc_centre_absolute_and_g91_1_incremental() {
 fn g90_1_arc_without_both_centre_words_is_refused() {
     let e = run("G0 X10 Y0\nG90.1 G3 X0 Y10 J0 F100\n").unwrap_err();
     assert_eq!((e.line, e.col), (2, 7));
-    assert!(e.message.starts_with("I word missing in an absolute centre arc (G90.1)"), "{}", e.message);
+    assert!(
+        e.message
+            .starts_with("I word missing in an absolute centre arc (G90.1)"),
+        "{}",
+        e.message
+    );
     let e = run("G90.1 G91.1\n").unwrap_err();
-    assert!(e.message.starts_with("G90.1 and G91.1 are both in modal group"), "{}", e.message);
+    assert!(
+        e.message
+            .starts_with("G90.1 and G91.1 are both in modal group"),
+        "{}",
+        e.message
+    );
 }
 
 /// FreeCAD posts write `K0` on G17 arcs (and `J0` on G18, `I0` on G19): accepted when zero,
@@ -127,9 +142,18 @@ fn zero_centre_offset_off_the_plane_is_accepted() {
     assert_eq!(arcs(&segs).len(), 1);
     let e = run("G0 X10 Y0\nG3 X0 Y10 I-10 J0 K0.5 F100\n").unwrap_err();
     assert_eq!((e.line, e.col), (2, 19));
-    assert!(e.message.starts_with("K0.5 in a G17 (XY) arc"), "{}", e.message);
+    assert!(
+        e.message.starts_with("K0.5 in a G17 (XY) arc"),
+        "{}",
+        e.message
+    );
     let e = run("(dialect: linuxcnc)\nG0 X10 Y0\nG3 X0 Y10 I-10 J0 K0 F100\n").unwrap_err();
-    assert!(e.message.starts_with("K word given for an arc in the G17 (XY) plane"), "{}", e.message);
+    assert!(
+        e.message
+            .starts_with("K word given for an arc in the G17 (XY) plane"),
+        "{}",
+        e.message
+    );
 }
 
 /// Fanuc lets a macro keyword be written as its first two letters: `WH[…]DO1` … `EN1`,
@@ -240,9 +264,27 @@ fn machine_m_code_dwell_wait_and_macro_calls() {
             timeout_s: 5.0,
         },
     );
-    cfg.mcodes.insert(101, MAction::Macro { program: 9001, args: false });
-    cfg.mcodes.insert(102, MAction::Macro { program: 9020, args: true });
-    cfg.mcodes.insert(103, MAction::Macro { program: 9003, args: false });
+    cfg.mcodes.insert(
+        101,
+        MAction::Macro {
+            program: 9001,
+            args: false,
+        },
+    );
+    cfg.mcodes.insert(
+        102,
+        MAction::Macro {
+            program: 9020,
+            args: true,
+        },
+    );
+    cfg.mcodes.insert(
+        103,
+        MAction::Macro {
+            program: 9003,
+            args: false,
+        },
+    );
     let segs = run_with(&cfg, "M50\nM66\nG0 X5 M101\nM102 X7\nM30\n").unwrap();
     assert_eq!(
         kinds(&segs),
@@ -278,7 +320,11 @@ fn haas_bare_g28_homes_all_axes() {
     let r = |l: char| c.axes[c.axis_index(l).unwrap()].references[0].unwrap();
     assert_eq!(rapids, vec![[10.0, 20.0, -5.0], [r('X'), r('Y'), r('Z')]]);
     let e = run("G0 X10\nG28\n").unwrap_err();
-    assert!(e.message.starts_with("G28 needs the axes to return"), "{}", e.message);
+    assert!(
+        e.message.starts_with("G28 needs the axes to return"),
+        "{}",
+        e.message
+    );
     // Named axes: as Fanuc, in haas too.
     let segs = run("(dialect: haas)\nG0 X10 Y20\nG91 G28 Z0\nM30\n").unwrap();
     let last = segs
@@ -307,18 +353,30 @@ fn haas_decimal_p_dwell_is_seconds() {
             .collect()
     };
     let cycle = "G0 Z10\nG82 X0 Y0 R2 Z-5 P0.5 F100\nG80\nG4 P250\nG4 P1.5\nM30\n";
-    assert_eq!(dwells(&format!("(dialect: haas)\n{cycle}")), vec![0.5, 0.25, 1.5]);
+    assert_eq!(
+        dwells(&format!("(dialect: haas)\n{cycle}")),
+        vec![0.5, 0.25, 1.5]
+    );
     let e = run(cycle).unwrap_err();
-    assert!(e.message.starts_with("P0.5 is not a dwell"), "{}", e.message);
+    assert!(
+        e.message.starts_with("P0.5 is not a dwell"),
+        "{}",
+        e.message
+    );
 }
 
 fn path(segs: &[Segment]) -> Vec<String> {
     segs.iter()
         .filter_map(|s| match &s.kind {
-            SegmentKind::Linear { end, .. } => {
-                Some(format!("L {} {} @{}", fmt(end.0[0]), fmt(end.0[1]), s.source.line))
-            }
-            SegmentKind::Arc { end, center, dir, .. } => Some(format!(
+            SegmentKind::Linear { end, .. } => Some(format!(
+                "L {} {} @{}",
+                fmt(end.0[0]),
+                fmt(end.0[1]),
+                s.source.line
+            )),
+            SegmentKind::Arc {
+                end, center, dir, ..
+            } => Some(format!(
                 "A {} {} c {} {} {dir:?} @{}",
                 fmt(end.0[0]),
                 fmt(end.0[1]),
@@ -380,17 +438,34 @@ fn corner_that_does_not_fit_is_refused_at_its_word() {
     );
     let e = run("G1 X10 ,C2 F100\nG0 Y10\n").unwrap_err();
     assert_eq!((e.line, e.col), (1, 8));
-    assert!(e.message.contains("the next block is not a G1 move"), "{}", e.message);
+    assert!(
+        e.message.contains("the next block is not a G1 move"),
+        "{}",
+        e.message
+    );
     let e = run("G0 X10 ,R2\n").unwrap_err();
-    assert!(e.message.starts_with(",R (corner rounding/chamfer) is only for a G1 move"), "{}", e.message);
+    assert!(
+        e.message
+            .starts_with(",R (corner rounding/chamfer) is only for a G1 move"),
+        "{}",
+        e.message
+    );
     let e = run("G1 X10 ,R2 F100\n").unwrap_err();
     assert_eq!((e.line, e.col), (1, 8));
-    assert!(e.message.contains("the program ends after this move"), "{}", e.message);
+    assert!(
+        e.message.contains("the program ends after this move"),
+        "{}",
+        e.message
+    );
     let e = run("G1 X10 ,R2 F100\nX20\n").unwrap_err();
     assert!(e.message.contains("make no corner"), "{}", e.message);
     let e = run("G1 X10 ,R2 F100\nY10 Z5\n").unwrap_err();
     assert!(e.message.contains("lie in the plane"), "{}", e.message);
     // On this machine C is the spindle axis: a plain C is the axis, not a chamfer.
     let e = run("G1 X10 ,R-1 F100\nY10\n").unwrap_err();
-    assert!(e.message.starts_with("corner R-1 must be > 0"), "{}", e.message);
+    assert!(
+        e.message.starts_with("corner R-1 must be > 0"),
+        "{}",
+        e.message
+    );
 }

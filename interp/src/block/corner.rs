@@ -3,35 +3,12 @@
 //! cuts it with a straight line from c before the corner to c after it. The move with the
 //! corner word is held back until the next block's move is known, then both are shortened.
 
-use cnc402_lang::ast::Span;
 use cnc402_lang::{Dialect, NcError};
-use cnc402_motion::segment::{ArcDir, AxisPos, SegmentKind, Source};
+use cnc402_motion::segment::{ArcDir, AxisPos, SegmentKind};
 
 use super::exec::Exec;
+use super::state::{CornerCut, PendingCorner};
 use super::words::{Arg, fmt_num};
-
-/// What is cut off at a corner.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum CornerCut {
-    /// `,R`: an arc of this radius (mm).
-    Round(f64),
-    /// `,C`: a chamfer this far (mm) from the corner along both moves.
-    Chamfer(f64),
-}
-
-/// A G1 move held back by its corner word: from `start` to the (virtual) corner `corner`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PendingCorner {
-    pub cut: CornerCut,
-    pub start: AxisPos,
-    pub corner: AxisPos,
-    pub feed: f64,
-    /// The block of the held move (its segments carry it).
-    pub source: Source,
-    /// The corner word, for errors found at the next block.
-    pub word: Span,
-    pub file: std::sync::Arc<str>,
-}
 
 /// The corner element of a held move: where the first move ends, the element, where the
 /// second move starts.
@@ -54,7 +31,10 @@ impl Exec<'_> {
                     (Some(r), None) => Some(('R', r)),
                     (None, Some(c)) => Some(('C', c)),
                     (Some(_), Some(c)) => {
-                        return Err(self.err(c.span, "a block takes R (corner rounding) or C (chamfer), not both"));
+                        return Err(self.err(
+                            c.span,
+                            "a block takes R (corner rounding) or C (chamfer), not both",
+                        ));
                     }
                     (None, None) => None,
                 }
@@ -64,9 +44,12 @@ impl Exec<'_> {
         let Some((letter, a)) = word else {
             return Ok(None);
         };
-        if !(a.v > 0.0) {
+        if a.v <= 0.0 || a.v.is_nan() {
             return Err(self
-                .err(a.span, format!("corner {letter}{} must be > 0", fmt_num(a.v)))
+                .err(
+                    a.span,
+                    format!("corner {letter}{} must be > 0", fmt_num(a.v)),
+                )
                 .with_expected(format!("a positive ,{letter}")));
         }
         let mm = a.v * self.st.unit();
@@ -145,7 +128,10 @@ impl Exec<'_> {
             .filter(|&i| i != ia && i != ib)
             .any(|i| p.start[i] != p.corner[i] || p.corner[i] != end[i]);
         if off_plane {
-            return Err(self.corner_unfinished(p, "both moves must lie in the plane (only its two axes move)"));
+            return Err(self.corner_unfinished(
+                p,
+                "both moves must lie in the plane (only its two axes move)",
+            ));
         }
         let q = (p.corner[ia], p.corner[ib]);
         let (d1, l1) = unit((q.0 - p.start[ia], q.1 - p.start[ib]));
@@ -153,7 +139,10 @@ impl Exec<'_> {
         let cross = d1.0 * d2.1 - d1.1 * d2.0;
         let dot = d1.0 * d2.0 + d1.1 * d2.1;
         if l1 < 1e-9 || l2 < 1e-9 || cross.abs() < 1e-9 {
-            return Err(self.corner_unfinished(p, "the two moves make no corner (one is empty, or they are in line)"));
+            return Err(self.corner_unfinished(
+                p,
+                "the two moves make no corner (one is empty, or they are in line)",
+            ));
         }
         // Turning angle θ between the directions; the cut's distance from the corner.
         let theta = cross.atan2(dot).abs();

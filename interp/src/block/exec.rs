@@ -1000,9 +1000,8 @@ impl Exec<'_> {
                         .with_expected(format!("{oa}/{ob} or R")));
                 }
                 let off = self.centre_offset(span, (ia, ib), (oa, ob), (wa, wb), start)?;
-                arc::arc_center(start, stop, off, cw, tol).and_then(|g| {
-                    self.planner_circle(g, start, stop, cw, tol)
-                })
+                arc::arc_center(start, stop, off, cw, tol)
+                    .and_then(|g| self.planner_circle(g, start, stop, cw, tol))
             }
         };
         let g = g.map_err(|e| {
@@ -1093,12 +1092,10 @@ impl Exec<'_> {
         if (g.radius - end_radius).abs() <= self.cfg.interp.arc_tolerance {
             return Ok(g);
         }
-        arc::equal_radii(&g, start, stop, cw, 100.0 * tol.absolute).ok_or(
-            ArcError::NotOnCircle {
-                start_radius: g.radius,
-                end_radius,
-            },
-        )
+        arc::equal_radii(&g, start, stop, cw, 100.0 * tol.absolute).ok_or(ArcError::NotOnCircle {
+            start_radius: g.radius,
+            end_radius,
+        })
     }
 
     /// The arc centre minus the start point, from the plane's centre words `(wa, wb)`
@@ -1115,13 +1112,21 @@ impl Exec<'_> {
     ) -> Result<(f64, f64), NcError> {
         let unit = self.st.unit();
         if !self.st.arc_center_absolute {
-            return Ok((wa.map_or(0.0, |a| a.v * unit), wb.map_or(0.0, |a| a.v * unit)));
+            return Ok((
+                wa.map_or(0.0, |a| a.v * unit),
+                wb.map_or(0.0, |a| a.v * unit),
+            ));
         }
         let (Some(a), Some(b)) = (wa, wb) else {
             let missing = if wa.is_none() { oa } else { ob };
             return Err(self
-                .err(span, format!("{missing} word missing in an absolute centre arc (G90.1)"))
-                .with_expected(format!("both {oa} and {ob}, the centre in work coordinates")));
+                .err(
+                    span,
+                    format!("{missing} word missing in an absolute centre arc (G90.1)"),
+                )
+                .with_expected(format!(
+                    "both {oa} and {ob}, the centre in work coordinates"
+                )));
         };
         Ok((
             a.v * unit + self.st.origin(ia) - start.0,
@@ -1147,7 +1152,10 @@ impl Exec<'_> {
         }
         if self.dialect == Dialect::LinuxCnc {
             return Err(self
-                .err(w.span, format!("{letter} word given for an arc in the {plane} plane"))
+                .err(
+                    w.span,
+                    format!("{letter} word given for an arc in the {plane} plane"),
+                )
                 .with_expected(format!("no {letter} (LinuxCNC refuses it, even 0)")));
         }
         if w.v != 0.0 {
@@ -1169,7 +1177,10 @@ impl Exec<'_> {
     fn check_corner_words(&mut self) -> Result<(), NcError> {
         if let Some((l, a)) = self.w.corner.take() {
             return Err(self
-                .err(a.span, format!(",{l} (corner rounding/chamfer) is only for a G1 move"))
+                .err(
+                    a.span,
+                    format!(",{l} (corner rounding/chamfer) is only for a G1 move"),
+                )
                 .with_expected("G1 and a move in the plane"));
         }
         if !self.corner_done

@@ -22,10 +22,12 @@ pub(crate) fn macro_calls(
         // In a G65/G66 block M is argument #13, not a code.
         return Ok(());
     }
-    let mut calls = w.m.iter().filter_map(|&(code, span)| match cfg.mcodes.get(&code) {
-        Some(&MAction::Macro { program, args }) => Some((code, span, program, args)),
-        _ => None,
-    });
+    let mut calls =
+        w.m.iter()
+            .filter_map(|&(code, span)| match cfg.mcodes.get(&code) {
+                Some(&MAction::Macro { program, args }) => Some((code, span, program, args)),
+                _ => None,
+            });
     let Some((code, span, program, args)) = calls.next() else {
         return Ok(());
     };

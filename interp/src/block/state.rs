@@ -5,7 +5,8 @@
 //! that a change lasts for the run and the next run starts from the config again.
 
 use cnc402_config::{MAX_AXES, MachineConfig, PlaneDefault, ReturnPlane, ToolOffset, Units};
-use cnc402_motion::segment::{AxisPos, Plane, SpindleDir};
+use cnc402_lang::ast::Span;
+use cnc402_motion::segment::{AxisPos, Plane, Source, SpindleDir};
 
 use crate::canon::{CanonState, FeedMode, PathMode, ProgramUnits};
 
@@ -112,6 +113,29 @@ pub struct CycleData {
     pub initial_tlo_pending: f64,
 }
 
+/// What is cut off at a corner.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CornerCut {
+    /// `,R`: an arc of this radius (mm).
+    Round(f64),
+    /// `,C`: a chamfer this far (mm) from the corner along both moves.
+    Chamfer(f64),
+}
+
+/// A G1 move held back by its corner word: from `start` to the (virtual) corner `corner`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PendingCorner {
+    pub cut: CornerCut,
+    pub start: AxisPos,
+    pub corner: AxisPos,
+    pub feed: f64,
+    /// The block of the held move (its segments carry it).
+    pub source: Source,
+    /// The corner word, for errors found at the next block.
+    pub word: Span,
+    pub file: std::sync::Arc<str>,
+}
+
 /// Everything modal.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModalState {
@@ -178,7 +202,7 @@ pub struct ModalState {
     /// `interp.path_tolerance`.
     pub path_tolerance: f64,
     /// A G1 move held back by its `,R`/`,C` corner word until the next block's move.
-    pub pending_corner: Option<super::corner::PendingCorner>,
+    pub pending_corner: Option<PendingCorner>,
     /// Machine M codes (`[mcodes]`) whose once-a-run note was given (at most one per
     /// configured code).
     pub noted_mcodes: Vec<u32>,
