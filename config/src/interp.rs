@@ -51,8 +51,17 @@ pub struct InterpDefaults {
     /// G84/G74 peck tapping: how far the tap backs out after each peck (mm; Fanuc parameter
     /// No. 5213, the return amount of peck tapping). Default: `peck_retract`'s value.
     pub tap_peck_retract: f64,
-    /// Largest allowed difference between an arc's start and end radius (mm).
+    /// An I/J/K arc is refused when its start and end radius differ by more than this
+    /// (mm, in G21 programs) and by more than `arc_tolerance_relative` of the radius, or by
+    /// more than 100 times this (LinuxCNC's rule and `CENTER_ARC_RADIUS_TOLERANCE_MM`).
+    /// Also the planner's limit for an arc whose radius changes from start to end.
     pub arc_tolerance: f64,
+    /// `arc_tolerance` for G20 programs, in inches (LinuxCNC's
+    /// `CENTER_ARC_RADIUS_TOLERANCE_INCH`).
+    pub arc_tolerance_inch: f64,
+    /// The relative part of the arc rule: a fraction of the larger radius (LinuxCNC's
+    /// `SPIRAL_RELATIVE_TOLERANCE`, 0.001); 0 turns it off (the absolute tolerance alone).
+    pub arc_tolerance_relative: f64,
     /// G64 continuous-path mode's default corner tolerance (mm): how far the path may leave
     /// a corner between blocks when the program gives none (LinuxCNC's G64 P, Fanuc's default).
     pub path_tolerance: f64,
@@ -93,6 +102,10 @@ pub(crate) struct RawInterp {
     tap_peck_retract: Option<Spanned<f64>>,
     #[serde(default = "default_arc_tol")]
     arc_tolerance: Spanned<f64>,
+    #[serde(default = "default_arc_tol_inch")]
+    arc_tolerance_inch: Spanned<f64>,
+    #[serde(default = "default_arc_tol_relative")]
+    arc_tolerance_relative: Spanned<f64>,
     #[serde(default = "default_path_tol")]
     path_tolerance: Spanned<f64>,
     #[serde(default = "default_orient_angle")]
@@ -118,6 +131,8 @@ impl Default for RawInterp {
             peck_clearance: default_half(),
             tap_peck_retract: None,
             arc_tolerance: default_arc_tol(),
+            arc_tolerance_inch: default_arc_tol_inch(),
+            arc_tolerance_relative: default_arc_tol_relative(),
             path_tolerance: default_path_tol(),
             spindle_orient_angle: default_orient_angle(),
             program_dir: default_program_dir(),
@@ -140,8 +155,17 @@ fn default_return() -> Spanned<String> {
 fn default_half() -> Spanned<f64> {
     sp(0.5)
 }
+/// LinuxCNC's `CENTER_ARC_RADIUS_TOLERANCE_MM`, 2 · 0.01 · √2 mm (interp_internal.hh).
 fn default_arc_tol() -> Spanned<f64> {
-    sp(0.002)
+    sp(2.0 * 0.01 * std::f64::consts::SQRT_2)
+}
+/// LinuxCNC's `CENTER_ARC_RADIUS_TOLERANCE_INCH`, 2 · 0.001 · √2 inch.
+fn default_arc_tol_inch() -> Spanned<f64> {
+    sp(2.0 * 0.001 * std::f64::consts::SQRT_2)
+}
+/// LinuxCNC's `SPIRAL_RELATIVE_TOLERANCE`.
+fn default_arc_tol_relative() -> Spanned<f64> {
+    sp(0.001)
 }
 fn default_path_tol() -> Spanned<f64> {
     sp(0.01)
@@ -212,6 +236,15 @@ impl RawInterp {
                 None => positive_at_most(&i.peck_retract, "interp.peck_retract", MAX_LENGTH)?,
             },
             arc_tolerance: positive_at_most(&i.arc_tolerance, "interp.arc_tolerance", MAX_LENGTH)?,
+            arc_tolerance_inch: positive_at_most(
+                &i.arc_tolerance_inch,
+                "interp.arc_tolerance_inch",
+                MAX_LENGTH / 25.4,
+            )?,
+            arc_tolerance_relative: fraction(
+                &i.arc_tolerance_relative,
+                "interp.arc_tolerance_relative",
+            )?,
             path_tolerance: positive_at_most(
                 &i.path_tolerance,
                 "interp.path_tolerance",
@@ -239,6 +272,20 @@ impl RawInterp {
                 "leave the key out to search only next to the program",
             )?,
         })
+    }
+}
+
+/// A finite fraction 0 ≤ x ≤ 1.
+fn fraction(v: &Spanned<f64>, key: &str) -> Result<f64, Invalid> {
+    let x = *v.get_ref();
+    if x.is_finite() && (0.0..=1.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err((
+            v.span(),
+            key.to_string(),
+            format!("expected a fraction 0 <= x <= 1, got {x}"),
+        ))
     }
 }
 

@@ -11,6 +11,7 @@ mod bus;
 mod check;
 mod error;
 mod interp;
+mod mcodes;
 mod tool_offsets;
 mod work_offsets;
 
@@ -22,6 +23,7 @@ pub use axes::{AxisConfig, AxisKind, ExpectedIdentity, SimDynamics};
 pub use bus::BusConfig;
 pub use error::ConfigError;
 pub use interp::{InterpDefaults, PlaneDefault, ReturnPlane, Units};
+pub use mcodes::{BUILT_IN_M_CODES, MAction, PROGRAM_EXTENSIONS, program_file};
 pub use tool_offsets::{TOOL_OFFSETS, ToolOffset};
 
 use check::Invalid;
@@ -44,6 +46,8 @@ pub struct MachineConfig {
     /// Tool offsets 1..=[`TOOL_OFFSETS`] (Fanuc memory C): `tool_offsets[n - 1]` is number n.
     /// Programs change their copy (G10, `#11001…`) for one run; the file is never written.
     pub tool_offsets: Vec<ToolOffset>,
+    /// `[mcodes]`: the machine's own M codes by number (none is a built-in one).
+    pub mcodes: std::collections::BTreeMap<u32, MAction>,
 }
 
 impl MachineConfig {
@@ -140,6 +144,8 @@ struct RawConfig {
     work_offsets: work_offsets::RawWorkOffsets,
     #[serde(default)]
     tool_offsets: tool_offsets::RawToolOffsets,
+    #[serde(default)]
+    mcodes: mcodes::RawMCodes,
     axis: Vec<check::Table<axes::RawAxis>>,
 }
 
@@ -152,6 +158,7 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
     let axes = axes::validate(&raw.axis, &bus)?;
     let work_offsets = work_offsets::validate(&raw.work_offsets, &axes)?;
     let tool_offsets = tool_offsets::validate(&raw.tool_offsets)?;
+    let mcodes = mcodes::validate(&raw.mcodes)?;
     let config = MachineConfig {
         path: path.to_path_buf(),
         axes,
@@ -159,8 +166,10 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
         interp,
         work_offsets,
         tool_offsets,
+        mcodes,
     };
     raw.interp.check_paths(&config)?;
+    mcodes::check_targets(&raw.mcodes, &config.mcodes, &config.program_dir())?;
     Ok(config)
 }
 

@@ -315,13 +315,31 @@ fn interp_lengths_above_a_metre_are_refused() {
         "peck_retract = 0.5",
         "peck_clearance = 0.5",
         "tap_peck_retract = 0.5",
-        "arc_tolerance = 0.002",
+        "arc_tolerance = 0.028284",
         "path_tolerance = 0.01",
     ] {
         let name = key.split(' ').next().unwrap();
         let text = SHIPPED.replace(key, &format!("{name} = 1e300"));
         refused(&text, &format!("interp.{name}"), &format!("{name} = 1e300"));
     }
+}
+
+#[test]
+fn arc_tolerances_out_of_range_are_refused() {
+    let text = SHIPPED.replace(
+        "arc_tolerance_relative = 0.001",
+        "arc_tolerance_relative = 1.5",
+    );
+    refused(
+        &text,
+        "interp.arc_tolerance_relative",
+        "arc_tolerance_relative = 1.5",
+    );
+    let text = SHIPPED.replace("arc_tolerance_inch = 0.0028284", "arc_tolerance_inch = 0");
+    refused(&text, "interp.arc_tolerance_inch", "arc_tolerance_inch = 0");
+    let cfg = parse(SHIPPED).unwrap();
+    assert_eq!(cfg.interp.arc_tolerance_relative, 0.001);
+    assert_eq!(cfg.interp.arc_tolerance_inch, 0.0028284);
 }
 
 #[test]

@@ -13,8 +13,9 @@ use crate::flow::Interpreter;
 use crate::host::{PersistentVars, ProgramLibrary, UsedFile};
 use crate::vars::nv::{self, NV_FIRST, NV_LAST, NvTable, VarFileError};
 
-/// Extensions a program file may have (compared case-insensitively).
-pub const PROGRAM_EXTENSIONS: &[&str] = &["nc", "cnc", "ngc", "tap", "txt", "mpf", "spf"];
+/// Extensions a program file may have (compared case-insensitively); the config checks
+/// `[mcodes]` macro targets by the same rule.
+pub use cnc402_config::PROGRAM_EXTENSIONS;
 
 /// A directory of program files named after their number: `O9001.CNC`, `o9001.nc`, `O1.nc`
 /// (with or without leading zeros to four digits), extension case-insensitive. As a
@@ -31,21 +32,7 @@ impl ProgramDir {
 
     /// The path of program `number`'s file, if the directory has one.
     pub fn path_of(&self, number: u32) -> Result<Option<PathBuf>, String> {
-        let names = [format!("o{number:04}"), format!("o{number}")];
-        let rd = match std::fs::read_dir(&self.dir) {
-            Ok(rd) => rd,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => return Err(format!("program directory {}: {e}", self.dir.display())),
-        };
-        let mut found: Vec<PathBuf> = Vec::new();
-        for ent in rd.flatten() {
-            let p = ent.path();
-            if matches_name(&p, &names) {
-                found.push(p);
-            }
-        }
-        found.sort();
-        Ok(found.into_iter().next())
+        cnc402_config::program_file(&self.dir, number)
     }
 
     /// Program `number`'s file, read (`Ok(None)`: the folder has none).
@@ -60,19 +47,6 @@ impl ProgramDir {
 fn read_source(p: &Path) -> Result<SourceFile, String> {
     let bytes = std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()))?;
     Ok(SourceFile::from_bytes(p.display().to_string(), bytes))
-}
-
-fn matches_name(p: &Path, names: &[String]) -> bool {
-    let (Some(stem), Some(ext)) = (
-        p.file_stem().and_then(|s| s.to_str()),
-        p.extension().and_then(|s| s.to_str()),
-    ) else {
-        return false;
-    };
-    names.iter().any(|n| stem.eq_ignore_ascii_case(n))
-        && PROGRAM_EXTENSIONS
-            .iter()
-            .any(|e| ext.eq_ignore_ascii_case(e))
 }
 
 impl ProgramLibrary for ProgramDir {
@@ -343,16 +317,5 @@ mod tests {
         let t = NvTable::load(&path).unwrap();
         assert_eq!((t.get(520), t.get(521)), (Some(1.0), Some(2.0)));
         std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
-    }
-
-    #[test]
-    fn program_files_match_case_insensitively() {
-        let n = |s: &str| matches_name(Path::new(s), &["o9001".into(), "o9001".into()]);
-        assert!(n("/x/O9001.CNC"));
-        assert!(n("/x/o9001.nc"));
-        assert!(n("O9001.Nc"));
-        assert!(!n("O9001"));
-        assert!(!n("O9001.bak"));
-        assert!(!n("O90011.nc"));
     }
 }

@@ -552,7 +552,7 @@ const CASES: &[(&str, u32, u32, &str)] = &[
         "G17 G2 X1 Y1 K1 I1 F10\n",
         1,
         14,
-        "address K is not used in this block",
+        "K1 in a G17 (XY) arc: the centre offset along the plane's normal must be 0",
     ),
     (
         "G0 X1 X2\n",
@@ -697,8 +697,8 @@ const CASES: &[(&str, u32, u32, &str)] = &[
     (
         "G18 G2 X1 Z1 J1 F100\n",
         1,
-        5,
-        "G2 needs the centre (K, I) or R",
+        14,
+        "J1 in a G18 (ZX) arc: the centre offset along the plane's normal must be 0",
     ),
     (
         "M4 S500\nG0 Z10\nG74 X0 R2 Z-5 S0 F100\n",

@@ -119,11 +119,22 @@ pub struct NamedAxisWord {
 /// A word: an address letter and its value, e.g. `X-12.5`, `G01`, `F=100*2`, `Z[1+2]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Word {
-    /// Upper-case address letter (`a`..`z` in the text are accepted and folded).
+    /// Upper-case address letter (`a`..`z` in the text are accepted and folded). The
+    /// comma addresses of Fanuc's corner rounding and chamfer, `,R` and `,C`, are the lower
+    /// case `r` and `c` (see [`Word::comma_letter`]).
     pub letter: char,
     pub value: Value,
     /// The whole word, letter through value.
     pub span: Span,
+}
+
+impl Word {
+    /// `Some('R')` for a `,R` word, `Some('C')` for `,C`; `None` for a plain address.
+    pub fn comma_letter(&self) -> Option<char> {
+        self.letter
+            .is_ascii_lowercase()
+            .then(|| self.letter.to_ascii_uppercase())
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]

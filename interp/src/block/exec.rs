@@ -6,13 +6,13 @@ use std::sync::Arc;
 
 use cnc402_config::MachineConfig;
 use cnc402_lang::ast::{Comment, Line, Span};
-use cnc402_lang::{NcError, SourceFile};
+use cnc402_lang::{Dialect, NcError, SourceFile};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, Source, SpindleDir, StopKind};
 
-use super::arc::{self, ArcError};
+use super::arc::{self, ArcError, ArcGeom, ArcTolerance};
 use super::options::Options;
 use super::state::{Cycle, CycleData, ModalState, Motion};
-use super::words::{Arg, GGroup, Words, fmt_num};
+use super::words::{Arg, GGroup, Words, fmt_num, g_dec, g_name};
 use crate::canon::{CanonKind, CanonOp, CanonState};
 use crate::lower::xyz_indices;
 
@@ -53,6 +53,8 @@ pub(crate) struct Exec<'a> {
     pub cfg: &'a MachineConfig,
     pub opts: &'a Options,
     pub src: &'a SourceFile,
+    /// The dialect the program is read in (where controls differ).
+    pub dialect: Dialect,
     pub st: &'a mut ModalState,
     pub w: Words,
     pub source: Source,
@@ -68,6 +70,8 @@ pub(crate) struct Exec<'a> {
     pub tlo_commanded: bool,
     /// G49 in a G28/G30/G53 block: the offset is cancelled after the block's moves.
     pub tlo_cancel_after: bool,
+    /// The block's move finished a held corner move or was held itself.
+    pub corner_done: bool,
 }
 
 /// `(MSG, text)` → `text`.
@@ -88,6 +92,7 @@ fn group_name(g: GGroup) -> &'static str {
         GGroup::Motion => "01 (motion)",
         GGroup::Plane => "02 (plane)",
         GGroup::Distance => "03 (G90/G91)",
+        GGroup::ArcDistance => "(G90.1/G91.1, arc centre distance)",
         GGroup::FeedMode => "05 (feed mode)",
         GGroup::Units => "06 (units)",
         GGroup::Cycle => "09 (canned cycle)",
@@ -154,7 +159,7 @@ impl Exec<'_> {
     pub(crate) fn execute(
         cfg: &MachineConfig,
         opts: &Options,
-        src: &SourceFile,
+        (src, dialect): (&SourceFile, Dialect),
         (st, canon): (&mut ModalState, &mut Option<Arc<CanonState>>),
         w: Words,
         line: &Line,
@@ -163,6 +168,7 @@ impl Exec<'_> {
             cfg,
             opts,
             src,
+            dialect,
             st,
             canon,
             w,
@@ -176,6 +182,7 @@ impl Exec<'_> {
             end: false,
             tlo_commanded: false,
             tlo_cancel_after: false,
+            corner_done: false,
         };
         ex.run(line)?;
         Ok((ex.out, ex.end))
@@ -187,6 +194,7 @@ impl Exec<'_> {
                 self.push(SegmentKind::Message { text });
             }
         }
+        self.machine_m_codes()?;
         self.check_groups()?;
         self.modes()?;
         self.feed_word()?;
@@ -210,6 +218,7 @@ impl Exec<'_> {
             self.st.set_tool_length(super::state::ToolLength::Off, 0.0);
         }
         self.m_after_motion();
+        self.check_corner_words()?;
         self.check_finite()?;
         if let Some((c, a)) = self.w.first_unused() {
             return Err(self
@@ -346,7 +355,9 @@ impl Exec<'_> {
                 return Err(self.err(
                     span,
                     format!(
-                        "G{c0} and G{code} are both in modal group {}: a block takes one G code of each group",
+                        "{} and {} are both in modal group {}: a block takes one G code of each group",
+                        g_name(c0),
+                        g_name(code),
                         group_name(grp)
                     ),
                 ));
@@ -421,6 +432,9 @@ impl Exec<'_> {
         }
         if let Some((c, _)) = self.w.g_of(GGroup::Distance) {
             self.st.incremental = c == 91;
+        }
+        if let Some((c, _)) = self.w.g_of(GGroup::ArcDistance) {
+            self.st.arc_center_absolute = c == g_dec(90, 1);
         }
         if let Some((c, _)) = self.w.g_of(GGroup::FeedMode) {
             self.st.feed_per_rev = c == 95;
@@ -627,8 +641,15 @@ impl Exec<'_> {
         Ok(())
     }
 
-    /// A Fanuc `P` dwell: whole milliseconds → seconds.
+    /// A Fanuc `P` dwell: whole milliseconds → seconds. In the haas dialect a `P` written
+    /// with a decimal point is seconds (`P0.5`, as Haas reads it in G4 and canned cycles).
     pub fn dwell_p(&self, p: Arg) -> Result<f64, NcError> {
+        if self.dialect == Dialect::Haas && p.has_point {
+            if p.v < 0.0 {
+                return Err(self.err(p.span, "dwell time must not be negative"));
+            }
+            return Ok(p.v);
+        }
         if p.v < 0.0 || p.v.fract() != 0.0 {
             return Err(self
                 .err(
@@ -915,7 +936,11 @@ impl Exec<'_> {
                     let feed = self.feed_rate(motion_span)?;
                     match self.programmed_tap(&end, &worded) {
                         Some((tool, pitch)) => self.tap(end, feed, tool, pitch, &[]),
-                        None => self.linear(end, feed, &[]),
+                        None => {
+                            let corner = self.corner_word()?;
+                            self.corner_done = true;
+                            self.linear_with_corners(end, feed, corner)
+                        }
                     }
                 }
             }
@@ -947,6 +972,7 @@ impl Exec<'_> {
         } else {
             (self.w.take(oa), self.w.take(ob))
         };
+        self.off_plane_offset(r.is_some())?;
         if !any && r.is_none() && wa.is_none() && wb.is_none() {
             return Ok(());
         }
@@ -958,9 +984,9 @@ impl Exec<'_> {
         let unit = self.st.unit();
         let start = (self.st.pos[ia], self.st.pos[ib]);
         let stop = (end[ia], end[ib]);
-        let tol = self.cfg.interp.arc_tolerance;
+        let tol = self.arc_tolerance();
         let g = match r {
-            Some(r) => arc::arc_radius(start, stop, r.v * unit, cw, tol),
+            Some(r) => arc::arc_radius(start, stop, r.v * unit, cw, arc::R_TOLERANCE_INCH * 25.4),
             None => {
                 if wa.is_none() && wb.is_none() {
                     return Err(self
@@ -973,11 +999,9 @@ impl Exec<'_> {
                         )
                         .with_expected(format!("{oa}/{ob} or R")));
                 }
-                let off = (
-                    wa.map_or(0.0, |a| a.v * unit),
-                    wb.map_or(0.0, |a| a.v * unit),
-                );
+                let off = self.centre_offset(span, (ia, ib), (oa, ob), (wa, wb), start)?;
                 arc::arc_center(start, stop, off, cw, tol)
+                    .and_then(|g| self.planner_circle(g, start, stop, cw, tol))
             }
         };
         let g = g.map_err(|e| {
@@ -991,11 +1015,12 @@ impl Exec<'_> {
                     .err(
                         self.span_of(&[la, lb]),
                         format!(
-                            "arc end point is not on the circle: start radius {}, end radius {} (difference {} > tolerance {})",
-                            fmt_num(start_radius),
-                            fmt_num(end_radius),
-                            fmt_num((start_radius - end_radius).abs()),
-                            fmt_num(tol)
+                            "arc end point is not on the circle: start radius {}, end radius {} (difference {} > tolerance {} and > {} % of the radius)",
+                            fmt_num(start_radius / unit),
+                            fmt_num(end_radius / unit),
+                            fmt_num((start_radius - end_radius).abs() / unit),
+                            fmt_num(tol.absolute / unit),
+                            fmt_num(tol.relative * 100.0)
                         ),
                     )
                     .with_expected("an end point at the start point's distance from the centre"),
@@ -1035,6 +1060,134 @@ impl Exec<'_> {
             feed,
         });
         self.st.pos = end;
+        Ok(())
+    }
+
+    /// The I/J/K radius tolerance of the program's units (`interp.arc_tolerance` in mm,
+    /// `interp.arc_tolerance_inch` in inches, `interp.arc_tolerance_relative`), in mm.
+    fn arc_tolerance(&self) -> ArcTolerance {
+        let i = &self.cfg.interp;
+        ArcTolerance {
+            absolute: if self.st.inch {
+                i.arc_tolerance_inch * 25.4
+            } else {
+                i.arc_tolerance
+            },
+            relative: i.arc_tolerance_relative,
+        }
+    }
+
+    /// `g` as the planner takes it: an arc whose radii differ by more than the planner's
+    /// spiral limit (`interp.arc_tolerance`, mm) gets its centre moved onto the chord's
+    /// bisector; if that is more than `100 ×` the tolerance away, the arc is refused.
+    fn planner_circle(
+        &self,
+        g: ArcGeom,
+        start: (f64, f64),
+        stop: (f64, f64),
+        cw: bool,
+        tol: ArcTolerance,
+    ) -> Result<ArcGeom, ArcError> {
+        let end_radius = (stop.0 - g.center.0).hypot(stop.1 - g.center.1);
+        if (g.radius - end_radius).abs() <= self.cfg.interp.arc_tolerance {
+            return Ok(g);
+        }
+        arc::equal_radii(&g, start, stop, cw, 100.0 * tol.absolute).ok_or(ArcError::NotOnCircle {
+            start_radius: g.radius,
+            end_radius,
+        })
+    }
+
+    /// The arc centre minus the start point, from the plane's centre words `(wa, wb)`
+    /// (letters `(oa, ob)`, of axes `(ia, ib)`): incremental from the start (G91.1, Fanuc's
+    /// only mode; a word left out is 0) or the centre in work coordinates (G90.1; both words
+    /// needed, as LinuxCNC says "I word missing in absolute center arc").
+    fn centre_offset(
+        &self,
+        span: Span,
+        (ia, ib): (usize, usize),
+        (oa, ob): (char, char),
+        (wa, wb): (Option<Arg>, Option<Arg>),
+        start: (f64, f64),
+    ) -> Result<(f64, f64), NcError> {
+        let unit = self.st.unit();
+        if !self.st.arc_center_absolute {
+            return Ok((
+                wa.map_or(0.0, |a| a.v * unit),
+                wb.map_or(0.0, |a| a.v * unit),
+            ));
+        }
+        let (Some(a), Some(b)) = (wa, wb) else {
+            let missing = if wa.is_none() { oa } else { ob };
+            return Err(self
+                .err(
+                    span,
+                    format!("{missing} word missing in an absolute centre arc (G90.1)"),
+                )
+                .with_expected(format!(
+                    "both {oa} and {ob}, the centre in work coordinates"
+                )));
+        };
+        Ok((
+            a.v * unit + self.st.origin(ia) - start.0,
+            b.v * unit + self.st.origin(ib) - start.1,
+        ))
+    }
+
+    /// The centre word along the plane's normal (`K` in a G17 arc, `J` in G18, `I` in G19):
+    /// CAM posts write `K0`. Zero is accepted and means nothing; another value is refused. In
+    /// the linuxcnc dialect any such word is refused, as `rs274` does (`K word given for arc
+    /// in xy plane`). With R the centre words are ignored (Fanuc), this one too.
+    fn off_plane_offset(&mut self, with_r: bool) -> Result<(), NcError> {
+        let (letter, plane) = match self.st.plane {
+            Plane::XY => ('K', "G17 (XY)"),
+            Plane::ZX => ('J', "G18 (ZX)"),
+            Plane::YZ => ('I', "G19 (YZ)"),
+        };
+        let Some(w) = self.w.take(letter) else {
+            return Ok(());
+        };
+        if with_r {
+            return Ok(());
+        }
+        if self.dialect == Dialect::LinuxCnc {
+            return Err(self
+                .err(
+                    w.span,
+                    format!("{letter} word given for an arc in the {plane} plane"),
+                )
+                .with_expected(format!("no {letter} (LinuxCNC refuses it, even 0)")));
+        }
+        if w.v != 0.0 {
+            return Err(self
+                .err(
+                    w.span,
+                    format!(
+                        "{letter}{} in a {plane} arc: the centre offset along the plane's normal must be 0",
+                        fmt_num(w.v)
+                    ),
+                )
+                .with_expected(format!("{letter}0 or no {letter}")));
+        }
+        Ok(())
+    }
+
+    /// A corner word nothing took (not a G1 move), or a held corner move this block did not
+    /// finish: errors.
+    fn check_corner_words(&mut self) -> Result<(), NcError> {
+        if let Some((l, a)) = self.w.corner.take() {
+            return Err(self
+                .err(
+                    a.span,
+                    format!(",{l} (corner rounding/chamfer) is only for a G1 move"),
+                )
+                .with_expected("G1 and a move in the plane"));
+        }
+        if !self.corner_done
+            && let Some(p) = &self.st.pending_corner
+        {
+            return Err(self.corner_unfinished(p, "the next block is not a G1 move"));
+        }
         Ok(())
     }
 }

@@ -76,11 +76,30 @@ impl Machine {
         Exec::execute(
             &self.cfg,
             &self.opts,
-            src,
+            (src, self.dialect),
             (&mut self.state, &mut self.canon),
             words,
             line,
         )
+    }
+
+    /// The main program ended (its last line): a move still held by a `,R`/`,C` corner word
+    /// has no next move to round into.
+    pub(crate) fn end_of_program(&self, src: &SourceFile) -> Result<(), NcError> {
+        match &self.state.pending_corner {
+            Some(p) if p.file == src.name => Err(NcError::new(
+                src,
+                p.word,
+                "corner rounding/chamfer: the program ends after this move",
+            )
+            .with_expected("a G1 move in the plane in the block after a `,R`/`,C` block")),
+            Some(_) => Err(NcError::new(
+                src,
+                cnc402_lang::ast::Span::default(),
+                "corner rounding/chamfer: the program ends after a move with ,R/,C",
+            )),
+            None => Ok(()),
+        }
     }
 
     /// Adds a handed-out segment's length to the path length.

@@ -395,10 +395,17 @@ impl Exec<'_> {
             }
         };
         let ord = ["", "second_", "third_", "fourth_"][slot];
+        let spindle = self.cfg.spindle_index();
+        // Haas: a bare G28 sends every axis (not the spindle) straight to its reference.
+        let home_all = code == 28
+            && self.dialect == cnc402_lang::Dialect::Haas
+            && self.cfg.axes.iter().all(|a| self.w.peek(a.name).is_none());
         let mut refs = Vec::new();
         for i in 0..self.cfg.axes.len() {
             let ax = &self.cfg.axes[i];
-            if let Some(a) = self.w.peek(ax.name) {
+            if home_all && spindle != Some(i) {
+                refs.push(ax.references[0].unwrap_or_default());
+            } else if let Some(a) = self.w.peek(ax.name) {
                 let Some(r) = ax.references[slot] else {
                     return Err(self
                         .err(
@@ -418,7 +425,15 @@ impl Exec<'_> {
                 refs.push(r);
             }
         }
-        let named = self.named_axes();
+        let named: Vec<(usize, Option<f64>)> = if home_all {
+            (0..self.cfg.axes.len())
+                .filter(|&i| spindle != Some(i))
+                .map(|i| (i, None))
+                .collect()
+        } else {
+            let words = self.named_axes().into_iter();
+            words.map(|(i, v)| (i, Some(v))).collect()
+        };
         if named.is_empty() {
             let axes: String = self.cfg.axes.iter().map(|a| a.name).collect();
             return Err(self
@@ -430,14 +445,15 @@ impl Exec<'_> {
         }
         let mut mid = self.st.pos;
         for &(i, v) in &named {
-            mid[i] = self.word_target(i, v);
+            if let Some(v) = v {
+                mid[i] = self.word_target(i, v);
+            }
         }
         let letters: Vec<char> = named.iter().map(|&(i, _)| self.cfg.axes[i].name).collect();
         if mid != self.st.pos {
             self.rapid(mid, &letters)?;
         }
         let mut end = mid;
-        let spindle = self.cfg.spindle_index();
         let mut orient = None;
         for (&(i, _), r) in named.iter().zip(refs) {
             self.st.ref_mid[i] = Some(mid[i]);

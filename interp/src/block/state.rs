@@ -5,7 +5,8 @@
 //! that a change lasts for the run and the next run starts from the config again.
 
 use cnc402_config::{MAX_AXES, MachineConfig, PlaneDefault, ReturnPlane, ToolOffset, Units};
-use cnc402_motion::segment::{AxisPos, Plane, SpindleDir};
+use cnc402_lang::ast::Span;
+use cnc402_motion::segment::{AxisPos, Plane, Source, SpindleDir};
 
 use crate::canon::{CanonState, FeedMode, PathMode, ProgramUnits};
 
@@ -112,6 +113,29 @@ pub struct CycleData {
     pub initial_tlo_pending: f64,
 }
 
+/// What is cut off at a corner.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CornerCut {
+    /// `,R`: an arc of this radius (mm).
+    Round(f64),
+    /// `,C`: a chamfer this far (mm) from the corner along both moves.
+    Chamfer(f64),
+}
+
+/// A G1 move held back by its corner word: from `start` to the (virtual) corner `corner`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PendingCorner {
+    pub cut: CornerCut,
+    pub start: AxisPos,
+    pub corner: AxisPos,
+    pub feed: f64,
+    /// The block of the held move (its segments carry it).
+    pub source: Source,
+    /// The corner word, for errors found at the next block.
+    pub word: Span,
+    pub file: std::sync::Arc<str>,
+}
+
 /// Everything modal.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModalState {
@@ -123,6 +147,9 @@ pub struct ModalState {
     pub inch: bool,
     /// G91 (true) / G90.
     pub incremental: bool,
+    /// G90.1 (true: I/J/K are the centre in work coordinates) / G91.1 (incremental from the
+    /// start point, Fanuc's only mode; the default at program start).
+    pub arc_center_absolute: bool,
     /// G95 (true) / G94.
     pub feed_per_rev: bool,
     /// 0..=5 for G54..G59.
@@ -174,6 +201,11 @@ pub struct ModalState {
     /// The tolerance of G64 (mm, > 0): its `P` word, else the config's
     /// `interp.path_tolerance`.
     pub path_tolerance: f64,
+    /// A G1 move held back by its `,R`/`,C` corner word until the next block's move.
+    pub pending_corner: Option<PendingCorner>,
+    /// Machine M codes (`[mcodes]`) whose once-a-run note was given (at most one per
+    /// configured code).
+    pub noted_mcodes: Vec<u32>,
     /// Coolant: M7 (mist), M8 (flood); M9 turns both off.
     pub mist: bool,
     pub flood: bool,
@@ -193,6 +225,7 @@ impl ModalState {
             },
             inch: cfg.interp.units == Units::Inch,
             incremental: false,
+            arc_center_absolute: false,
             feed_per_rev: false,
             work_offset: 0,
             return_to_r: cfg.interp.return_plane == ReturnPlane::R,
@@ -214,6 +247,8 @@ impl ModalState {
             ref_mid: [None; MAX_AXES],
             path_mode: 64,
             path_tolerance: cfg.interp.path_tolerance,
+            pending_corner: None,
+            noted_mcodes: Vec::new(),
             mist: false,
             flood: false,
         }

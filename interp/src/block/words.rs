@@ -27,6 +27,8 @@ pub enum GGroup {
     Plane,
     /// 03: G90 G91.
     Distance,
+    /// G90.1 (I/J/K absolute) G91.1 (incremental, Fanuc's only mode): LinuxCNC's group 4.
+    ArcDistance,
     /// 05: G94 G95.
     FeedMode,
     /// 06: G20 G21.
@@ -121,8 +123,10 @@ pub fn g_group(code: u32) -> Result<GGroup, String> {
 /// [`g_group`] of the codes with a decimal.
 fn decimal_g_group(code: u32) -> Result<GGroup, String> {
     let name = g_name(code);
+    if code == g_dec(90, 1) || code == g_dec(91, 1) {
+        return Ok(GGroup::ArcDistance);
+    }
     let what = match code {
-        c if c == g_dec(90, 1) || c == g_dec(91, 1) => "arc centre distance mode",
         c if c == g_dec(5, 1) => "AI contour control",
         c if (g_dec(92, 1)..=g_dec(92, 3)).contains(&c) => "G92 offset reset and restore",
         c if (g_dec(38, 2)..=g_dec(38, 5)).contains(&c) => "probing",
@@ -138,6 +142,9 @@ fn decimal_g_group(code: u32) -> Result<GGroup, String> {
 pub struct Words {
     /// G codes in source order, with their group.
     pub g: Vec<(u32, GGroup, Span)>,
+    /// The corner word `,R` (`'R'`) or `,C` (`'C'`) of Fanuc's corner rounding and
+    /// chamfer, if the block has one; taken (set to `None`) by the code that uses it.
+    pub corner: Option<(char, Arg)>,
     /// M codes in source order.
     pub m: Vec<(u32, Span)>,
     args: [Option<Arg>; 26],
@@ -162,6 +169,7 @@ impl Words {
     ) -> Result<Words, NcError> {
         let mut w = Words {
             g: Vec::new(),
+            corner: None,
             m: Vec::new(),
             args: [None; 26],
             used: 0,
@@ -218,6 +226,17 @@ impl Words {
                         word.letter
                     )));
                 }
+                'r' | 'c' => {
+                    if w.corner.is_some() {
+                        return Err(here("a block takes one corner word, `,R` or `,C`".into()));
+                    }
+                    let a = Arg {
+                        v,
+                        span: word.span,
+                        has_point,
+                    };
+                    w.corner = Some((word.letter.to_ascii_uppercase(), a));
+                }
                 c if c.is_ascii_uppercase() => {
                     let i = (c as u8 - b'A') as usize;
                     if let Some(prev) = w.args[i] {
@@ -261,6 +280,19 @@ impl Words {
     /// Marks `letter` used without reading it (a word whose meaning is "ignored, as Fanuc").
     pub fn consume(&mut self, letter: char) {
         let _ = self.take(letter);
+    }
+
+    /// Gives `letter` the value `a` (a word the interpreter adds: the `P` of an M code that
+    /// calls a program); `false` if the block has that letter already.
+    pub fn put(&mut self, letter: char, a: Arg) -> bool {
+        let i = (letter as u8).wrapping_sub(b'A') as usize;
+        match self.args.get_mut(i) {
+            Some(slot @ None) => {
+                *slot = Some(a);
+                true
+            }
+            _ => false,
+        }
     }
 
     /// The first (in source order) address that was given but not used.
@@ -370,11 +402,10 @@ mod tests {
         // One decimal names a code of its own (G90.1), known or not.
         let e = words("G1.5 X1").unwrap_err();
         assert_eq!((e.col, e.message.as_str()), (1, "unknown G code G1.5"));
-        let e = words("G90.1 X1").unwrap_err();
-        assert!(
-            e.message.contains("G90.1 (arc centre distance mode)"),
-            "{e}"
-        );
+        let e = words("G5.1 X1").unwrap_err();
+        assert!(e.message.contains("G5.1 (AI contour control)"), "{e}");
+        let w = words("G90.1 X1").unwrap();
+        assert_eq!(w.g_of(GGroup::ArcDistance).map(|g| g.0), Some(g_dec(90, 1)));
         let e = words("G[92+0.1]").unwrap_err();
         assert!(e.message.starts_with("G92.1 "), "{e}");
         let e = words("M3.5").unwrap_err();

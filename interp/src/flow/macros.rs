@@ -274,7 +274,7 @@ impl Interpreter {
     fn end_of_unit(&mut self, unit: &Unit) -> Result<(), NcError> {
         if self.flow.frames.len() <= 1 {
             self.flow.done = true;
-            return Ok(());
+            return self.m.end_of_program(&unit.src);
         }
         self.ret(unit, None, Span::default())
     }

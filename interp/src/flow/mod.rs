@@ -330,6 +330,7 @@ impl Interpreter {
             block
         };
         let mut words = Words::collect_with(&unit.src, block, self)?;
+        crate::block::mcodes::macro_calls(&self.m.cfg, &unit.src, &mut words)?;
         let Some(call) = self.take_calls(unit, &mut words, &ijk)? else {
             return Ok(());
         };

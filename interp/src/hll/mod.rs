@@ -283,6 +283,7 @@ impl Running {
                 Req::End => {
                     self.done = true;
                     self.chan = None;
+                    it.end_of_program(&self.prog.files[0])?;
                 }
                 Req::Error(e) => {
                     self.stop();

@@ -66,11 +66,15 @@ pub(crate) fn classify(i: &str) -> Class {
             let n = ident_len(i);
             if c0 == b'_' || (n >= 2 && (c1.is_ascii_alphabetic() || c1 == b'_')) {
                 let after = hws(&i[n..]);
+                let digits_after = |k: usize| i[k..n].bytes().all(|b| b.is_ascii_digit());
+                // Custom Macro B keywords and their two-letter abbreviations (WH, GO, EN).
                 let fanuc = starts_with_kw(i, "GOTO")
-                    || ((n == 2 && starts_with_kw(i, "IF"))
+                    || (starts_with_kw(i, "GO") && digits_after(2))
+                    || ((n == 2 && (starts_with_kw(i, "IF") || starts_with_kw(i, "WH")))
                         || (n == 5 && starts_with_kw(i, "WHILE")))
                         && !after.starts_with('(')
-                    || (starts_with_kw(i, "END") && i[3..n].bytes().all(|b| b.is_ascii_digit()))
+                    || (starts_with_kw(i, "END") && digits_after(3))
+                    || (starts_with_kw(i, "EN") && digits_after(2))
                     || (starts_with_kw(i, "DO") && i[2..n].bytes().all(|b| b.is_ascii_digit()))
                     || (starts_with_kw(i, "AXSTR") && n == 5 && after.starts_with('('));
                 return if fanuc {

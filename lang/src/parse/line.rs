@@ -19,6 +19,19 @@ const IN_PARENS: ECx = ECx {
     in_block: false,
 };
 
+/// The length of macro keyword `kw` at the start of `i`, or of its two-letter abbreviation
+/// `abbrev` (Fanuc Custom Macro B: "the first two characters can be used as an
+/// abbreviation", `WH` for `WHILE`, `GO` for `GOTO`, `EN` for `END`, `TH` for `THEN`) when no
+/// letter follows it. Case-insensitive, as the keywords are.
+fn macro_kw(i: &str, kw: &str, abbrev: &str) -> Option<usize> {
+    if starts_with_kw(i, kw) {
+        return Some(kw.len());
+    }
+    let next = i.as_bytes().get(abbrev.len());
+    (starts_with_kw(i, abbrev) && !next.is_some_and(|b| b.is_ascii_alphabetic()))
+        .then_some(abbrev.len())
+}
+
 impl<'a> Cx<'a> {
     /// Parses `i`, the text of line `line_no` without its `\n`, to the end.
     pub(crate) fn line(&self, line_no: u32, i: &'a str) -> PResult<'a, Line> {
@@ -87,8 +100,8 @@ impl<'a> Cx<'a> {
         let (rest, kind) = match i.as_bytes().first() {
             Some(b'#') => self.assignment(i)?,
             Some(b'I' | b'i') if starts_with_kw(i, "IF") => self.if_statement(i, comments)?,
-            Some(b'W' | b'w') if starts_with_kw(i, "WHILE") => {
-                let (r, cond) = self.keyword_condition(i, "WHILE")?;
+            Some(b'W' | b'w') if macro_kw(i, "WHILE", "WH").is_some() => {
+                let (r, cond) = self.keyword_condition(i, "WHILE", "WH")?;
                 let r = ws(r);
                 if !starts_with_kw(r, "DO") {
                     return fail_exp(
@@ -107,8 +120,8 @@ impl<'a> Cx<'a> {
                     },
                 )
             }
-            Some(b'G' | b'g') if starts_with_kw(i, "GOTO") => {
-                let (r, target) = self.goto_target(&i[4..])?;
+            Some(b'G' | b'g') if let Some(n) = macro_kw(i, "GOTO", "GO") => {
+                let (r, target) = self.goto_target(&i[n..])?;
                 (
                     r,
                     LineKind::Goto {
@@ -116,8 +129,8 @@ impl<'a> Cx<'a> {
                     },
                 )
             }
-            Some(b'E' | b'e') if starts_with_kw(i, "END") => {
-                let (r, id) = self.loop_id(&i[3..], "END")?;
+            Some(b'E' | b'e') if let Some(n) = macro_kw(i, "END", "EN") => {
+                let (r, id) = self.loop_id(&i[n..], "END")?;
                 (r, LineKind::End { id })
             }
             _ => {
@@ -169,8 +182,8 @@ impl<'a> Cx<'a> {
     }
 
     /// `KW [cond]` (`IF`, `WHILE`); returns the condition.
-    fn keyword_condition(&self, i: &'a str, kw: &'static str) -> PResult<'a, Expr> {
-        let open = ws(&i[kw.len()..]);
+    fn keyword_condition(&self, i: &'a str, kw: &'static str, abbrev: &str) -> PResult<'a, Expr> {
+        let open = ws(&i[macro_kw(i, kw, abbrev).unwrap_or(kw.len())..]);
         if !open.starts_with('[') {
             return fail_exp(
                 open,
@@ -186,10 +199,10 @@ impl<'a> Cx<'a> {
 
     /// `IF[cond]GOTO n` or `IF[cond]THEN statement`.
     fn if_statement(&self, i: &'a str, comments: &mut Vec<Comment>) -> PResult<'a, LineKind> {
-        let (r, cond) = self.keyword_condition(i, "IF")?;
+        let (r, cond) = self.keyword_condition(i, "IF", "IF")?;
         let r = ws(r);
-        if starts_with_kw(r, "GOTO") {
-            let (r, target) = self.goto_target(&r[4..])?;
+        if let Some(n) = macro_kw(r, "GOTO", "GO") {
+            let (r, target) = self.goto_target(&r[n..])?;
             return Ok((
                 r,
                 LineKind::IfGoto {
@@ -198,15 +211,15 @@ impl<'a> Cx<'a> {
                 },
             ));
         }
-        if !starts_with_kw(r, "THEN") {
+        let Some(n) = macro_kw(r, "THEN", "TH") else {
             return fail_exp(
                 r,
                 char_len(r),
                 "missing GOTO or THEN after IF[…]",
                 "GOTO n or THEN and a statement",
             );
-        }
-        let (r, ()) = self.trivia(&r[4..], comments)?;
+        };
+        let (r, ()) = self.trivia(&r[n..], comments)?;
         let then = match r.as_bytes().first() {
             Some(b'#') => {
                 let (r, a) = self.assignment(r)?;
@@ -326,10 +339,38 @@ impl<'a> Cx<'a> {
                 i = r;
                 continue;
             }
-            let (r, w) = self.word(i)?;
+            let (r, w) = match i.strip_prefix(',') {
+                Some(after) => self.comma_word(i, after)?,
+                None => self.word(i)?,
+            };
             words.push(w);
             i = r;
         }
+    }
+
+    /// `,R` (corner rounding) or `,C` (chamfer), Fanuc's comma addresses: a word whose
+    /// letter is the lower-case `r` or `c` ([`Word::comma_letter`]); `i` starts at the comma.
+    ///
+    /// ```
+    /// let src = cnc402_lang::SourceFile::new("p.nc", "G1 X10 ,R2\n");
+    /// let p = cnc402_lang::parse(&src).unwrap();
+    /// let cnc402_lang::ast::LineKind::Block(b) = &p.lines[0].kind else { panic!() };
+    /// assert_eq!(b.words[2].comma_letter(), Some('R'));
+    /// ```
+    fn comma_word(&self, i: &'a str, after: &'a str) -> PResult<'a, Word> {
+        let after = ws(after);
+        if !matches!(after.as_bytes().first(), Some(b'R' | b'r' | b'C' | b'c')) {
+            return fail_exp(
+                i,
+                1,
+                "a comma must be followed by R (corner rounding) or C (chamfer)",
+                "`,R` or `,C` and a value",
+            );
+        }
+        let (rest, mut w) = self.word(after)?;
+        w.letter = w.letter.to_ascii_lowercase();
+        w.span = self.span(i, rest);
+        Ok((rest, w))
     }
 
     /// `AXSTR(name)=value` (C-like programs).
@@ -519,6 +560,15 @@ impl<'a> Cx<'a> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn macro_keywords_and_their_two_letter_abbreviations() {
+        assert_eq!(super::macro_kw("WH[#1LT3]DO1", "WHILE", "WH"), Some(2));
+        assert_eq!(super::macro_kw("WHILE[1]", "WHILE", "WH"), Some(5));
+        assert_eq!(super::macro_kw("WHAT", "WHILE", "WH"), None);
+        assert_eq!(super::macro_kw("go10", "GOTO", "GO"), Some(2));
+        assert_eq!(super::macro_kw("GOTO10", "GOTO", "GO"), Some(4));
+    }
+
     use crate::ast::*;
     use crate::{SourceFile, parse};
 

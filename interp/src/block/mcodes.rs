@@ -1,0 +1,121 @@
+//! The machine's own M codes (`[mcodes]` in the config): a block's M words that are not the
+//! interpreter's own become what the config maps them to — built-in codes (M13 = M3 M8), a
+//! dwell, an output or wait event, a note, or a program call (Fanuc's M-code macro call).
+
+use cnc402_config::{BUILT_IN_M_CODES, MAction, MachineConfig};
+use cnc402_lang::{NcError, SourceFile};
+use cnc402_motion::segment::SegmentKind;
+
+use super::exec::Exec;
+use super::words::{Arg, GGroup, Words, fmt_num};
+
+/// Turns a block's macro M code (`action = "macro"`) into the call it stands for, before the
+/// block's calls are taken: `M98 P<program>` (Fanuc's sub-program call by M code), or with
+/// `args = true` `G65 P<program>` with the block's other words as arguments (custom macro
+/// call by M code). A block may hold one; it may not give `P` itself.
+pub(crate) fn macro_calls(
+    cfg: &MachineConfig,
+    src: &SourceFile,
+    w: &mut Words,
+) -> Result<(), NcError> {
+    if w.g.iter().any(|g| g.1 == GGroup::MacroCall) {
+        // In a G65/G66 block M is argument #13, not a code.
+        return Ok(());
+    }
+    let mut calls =
+        w.m.iter()
+            .filter_map(|&(code, span)| match cfg.mcodes.get(&code) {
+                Some(&MAction::Macro { program, args }) => Some((code, span, program, args)),
+                _ => None,
+            });
+    let Some((code, span, program, args)) = calls.next() else {
+        return Ok(());
+    };
+    if let Some((second, s2, ..)) = calls.next() {
+        return Err(NcError::new(
+            src,
+            s2,
+            format!("M{code} and M{second} both call a program: one call a block"),
+        ));
+    }
+    let p = Arg {
+        v: f64::from(program),
+        span,
+        has_point: false,
+    };
+    if !w.put('P', p) {
+        let at = w.peek('P').map_or(span, |a| a.span);
+        return Err(NcError::new(
+            src,
+            at,
+            format!("M{code} calls O{program:04} ([mcodes] {code}): the block cannot give P too"),
+        ));
+    }
+    w.m.retain(|m| m.0 != code);
+    if args {
+        w.g.push((65, GGroup::MacroCall, span));
+    } else {
+        w.m.push((98, span));
+    }
+    Ok(())
+}
+
+impl Exec<'_> {
+    /// Replaces the block's machine M codes by what `[mcodes]` maps them to; an M code neither
+    /// built in nor configured is an error at its word.
+    pub(crate) fn machine_m_codes(&mut self) -> Result<(), NcError> {
+        let ms = std::mem::take(&mut self.w.m);
+        for (code, span) in ms {
+            if BUILT_IN_M_CODES.contains(&code) {
+                self.w.m.push((code, span));
+                continue;
+            }
+            let Some(action) = self.cfg.mcodes.get(&code) else {
+                return Err(self
+                    .err(span, format!("unknown M code M{code}"))
+                    .with_expected(format!(
+                        "a built-in M code, or M{code} mapped in the config's [mcodes]"
+                    )));
+            };
+            match action {
+                MAction::Alias { codes } => self.w.m.extend(codes.iter().map(|&c| (c, span))),
+                MAction::Dwell { seconds } => {
+                    if *seconds > 0.0 {
+                        self.push(SegmentKind::Dwell { seconds: *seconds });
+                    }
+                }
+                MAction::Ignore { note } => {
+                    if !self.st.noted_mcodes.contains(&code) {
+                        self.st.noted_mcodes.push(code);
+                        let why = note.as_deref().map(|n| format!(": {n}")).unwrap_or_default();
+                        self.push(SegmentKind::Message {
+                            text: format!("M{code} ignored on this machine ([mcodes]){why}"),
+                        });
+                    }
+                }
+                MAction::Output { name, value } => self.push(SegmentKind::Message {
+                    text: format!("M{code}: output {name} = {}", u8::from(*value)),
+                }),
+                MAction::Wait {
+                    name,
+                    value,
+                    timeout_s,
+                } => self.push(SegmentKind::Message {
+                    text: format!(
+                        "M{code}: wait for input {name} = {} (timeout {} s): no inputs are wired yet, taken as met",
+                        u8::from(*value),
+                        fmt_num(*timeout_s)
+                    ),
+                }),
+                MAction::Macro { program, .. } => {
+                    // Blocks of Macro B programs had it turned into a call already.
+                    return Err(self.err(
+                        span,
+                        format!("M{code} calls O{program:04}: a program call is not possible here"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
