@@ -413,3 +413,55 @@ fn offsets_same_machine_positions_as_linuxcnc() {
             .any(|m| (m.end[2] - (50.0 - 177.8)).abs() < 1e-6)
     );
 }
+
+/// The machine config in the LinuxCNC dialect (what every `lc_*.ngc` program also says in its
+/// header).
+fn linuxcnc_config() -> MachineConfig {
+    let mut cfg = config();
+    cfg.interp.dialect = cnc402_lang::Dialect::LinuxCnc;
+    cfg
+}
+
+/// Compares one program's moves with rs274's; a message for each difference.
+fn compare(cfg: &MachineConfig, exe: &Path, name: &str, report: &mut Vec<String>) {
+    let file = dir().join(name);
+    let theirs = dedup(rs274_moves(exe, &file));
+    let ours = dedup(our_moves(cfg, &file));
+    assert!(!theirs.is_empty(), "{name}: rs274 gave no moves");
+    for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
+        if !close(a, b) {
+            report.push(format!("{name} move {i}: ours {a:?}\n    rs274 {b:?}"));
+            break;
+        }
+    }
+    if ours.len() != theirs.len() {
+        report.push(format!(
+            "{name}: {} moves, rs274 {}",
+            ours.len(),
+            theirs.len()
+        ));
+    }
+}
+
+/// The LinuxCNC dialect's own language (O-word subroutines and flow, named parameters, polar
+/// words, G92.x): the `lc_*.ngc` programs, same moves as rs274.
+#[test]
+fn linuxcnc_dialect_programs_match_rs274() {
+    let Some(exe) = find_rs274() else {
+        eprintln!("NOTICE: rs274 (LinuxCNC) is not installed; cross-check skipped");
+        return;
+    };
+    let cfg = linuxcnc_config();
+    let mut names: Vec<String> = std::fs::read_dir(dir())
+        .unwrap()
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| n.starts_with("lc_") && n.ends_with(".ngc"))
+        .collect();
+    names.sort();
+    assert!(!names.is_empty());
+    let mut report = Vec::new();
+    for name in &names {
+        compare(&cfg, &exe, name, &mut report);
+    }
+    assert!(report.is_empty(), "{}", report.join("\n"));
+}

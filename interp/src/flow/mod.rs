@@ -6,6 +6,8 @@
 //! Macro B, stop at sync points (reading a position variable waits for queued motion).
 
 mod macros;
+mod oindex;
+mod oword;
 mod sysvars;
 pub mod units;
 
@@ -86,6 +88,8 @@ struct Flow {
 #[derive(Default)]
 struct Vars {
     table: VarTable,
+    /// LinuxCNC named parameters `#<name>`.
+    named: crate::vars::NamedVars,
     store: Option<Box<dyn PersistentVars>>,
     /// The injected variables could not be read (`set_persistent_vars_error`): every `load`
     /// fails with this at the first `next_segment`.
@@ -197,6 +201,7 @@ impl Interpreter {
         self.flow.lib_cache.clear();
         self.flow.frames = vec![Frame::new(self.flow.units[main].clone(), false)];
         self.vars.table.reset();
+        self.vars.named.reset();
         self.flow.modal_call = None;
         self.flow.runaway = Runaway::default();
         self.flow.last_m = None;

@@ -236,6 +236,7 @@ impl<'a> Cx<'a> {
     pub(crate) fn var(&self, i: &'a str, depth: u32) -> PResult<'a, Expr> {
         let after = ws(&i[1..]);
         match after.as_bytes().first() {
+            Some(b'<') if self.dialect == crate::dialect::Dialect::LinuxCnc => self.named_param(i),
             Some(b'0'..=b'9') => {
                 let (rest, n) = self.whole(after, "variable number")?;
                 Ok((

@@ -8,6 +8,7 @@ use super::{Cx, PResult, fail, fail_exp};
 use crate::ast::{
     Block, Comment, Expr, ExprKind, Line, LineKind, NamedAxisWord, SeqNo, UnaryOp, Value, Word,
 };
+use crate::dialect::Dialect;
 
 /// A C expression as a word value: ends at the line end, names must not look like words.
 const IN_BLOCK: ECx = ECx {
@@ -37,6 +38,9 @@ impl<'a> Cx<'a> {
                 let (r, ()) = self.trivia(&i[1..], &mut comments)?;
                 self.expect_end(r, "after `%`")?;
                 LineKind::Percent
+            }
+            Some(b'O' | b'o') if self.dialect == Dialect::LinuxCnc => {
+                self.oword(i, &mut comments)?.1
             }
             Some(b'O' | b'o' | b':') => {
                 let start = i;
@@ -371,7 +375,9 @@ impl<'a> Cx<'a> {
         let Some(c) = i.chars().next() else {
             return fail(i, 0, "missing word");
         };
-        if !c.is_ascii_alphabetic() {
+        // LinuxCNC's polar words: `@` radius, `^` angle.
+        let polar = self.dialect == Dialect::LinuxCnc && matches!(c, '@' | '^');
+        if !c.is_ascii_alphabetic() && !polar {
             return self.not_a_word(i, c);
         }
         let letter = c.to_ascii_uppercase();

@@ -9,6 +9,7 @@ mod expr;
 pub use expr::MAX_HEIGHT;
 mod lex;
 mod line;
+mod oword;
 
 use std::borrow::Cow;
 
@@ -89,7 +90,8 @@ pub fn parse_in(src: &SourceFile, dialect: Dialect) -> Result<Program, NcError> 
         .filter(|l| clike::classify(l.trim_start_matches([' ', '\t'])) == clike::Class::Statement)
         .take(2)
         .count();
-    let c_like = statement_lines > 0;
+    // LinuxCNC programs are never C-like: `@` there is a polar word.
+    let c_like = statement_lines > 0 && dialect != Dialect::LinuxCnc;
     let cx = Cx {
         text,
         line_starts: src.line_starts(),
@@ -330,7 +332,6 @@ pub(crate) struct Cx<'a> {
     /// `AXSTR(…)=` words and `//` comments.
     c_like: bool,
     /// The dialect the program is read in (LinuxCNC: O-word flow, `#<name>`, polar words).
-    #[allow(dead_code)]
     dialect: Dialect,
 }
 

@@ -1,0 +1,105 @@
+//! The `linuxcnc` dialect's language: O-word flow, named parameters and their errors and
+//! limits (the moves themselves are cross-checked against rs274 in `rs274.rs`).
+
+use cnc402_config::MachineConfig;
+use cnc402_interp::run_program;
+use cnc402_lang::SourceFile;
+use cnc402_motion::segment::{Segment, SegmentKind};
+
+fn run(text: &str) -> Result<Vec<Segment>, cnc402_lang::NcError> {
+    let cfg = MachineConfig::default_machine();
+    run_program(
+        &cfg,
+        &SourceFile::new("t.ngc", format!("(dialect: linuxcnc)\n{text}")),
+    )
+}
+
+fn ends(text: &str) -> Vec<[f64; 3]> {
+    run(text)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .iter()
+        .filter_map(|s| match &s.kind {
+            SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => {
+                Some([end[0], end[1], end[2]])
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+fn err(text: &str) -> (u32, u32, String) {
+    let e = run(text).unwrap_err();
+    (e.line, e.col, e.message)
+}
+
+#[test]
+fn locals_are_per_call_and_value_is_returned() {
+    let p = "o1 sub\n#1 = [#1 * 2]\n#<t> = 7\no1 endsub [#1 + 1]\n#1 = 5\n#<t> = 1\no1 call [10]\nG0 X#<_value> Y#1 Z#<t>\nM2\n";
+    assert_eq!(ends(p), vec![[21.0, 5.0, 1.0]]);
+}
+
+#[test]
+fn recursion_is_bounded_by_the_call_depth() {
+    let (line, _, m) = err("o<r> sub\no<r> call\no<r> endsub\no<r> call\nM2\n");
+    assert_eq!(line, 3, "{m}");
+    assert!(m.contains("nested deeper"), "{m}");
+}
+
+#[test]
+fn a_loop_without_motion_is_a_runaway() {
+    let (_, _, m) = err("o1 while [1]\n#1 = [#1 + 1]\no1 endwhile\n");
+    assert!(m.contains("runaway"), "{m}");
+    let (_, _, m) = err("o2 do\no2 while [1]\n");
+    assert!(m.contains("runaway"), "{m}");
+}
+
+#[test]
+fn an_unknown_named_parameter_is_an_error_at_its_column() {
+    let (line, col, m) = err("G0 X1\nG0 X[1 + #<nope>]\n");
+    assert_eq!((line, col), (3, 10), "{m}");
+    assert_eq!(m, "named parameter #<nope> is not defined");
+    let (_, _, m) = err("#<_x> = 1\n");
+    assert!(m.contains("read-only"), "{m}");
+}
+
+#[test]
+fn predefined_parameters_and_numbered_ones_read_as_linuxcnc() {
+    // Vacant #5 reads 0 (LinuxCNC has no vacant), #5420.. is the current position.
+    assert_eq!(
+        ends("G21 G0 X3 Y4\nG0 X[#<_x> + #5] Y[#5421 + #<_metric>] Z#<_imperial>\n"),
+        vec![[3.0, 4.0, 0.0], [3.0, 5.0, 0.0]]
+    );
+}
+
+#[test]
+fn broken_blocks_are_errors_where_they_run() {
+    // The if runs first, and its end is missing.
+    let (line, _, m) = err("o1 if [1]\nG0 X1\no2 endif\n");
+    assert_eq!((line, m.as_str()), (2, "o1 if has no end"));
+    let (line, _, m) = err("o1 while [0]\no2 if [1]\no1 endwhile\n");
+    assert_eq!(line, 2, "{m}");
+    let (line, _, m) = err("o2 endif\n");
+    assert_eq!((line, m.as_str()), (2, "o2 endif without o2 if before it"));
+    let (_, _, m) = err("o1 while [1]\no1 if [1]\no1 endif\no1 endwhile\n");
+    assert!(m.contains("duplicate O-word label"), "{m}");
+    let (_, _, m) = err("o9 call\n");
+    assert!(m.contains("not defined"), "{m}");
+    let (_, _, m) = err("o1 break\n");
+    assert!(m.contains("not inside"), "{m}");
+    let (line, _, m) = err("o1 repeat [2]\nG0 X1\n");
+    assert_eq!(line, 2, "{m}");
+    assert!(m.contains("has no end"), "{m}");
+}
+
+#[test]
+fn repeat_break_and_continue() {
+    let p = "#1 = 0\no1 repeat [5]\n#1 = [#1 + 1]\no2 if [#1 EQ 2]\no1 continue\no2 endif\no3 if [#1 EQ 4]\no1 break\no3 endif\nG0 X#1\no1 endrepeat\nM2\n";
+    assert_eq!(ends(p), vec![[1.0, 0.0, 0.0], [3.0, 0.0, 0.0]]);
+}
+
+#[test]
+fn fanuc_keeps_o_as_a_program_number() {
+    let cfg = MachineConfig::default_machine();
+    let segs = run_program(&cfg, &SourceFile::new("t.nc", "O100\nG0 X1\n")).unwrap();
+    assert_eq!(segs.len(), 1);
+}
