@@ -103,3 +103,57 @@ fn fanuc_keeps_o_as_a_program_number() {
     let segs = run_program(&cfg, &SourceFile::new("t.nc", "O100\nG0 X1\n")).unwrap();
     assert_eq!(segs.len(), 1);
 }
+
+fn dwells(text: &str) -> Vec<f64> {
+    run(text)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .iter()
+        .filter_map(|s| match s.kind {
+            SegmentKind::Dwell { seconds } => Some(seconds),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn dwell_p_is_seconds_in_g4_and_in_cycles() {
+    assert_eq!(dwells("G4 P1.5\nG4 P[0.25 * 2]\n"), vec![1.5, 0.5]);
+    assert_eq!(
+        dwells("G0 Z10\nG98 G82 X1 Y1 Z-2 R2 P0.75 F100\nG80\n"),
+        vec![0.75]
+    );
+    // Fanuc: P is milliseconds.
+    let cfg = MachineConfig::default_machine();
+    let segs = run_program(&cfg, &SourceFile::new("t.nc", "G4 P1500\n")).unwrap();
+    assert_eq!(segs[0].kind, SegmentKind::Dwell { seconds: 1.5 });
+}
+
+#[test]
+fn polar_words_and_their_errors() {
+    assert_eq!(
+        ends("G0 @2 ^90\n")[0].map(|v| (v * 1e9).round() / 1e9),
+        [0.0, 2.0, 0.0]
+    );
+    let (line, col, m) = err("G0 @2 X1\n");
+    assert_eq!((line, col), (2, 7), "{m}");
+    let (_, _, m) = err("G91 G0 ^90\n");
+    assert!(m.contains("from the origin"), "{m}");
+}
+
+#[test]
+fn g92_dot_codes_are_linuxcnc_only() {
+    assert_eq!(
+        ends("G0 X10\nG92 X0\nG0 X1\nG92.2\nG0 X1\nG92.3\nG0 X0\nG92.1\nG0 X3\nG92.3\nG0 X4\n"),
+        vec![
+            [10.0, 0.0, 0.0],
+            [11.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [10.0, 0.0, 0.0],
+            [3.0, 0.0, 0.0],
+            [4.0, 0.0, 0.0]
+        ]
+    );
+    let cfg = MachineConfig::default_machine();
+    let e = run_program(&cfg, &SourceFile::new("t.nc", "G92.1\n")).unwrap_err();
+    assert!(e.message.contains("not supported"), "{e}");
+}

@@ -5,6 +5,7 @@
 //! ([`Interpreter::next_segment`]) so that the interpreter can run ahead of motion and, with
 //! Macro B, stop at sync points (reading a position variable waits for queued motion).
 
+mod lcblock;
 mod macros;
 mod oindex;
 mod oword;
@@ -82,6 +83,8 @@ struct Flow {
     seen_block: bool,
     /// The line of the main program's `M99` that ended it ([`MainM99::End`]).
     main_m99_line: Option<u32>,
+    /// LinuxCNC: the G92 shift as the last G92 set it (what G92.3 restores).
+    g92_kept: [f64; cnc402_config::MAX_AXES],
 }
 
 /// The macro variables and their storage.
@@ -129,6 +132,7 @@ impl Interpreter {
                 done: true,
                 seen_block: false,
                 main_m99_line: None,
+                g92_kept: Default::default(),
             },
             vars: Vars::default(),
             hll: Hll::default(),
@@ -212,6 +216,7 @@ impl Interpreter {
         self.flow.done = false;
         self.flow.seen_block = false;
         self.flow.main_m99_line = None;
+        self.flow.g92_kept = Default::default();
     }
 
     /// The next segment, `Ok(None)` at the end of the program, or the error that ends it:
@@ -301,6 +306,18 @@ impl Interpreter {
     ) -> Result<(), NcError> {
         let empty = Block::default();
         let block = block.unwrap_or(&empty);
+        let linuxcnc = unit.program.dialect == cnc402_lang::Dialect::LinuxCnc;
+        let translated;
+        let block = match linuxcnc {
+            true => match self.linuxcnc_block(unit, block)? {
+                Some(b) => {
+                    translated = b;
+                    &translated
+                }
+                None => block,
+            },
+            false => block,
+        };
         if let Some(named) = block.named_axes.first() {
             return Err(NcError::new(
                 &unit.src,
@@ -343,7 +360,11 @@ impl Interpreter {
             self.flow.last_m = Some(f64::from(m.0));
         }
         let from = self.m.state.pos;
+        let sets_g92 = linuxcnc && words.g.iter().any(|g| g.0 == 92);
         let (out, end) = self.m.execute(&unit.src, words, line)?;
+        if sets_g92 {
+            self.flow.g92_kept = self.m.state.shift;
+        }
         if canon::makes_motion(&out, &from) {
             self.flow.runaway.reset();
         }
