@@ -157,3 +157,37 @@ fn g92_dot_codes_are_linuxcnc_only() {
     let e = run_program(&cfg, &SourceFile::new("t.nc", "G92.1\n")).unwrap_err();
     assert!(e.message.contains("not supported"), "{e}");
 }
+
+#[test]
+fn offsets_as_linuxcnc_sets_them() {
+    // G10 L2 sets in G91 too; L20 makes the current point read as given; P0 is the active
+    // system.
+    assert_eq!(
+        ends("G0 X10\nG91 G10 L2 P1 X5\nG90 G0 X0\nG10 L20 P1 X1\nG0 X0\nG10 L2 P0 X0\nG0 X2\n"),
+        vec![
+            [10.0, 0.0, 0.0],
+            [5.0, 0.0, 0.0],
+            [4.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0]
+        ]
+    );
+    let mut cfg = MachineConfig::default_machine();
+    cfg.tool_offsets[0].length = -100.0;
+    let z = |text: &str| -> Vec<f64> {
+        run_program(&cfg, &SourceFile::new("t.ngc", text.to_string()))
+            .unwrap()
+            .iter()
+            .filter_map(|s| match &s.kind {
+                SegmentKind::Rapid { end } => Some(end[2]),
+                _ => None,
+            })
+            .collect()
+    };
+    // LinuxCNC: G43 without Z moves nothing; the next Z move carries the offset.
+    assert_eq!(
+        z("(dialect: linuxcnc)\nG43 H1\nG0 X1\nG0 Z5\n"),
+        vec![0.0, -95.0]
+    );
+    // Fanuc: the G43 block moves Z by the offset.
+    assert_eq!(z("G43 H1\nG0 X1\nG0 Z5\n"), vec![-100.0, -100.0, -95.0]);
+}
