@@ -6,6 +6,7 @@ use cnc402_interp::run_program;
 use cnc402_lang::SourceFile;
 use cnc402_motion::segment::{Segment, SegmentKind};
 
+#[allow(clippy::result_large_err)]
 fn run(text: &str) -> Result<Vec<Segment>, cnc402_lang::NcError> {
     let cfg = MachineConfig::default_machine();
     run_program(

@@ -50,7 +50,7 @@ impl Interpreter {
         let mut out = block.clone();
         let mut changed = false;
         for (code, span) in &g {
-            if let Some(c @ (921 | 922 | 923)) = code {
+            if let Some(c @ 921..=923) = code {
                 self.g92_dot(*c);
                 out.words.retain(|w| w.span != *span);
                 changed = true;

@@ -54,16 +54,11 @@ impl Interpreter {
                 if !self.o_truth(unit, c)? {
                     let mut at = link.next;
                     // Each step moves forward to the next branch: at most the branches.
-                    loop {
-                        match kind_at(at) {
-                            Some(OWordKind::ElseIf(c2)) => {
-                                if self.o_truth(unit, c2)? {
-                                    break;
-                                }
-                                at = unit.owords.links.get(&at).map_or(link.end, |l| l.next);
-                            }
-                            _ => break,
+                    while let Some(OWordKind::ElseIf(c2)) = kind_at(at) {
+                        if self.o_truth(unit, c2)? {
+                            break;
                         }
+                        at = unit.owords.links.get(&at).map_or(link.end, |l| l.next);
                     }
                     self.set_pc(at + 1);
                 }
@@ -84,7 +79,7 @@ impl Interpreter {
             OWordKind::EndWhile => self.set_pc(link.head),
             OWordKind::Repeat(c) => {
                 let n = self.o_value(unit, c)?.round();
-                if !(n <= MAX_REPEAT) {
+                if n.is_nan() || n > MAX_REPEAT {
                     return Err(NcError::new(
                         &unit.src,
                         c.span,
@@ -172,10 +167,7 @@ impl Interpreter {
         for (slot, a) in locals.iter_mut().zip(args.iter().take(MAX_ARGS)) {
             *slot = Some(self.o_value(unit, a)?);
         }
-        self.vars
-            .named
-            .set("_value_returned", 0.0)
-            .map_err(|m| err(m))?;
+        self.vars.named.set("_value_returned", 0.0).map_err(err)?;
         let mut f = Frame::new(sub_unit, true);
         f.pc = at + 1;
         f.o_call = true;
