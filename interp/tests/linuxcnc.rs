@@ -192,3 +192,35 @@ fn offsets_as_linuxcnc_sets_them() {
     // Fanuc: the G43 block moves Z by the offset.
     assert_eq!(z("G43 H1\nG0 X1\nG0 Z5\n"), vec![-100.0, -100.0, -95.0]);
 }
+
+#[test]
+fn a_named_subroutine_comes_from_its_file_next_to_the_program() {
+    let dir = std::env::temp_dir().join(format!("cnc402-lc-sub-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("peck.ngc"),
+        "o<peck> sub\nG0 X#1\no<peck> endsub [#1 * 2]\nM2\n",
+    )
+    .unwrap();
+    let main = dir.join("main.ngc");
+    let text = "(dialect: linuxcnc)\no<peck> call [3]\no<peck> call [4]\nG0 Y#<_value>\nM2\n";
+    let cfg = MachineConfig::default_machine();
+    let src = SourceFile::new(main.display().to_string(), text);
+    let segs = cnc402_interp::host_fs::run_program(&cfg, &src).unwrap();
+    let ends: Vec<[f64; 2]> = segs
+        .iter()
+        .filter_map(|s| match &s.kind {
+            SegmentKind::Rapid { end } => Some([end[0], end[1]]),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(ends, vec![[3.0, 0.0], [4.0, 0.0], [4.0, 8.0]]);
+    let src = SourceFile::new(
+        main.display().to_string(),
+        "(dialect: linuxcnc)\no<nope> call\n",
+    );
+    let e = cnc402_interp::host_fs::run_program(&cfg, &src).unwrap_err();
+    assert!(e.message.contains("nor in a file nope.ngc"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

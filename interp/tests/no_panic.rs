@@ -170,8 +170,21 @@ fn linuxcnc_line() -> impl Strategy<Value = String> {
         Just("[#<a> LT 3]".to_string()),
     ];
     let kw = prop::sample::select(vec![
-        "sub", "endsub", "return", "call", "if", "elseif", "else", "endif", "do", "while",
-        "endwhile", "repeat", "endrepeat", "break", "continue",
+        "sub",
+        "endsub",
+        "return",
+        "call",
+        "if",
+        "elseif",
+        "else",
+        "endif",
+        "do",
+        "while",
+        "endwhile",
+        "repeat",
+        "endrepeat",
+        "break",
+        "continue",
     ]);
     prop_oneof![
         (label, kw, val.clone()).prop_map(|(l, k, v)| format!("{l} {k} [{v}]")),

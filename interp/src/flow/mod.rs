@@ -61,6 +61,8 @@ struct Flow {
     units: Vec<Arc<Unit>>,
     /// Programs found in the library, by number.
     lib_cache: HashMap<u32, Arc<Unit>>,
+    /// LinuxCNC subroutine files (`o<name> call` of `name.ngc`) read so far, by name.
+    o_files: HashMap<String, Arc<Unit>>,
     /// The call stack; `frames[0]` is the main program. Empty before `load`.
     frames: Vec<Frame>,
     library: Option<Box<dyn ProgramLibrary>>,
@@ -119,6 +121,7 @@ impl Interpreter {
                 main_src: Arc::new(SourceFile::new("", "")),
                 units: Vec::new(),
                 lib_cache: HashMap::new(),
+                o_files: HashMap::new(),
                 frames: Vec::new(),
                 library: None,
                 load_error: None,
@@ -204,6 +207,7 @@ impl Interpreter {
         self.flow.main_src = src;
         self.flow.units = units;
         self.flow.lib_cache.clear();
+        self.flow.o_files.clear();
         self.flow.frames = vec![Frame::new(self.flow.units[main].clone(), false)];
         self.vars.table.reset();
         self.vars.named.reset();

@@ -7,12 +7,12 @@
 
 use std::sync::Arc;
 
-use cnc402_lang::NcError;
 use cnc402_lang::ast::{Expr, Line, OLabel, OWord, OWordKind};
+use cnc402_lang::{Dialect, NcError};
 
 use super::Interpreter;
 use super::oindex::{kind_word, oword_of};
-use super::units::{Frame, MAX_FRAMES, Unit};
+use super::units::{Frame, MAX_FRAMES, Unit, split_units};
 use crate::expr as eval;
 use crate::vars::MVal;
 
@@ -142,18 +142,21 @@ impl Interpreter {
         args: &[Expr],
     ) -> Result<(), NcError> {
         let err = |m: String| NcError::new(&unit.src, o.label_span, m);
-        let target = std::iter::once(unit)
+        let mut target = std::iter::once(unit)
             .chain(self.flow.units.iter())
             .find_map(|u| u.owords.subs.get(&o.label).map(|&i| (u.clone(), i)));
+        if let (None, OLabel::Name(name)) = (&target, &o.label) {
+            target = self.o_file(name, unit, o)?;
+        }
         let Some((sub_unit, at)) = target else {
+            let elsewhere = match &o.label {
+                OLabel::Number(_) => String::new(),
+                OLabel::Name(s) => format!(", nor in a file {s}.ngc next to it or in the library"),
+            };
             return Err(err(format!(
-                "subroutine {} is not defined in {} (o{} sub … endsub)",
-                o.label,
+                "subroutine {l} is not defined in {}{elsewhere} ({l} sub … endsub)",
                 unit.src.name,
-                match &o.label {
-                    OLabel::Number(n) => n.to_string(),
-                    OLabel::Name(s) => format!("<{s}>"),
-                }
+                l = o.label,
             )));
         };
         if self.flow.frames.len() >= MAX_FRAMES {
@@ -175,6 +178,38 @@ impl Interpreter {
         self.vars.named.push_scope();
         self.flow.frames.push(f);
         Ok(())
+    }
+
+    /// LinuxCNC's subroutine file for `o<name> call`: `name.ngc` from the program library
+    /// (next to the main program, then in `interp.library_dir`), read once, in the LinuxCNC
+    /// dialect. `None` when there is no such file or it does not define `o<name>`.
+    fn o_file(
+        &mut self,
+        name: &str,
+        unit: &Unit,
+        o: &OWord,
+    ) -> Result<Option<(Arc<Unit>, usize)>, NcError> {
+        let found = |u: &Arc<Unit>| u.owords.subs.get(&o.label).map(|&i| (u.clone(), i));
+        if let Some(u) = self.flow.o_files.get(name) {
+            return Ok(found(u));
+        }
+        let main = self.flow.main_src.name.clone();
+        let Some(lib) = self.flow.library.as_mut() else {
+            return Ok(None);
+        };
+        let used = lib
+            .resolve_use(&format!("{name}.ngc"), &main)
+            .map_err(|e| NcError::new(&unit.src, o.label_span, format!("{}: {e}", o.label)))?;
+        let Some(used) = used else {
+            return Ok(None);
+        };
+        let program = Arc::new(cnc402_lang::parse_in(&used.file, Dialect::LinuxCnc)?);
+        let file = Arc::new(used.file);
+        let (units, main_unit) = split_units(&file, &program);
+        let u = units[main_unit].clone();
+        // One entry per subroutine name the program calls: bounded by its text.
+        self.flow.o_files.insert(name.to_string(), u.clone());
+        Ok(found(&u))
     }
 
     /// `endsub [v]` / `return [v]`: back to the caller, `#<_value>` set to `v`.
