@@ -224,3 +224,12 @@ fn a_named_subroutine_comes_from_its_file_next_to_the_program() {
     assert!(e.message.contains("nor in a file nope.ngc"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn expressions_have_linuxcnc_precedence_and_operators() {
+    // AND/OR/XOR are logical and lowest; ** is power; MOD is never negative.
+    let p = "#1 = [1 GT 0 AND 2 LT 5]\n#2 = [2 ** 3 + 1]\n#3 = [-10 MOD 3]\n#4 = [2 AND 1]\n#5 = [0 OR 3 XOR 1]\nG0 X#1 Y#2 Z#3\nG0 X#4 Y#5\n";
+    assert_eq!(ends(p), vec![[1.0, 9.0, 2.0], [1.0, 0.0, 2.0]]);
+    let (_, _, m) = err("#1 = [2 **]\n");
+    assert!(m.contains("missing operand"), "{m}");
+}

@@ -18,6 +18,9 @@ impl VarSource for Interpreter {
     fn get_named(&mut self, name: &str) -> Result<Option<f64>, String> {
         self.read_named(name)
     }
+    fn named_exists(&mut self, name: &str) -> bool {
+        self.read_named(name).is_ok()
+    }
 }
 
 impl Interpreter {

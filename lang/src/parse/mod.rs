@@ -7,6 +7,7 @@ mod clike;
 mod expr;
 
 pub use expr::MAX_HEIGHT;
+mod lcexpr;
 mod lex;
 mod line;
 mod oword;
