@@ -92,6 +92,9 @@ impl Exec<'_> {
         }
         if let Some(h) = h {
             self.st.h = self.offset_number(h, "H", true)? as u32;
+        } else if let (Some((43, _)), cnc402_lang::Dialect::LinuxCnc) = (g, self.st.dialect) {
+            // LinuxCNC: G43 without H takes the tool in the spindle's offset.
+            self.st.h = self.st.tool_loaded.unwrap_or(0).min(TOOL_OFFSETS as u32);
         }
         let mode = match g {
             Some((43, _)) => ToolLength::Plus,

@@ -89,6 +89,10 @@ impl<'a> Cx<'a> {
     /// must be followed by a value, and `F`, `H`, `O`, `N` are not values).
     fn statement_or_block(&self, i: &'a str, comments: &mut Vec<Comment>) -> PResult<'a, LineKind> {
         let (rest, kind) = match i.as_bytes().first() {
+            // `N20 o100 if […]` (LinuxCNC takes a line number before an O-word).
+            Some(b'O' | b'o') if self.dialect == Dialect::LinuxCnc => {
+                return self.oword(i, comments);
+            }
             Some(b'#') => self.assignment(i)?,
             Some(b'I' | b'i') if starts_with_kw(i, "IF") => self.if_statement(i, comments)?,
             Some(b'W' | b'w') if starts_with_kw(i, "WHILE") => {
