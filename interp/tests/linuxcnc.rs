@@ -233,3 +233,11 @@ fn expressions_have_linuxcnc_precedence_and_operators() {
     let (_, _, m) = err("#1 = [2 **]\n");
     assert!(m.contains("missing operand"), "{m}");
 }
+
+/// An `M99` that leaves a LinuxCNC subroutine drops its named locals with its frame (they
+/// piled up, one scope per call, when only `endsub` dropped them).
+#[test]
+fn m99_out_of_a_subroutine_drops_its_named_locals() {
+    let p = "o1 sub\n#<t> = 5\nM99\no1 endsub\n#<t> = 1\no1 call\nG0 X#<t>\nM2\n";
+    assert_eq!(ends(p), vec![[1.0, 0.0, 0.0]]);
+}

@@ -328,6 +328,10 @@ impl Interpreter {
             && f.macro_level
         {
             self.vars.table.locals.pop();
+            // An `M99` out of a LinuxCNC subroutine ends its named locals too.
+            if f.o_call {
+                self.vars.named.pop_scope();
+            }
         }
         if let Some(n) = seq {
             let caller = self.cur_unit();
