@@ -32,10 +32,7 @@ fn unknown_dialect_in_a_header_is_a_program_error_at_its_name() {
         let o = cnc402(&[cmd, p.to_str().unwrap()]);
         assert_eq!(o.status.code(), Some(2), "{cmd}: {}", stderr(&o));
         let e = stderr(&o);
-        assert!(
-            e.contains("bad-header.nc:2:11: unknown dialect \"sinumerik\""),
-            "{cmd}: {e}"
-        );
+        assert!(e.contains("bad-header.nc:2:11: unknown dialect \"sinumerik\""), "{cmd}: {e}");
         assert!(e.contains("fanuc, haas or linuxcnc"), "{cmd}: {e}");
     }
 }
@@ -45,11 +42,7 @@ fn unknown_dialect_on_the_command_line_is_a_usage_error() {
     let p = program("plain.nc", "G0 X1\n");
     let o = cnc402(&["segments", "--dialect", "heidenhain", p.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(64), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("unknown dialect \"heidenhain\""),
-        "{}",
-        stderr(&o)
-    );
+    assert!(stderr(&o).contains("unknown dialect \"heidenhain\""), "{}", stderr(&o));
 }
 
 #[test]
@@ -72,12 +65,7 @@ fn unknown_dialect_in_the_config_names_the_key() {
         &shipped.replacen("dialect = \"fanuc\"", "dialect = \"mazatrol\"", 1),
     );
     let p = program("plain2.nc", "G0 X1\n");
-    let o = cnc402(&[
-        "--config",
-        cfg.to_str().unwrap(),
-        "segments",
-        p.to_str().unwrap(),
-    ]);
+    let o = cnc402(&["--config", cfg.to_str().unwrap(), "segments", p.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(stderr(&o).contains("interp.dialect"), "{}", stderr(&o));
 }
