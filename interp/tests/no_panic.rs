@@ -154,3 +154,66 @@ proptest! {
         check(&text);
     }
 }
+
+/// A line of a LinuxCNC-dialect program: O-word flow with few labels (so that they pair, cross
+/// and nest at random), named parameters, polar words, G92.x, cycles and offsets.
+fn linuxcnc_line() -> impl Strategy<Value = String> {
+    let label = prop::sample::select(vec!["o1", "o2", "o3", "o<s>", "o<t>"]);
+    let val = prop_oneof![
+        (-20i32..20).prop_map(|v| v.to_string()),
+        Just("#1".to_string()),
+        Just("#<a>".to_string()),
+        Just("#<_g>".to_string()),
+        Just("#<_x>".to_string()),
+        Just("#<_value>".to_string()),
+        Just("[#1 + 1]".to_string()),
+        Just("[#<a> LT 3]".to_string()),
+    ];
+    let kw = prop::sample::select(vec![
+        "sub",
+        "endsub",
+        "return",
+        "call",
+        "if",
+        "elseif",
+        "else",
+        "endif",
+        "do",
+        "while",
+        "endwhile",
+        "repeat",
+        "endrepeat",
+        "break",
+        "continue",
+    ]);
+    prop_oneof![
+        (label, kw, val.clone()).prop_map(|(l, k, v)| format!("{l} {k} [{v}]")),
+        (label_free(), val.clone()).prop_map(|(t, v)| format!("{t} = {v}")),
+        (val.clone(), val.clone()).prop_map(|(r, a)| format!("G1 @[{r}] ^[{a}] F100")),
+        Just("G91 G0 ^30".to_string()),
+        Just("G90".to_string()),
+        prop::sample::select(vec!["G92 X1", "G92.1", "G92.2", "G92.3", "G43 H1", "G49"])
+            .prop_map(str::to_string),
+        (prop::sample::select(vec!["G98", "G99"]), val.clone())
+            .prop_map(|(m, z)| format!("{m} G81 X1 Y1 Z-2 R[{z}] F50")),
+        Just("G88 X2 Y2 Z-1 R1 P0.1".to_string()),
+        Just("G80".to_string()),
+        val.prop_map(|v| format!("G4 P[{v} / 100]")),
+        Just("G10 L20 P0 X0".to_string()),
+    ]
+}
+
+fn label_free() -> impl Strategy<Value = &'static str> {
+    prop::sample::select(vec!["#1", "#<a>", "#<_g>", "#<_x>", "#2"])
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 600, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_linuxcnc_programs_never_panic(lines in prop::collection::vec(linuxcnc_line(), 1..30)) {
+        let mut text = String::from("(dialect: linuxcnc)\nM3 S500\nG0 Z20\n");
+        text.push_str(&lines.join("\n"));
+        check(&text);
+    }
+}

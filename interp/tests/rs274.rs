@@ -1,9 +1,10 @@
-//! Cross-check against LinuxCNC's `rs274` (package linuxcnc-uspace): the programs in
-//! `tests/rs274/*.ngc` use the subset both controls share (G0–G3, G17–G19, G20/G21, G90/G91,
+//! Cross-check against LinuxCNC's `rs274` (package linuxcnc-uspace): the Fanuc-dialect
+//! programs in `tests/rs274/*.ngc` use the subset both controls share (G0–G3, G17–G19, G20/G21, G90/G91,
 //! G81–G83, G73, G85, G86, G88, G89), and both must produce the same end points (and arc centres) in the
 //! same order. Skips with a notice when `rs274` is not installed.
 //!
-//! Fanuc/LinuxCNC differences, where cnc402 follows Fanuc:
+//! Fanuc/LinuxCNC differences, where the `fanuc` dialect follows Fanuc (the tests of
+//! `moves`, `cycles`, `planes`, `inch`, `diff_g89_g98` and `offsets` in the Fanuc dialect):
 //! - G73/G83: LinuxCNC's retract/clearance is a fixed 0.010 in; cnc402 reads `peck_retract` /
 //!   `peck_clearance` from the config (set to 0.254 mm here to compare).
 //! - G88: Fanuc rapids out to the return level when the operator restarts after the stop;
@@ -12,38 +13,45 @@
 //! - G89 with G98: Fanuc feeds out to R and then rapids to the initial level; LinuxCNC 2.9
 //!   feeds straight out to the initial level (`diff_g89_g98.ngc` asserts exactly this; G85
 //!   agrees).
-//! - G86: LinuxCNC requires and dwells P at the bottom; Fanuc's G86 has no dwell (cnc402 takes
-//!   P as modal cycle data and does not dwell; no end point changes).
-//! - G99 → G98 inside one series of cycles: LinuxCNC first rises to the initial level with the
-//!   positioning move; Fanuc positions at the current (R) level. Likewise, under G99 when the
-//!   new R is above the tool (a higher R than the last hole's), LinuxCNC rises to R before
-//!   positioning, Fanuc positions first. The programs here avoid both.
-//! - Dwell P: LinuxCNC seconds, Fanuc milliseconds (no end point changes).
-//! - Repeats: LinuxCNC uses L only; Fanuc uses K (cnc402 accepts both).
-//! - G76 (LinuxCNC: lathe threading), G87 (LinuxCNC: I/J/K offsets, not Q), G74 (absent in
-//!   LinuxCNC) and rigid G84 are not comparable and are covered by `tests/cycles.rs`.
-//! - G98 when the initial level is below R: LinuxCNC retracts to R; Fanuc to the initial level
-//!   (not used in these programs).
-//!
-//! Offsets (`offsets.ngc`, with the tool table `offsets.tbl`: H1 = -7 in, H2 = -6.5 in, in
-//! inches because rs274 reads its tool table in inches). rs274 prints canonical positions
-//! without the offsets, so they are added back here (SET_G5X_OFFSET, SET_G92_OFFSET,
-//! USE_TOOL_LENGTH_OFFSET) to compare machine positions. They agree on G43 H with Z, G49,
-//! G91/G90 G28 (intermediate point, then the reference of the named axes only), G81 with the
-//! offset, G92 (the current point reads as given; a G10 L2 change keeps the shift) and G10 L2
-//! in G90. Differences, where cnc402 follows Fanuc (not in the program):
-//! - G43/G44 H or G49 in a block without Z: Fanuc (cnc402) moves Z by the change in that
-//!   block; LinuxCNC applies it at the next move.
-//! - G28 in G43: Fanuc cancels the vector at the reference position and restores it at Z's
-//!   next move; LinuxCNC keeps it applied (the reference is in machine coordinates, so the
-//!   positions agree; a G49 right after G28 moves nothing in either).
-//! - G30: LinuxCNC has one G30 position (parameters 5181-5186) and no P2-P4; cnc402 takes
-//!   `second_reference`… from the config.
+//! - G86: LinuxCNC dwells P at the bottom; Fanuc's G86 has no dwell.
+//! - G99 → G98 inside one series of cycles, and a higher R under G99: LinuxCNC positions
+//!   with one rapid to the hole's XY at the return level; Fanuc positions at the current
+//!   level first. G98 when the initial level is below R: LinuxCNC first rises to R and
+//!   returns there; Fanuc returns to the initial level.
+//! - Dwell P: LinuxCNC seconds, Fanuc milliseconds.
+//! - G43/G44 H or G49 in a block without Z: Fanuc moves Z by the change in that block;
+//!   LinuxCNC applies it at the next move.
 //! - G10 L2 in G91: Fanuc adds to the offset; LinuxCNC sets it. G10 L20: LinuxCNC sets the
 //!   offset from the current position; on Fanuc L20 is the G54.1 P1-P48 table, which cnc402
-//!   refuses. G10 L10-L13 (memory C) and G44 are Fanuc's (LinuxCNC: G10 L1/L10 tool table).
-//! - G92: LinuxCNC cancels it with G92.1/G92.2 and keeps it in its parameters; cnc402 clears
-//!   it at program start (G92.1 cannot be written: G numbers are whole).
+//!   refuses. G10 L2 P0: LinuxCNC's active system, refused in the Fanuc dialect.
+//! - G92.1/G92.2/G92.3 and LinuxCNC's language (O-words, `#<name>`, `@`/`^`): refused.
+//!
+//! The `linuxcnc` dialect (docs/dialects.md) does each of these as LinuxCNC:
+//! `fanuc_programs_in_the_linuxcnc_dialect_match_rs274_exactly` runs the same programs
+//! (with the config's peck distances set to something else) and `lc_*.ngc` exercise the rest;
+//! every move agrees with rs274, and `the_linuxcnc_programs_differ_in_the_fanuc_dialect`
+//! checks that those programs do tell the dialects apart. What remains, in both dialects:
+//! - G76 (LinuxCNC: lathe threading), G87 (LinuxCNC: I/J/K offsets, not Q), G74 (absent in
+//!   LinuxCNC) and rigid G84 keep Fanuc's meaning and are covered by `tests/cycles.rs`.
+//! - Repeats: LinuxCNC uses L only; cnc402 also accepts K.
+//! - G30: LinuxCNC's one G30 position is parameters 5181-5186 of its parameter file;
+//!   cnc402's is the machine's `second_reference` (set to rs274's 0 to compare), and P2-P4
+//!   stay accepted.
+//! - G92: LinuxCNC keeps the shift in its parameter file across runs; cnc402 starts every
+//!   program with none (as rs274 with a fresh parameter file does).
+//! - G10 L1/L10/L11 (LinuxCNC's tool table) are not built; G10 L10-L13 and G44 keep Fanuc's
+//!   meaning.
+//! - Only moves are compared: dwells and spindle events are checked in `tests/linuxcnc.rs`.
+//!
+//! Offsets (`offsets.ngc`, `lc_offsets.ngc`, with the tool table `offsets.tbl`: H1 = -7 in,
+//! H2 = -6.5 in, in inches because rs274 reads its tool table in inches). rs274 prints
+//! canonical positions without the offsets, so they are added back here (SET_G5X_OFFSET,
+//! SET_G92_OFFSET, USE_TOOL_LENGTH_OFFSET) to compare machine positions. They agree on G43 H
+//! with Z, G49, G91/G90 G28 (intermediate point, then the reference of the named axes only),
+//! G81 with the offset, G92 (the current point reads as given; a G10 L2 change keeps the
+//! shift), G10 L2 in G90, and G28 in G43 (Fanuc cancels the vector at the reference and
+//! restores it at Z's next move, LinuxCNC keeps it applied: the reference is in machine
+//! coordinates, so the positions agree).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -66,6 +74,17 @@ fn find_rs274() -> Option<PathBuf> {
     std::env::split_paths(&path)
         .map(|d| d.join("rs274"))
         .find(|p| p.is_file())
+}
+
+/// `rs274`, or `None` with a notice that the cross-check is skipped.
+fn rs274_or_notice() -> Option<PathBuf> {
+    let exe = find_rs274();
+    if exe.is_none() {
+        eprintln!(
+            "NOTICE: rs274 (LinuxCNC) is not installed; cross-check skipped. apt-get install linuxcnc-uspace"
+        );
+    }
+    exe
 }
 
 fn nums(args: &str) -> Vec<f64> {
@@ -201,11 +220,14 @@ fn rs274_moves_with(exe: &Path, file: &Path, tools: Option<&Path>) -> Vec<Move> 
     v
 }
 
-/// cnc402's motion segments in the same form (the G88 restart rapid left out, see above).
+/// cnc402's motion segments in the same form (the G88 restart rapid left out, see above, in
+/// the Fanuc dialect: in the LinuxCNC one there is none).
 fn our_moves(cfg: &MachineConfig, file: &Path) -> Vec<Move> {
     let text = std::fs::read_to_string(file).unwrap();
-    let segs = run_program(cfg, &SourceFile::new(file.display().to_string(), text))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let src = SourceFile::new(file.display().to_string(), text);
+    let linuxcnc = cnc402_interp::parse_program(cfg, &src, None)
+        .is_ok_and(|p| p.dialect == cnc402_lang::Dialect::LinuxCnc);
+    let segs = run_program(cfg, &src).unwrap_or_else(|e| panic!("{e}"));
     let mut v = Vec::new();
     let mut after_stop = false;
     for s in &segs {
@@ -248,7 +270,7 @@ fn our_moves(cfg: &MachineConfig, file: &Path) -> Vec<Move> {
             SegmentKind::Stop {
                 kind: StopKind::Program,
             } => {
-                after_stop = true;
+                after_stop = !linuxcnc;
                 continue;
             }
             _ => continue,
@@ -300,36 +322,13 @@ fn dir() -> PathBuf {
 
 #[test]
 fn same_end_points_as_linuxcnc() {
-    let Some(exe) = find_rs274() else {
-        eprintln!(
-            "NOTICE: rs274 (LinuxCNC) is not installed; cross-check skipped. apt-get install linuxcnc-uspace"
-        );
+    let Some(exe) = rs274_or_notice() else {
         return;
     };
     let cfg = config();
     let mut report = Vec::new();
     for name in ["moves.ngc", "cycles.ngc", "planes.ngc", "inch.ngc"] {
-        let file = dir().join(name);
-        let theirs = dedup(rs274_moves(&exe, &file));
-        let ours = dedup(our_moves(&cfg, &file));
-        assert!(
-            theirs.len() > 10,
-            "{name}: rs274 gave {} moves",
-            theirs.len()
-        );
-        for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
-            if !close(a, b) {
-                report.push(format!("{name} move {i}: ours {a:?}\n    rs274 {b:?}"));
-                break;
-            }
-        }
-        if ours.len() != theirs.len() {
-            report.push(format!(
-                "{name}: {} moves, rs274 {}",
-                ours.len(),
-                theirs.len()
-            ));
-        }
+        compare(&cfg, &exe, name, &mut report);
     }
     assert!(report.is_empty(), "{}", report.join("\n"));
 }
@@ -338,8 +337,7 @@ fn same_end_points_as_linuxcnc() {
 /// feeds straight to the initial level; everything else (and all of G85) is the same.
 #[test]
 fn g89_with_g98_differs_only_in_the_way_out() {
-    let Some(exe) = find_rs274() else {
-        eprintln!("NOTICE: rs274 (LinuxCNC) is not installed; cross-check skipped");
+    let Some(exe) = rs274_or_notice() else {
         return;
     };
     let file = dir().join("diff_g89_g98.ngc");
@@ -380,20 +378,10 @@ fn g89_with_g98_differs_only_in_the_way_out() {
 /// the program): same machine positions as rs274 with the same tool lengths.
 #[test]
 fn offsets_same_machine_positions_as_linuxcnc() {
-    let Some(exe) = find_rs274() else {
-        eprintln!("NOTICE: rs274 (LinuxCNC) is not installed; cross-check skipped");
+    let Some(exe) = rs274_or_notice() else {
         return;
     };
-    let mut cfg = config();
-    // offsets.tbl: T1 Z-7 in, T2 Z-6.5 in.
-    cfg.tool_offsets[0] = cnc402_config::ToolOffset {
-        length: -177.8,
-        ..Default::default()
-    };
-    cfg.tool_offsets[1] = cnc402_config::ToolOffset {
-        length: -165.1,
-        ..Default::default()
-    };
+    let cfg = config_with_tools();
     let file = dir().join("offsets.ngc");
     let theirs = dedup(rs274_moves_with(
         &exe,
@@ -415,4 +403,129 @@ fn offsets_same_machine_positions_as_linuxcnc() {
         ours.iter()
             .any(|m| (m.end[2] - (50.0 - 177.8)).abs() < 1e-6)
     );
+}
+
+/// [`config`] with the tool lengths of `offsets.tbl` (T1 Z-7 in, T2 Z-6.5 in).
+fn config_with_tools() -> MachineConfig {
+    let mut cfg = config();
+    for (k, length) in [(0, -177.8), (1, -165.1)] {
+        cfg.tool_offsets[k] = cnc402_config::ToolOffset {
+            length,
+            ..Default::default()
+        };
+    }
+    cfg
+}
+
+/// The machine config in the LinuxCNC dialect (what every `lc_*.ngc` program also says in its
+/// header), with the tool table `offsets.tbl`.
+fn linuxcnc_config() -> MachineConfig {
+    let mut cfg = config_with_tools();
+    cfg.interp.dialect = cnc402_lang::Dialect::LinuxCnc;
+    // LinuxCNC's G30 position (#5181-#5186) is 0 in rs274's fresh parameter file; the
+    // machine's second reference is where cnc402 keeps it.
+    for a in &mut cfg.axes {
+        a.references[1] = Some(0.0);
+    }
+    cfg
+}
+
+/// Compares one program's moves with rs274's; a message for each difference.
+fn compare(cfg: &MachineConfig, exe: &Path, name: &str, report: &mut Vec<String>) {
+    let file = dir().join(name);
+    let tools = dir().join("offsets.tbl");
+    let theirs = dedup(rs274_moves_with(exe, &file, Some(&tools)));
+    let ours = dedup(our_moves(cfg, &file));
+    assert!(
+        theirs.len() >= 10,
+        "{name}: rs274 gave {} moves",
+        theirs.len()
+    );
+    for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
+        if !close(a, b) {
+            report.push(format!("{name} move {i}: ours {a:?}\n    rs274 {b:?}"));
+            break;
+        }
+    }
+    if ours.len() != theirs.len() {
+        report.push(format!(
+            "{name}: {} moves, rs274 {}",
+            ours.len(),
+            theirs.len()
+        ));
+    }
+}
+
+/// The LinuxCNC dialect's own language (O-word subroutines and flow, named parameters, polar
+/// words, G92.x): the `lc_*.ngc` programs, same moves as rs274.
+#[test]
+fn linuxcnc_dialect_programs_match_rs274() {
+    let Some(exe) = rs274_or_notice() else {
+        return;
+    };
+    let cfg = linuxcnc_config();
+    let mut names: Vec<String> = std::fs::read_dir(dir())
+        .unwrap()
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| n.starts_with("lc_") && n.ends_with(".ngc"))
+        .collect();
+    names.sort();
+    assert!(!names.is_empty());
+    let mut report = Vec::new();
+    for name in &names {
+        compare(&cfg, &exe, name, &mut report);
+    }
+    assert!(report.is_empty(), "{}", report.join("\n"));
+}
+
+/// The programs the Fanuc dialect compares with documented differences, run in the LinuxCNC
+/// dialect: no difference left (the G89 way out included), and the peck distances are
+/// LinuxCNC's whatever the config says.
+#[test]
+fn fanuc_programs_in_the_linuxcnc_dialect_match_rs274_exactly() {
+    let Some(exe) = rs274_or_notice() else {
+        return;
+    };
+    let mut cfg = config_with_tools();
+    cfg.interp.peck_retract = 1.0;
+    cfg.interp.peck_clearance = 1.0;
+    cfg.interp.dialect = cnc402_lang::Dialect::LinuxCnc;
+    let mut report = Vec::new();
+    for name in [
+        "offsets.ngc",
+        "moves.ngc",
+        "cycles.ngc",
+        "planes.ngc",
+        "inch.ngc",
+        "diff_g89_g98.ngc",
+    ] {
+        compare(&cfg, &exe, name, &mut report);
+    }
+    assert!(report.is_empty(), "{}", report.join("\n"));
+}
+
+/// The `lc_*.ngc` programs that exercise what differs read differently in the Fanuc dialect
+/// (so the LinuxCNC cross-check above pins the dialect, not a shared behaviour).
+#[test]
+fn the_linuxcnc_programs_differ_in_the_fanuc_dialect() {
+    let Some(exe) = rs274_or_notice() else {
+        return;
+    };
+    let tmp = std::env::temp_dir().join(format!("cnc402-fanuc-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    for name in ["lc_offsets.ngc", "lc_cycles.ngc"] {
+        let text = std::fs::read_to_string(dir().join(name)).unwrap();
+        // Up to what Fanuc refuses (G10 L20 is its G54.1 table).
+        let text = match text.find("\nG10 L20") {
+            Some(i) => text[..=i].to_string() + "M2\n",
+            None => text,
+        };
+        let fanuc = tmp.join(name);
+        std::fs::write(&fanuc, text.replace("(dialect: linuxcnc)", "")).unwrap();
+        let tools = dir().join("offsets.tbl");
+        let theirs = dedup(rs274_moves_with(&exe, &fanuc, Some(&tools)));
+        let ours = dedup(our_moves(&config_with_tools(), &fanuc));
+        let same = ours.len() == theirs.len() && ours.iter().zip(&theirs).all(|(a, b)| close(a, b));
+        assert!(!same, "{name}: the Fanuc dialect gives rs274's moves too");
+    }
 }

@@ -96,6 +96,60 @@ pub enum LineKind {
     Stmts(Vec<Stmt>),
     /// A line that belongs to a statement begun on an earlier line (it is executed there).
     Continued,
+    /// LinuxCNC dialect: an O-word of a subroutine or of control flow, `o100 sub`,
+    /// `o<probe> call [1] [2]`, `o1 if [#1 GT 0]`, `o2 endwhile`.
+    OWord(Box<OWord>),
+}
+
+/// A LinuxCNC O-word statement: a label and what it does. Lines with the same label pair up
+/// (`o1 if` … `o1 else` … `o1 endif`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OWord {
+    pub label: OLabel,
+    /// `o100` or `o<name>`.
+    pub label_span: Span,
+    pub kind: OWordKind,
+}
+
+/// An O-word label: `o100` or `o<name>` (names folded to lower case, spaces removed, as
+/// LinuxCNC reads them).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub enum OLabel {
+    Number(u32),
+    Name(String),
+}
+
+impl std::fmt::Display for OLabel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            OLabel::Number(n) => write!(f, "o{n}"),
+            OLabel::Name(s) => write!(f, "o<{s}>"),
+        }
+    }
+}
+
+/// What an O-word does; expressions are bracketed in the text (`o1 while [#1 LT 3]`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum OWordKind {
+    Sub,
+    /// `endsub [value]`.
+    EndSub(Option<Expr>),
+    /// `return [value]`.
+    Return(Option<Expr>),
+    /// `call [a] [b] …`: the arguments become `#1`, `#2`, … of the subroutine.
+    Call(Vec<Expr>),
+    If(Expr),
+    ElseIf(Expr),
+    Else,
+    EndIf,
+    Do,
+    /// `while [c]`: a loop head, or the end of a `do` loop with the same label.
+    While(Expr),
+    EndWhile,
+    Repeat(Expr),
+    EndRepeat,
+    Break,
+    Continue,
 }
 
 /// A block: the words of one line, in source order. Several G words may appear.
@@ -180,6 +234,9 @@ pub enum ExprKind {
     Var(u32),
     /// A macro variable whose number is computed: `#[#1+2]`.
     IndirectVar(Box<Expr>),
+    /// LinuxCNC dialect: a named parameter, `#<depth>` (local to its subroutine) or
+    /// `#<_feed>` (global: the name starts with `_`). Folded to lower case, spaces removed.
+    Named(String),
     /// C-like language: a local variable or parameter, `dDepth`.
     Ident(String),
     /// C-like language: a global shared by the programs of a run, `$dPerm` (name without `$`).

@@ -12,11 +12,16 @@ use cnc402_motion::segment::{SegmentKind, SpindleDir};
 use super::exec::Exec;
 use super::state::Cycle;
 use super::words::{Arg, fmt_num};
-use crate::canon::{CannedCycle, CanonKind, CanonOp, CanonState, CyclePlan, CycleWords, TapPlan};
+use crate::canon::{
+    CannedCycle, CanonKind, CanonOp, CanonState, CyclePlan, CycleWords, LinuxCncCycle, TapPlan,
+};
 use crate::lower::cycle::{Expander, MAX_CYCLE_MOVES, MAX_PECKS, moves_per_hole, peck_count};
 
 /// Lengths closer than this are the same point.
 const EPS: f64 = 1e-9;
+
+/// LinuxCNC's G73 retract and G83 clearance: 0.010 in, mm.
+const LINUXCNC_PECK: f64 = 0.254;
 
 /// The block's hole-position words and what the cycle needs besides the modal data.
 struct Drill {
@@ -146,13 +151,29 @@ impl Exec<'_> {
         self.st.restore_tlo(id);
         self.check_levels(&name, ld, cyc, r_level, bottom)?;
         self.check_work(&name, cyc, ld, (r_level - bottom).abs(), d.reps)?;
-        let ret = if self.st.return_to_r && cyc != Cycle::G87 {
-            r_level
-        } else {
-            data.initial
-        };
         let state = self.canon_state();
         let o = state.offset.0[id];
+        let linuxcnc = (self.st.dialect == cnc402_lang::Dialect::LinuxCnc).then(|| LinuxCncCycle {
+            first: data.lc_level.is_none(),
+            level: data.lc_level.unwrap_or(self.st.pos[id]) - o,
+        });
+        let initial = self.linuxcnc_initial(linuxcnc, r_level, bottom);
+        let ret = if self.st.return_to_r && cyc != Cycle::G87 {
+            r_level
+        } else if linuxcnc.is_some() && (r_level - initial) * (r_level - bottom) > 0.0 {
+            // LinuxCNC's G98 never returns below R.
+            r_level
+        } else {
+            initial
+        };
+        if linuxcnc.is_some() {
+            self.st.cycle_data.lc_level = Some(ret);
+        }
+        // LinuxCNC's G73 retract and G83 clearance are a fixed 0.010 in.
+        let (peck_retract, peck_clearance) = match linuxcnc {
+            Some(_) => (LINUXCNC_PECK, LINUXCNC_PECK),
+            None => (self.cfg.interp.peck_retract, self.cfg.interp.peck_clearance),
+        };
         let mut cc = CannedCycle {
             code: cyc.code(),
             words: CycleWords {
@@ -168,15 +189,15 @@ impl Exec<'_> {
             axes: [ia, ib, id],
             start: state.to_work(&self.st.pos),
             holes: Vec::new(),
-            initial_level: data.initial - o,
+            initial_level: initial - o,
             r_level: r_level - o,
             bottom: bottom - o,
             return_level: ret - o,
             feed,
             tap,
             plan: CyclePlan {
-                peck_retract: self.cfg.interp.peck_retract,
-                peck_clearance: self.cfg.interp.peck_clearance,
+                peck_retract,
+                peck_clearance,
                 orient_angle: self
                     .cfg
                     .spindle_index()
@@ -184,6 +205,7 @@ impl Exec<'_> {
                 spindle_turning: turning,
                 speed: self.st.speed,
                 spindle_dir: self.st.spindle,
+                linuxcnc,
             },
         };
         let holes = self.run_holes(&d, &cc, &state, [r_level, bottom, ret])?;
@@ -304,6 +326,23 @@ impl Exec<'_> {
         ex.finish();
         self.st.pos = ex.position();
         Ok(holes)
+    }
+
+    /// The initial level the block returns to in G98. LinuxCNC (`linuxcnc` is `Some(true)`
+    /// on the series' first block): a tool below R in G90 goes up to R first, and R is then
+    /// the initial level.
+    fn linuxcnc_initial(
+        &mut self,
+        linuxcnc: Option<LinuxCncCycle>,
+        r_level: f64,
+        bottom: f64,
+    ) -> f64 {
+        let data = &mut self.st.cycle_data;
+        let below_r = (data.initial - r_level) * (r_level - bottom) < 0.0;
+        if linuxcnc.is_some_and(|l| l.first) && below_r && !self.st.incremental {
+            data.initial = r_level;
+        }
+        data.initial
     }
 
     /// The soft-limit check of the moves expanded so far.

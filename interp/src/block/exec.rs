@@ -846,7 +846,11 @@ impl Exec<'_> {
                 } else {
                     self.word_target(i, v)
                 };
-            } else if self.tlo_commanded && self.st.tool_axis == Some(i) {
+            } else if self.tlo_commanded
+                && self.st.tool_axis == Some(i)
+                && self.st.dialect != cnc402_lang::Dialect::LinuxCnc
+            {
+                // (LinuxCNC applies a new tool length offset at the axis' next move.)
                 // No move when the vector does not change (G49 after G28 Z: Fanuc cancelled
                 // it at the reference position already).
                 let d = self.tlo_pending(i);

@@ -92,6 +92,9 @@ impl Exec<'_> {
         }
         if let Some(h) = h {
             self.st.h = self.offset_number(h, "H", true)? as u32;
+        } else if let (Some((43, _)), cnc402_lang::Dialect::LinuxCnc) = (g, self.st.dialect) {
+            // LinuxCNC: G43 without H takes the tool in the spindle's offset.
+            self.st.h = self.st.tool_loaded.unwrap_or(0).min(TOOL_OFFSETS as u32);
         }
         let mode = match g {
             Some((43, _)) => ToolLength::Plus,
@@ -201,15 +204,18 @@ impl Exec<'_> {
         } else {
             u32::MAX
         };
-        let add = self.st.incremental;
+        // LinuxCNC: G10 L2 sets in G91 too, P0 is the active system, and L20 sets the offset
+        // from the current position.
+        let linuxcnc = self.st.dialect == cnc402_lang::Dialect::LinuxCnc;
+        let add = self.st.incremental && !linuxcnc;
         match lv {
-            2 => {
+            2 | 20 if lv == 2 || linuxcnc => {
                 let Some(p) = self.w.take('P') else {
                     return Err(self
                         .err(span, "G10 L2 needs P (the work offset: P1-P6 for G54-G59)")
                         .with_expected("P1 to P6"));
                 };
-                if p.v == 0.0 {
+                if p.v == 0.0 && !linuxcnc {
                     return Err(self
                         .err(
                             p.span,
@@ -218,6 +224,7 @@ impl Exec<'_> {
                         .with_expected("P1 to P6 (G54 to G59)"));
                 }
                 let k = match p.v {
+                    0.0 => self.st.work_offset,
                     v if v.fract() == 0.0 && (1.0..=6.0).contains(&v) => v as usize - 1,
                     v => {
                         return Err(self
@@ -232,7 +239,14 @@ impl Exec<'_> {
                     if let Some(a) = self.w.take(self.cfg.axes[i].name) {
                         let v = self.axis_value(i, a);
                         let o = self.st.work_offsets[k][i];
-                        let new = if add { o + v } else { v };
+                        let new = if lv == 20 {
+                            let active = self.st.work_offsets[self.st.work_offset][i];
+                            active + self.st.programmed(i) - v
+                        } else if add {
+                            o + v
+                        } else {
+                            v
+                        };
                         self.overflow(new, a.span, "the work offset")?;
                         self.st.work_offsets[k][i] = new;
                     }

@@ -111,6 +111,10 @@ pub struct CycleData {
     /// moved Z; 0 otherwise). The drilling moves restore the whole vector, so a G91 R level
     /// is `initial + initial_tlo_pending + R`, as a `G91 Z` move from there would be.
     pub initial_tlo_pending: f64,
+    /// LinuxCNC: the machine level the last block of this series returned to, where LinuxCNC
+    /// takes the tool to be (after G88 too: the operator took it out); `None` before the
+    /// series' first block has drilled.
+    pub lc_level: Option<f64>,
 }
 
 /// What is cut off at a corner.
@@ -209,6 +213,8 @@ pub struct ModalState {
     /// Coolant: M7 (mist), M8 (flood); M9 turns both off.
     pub mist: bool,
     pub flood: bool,
+    /// The running program's dialect (LinuxCNC's canned cycles differ from Fanuc's).
+    pub dialect: cnc402_lang::Dialect,
 }
 
 impl ModalState {
@@ -251,6 +257,7 @@ impl ModalState {
             noted_mcodes: Vec::new(),
             mist: false,
             flood: false,
+            dialect: cnc402_lang::Dialect::default(),
         }
     }
 

@@ -259,6 +259,20 @@ pub struct CyclePlan {
     pub spindle_turning: bool,
     pub speed: f64,
     pub spindle_dir: SpindleDir,
+    /// LinuxCNC's cycle (the `linuxcnc` dialect); `None`: Fanuc's.
+    pub linuxcnc: Option<LinuxCncCycle>,
+}
+
+/// How LinuxCNC's canned cycle starts: on the series' first block a tool below R first goes
+/// straight to R; every hole is positioned with one rapid to its XY at the higher of the
+/// level LinuxCNC takes the tool to be at and the return level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinuxCncCycle {
+    /// The block starts the series.
+    pub first: bool,
+    /// Where LinuxCNC takes the tool to be along the drilling axis (work coordinates): the
+    /// current level on the first block, else the last block's return level.
+    pub level: f64,
 }
 
 /// Whether `ops`, run from machine position `from`, make real motion: a move that changes a

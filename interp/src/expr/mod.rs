@@ -19,6 +19,14 @@ pub(crate) const C_LIKE_ONLY: &str = "only in a C-like main program and the file
 /// for the variable's place in the program (no such variable, a failed motion sync, …).
 pub trait VarSource {
     fn get(&mut self, n: i64) -> Result<Option<f64>, String>;
+    /// A LinuxCNC named parameter `#<name>` (name folded to lower case).
+    fn get_named(&mut self, name: &str) -> Result<Option<f64>, String> {
+        Err(format!("#<{name}>: named parameters need the interpreter"))
+    }
+    /// LinuxCNC's `EXISTS[#<name>]`.
+    fn named_exists(&mut self, _name: &str) -> bool {
+        false
+    }
 }
 
 /// No variables at all: every read is an error (plain expression evaluation).
@@ -90,6 +98,11 @@ pub fn eval(src: &SourceFile, e: &Expr, vars: &mut dyn VarSource) -> Result<Opti
     let r = match &e.kind {
         ExprKind::Number(v) => *v,
         ExprKind::Var(n) => return vars.get(i64::from(*n)).map_err(err),
+        ExprKind::Named(name) => return vars.get_named(name).map_err(err),
+        ExprKind::CallNamed(f, args) if f == "EXISTS" => match args.first().map(|a| &a.kind) {
+            Some(ExprKind::Named(name)) => bool01(vars.named_exists(name)),
+            _ => return Err(err("EXISTS takes a named parameter".into())),
+        },
         ExprKind::IndirectVar(i) => {
             let n = eval(src, i, vars)?.unwrap_or(0.0);
             return vars.get(var_number(n)).map_err(err);

@@ -105,6 +105,7 @@ impl Interpreter {
                 Ok(())
             }
             LineKind::ProgramNumber { .. } | LineKind::Continued => Ok(()),
+            LineKind::OWord(o) => self.oword(&unit, line, pc, o),
             LineKind::Empty => self.exec_block(&unit, line, None),
             LineKind::Block(b) => {
                 self.flow.seen_block = true;
@@ -171,7 +172,7 @@ impl Interpreter {
         }
     }
 
-    fn set_pc(&mut self, pc: usize) {
+    pub(super) fn set_pc(&mut self, pc: usize) {
         if let Some(f) = self.flow.frames.last_mut() {
             f.pc = pc;
         }
@@ -220,6 +221,12 @@ impl Interpreter {
         let n = match &target.kind {
             ExprKind::Var(n) => i64::from(*n),
             ExprKind::IndirectVar(e) => var_number(self.eval_at(&unit.src, e)?.unwrap_or(0.0)),
+            ExprKind::Named(name) => {
+                let v = self.eval_at(&unit.src, value)?;
+                return self
+                    .write_named(name, v)
+                    .map_err(|m| NcError::new(&unit.src, target.span, m));
+            }
             _ => {
                 return Err(NcError::new(
                     &unit.src,
@@ -321,6 +328,10 @@ impl Interpreter {
             && f.macro_level
         {
             self.vars.table.locals.pop();
+            // An `M99` out of a LinuxCNC subroutine ends its named locals too.
+            if f.o_call {
+                self.vars.named.pop_scope();
+            }
         }
         if let Some(n) = seq {
             let caller = self.cur_unit();

@@ -5,7 +5,10 @@
 //! ([`Interpreter::next_segment`]) so that the interpreter can run ahead of motion and, with
 //! Macro B, stop at sync points (reading a position variable waits for queued motion).
 
+mod lcblock;
 mod macros;
+mod oindex;
+mod oword;
 mod sysvars;
 pub mod units;
 
@@ -58,6 +61,8 @@ struct Flow {
     units: Vec<Arc<Unit>>,
     /// Programs found in the library, by number.
     lib_cache: HashMap<u32, Arc<Unit>>,
+    /// LinuxCNC subroutine files (`o<name> call` of `name.ngc`) read so far, by name.
+    o_files: HashMap<String, Arc<Unit>>,
     /// The call stack; `frames[0]` is the main program. Empty before `load`.
     frames: Vec<Frame>,
     library: Option<Box<dyn ProgramLibrary>>,
@@ -80,12 +85,16 @@ struct Flow {
     seen_block: bool,
     /// The line of the main program's `M99` that ended it ([`MainM99::End`]).
     main_m99_line: Option<u32>,
+    /// LinuxCNC: the G92 shift as the last G92 set it (what G92.3 restores).
+    g92_kept: [f64; cnc402_config::MAX_AXES],
 }
 
 /// The macro variables and their storage.
 #[derive(Default)]
 struct Vars {
     table: VarTable,
+    /// LinuxCNC named parameters `#<name>`.
+    named: crate::vars::NamedVars,
     store: Option<Box<dyn PersistentVars>>,
     /// The injected variables could not be read (`set_persistent_vars_error`): every `load`
     /// fails with this at the first `next_segment`.
@@ -112,6 +121,7 @@ impl Interpreter {
                 main_src: Arc::new(SourceFile::new("", "")),
                 units: Vec::new(),
                 lib_cache: HashMap::new(),
+                o_files: HashMap::new(),
                 frames: Vec::new(),
                 library: None,
                 load_error: None,
@@ -125,6 +135,7 @@ impl Interpreter {
                 done: true,
                 seen_block: false,
                 main_m99_line: None,
+                g92_kept: Default::default(),
             },
             vars: Vars::default(),
             hll: Hll::default(),
@@ -192,11 +203,14 @@ impl Interpreter {
         let (units, main) = units::split_units(&src, &program);
         self.m.reset();
         self.m.dialect = program.dialect;
+        self.m.state.dialect = program.dialect;
         self.flow.main_src = src;
         self.flow.units = units;
         self.flow.lib_cache.clear();
+        self.flow.o_files.clear();
         self.flow.frames = vec![Frame::new(self.flow.units[main].clone(), false)];
         self.vars.table.reset();
+        self.vars.named.reset();
         self.flow.modal_call = None;
         self.flow.runaway = Runaway::default();
         self.flow.last_m = None;
@@ -207,6 +221,7 @@ impl Interpreter {
         self.flow.done = false;
         self.flow.seen_block = false;
         self.flow.main_m99_line = None;
+        self.flow.g92_kept = Default::default();
     }
 
     /// The next segment, `Ok(None)` at the end of the program, or the error that ends it:
@@ -296,6 +311,18 @@ impl Interpreter {
     ) -> Result<(), NcError> {
         let empty = Block::default();
         let block = block.unwrap_or(&empty);
+        let linuxcnc = unit.program.dialect == cnc402_lang::Dialect::LinuxCnc;
+        let translated;
+        let block = match linuxcnc {
+            true => match self.linuxcnc_block(unit, block)? {
+                Some(b) => {
+                    translated = b;
+                    &translated
+                }
+                None => block,
+            },
+            false => block,
+        };
         if let Some(named) = block.named_axes.first() {
             return Err(NcError::new(
                 &unit.src,
@@ -339,7 +366,11 @@ impl Interpreter {
             self.flow.last_m = Some(f64::from(m.0));
         }
         let from = self.m.state.pos;
+        let sets_g92 = linuxcnc && words.g.iter().any(|g| g.0 == 92);
         let (out, end) = self.m.execute(&unit.src, words, line)?;
+        if sets_g92 {
+            self.flow.g92_kept = self.m.state.shift;
+        }
         if canon::makes_motion(&out, &from) {
             self.flow.runaway.reset();
         }

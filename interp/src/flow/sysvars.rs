@@ -10,7 +10,16 @@ use super::Interpreter;
 
 impl VarSource for Interpreter {
     fn get(&mut self, n: i64) -> Result<Option<f64>, String> {
+        if self.m.dialect == cnc402_lang::Dialect::LinuxCnc {
+            return super::oword::linuxcnc_read(self, n);
+        }
         self.read_var(n)
+    }
+    fn get_named(&mut self, name: &str) -> Result<Option<f64>, String> {
+        self.read_named(name)
+    }
+    fn named_exists(&mut self, name: &str) -> bool {
+        self.read_named(name).is_ok()
     }
 }
 

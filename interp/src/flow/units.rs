@@ -34,6 +34,8 @@ pub struct Unit {
     pub loops: HashMap<usize, usize>,
     /// Nesting errors found when the unit was loaded, reported when the line runs.
     pub loop_errors: HashMap<usize, String>,
+    /// LinuxCNC O-word pairs and subroutines (empty in the other dialects).
+    pub owords: super::oindex::OIndex,
 }
 
 impl Unit {
@@ -121,6 +123,7 @@ impl Unit {
             labels,
             loops,
             loop_errors,
+            owords: super::oindex::OIndex::build(program, start, end),
         }
     }
 
@@ -174,6 +177,11 @@ pub struct Frame {
     pub repeats: u32,
     /// A `G65`/`G66` call: has its own local variables.
     pub macro_level: bool,
+    /// A LinuxCNC `o… call`: ends at its `endsub`/`return` (own `#1`-`#30` and named locals).
+    pub o_call: bool,
+    /// LinuxCNC `repeat` loops running in this frame: (repeat line, runs left). At most one
+    /// per `repeat` line.
+    pub repeat_left: Vec<(usize, u64)>,
 }
 
 impl Frame {
@@ -183,6 +191,8 @@ impl Frame {
             unit,
             repeats: 0,
             macro_level,
+            o_call: false,
+            repeat_left: Vec::new(),
         }
     }
 }

@@ -443,6 +443,8 @@ impl<'a> Cx<'a> {
         match &line.kind {
             LineKind::Empty | LineKind::Percent | LineKind::Continued => Ok(()),
             LineKind::ProgramNumber { .. } => Ok(()),
+            // Only in the LinuxCNC dialect, which is never C-like.
+            LineKind::OWord(o) => Err(self.err(o.label_span, "O-words are LinuxCNC's")),
             LineKind::Block(_) => {
                 out.push(self.gcode(line)?);
                 Ok(())
@@ -872,7 +874,7 @@ impl<'a> Cx<'a> {
             }
             ExprKind::Not(x) => (Ex::Not(Box::new(self.cond(x)?), sp), Ty::Bool),
             ExprKind::CallNamed(name, args) => self.call(name, args, sp)?,
-            ExprKind::Var(_) | ExprKind::IndirectVar(_) => {
+            ExprKind::Var(_) | ExprKind::IndirectVar(_) | ExprKind::Named(_) => {
                 return Err(self.err(
                     sp,
                     "macro variables (#n) are not available in C-like programs: use a variable",

@@ -92,6 +92,10 @@ pub(crate) struct Expander<'a> {
     hole: Hole,
     tap: Option<TapCoupling>,
     out: Vec<CycleStep>,
+    /// Holes positioned so far in this block.
+    holes: u32,
+    /// LinuxCNC: the machine level it takes the tool to be at before the first hole.
+    lc_level: f64,
 }
 
 impl<'a> Expander<'a> {
@@ -125,6 +129,11 @@ impl<'a> Expander<'a> {
             },
             tap,
             out: Vec::new(),
+            holes: 0,
+            lc_level: cc
+                .plan
+                .linuxcnc
+                .map_or(0.0, |l| l.level + state.offset.0[cc.axes[2]]),
         }
     }
 
@@ -132,6 +141,12 @@ impl<'a> Expander<'a> {
     pub(crate) fn begin(&mut self) {
         if self.tap.is_some() && self.cc.plan.spindle_turning {
             self.spindle_stop();
+        }
+        // LinuxCNC's preliminary motion: below R, the tool first goes straight up to R.
+        let r = self.hole.r_level;
+        if self.cc.plan.linuxcnc.is_some_and(|l| l.first) && self.above(r, self.lc_level) {
+            self.rapid_d(r);
+            self.lc_level = r;
         }
     }
 
@@ -143,6 +158,14 @@ impl<'a> Expander<'a> {
         p[ia] = a;
         p[ib] = b;
         let (la, lb, _) = self.letters;
+        // LinuxCNC positions each hole with one rapid to its XY at the higher of where it takes
+        // the tool to be and the return level (after a G88 hole: from the bottom).
+        if self.cc.plan.linuxcnc.is_some() && self.cc.code != 87 {
+            let ret = self.hole.ret;
+            let from = if self.holes == 0 { self.lc_level } else { ret };
+            p[self.cc.axes[2]] = if self.above(from, ret) { from } else { ret };
+        }
+        self.holes += 1;
         self.rapid_to(p, [la, lb]);
         if self.cc.code == 87 {
             self.back_boring();
@@ -158,6 +181,11 @@ impl<'a> Expander<'a> {
         if self.tap.is_some() {
             self.restore();
         }
+    }
+
+    /// Level `a` is farther out of the hole than level `b`.
+    fn above(&self, a: f64, b: f64) -> bool {
+        (a - b) * (self.hole.r_level - self.hole.bottom) > 0.0
     }
 
     /// Where the steps so far leave the tool (machine coordinates).
@@ -369,11 +397,20 @@ impl<'a> Expander<'a> {
             89 => {
                 self.feed_d(bottom);
                 self.dwell_data();
-                self.feed_d(r);
-                self.rapid_d(ret);
+                // LinuxCNC feeds straight out to the return level.
+                if self.cc.plan.linuxcnc.is_some() {
+                    self.feed_d(ret);
+                } else {
+                    self.feed_d(r);
+                    self.rapid_d(ret);
+                }
             }
             86 => {
                 self.feed_d(bottom);
+                // LinuxCNC dwells P at the bottom of G86; Fanuc's G86 has no dwell.
+                if self.cc.plan.linuxcnc.is_some() {
+                    self.dwell_data();
+                }
                 self.spindle_stop();
                 self.rapid_d(ret);
                 self.restore();
@@ -388,7 +425,11 @@ impl<'a> Expander<'a> {
                     },
                     NO_HINT,
                 );
-                self.rapid_d(ret);
+                // LinuxCNC leaves the way out to the operator (the next hole's positioning
+                // starts at the bottom); Fanuc rapids out on restart.
+                if self.cc.plan.linuxcnc.is_none() {
+                    self.rapid_d(ret);
+                }
                 self.restore();
             }
             76 => {

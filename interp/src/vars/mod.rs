@@ -4,9 +4,11 @@
 //! that own their state (block state, program flow); this layer only says which is which.
 
 mod class;
+pub mod named;
 pub mod nv;
 
 pub use class::{OffsetField, VarClass, tool_offset_var};
+pub use named::NamedVars;
 pub use nv::NvTable;
 
 /// A macro value; `None` is vacant.

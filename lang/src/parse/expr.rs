@@ -59,7 +59,7 @@ pub(crate) fn join_height<'a>(
     Ok(())
 }
 
-const CMP_OPS: [(&str, BinaryOp); 6] = [
+pub(crate) const CMP_OPS: [(&str, BinaryOp); 6] = [
     ("EQ", BinaryOp::Eq),
     ("NE", BinaryOp::Ne),
     ("GT", BinaryOp::Gt),
@@ -67,7 +67,7 @@ const CMP_OPS: [(&str, BinaryOp); 6] = [
     ("LT", BinaryOp::Lt),
     ("LE", BinaryOp::Le),
 ];
-const ADD_OPS: [(&str, BinaryOp); 4] = [
+pub(crate) const ADD_OPS: [(&str, BinaryOp); 4] = [
     ("+", BinaryOp::Add),
     ("-", BinaryOp::Sub),
     ("OR", BinaryOp::Or),
@@ -100,7 +100,7 @@ pub(crate) const FUNCS: [(&str, Func); 16] = [
     ("BCD", Func::Bcd),
 ];
 
-fn match_op(i: &str, ops: &[(&'static str, BinaryOp)]) -> Option<(usize, BinaryOp)> {
+pub(crate) fn match_op(i: &str, ops: &[(&'static str, BinaryOp)]) -> Option<(usize, BinaryOp)> {
     ops.iter()
         .find(|(kw, _)| starts_with_kw(i, kw))
         .map(|&(kw, op)| (kw.len(), op))
@@ -109,6 +109,9 @@ fn match_op(i: &str, ops: &[(&'static str, BinaryOp)]) -> Option<(usize, BinaryO
 impl<'a> Cx<'a> {
     /// A whole expression (comparison level), leading whitespace allowed.
     pub(crate) fn expr(&self, i: &'a str, depth: u32) -> PResult<'a, Expr> {
+        if self.dialect == crate::dialect::Dialect::LinuxCnc {
+            return self.lc_expr(i, depth);
+        }
         self.binary_level(i, depth, 0)
     }
 
@@ -158,7 +161,7 @@ impl<'a> Cx<'a> {
     }
 
     /// `-x`, `+x`, or a primary.
-    fn unary(&self, i: &'a str, depth: u32) -> PResult<'a, Expr> {
+    pub(crate) fn unary(&self, i: &'a str, depth: u32) -> PResult<'a, Expr> {
         let i = ws(i);
         let op = match i.as_bytes().first() {
             Some(b'-') => UnaryOp::Neg,
@@ -236,6 +239,7 @@ impl<'a> Cx<'a> {
     pub(crate) fn var(&self, i: &'a str, depth: u32) -> PResult<'a, Expr> {
         let after = ws(&i[1..]);
         match after.as_bytes().first() {
+            Some(b'<') if self.dialect == crate::dialect::Dialect::LinuxCnc => self.named_param(i),
             Some(b'0'..=b'9') => {
                 let (rest, n) = self.whole(after, "variable number")?;
                 Ok((
@@ -337,6 +341,11 @@ impl<'a> Cx<'a> {
     /// `NAME[e]`, `ATAN[e]/[e]`, `ATAN[e,e]`, `POW[e,e]`; `i` starts with a letter.
     fn call(&self, i: &'a str, depth: u32) -> PResult<'a, Expr> {
         let name_len = i.bytes().take_while(u8::is_ascii_alphabetic).count();
+        if self.dialect == crate::dialect::Dialect::LinuxCnc
+            && i[..name_len].eq_ignore_ascii_case("EXISTS")
+        {
+            return self.exists(i, name_len);
+        }
         let Some(&(kw, func)) = FUNCS
             .iter()
             .filter(|(kw, _)| starts_with_kw(i, kw))

@@ -8,6 +8,7 @@ use super::{Cx, PResult, fail, fail_exp};
 use crate::ast::{
     Block, Comment, Expr, ExprKind, Line, LineKind, NamedAxisWord, SeqNo, UnaryOp, Value, Word,
 };
+use crate::dialect::Dialect;
 
 /// A C expression as a word value: ends at the line end, names must not look like words.
 const IN_BLOCK: ECx = ECx {
@@ -50,6 +51,9 @@ impl<'a> Cx<'a> {
                 let (r, ()) = self.trivia(&i[1..], &mut comments)?;
                 self.expect_end(r, "after `%`")?;
                 LineKind::Percent
+            }
+            Some(b'O' | b'o') if self.dialect == Dialect::LinuxCnc => {
+                self.oword(i, &mut comments)?.1
             }
             Some(b'O' | b'o' | b':') => {
                 let start = i;
@@ -98,6 +102,10 @@ impl<'a> Cx<'a> {
     /// must be followed by a value, and `F`, `H`, `O`, `N` are not values).
     fn statement_or_block(&self, i: &'a str, comments: &mut Vec<Comment>) -> PResult<'a, LineKind> {
         let (rest, kind) = match i.as_bytes().first() {
+            // `N20 o100 if […]` (LinuxCNC takes a line number before an O-word).
+            Some(b'O' | b'o') if self.dialect == Dialect::LinuxCnc => {
+                return self.oword(i, comments);
+            }
             Some(b'#') => self.assignment(i)?,
             Some(b'I' | b'i') if starts_with_kw(i, "IF") => self.if_statement(i, comments)?,
             Some(b'W' | b'w') if macro_kw(i, "WHILE", "WH").is_some() => {
@@ -412,7 +420,9 @@ impl<'a> Cx<'a> {
         let Some(c) = i.chars().next() else {
             return fail(i, 0, "missing word");
         };
-        if !c.is_ascii_alphabetic() {
+        // LinuxCNC's polar words: `@` radius, `^` angle.
+        let polar = self.dialect == Dialect::LinuxCnc && matches!(c, '@' | '^');
+        if !c.is_ascii_alphabetic() && !polar {
             return self.not_a_word(i, c);
         }
         let letter = c.to_ascii_uppercase();

@@ -10,8 +10,10 @@ mod header;
 pub use header::{HEADER_LINES, choose_dialect, declared_dialect};
 
 pub use expr::MAX_HEIGHT;
+mod lcexpr;
 mod lex;
 mod line;
+mod oword;
 
 use std::borrow::Cow;
 
@@ -92,7 +94,8 @@ pub fn parse_in(src: &SourceFile, dialect: Dialect) -> Result<Program, NcError> 
         .filter(|l| clike::classify(l.trim_start_matches([' ', '\t'])) == clike::Class::Statement)
         .take(2)
         .count();
-    let c_like = statement_lines > 0;
+    // LinuxCNC programs are never C-like: `@` there is a polar word.
+    let c_like = statement_lines > 0 && dialect != Dialect::LinuxCnc;
     let cx = Cx {
         text,
         line_starts: src.line_starts(),
@@ -333,7 +336,6 @@ pub(crate) struct Cx<'a> {
     /// `AXSTR(…)=` words and `//` comments.
     c_like: bool,
     /// The dialect the program is read in (LinuxCNC: O-word flow, `#<name>`, polar words).
-    #[allow(dead_code)]
     dialect: Dialect,
 }
 

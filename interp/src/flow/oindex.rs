@@ -1,0 +1,289 @@
+//! How the O-word lines of a LinuxCNC program unit pair up ([`OIndex`]): each `if`/`while`/
+//! `do`/`repeat`/`sub` with its branches and end, the `break`/`continue`/`return` inside it,
+//! and the subroutines by label. Data only, found once when the unit is loaded; `oword`
+//! executes through it.
+
+use std::collections::HashMap;
+
+use cnc402_lang::Dialect;
+use cnc402_lang::ast::{LineKind, OLabel, OWord, OWordKind, Program};
+
+/// How the O-word lines of a unit pair up, found when the unit is loaded.
+#[derive(Debug, Default)]
+pub struct OIndex {
+    /// For each O-word line of a construct: its construct.
+    pub links: HashMap<usize, OLink>,
+    /// Subroutine label → its `sub` line.
+    pub subs: HashMap<OLabel, usize>,
+    /// Lines whose construct is broken (no end, crossed, wrong label), with the message.
+    pub errors: HashMap<usize, String>,
+}
+
+/// The construct an O-word line belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OLink {
+    /// Its first line (`sub`, `if`, `while`, `do`, `repeat`).
+    pub head: usize,
+    /// Its last line (`endsub`, `endif`, `endwhile`, the `while` closing a `do`, `endrepeat`).
+    pub end: usize,
+    /// `if`/`elseif`/`else`: the next branch line (or `endif`); otherwise `end`.
+    pub next: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Open {
+    Sub,
+    If,
+    While,
+    Do,
+    Repeat,
+}
+
+impl Open {
+    fn word(self) -> &'static str {
+        match self {
+            Open::Sub => "sub",
+            Open::If => "if",
+            Open::While => "while",
+            Open::Do => "do",
+            Open::Repeat => "repeat",
+        }
+    }
+    fn is_loop(self) -> bool {
+        matches!(self, Open::While | Open::Do | Open::Repeat)
+    }
+}
+
+/// A construct being read: its label, kind, head, branch lines and the lines inside it that
+/// refer to it (`break`, `continue`, `return`).
+struct Building<'p> {
+    label: &'p OLabel,
+    open: Open,
+    head: usize,
+    branches: Vec<usize>,
+    members: Vec<usize>,
+}
+
+pub(crate) fn oword_of(program: &Program, i: usize) -> Option<&OWord> {
+    match &program.lines.get(i)?.kind {
+        LineKind::OWord(o) => Some(o),
+        _ => None,
+    }
+}
+
+impl OIndex {
+    /// Pairs the O-word lines `start..end` of `program` (empty unless it is in the LinuxCNC
+    /// dialect).
+    pub fn build(program: &Program, start: usize, end: usize) -> OIndex {
+        let mut ix = OIndex::default();
+        if program.dialect != Dialect::LinuxCnc {
+            return ix;
+        }
+        let mut stack: Vec<Building> = Vec::new();
+        for i in start..end {
+            if let Some(o) = oword_of(program, i) {
+                ix.line(program, &mut stack, i, o);
+            }
+        }
+        for b in stack {
+            ix.errors
+                .insert(b.head, format!("{} {} has no end", b.label, b.open.word()));
+        }
+        ix
+    }
+
+    fn line<'p>(
+        &mut self,
+        program: &Program,
+        stack: &mut Vec<Building<'p>>,
+        i: usize,
+        o: &'p OWord,
+    ) {
+        let label = &o.label;
+        let top_is = |stack: &Vec<Building>, open: Open| {
+            stack
+                .last()
+                .is_some_and(|b| b.open == open && b.label == label)
+        };
+        let push = |ix: &mut OIndex, stack: &mut Vec<Building<'p>>, open: Open| {
+            // LinuxCNC: a label names one block; an inner block needs a label of its own (a
+            // subroutine may reuse its label for one block inside).
+            if let Some(b) = stack
+                .iter()
+                .find(|b| b.label == label && b.open != Open::Sub)
+            {
+                ix.errors.insert(
+                    i,
+                    format!(
+                        "duplicate O-word label {label}: already used by the {} of line {}",
+                        b.open.word(),
+                        program.lines[b.head].line_no
+                    ),
+                );
+            }
+            stack.push(Building {
+                label,
+                open,
+                head: i,
+                branches: vec![i],
+                members: Vec::new(),
+            })
+        };
+        match &o.kind {
+            OWordKind::Sub => {
+                if let Some(b) = stack.last() {
+                    self.errors.insert(
+                        i,
+                        format!(
+                            "{label} sub inside {} {} of line {}: subroutines are defined at the top level",
+                            b.label,
+                            b.open.word(),
+                            program.lines[b.head].line_no
+                        ),
+                    );
+                }
+                push(self, stack, Open::Sub);
+            }
+            OWordKind::If(_) => push(self, stack, Open::If),
+            OWordKind::Do => push(self, stack, Open::Do),
+            OWordKind::Repeat(_) => push(self, stack, Open::Repeat),
+            OWordKind::While(_) if top_is(stack, Open::Do) => self.close(stack, i),
+            OWordKind::While(_) => push(self, stack, Open::While),
+            OWordKind::ElseIf(_) | OWordKind::Else => {
+                if !top_is(stack, Open::If) {
+                    self.mismatch(program, stack, i, label, "if");
+                    return;
+                }
+                let Some(b) = stack.last_mut() else { return };
+                let after_else = b
+                    .branches
+                    .last()
+                    .and_then(|&j| oword_of(program, j))
+                    .is_some_and(|p| p.kind == OWordKind::Else);
+                if after_else {
+                    self.errors.insert(
+                        i,
+                        format!("{label}: nothing may follow {label} else but endif"),
+                    );
+                }
+                b.branches.push(i);
+            }
+            OWordKind::EndSub(_) => self.close_if(program, stack, i, label, Open::Sub),
+            OWordKind::EndIf => self.close_if(program, stack, i, label, Open::If),
+            OWordKind::EndWhile => self.close_if(program, stack, i, label, Open::While),
+            OWordKind::EndRepeat => self.close_if(program, stack, i, label, Open::Repeat),
+            OWordKind::Break | OWordKind::Continue | OWordKind::Return(_) => {
+                let want_loop = !matches!(o.kind, OWordKind::Return(_));
+                let found = stack.iter_mut().rev().find(|b| {
+                    b.label == label
+                        && (if want_loop {
+                            b.open.is_loop()
+                        } else {
+                            b.open == Open::Sub
+                        })
+                });
+                match found {
+                    Some(b) => b.members.push(i),
+                    None => {
+                        let what = if want_loop {
+                            "while, do or repeat loop"
+                        } else {
+                            "sub"
+                        };
+                        self.errors
+                            .insert(i, format!("{label}: not inside a {what} labelled {label}"));
+                    }
+                }
+            }
+            OWordKind::Call(_) => {}
+        }
+    }
+
+    /// The end of the construct on top of the stack if it is `open` labelled `label`.
+    fn close_if(
+        &mut self,
+        program: &Program,
+        stack: &mut Vec<Building>,
+        i: usize,
+        label: &OLabel,
+        open: Open,
+    ) {
+        if stack
+            .last()
+            .is_some_and(|b| b.open == open && b.label == label)
+        {
+            self.close(stack, i);
+        } else {
+            self.mismatch(program, stack, i, label, open.word());
+        }
+    }
+
+    fn mismatch(
+        &mut self,
+        program: &Program,
+        stack: &[Building],
+        i: usize,
+        label: &OLabel,
+        want: &str,
+    ) {
+        let what = oword_of(program, i).map_or("", |o| kind_word(&o.kind));
+        let msg = match stack.last() {
+            Some(b) => format!(
+                "{label} {what} does not close {} {} of line {}: O-word blocks must nest, each ended with its own label",
+                b.label,
+                b.open.word(),
+                program.lines[b.head].line_no
+            ),
+            None => format!("{label} {what} without {label} {want} before it"),
+        };
+        self.errors.insert(i, msg);
+    }
+
+    /// Pops the top construct, ended at line `end`, and links its lines.
+    fn close(&mut self, stack: &mut Vec<Building>, end: usize) {
+        let Some(b) = stack.pop() else { return };
+        let mut branches = b.branches;
+        branches.push(end);
+        for w in branches.windows(2) {
+            self.links.insert(
+                w[0],
+                OLink {
+                    head: b.head,
+                    end,
+                    next: w[1],
+                },
+            );
+        }
+        let link = OLink {
+            head: b.head,
+            end,
+            next: end,
+        };
+        for m in b.members.into_iter().chain([end]) {
+            self.links.insert(m, link);
+        }
+        if b.open == Open::Sub {
+            self.subs.entry(b.label.clone()).or_insert(b.head);
+        }
+    }
+}
+
+pub(crate) fn kind_word(k: &OWordKind) -> &'static str {
+    match k {
+        OWordKind::Sub => "sub",
+        OWordKind::EndSub(_) => "endsub",
+        OWordKind::Return(_) => "return",
+        OWordKind::Call(_) => "call",
+        OWordKind::If(_) => "if",
+        OWordKind::ElseIf(_) => "elseif",
+        OWordKind::Else => "else",
+        OWordKind::EndIf => "endif",
+        OWordKind::Do => "do",
+        OWordKind::While(_) => "while",
+        OWordKind::EndWhile => "endwhile",
+        OWordKind::Repeat(_) => "repeat",
+        OWordKind::EndRepeat => "endrepeat",
+        OWordKind::Break => "break",
+        OWordKind::Continue => "continue",
+    }
+}
