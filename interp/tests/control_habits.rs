@@ -131,7 +131,8 @@ fn g90_1_arc_without_both_centre_words_is_refused() {
 }
 
 /// FreeCAD posts write `K0` on G17 arcs (and `J0` on G18, `I0` on G19): accepted when zero,
-/// refused when not; in the linuxcnc dialect refused even at 0, as `rs274` does.
+/// refused when not, in every dialect (`rs274` refuses even `K0`; FreeCAD's LinuxCNC post
+/// writes it).
 #[test]
 fn zero_centre_offset_off_the_plane_is_accepted() {
     let segs = run("G0 X10 Y0\nG3 X0 Y10 I-10 J0 K0 F100\nM30\n").unwrap();
@@ -147,10 +148,11 @@ fn zero_centre_offset_off_the_plane_is_accepted() {
         "{}",
         e.message
     );
-    let e = run("(dialect: linuxcnc)\nG0 X10 Y0\nG3 X0 Y10 I-10 J0 K0 F100\n").unwrap_err();
+    let segs = run("(dialect: linuxcnc)\nG0 X10 Y0\nG3 X0 Y10 I-10 J0 K0 F100\nM30\n").unwrap();
+    assert_eq!(arcs(&segs).len(), 1);
+    let e = run("(dialect: linuxcnc)\nG0 X10 Y0\nG3 X0 Y10 I-10 J0 K0.5 F100\n").unwrap_err();
     assert!(
-        e.message
-            .starts_with("K word given for an arc in the G17 (XY) plane"),
+        e.message.starts_with("K0.5 in a G17 (XY) arc"),
         "{}",
         e.message
     );
@@ -468,4 +470,48 @@ fn corner_that_does_not_fit_is_refused_at_its_word() {
         "{}",
         e.message
     );
+}
+
+/// LinuxCNC's I/O codes M62-M68 are built into the linuxcnc dialect (as message events until
+/// machine I/O is wired); in fanuc they stay unknown unless `[mcodes]` maps them.
+#[test]
+fn linuxcnc_io_m_codes_are_built_into_its_dialect() {
+    let texts = |segs: &[Segment]| -> Vec<String> {
+        segs.iter()
+            .filter_map(|s| match &s.kind {
+                SegmentKind::Message { text } => Some(text.clone()),
+                _ => None,
+            })
+            .collect()
+    };
+    let segs = run(
+        "(dialect: linuxcnc)\nM64 P2\nM66 P0 L3 Q5\nM65 P2\nM62 P1\nG1 X1 F100\nM67 E0 Q2.5\nM2\n",
+    )
+    .unwrap();
+    assert_eq!(
+        texts(&segs),
+        [
+            "M64: digital output 2 = 1 (now)",
+            "M66: wait for digital input 0 (mode L3, timeout 5 s): no inputs are wired yet, taken as met",
+            "M65: digital output 2 = 0 (now)",
+            "M62: digital output 1 = 1 (with the next move)",
+            "M67: analog output 0 = 2.5",
+        ]
+    );
+    let e = run("(dialect: linuxcnc)\nM64\n").unwrap_err();
+    assert_eq!(
+        (e.line, e.col, e.message.as_str()),
+        (2, 1, "M64 needs P (the pin number)")
+    );
+    let e = run("(dialect: linuxcnc)\nM66 P0 L3\n").unwrap_err();
+    assert!(e.message.contains("needs a timeout Q > 0"), "{}", e.message);
+    let e = run("(dialect: linuxcnc)\nM66 P0 E1 L0\n").unwrap_err();
+    assert!(
+        e.message
+            .contains("exactly one of P (digital) or E (analog)"),
+        "{}",
+        e.message
+    );
+    let e = run("M64 P2\n").unwrap_err();
+    assert!(e.message.starts_with("unknown M code M64"), "{}", e.message);
 }

@@ -990,7 +990,7 @@ impl Exec<'_> {
         let stop = (end[ia], end[ib]);
         let tol = self.arc_tolerance();
         let g = match r {
-            Some(r) => arc::arc_radius(start, stop, r.v * unit, cw, arc::R_TOLERANCE_INCH * 25.4),
+            Some(r) => arc::arc_radius(start, stop, r.v * unit, cw, self.r_arc_tolerance(tol)),
             None => {
                 if wa.is_none() && wb.is_none() {
                     return Err(self
@@ -1069,6 +1069,18 @@ impl Exec<'_> {
 
     /// The I/J/K radius tolerance of the program's units (`interp.arc_tolerance` in mm,
     /// `interp.arc_tolerance_inch` in inches, `interp.arc_tolerance_relative`), in mm.
+    /// How much longer than the diameter an R arc's chord may be (mm): LinuxCNC's 0.00005 in,
+    /// in the linuxcnc dialect; otherwise the centre format's absolute tolerance, because CAM
+    /// output for Fanuc rounds R and the end point to the last digit each (4-decimal inch R
+    /// half circles came out 0.0013 mm short) and a Fanuc runs them.
+    fn r_arc_tolerance(&self, centre: ArcTolerance) -> f64 {
+        if self.dialect == Dialect::LinuxCnc {
+            arc::R_TOLERANCE_INCH * 25.4
+        } else {
+            centre.absolute.max(arc::R_TOLERANCE_INCH * 25.4)
+        }
+    }
+
     fn arc_tolerance(&self) -> ArcTolerance {
         let i = &self.cfg.interp;
         ArcTolerance {
@@ -1140,8 +1152,9 @@ impl Exec<'_> {
 
     /// The centre word along the plane's normal (`K` in a G17 arc, `J` in G18, `I` in G19):
     /// CAM posts write `K0`. Zero is accepted and means nothing; another value is refused. In
-    /// the linuxcnc dialect any such word is refused, as `rs274` does (`K word given for arc
-    /// in xy plane`). With R the centre words are ignored (Fanuc), this one too.
+    /// every dialect: `rs274` refuses even `K0` (`K word given for arc in xy plane`), but
+    /// FreeCAD's LinuxCNC post writes it, and a zero offset along the normal changes nothing.
+    /// With R the centre words are ignored (Fanuc), this one too.
     fn off_plane_offset(&mut self, with_r: bool) -> Result<(), NcError> {
         let (letter, plane) = match self.st.plane {
             Plane::XY => ('K', "G17 (XY)"),
@@ -1153,14 +1166,6 @@ impl Exec<'_> {
         };
         if with_r {
             return Ok(());
-        }
-        if self.dialect == Dialect::LinuxCnc {
-            return Err(self
-                .err(
-                    w.span,
-                    format!("{letter} word given for an arc in the {plane} plane"),
-                )
-                .with_expected(format!("no {letter} (LinuxCNC refuses it, even 0)")));
         }
         if w.v != 0.0 {
             return Err(self

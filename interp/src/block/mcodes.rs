@@ -1,9 +1,11 @@
 //! The machine's own M codes (`[mcodes]` in the config): a block's M words that are not the
 //! interpreter's own become what the config maps them to — built-in codes (M13 = M3 M8), a
 //! dwell, an output or wait event, a note, or a program call (Fanuc's M-code macro call).
+//! In the linuxcnc dialect LinuxCNC's own I/O codes M62-M68 are built in.
 
 use cnc402_config::{BUILT_IN_M_CODES, MAction, MachineConfig};
-use cnc402_lang::{NcError, SourceFile};
+use cnc402_lang::ast::Span;
+use cnc402_lang::{Dialect, NcError, SourceFile};
 use cnc402_motion::segment::SegmentKind;
 
 use super::exec::Exec;
@@ -70,6 +72,13 @@ impl Exec<'_> {
                 self.w.m.push((code, span));
                 continue;
             }
+            if self.dialect == Dialect::LinuxCnc
+                && !self.cfg.mcodes.contains_key(&code)
+                && (62..=68).contains(&code)
+            {
+                self.linuxcnc_io(code, span)?;
+                continue;
+            }
             let Some(action) = self.cfg.mcodes.get(&code) else {
                 return Err(self
                     .err(span, format!("unknown M code M{code}"))
@@ -116,6 +125,83 @@ impl Exec<'_> {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// LinuxCNC's I/O codes, built into its dialect: M62/M63 (digital output on/off with the
+    /// next move), M64/M65 (at once), M66 (wait on a digital `P` or analog `E` input, mode
+    /// `L` 0-4, timeout `Q` s), M67/M68 (analog output `E` to `Q`). Until machine I/O is wired
+    /// they are message events, as `[mcodes]` outputs and waits are; a wait is taken as met.
+    fn linuxcnc_io(&mut self, code: u32, span: Span) -> Result<(), NcError> {
+        let index = |e: &mut Self, letter: char| -> Result<u32, NcError> {
+            match e.w.take(letter) {
+                Some(a) if a.v >= 0.0 && a.v.fract() == 0.0 && a.v < 1000.0 => Ok(a.v as u32),
+                Some(a) => Err(e
+                    .err(
+                        a.span,
+                        format!("M{code} {letter}{}: not a pin number", fmt_num(a.v)),
+                    )
+                    .with_expected(format!("{letter} as a whole number 0..999"))),
+                None => Err(e
+                    .err(span, format!("M{code} needs {letter} (the pin number)"))
+                    .with_expected(format!("M{code} {letter}0"))),
+            }
+        };
+        let text = match code {
+            62..=65 => {
+                let pin = index(self, 'P')?;
+                let on = code % 2 == 0;
+                let when = if code < 64 {
+                    "with the next move"
+                } else {
+                    "now"
+                };
+                format!("M{code}: digital output {pin} = {} ({when})", u8::from(on))
+            }
+            66 => {
+                let (kind, pin) = match (self.w.has('P'), self.w.has('E')) {
+                    (true, false) => ("digital", index(self, 'P')?),
+                    (false, true) => ("analog", index(self, 'E')?),
+                    _ => {
+                        return Err(self
+                            .err(span, "M66 needs exactly one of P (digital) or E (analog)")
+                            .with_expected("M66 P0 L3 Q5"));
+                    }
+                };
+                let mode = match self.w.take('L') {
+                    None => 0,
+                    Some(a) if a.v.fract() == 0.0 && (0.0..=4.0).contains(&a.v) => a.v as u32,
+                    Some(a) => {
+                        return Err(self
+                            .err(a.span, format!("M66 L{}: not a wait mode", fmt_num(a.v)))
+                            .with_expected("L0 (now) .. L4 (low)"));
+                    }
+                };
+                let timeout = self.w.take('Q').map_or(0.0, |q| q.v);
+                if mode != 0 && !(timeout > 0.0 && timeout.is_finite()) {
+                    return Err(self
+                        .err(
+                            span,
+                            format!("M66 L{mode} waits, so it needs a timeout Q > 0"),
+                        )
+                        .with_expected("M66 P0 L3 Q5"));
+                }
+                format!(
+                    "M66: wait for {kind} input {pin} (mode L{mode}, timeout {} s): no inputs are wired yet, taken as met",
+                    fmt_num(timeout)
+                )
+            }
+            _ => {
+                let pin = index(self, 'E')?;
+                let value = if code == 67 || code == 68 {
+                    self.w.take('Q').map_or(0.0, |q| q.v)
+                } else {
+                    0.0
+                };
+                format!("M{code}: analog output {pin} = {}", fmt_num(value))
+            }
+        };
+        self.push(SegmentKind::Message { text });
         Ok(())
     }
 }
