@@ -7,7 +7,8 @@
 //! `cargo test --test real_programs -- --nocapture` prints the acceptance figures;
 //! `CNC402_BLESS=1` rewrites `expected.toml` from what happens (review the diff);
 //! `CNC402_REAL_PROGRAMS_DIR=DIR` also runs every program under DIR (not pinned), e.g. a local
-//! copy of LinuxCNC's `nc_files`, and prints each verdict.
+//! copy of LinuxCNC's `nc_files`, and prints each verdict (in the dialect
+//! `CNC402_REAL_PROGRAMS_DIALECT` names, default fanuc).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -559,8 +560,10 @@ fn programs_of_real_programs_dir_are_reported() {
     let cfg = config();
     let exe = rs274_or_notice();
     let mut verdicts = BTreeMap::new();
+    // `CNC402_REAL_PROGRAMS_DIALECT` (default fanuc): e.g. linuxcnc for LinuxCNC's nc_files.
+    let dialect = std::env::var("CNC402_REAL_PROGRAMS_DIALECT").unwrap_or_else(|_| "fanuc".into());
     for rel in programs(&dir) {
-        let v = judge(&cfg, &dir, &rel, "fanuc", exe.as_deref());
+        let v = judge(&cfg, &dir, &rel, &dialect, exe.as_deref());
         println!(
             "{rel}: cnc402 {} {} | rs274 {} {}{}",
             v.cnc402, v.error, v.rs274, v.rs274_error, v.note

@@ -515,3 +515,25 @@ fn linuxcnc_io_m_codes_are_built_into_its_dialect() {
     let e = run("M64 P2\n").unwrap_err();
     assert!(e.message.starts_with("unknown M code M64"), "{}", e.message);
 }
+
+/// CAM output for Fanuc rounds R and the end point to the last digit each: an R half circle
+/// a few µm short of the chord is a half circle (up to the absolute arc tolerance), not an
+/// "impossible radius"; in the linuxcnc dialect only LinuxCNC's 0.00005 in is allowed.
+#[test]
+fn r_half_circle_a_rounding_short_is_a_half_circle() {
+    let segs = run("G0 X0 Y0\nG3 X-20 Y0 R9.99 F100\nM30\n").unwrap();
+    assert_eq!(arcs(&segs).len(), 1);
+    plans(&segs);
+    let e = run("G0 X0 Y0\nG3 X-20 Y0 R9.9 F100\n").unwrap_err();
+    assert!(
+        e.message.starts_with("R arc with impossible radius"),
+        "{}",
+        e.message
+    );
+    let e = run("(dialect: linuxcnc)\nG0 X0 Y0\nG3 X-20 Y0 R9.99 F100\n").unwrap_err();
+    assert!(
+        e.message.starts_with("R arc with impossible radius"),
+        "{}",
+        e.message
+    );
+}

@@ -55,7 +55,7 @@ const CASES: &[(&str, u32, u32, &str)] = &[
         "R arc with impossible radius: R 5 but the end point is 20 away",
     ),
     (
-        "G3 X-20 Y0 R-9.99 F100\n",
+        "G3 X-20 Y0 R-9.9 F100\n",
         1,
         12,
         "R arc with impossible radius",
