@@ -77,6 +77,7 @@
 pub mod counts;
 pub mod error;
 pub mod interpolator;
+pub mod lookahead;
 pub mod planner;
 pub mod profile;
 pub mod segment;
@@ -85,6 +86,7 @@ pub use cnc402_config::MAX_AXES;
 pub use counts::to_counts_wrapping;
 pub use error::{MotionError, MotionErrorKind};
 pub use interpolator::{Interpolator, MoveEvent, Tick, TickState};
+pub use lookahead::Lookahead;
 pub use planner::{ArcGeometry, Geometry, MoveKind, PathMove, PlannedMove, Planner};
 pub use profile::{JerkProfile, Limits, PathProfile, State};
 pub use segment::*;
