@@ -260,7 +260,11 @@ mod tests {
         let text = SHIPPED.replace("path_mode = \"continuous\"", "path_mode = \"smooth\"");
         let e = parse(&text).unwrap_err();
         assert_eq!(e.key, "interp.path_mode");
-        let want = SHIPPED.lines().position(|l| l.starts_with("path_mode")).unwrap() + 1;
+        let want = SHIPPED
+            .lines()
+            .position(|l| l.starts_with("path_mode"))
+            .unwrap()
+            + 1;
         assert_eq!(e.line, want, "the error names the key's line");
         // The default tolerance may not exceed the maximum.
         let text = SHIPPED.replace("max_path_tolerance = 1.0", "max_path_tolerance = 0.005");
