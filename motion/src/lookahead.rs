@@ -46,8 +46,10 @@ use crate::segment::{MAX_AXES, Segment, SegmentEnd};
 
 /// Share of each axis's acceleration that the path profiles of blended moves use.
 pub const ACCEL_SHARE: f64 = 0.7;
-/// Share of each axis's acceleration left to velocity jumps at junctions (sampled).
-pub const JUMP_SHARE: f64 = 0.2;
+/// Share of each axis's acceleration left to the turning of the path (velocity jumps at
+/// junctions, curvature), as the samples show it; the rest is margin for the speed changing
+/// within a period.
+pub const JUMP_SHARE: f64 = 0.25;
 /// A group's acceleration and jerk are this share of its first segment's, so that segments
 /// whose direction (and so whose projected limits) change a little still join it.
 const GROUP_MARGIN: f64 = 0.9;
@@ -68,6 +70,12 @@ struct Pending {
     tolerance: Option<f64>,
     /// Highest speed at the junction to the next segment (0 until that one is known).
     after: f64,
+    /// `after` is final: the sampled-path check (see [`Lookahead::refine_junctions`]) has
+    /// seen enough of the path on both sides; before that it is the local bound.
+    after_final: bool,
+    /// The path distance from the program's (or the last rest's) start to this segment's
+    /// start.
+    s_start: f64,
 }
 
 /// Consecutive window segments planned under one profile.
@@ -101,6 +109,8 @@ pub struct Lookahead {
     period: f64,
     /// Junctions whose planned speed could not be reached exactly (0 unless rounding bites).
     infeasible: u64,
+    /// Window entries before this one have their final junction speed.
+    refine_from: usize,
     /// A lone segment between two junctions may use the axes' whole acceleration: near its
     /// ends its acceleration is at most jerk·T, which with the jump fits every axis's limit.
     lone_full: bool,
@@ -128,6 +138,7 @@ impl Lookahead {
             n_axes,
             period,
             infeasible: 0,
+            refine_from: 0,
             lone_full,
         }
     }
@@ -181,12 +192,18 @@ impl Lookahead {
             return Ok(());
         }
         let blend = self.blend_limits(seg, start)?;
+        let s_start = self
+            .window
+            .back()
+            .map_or(0.0, |p| p.s_start + p.path.length);
         let entry = Pending {
             mv,
             path,
             blend,
             tolerance,
             after: 0.0,
+            after_final: false,
+            s_start,
         };
         if let Some(last) = self.window.back() {
             let after = self.junction_speed(last, &entry);
@@ -195,6 +212,7 @@ impl Lookahead {
             }
         }
         self.window.push_back(entry);
+        self.refine_junctions();
         if tolerance.is_none() {
             self.flush()
         } else if self.window.len() >= self.capacity {
@@ -240,21 +258,22 @@ impl Lookahead {
 
     /// The highest speed at the junction from `a` to `b` (see the module doc).
     fn junction_speed(&self, a: &Pending, b: &Pending) -> f64 {
+        // Both sides must blend: a segment stamped for an exact stop (a cycle's move, a tap,
+        // G61/G9) is also entered from rest, so it runs exactly as it always has.
         let Some(tol) = a.tolerance else { return 0.0 };
-        if b.path.tap.is_some() || a.path.length <= 0.0 || b.path.length <= 0.0 {
+        if b.tolerance.is_none()
+            || b.path.tap.is_some()
+            || a.path.length <= 0.0
+            || b.path.length <= 0.0
+        {
             return 0.0;
         }
         let u1 = a.path.tangent(a.path.length);
         let u2 = b.path.tangent(0.0);
         let ell = a.path.length.min(b.path.length);
         let mut v = a.blend.velocity.min(b.blend.velocity);
-        let mut dot = 0.0;
-        let (mut n1, mut n2) = (0.0, 0.0);
         for k in 0..self.n_axes {
             let d = (u2.0[k] - u1.0[k]).abs();
-            dot += u1.0[k] * u2.0[k];
-            n1 += u1.0[k] * u1.0[k];
-            n2 += u2.0[k] * u2.0[k];
             if d > 0.0 {
                 // (d/ℓ)·v² + (d/T)·v ≤ JUMP_SHARE·a_k, solved for v without cancellation.
                 let (qa, qb, qc) = (d / ell, d / self.period, JUMP_SHARE * self.accel[k]);
@@ -262,18 +281,107 @@ impl Lookahead {
                 v = v.min(root);
             }
         }
-        // grbl's junction deviation: a circle through the corner that stays within `tol`.
-        let cos_theta = -dot / (n1 * n2).sqrt().max(f64::MIN_POSITIVE);
-        if cos_theta > 0.999_999 {
-            return 0.0; // a reversal
+        let a_path = a.blend.acceleration.min(b.blend.acceleration);
+        v.min(deviation_speed(&u1, &u2, self.n_axes, tol, a_path))
+            .max(0.0)
+    }
+
+    /// Replaces the local junction bound by the sampled-path bound wherever the window holds
+    /// enough path after the junction: at speed v the setpoints are the path's points D = v·T
+    /// apart, and their second difference P(s+D) − 2P(s) + P(s−D) over T² is what the drives
+    /// see as acceleration (beyond the profile's own). Checked centred on the junction and
+    /// ±D from it (where that piecewise-linear function of s has its corners); rounding
+    /// noise in CAM output cancels here where the local bound would add it up.
+    fn refine_junctions(&mut self) {
+        let n = self.window.len();
+        let end = self.window[n - 1].s_start + self.window[n - 1].path.length;
+        for i in self.refine_from..n.saturating_sub(1) {
+            let e = self.window[i];
+            if e.after_final || e.after <= 0.0 {
+                self.refine_from = i + 1;
+                continue;
+            }
+            let s = e.s_start + e.path.length;
+            let cap = e.blend.velocity.min(self.window[i + 1].blend.velocity);
+            if end - s < 2.0 * cap * self.period {
+                break; // not enough path after it yet (nor after the ones that follow)
+            }
+            let sampled = self.sampled_speed(s, cap);
+            // Keep grbl's tolerance cap, which the local bound included.
+            let tol_cap = self.tolerance_cap(i);
+            let w = &mut self.window[i];
+            w.after = sampled.min(tol_cap);
+            w.after_final = true;
+            self.refine_from = i + 1;
         }
-        if cos_theta > -0.999_999 {
-            let sin_half = (0.5 * (1.0 - cos_theta)).sqrt();
-            let radius = tol * sin_half / (1.0 - sin_half);
-            let a = a.blend.acceleration.min(b.blend.acceleration);
-            v = v.min((a * radius).sqrt());
+    }
+
+    /// The highest speed ≤ `cap` at which the sampled path around `s` keeps every axis's
+    /// second difference within [`JUMP_SHARE`] of its acceleration.
+    fn sampled_speed(&self, s: f64, cap: f64) -> f64 {
+        let ok = |v: f64| self.sampled_demand(s, v * self.period) <= JUMP_SHARE;
+        if ok(cap) {
+            return cap;
         }
-        v.max(0.0)
+        let (mut lo, mut hi) = (0.0, cap);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if ok(mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    }
+
+    /// The largest |P(c+D) − 2P(c) + P(c−D)|_k / (T²·a_k) for c = s − D, s, s + D.
+    fn sampled_demand(&self, s: f64, d: f64) -> f64 {
+        let t2 = self.period * self.period;
+        let pts = [-2.0, -1.0, 0.0, 1.0, 2.0].map(|m| self.point_at(s + m * d));
+        let mut worst: f64 = 0.0;
+        for c in 1..4 {
+            for k in 0..self.n_axes {
+                let dd = pts[c + 1].0[k] - 2.0 * pts[c].0[k] + pts[c - 1].0[k];
+                worst = worst.max(dd.abs() / (t2 * self.accel[k]));
+            }
+        }
+        worst
+    }
+
+    /// The path point at distance `s` (window coordinates); before the window, straight on
+    /// back along its first segment (the machine came from rest or along it).
+    fn point_at(&self, s: f64) -> crate::AxisPos {
+        let i = self
+            .window
+            .partition_point(|p| p.s_start + p.path.length < s)
+            .min(self.window.len() - 1);
+        let p = &self.window[i];
+        let local = s - p.s_start;
+        if local < 0.0 {
+            let u = p.path.tangent(0.0);
+            let mut q = p.path.start;
+            for k in 0..self.n_axes {
+                q.0[k] += u.0[k] * local;
+            }
+            return q;
+        }
+        p.path.point(local.min(p.path.length))
+    }
+
+    /// grbl's junction deviation at the junction after window segment `i`.
+    fn tolerance_cap(&self, i: usize) -> f64 {
+        let (a, b) = (&self.window[i], &self.window[i + 1]);
+        let Some(tol) = a.tolerance else { return 0.0 };
+        let u1 = a.path.tangent(a.path.length);
+        let u2 = b.path.tangent(0.0);
+        deviation_speed(
+            &u1,
+            &u2,
+            self.n_axes,
+            tol,
+            a.blend.acceleration.min(b.blend.acceleration),
+        )
     }
 
     /// Groups the window (into `self.groups`), runs the backward and forward passes, and
@@ -309,12 +417,14 @@ impl Lookahead {
                 given = target;
                 break;
             }
-            // The whole group: its end speed is one the window can stop from.
-            self.emit(g.first, g.count, g.length, g.v_in, g.v_out, g.lim)?;
+            // The whole group: its end speed is one the window can stop from. It starts at
+            // the speed the last one really ended at.
+            self.emit(g.first, g.count, g.length, self.v_now, g.v_out, g.lim)?;
             given = g.first + g.count;
             self.carried = None;
         }
         self.window.drain(..given);
+        self.refine_from = self.refine_from.saturating_sub(given);
         if all {
             self.v_now = 0.0;
             self.carried = None;
@@ -413,7 +523,8 @@ impl Lookahead {
         // Rounding may leave the speed a hair beyond what the distance allows: take the
         // nearest that works and count it.
         let mut v_out = v_out.min(lim.velocity);
-        if ramp_distance(v_in, v_out, lim) > length {
+        // The same slack as `double_s` (lengths summed in another order differ by an ulp).
+        if ramp_distance(v_in, v_out, lim) > length * (1.0 + 1e-12) {
             self.infeasible += 1;
             v_out = reachable_near(length, v_in, v_out, lim);
         }
@@ -453,6 +564,28 @@ impl Lookahead {
     }
 }
 
+/// grbl's junction deviation: the speed of a circle through the corner from direction `u1`
+/// to `u2` that stays within `tol` of it, at path acceleration `a` (0 for a reversal,
+/// unbounded straight on).
+fn deviation_speed(u1: &crate::AxisPos, u2: &crate::AxisPos, n: usize, tol: f64, a: f64) -> f64 {
+    let (mut dot, mut n1, mut n2) = (0.0, 0.0, 0.0);
+    for k in 0..n {
+        dot += u1.0[k] * u2.0[k];
+        n1 += u1.0[k] * u1.0[k];
+        n2 += u2.0[k] * u2.0[k];
+    }
+    let cos_theta = -dot / (n1 * n2).sqrt().max(f64::MIN_POSITIVE);
+    if cos_theta > 0.999_999 {
+        return 0.0;
+    }
+    if cos_theta <= -0.999_999 {
+        return f64::INFINITY;
+    }
+    let sin_half = (0.5 * (1.0 - cos_theta)).sqrt();
+    let radius = tol * sin_half / (1.0 - sin_half);
+    (a * radius).sqrt()
+}
+
 /// True when a segment with limits `c` may join a group planned under `lim`.
 fn fits(lim: Limits, c: Limits) -> bool {
     c.velocity >= lim.velocity
@@ -478,10 +611,19 @@ fn max_reach(distance: f64, v0: f64, lim: Limits) -> f64 {
     lo
 }
 
-/// The speed nearest `want` that can be reached from `v0` within `distance` (only lower
-/// speeds are ever unreachable going up, only higher ones going down).
+/// The speed nearest `want` that can be reached from `v0` within `distance`. The ramp
+/// distance is not monotone in the end speed below `v0`, so the nearest reachable speed is
+/// first bracketed by a scan from `want` towards `v0`, then refined.
 fn reachable_near(distance: f64, v0: f64, want: f64, lim: Limits) -> f64 {
-    let (mut ok, mut bad) = (v0, want);
+    const STEPS: u32 = 64;
+    let at = |i: u32| want + (v0 - want) * f64::from(i) / f64::from(STEPS);
+    let first_ok = (0..=STEPS)
+        .find(|&i| ramp_distance(v0, at(i), lim) <= distance)
+        .unwrap_or(STEPS);
+    if first_ok == 0 {
+        return want;
+    }
+    let (mut ok, mut bad) = (at(first_ok), at(first_ok - 1));
     for _ in 0..BISECTIONS {
         let mid = 0.5 * (ok + bad);
         if ramp_distance(v0, mid, lim) <= distance {

@@ -381,3 +381,80 @@ fn arcs_blend_tangentially_within_limits() {
         .fold(f64::INFINITY, f64::min);
     assert!(slowest_inside > 40.0, "{slowest_inside}");
 }
+
+/// CAM output rounds coordinates (here to 0.1 µm, four decimals): on 0.01 mm blocks that
+/// turns each junction by up to 0.01 rad at random. The samples average the noise out, and
+/// the planner judges junctions by the samples, so the circle still runs at the feed.
+#[test]
+fn rounded_fine_circle_runs_at_the_feed_within_limits() {
+    let cfg = MachineConfig::default_machine();
+    let round = |x: f64| (x * 1e4).round() / 1e4;
+    let pts: Vec<AxisPos> = circle_points(20_000, 10.0, 0.01)
+        .iter()
+        .map(|p| xyzc(round(p.0[0]), round(p.0[1]), 0.0, 0.0))
+        .collect();
+    let segs = polyline(&pts, 3000.0, 0.01);
+    let run = run_blended(&cfg, pts[0], &segs, 2000);
+    check_limits(&cfg, &run.ticks);
+    check_on_polyline(&run.ticks, &pts, 1e-9);
+    assert_eq!(run.ticks.last().unwrap().pos, *pts.last().unwrap());
+    let secs = (run.ticks.len() - 1) as f64 * cfg.bus.period_s();
+    let feed_only = path_length(&pts) / 50.0;
+    assert!(
+        secs < feed_only * 1.10,
+        "{secs} s against {feed_only} s at the feed"
+    );
+}
+
+/// A zigzag of 2 µm on 0.5 mm blocks: the samples see it, so the speed stays where every
+/// axis's acceleration holds — and close to the feed.
+#[test]
+fn zigzag_within_microns_stays_within_limits_near_the_feed() {
+    let cfg = MachineConfig::default_machine();
+    let pts: Vec<AxisPos> = (0..=200)
+        .map(|i| {
+            xyzc(
+                i as f64 * 0.5,
+                if i % 2 == 0 { 0.0 } else { 0.002 },
+                0.0,
+                0.0,
+            )
+        })
+        .collect();
+    let run = run_blended(&cfg, pts[0], &polyline(&pts, 3000.0, 0.01), 100);
+    check_limits(&cfg, &run.ticks);
+    let top = run
+        .ticks
+        .iter()
+        .map(|t| t.path_velocity)
+        .fold(0.0, f64::max);
+    assert!(top > 40.0, "top speed {top}");
+}
+
+/// The benchmark's surface raster (rows of 501 points, 0.5 mm apart, turning at the ends):
+/// every tick within the limits (regression: a velocity jump of 30 mm/s at a turnaround).
+#[test]
+fn surface_raster_with_turnarounds_stays_within_limits() {
+    let cfg = MachineConfig::default_machine();
+    let mut pts = vec![xyzc(0.0, 0.0, 0.0, 0.0)];
+    // Thirty rows: the eleventh turnaround once met a cut whose lengths, summed again, were
+    // an ulp short of the braking distance, and the fallback picked a speed 30 mm/s off.
+    for row in 0..30 {
+        let y = row as f64 * 0.5;
+        for i in 0..=500 {
+            let i = if row % 2 == 0 { i } else { 500 - i };
+            let x = i as f64 * 0.2;
+            pts.push(xyzc(x, y, 2.0 * (x / 10.0).sin() * (y / 7.0).cos(), 0.0));
+        }
+    }
+    pts.dedup();
+    let run = run_blended(
+        &cfg,
+        pts[0],
+        &polyline(&pts, 6000.0, 0.01),
+        cfg.planner.lookahead,
+    );
+    check_limits(&cfg, &run.ticks);
+    check_on_polyline(&run.ticks, &pts, 1e-9);
+    assert_eq!(run.infeasible, 0);
+}
