@@ -458,3 +458,49 @@ fn surface_raster_with_turnarounds_stays_within_limits() {
     check_on_polyline(&run.ticks, &pts, 1e-9);
     assert_eq!(run.infeasible, 0);
 }
+
+/// A stop requested in the middle of fine blended blocks decelerates along the path across
+/// the blocks that follow (the stop ramp is handed from move to move), within the limits,
+/// and comes to rest on the path.
+#[test]
+fn stop_along_blended_moves_decelerates_across_moves_within_limits() {
+    let cfg = MachineConfig::default_machine();
+    let pts = circle_points(5_000, 10.0, 0.01);
+    let segs = polyline(&pts, 3000.0, 0.01);
+    let mut la = Lookahead::new(&cfg, 1000);
+    la.planner_mut().set_position(pts[0]);
+    let mut queue = VecDeque::new();
+    for s in &segs {
+        la.push(s).unwrap();
+    }
+    la.finish().unwrap();
+    while let Some(m) = la.pop() {
+        queue.push_back(m);
+    }
+    let mut ip = Interpolator::new(&cfg, pts[0]);
+    let mut ticks = vec![idle_tick(&ip, 0)];
+    for k in 0..20_000 {
+        if k == 400 {
+            ip.request_stop();
+        }
+        while ip.is_idle() || ip.wants_next_move() {
+            match queue.pop_front() {
+                Some(m) => ip.start(m).expect("starts"),
+                None => break,
+            }
+        }
+        ticks.push(ip.tick());
+        if ip.is_held() {
+            break;
+        }
+    }
+    assert!(ip.is_held(), "came to rest");
+    assert_eq!(ip.starved_at_speed(), 0);
+    check_limits(&cfg, &ticks);
+    check_on_polyline(&ticks, &pts, 1e-9);
+    let moving_at_request = ticks[400].path_velocity;
+    assert!((moving_at_request - 50.0).abs() < 1e-6);
+    assert_eq!(ticks.last().unwrap().path_velocity, 0.0);
+    // It stopped well before the end of the program.
+    assert!(ticks.len() < 600, "{}", ticks.len());
+}
