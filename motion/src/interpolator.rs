@@ -784,7 +784,8 @@ fn stop_ramp(now: State, lim: Limits, length: f64) -> Option<JerkProfile> {
     (!reverses && sp.end().s <= length).then_some(sp)
 }
 
-/// Where a path move is on one tick.
+/// Where a path move is on one tick. (Large on purpose: boxing would allocate in the loop.)
+#[allow(clippy::large_enum_variant)]
 enum PathAlong {
     /// Along its profile or stop ramp (s in the move's own path parameter).
     On(State),

@@ -120,8 +120,11 @@ pub struct LoopSync {
     pub shared: Arc<SyncShared>,
     /// The lookahead and the ring: the blocks it holds are planned to rest and sent before
     /// waiting, so the read sees the machine where the program put it.
-    pub flush: Option<(Arc<Mutex<Lookahead>>, Arc<Mutex<MoveProducer>>)>,
+    pub flush: Option<FlushTarget>,
 }
+
+/// The feeder's lookahead and the move ring it fills (see [`LoopSync::flush`]).
+pub type FlushTarget = (Arc<Mutex<Lookahead>>, Arc<Mutex<MoveProducer>>);
 
 impl LoopSync {
     /// Plans what the lookahead holds to rest and pushes it into the ring.
