@@ -500,19 +500,7 @@ impl Interpolator {
                     });
                 }
             }
-            Job::Idle if self.blend.is_some() => {
-                // Between two blended moves: the ramp starts from the last sample and runs on
-                // along the next move.
-                if let Some(b) = self.blend {
-                    let from = State { s: 0.0, ..b.last };
-                    let ramp = velocity_change(from, 0.0, b.limits.acceleration, b.limits.jerk);
-                    self.stop_carry = Some(StopCarry {
-                        ramp,
-                        t_next: self.period,
-                        s_base: b.remaining,
-                    });
-                }
-            }
+            Job::Idle if self.blend.is_some() => self.stop_from_blend(),
             Job::Orient { orient, k, stop } => {
                 let now = orient.profile.sample(*k as f64 * self.period);
                 if let Some(sp) = stop_ramp(now, orient.limits, orient.profile.end().s) {
@@ -529,6 +517,20 @@ impl Interpolator {
                 profile: velocity_change(now, 0.0, ax.acceleration, ax.jerk),
                 k: 0,
             };
+        }
+    }
+
+    /// Between two blended moves: the stop ramp starts from the last sample and runs on along
+    /// the next move.
+    fn stop_from_blend(&mut self) {
+        if let Some(b) = self.blend {
+            let from = State { s: 0.0, ..b.last };
+            let ramp = velocity_change(from, 0.0, b.limits.acceleration, b.limits.jerk);
+            self.stop_carry = Some(StopCarry {
+                ramp,
+                t_next: self.period,
+                s_base: b.remaining,
+            });
         }
     }
 
@@ -674,6 +676,11 @@ impl Interpolator {
                             limits: mv.limits,
                         });
                         self.job = Job::Idle;
+                        if self.stopping {
+                            // A stop whose ramp found no room in this move (it was braking
+                            // already): it goes on along the next one.
+                            self.stop_from_blend();
+                        }
                     }
                     PathAlong::StopCarry(st, c) => {
                         self.prog = mv.point(st.s);

@@ -459,6 +459,65 @@ fn surface_raster_with_turnarounds_stays_within_limits() {
     assert_eq!(run.infeasible, 0);
 }
 
+/// Runs `segs` blended and requests a stop at tick `stop_at`; the ticks until held.
+fn run_stopping(
+    cfg: &MachineConfig,
+    start: AxisPos,
+    segs: &[Segment],
+    stop_at: usize,
+) -> Vec<Tick> {
+    let mut la = Lookahead::new(cfg, 1000);
+    la.planner_mut().set_position(start);
+    let mut queue = VecDeque::new();
+    for s in segs {
+        la.push(s).unwrap();
+    }
+    la.finish().unwrap();
+    while let Some(m) = la.pop() {
+        queue.push_back(m);
+    }
+    let mut ip = Interpolator::new(cfg, start);
+    let mut ticks = vec![idle_tick(&ip, 0)];
+    for k in 0..200_000 {
+        if k == stop_at {
+            ip.request_stop();
+        }
+        while ip.is_idle() || ip.wants_next_move() {
+            match queue.pop_front() {
+                Some(m) => ip.start(m).expect("starts"),
+                None => break,
+            }
+        }
+        ticks.push(ip.tick());
+        if ip.is_held() || (ip.is_idle() && queue.is_empty()) {
+            break;
+        }
+    }
+    assert_eq!(ip.starved_at_speed(), 0, "stop at {stop_at}");
+    ticks
+}
+
+/// Stops requested at every few ticks through a raster turnaround (braking, the corner,
+/// speeding up again) all stay within the limits and on the path.
+#[test]
+fn stops_requested_anywhere_around_a_turnaround_stay_within_limits() {
+    let cfg = MachineConfig::default_machine();
+    let mut pts = vec![xyzc(0.0, 0.0, 0.0, 0.0)];
+    for row in 0..2 {
+        for i in 1..=100 {
+            let i = if row % 2 == 0 { i } else { 100 - i };
+            pts.push(xyzc(i as f64 * 0.2, row as f64 * 0.5, 0.0, 0.0));
+        }
+    }
+    let segs = polyline(&pts, 6000.0, 0.01);
+    let whole = run_blended(&cfg, pts[0], &segs, 1000).ticks.len();
+    for stop_at in (5..whole).step_by(3) {
+        let ticks = run_stopping(&cfg, pts[0], &segs, stop_at);
+        check_limits(&cfg, &ticks);
+        check_on_polyline(&ticks, &pts, 1e-9);
+    }
+}
+
 /// A stop requested in the middle of fine blended blocks decelerates along the path across
 /// the blocks that follow (the stop ramp is handed from move to move), within the limits,
 /// and comes to rest on the path.
