@@ -1204,3 +1204,58 @@ fn report_trace_and_plot_replace_old_files_whole_and_leave_no_temp_files() {
     names.sort();
     assert_eq!(names, ["p.svg", "r.json", "t.csv"], "temporary files left");
 }
+
+/// Bad path-mode words exit 2 with file:line:col before anything moves.
+#[test]
+fn bad_path_mode_words_exit_2_with_file_line_col() {
+    let dir = test_dir("bad_path_mode");
+    for (name, text, at) in [
+        ("p-neg.nc", "G21 G90\nG64 P-1\nM30\n", ":2:5"),
+        (
+            "q-alone.nc",
+            "G21 G90\nG1 X1 F100\nG64 Q0.01\nM30\n",
+            ":3:5",
+        ),
+        ("p-max.nc", "G21 G90\nG64 P5\nM30\n", ":2:5"),
+    ] {
+        let p = write_program(&dir, name, text);
+        let o = cnc402(&["run", p.to_str().unwrap()]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{name}: {err}");
+        assert!(
+            err.contains(&format!("{}{at}", p.display())),
+            "{name}: {err}"
+        );
+    }
+}
+
+/// A G64 program of fine blocks runs at its feed on the embedded simulator: 2000 blocks of
+/// 0.01 mm along a circle at F3000 take about 0.4 s at the feed (80 s with exact stops).
+#[test]
+fn fine_blocks_under_g64_run_at_the_feed() {
+    let dir = test_dir("g64_feed");
+    let mut text = String::from("G21 G90 G17 G64 P0.01\nG0 X10 Y0 Z0\nG1 F3000\n");
+    for i in 1..=2000 {
+        let a = f64::from(i) * 0.001;
+        text += &format!("X{:.4} Y{:.4}\n", 10.0 * a.cos(), 10.0 * a.sin());
+    }
+    text += "M30\n";
+    let p = write_program(&dir, "circle.nc", &text);
+    let report = dir.join("r.json");
+    let o = cnc402(&[
+        "run",
+        p.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    let secs: f64 = out
+        .split("program time ")
+        .nth(1)
+        .and_then(|s| s.split(" s").next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no program time in {out}"));
+    // The 10 mm rapid (about 0.2 s) plus 20 mm at 50 mm/s.
+    assert!(secs < 1.0, "{secs} s: {out}");
+}

@@ -28,6 +28,15 @@ pub enum PlaneDefault {
     YZ,
 }
 
+/// The path mode at program start (group 15).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PathModeDefault {
+    /// G64: blend blocks within the path tolerance.
+    Continuous,
+    /// G61: stop exactly at every block end.
+    ExactStop,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ReturnPlane {
     /// G98
@@ -65,6 +74,10 @@ pub struct InterpDefaults {
     /// G64 continuous-path mode's default corner tolerance (mm): how far the path may leave
     /// a corner between blocks when the program gives none (LinuxCNC's G64 P, Fanuc's default).
     pub path_tolerance: f64,
+    /// The largest tolerance a program may ask for with `G64 P` / `Q` (mm).
+    pub max_path_tolerance: f64,
+    /// G64 or G61 at program start.
+    pub path_mode: PathModeDefault,
     /// The physical spindle angle (degrees, 0 ≤ angle < 360, in the spindle axis's machine
     /// coordinate) that spindle orientation (G76/G87) turns C to: where the boring bar's
     /// edge points away from the shift direction.
@@ -108,6 +121,10 @@ pub(crate) struct RawInterp {
     arc_tolerance_relative: Spanned<f64>,
     #[serde(default = "default_path_tol")]
     path_tolerance: Spanned<f64>,
+    #[serde(default = "default_max_path_tol")]
+    max_path_tolerance: Spanned<f64>,
+    #[serde(default = "default_path_mode")]
+    path_mode: Spanned<String>,
     #[serde(default = "default_orient_angle")]
     spindle_orient_angle: Spanned<f64>,
     #[serde(default = "default_program_dir")]
@@ -134,6 +151,8 @@ impl Default for RawInterp {
             arc_tolerance_inch: default_arc_tol_inch(),
             arc_tolerance_relative: default_arc_tol_relative(),
             path_tolerance: default_path_tol(),
+            max_path_tolerance: default_max_path_tol(),
+            path_mode: default_path_mode(),
             spindle_orient_angle: default_orient_angle(),
             program_dir: default_program_dir(),
             block_limit: default_block_limit(),
@@ -170,6 +189,12 @@ fn default_arc_tol_relative() -> Spanned<f64> {
 fn default_path_tol() -> Spanned<f64> {
     sp(0.01)
 }
+fn default_max_path_tol() -> Spanned<f64> {
+    sp(1.0)
+}
+fn default_path_mode() -> Spanned<String> {
+    sp("continuous".into())
+}
 fn default_orient_angle() -> Spanned<f64> {
     sp(0.0)
 }
@@ -183,6 +208,21 @@ fn default_block_limit() -> Spanned<i64> {
 impl RawInterp {
     /// Checks each key; a left-out `tap_peck_retract` takes `peck_retract`'s value.
     pub(crate) fn validate(&self) -> Result<InterpDefaults, Invalid> {
+        let d = self.validate_keys()?;
+        if d.path_tolerance > d.max_path_tolerance {
+            return Err((
+                self.path_tolerance.span(),
+                "interp.path_tolerance".into(),
+                format!(
+                    "must be at most interp.max_path_tolerance ({}), got {}",
+                    d.max_path_tolerance, d.path_tolerance
+                ),
+            ));
+        }
+        Ok(d)
+    }
+
+    fn validate_keys(&self) -> Result<InterpDefaults, Invalid> {
         let i = self;
         Ok(InterpDefaults {
             dialect: match &i.dialect {
@@ -250,6 +290,22 @@ impl RawInterp {
                 "interp.path_tolerance",
                 MAX_LENGTH,
             )?,
+            max_path_tolerance: positive_at_most(
+                &i.max_path_tolerance,
+                "interp.max_path_tolerance",
+                MAX_LENGTH,
+            )?,
+            path_mode: match i.path_mode.get_ref().to_ascii_lowercase().as_str() {
+                "continuous" | "g64" => PathModeDefault::Continuous,
+                "exact" | "g61" => PathModeDefault::ExactStop,
+                o => {
+                    return Err((
+                        i.path_mode.span(),
+                        "interp.path_mode".into(),
+                        format!("expected \"continuous\" (G64) or \"exact\" (G61), got {o:?}"),
+                    ));
+                }
+            },
             spindle_orient_angle: angle_in_turn(
                 &i.spindle_orient_angle,
                 "interp.spindle_orient_angle",

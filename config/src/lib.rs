@@ -12,6 +12,7 @@ mod check;
 mod error;
 mod interp;
 mod mcodes;
+mod planner;
 mod tool_offsets;
 mod work_offsets;
 
@@ -22,8 +23,9 @@ use serde::Deserialize;
 pub use axes::{AxisConfig, AxisKind, ExpectedIdentity, SimDynamics};
 pub use bus::BusConfig;
 pub use error::ConfigError;
-pub use interp::{InterpDefaults, PlaneDefault, ReturnPlane, Units};
 pub use mcodes::{BUILT_IN_M_CODES, MAction, PROGRAM_EXTENSIONS, program_file};
+pub use interp::{InterpDefaults, PathModeDefault, PlaneDefault, ReturnPlane, Units};
+pub use planner::{MAX_LOOKAHEAD, PlannerConfig};
 pub use tool_offsets::{TOOL_OFFSETS, ToolOffset};
 
 use check::Invalid;
@@ -41,6 +43,8 @@ pub struct MachineConfig {
     pub axes: Vec<AxisConfig>,
     pub bus: BusConfig,
     pub interp: InterpDefaults,
+    /// The motion planner's lookahead (`[planner]`).
+    pub planner: PlannerConfig,
     /// G54..G59: machine position of the work zero, indexed like `axes`.
     pub work_offsets: [[f64; MAX_AXES]; 6],
     /// Tool offsets 1..=[`TOOL_OFFSETS`] (Fanuc memory C): `tool_offsets[n - 1]` is number n.
@@ -140,6 +144,8 @@ struct RawConfig {
     bus: bus::RawBus,
     #[serde(default, deserialize_with = "check::table")]
     interp: interp::RawInterp,
+    #[serde(default, deserialize_with = "check::table")]
+    planner: planner::RawPlanner,
     #[serde(default)]
     work_offsets: work_offsets::RawWorkOffsets,
     #[serde(default)]
@@ -155,6 +161,7 @@ struct RawConfig {
 fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
     let bus = raw.bus.validate()?;
     let interp = raw.interp.validate()?;
+    let planner = raw.planner.validate()?;
     let axes = axes::validate(&raw.axis, &bus)?;
     let work_offsets = work_offsets::validate(&raw.work_offsets, &axes)?;
     let tool_offsets = tool_offsets::validate(&raw.tool_offsets)?;
@@ -164,6 +171,7 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
         axes,
         bus,
         interp,
+        planner,
         work_offsets,
         tool_offsets,
         mcodes,
@@ -246,6 +254,53 @@ mod tests {
             let e = parse(&text).unwrap_err();
             assert_eq!(e.key, "interp.tap_peck_retract", "{bad}");
         }
+    }
+
+    #[test]
+    fn path_mode_and_max_path_tolerance_keys() {
+        let c = parse(SHIPPED).unwrap();
+        assert_eq!(c.interp.path_mode, PathModeDefault::Continuous);
+        assert_eq!(c.interp.max_path_tolerance, 1.0);
+        let text = SHIPPED.replace("path_mode = \"continuous\"", "path_mode = \"exact\"");
+        assert_eq!(
+            parse(&text).unwrap().interp.path_mode,
+            PathModeDefault::ExactStop
+        );
+        let text = SHIPPED.replace("path_mode = \"continuous\"", "path_mode = \"smooth\"");
+        let e = parse(&text).unwrap_err();
+        assert_eq!(e.key, "interp.path_mode");
+        let want = SHIPPED
+            .lines()
+            .position(|l| l.starts_with("path_mode"))
+            .unwrap()
+            + 1;
+        assert_eq!(e.line, want, "the error names the key's line");
+        // The default tolerance may not exceed the maximum.
+        let text = SHIPPED.replace("max_path_tolerance = 1.0", "max_path_tolerance = 0.005");
+        assert_eq!(parse(&text).unwrap_err().key, "interp.path_tolerance");
+        for bad in ["0.0", "-1.0", "nan"] {
+            let text = SHIPPED.replace(
+                "max_path_tolerance = 1.0",
+                &format!("max_path_tolerance = {bad}"),
+            );
+            assert_eq!(parse(&text).unwrap_err().key, "interp.max_path_tolerance");
+        }
+    }
+
+    #[test]
+    fn planner_lookahead_key() {
+        assert_eq!(parse(SHIPPED).unwrap().planner.lookahead, 2000);
+        let text = SHIPPED.replace("lookahead = 2000", "");
+        assert_eq!(parse(&text).unwrap().planner.lookahead, 2000);
+        let text = SHIPPED.replace("lookahead = 2000", "lookahead = 50");
+        assert_eq!(parse(&text).unwrap().planner.lookahead, 50);
+        for bad in ["1", "0", "-5", "100001"] {
+            let text = SHIPPED.replace("lookahead = 2000", &format!("lookahead = {bad}"));
+            let e = parse(&text).unwrap_err();
+            assert_eq!(e.key, "planner.lookahead", "{bad}");
+        }
+        let text = SHIPPED.replace("lookahead = 2000", "lookahead = 10\nwindow = 3");
+        assert!(parse(&text).is_err(), "unknown keys are refused");
     }
 
     #[test]

@@ -129,6 +129,87 @@ fn g64_p_must_be_positive() {
     }
 }
 
+/// G9 stops exactly at the end of its own block only; G08 P1/P0 are G64/G61; the config's
+/// `interp.path_mode` gives the mode at program start.
+#[test]
+fn g9_g08_and_the_configured_default_mode() {
+    let tol = MachineConfig::default_machine().interp.path_tolerance;
+    let cont = SegmentEnd::Continuous { tolerance: tol };
+    let segs = run("G1 X1 F100
+G9 X2
+X3
+G08 P0
+X4
+G08 P1 X5
+G9 G0 X6
+M30
+");
+    let ends = |line: u32| on_line(&segs, line)[0].ends;
+    assert_eq!(ends(1), cont);
+    assert_eq!(ends(2), SegmentEnd::ExactStop, "G9");
+    assert_eq!(ends(3), cont, "G9 is one-shot");
+    assert_eq!(ends(5), SegmentEnd::ExactStop, "G08 P0 = G61");
+    assert_eq!(ends(6), cont, "G08 P1 = G64");
+    assert_eq!(ends(7), SegmentEnd::ExactStop, "G9 with a rapid");
+    let mut cfg = MachineConfig::default_machine();
+    cfg.interp.path_mode = cnc402_config::PathModeDefault::ExactStop;
+    let segs = run_program(
+        &cfg,
+        &SourceFile::new(
+            "t.nc",
+            "G1 X1 F100
+G64 X2
+M30
+",
+        ),
+    )
+    .unwrap();
+    assert_eq!(
+        segs[0].ends,
+        SegmentEnd::ExactStop,
+        "configured G61 at start"
+    );
+    assert_eq!(segs[1].ends, cont);
+}
+
+/// Bad path-mode input is a program error at the word, saying what was expected.
+#[test]
+fn bad_path_mode_words_are_errors_at_the_word() {
+    for (prog, col, says) in [
+        ("G64 P-1\nM30\n", 5, "path tolerance must be > 0"),
+        ("G1 X1 F10\nG64 Q0.01\nM30\n", 5, "Q0.01 without P"),
+        (
+            "G64 P0.01 Q0\nM30\n",
+            11,
+            "collinearity tolerance must be > 0",
+        ),
+        ("G64 P2\nM30\n", 5, "larger than the configured maximum"),
+        (
+            "G64 P0.01 Q1.5\nM30\n",
+            11,
+            "larger than the configured maximum",
+        ),
+        (
+            "G20 G64 P0.1\nM30\n",
+            9,
+            "larger than the configured maximum",
+        ),
+        ("G08 P2\nM30\n", 5, "unknown lookahead switch"),
+        ("G08\nM30\n", 1, "G08 without P"),
+    ] {
+        let e = err(prog);
+        assert!(e.contains(says), "{prog}: {e}");
+        assert!(
+            e.contains(&format!(":{col}")),
+            "{prog}: not at column {col}: {e}"
+        );
+        assert!(e.contains("expected"), "{prog}: {e}");
+    }
+    // Q with P is accepted.
+    let segs = run("G64 P0.02 Q0.01\nG1 X1 F100\nM30\n");
+    assert_eq!(segs[0].ends, SegmentEnd::Continuous { tolerance: 0.02 });
+}
+
 /// A canned cycle under G64 ends every move in an exact stop (it must reach each level it
 /// names: R, the bottom, the return level), taps included; the moves around it follow G64.
 #[test]

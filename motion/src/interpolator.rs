@@ -77,8 +77,11 @@ enum Job {
     Path {
         mv: PathMove,
         k: u64,
-        /// Stop profile and the tick it starts at.
-        stop: Option<(JerkProfile, u64)>,
+        /// The profile time of tick 0: sample k is at `t_base + k·P` (0 after rest; a blended
+        /// move starts where the last one's fractional period left off).
+        t_base: f64,
+        /// The stop ramp, when a stop is under way (see [`PathStop`]).
+        stop: Option<PathStop>,
     },
     Dwell {
         left: u64,
@@ -91,6 +94,41 @@ enum Job {
         stop: Option<(JerkProfile, u64)>,
     },
     Event(MoveEvent),
+}
+
+/// A stop ramp along a path: on tick k the ramp is at time `t0 + (k − k0)·P`, and the move's
+/// own s is the ramp's s minus `s_base` (the ramp distance that earlier moves of a blended
+/// chain took up). A ramp started in the move itself has `t0 = s_base = 0`.
+#[derive(Clone, Copy, Debug)]
+struct PathStop {
+    ramp: JerkProfile,
+    k0: u64,
+    t0: f64,
+    s_base: f64,
+}
+
+/// Where a stop ramp goes on after a blended move ended under it: the ramp time of the next
+/// sample and the ramp distance used up so far.
+#[derive(Clone, Copy, Debug)]
+struct StopCarry {
+    ramp: JerkProfile,
+    t_next: f64,
+    s_base: f64,
+}
+
+/// A blended move ended at speed: what the next move needs to continue without a break.
+#[derive(Clone, Copy, Debug)]
+struct Blend {
+    /// Where the move ended (the next one must start there).
+    end: AxisPos,
+    /// Profile time past the move's end of the next sample, minus one period (in (−P, 0]).
+    carry: f64,
+    /// Path speed and acceleration at the last sample (for a stop between moves).
+    last: State,
+    /// Path distance from the last sample to `end`.
+    remaining: f64,
+    /// The ended move's path limits.
+    limits: Limits,
 }
 
 /// A spindle orientation resolved against machine C: C = `from` + `sign`·s(t), landing on
@@ -170,6 +208,13 @@ pub struct Interpolator {
     line: u32,
     n: Option<u32>,
     last: AxisPos,
+    /// Set while the last move ended at speed and the next has not started.
+    blend: Option<Blend>,
+    /// A stop ramp that must go on along the next move of a blended chain.
+    stop_carry: Option<StopCarry>,
+    /// Ticks that found no next move while the path was at speed (the feeder fell behind:
+    /// the path paused on the spot).
+    starved_at_speed: u64,
 }
 
 impl Interpolator {
@@ -200,7 +245,22 @@ impl Interpolator {
             line: 0,
             n: None,
             last: prog,
+            blend: None,
+            stop_carry: None,
+            starved_at_speed: 0,
         }
+    }
+
+    /// True while a stop ramp must continue along the next move of a blended chain: give it
+    /// with [`Interpolator::start`] before the next tick (the only start accepted while
+    /// stopping).
+    pub fn wants_next_move(&self) -> bool {
+        self.stop_carry.is_some() && matches!(self.job, Job::Idle)
+    }
+
+    /// Ticks that found the path at speed with no next move (see the module doc).
+    pub fn starved_at_speed(&self) -> u64 {
+        self.starved_at_speed
     }
 
     /// The period in seconds.
@@ -215,7 +275,10 @@ impl Interpolator {
 
     /// True once a requested stop has brought every axis (and the spindle) to rest.
     pub fn is_held(&self) -> bool {
-        self.stopping && matches!(self.job, Job::Held) && self.spindle_at_rest()
+        self.stopping
+            && (matches!(self.job, Job::Held)
+                || (matches!(self.job, Job::Idle) && self.stop_carry.is_none()))
+            && self.spindle_at_rest()
     }
 
     /// True while a stop has been requested and not cleared.
@@ -271,15 +334,22 @@ impl Interpolator {
             n: mv.n,
             kind,
         };
-        if self.stopping {
+        let chained_stop = self.stopping && self.wants_next_move();
+        if self.stopping && !(chained_stop && matches!(mv.kind, MoveKind::Path(_))) {
             return Err(err(MotionErrorKind::Stopped));
         }
         if !matches!(self.job, Job::Idle) {
             return Err(err(MotionErrorKind::Busy));
         }
+        if self.blend.is_some() && !matches!(mv.kind, MoveKind::Path(_)) {
+            // A blended move is always followed by a path move; anything else would stop
+            // the path dead.
+            return Err(err(MotionErrorKind::NotAtStart));
+        }
         self.job = match mv.kind {
             MoveKind::Path(p) => {
-                if p.start != self.prog {
+                let expected = self.blend.map_or(self.prog, |b| b.end);
+                if p.start != expected {
                     return Err(err(MotionErrorKind::NotAtStart));
                 }
                 if let Some(sp) = self.spindle
@@ -288,10 +358,40 @@ impl Interpolator {
                 {
                     return Err(err(MotionErrorKind::SpindleRunning));
                 }
+                let blend = self.blend.take();
+                let carry = blend.map_or(0.0, |b| b.carry);
+                if let Some(c) = &mut self.stop_carry {
+                    if c.ramp.sample(c.t_next).s - c.s_base > p.length && p.end_speed > 0.0 {
+                        // The ramp passes this whole move before the next sample.
+                        c.s_base += p.length;
+                        self.blend = blend.map(|b| Blend { end: p.end, ..b });
+                        return Ok(());
+                    }
+                } else if let Some(b) = blend
+                    && p.end_speed > 0.0
+                    && p.t_begin + carry + self.period > p.t_end
+                {
+                    // The whole move lies between two samples: on to the next one.
+                    self.blend = Some(Blend {
+                        end: p.end,
+                        carry: p.t_begin + carry - p.t_end,
+                        remaining: b.remaining + p.length,
+                        limits: p.limits,
+                        ..b
+                    });
+                    return Ok(());
+                }
+                let stop = self.stop_carry.take().map(|c| PathStop {
+                    ramp: c.ramp,
+                    k0: 0,
+                    t0: c.t_next - self.period,
+                    s_base: c.s_base,
+                });
                 Job::Path {
                     mv: p,
                     k: 0,
-                    stop: None,
+                    t_base: p.t_begin + carry,
+                    stop,
                 }
             }
             MoveKind::Dwell { ticks, .. } => Job::Dwell { left: ticks.max(1) },
@@ -377,12 +477,30 @@ impl Interpolator {
         }
         self.stopping = true;
         match &mut self.job {
-            Job::Path { mv, k, stop } => {
-                let now = mv.profile.sample(*k as f64 * self.period);
-                if let Some(sp) = stop_ramp(now, mv.limits, mv.length) {
-                    *stop = Some((sp, *k));
+            Job::Path {
+                mv,
+                k,
+                t_base,
+                stop,
+            } => {
+                let mut now = mv.profile.sample(*t_base + *k as f64 * self.period);
+                now.s -= mv.s_offset;
+                // A blended move may hand the ramp on to the next move: no room needed here.
+                let room = if mv.end_speed > 0.0 {
+                    f64::INFINITY
+                } else {
+                    mv.length
+                };
+                if let Some(ramp) = stop_ramp(now, mv.limits, room) {
+                    *stop = Some(PathStop {
+                        ramp,
+                        k0: *k,
+                        t0: 0.0,
+                        s_base: 0.0,
+                    });
                 }
             }
+            Job::Idle if self.blend.is_some() => self.stop_from_blend(),
             Job::Orient { orient, k, stop } => {
                 let now = orient.profile.sample(*k as f64 * self.period);
                 if let Some(sp) = stop_ramp(now, orient.limits, orient.profile.end().s) {
@@ -402,6 +520,20 @@ impl Interpolator {
         }
     }
 
+    /// Between two blended moves: the stop ramp starts from the last sample and runs on along
+    /// the next move.
+    fn stop_from_blend(&mut self) {
+        if let Some(b) = self.blend {
+            let from = State { s: 0.0, ..b.last };
+            let ramp = velocity_change(from, 0.0, b.limits.acceleration, b.limits.jerk);
+            self.stop_carry = Some(StopCarry {
+                ramp,
+                t_next: self.period,
+                s_base: b.remaining,
+            });
+        }
+    }
+
     /// After a stop has come to rest: forget the interrupted move and become idle at the
     /// held position. Returns false (and does nothing) if not yet held.
     pub fn clear_stop(&mut self) -> bool {
@@ -410,6 +542,8 @@ impl Interpolator {
         }
         self.stopping = false;
         self.job = Job::Idle;
+        self.blend = None;
+        self.stop_carry = None;
         true
     }
 
@@ -493,23 +627,73 @@ impl Interpolator {
             spindle_pos: None,
         };
         match &mut self.job {
-            Job::Idle => out.state = TickState::Idle,
+            Job::Idle => {
+                out.state = TickState::Idle;
+                if self.blend.is_some() || self.stop_carry.is_some() {
+                    // The path is at speed and no move came: it pauses on the spot.
+                    self.starved_at_speed += 1;
+                    if self.stopping {
+                        // No move to carry the stop ramp on: the stop ends here.
+                        self.stop_carry = None;
+                        self.blend = None;
+                        self.job = Job::Held;
+                    }
+                }
+            }
             Job::Held => out.state = TickState::Stopping,
-            Job::Path { mv, k, stop } => {
+            Job::Path {
+                mv,
+                k,
+                t_base,
+                stop,
+            } => {
                 *k += 1;
-                match along(&mv.profile, mv.ticks, stop, *k, p) {
-                    Along::On(st) => {
+                let mv = *mv;
+                let t = *t_base + *k as f64 * p;
+                match path_along(&mv, t, stop, *k, p) {
+                    PathAlong::On(st) => {
                         self.prog = mv.point(st.s);
                         out.path_velocity = st.v;
                     }
-                    Along::StopDone(st) => {
+                    PathAlong::StopDone(st) => {
                         self.prog = mv.point(st.s);
                         out.path_velocity = st.v;
                         self.job = Job::Held;
                     }
-                    Along::End => {
+                    PathAlong::End => {
                         self.prog = mv.end;
                         out.finished = self.end_job();
+                    }
+                    PathAlong::Blend(st, carry) => {
+                        self.prog = mv.point(st.s);
+                        out.path_velocity = st.v;
+                        out.finished = true;
+                        self.blend = Some(Blend {
+                            end: mv.end,
+                            carry,
+                            last: st,
+                            remaining: mv.length - st.s,
+                            limits: mv.limits,
+                        });
+                        self.job = Job::Idle;
+                        if self.stopping {
+                            // A stop whose ramp found no room in this move (it was braking
+                            // already): it goes on along the next one.
+                            self.stop_from_blend();
+                        }
+                    }
+                    PathAlong::StopCarry(st, c) => {
+                        self.prog = mv.point(st.s);
+                        out.path_velocity = st.v;
+                        self.stop_carry = Some(c);
+                        self.blend = Some(Blend {
+                            end: mv.end,
+                            carry: 0.0,
+                            last: st,
+                            remaining: mv.length - st.s,
+                            limits: mv.limits,
+                        });
+                        self.job = Job::Idle;
                     }
                 }
             }
@@ -605,6 +789,79 @@ fn stop_ramp(now: State, lim: Limits, length: f64) -> Option<JerkProfile> {
     // itself the quickest stop. Same if it would overrun.
     let reverses = -now.v - now.a * now.a.abs() / (2.0 * lim.jerk) > 0.0;
     (!reverses && sp.end().s <= length).then_some(sp)
+}
+
+/// Where a path move is on one tick. (Large on purpose: boxing would allocate in the loop.)
+#[allow(clippy::large_enum_variant)]
+enum PathAlong {
+    /// Along its profile or stop ramp (s in the move's own path parameter).
+    On(State),
+    /// At the end of its stop ramp: at rest.
+    StopDone(State),
+    /// On its last tick: at its end point (at rest).
+    End,
+    /// Its last sample before the next move of a blended chain takes over; the next
+    /// sample is `carry` + one period past this move's end on the profile.
+    Blend(State, f64),
+    /// Its last sample under a stop ramp that goes on along the next move.
+    StopCarry(State, StopCarry),
+}
+
+/// Where path move `mv` is at profile time `t` (tick `k`), on its stop ramp if one was begun.
+/// A move that ends at speed hands over one sample early: the next sample belongs to the next
+/// move, `t + P − t_end` into it.
+#[inline]
+fn path_along(mv: &PathMove, t: f64, stop: &Option<PathStop>, k: u64, period: f64) -> PathAlong {
+    if let Some(st) = stop {
+        let tr = st.t0 + (k - st.k0) as f64 * period;
+        let mut now = st.ramp.sample(tr);
+        if st.s_base != 0.0 || mv.end_speed > 0.0 {
+            now = clamp_s(
+                State {
+                    s: now.s - st.s_base,
+                    ..now
+                },
+                mv.length,
+            );
+        }
+        if tr >= st.ramp.duration() {
+            return PathAlong::StopDone(now);
+        }
+        if mv.end_speed > 0.0 && st.ramp.sample(tr + period).s - st.s_base > mv.length {
+            let carry = StopCarry {
+                ramp: st.ramp,
+                t_next: tr + period,
+                s_base: st.s_base + mv.length,
+            };
+            return PathAlong::StopCarry(now, carry);
+        }
+        return PathAlong::On(now);
+    }
+    if mv.end_speed > 0.0 {
+        let mut st = mv.profile.sample(t);
+        st.s -= mv.s_offset;
+        if t + period > mv.t_end {
+            return PathAlong::Blend(clamp_s(st, mv.length), t - mv.t_end);
+        }
+        return PathAlong::On(clamp_s(st, mv.length));
+    }
+    if t >= mv.t_end {
+        return PathAlong::End;
+    }
+    let mut st = mv.profile.sample(t);
+    if mv.s_offset != 0.0 {
+        st.s = (st.s - mv.s_offset).clamp(0.0, mv.length);
+    }
+    PathAlong::On(st)
+}
+
+/// `st` with s kept within the move (rounding of the offset subtraction).
+#[inline]
+fn clamp_s(st: State, length: f64) -> State {
+    State {
+        s: st.s.clamp(0.0, length),
+        ..st
+    }
 }
 
 /// Where a move is on one tick.

@@ -41,7 +41,10 @@
 //! # Ticks
 //! A move of N ticks outputs samples at t = P, 2P, … NP; its profile is stretched (never
 //! sped up) so that NP is exactly its duration and the N-th sample is the end position,
-//! bit-for-bit. The sample at t = 0 is the previous move's last one, which is this move's
+//! bit-for-bit. Blended moves ([`Lookahead`]) share one profile per group and last fractions
+//! of periods: the interpolator carries the rest of the period into the next move (and passes
+//! over moves shorter than it), and the last move of a chain, ending at rest, still lands
+//! exactly on its end. The sample at t = 0 is the previous move's last one, which is this move's
 //! start. Dwells, tool changes, program stops and messages pass through as ticks with a
 //! [`TickState`] and [`MoveEvent`].
 //!
@@ -77,6 +80,7 @@
 pub mod counts;
 pub mod error;
 pub mod interpolator;
+pub mod lookahead;
 pub mod planner;
 pub mod profile;
 pub mod segment;
@@ -85,6 +89,7 @@ pub use cnc402_config::MAX_AXES;
 pub use counts::to_counts_wrapping;
 pub use error::{MotionError, MotionErrorKind};
 pub use interpolator::{Interpolator, MoveEvent, Tick, TickState};
+pub use lookahead::Lookahead;
 pub use planner::{ArcGeometry, Geometry, MoveKind, PathMove, PlannedMove, Planner};
 pub use profile::{JerkProfile, Limits, PathProfile, State};
 pub use segment::*;

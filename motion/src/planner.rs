@@ -23,8 +23,8 @@ pub struct PlannedMove {
     /// The block's N number.
     pub n: Option<u32>,
     pub kind: MoveKind,
-    /// How the segment ends, as the interpreter stamped it (the planner stops exactly at
-    /// every end for now).
+    /// How the segment ends, as the interpreter stamped it (the [`crate::Lookahead`] blends
+    /// `Continuous` ends; [`Planner::plan`] alone stops exactly at every end).
     pub ends: SegmentEnd,
 }
 
@@ -83,6 +83,15 @@ pub struct PathMove {
     pub rapid: bool,
     /// A rigid tap's coupling of tool and spindle axis, from its [`TapSegment`].
     pub tap: Option<TapCoupling>,
+    /// Where this move lies on `profile`: the profile's s at the move's start (0 unless the
+    /// lookahead planned several moves under one profile), and the profile's times at which
+    /// the move starts and ends. An exact-stop move has 0, 0 and `ticks` periods.
+    pub s_offset: f64,
+    pub t_begin: f64,
+    pub t_end: f64,
+    /// Path speed at the move's end: 0 for an exact stop; > 0 when the lookahead blends it
+    /// into the next move (the interpolator then carries the fractional period over).
+    pub end_speed: f64,
 }
 
 /// The shape of a path.
@@ -135,6 +144,28 @@ impl PathMove {
         }
         p
     }
+
+    /// d(position)/ds at path parameter `s`: every axis's rate per unit of path (the unit
+    /// tangent over the linear axes for a line; rotary axes in their unit per path unit).
+    pub fn tangent(&self, s: f64) -> AxisPos {
+        let mut d = AxisPos::default();
+        if self.length <= 0.0 {
+            return d;
+        }
+        for i in 0..MAX_AXES {
+            d.0[i] = (self.end.0[i] - self.start.0[i]) / self.length;
+        }
+        if let Geometry::Arc(arc) = &self.geometry {
+            let u = s / self.length;
+            let th = arc.start_angle + arc.sweep * u;
+            let r = arc.start_radius + (arc.end_radius - arc.start_radius) * u;
+            let dr = arc.end_radius - arc.start_radius;
+            let (sin, cos) = th.sin_cos();
+            d.0[arc.axes[0]] = (dr * cos - r * sin * arc.sweep) / self.length;
+            d.0[arc.axes[1]] = (dr * sin + r * cos * arc.sweep) / self.length;
+        }
+        d
+    }
 }
 
 /// Plans segments in program order; see the module doc.
@@ -148,6 +179,9 @@ pub struct Planner {
     path_axes: PathAxes,
     pos: AxisPos,
     spindle_running: bool,
+    /// The share of every axis's acceleration a path profile may use (1 for exact stops; the
+    /// lookahead keeps the rest for the velocity jumps at blended junctions).
+    accel_share: f64,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -187,7 +221,23 @@ impl Planner {
             path_axes: PathAxes::new(config),
             pos: AxisPos::default(),
             spindle_running: false,
+            accel_share: 1.0,
         }
+    }
+
+    /// The share (0 < share ≤ 1) of every axis's acceleration the next path profiles may
+    /// use; see [`crate::lookahead`].
+    pub(crate) fn set_accel_share(&mut self, share: f64) {
+        self.accel_share = share;
+    }
+
+    /// The axes' acceleration limits and the period, for the lookahead's junction bounds.
+    pub(crate) fn axis_accelerations(&self) -> ([f64; MAX_AXES], usize, f64) {
+        let mut a = [0.0; MAX_AXES];
+        for (d, ax) in a.iter_mut().zip(&self.axes[..self.n_axes]) {
+            *d = ax.a;
+        }
+        (a, self.n_axes, self.period)
     }
 
     /// Sets where the next segment starts (machine coordinates; C in program coordinates).
@@ -434,7 +484,7 @@ impl Planner {
         if k > 0.0 {
             let ax = &self.axes[i];
             lim.velocity = lim.velocity.min(ax.v / k);
-            lim.acceleration = lim.acceleration.min(ax.a / k);
+            lim.acceleration = lim.acceleration.min(ax.a * self.accel_share / k);
             lim.jerk = lim.jerk.min(ax.j / k);
         }
     }
@@ -476,6 +526,10 @@ impl Planner {
             ticks,
             rapid,
             tap: None,
+            s_offset: 0.0,
+            t_begin: 0.0,
+            t_end: ticks as f64 * self.period,
+            end_speed: 0.0,
         })
     }
 
@@ -547,7 +601,11 @@ impl Planner {
         let rmin = r0.min(r1);
         let k = (rm * sweep_abs + (r1 - r0).abs()) / length;
         let (ap, bp) = (&self.axes[p], &self.axes[q]);
-        let (vp, amp, jp) = (ap.v.min(bp.v), ap.a.min(bp.a), ap.j.min(bp.j));
+        let (vp, amp, jp) = (
+            ap.v.min(bp.v),
+            ap.a.min(bp.a) * self.accel_share,
+            ap.j.min(bp.j),
+        );
         let mut lim = Limits {
             velocity: feed
                 .min(vp / k)

@@ -246,7 +246,7 @@ pub fn rest_to_rest(distance: f64, lim: Limits) -> Result<JerkProfile, ProfileEr
 
 /// Distance covered by the symmetric jerk-limited ramp from `va` to `vb` (both with zero
 /// acceleration): (va + vb)/2 times its duration.
-fn ramp_distance(va: f64, vb: f64, lim: Limits) -> f64 {
+pub(crate) fn ramp_distance(va: f64, vb: f64, lim: Limits) -> f64 {
     let dv = (vb - va).abs();
     let (a, j) = (lim.acceleration, lim.jerk);
     let t = if dv * j >= a * a {

@@ -283,8 +283,8 @@ pub enum StopKind {
 /// How a segment ends: whether the machine must come to rest exactly on its end point before
 /// the next segment starts, or may pass near it. The interpreter stamps it from the path mode
 /// (G61/G63: exact stop; G64: continuous) on path segments; taps and every non-path segment
-/// end in an exact stop. The planner still stops exactly at every segment end (it does not
-/// blend yet), so today this is information for what comes later.
+/// end in an exact stop. The [`crate::Lookahead`] blends a junction when the segments on both
+/// sides are `Continuous`; [`crate::Planner::plan`] alone stops at every end.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SegmentEnd {
     /// Come to rest on the end point (G61, G63, taps, every non-path segment).

@@ -20,6 +20,10 @@ pub const SETTLE_TICKS: u32 = 50;
 /// Ticks quick stop may take before the run ends anyway.
 pub const QUICK_STOP_TICKS: u32 = 500;
 
+/// Most moves started in one tick: blended moves shorter than a period pass between samples
+/// (at 0.01 mm blocks and 100 mm/s, ten a tick); past this the path pauses a tick.
+pub const MOVES_PER_TICK: u32 = 256;
+
 /// What one [`CycleController::step`] left behind.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Step {
@@ -257,8 +261,19 @@ impl<L: DriveLink> CycleController<L> {
     /// Runs one period at `now`. Allocation-free.
     pub fn step(&mut self, now: Instant) -> Step {
         self.take_requests();
-        if self.phase == Phase::Running && self.interp.is_idle() && !self.held {
-            self.next_move();
+        if self.phase == Phase::Running && !self.held {
+            // A blended move shorter than the rest of the period passes between two samples
+            // (the interpolator stays idle): start moves until one takes this tick.
+            let mut started = 0;
+            while self.interp.is_idle() && started < MOVES_PER_TICK && self.next_move() {
+                started += 1;
+            }
+        } else if self.phase == Phase::Stopping {
+            // A stop ramp that runs on along the blended moves after the current one.
+            let mut started = 0;
+            while self.interp.wants_next_move() && started < MOVES_PER_TICK && self.next_move() {
+                started += 1;
+            }
         }
 
         let t = self.interp.tick();
@@ -524,7 +539,8 @@ impl<L: DriveLink> CycleController<L> {
         }
     }
 
-    fn next_move(&mut self) {
+    /// Starts the next move of the ring; false when there was none (or only `End`).
+    fn next_move(&mut self) -> bool {
         match self.moves.try_pop() {
             Some(LoopInput::Move(mv)) => {
                 self.moves_started += 1;
@@ -551,13 +567,18 @@ impl<L: DriveLink> CycleController<L> {
                     });
                 }
             }
-            Some(LoopInput::End) => self.input_done = true,
+            Some(LoopInput::End) => {
+                self.input_done = true;
+                return false;
+            }
             None => {
                 if !self.input_done {
                     self.starved += 1;
                 }
+                return false;
             }
         }
+        true
     }
 }
 

@@ -1,22 +1,29 @@
-//! The feeder: runs the interpreter and the planner ahead of the loop (outside it) and pushes
-//! planned moves into the move ring while there is room. Errors become [`NcError`]s that point
-//! at the program line (a planner error has no column: it names the block).
+//! The feeder: runs the interpreter and the planner (with its lookahead, which blends G64
+//! blocks) ahead of the loop (outside it) and pushes planned moves into the move ring while
+//! there is room. Errors become [`NcError`]s that point at the program line (a planner error
+//! has no column: it names the block).
 
 use std::collections::VecDeque;
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use cnc402_config::MachineConfig;
 use cnc402_interp::host_fs::{self, VarsAccess};
 use cnc402_interp::{Interpreter, Options};
 use cnc402_lang::ast::Program;
 use cnc402_lang::{NcError, SourceFile};
-use cnc402_motion::{AxisPos, MotionError, MoveKind, PlannedMove, Planner, SegmentKind};
+use cnc402_motion::{AxisPos, Lookahead, MotionError, MoveKind, PlannedMove, SegmentKind};
 
 use crate::ring::{LoopInput, MoveProducer, Observer, Producer};
 
 /// An interpreter and a planner in step; see the module doc.
 pub struct Feeder {
     interp: Interpreter,
-    planner: Planner,
+    /// Shared with the motion sync, which brings it to rest before a position read.
+    lookahead: Arc<Mutex<Lookahead>>,
+    /// The interpreter has no more segments (the lookahead was told).
+    interp_done: bool,
+    /// Texts of `Message` segments planned, not yet given out as moves.
+    planned_messages: VecDeque<String>,
     src: SourceFile,
     /// A move planned but not yet accepted by the ring.
     held: Option<LoopInput>,
@@ -88,11 +95,13 @@ impl Feeder {
         };
         let mut interp = host_fs::interpreter(cfg, opts, access);
         interp.load(src.clone(), program);
-        let mut planner = Planner::new(cfg);
-        planner.set_position(start);
+        let mut lookahead = Lookahead::new(cfg, cfg.planner.lookahead);
+        lookahead.planner_mut().set_position(start);
         Feeder {
             interp,
-            planner,
+            lookahead: Arc::new(Mutex::new(lookahead)),
+            interp_done: false,
+            planned_messages: VecDeque::new(),
             src,
             held: None,
             done: false,
@@ -102,22 +111,50 @@ impl Feeder {
         }
     }
 
-    /// The next planned move, `Ok(None)` at the end.
+    /// The next planned move, `Ok(None)` at the end. Segments go through the lookahead, so
+    /// a G64 block's move comes out once the blocks after it are known.
     pub fn next_move(&mut self) -> Result<Option<PlannedMove>, NcError> {
-        let Some(seg) = self.interp.next_segment()? else {
-            return Ok(None);
-        };
-        let mv = self
-            .planner
-            .plan(&seg)
-            .map_err(|e| motion_error_to_nc(&source_for(&seg.source.file, &self.src), &e))?;
-        if self.last_file.as_ref() != Some(&seg.source.file) {
-            self.last_file = Some(seg.source.file.clone());
+        loop {
+            if let Some(mv) = lock(&self.lookahead).pop() {
+                if let MoveKind::Message = mv.kind
+                    && let Some(text) = self.planned_messages.pop_front()
+                {
+                    self.messages.push_back(text);
+                }
+                return Ok(Some(mv));
+            }
+            if self.interp_done {
+                return Ok(None);
+            }
+            // No lock held here: the interpreter's motion sync takes it.
+            let Some(seg) = self.interp.next_segment()? else {
+                self.interp_done = true;
+                let finished = lock(&self.lookahead).finish();
+                finished.map_err(|e| motion_error_to_nc(&self.src_of(&self.last_file), &e))?;
+                continue;
+            };
+            lock(&self.lookahead)
+                .push(&seg)
+                .map_err(|e| motion_error_to_nc(&source_for(&seg.source.file, &self.src), &e))?;
+            if self.last_file.as_ref() != Some(&seg.source.file) {
+                self.last_file = Some(seg.source.file.clone());
+            }
+            if let SegmentKind::Message { text } = seg.kind {
+                self.planned_messages.push_back(text);
+            }
         }
-        if let (MoveKind::Message, SegmentKind::Message { text }) = (&mv.kind, seg.kind) {
-            self.messages.push_back(text);
+    }
+
+    /// The lookahead, for the motion sync to bring to rest before a position read.
+    pub fn lookahead(&self) -> Arc<Mutex<Lookahead>> {
+        self.lookahead.clone()
+    }
+
+    fn src_of(&self, file: &Option<Arc<str>>) -> SourceFile {
+        match file {
+            Some(f) => source_for(f, &self.src),
+            None => self.src.clone(),
         }
-        Ok(Some(mv))
     }
 
     /// Pushes moves into `ring` until it is full or the program is over (then `End`).
@@ -219,6 +256,11 @@ impl Feeder {
     }
 }
 
+/// The lookahead, whoever held it last (a panic elsewhere does not poison planning).
+pub fn lock(l: &Mutex<Lookahead>) -> MutexGuard<'_, Lookahead> {
+    l.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Most moves the dry run checks before motion (and `cnc402 segments`/`canon` print). An
 /// endless program with motion (`GOTO` back to a move) is legal and must start: past this
 /// many moves the dry run stops checking and says so ([`DryRun::checked_only`]); the rest
@@ -276,6 +318,7 @@ pub fn dry_run_bounded(
     let mut d = DryRun::default();
     // The first stop that holds, and the non-volatile reads made before it.
     let mut held_at: Option<(u32, u64)> = None;
+    let mut blended = 0.0;
     loop {
         if d.moves >= max_moves {
             d.checked_only = Some(d.moves);
@@ -307,12 +350,18 @@ pub fn dry_run_bounded(
         }
         d.moves += 1;
         d.ticks += match mv.kind {
+            MoveKind::Path(p) if p.t_begin != 0.0 || p.end_speed > 0.0 => {
+                // A blended move lasts a fraction of periods: sum the time, count once.
+                blended += p.t_end - p.t_begin;
+                0
+            }
             MoveKind::Path(p) => p.ticks,
             MoveKind::Dwell { ticks, .. } => ticks,
             _ => 1,
         };
         f.messages.clear();
     }
+    d.ticks += (blended / cfg.bus.period_s()).round() as u64;
     d.repeats_at = f.interp.main_m99_line();
     Ok(d)
 }

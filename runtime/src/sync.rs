@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use cnc402_interp::MotionSync;
 use cnc402_lang::NcError;
-use cnc402_motion::AxisPos;
+use cnc402_motion::{AxisPos, Lookahead};
 
 use crate::feeder::Feeder;
 use crate::program_stop::{StopDecision, StopGate};
@@ -118,10 +118,55 @@ impl SyncShared {
 /// The interpreter's [`MotionSync`] for a running machine.
 pub struct LoopSync {
     pub shared: Arc<SyncShared>,
+    /// The lookahead and the ring: the blocks it holds are planned to rest and sent before
+    /// waiting, so the read sees the machine where the program put it.
+    pub flush: Option<FlushTarget>,
+}
+
+/// The feeder's lookahead and the move ring it fills (see [`LoopSync::flush`]).
+pub type FlushTarget = (Arc<Mutex<Lookahead>>, Arc<Mutex<MoveProducer>>);
+
+impl LoopSync {
+    /// Plans what the lookahead holds to rest and pushes it into the ring.
+    fn flush(&self) -> Result<(), String> {
+        let Some((look, ring)) = &self.flush else {
+            return Ok(());
+        };
+        let mut look = crate::feeder::lock(look);
+        look.finish().map_err(|e| e.to_string())?;
+        while let Some(mv) = look.pop() {
+            if !push_waiting(
+                &mut ring.lock().unwrap_or_else(|e| e.into_inner()),
+                LoopInput::Move(mv),
+                &self.shared,
+            ) {
+                return Err("the machine stopped before the motion finished".to_string());
+            }
+            self.shared.pushed.fetch_add(1, Ordering::SeqCst);
+        }
+        Ok(())
+    }
+}
+
+/// Pushes `item`, waiting for room; false when the run ended meanwhile.
+fn push_waiting(ring: &mut MoveProducer, mut item: LoopInput, shared: &SyncShared) -> bool {
+    loop {
+        match ring.try_push(item) {
+            Ok(()) => return true,
+            Err(back) => {
+                if shared.abort.load(Ordering::SeqCst) || shared.lock().ended {
+                    return false;
+                }
+                item = back;
+                std::thread::sleep(Duration::from_micros(200));
+            }
+        }
+    }
 }
 
 impl MotionSync for LoopSync {
     fn wait_motion_done(&mut self, _programmed: &AxisPos) -> Result<AxisPos, String> {
+        self.flush()?;
         let sh = &self.shared;
         sh.waiting.store(true, Ordering::SeqCst);
         let mut p = sh.lock();
@@ -184,30 +229,25 @@ fn after_stop(mv: &cnc402_motion::PlannedMove, gate: Option<&StopGate>) -> After
 /// raises `stop` and is the thread's result.
 pub fn spawn_feeder(
     mut feeder: Feeder,
-    mut ring: MoveProducer,
+    ring: MoveProducer,
     shared: Arc<SyncShared>,
     stop: Arc<AtomicBool>,
     gate: Option<Arc<StopGate>>,
 ) -> std::io::Result<JoinHandle<Option<NcError>>> {
+    let ring = Arc::new(Mutex::new(ring));
     feeder.set_motion_sync(Box::new(LoopSync {
         shared: shared.clone(),
+        flush: Some((feeder.lookahead(), ring.clone())),
     }));
     std::thread::Builder::new()
         .name("cnc402-feeder".into())
         .spawn(move || {
-            let push = |ring: &mut MoveProducer, mut item: LoopInput| -> bool {
-                loop {
-                    match ring.try_push(item) {
-                        Ok(()) => return true,
-                        Err(back) => {
-                            if shared.abort.load(Ordering::SeqCst) || shared.lock().ended {
-                                return false;
-                            }
-                            item = back;
-                            std::thread::sleep(Duration::from_micros(200));
-                        }
-                    }
-                }
+            let push = |ring: &Mutex<MoveProducer>, item: LoopInput| -> bool {
+                push_waiting(
+                    &mut ring.lock().unwrap_or_else(|e| e.into_inner()),
+                    item,
+                    &shared,
+                )
             };
             let mut holds = 0u64;
             loop {
@@ -231,7 +271,7 @@ pub fn spawn_feeder(
                                 files.push((index, f.clone()));
                             }
                         }
-                        if !push(&mut ring, LoopInput::Move(mv)) {
+                        if !push(&ring, LoopInput::Move(mv)) {
                             return None;
                         }
                         shared.pushed.fetch_add(1, Ordering::SeqCst);
@@ -264,7 +304,7 @@ pub fn spawn_feeder(
                         }
                     }
                     Ok(None) => {
-                        push(&mut ring, LoopInput::End);
+                        push(&ring, LoopInput::End);
                         return None;
                     }
                     Err(e) => {

@@ -27,8 +27,28 @@ fn machine() -> MachineConfig {
     MachineConfig::default_machine()
 }
 
+/// A G64 program: fine blocks blended at the feed (several moves a tick), an arc, a corner.
+fn blended() -> String {
+    let mut p = String::from("G21 G90 G17 G94 G54 G64 P0.01\nG0 X0 Y0 Z0\nG1 F3000\n");
+    for i in 1..=2000 {
+        let a = f64::from(i) * 0.001;
+        p += &format!("X{:.4} Y{:.4}\n", 10.0 * a.sin(), 10.0 - 10.0 * a.cos());
+    }
+    p + "G3 I-2 J0\nG1 X-10\nY0\nM30\n"
+}
+
 /// Runs TAP with the counter armed over every tick; returns (allocations, outcome, ticks).
 fn run_armed(fault: Option<FaultPlan>) -> (u64, Outcome, u64) {
+    run_program_armed(TAP, fault, None)
+}
+
+/// Runs `program` with the counter armed over every tick, raising the operator's stop at
+/// tick `stop_at` if given.
+fn run_program_armed(
+    program: &str,
+    fault: Option<FaultPlan>,
+    stop_at: Option<u32>,
+) -> (u64, Outcome, u64) {
     let cfg = machine();
     let mut link = SimLink::simulated(&cfg, None).expect("sim link");
     if let Some(f) = fault {
@@ -36,10 +56,10 @@ fn run_armed(fault: Option<FaultPlan>) -> (u64, Outcome, u64) {
     }
     let start = common::started(&mut link);
     // Plan the whole program before arming: the feeder runs outside the loop.
-    let (_mp, mc) = common::planned(&cfg, "tap.nc", TAP, &start, 4096);
+    let (_mp, mc) = common::planned(&cfg, "tap.nc", program, &start, 8192);
     let (sp, mut sc) = status_ring(1 << 16);
-    let mut ctrl =
-        CycleController::new(&cfg, start, link, mc, sp, Arc::new(AtomicBool::new(false)));
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut ctrl = CycleController::new(&cfg, start, link, mc, sp, stop.clone());
 
     // A few ticks unarmed so that lazily sized buffers reach their working size.
     let period = Duration::from_micros(cfg.bus.period_us as u64);
@@ -51,7 +71,10 @@ fn run_armed(fault: Option<FaultPlan>) -> (u64, Outcome, u64) {
     let before = allocs();
     arm(true);
     let mut outcome = None;
-    for _ in 0..60_000 {
+    for k in 0..60_000 {
+        if Some(k) == stop_at {
+            stop.store(true, std::sync::atomic::Ordering::SeqCst);
+        }
         now += period;
         if let Step::Done(o) = ctrl.step(now) {
             outcome = Some(o);
@@ -81,6 +104,21 @@ fn full_tick_path_allocates_nothing_through_a_tap() {
 fn full_tick_path_allocates_nothing_through_a_fault_and_stop() {
     let plan = common::fault(3, 1500, 0x8611);
     let (n, outcome, ticks) = run_armed(Some(plan));
+    assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
+    assert_eq!(n, 0, "allocations in {ticks} ticks");
+}
+
+#[test]
+fn full_tick_path_allocates_nothing_through_blended_moves() {
+    let (n, outcome, ticks) = run_program_armed(&blended(), None, None);
+    assert_eq!(outcome, Outcome::Finished);
+    assert!(ticks > 500, "{ticks}");
+    assert_eq!(n, 0, "allocations in {ticks} ticks");
+}
+
+#[test]
+fn full_tick_path_allocates_nothing_stopping_along_blended_moves() {
+    let (n, outcome, ticks) = run_program_armed(&blended(), None, Some(200));
     assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
     assert_eq!(n, 0, "allocations in {ticks} ticks");
 }

@@ -100,6 +100,7 @@ fn group_name(g: GGroup) -> &'static str {
         GGroup::WorkOffset => "14 (work offset)",
         GGroup::ToolLength => "08 (tool length compensation)",
         GGroup::PathMode => "15 (exact stop / cutting mode)",
+        GGroup::ExactStopOnce => "00 (G9 exact stop)",
         GGroup::MacroCall => "12 (macro call)",
         GGroup::Cancel(7) => "07 (cutter compensation)",
         GGroup::Cancel(11) => "11 (scaling)",
@@ -445,10 +446,17 @@ impl Exec<'_> {
         if let Some((c, _)) = self.w.g_of(GGroup::ReturnMode) {
             self.st.return_to_r = c == 99;
         }
-        if let Some((c, _)) = self.w.g_of(GGroup::PathMode) {
-            self.st.path_mode = c;
-            if c == 64 {
-                self.st.path_tolerance = self.g64_tolerance()?;
+        self.st.exact_stop_once = self.w.g_of(GGroup::ExactStopOnce).is_some();
+        if let Some((c, span)) = self.w.g_of(GGroup::PathMode) {
+            if c == 8 {
+                // The P is the switch: the tolerance is the configured one.
+                self.st.path_mode = self.g08_mode(span)?;
+                self.st.path_tolerance = self.cfg.interp.path_tolerance;
+            } else {
+                self.st.path_mode = c;
+                if c == 64 {
+                    self.st.path_tolerance = self.g64_tolerance()?;
+                }
             }
         }
         if let Some((80, _)) = self.w.g_of(GGroup::Cycle) {
@@ -457,9 +465,27 @@ impl Exec<'_> {
         Ok(())
     }
 
+    /// Fanuc's G08 P1 (lookahead on: G64 at the configured tolerance) / G08 P0 (off: G61).
+    fn g08_mode(&mut self, span: Span) -> Result<u32, NcError> {
+        match self.w.take('P') {
+            Some(p) if p.v == 1.0 => Ok(64),
+            Some(p) if p.v == 0.0 => Ok(61),
+            Some(p) => Err(self
+                .err(
+                    p.span,
+                    format!("G08 P{}: unknown lookahead switch", fmt_num(p.v)),
+                )
+                .with_expected("G08 P1 (lookahead on, as G64) or G08 P0 (off, as G61)")),
+            None => Err(self
+                .err(span, "G08 without P")
+                .with_expected("G08 P1 (lookahead on, as G64) or G08 P0 (off, as G61)")),
+        }
+    }
+
     /// The tolerance of a G64 block: its `P` (LinuxCNC's meaning, in program units, > 0),
-    /// else the config's `interp.path_tolerance`. A block whose P is a dwell, a G10/G28/G30 selector or
-    /// canned-cycle data leaves that P alone.
+    /// else the config's `interp.path_tolerance`; `Q` (LinuxCNC's collinearity tolerance)
+    /// only with `P`. Both at most `interp.max_path_tolerance`. A block whose P is a dwell, a
+    /// G10/G28/G30 selector or canned-cycle data leaves that P alone.
     fn g64_tolerance(&mut self) -> Result<f64, NcError> {
         let p_taken = self.w.g_of(GGroup::NonModal).is_some()
             || self.w.g_of(GGroup::Cycle).is_some_and(|g| g.0 != 80)
@@ -467,16 +493,44 @@ impl Exec<'_> {
         if p_taken {
             return Ok(self.cfg.interp.path_tolerance);
         }
-        match self.w.take('P') {
-            None => Ok(self.cfg.interp.path_tolerance),
-            Some(p) if p.v > 0.0 && p.v.is_finite() => Ok(p.v * self.st.unit()),
-            Some(p) => Err(self
-                .err(
-                    p.span,
-                    format!("G64 P{}: the path tolerance must be > 0", fmt_num(p.v)),
-                )
-                .with_expected("P > 0 (the path tolerance) or G64 without P")),
+        let expected = "G64, G64 P<tolerance> or G64 P<tolerance> Q<tolerance>, each > 0";
+        let p = self.w.take('P');
+        let q = self.w.take('Q');
+        if let (None, Some(q)) = (p, q) {
+            return Err(self
+                .err(q.span, format!("G64 Q{} without P", fmt_num(q.v)))
+                .with_expected("G64 P<path tolerance> Q<collinearity tolerance>"));
         }
+        let max = self.cfg.interp.max_path_tolerance;
+        for (letter, what, w) in [('P', "path", p), ('Q', "collinearity", q)] {
+            let Some(w) = w else { continue };
+            let mm = w.v * self.st.unit();
+            if !(w.v > 0.0 && w.v.is_finite()) {
+                return Err(self
+                    .err(
+                        w.span,
+                        format!(
+                            "G64 {letter}{}: the {what} tolerance must be > 0",
+                            fmt_num(w.v)
+                        ),
+                    )
+                    .with_expected(expected));
+            }
+            if mm > max * (1.0 + 1e-12) {
+                return Err(self
+                    .err(
+                        w.span,
+                        format!(
+                            "G64 {letter}{}: larger than the configured maximum \
+                             (interp.max_path_tolerance = {} mm)",
+                            fmt_num(w.v),
+                            fmt_num(max)
+                        ),
+                    )
+                    .with_expected(format!("a tolerance of at most {} mm", fmt_num(max))));
+            }
+        }
+        Ok(p.map_or(self.cfg.interp.path_tolerance, |p| p.v * self.st.unit()))
     }
 
     fn cancel_cycle(&mut self) {

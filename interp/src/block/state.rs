@@ -198,10 +198,12 @@ pub struct ModalState {
     pub tool_offsets: Vec<ToolOffset>,
     /// The last G28/G30 intermediate point (machine), per axis, for G29.
     pub ref_mid: [Option<f64>; MAX_AXES],
-    /// Group 15: 61 (exact stop), 63 (tapping), 64 (cutting; the default). Path segments
-    /// carry it as their [`SegmentEnd`]; motion ends every segment in exact stop in all three
-    /// until the planner blends segments.
+    /// Group 15: 61 (exact stop), 63 (tapping), 64 (cutting; the default unless the config's
+    /// `interp.path_mode` says "exact"); G08 P1/P0 set 64/61. Path segments carry it as their
+    /// [`SegmentEnd`]; the lookahead blends `Continuous` ends.
     pub path_mode: u32,
+    /// G9 in the current block: its motion ends in an exact stop whatever the path mode.
+    pub exact_stop_once: bool,
     /// The tolerance of G64 (mm, > 0): its `P` word, else the config's
     /// `interp.path_tolerance`.
     pub path_tolerance: f64,
@@ -251,7 +253,11 @@ impl ModalState {
             shift: [0.0; MAX_AXES],
             tool_offsets: cfg.tool_offsets.clone(),
             ref_mid: [None; MAX_AXES],
-            path_mode: 64,
+            path_mode: match cfg.interp.path_mode {
+                cnc402_config::PathModeDefault::Continuous => 64,
+                cnc402_config::PathModeDefault::ExactStop => 61,
+            },
+            exact_stop_once: false,
             path_tolerance: cfg.interp.path_tolerance,
             pending_corner: None,
             noted_mcodes: Vec::new(),
@@ -318,6 +324,7 @@ impl ModalState {
                 FeedMode::PerMinute
             },
             path_mode: match self.path_mode {
+                _ if self.exact_stop_once => PathMode::ExactStop,
                 61 => PathMode::ExactStop,
                 63 => PathMode::Tapping,
                 _ => PathMode::Continuous {

@@ -41,8 +41,10 @@ pub enum GGroup {
     ToolLength,
     /// 14: G54-G59.
     WorkOffset,
-    /// 15: G61 G63 G64.
+    /// 15: G61 G63 G64, and Fanuc's G08 (lookahead: P1 = G64, P0 = G61).
     PathMode,
+    /// 00: G9, exact stop at the end of this block's motion only.
+    ExactStopOnce,
     /// 00/12: G65 (macro call), G66/G67 (modal macro call); the interpreter handles them.
     MacroCall,
     /// A cancel code of a group whose function cnc402 does not have, so it is never on:
@@ -104,7 +106,8 @@ pub fn g_group(code: u32) -> Result<GGroup, String> {
             return Err("G27 (reference position return check) is not supported yet".into());
         }
         43 | 44 | 49 => ToolLength,
-        61 | 63 | 64 => PathMode,
+        8 | 61 | 63 | 64 => PathMode,
+        9 => ExactStopOnce,
         62 => return Err("G62 (automatic corner override) is not supported yet".into()),
         40 => Cancel(7),
         50 => Cancel(11),
