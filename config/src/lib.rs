@@ -9,6 +9,7 @@
 mod axes;
 mod bus;
 mod check;
+mod cutter_comp;
 mod error;
 mod interp;
 mod tool_offsets;
@@ -20,6 +21,7 @@ use serde::Deserialize;
 
 pub use axes::{AxisConfig, AxisKind, SimDynamics};
 pub use bus::BusConfig;
+pub use cutter_comp::{CompCorner, CompGouge, CompStartup, CutterComp};
 pub use error::ConfigError;
 pub use interp::{InterpDefaults, PlaneDefault, ReturnPlane, Units};
 pub use tool_offsets::{TOOL_OFFSETS, ToolOffset};

@@ -7,7 +7,7 @@
 use cnc402_config::{MAX_AXES, MachineConfig, PlaneDefault, ReturnPlane, ToolOffset, Units};
 use cnc402_motion::segment::{AxisPos, Plane, SpindleDir};
 
-use crate::canon::{CanonState, FeedMode, PathMode, ProgramUnits};
+use crate::canon::{CanonState, CutterComp, FeedMode, PathMode, ProgramUnits};
 
 /// Group 08: tool length compensation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -177,6 +177,12 @@ pub struct ModalState {
     /// Coolant: M7 (mist), M8 (flood); M9 turns both off.
     pub mist: bool,
     pub flood: bool,
+    /// Group 07: G41/G42 with D and radius, `None` in G40 (see `block/comp.rs`).
+    pub comp: Option<CutterComp>,
+    /// The D number last programmed (0: none).
+    pub d: u32,
+    /// G41/G42 ran and no move in the plane has started the compensation yet.
+    pub comp_starting: bool,
 }
 
 impl ModalState {
@@ -216,6 +222,9 @@ impl ModalState {
             path_tolerance: cfg.interp.path_tolerance,
             mist: false,
             flood: false,
+            comp: None,
+            d: 0,
+            comp_starting: false,
         }
     }
 
@@ -289,6 +298,7 @@ impl ModalState {
             h: self.h,
             tool_length: self.tlo,
             tool_axis: self.tool_axis,
+            comp: self.comp,
         }
     }
 

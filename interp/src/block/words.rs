@@ -41,10 +41,12 @@ pub enum GGroup {
     WorkOffset,
     /// 15: G61 G63 G64.
     PathMode,
+    /// 07: G40 G41 G42 (cutter radius compensation, `block/comp.rs`).
+    CutterComp,
     /// 00/12: G65 (macro call), G66/G67 (modal macro call); the interpreter handles them.
     MacroCall,
     /// A cancel code of a group whose function cnc402 does not have, so it is never on:
-    /// G40 (07), G50 (11), G69 (16), G15 (17). Accepted as no-ops so that programs
+    /// G50 (11), G69 (16), G15 (17). Accepted as no-ops so that programs
     /// restoring saved modal state (`G[FUP[#104]]`) run.
     Cancel(u8),
 }
@@ -104,16 +106,11 @@ pub fn g_group(code: u32) -> Result<GGroup, String> {
         43 | 44 | 49 => ToolLength,
         61 | 63 | 64 => PathMode,
         62 => return Err("G62 (automatic corner override) is not supported yet".into()),
-        40 => Cancel(7),
+        40..=42 => CutterComp,
         50 => Cancel(11),
         69 => Cancel(16),
         15 => Cancel(17),
         65..=67 => MacroCall,
-        41 | 42 => {
-            return Err(format!(
-                "G{code} (cutter radius compensation) is not supported yet"
-            ));
-        }
         _ => return Err(format!("unknown G code G{code}")),
     })
 }
