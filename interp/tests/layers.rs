@@ -29,6 +29,7 @@ fn layer_of_name(name: &str) -> Option<u32> {
         "expr" | "eval" => 10,
         "vars" | "nvfile" | "NvTable" | "VarFileError" => 20,
         "canon" => 24,
+        "comp" => 25,
         "lower" => 27,
         "block" | "arc" | "cycles" | "offsets" | "state" | "words" | "ModalState" => 30,
         "dump" | "segment_to_json" => 40,

@@ -416,3 +416,47 @@ fn offsets_same_machine_positions_as_linuxcnc() {
             .any(|m| (m.end[2] - (50.0 - 177.8)).abs() < 1e-6)
     );
 }
+
+/// Within 1 µm (rs274 prints 4 decimals of a mm in these G21 programs).
+fn within_um(a: &Move, b: &Move) -> bool {
+    let e = a.end.iter().zip(b.end).all(|(x, y)| (x - y).abs() <= 1e-3);
+    let arc = match (a.arc, b.arc) {
+        (None, None) => true,
+        (Some((a1, a2, ar)), Some((b1, b2, br))) => {
+            (a1 - b1).abs() <= 1e-3 && (a2 - b2).abs() <= 1e-3 && ar == br
+        }
+        _ => false,
+    };
+    a.kind == b.kind && e && arc
+}
+
+/// `comp.tbl` in mm: T1 (D1) ⌀0.4 in, T2 (D2) ⌀0.2 in.
+fn comp_config() -> MachineConfig {
+    let mut cfg = config();
+    cfg.tool_offsets[0].radius = 5.08;
+    cfg.tool_offsets[1].radius = 2.54;
+    cfg
+}
+
+/// Cutter radius compensation with the arc corner setting (LinuxCNC's way) and the type B
+/// start-up (LinuxCNC's too): the same tool-centre end points and arc centres as rs274, within
+/// 1 µm, in G17 and G18, G41 and G42, inside and outside corners, line–arc and arc–arc joints,
+/// entry and exit moves.
+#[test]
+fn cutter_comp_same_tool_centre_path_as_linuxcnc() {
+    let Some(exe) = find_rs274() else {
+        eprintln!("NOTICE: rs274 (LinuxCNC) is not installed; cross-check skipped");
+        return;
+    };
+    let cfg = comp_config();
+    for name in ["comp_g17.ngc", "comp_g18.ngc"] {
+        let file = dir().join(name);
+        let theirs = dedup(rs274_moves_with(&exe, &file, Some(&dir().join("comp.tbl"))));
+        let ours = dedup(our_moves(&cfg, &file));
+        assert!(theirs.len() > 20, "{name}: rs274 gave {} moves", theirs.len());
+        for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
+            assert!(within_um(a, b), "{name} move {i}: ours {a:?}\n    rs274 {b:?}");
+        }
+        assert_eq!(ours.len(), theirs.len(), "{name}: ours {ours:#?}\ntheirs {theirs:#?}");
+    }
+}
