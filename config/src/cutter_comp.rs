@@ -128,16 +128,16 @@ impl RawCutterComp<'_> {
                 self.startup,
                 "cutter_comp_startup",
                 d.startup,
-                &[
-                    ("a", CompStartup::A),
-                    ("b", CompStartup::B),
-                ],
+                &[("a", CompStartup::A), ("b", CompStartup::B)],
             )?,
             gouge: choice(
                 self.gouge,
                 "cutter_comp_gouge",
                 d.gouge,
-                &[("error", CompGouge::Error), ("suppress", CompGouge::Suppress)],
+                &[
+                    ("error", CompGouge::Error),
+                    ("suppress", CompGouge::Suppress),
+                ],
             )?,
             lookahead: match self.lookahead {
                 Some(n) => int_in(n, "interp.cutter_comp_lookahead", 0, 1000)? as usize,

@@ -9,8 +9,8 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use crate::MachineConfig;
-use crate::cutter_comp::{CutterComp, RawCutterComp};
 use crate::check::{Invalid, angle_in_turn, int_in, positive_at_most, sp};
+use crate::cutter_comp::{CutterComp, RawCutterComp};
 
 /// Ceiling of the interpreter's lengths (retracts, clearances, tolerances; mm): one metre,
 /// beyond any cycle amount or tolerance.

@@ -453,10 +453,21 @@ fn cutter_comp_same_tool_centre_path_as_linuxcnc() {
         let file = dir().join(name);
         let theirs = dedup(rs274_moves_with(&exe, &file, Some(&dir().join("comp.tbl"))));
         let ours = dedup(our_moves(&cfg, &file));
-        assert!(theirs.len() > 20, "{name}: rs274 gave {} moves", theirs.len());
+        assert!(
+            theirs.len() > 20,
+            "{name}: rs274 gave {} moves",
+            theirs.len()
+        );
         for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
-            assert!(within_um(a, b), "{name} move {i}: ours {a:?}\n    rs274 {b:?}");
+            assert!(
+                within_um(a, b),
+                "{name} move {i}: ours {a:?}\n    rs274 {b:?}"
+            );
         }
-        assert_eq!(ours.len(), theirs.len(), "{name}: ours {ours:#?}\ntheirs {theirs:#?}");
+        assert_eq!(
+            ours.len(),
+            theirs.len(),
+            "{name}: ours {ours:#?}\ntheirs {theirs:#?}"
+        );
     }
 }

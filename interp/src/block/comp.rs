@@ -26,7 +26,10 @@ impl Exec<'_> {
             }
             if self.st.comp.is_some() && n != self.st.d {
                 return Err(self
-                    .err(d.span, format!("D{n} while cutter compensation runs with D{}", self.st.d))
+                    .err(
+                        d.span,
+                        format!("D{n} while cutter compensation runs with D{}", self.st.d),
+                    )
                     .with_expected("G40 before changing D"));
             }
             self.st.d = n;
@@ -60,13 +63,14 @@ impl Exec<'_> {
                     .with_expected("G40 before the reference return or machine move"));
             }
             let cycle = self.w.g_of(GGroup::Cycle).is_some_and(|c| c.0 != 80);
-            if self.st.comp_starting && !cycle && self.st.cycle.is_none() && self.moves_in_plane()
-            {
+            if self.st.comp_starting && !cycle && self.st.cycle.is_none() && self.moves_in_plane() {
                 if is_arc {
                     let span = self.w.g_of(GGroup::Motion).map_or(self.w.span, |g| g.1);
                     return Err(self
                         .err(span, "cutter compensation started on an arc")
-                        .with_expected("a G0 or G1 move in the plane as the first move after G41/G42"));
+                        .with_expected(
+                            "a G0 or G1 move in the plane as the first move after G41/G42",
+                        ));
                 }
                 self.st.comp_starting = false;
             }
@@ -83,15 +87,28 @@ impl Exec<'_> {
         }
         if self.st.d == 0 {
             return Err(self
-                .err(d_span.unwrap_or(span), format!("G{code} without D (no tool radius offset number)"))
+                .err(
+                    d_span.unwrap_or(span),
+                    format!("G{code} without D (no tool radius offset number)"),
+                )
                 .with_expected(format!("D1-D{TOOL_OFFSETS} with G41/G42")));
         }
-        let side = if code == 41 { CompSide::Left } else { CompSide::Right };
+        let side = if code == 41 {
+            CompSide::Left
+        } else {
+            CompSide::Right
+        };
         if let Some(on) = self.st.comp
             && on.side != side
         {
             return Err(self
-                .err(span, format!("G{code} while G{} is on", if on.side == CompSide::Left { 41 } else { 42 }))
+                .err(
+                    span,
+                    format!(
+                        "G{code} while G{} is on",
+                        if on.side == CompSide::Left { 41 } else { 42 }
+                    ),
+                )
                 .with_expected("G40 before changing the side"));
         }
         let t = &self.st.tool_offsets[self.st.d as usize - 1];
@@ -99,7 +116,10 @@ impl Exec<'_> {
         if !radius.is_finite() || radius < 0.0 {
             return Err(self.err(
                 d_span.unwrap_or(span),
-                format!("D{}: the tool radius (geometry + wear) is {radius}, not >= 0", self.st.d),
+                format!(
+                    "D{}: the tool radius (geometry + wear) is {radius}, not >= 0",
+                    self.st.d
+                ),
             ));
         }
         if self.st.comp.is_none() {
@@ -120,7 +140,12 @@ impl Exec<'_> {
     }
 
     /// A plane change (to `p`, by G`code`) while compensation is on is an error.
-    pub(super) fn plane_change_in_comp(&self, p: Plane, code: u32, span: Span) -> Result<(), NcError> {
+    pub(super) fn plane_change_in_comp(
+        &self,
+        p: Plane,
+        code: u32,
+        span: Span,
+    ) -> Result<(), NcError> {
         if self.st.comp.is_some() && p != self.st.plane {
             return Err(self
                 .err(span, format!("G{code} while cutter compensation is on"))

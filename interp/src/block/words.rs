@@ -388,10 +388,11 @@ mod tests {
                 .contains("unknown G code G7")
         );
         assert!(
-            words("G41 D1")
+            words("G27 X1")
                 .unwrap_err()
                 .message
                 .contains("not supported yet")
         );
+        assert!(words("G41 D1").is_ok(), "G41 is cutter compensation now");
     }
 }

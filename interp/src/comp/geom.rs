@@ -32,7 +32,11 @@ pub fn dist(a: P, b: P) -> f64 {
 }
 pub fn unit(a: P) -> P {
     let l = len(a);
-    if l > 0.0 { scale(a, 1.0 / l) } else { [0.0, 0.0] }
+    if l > 0.0 {
+        scale(a, 1.0 / l)
+    } else {
+        [0.0, 0.0]
+    }
 }
 /// The left normal of direction `t`.
 pub fn left(t: P) -> P {
@@ -42,9 +46,17 @@ pub fn left(t: P) -> P {
 /// A programmed element in the plane.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Elem {
-    Line { a: P, b: P },
+    Line {
+        a: P,
+        b: P,
+    },
     /// `ccw`: G3 (counter-clockwise seen from the plane's normal).
-    Arc { a: P, b: P, c: P, ccw: bool },
+    Arc {
+        a: P,
+        b: P,
+        c: P,
+        ccw: bool,
+    },
 }
 
 impl Elem {
@@ -118,10 +130,11 @@ pub fn sweep(c: P, p: P, q: P, ccw: bool) -> f64 {
 /// Intersections of two offset elements taken whole (infinite lines, full circles).
 pub fn intersections(e: &Elem, f: &Elem) -> Vec<P> {
     match (*e, *f) {
-        (Elem::Line { a, b }, Elem::Line { a: c, b: d }) => line_line(a, b, c, d).into_iter().collect(),
-        (Elem::Line { a, b }, Elem::Arc { a: p, c, .. }) | (Elem::Arc { a: p, c, .. }, Elem::Line { a, b }) => {
-            line_circle(a, b, c, dist(p, c))
+        (Elem::Line { a, b }, Elem::Line { a: c, b: d }) => {
+            line_line(a, b, c, d).into_iter().collect()
         }
+        (Elem::Line { a, b }, Elem::Arc { a: p, c, .. })
+        | (Elem::Arc { a: p, c, .. }, Elem::Line { a, b }) => line_circle(a, b, c, dist(p, c)),
         (Elem::Arc { a: p, c, .. }, Elem::Arc { a: q, c: d, .. }) => {
             circle_circle(c, dist(p, c), d, dist(q, d))
         }
@@ -165,19 +178,42 @@ fn circle_circle(c1: P, r1: f64, c2: P, r2: f64) -> Vec<P> {
     vec![add(m, scale(left(u), h)), add(m, scale(left(u), -h))]
 }
 
+/// A length as a message shows it (at most 4 decimals, no trailing zeros).
+pub fn fmt(v: f64) -> String {
+    let s = format!("{v:.4}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn offsets_and_intersections() {
-        let l = Elem::Line { a: [0.0, 0.0], b: [10.0, 0.0] };
-        assert_eq!(l.offset(2.0), Elem::Line { a: [0.0, 2.0], b: [10.0, 2.0] });
-        let arc = Elem::Arc { a: [10.0, 0.0], b: [0.0, 10.0], c: [0.0, 0.0], ccw: true };
+        let l = Elem::Line {
+            a: [0.0, 0.0],
+            b: [10.0, 0.0],
+        };
+        assert_eq!(
+            l.offset(2.0),
+            Elem::Line {
+                a: [0.0, 2.0],
+                b: [10.0, 2.0]
+            }
+        );
+        let arc = Elem::Arc {
+            a: [10.0, 0.0],
+            b: [0.0, 10.0],
+            c: [0.0, 0.0],
+            ccw: true,
+        };
         assert_eq!(arc.offset_radius(2.0), Some(8.0));
         assert_eq!(arc.offset_radius(-2.0), Some(12.0));
         let x = intersections(&l.offset(2.0), &arc.offset(2.0));
-        assert!(x.iter().all(|p| (len(*p) - 8.0).abs() < 1e-9 && (p[1] - 2.0).abs() < 1e-9));
+        assert!(
+            x.iter()
+                .all(|p| (len(*p) - 8.0).abs() < 1e-9 && (p[1] - 2.0).abs() < 1e-9)
+        );
         assert!((sweep([0.0, 0.0], [1.0, 0.0], [0.0, 1.0], true) - TAU / 4.0).abs() < 1e-12);
         assert!((sweep([0.0, 0.0], [1.0, 0.0], [0.0, 1.0], false) - 3.0 * TAU / 4.0).abs() < 1e-12);
         assert!((sweep([0.0, 0.0], [1.0, 0.0], [1.0, 0.0], false) - TAU).abs() < 1e-12);

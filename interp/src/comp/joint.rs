@@ -6,7 +6,9 @@
 use cnc402_config::{CompCorner, CutterComp as CompConfig};
 use cnc402_motion::segment::SegmentKind;
 
-use super::geom::{EPS, Elem, P, add, cross, dist, dot, intersections, line_line, scale, sub, sweep};
+use super::geom::{
+    EPS, Elem, P, add, cross, dist, dot, fmt, intersections, line_line, scale, sub, sweep,
+};
 use crate::canon::CanonKind;
 
 /// A connecting block from where the tool is.
@@ -144,7 +146,7 @@ pub fn check_piece(e: &Elem, start: P, end: P, sr: f64) -> Result<(), String> {
             if dist(start, end) > EPS && dot(sub(end, start), sub(b, a)) <= 0.0 {
                 return Err(format!(
                     "this step is smaller than the tool radius {}: the tool would cut into the contour",
-                    super::fmt(sr.abs())
+                    fmt(sr.abs())
                 ));
             }
         }
@@ -152,12 +154,20 @@ pub fn check_piece(e: &Elem, start: P, end: P, sr: f64) -> Result<(), String> {
             let na = e.offset_point(e.start(), sr);
             let ea = e.offset_point(e.end(), sr);
             let total = sweep(c, na, ea, ccw);
-            let s0 = if dist(start, na) < EPS { 0.0 } else { sweep(c, na, start, ccw) };
-            let s1 = if dist(end, ea) < EPS { total } else { sweep(c, na, end, ccw) };
+            let s0 = if dist(start, na) < EPS {
+                0.0
+            } else {
+                sweep(c, na, start, ccw)
+            };
+            let s1 = if dist(end, ea) < EPS {
+                total
+            } else {
+                sweep(c, na, end, ccw)
+            };
             if s1 <= s0 + 1e-9 || s1 > total + 1e-9 {
                 return Err(format!(
                     "this arc is too short for the tool radius {}: the tool would cut into the contour",
-                    super::fmt(sr.abs())
+                    fmt(sr.abs())
                 ));
             }
         }

@@ -13,7 +13,7 @@ use cnc402_config::{CompGouge, CompStartup, CutterComp as CompConfig};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, Source};
 
 use crate::canon::{CanonKind, CanonOp, CompSide, CutterComp};
-use geom::{EPS, Elem, P, dist};
+use geom::{EPS, Elem, P, dist, fmt};
 use joint::Piece;
 
 /// A contour the tool cannot follow, or a rule broken: the block and what is wrong.
@@ -129,7 +129,11 @@ impl Stage {
                 message: format!("cutter compensation in a plane with no {a} or {b} axis"),
             });
         };
-        let s = if comp.side == CompSide::Left { 1.0 } else { -1.0 };
+        let s = if comp.side == CompSide::Left {
+            1.0
+        } else {
+            -1.0
+        };
         Ok(Run {
             comp,
             plane,
@@ -186,7 +190,9 @@ impl Stage {
                 self.run = Some(again);
                 return Ok(());
             }
-            CanonKind::Single(SegmentKind::Arc { end, center, dir, .. }) => Some(Elem::Arc {
+            CanonKind::Single(SegmentKind::Arc {
+                end, center, dir, ..
+            }) => Some(Elem::Arc {
                 a: at,
                 b: [end[run.ax[0]], end[run.ax[1]]],
                 c: [center[run.centre[0]], center[run.centre[1]]],
@@ -250,16 +256,23 @@ impl Stage {
             (Some(a), _) => {
                 let startup_a = a.startup && self.cfg.startup == CompStartup::A;
                 let rapid = joint::feed_of(&op.kind).is_none();
-                let j = joint::join(&a.elem, startup_a, &e, sr, rapid, self.cfg)
-                    .map_err(|m| CompError { source: op.source.clone(), message: m })?;
+                let j = joint::join(&a.elem, startup_a, &e, sr, rapid, self.cfg).map_err(|m| {
+                    CompError {
+                        source: op.source.clone(),
+                        message: m,
+                    }
+                })?;
                 self.give_element(a, j.a_end)?;
                 self.give_pieces(&op, &j.corner);
                 self.set_pending(op, e, j.b_start, false);
             }
             (None, Some(last)) => {
                 let rapid = joint::feed_of(&op.kind).is_none();
-                let j = joint::join(&last, false, &e, sr, rapid, self.cfg)
-                    .map_err(|m| CompError { source: op.source.clone(), message: m })?;
+                let j =
+                    joint::join(&last, false, &e, sr, rapid, self.cfg).map_err(|m| CompError {
+                        source: op.source.clone(),
+                        message: m,
+                    })?;
                 if j.inside {
                     return self.gouge(
                         &op,
@@ -422,14 +435,20 @@ impl Stage {
             p.0[run.ax[1]] = end[1];
         };
         match (&mut kind, e) {
-            (SegmentKind::Arc { end: pe, center, .. }, Elem::Arc { c, .. }) => {
+            (
+                SegmentKind::Arc {
+                    end: pe, center, ..
+                },
+                Elem::Arc { c, .. },
+            ) => {
                 place(pe);
                 center[run.centre[0]] = c[0];
                 center[run.centre[1]] = c[1];
             }
-            (SegmentKind::Rapid { end: pe } | SegmentKind::Linear { end: pe, .. }, Elem::Line { .. }) => {
-                place(pe)
-            }
+            (
+                SegmentKind::Rapid { end: pe } | SegmentKind::Linear { end: pe, .. },
+                Elem::Line { .. },
+            ) => place(pe),
             _ => {}
         }
         CanonOp {
@@ -509,10 +528,4 @@ fn arc_centre(e: &Elem) -> P {
         Elem::Arc { c, .. } => c,
         Elem::Line { a, .. } => a,
     }
-}
-
-/// A length as a message shows it (at most 4 decimals, no trailing zeros).
-fn fmt(v: f64) -> String {
-    let s = format!("{v:.4}");
-    s.trim_end_matches('0').trim_end_matches('.').to_string()
 }

@@ -274,7 +274,8 @@ impl Interpreter {
             .find(|s| s.name == e.source.file)
             .unwrap_or(&f.main_src);
         let line = src.line_span(e.source.line);
-        let lead = src.line_text(e.source.line).len() - src.line_text(e.source.line).trim_start().len();
+        let lead =
+            src.line_text(e.source.line).len() - src.line_text(e.source.line).trim_start().len();
         let at = cnc402_lang::ast::Span::new(line.start as usize + lead, line.end as usize);
         NcError::new(src, at, e.message)
     }
