@@ -543,3 +543,49 @@ fn the_c_like_language_compensates_too() {
     };
     assert_eq!(ends(g), ends(hll));
 }
+
+/// `examples/plate-cutter-comp.nc` on `config/machine.toml`: one contour sub-program run
+/// with D4 (roughing, radius 5.3) and D2 (finishing, radius 3.3). `canon` keeps the drawing's
+/// contour both times; the segments are the tool centre, R from each wall.
+#[test]
+fn the_plate_example_roughs_and_finishes_from_one_contour() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
+    let cfg = MachineConfig::load(format!("{root}/config/machine.toml")).unwrap();
+    let file = format!("{root}/examples/plate-cutter-comp.nc");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let segs = segments(&cfg, &text);
+    let canon = canon_moves(&cfg, &text);
+    // N240 G1 Y50 (the left wall, line 35): programmed X0 twice, the tool at -R.
+    let left_wall = |moves: &[(u32, SegmentKind)]| -> Vec<f64> {
+        moves
+            .iter()
+            .filter(|(l, _)| *l == 35)
+            .filter_map(|(_, k)| k.line_end().map(|e| e[0]))
+            .collect()
+    };
+    assert_eq!(left_wall(&canon), vec![0.0, 0.0]);
+    let tool = left_wall(&seg_moves(&segs));
+    assert_eq!(tool.len(), 2);
+    assert!((tool[0] + 5.3).abs() < 1e-9 && (tool[1] + 3.3).abs() < 1e-9, "{tool:?}");
+    // The bore (Ø30): the tool circles at 15 - R around X80 Y30.
+    let radii: Vec<f64> = segs
+        .iter()
+        .filter(|s| s.source.n == Some(500))
+        .filter_map(|s| match &s.kind {
+            SegmentKind::Arc { end, center, .. } => {
+                Some((end[0] - center[0]).hypot(end[1] - center[1]))
+            }
+            _ => None,
+        })
+        .collect();
+    assert_eq!(radii.len(), 2);
+    assert!((radii[0] - 9.7).abs() < 1e-9 && (radii[1] - 11.7).abs() < 1e-9, "{radii:?}");
+    // The pocket's bottom wall (Y20, N360): at Y 20 + R in work coordinates.
+    let pocket: Vec<f64> = segs
+        .iter()
+        .filter(|s| s.source.n == Some(360))
+        .filter_map(|s| s.kind.line_end().map(|e| e[1]))
+        .collect();
+    assert_eq!(pocket.len(), 2);
+    assert!((pocket[0] - 25.3).abs() < 1e-9 && (pocket[1] - 23.3).abs() < 1e-9, "{pocket:?}");
+}
