@@ -566,7 +566,10 @@ fn the_plate_example_roughs_and_finishes_from_one_contour() {
     assert_eq!(left_wall(&canon), vec![0.0, 0.0]);
     let tool = left_wall(&seg_moves(&segs));
     assert_eq!(tool.len(), 2);
-    assert!((tool[0] + 5.3).abs() < 1e-9 && (tool[1] + 3.3).abs() < 1e-9, "{tool:?}");
+    assert!(
+        (tool[0] + 5.3).abs() < 1e-9 && (tool[1] + 3.3).abs() < 1e-9,
+        "{tool:?}"
+    );
     // The bore (Ø30): the tool circles at 15 - R around X80 Y30.
     let radii: Vec<f64> = segs
         .iter()
@@ -579,7 +582,10 @@ fn the_plate_example_roughs_and_finishes_from_one_contour() {
         })
         .collect();
     assert_eq!(radii.len(), 2);
-    assert!((radii[0] - 9.7).abs() < 1e-9 && (radii[1] - 11.7).abs() < 1e-9, "{radii:?}");
+    assert!(
+        (radii[0] - 9.7).abs() < 1e-9 && (radii[1] - 11.7).abs() < 1e-9,
+        "{radii:?}"
+    );
     // The pocket's bottom wall (Y20, N360): at Y 20 + R in work coordinates.
     let pocket: Vec<f64> = segs
         .iter()
@@ -587,5 +593,8 @@ fn the_plate_example_roughs_and_finishes_from_one_contour() {
         .filter_map(|s| s.kind.line_end().map(|e| e[1]))
         .collect();
     assert_eq!(pocket.len(), 2);
-    assert!((pocket[0] - 25.3).abs() < 1e-9 && (pocket[1] - 23.3).abs() < 1e-9, "{pocket:?}");
+    assert!(
+        (pocket[0] - 25.3).abs() < 1e-9 && (pocket[1] - 23.3).abs() < 1e-9,
+        "{pocket:?}"
+    );
 }

@@ -224,8 +224,9 @@ impl Stage {
             return Ok(());
         }
         run.held.push(op);
-        if run.held.len() > lookahead {
-            let a = run.pending.take().expect("pending");
+        if run.held.len() > lookahead
+            && let Some(a) = run.pending.take()
+        {
             run.last = Some(a.elem);
             let end = a.elem.offset_point(a.elem.end(), run.sr);
             self.give_element(a, end)?;
@@ -250,7 +251,9 @@ impl Stage {
                 ),
             });
         }
-        let run = self.run.as_mut().expect("on");
+        let Some(run) = self.run.as_mut() else {
+            return Ok(());
+        };
         let tool = [self.tool[run.ax[0]], self.tool[run.ax[1]]];
         match (run.pending.take(), run.last.take()) {
             (Some(a), _) => {
