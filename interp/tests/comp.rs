@@ -598,3 +598,20 @@ fn the_plate_example_roughs_and_finishes_from_one_contour() {
         "{pocket:?}"
     );
 }
+
+/// `#4007` reads the group 07 code and `#4107` the D number, so a macro can save and restore
+/// the compensation mode.
+#[test]
+fn system_variables_read_the_compensation_mode() {
+    let c = cfg(CompCorner::Arc);
+    let text = "G0 X-20 Y-20\n#1=#4007\nG42 D2 G1 X0 Y0 F100\n#2=#4007\n#3=#4107\nG1 X10\nG40 G1 X20 Y-20\n#4=#4007\n";
+    let src = SourceFile::new("t.nc", text);
+    let p = cnc402_lang::parse(&src).unwrap();
+    let mut it = Interpreter::new(&c);
+    it.load(src, p);
+    while it.next_segment().unwrap().is_some() {}
+    assert_eq!(
+        [it.var(1), it.var(2), it.var(3), it.var(4)],
+        [Some(40.0), Some(42.0), Some(2.0), Some(40.0)]
+    );
+}

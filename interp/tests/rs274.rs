@@ -45,6 +45,19 @@
 //! - G92: LinuxCNC cancels it with G92.1/G92.2 and keeps it in its parameters; cnc402 clears
 //!   it at program start (G92.1 cannot be written: G numbers are whole).
 
+//!
+//! Cutter radius compensation (`comp_g17.ngc`, `comp_g18.ngc`, tool table `comp.tbl`: ⌀ in
+//! inches, so D1 = R 5.08 mm and D2 = R 2.54 mm): with `cutter_comp_corner = "arc"` and the
+//! type B start-up (both defaults) the tool-centre path is LinuxCNC's, within 1 µm. What
+//! differs, where cnc402 follows Fanuc or source 004 (not in those programs):
+//! - G19: LinuxCNC refuses compensation in the Y-Z plane; cnc402 compensates there
+//!   (`g19_compensation_is_refused_by_linuxcnc_and_done_here`, and `tests/comp.rs`).
+//! - D: LinuxCNC's D names a tool whose table diameter is halved; cnc402's D is a memory-C
+//!   offset number whose radius + wear is used (`[tool_offsets]`).
+//! - Start on an arc: LinuxCNC allows an arc as the entry move; Fanuc (and cnc402) refuse it.
+//! - `"intersection"`/`"chamfer"` corners and the type A start-up have no LinuxCNC
+//!   counterpart (checked by geometry in `tests/comp.rs`).
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -470,4 +483,46 @@ fn cutter_comp_same_tool_centre_path_as_linuxcnc() {
             "{name}: ours {ours:#?}\ntheirs {theirs:#?}"
         );
     }
+}
+
+/// LinuxCNC refuses cutter compensation in G19; cnc402 runs the same program, R from the
+/// contour (the geometry is checked in `tests/comp.rs`).
+#[test]
+fn g19_compensation_is_refused_by_linuxcnc_and_done_here() {
+    let Some(exe) = find_rs274() else {
+        eprintln!("NOTICE: rs274 (LinuxCNC) is not installed; cross-check skipped");
+        return;
+    };
+    let text =
+        "G21 G19 G90\nG0 Y-20 Z-20\nG41 D1 G1 Y0 Z0 F100\nG1 Z30\nG1 Y30\nG40 G1 Y40 Z40\nM2\n";
+    let cwd = std::env::temp_dir().join(format!("cnc402-rs274-{}-g19", std::process::id()));
+    std::fs::create_dir_all(&cwd).unwrap();
+    let file = cwd.join("g19.ngc");
+    std::fs::write(&file, text).unwrap();
+    let out = Command::new(exe)
+        .current_dir(&cwd)
+        .env("HOME", &cwd)
+        .arg("-t")
+        .arg(std::path::absolute(dir().join("comp.tbl")).unwrap())
+        .arg("-g")
+        .arg(&file)
+        .output()
+        .unwrap();
+    let said =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !said.contains("PROGRAM_END"),
+        "rs274 ran G19 compensation:\n{said}"
+    );
+    let segs = run_program(&comp_config(), &SourceFile::new("g19.ngc", text)).unwrap();
+    let wall = segs
+        .iter()
+        .find(|s| s.source.line == 4)
+        .and_then(|s| s.kind.line_end().copied())
+        .unwrap();
+    // G41 going +Z in the Y-Z plane: the tool is at -Y, R = 5.08 away.
+    assert!(
+        (wall[1] + 5.08).abs() < 1e-9 && (wall[2] - 30.0).abs() < 1e-9,
+        "{wall:?}"
+    );
 }
