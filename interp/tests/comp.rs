@@ -615,3 +615,31 @@ fn system_variables_read_the_compensation_mode() {
         [Some(40.0), Some(42.0), Some(2.0), Some(40.0)]
     );
 }
+
+/// An error is the last item of a run: the contour blocks compensation still held back when
+/// a later block failed are not given out after it.
+#[test]
+fn an_error_while_compensating_ends_the_run_without_the_held_blocks() {
+    let c = cfg(CompCorner::Arc);
+    let text = "G0 X-20 Y-20\nG41 D1 G1 X0 Y0 F100\nG1 X30\nG7\nG1 Y30\n";
+    let src = SourceFile::new("t.nc", text);
+    let p = cnc402_lang::parse(&src).unwrap();
+    let mut it = Interpreter::new(&c);
+    it.load(src, p);
+    let mut lines = Vec::new();
+    let e = loop {
+        match it.next_segment() {
+            // The element itself (a line); line 3's corner arc is made when it arrives.
+            Ok(Some(s)) if matches!(s.kind, SegmentKind::Linear { .. }) => {
+                lines.push(s.source.line)
+            }
+            Ok(Some(_)) => {}
+            Ok(None) => panic!("no error"),
+            Err(e) => break e,
+        }
+    };
+    assert_eq!(e.line, 4);
+    assert_eq!(it.next_segment().unwrap(), None);
+    // The start-up move was out before; the X30 block was still held.
+    assert_eq!(lines, [2]);
+}

@@ -242,7 +242,10 @@ impl Interpreter {
     /// hold it back until the next element shows how the two meet; what it gives out is
     /// lowered.
     fn next_op(&mut self, keep: bool) -> Result<Option<CanonOp>, NcError> {
-        let op = self.pull_op()?;
+        let op = self.pull_op().inspect_err(|_| {
+            // The error is the last item: what compensation holds back is dropped.
+            self.flow.comp.reset(self.m.state.pos);
+        })?;
         let fed = match &op {
             Some(op) => self.flow.comp.push(op.clone()),
             None => self.flow.comp.finish(),
@@ -250,6 +253,7 @@ impl Interpreter {
         if let Err(e) = fed {
             self.flow.done = true;
             self.flow.queue.clear();
+            self.flow.comp.reset(self.m.state.pos);
             return Err(self.comp_error(e));
         }
         let before = self.flow.lowered.len();
