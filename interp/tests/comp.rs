@@ -366,13 +366,28 @@ fn gouges_are_errors_naming_the_block() {
     );
     assert!(e.message.contains("smaller than the tool radius"), "{e}");
     assert!((4..=5).contains(&e.line), "{e}");
-    // A reversal.
+    // A reversal into the tool's side (back along X, slightly to the left, under G41).
     let e = err(
         &c,
-        "G0 X-10 Y-10\nG41 D1 G1 X0 Y0 F100\nG1 X20\nG1 X10\nG40 G1 X-10 Y-10\n",
+        "G0 X-10 Y-10\nG41 D1 G1 X0 Y0 F100\nG1 X20\nG1 X10 Y1\nG40 G1 X-10 Y-10\n",
     );
-    assert_eq!(e.line, 4, "{e}");
-    assert!(e.message.contains("reverses"), "{e}");
+    assert_eq!(e.line, 3, "{e}");
+    assert!(e.message.contains("reversal into the tool's side"), "{e}");
+    // A plain reversal: the tool goes round the turning point (a half circle).
+    let segs = segments(
+        &c,
+        "G0 X-10 Y-10\nG41 D1 G1 X0 Y0 F100\nG1 X20\nG1 X10\nG40 G1 X10 Y-10\n",
+    );
+    let half = segs
+        .iter()
+        .find_map(|s| match &s.kind {
+            SegmentKind::Arc {
+                end, center, dir, ..
+            } if s.source.line == 4 => Some((end[0], end[1], center[0], center[1], *dir)),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(half, (20.0, -R, 20.0, 0.0, ArcDir::Cw));
     // The start-up move must be longer than R.
     let e = err(
         &c,

@@ -67,10 +67,12 @@ pub fn join(
         return Ok(plain(ea, false));
     }
     let turn = cross(ta, tb);
-    if dot(ta, tb) < 0.0 && turn.abs() < 1e-9 {
-        return Err("the contour reverses here: the tool cannot follow a reversal".into());
-    }
-    if sr * turn > 0.0 {
+    // A reversal (the contour turns back on itself) has no inside: the tool goes round the
+    // turning point as round an outside corner, as LinuxCNC does. A reversal into the tool's
+    // side (a turn of nearly 180° on the inside) shows as an element whose offset runs
+    // backwards (`check_piece`).
+    let reversal = dot(ta, tb) < 0.0 && turn.abs() < 1e-9;
+    if sr * turn > 0.0 && !reversal {
         let x = intersections(&a.offset(sr), &b.offset(sr))
             .into_iter()
             .min_by(|u, v| dist(*u, p).total_cmp(&dist(*v, p)))
@@ -145,7 +147,7 @@ pub fn check_piece(e: &Elem, start: P, end: P, sr: f64) -> Result<(), String> {
         Elem::Line { a, b } => {
             if dist(start, end) > EPS && dot(sub(end, start), sub(b, a)) <= 0.0 {
                 return Err(format!(
-                    "this step is smaller than the tool radius {}: the tool would cut into the contour",
+                    "the tool (radius {}) cannot follow this block: its offset runs backwards between its neighbours (a step smaller than the tool radius, or a reversal into the tool's side); the tool would cut into the contour",
                     fmt(sr.abs())
                 ));
             }
