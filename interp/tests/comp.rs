@@ -658,3 +658,35 @@ fn an_error_while_compensating_ends_the_run_without_the_held_blocks() {
     // The start-up move was out before; the X30 block was still held.
     assert_eq!(lines, [2]);
 }
+
+/// A reversal (back along the same line) in every corner setting: the tool goes round the
+/// turning point, never closer than R to the contour, and ends on the other side.
+#[test]
+fn a_reversal_is_gone_round_in_every_corner_setting() {
+    let text = "G0 X-10 Y10\nG41 D1 G1 X0 Y0 F100\nG1 X20\nG1 X10\nG40 G1 X10 Y-10\n";
+    for corner in [
+        CompCorner::Arc,
+        CompCorner::Intersection,
+        CompCorner::Chamfer,
+    ] {
+        let c = cfg(corner);
+        let segs = segments(&c, text);
+        let keep = |l: u32| l == 3 || l == 4;
+        let tool = elements(Plane::XY, &c, &seg_moves(&segs), &keep);
+        let contour = [El::Line([0.0, 0.0], [20.0, 0.0])];
+        for (line, e) in &tool {
+            for q in samples(e, 16) {
+                let d = distance(&contour[0], q);
+                assert!(d >= R - 1e-6, "{corner:?}: line {line}: {q:?} at {d}");
+            }
+        }
+        let last = tool.last().unwrap().1;
+        let El::Line(_, end) = last else {
+            panic!("{last:?}")
+        };
+        assert!(
+            (end[0] - 10.0).abs() < 1e-9 && (end[1] + R).abs() < 1e-9,
+            "{corner:?}: {end:?}"
+        );
+    }
+}

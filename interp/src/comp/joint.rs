@@ -80,6 +80,9 @@ pub fn join(
         return Ok(plain(x, true));
     }
     let mode = match cfg.corner {
+        // Offsets of a reversal never meet: lines go out R, across and back instead.
+        CompCorner::Arc | CompCorner::Intersection if rapid && reversal => CompCorner::Chamfer,
+        CompCorner::Intersection if reversal => CompCorner::Chamfer,
         CompCorner::Arc if rapid => CompCorner::Intersection,
         CompCorner::Chamfer if dot(ta, tb) > cfg.chamfer_angle.to_radians().cos() => {
             CompCorner::Intersection
