@@ -6,11 +6,12 @@ use std::process::{Command, Output};
 
 use serde_json::Value;
 
-const EXAMPLES: [&str; 4] = [
+const EXAMPLES: [&str; 5] = [
     "examples/m10x1.5-rigid-tap.nc",
     "examples/peck-tap.nc",
     "examples/bolt-circle-drilling.nc",
     "examples/contour-arcs.nc",
+    "examples/plate-cutter-comp.nc",
 ];
 
 fn cnc402(args: &[&str]) -> Output {

@@ -10,6 +10,7 @@ use toml::Spanned;
 
 use crate::MachineConfig;
 use crate::check::{Invalid, angle_in_turn, int_in, positive_at_most, sp};
+use crate::cutter_comp::{CutterComp, RawCutterComp};
 
 /// Ceiling of the interpreter's lengths (retracts, clearances, tolerances; mm): one metre,
 /// beyond any cycle amount or tolerance.
@@ -93,6 +94,8 @@ pub struct InterpDefaults {
     /// Where `#use "file"` of the C-like language looks after the including file's folder
     /// (`None`: nowhere else). Relative paths resolve like `program_dir`.
     pub library_dir: Option<PathBuf>,
+    /// Cutter radius compensation (`cutter_comp_*` keys).
+    pub cutter_comp: CutterComp,
 }
 
 /// `[interp]` as written, with spans; every key has a default.
@@ -135,6 +138,16 @@ pub(crate) struct RawInterp {
     variables_file: Option<Spanned<String>>,
     #[serde(default)]
     library_dir: Option<Spanned<String>>,
+    #[serde(default)]
+    cutter_comp_corner: Option<Spanned<String>>,
+    #[serde(default)]
+    cutter_comp_startup: Option<Spanned<String>>,
+    #[serde(default)]
+    cutter_comp_gouge: Option<Spanned<String>>,
+    #[serde(default)]
+    cutter_comp_lookahead: Option<Spanned<i64>>,
+    #[serde(default)]
+    cutter_comp_chamfer_angle: Option<Spanned<f64>>,
 }
 
 impl Default for RawInterp {
@@ -158,6 +171,11 @@ impl Default for RawInterp {
             block_limit: default_block_limit(),
             variables_file: None,
             library_dir: None,
+            cutter_comp_corner: None,
+            cutter_comp_startup: None,
+            cutter_comp_gouge: None,
+            cutter_comp_lookahead: None,
+            cutter_comp_chamfer_angle: None,
         }
     }
 }
@@ -327,6 +345,14 @@ impl RawInterp {
                 "interp.library_dir",
                 "leave the key out to search only next to the program",
             )?,
+            cutter_comp: RawCutterComp {
+                corner: &i.cutter_comp_corner,
+                startup: &i.cutter_comp_startup,
+                gouge: &i.cutter_comp_gouge,
+                lookahead: &i.cutter_comp_lookahead,
+                chamfer_angle: &i.cutter_comp_chamfer_angle,
+            }
+            .validate()?,
         })
     }
 }

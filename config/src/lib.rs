@@ -9,6 +9,7 @@
 mod axes;
 mod bus;
 mod check;
+mod cutter_comp;
 mod error;
 mod interp;
 mod mcodes;
@@ -22,9 +23,10 @@ use serde::Deserialize;
 
 pub use axes::{AxisConfig, AxisKind, ExpectedIdentity, SimDynamics};
 pub use bus::BusConfig;
+pub use cutter_comp::{CompCorner, CompGouge, CompStartup, CutterComp};
 pub use error::ConfigError;
-pub use mcodes::{BUILT_IN_M_CODES, MAction, PROGRAM_EXTENSIONS, program_file};
 pub use interp::{InterpDefaults, PathModeDefault, PlaneDefault, ReturnPlane, Units};
+pub use mcodes::{BUILT_IN_M_CODES, MAction, PROGRAM_EXTENSIONS, program_file};
 pub use planner::{MAX_LOOKAHEAD, PlannerConfig};
 pub use tool_offsets::{TOOL_OFFSETS, ToolOffset};
 

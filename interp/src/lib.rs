@@ -92,6 +92,7 @@
 // host. docs/architecture.md draws the whole chain.
 mod block;
 pub mod canon;
+pub mod comp;
 pub mod dump;
 mod expr;
 mod flow;

@@ -275,11 +275,34 @@ const CASES: &[(&str, u32, u32, &str)] = &[
     ("M2 M30\n", 1, 4, "M2 and M30 in one block"),
     ("M98 P100\n", 1, 1, "program O0100 not found"),
     ("G65 P9999 A1\n", 1, 1, "program O9999 not found"),
+    // Cutter radius compensation (G40/G41/G42, D).
+    ("G41 G1 X10 F100\n", 1, 1, "G41 without D"),
     (
-        "G41 D1\n",
+        "G42 D401 G1 X10 F100\n",
         1,
+        5,
+        "D401 is not in the tool offset table",
+    ),
+    (
+        "G0 X-10\nG41 D1 G2 X10 Y0 I10 F100\n",
+        2,
+        8,
+        "cutter compensation started on an arc",
+    ),
+    (
+        "G81 X0 Y0 Z-1 R1 F100\nG41 D1\n",
+        2,
         1,
-        "G41 (cutter radius compensation) is not supported yet",
+        "G41 while a canned cycle is active",
+    ),
+    ("G41 D1\nG18\n", 2, 1, "G18 while cutter compensation is on"),
+    ("G41 D1\nG40 G2 X10 I5 F100\n", 2, 1, "G40 on an arc"),
+    ("G41 D1\nG42\n", 2, 1, "G42 while G41 is on"),
+    (
+        "G41 D1\nG28 X0\n",
+        2,
+        1,
+        "G28 while cutter compensation is on",
     ),
     // Tool length compensation (G43/G44/G49, H).
     (
@@ -681,12 +704,11 @@ const CASES: &[(&str, u32, u32, &str)] = &[
     ),
     ("G0 X1 L2\n", 1, 7, "address L is not used in this block"),
     (
-        "G1 X1 F100 D1\n",
+        "G1 X1 F100 D1.5\n",
         1,
         12,
-        "address D is not used in this block",
+        "D (tool radius offset number) must be a whole number >= 0, not 1.5",
     ),
-    ("G0 X1 D1\n", 1, 7, "address D is not used in this block"),
     ("G0 X1 E5\n", 1, 7, "address E is not used in this block"),
     (
         "G0 X1 Y1 Z1 C1 B1\n",

@@ -1,6 +1,7 @@
 //! The interpreter's layers stay one-way: every `crate::…` path in a source file (in `use`
 //! lines and in code, comments left out) must name a module of the file's own layer or a lower
 //! one. The order, lowest first: host traits, expressions, variables, the canonical operations,
+//! cutter radius compensation (canonical → canonical),
 //! lowering (canonical → segments), block execution, output (segment and canonical dumps), the
 //! C-like language, program flow, the file-system host. `lib.rs` is the crate's
 //! face and may name anything. Inside a layer, the files must not use each other in a circle
@@ -29,6 +30,7 @@ fn layer_of_name(name: &str) -> Option<u32> {
         "expr" | "eval" => 10,
         "vars" | "nvfile" | "NvTable" | "VarFileError" => 20,
         "canon" => 24,
+        "comp" => 25,
         "lower" => 27,
         "block" | "arc" | "cycles" | "offsets" | "state" | "words" | "ModalState" => 30,
         "dump" | "segment_to_json" => 40,

@@ -102,7 +102,7 @@ fn group_name(g: GGroup) -> &'static str {
         GGroup::PathMode => "15 (exact stop / cutting mode)",
         GGroup::ExactStopOnce => "00 (G9 exact stop)",
         GGroup::MacroCall => "12 (macro call)",
-        GGroup::Cancel(7) => "07 (cutter compensation)",
+        GGroup::CutterComp => "07 (cutter compensation)",
         GGroup::Cancel(11) => "11 (scaling)",
         GGroup::Cancel(16) => "16 (coordinate rotation)",
         GGroup::Cancel(_) => "17 (polar coordinates)",
@@ -198,6 +198,7 @@ impl Exec<'_> {
         self.machine_m_codes()?;
         self.check_groups()?;
         self.modes()?;
+        self.cutter_comp()?;
         self.feed_word()?;
         let spindle_m = self.w.m.iter().any(|m| matches!(m.0, 3..=5));
         self.speed_word(spindle_m)?;
@@ -424,6 +425,7 @@ impl Exec<'_> {
             };
             let cancelling = self.w.g_of(GGroup::Cycle).is_some_and(|g| g.0 == 80)
                 || self.w.g_of(GGroup::Motion).is_some();
+            self.plane_change_in_comp(p, c, span)?;
             if p != self.st.plane && self.st.cycle.is_some() && !cancelling {
                 return Err(self
                     .err(span, format!("G{c} while a canned cycle is active"))

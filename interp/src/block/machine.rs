@@ -155,10 +155,11 @@ impl Machine {
             VarClass::GroupCode(g) => self.group_code(g, modal_call),
             VarClass::ModalInfo(k) => match k {
                 9 => Some(self.state.feed / unit),
+                7 => Some(f64::from(self.state.d)),
                 11 => Some(f64::from(self.state.h)),
                 19 => Some(self.state.speed),
                 20 => Some(f64::from(self.state.tool_selected)),
-                2 | 7 | 8 => None,
+                2 | 8 => None,
                 _ => return Err(format!("#{n} is not a modal information variable")),
             },
             // Fanuc: the block end point without the tool length offset.
@@ -253,7 +254,10 @@ impl Machine {
                     21.0
                 }
             }
-            7 => 40.0,
+            7 => st.comp.map_or(40.0, |c| match c.side {
+                crate::canon::CompSide::Left => 41.0,
+                crate::canon::CompSide::Right => 42.0,
+            }),
             8 => f64::from(st.tool_length.code()),
             9 => st.cycle.map_or(80.0, |c| f64::from(c.code())),
             10 => {

@@ -8,7 +8,7 @@ use cnc402_config::{MAX_AXES, MachineConfig, PlaneDefault, ReturnPlane, ToolOffs
 use cnc402_lang::ast::Span;
 use cnc402_motion::segment::{AxisPos, Plane, Source, SpindleDir};
 
-use crate::canon::{CanonState, FeedMode, PathMode, ProgramUnits};
+use crate::canon::{CanonState, CutterComp, FeedMode, PathMode, ProgramUnits};
 
 /// Group 08: tool length compensation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -217,6 +217,12 @@ pub struct ModalState {
     pub flood: bool,
     /// The running program's dialect (LinuxCNC's canned cycles differ from Fanuc's).
     pub dialect: cnc402_lang::Dialect,
+    /// Group 07: G41/G42 with D and radius, `None` in G40 (see `block/comp.rs`).
+    pub comp: Option<CutterComp>,
+    /// The D number last programmed (0: none).
+    pub d: u32,
+    /// G41/G42 ran and no move in the plane has started the compensation yet.
+    pub comp_starting: bool,
 }
 
 impl ModalState {
@@ -264,6 +270,9 @@ impl ModalState {
             mist: false,
             flood: false,
             dialect: cnc402_lang::Dialect::default(),
+            comp: None,
+            d: 0,
+            comp_starting: false,
         }
     }
 
@@ -338,6 +347,7 @@ impl ModalState {
             h: self.h,
             tool_length: self.tlo,
             tool_axis: self.tool_axis,
+            comp: self.comp,
         }
     }
 

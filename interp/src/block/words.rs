@@ -45,10 +45,12 @@ pub enum GGroup {
     PathMode,
     /// 00: G9, exact stop at the end of this block's motion only.
     ExactStopOnce,
+    /// 07: G40 G41 G42 (cutter radius compensation, `block/comp.rs`).
+    CutterComp,
     /// 00/12: G65 (macro call), G66/G67 (modal macro call); the interpreter handles them.
     MacroCall,
     /// A cancel code of a group whose function cnc402 does not have, so it is never on:
-    /// G40 (07), G50 (11), G69 (16), G15 (17). Accepted as no-ops so that programs
+    /// G50 (11), G69 (16), G15 (17). Accepted as no-ops so that programs
     /// restoring saved modal state (`G[FUP[#104]]`) run.
     Cancel(u8),
 }
@@ -109,16 +111,11 @@ pub fn g_group(code: u32) -> Result<GGroup, String> {
         8 | 61 | 63 | 64 => PathMode,
         9 => ExactStopOnce,
         62 => return Err("G62 (automatic corner override) is not supported yet".into()),
-        40 => Cancel(7),
+        40..=42 => CutterComp,
         50 => Cancel(11),
         69 => Cancel(16),
         15 => Cancel(17),
         65..=67 => MacroCall,
-        41 | 42 => {
-            return Err(format!(
-                "G{code} (cutter radius compensation) is not supported yet"
-            ));
-        }
         _ => return Err(format!("unknown G code G{code}")),
     })
 }
@@ -425,10 +422,11 @@ mod tests {
                 .contains("unknown G code G7")
         );
         assert!(
-            words("G41 D1")
+            words("G27 X1")
                 .unwrap_err()
                 .message
                 .contains("not supported yet")
         );
+        assert!(words("G41 D1").is_ok(), "G41 is cutter compensation now");
     }
 }

@@ -90,6 +90,27 @@ pub struct CanonState {
     pub tool_length: f64,
     /// The tool axis (type A: Z), if the machine has one.
     pub tool_axis: Option<usize>,
+    /// Cutter radius compensation (G41/G42 with its D), `None` in G40.
+    pub comp: Option<CutterComp>,
+}
+
+/// Which side of the programmed contour the tool runs on, looking along the motion with the
+/// plane's normal towards the viewer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CompSide {
+    /// G41
+    Left,
+    /// G42
+    Right,
+}
+
+/// Active cutter radius compensation: side, D number and the radius (geometry + wear of D,
+/// taken when G41/G42 ran, as Fanuc takes the tool length at H).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CutterComp {
+    pub side: CompSide,
+    pub d: u32,
+    pub radius: f64,
 }
 
 impl CanonState {

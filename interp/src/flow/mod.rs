@@ -25,6 +25,7 @@ use crate::block::state::ModalState;
 use crate::block::words::Words;
 pub use crate::block::{MainM99, Options};
 use crate::canon::{self, CanonOp};
+use crate::comp;
 use crate::expr::{self, C_LIKE_ONLY};
 use crate::hll::Hll;
 use crate::host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary};
@@ -78,6 +79,8 @@ struct Flow {
     queue: VecDeque<CanonOp>,
     /// Segments of the last operation not given out yet.
     lowered: VecDeque<Segment>,
+    /// Cutter radius compensation between the canonical operations and lowering.
+    comp: comp::Stage,
     /// The machine indices of X, Y and Z (arc centres), for lowering.
     xyz: [Option<usize>; 3],
     /// A `%` after the first block, M2/M30, an error, or the end of the text.
@@ -131,6 +134,7 @@ impl Interpreter {
                 last_n: None,
                 queue: VecDeque::new(),
                 lowered: VecDeque::new(),
+                comp: comp::Stage::new(cfg.interp.cutter_comp, xyz_indices(cfg)),
                 xyz: xyz_indices(cfg),
                 done: true,
                 seen_block: false,
@@ -218,6 +222,7 @@ impl Interpreter {
         self.flow.load_error = self.vars.error.clone();
         self.flow.queue.clear();
         self.flow.lowered.clear();
+        self.flow.comp.reset(self.m.state.pos);
         self.flow.done = false;
         self.flow.seen_block = false;
         self.flow.main_m99_line = None;
@@ -234,7 +239,7 @@ impl Interpreter {
                 return Ok(Some(s));
             }
             if self.next_op(true)?.is_none() {
-                return Ok(None);
+                return Ok(self.flow.lowered.pop_front());
             }
         }
     }
@@ -248,19 +253,50 @@ impl Interpreter {
     /// The next operation, lowered: its segments count into the path length here (what
     /// `@ITPPATH` and the motion sync read), whichever of the two APIs hands them out, and
     /// are kept for [`next_segment`](Self::next_segment) when `keep`.
+    /// The programmed operation goes through cutter compensation ([`comp::Stage`]), which may
+    /// hold it back until the next element shows how the two meet; what it gives out is
+    /// lowered.
     fn next_op(&mut self, keep: bool) -> Result<Option<CanonOp>, NcError> {
-        let op = self.pull_op()?;
-        if let Some(op) = &op {
-            let before = self.flow.lowered.len();
-            lower::lower(op, self.flow.xyz, &mut self.flow.lowered);
-            for s in self.flow.lowered.range(before..) {
-                self.m.account(s);
-            }
-            if !keep {
-                self.flow.lowered.truncate(before);
-            }
+        let op = self.pull_op().inspect_err(|_| {
+            // The error is the last item: what compensation holds back is dropped.
+            self.flow.comp.reset(self.m.state.pos);
+        })?;
+        let fed = match &op {
+            Some(op) => self.flow.comp.push(op.clone()),
+            None => self.flow.comp.finish(),
+        };
+        if let Err(e) = fed {
+            self.flow.done = true;
+            self.flow.queue.clear();
+            self.flow.comp.reset(self.m.state.pos);
+            return Err(self.comp_error(e));
+        }
+        let before = self.flow.lowered.len();
+        while let Some(c) = self.flow.comp.pop() {
+            lower::lower(&c, self.flow.xyz, &mut self.flow.lowered);
+        }
+        for s in self.flow.lowered.range(before..) {
+            self.m.account(s);
+        }
+        if !keep {
+            self.flow.lowered.truncate(before);
         }
         Ok(op)
+    }
+
+    /// A compensation error at the line of the block it names.
+    fn comp_error(&self, e: comp::CompError) -> NcError {
+        let f = &self.flow;
+        let src = std::iter::once(&f.main_src)
+            .chain(f.units.iter().map(|u| &u.src))
+            .chain(f.lib_cache.values().map(|u| &u.src))
+            .find(|s| s.name == e.source.file)
+            .unwrap_or(&f.main_src);
+        let line = src.line_span(e.source.line);
+        let lead =
+            src.line_text(e.source.line).len() - src.line_text(e.source.line).trim_start().len();
+        let at = cnc402_lang::ast::Span::new(line.start as usize + lead, line.end as usize);
+        NcError::new(src, at, e.message)
     }
 
     fn pull_op(&mut self) -> Result<Option<CanonOp>, NcError> {
