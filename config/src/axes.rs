@@ -229,10 +229,16 @@ pub(crate) fn validate(
 /// of both, so either all of them have `dynamics` or none does.
 fn models_complete(raw: &[Table<RawAxis>], axes: &[AxisConfig]) -> Result<(), Invalid> {
     let tap_axis = |a: &AxisConfig| a.node.is_some() && a.kind != AxisKind::Rotary;
-    let Some(given) = axes.iter().position(|a| tap_axis(a) && a.dynamics.is_some()) else {
+    let Some(given) = axes
+        .iter()
+        .position(|a| tap_axis(a) && a.dynamics.is_some())
+    else {
         return Ok(());
     };
-    match axes.iter().position(|a| tap_axis(a) && a.dynamics.is_none()) {
+    match axes
+        .iter()
+        .position(|a| tap_axis(a) && a.dynamics.is_none())
+    {
         None => Ok(()),
         Some(k) => Err((
             raw[k].0.name.span(),

@@ -459,18 +459,55 @@ mod tests {
             assert_eq!(e.key, key, "{from}: {e}");
             assert_eq!(e.line, line_of(SHIPPED, nth), "{from}: {e}");
         };
-        bad("dynamics = { delay_cycles = -1, bandwidth_hz = 150.0 }", 3, "axis[3].dynamics.delay_cycles");
-        bad("dynamics = { delay_cycles = 17, bandwidth_hz = 150.0 }", 2, "axis[2].dynamics.delay_cycles");
-        bad("dynamics = { delay_cycles = 1, bandwidth_hz = -40.0 }", 3, "axis[3].dynamics.bandwidth_hz");
-        bad("dynamics = { delay_cycles = 1, bandwidth_hz = 0.01 }", 3, "axis[3].dynamics.bandwidth_hz");
-        bad("dynamics = { delay_cycles = 1, bandwidth_hz = 1e9 }", 0, "axis[0].dynamics.bandwidth_hz");
-        bad("dynamics = { delay_cycles = 1, bandwidth_hz = nan }", 0, "axis[0].dynamics.bandwidth_hz");
+        bad(
+            "dynamics = { delay_cycles = -1, bandwidth_hz = 150.0 }",
+            3,
+            "axis[3].dynamics.delay_cycles",
+        );
+        bad(
+            "dynamics = { delay_cycles = 17, bandwidth_hz = 150.0 }",
+            2,
+            "axis[2].dynamics.delay_cycles",
+        );
+        bad(
+            "dynamics = { delay_cycles = 1, bandwidth_hz = -40.0 }",
+            3,
+            "axis[3].dynamics.bandwidth_hz",
+        );
+        bad(
+            "dynamics = { delay_cycles = 1, bandwidth_hz = 0.01 }",
+            3,
+            "axis[3].dynamics.bandwidth_hz",
+        );
+        bad(
+            "dynamics = { delay_cycles = 1, bandwidth_hz = 1e9 }",
+            0,
+            "axis[0].dynamics.bandwidth_hz",
+        );
+        bad(
+            "dynamics = { delay_cycles = 1, bandwidth_hz = nan }",
+            0,
+            "axis[0].dynamics.bandwidth_hz",
+        );
         // Ideal (0 Hz) is a model.
-        let text = SHIPPED.replacen(model, "dynamics = { delay_cycles = 0, bandwidth_hz = 0.0 }", 1);
-        assert_eq!(parse(&text).unwrap().axes[0].dynamics.unwrap().bandwidth_hz, 0.0);
+        let text = SHIPPED.replacen(
+            model,
+            "dynamics = { delay_cycles = 0, bandwidth_hz = 0.0 }",
+            1,
+        );
+        assert_eq!(
+            parse(&text).unwrap().axes[0].dynamics.unwrap().bandwidth_hz,
+            0.0
+        );
         // None at all: no matching, and valid.
         let none = SHIPPED.replace(model, "");
-        assert!(parse(&none).unwrap().axes.iter().all(|a| a.dynamics.is_none()));
+        assert!(
+            parse(&none)
+                .unwrap()
+                .axes
+                .iter()
+                .all(|a| a.dynamics.is_none())
+        );
         // The spindle modelled, Z not: a tap cannot be matched.
         let at = SHIPPED.match_indices(model).nth(2).unwrap().0;
         let text = format!("{}{}", &SHIPPED[..at], &SHIPPED[at + model.len()..]);

@@ -51,8 +51,13 @@ fn a_slow_spindle_is_matched_to_within_5_um_at_the_actual_positions() {
     for rpm in [800, 2000] {
         let (unmatched, _) = run_taps(&slow_spindle(false), rpm);
         let (matched, cmd) = run_taps(&slow_spindle(true), rpm);
-        eprintln!("{rpm} rpm: actual coupling {unmatched:.3} µm unmatched, {matched:.3} µm matched");
-        assert!(unmatched > 50.0, "{rpm} rpm: the mismatch shows unmatched: {unmatched}");
+        eprintln!(
+            "{rpm} rpm: actual coupling {unmatched:.3} µm unmatched, {matched:.3} µm matched"
+        );
+        assert!(
+            unmatched > 50.0,
+            "{rpm} rpm: the mismatch shows unmatched: {unmatched}"
+        );
         assert!(matched <= 5.0, "{rpm} rpm: {matched} µm");
         // The path's setpoints stay coupled to a count.
         assert!(cmd <= 0.1, "{rpm} rpm: setpoints {cmd} µm");
