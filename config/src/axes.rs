@@ -22,6 +22,13 @@ const MAX_JERK: f64 = 1e12;
 const MAX_RAMP_S: f64 = 60.0;
 /// Ceiling of the simulated drive's tracking bandwidth (Hz): beyond it the loop is ideal.
 const MAX_BANDWIDTH_HZ: f64 = 1e6;
+/// Longest dead time the master's drive model may state (cycles): the matching delay lines
+/// in the 1 ms loop are this long (fixed size, no allocation).
+pub const MAX_MODEL_DELAY_CYCLES: u32 = 16;
+/// Lowest closed-loop bandwidth the master's model may state (Hz), 0 (ideal) aside: a
+/// slower loop lags by more than 0.16 s, which matching would copy onto every coupled axis
+/// (a tap would crawl behind its path) — no drive that can tap is that slow.
+pub const MIN_MODEL_BANDWIDTH_HZ: f64 = 1.0;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AxisKind {
@@ -71,7 +78,19 @@ pub struct AxisConfig {
     /// The drive this axis must have (`identity = { vendor = …, product = …, revision_min =
     /// … }`): boot compares it with the drive's 0x1018 and refuses start-up on a mismatch.
     pub identity: Option<ExpectedIdentity>,
+    /// What the master believes of the drive's dynamics (`dynamics = { delay_cycles = …,
+    /// bandwidth_hz = … }`), for matching coupled axes; `None` when not given.
+    pub dynamics: Option<DriveModel>,
     pub sim: SimDynamics,
+}
+
+/// The master's model of a drive from setpoint to actual position: a dead time of
+/// `delay_cycles` setpoints, then a first-order closed position loop at `bandwidth_hz`
+/// (0 = ideal). The `sim` keys are the simulator's truth; the master reads only this.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveModel {
+    pub delay_cycles: u32,
+    pub bandwidth_hz: f64,
 }
 
 /// The identity (0x1018) an axis's drive must report: the right device on the right node,
@@ -124,8 +143,17 @@ pub(crate) struct RawAxis {
     third_reference: Option<Spanned<f64>>,
     fourth_reference: Option<Spanned<f64>>,
     identity: Option<Spanned<RawIdentity>>,
+    dynamics: Option<Spanned<RawModel>>,
     #[serde(default, deserialize_with = "table")]
     sim: RawSim,
+}
+
+/// `dynamics = { delay_cycles = N, bandwidth_hz = F }` as written (both required).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawModel {
+    delay_cycles: Spanned<i64>,
+    bandwidth_hz: Spanned<f64>,
 }
 
 /// `identity = { vendor = 0x…, product = 0x…, revision_min = 0x… }` as written.
@@ -193,7 +221,36 @@ pub(crate) fn validate(
         let axis = a.0.validate(k, &axes, bus)?;
         axes.push(axis);
     }
+    models_complete(raw, &axes)?;
     Ok(axes)
+}
+
+/// A tap couples the spindle with any linear axis that has a drive: matching needs a model
+/// of both, so either all of them have `dynamics` or none does.
+fn models_complete(raw: &[Table<RawAxis>], axes: &[AxisConfig]) -> Result<(), Invalid> {
+    let tap_axis = |a: &AxisConfig| a.node.is_some() && a.kind != AxisKind::Rotary;
+    let Some(given) = axes
+        .iter()
+        .position(|a| tap_axis(a) && a.dynamics.is_some())
+    else {
+        return Ok(());
+    };
+    match axes
+        .iter()
+        .position(|a| tap_axis(a) && a.dynamics.is_none())
+    {
+        None => Ok(()),
+        Some(k) => Err((
+            raw[k].0.name.span(),
+            format!("axis[{k}].dynamics"),
+            format!(
+                "missing: axis {} has a drive model, and a rigid tap couples the spindle with \
+                 every linear axis, so each needs one to be matched (give dynamics on all or \
+                 none)",
+                axes[given].name
+            ),
+        )),
+    }
 }
 
 impl RawAxis {
@@ -217,6 +274,7 @@ impl RawAxis {
         let max_rpm = a.max_rpm(k, kind, max_velocity)?;
         let references = a.references(k, soft_limits, counts_per_unit)?;
         let identity = a.identity(k, node)?;
+        let dynamics = a.model(k)?;
         let bw = *a.sim.bandwidth_hz.get_ref();
         if !(bw.is_finite() && bw >= 0.0) {
             return Err((
@@ -257,6 +315,7 @@ impl RawAxis {
             )? as u32,
             references,
             identity,
+            dynamics,
             sim: SimDynamics {
                 delay_cycles: int_in(&a.sim.delay_cycles, &key("sim.delay_cycles"), 0, 100)? as u32,
                 bandwidth_hz: bw,
@@ -312,6 +371,37 @@ impl RawAxis {
             vendor: u32_at(&r.vendor, "vendor")?,
             product: optional(&r.product, "product")?,
             revision_min: optional(&r.revision_min, "revision_min")?,
+        }))
+    }
+
+    /// `dynamics` (read on a virtual axis too, unused there): a dead time the matching delay lines hold and a
+    /// bandwidth of 0 (ideal) or in [`MIN_MODEL_BANDWIDTH_HZ`]..=`MAX_BANDWIDTH_HZ`.
+    fn model(&self, k: usize) -> Result<Option<DriveModel>, Invalid> {
+        let Some(raw) = &self.dynamics else {
+            return Ok(None);
+        };
+        let key = |f: &str| format!("axis[{k}].dynamics{f}");
+        let r = raw.get_ref();
+        let delay = int_in(
+            &r.delay_cycles,
+            &key(".delay_cycles"),
+            0,
+            MAX_MODEL_DELAY_CYCLES as i64,
+        )? as u32;
+        let bw = *r.bandwidth_hz.get_ref();
+        let ok = bw == 0.0 || (MIN_MODEL_BANDWIDTH_HZ..=MAX_BANDWIDTH_HZ).contains(&bw);
+        if !ok {
+            return Err((
+                r.bandwidth_hz.span(),
+                key(".bandwidth_hz"),
+                format!(
+                    "must be 0 (ideal) or {MIN_MODEL_BANDWIDTH_HZ}..={MAX_BANDWIDTH_HZ} Hz, got {bw}"
+                ),
+            ));
+        }
+        Ok(Some(DriveModel {
+            delay_cycles: delay,
+            bandwidth_hz: bw,
         }))
     }
 

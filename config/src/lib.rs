@@ -21,7 +21,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-pub use axes::{AxisConfig, AxisKind, ExpectedIdentity, SimDynamics};
+pub use axes::{
+    AxisConfig, AxisKind, DriveModel, ExpectedIdentity, MAX_MODEL_DELAY_CYCLES,
+    MIN_MODEL_BANDWIDTH_HZ, SimDynamics,
+};
 pub use bus::BusConfig;
 pub use cutter_comp::{CompCorner, CompGouge, CompStartup, CutterComp};
 pub use error::ConfigError;
@@ -434,6 +437,83 @@ mod tests {
             parse(&text).unwrap_err().key,
             "axis[0].feedback_delay_cycles"
         );
+    }
+
+    #[test]
+    fn drive_models_are_read_and_checked_with_key_and_line() {
+        let c = parse(SHIPPED).unwrap();
+        assert!(c.axes.iter().all(|a| a.dynamics
+            == Some(DriveModel {
+                delay_cycles: 1,
+                bandwidth_hz: 150.0
+            })));
+        let model = "dynamics = { delay_cycles = 1, bandwidth_hz = 150.0 }";
+        let line_of = |text: &str, nth: usize| {
+            let at = text.match_indices(model).nth(nth).unwrap().0;
+            text[..at].lines().count() + 1
+        };
+        let bad = |from: &str, nth: usize, key: &str| {
+            let at = SHIPPED.match_indices(model).nth(nth).unwrap().0;
+            let text = format!("{}{}{}", &SHIPPED[..at], from, &SHIPPED[at + model.len()..]);
+            let e = parse(&text).unwrap_err();
+            assert_eq!(e.key, key, "{from}: {e}");
+            assert_eq!(e.line, line_of(SHIPPED, nth), "{from}: {e}");
+        };
+        bad(
+            "dynamics = { delay_cycles = -1, bandwidth_hz = 150.0 }",
+            3,
+            "axis[3].dynamics.delay_cycles",
+        );
+        bad(
+            "dynamics = { delay_cycles = 17, bandwidth_hz = 150.0 }",
+            2,
+            "axis[2].dynamics.delay_cycles",
+        );
+        bad(
+            "dynamics = { delay_cycles = 1, bandwidth_hz = -40.0 }",
+            3,
+            "axis[3].dynamics.bandwidth_hz",
+        );
+        bad(
+            "dynamics = { delay_cycles = 1, bandwidth_hz = 0.01 }",
+            3,
+            "axis[3].dynamics.bandwidth_hz",
+        );
+        bad(
+            "dynamics = { delay_cycles = 1, bandwidth_hz = 1e9 }",
+            0,
+            "axis[0].dynamics.bandwidth_hz",
+        );
+        bad(
+            "dynamics = { delay_cycles = 1, bandwidth_hz = nan }",
+            0,
+            "axis[0].dynamics.bandwidth_hz",
+        );
+        // Ideal (0 Hz) is a model.
+        let text = SHIPPED.replacen(
+            model,
+            "dynamics = { delay_cycles = 0, bandwidth_hz = 0.0 }",
+            1,
+        );
+        assert_eq!(
+            parse(&text).unwrap().axes[0].dynamics.unwrap().bandwidth_hz,
+            0.0
+        );
+        // None at all: no matching, and valid.
+        let none = SHIPPED.replace(model, "");
+        assert!(
+            parse(&none)
+                .unwrap()
+                .axes
+                .iter()
+                .all(|a| a.dynamics.is_none())
+        );
+        // The spindle modelled, Z not: a tap cannot be matched.
+        let at = SHIPPED.match_indices(model).nth(2).unwrap().0;
+        let text = format!("{}{}", &SHIPPED[..at], &SHIPPED[at + model.len()..]);
+        let e = parse(&text).unwrap_err();
+        assert_eq!(e.key, "axis[2].dynamics");
+        assert!(e.message.contains("missing"), "{e}");
     }
 
     #[test]

@@ -81,6 +81,7 @@ pub mod counts;
 pub mod error;
 pub mod interpolator;
 pub mod lookahead;
+pub mod matching;
 pub mod planner;
 pub mod profile;
 pub mod segment;

@@ -14,6 +14,7 @@ use cnc402_motion::{AxisPos, Interpolator, MoveKind};
 use crate::link::{DriveFeedback, DriveLink, DriveStop, StopCause};
 use crate::ring::{Consumer, LoopInput, MoveConsumer, Observer, Producer, StatusProducer};
 use crate::status::{Outcome, Phase, Status, TapCoupling, within_one_count};
+use crate::tap_match::TapMatch;
 
 /// Ticks the drives get to come to rest after the last setpoint before the run ends.
 pub const SETTLE_TICKS: u32 = 50;
@@ -86,7 +87,11 @@ pub struct CycleController<L: DriveLink> {
     phase_ticks: u32,
     input_done: bool,
     tap: Option<TapCoupling>,
+    /// The path's setpoints (and a tap follower's): what the status shows.
     commands: [f64; MAX_AXES],
+    /// What the drives get: `commands` with a tap's axes shaped by `matching`.
+    sent: [f64; MAX_AXES],
+    matching: TapMatch,
     feedback: [DriveFeedback; MAX_AXES],
     /// The first stop, the line executing then and its move number.
     stop: Option<(DriveStop, u32, u64)>,
@@ -171,6 +176,8 @@ impl<L: DriveLink> CycleController<L> {
             input_done: false,
             tap: None,
             commands: start.0,
+            sent: start.0,
+            matching: TapMatch::new(cfg),
             feedback,
             stop: None,
             motion_error: None,
@@ -236,6 +243,7 @@ impl<L: DriveLink> CycleController<L> {
             || !self.interp.is_idle()
             || !self.moves.is_empty()
             || self.stop_request.load(Ordering::Relaxed)
+            || self.matching.is_active()
     }
 
     /// Ticks run so far.
@@ -291,13 +299,18 @@ impl<L: DriveLink> CycleController<L> {
                 &self.feedback,
             );
             self.commands[i] = v;
+            // The follower meets the leader's actual position by its own model.
+            self.matching.cancel();
         }
+        self.sent = self.commands;
+        let tapping = self.tap.is_some() && !self.interp.is_idle();
+        self.matching.apply(&mut self.sent, tapping);
 
         let mut raised = None;
         let all_stopped = if self.phase == Phase::QuickStop {
             self.link.quick_stop(now, &mut self.feedback)
         } else {
-            if let Err(s) = self.link.cycle(now, &self.commands, &mut self.feedback) {
+            if let Err(s) = self.link.cycle(now, &self.sent, &mut self.feedback) {
                 raised = Some(s);
             }
             false
@@ -554,6 +567,7 @@ impl<L: DriveLink> CycleController<L> {
                         self.commands[c.tool as usize],
                         self.commands[c.spindle as usize],
                     );
+                    self.matching.start(c, &self.commands);
                 }
                 if let Err(e) = self.interp.start(mv) {
                     self.motion_error = Some(e);

@@ -21,6 +21,7 @@ pub mod sim_machine;
 pub mod socket_machine;
 pub mod status;
 pub mod sync;
+pub mod tap_match;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 

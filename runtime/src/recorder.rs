@@ -193,8 +193,8 @@ impl Recorder {
     }
 
     /// The checker's sample of record `s` for tool axis `tool` and spindle `sp`: setpoints at
-    /// the counts that went on the wire (the spindle's unwrapped by its f64 command, which
-    /// never wraps), and the actual pair given.
+    /// the path's counts (what went on the wire unless a tap's dynamics were matched; the
+    /// spindle's unwrapped by its f64 command, which never wraps), and the actual pair given.
     fn sample(
         &self,
         s: &Status,
@@ -205,7 +205,11 @@ impl Recorder {
         let sp_cpu = self.counts_per_unit[sp];
         let (z_act, c_act) = act.unwrap_or((s.act[tool], s.act[sp]));
         CouplingSample {
-            z_cmd: s.cmd_counts[tool] as f64 / self.counts_per_unit[tool],
+            // The path's setpoints: with dynamic matching the drives get them shaped on
+            // purpose (cmd_counts), which the actual-position figure judges.
+            z_cmd: cnc402_motion::to_counts_wrapping(s.cmd[tool], self.counts_per_unit[tool])
+                as f64
+                / self.counts_per_unit[tool],
             z_act,
             c_cmd: (s.cmd[sp] * sp_cpu).round() / sp_cpu,
             c_act,
