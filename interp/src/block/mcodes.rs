@@ -150,7 +150,7 @@ impl Exec<'_> {
         let text = match code {
             62..=65 => {
                 let pin = index(self, 'P')?;
-                let on = code % 2 == 0;
+                let on = code.is_multiple_of(2);
                 let when = if code < 64 {
                     "with the next move"
                 } else {
