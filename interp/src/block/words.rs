@@ -41,7 +41,8 @@ pub enum GGroup {
     ToolLength,
     /// 14: G54-G59.
     WorkOffset,
-    /// 15: G61 G63 G64, and Fanuc's G08 (lookahead: P1 = G64, P0 = G61).
+    /// 15: G61 G63 G64, and Fanuc's G08 (lookahead: P1 = G64, P0 = G61) and G05.1 (AI
+    /// contour control: Q1 = G64, Q0 = G61).
     PathMode,
     /// 00: G9, exact stop at the end of this block's motion only.
     ExactStopOnce,
@@ -126,8 +127,10 @@ fn decimal_g_group(code: u32) -> Result<GGroup, String> {
     if code == g_dec(90, 1) || code == g_dec(91, 1) {
         return Ok(GGroup::ArcDistance);
     }
+    if code == g_dec(5, 1) {
+        return Ok(GGroup::PathMode);
+    }
     let what = match code {
-        c if c == g_dec(5, 1) => "AI contour control",
         c if (g_dec(92, 1)..=g_dec(92, 3)).contains(&c) => "G92 offset reset and restore",
         c if (g_dec(38, 2)..=g_dec(38, 5)).contains(&c) => "probing",
         c if c == g_dec(43, 1) => "dynamic tool length offset",
