@@ -46,6 +46,14 @@ pub struct RunReport {
     /// Time of the program's motion (ticks before settling, times the period).
     pub program_time_s: f64,
     pub path_length_mm: f64,
+    /// The time the feed alone would need: Σ over the path moves run of length / the move's
+    /// programmed feed (a rapid: the rapid rate), as capped by the axes' velocity limits
+    /// along the move and, on arcs, the centripetal acceleration (see README "Run report").
+    pub feed_time_s: f64,
+    /// Largest distance of a commanded setpoint from the programmed path (mm).
+    pub max_path_deviation_mm: f64,
+    /// Junctions where the path speed went to zero between two path motions.
+    pub exact_stops: u64,
     pub axes: Vec<AxisReport>,
     pub tapping: Vec<TapWindow>,
     pub bus_frames: u64,
@@ -88,6 +96,9 @@ impl RunReport {
             ticks: 0,
             program_time_s: 0.0,
             path_length_mm: 0.0,
+            feed_time_s: 0.0,
+            max_path_deviation_mm: 0.0,
+            exact_stops: 0,
             axes: axes
                 .iter()
                 .map(|&name| AxisReport {
@@ -145,6 +156,9 @@ impl RunReport {
             "ticks": self.ticks,
             "program_time_s": self.program_time_s,
             "path_length_mm": self.path_length_mm,
+            "feed_time_s": self.feed_time_s,
+            "max_path_deviation_mm": self.max_path_deviation_mm,
+            "exact_stops": self.exact_stops,
             "axes": Value::Object(axes),
             "tapping": tapping,
             "bus": { "frames": self.bus_frames, "load_percent": self.bus_load_percent },
@@ -202,6 +216,19 @@ impl RunReport {
             self.period_us,
             self.program_time_s,
             self.path_length_mm
+        );
+        let _ = writeln!(
+            s,
+            "  path: the feed alone would need {:.3} s (program time {:.2}× that), largest \
+             deviation from the programmed path {:.2e} mm, {} exact stops",
+            self.feed_time_s,
+            if self.feed_time_s > 0.0 {
+                self.program_time_s / self.feed_time_s
+            } else {
+                0.0
+            },
+            self.max_path_deviation_mm,
+            self.exact_stops
         );
         for a in &self.axes {
             let _ = writeln!(
