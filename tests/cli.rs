@@ -314,6 +314,10 @@ fn trace_and_plot_are_well_formed() {
         svg.contains("<polyline") || svg.contains("<path"),
         "has line series"
     );
+    // A tapping program keeps its tapping panels beside the path panels.
+    for panel in PATH_PANELS.iter().chain(&TAP_PANELS) {
+        assert!(svg.contains(panel), "no {panel:?} panel");
+    }
     assert!(svg.contains("C setpoint") && svg.contains("coupling error"));
 }
 
@@ -1308,4 +1312,45 @@ fn report_path_figures_count_exact_stops_and_the_feed_time() {
             "{mode}"
         );
     }
+}
+
+/// The captions of the plot's path panels, and of the panels only a tapping program gets.
+const PATH_PANELS: [&str; 4] = [
+    "toolpath XY (from above)",
+    "toolpath XZ (side view)",
+    "commanded velocity per axis",
+    "following error per axis",
+];
+const TAP_PANELS: [&str; 2] = [
+    "rigid tapping: Z and C setpoints",
+    "rigid-tap coupling error",
+];
+
+/// A contour program's plot: the toolpath from above and from the side, coloured by path
+/// speed (several colours), per-axis velocity and following error; no tapping panels.
+#[test]
+fn plot_of_a_contour_has_the_toolpath_velocity_and_following_error_panels() {
+    let plot = tmp("contour.svg");
+    let o = cnc402(&[
+        "run",
+        "examples/contour-arcs.nc",
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    assert!(svg.trim_end().ends_with("</svg>"));
+    for panel in PATH_PANELS {
+        assert!(svg.contains(panel), "no {panel:?} panel");
+    }
+    for panel in TAP_PANELS {
+        assert!(!svg.contains(panel), "{panel:?} without a tap");
+    }
+    // Slow arcs and fast rapids: the toolpath is drawn in more than a few speed colours.
+    let colours: std::collections::HashSet<&str> = svg
+        .match_indices("stroke=\"#")
+        .map(|(i, _)| &svg[i + 9..i + 15])
+        .collect();
+    // (Black and the four axis colours of the time panels are among them.)
+    assert!(colours.len() >= 10, "{colours:?}");
 }
