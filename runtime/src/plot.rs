@@ -12,6 +12,10 @@ use crate::report::RunReport;
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 type Err<'e> = &'e dyn Fn(&dyn std::fmt::Display) -> String;
+type Xy =
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>;
+/// A chart against time with a scale on each side.
+type TimeChart<'a, 'b> = plotters::chart::DualCoordChartContext<'a, SVGBackend<'b>, Xy, Xy>;
 
 /// Height of the toolpath row, of each time-series panel, and of the two tapping panels.
 const PATH_H: u32 = 430;
@@ -168,16 +172,7 @@ fn time_series(
                 .flat_map(|i| points.iter().map(move |p| f(p, i))),
         )
     };
-    let ((l0, l1), (r0, r1)) = (of(true), of(false));
-    let mut chart = ChartBuilder::on(area)
-        .caption(caption, ("sans-serif", 14))
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(60)
-        .right_y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_max, l0..l1)
-        .map_err(|e| err(&e))?
-        .set_secondary_coord(0.0..t_max, r0..r1);
+    let mut chart = time_chart(area, (caption, 14), t_max, [of(true), of(false)], err)?;
     chart
         .configure_mesh()
         .x_desc("t [s]")
@@ -204,29 +199,47 @@ fn time_series(
             .label(name.to_string())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
     }
+    legend(&mut chart, err)
+}
+
+/// An empty chart on `area` from 0 to `t_max` s, with the left and right scales `lr`.
+fn time_chart<'a, 'b>(
+    area: &'a Area<'b>,
+    (caption, size): (&str, u32),
+    t_max: f64,
+    [(l0, l1), (r0, r1)]: [(f64, f64); 2],
+    err: Err,
+) -> Result<TimeChart<'a, 'b>, String> {
+    Ok(ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", size))
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .right_y_label_area_size(70)
+        .build_cartesian_2d(0.0..t_max, l0..l1)
+        .map_err(|e| err(&e))?
+        .set_secondary_coord(0.0..t_max, r0..r1))
+}
+
+/// The labels of `chart`'s series, boxed.
+fn legend<'a, 'b: 'a>(chart: &mut TimeChart<'a, 'b>, err: Err) -> Result<(), String> {
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.8))
         .border_style(BLACK)
         .draw()
-        .map_err(|e| err(&e))?;
-    Ok(())
+        .map_err(|e| err(&e))
 }
 
 /// Z and C setpoints against time, on two y axes.
 fn tap_positions(area: &Area, points: &[PlotPoint], err: Err) -> Result<(), String> {
     let t_max = points.last().map_or(1.0, |p| p.t).max(1e-3);
-    let (z0, z1) = range(points.iter().map(|p| p.z));
-    let (c0, c1) = range(points.iter().map(|p| p.c));
-    let mut chart = ChartBuilder::on(area)
-        .caption("rigid tapping: Z and C setpoints", ("sans-serif", 16))
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(60)
-        .right_y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_max, z0..z1)
-        .map_err(|e| err(&e))?
-        .set_secondary_coord(0.0..t_max, c0..c1);
+    let ranges = [
+        range(points.iter().map(|p| p.z)),
+        range(points.iter().map(|p| p.c)),
+    ];
+    let caption = ("rigid tapping: Z and C setpoints", 16);
+    let mut chart = time_chart(area, caption, t_max, ranges, err)?;
     chart
         .configure_mesh()
         .x_desc("t [s]")
@@ -248,13 +261,7 @@ fn tap_positions(area: &Area, points: &[PlotPoint], err: Err) -> Result<(), Stri
         .map_err(|e| err(&e))?
         .label("C setpoint")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(&e))?;
-    Ok(())
+    legend(&mut chart, err)
 }
 
 /// The coupling error of the setpoints and of the actual positions in µm, with the
