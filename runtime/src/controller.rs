@@ -317,7 +317,7 @@ impl<L: DriveLink> CycleController<L> {
         }
         self.follow_if_left_enabled();
         self.path.sample(
-            &self.axes,
+            &self.axes.linear[..self.axes.n],
             &self.commands,
             t.path_velocity,
             t.state,

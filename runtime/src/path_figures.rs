@@ -5,8 +5,6 @@
 
 use cnc402_motion::{Geometry, PathMove, TickState};
 
-use crate::controller::AxisTable;
-
 /// A path speed at or below this (path units/s) is at rest: an exact stop samples its end
 /// at 0 up to rounding, a blended junction passes at a speed many orders above it.
 const REST_SPEED: f64 = 1e-6;
@@ -52,10 +50,11 @@ impl PathTracker {
     }
 
     /// One tick's setpoint `pos` (ignored when `off_path`: a drive-led tap follow) at path
-    /// speed `speed` in interpolator state `state`.
+    /// speed `speed` in interpolator state `state`; `linear` says which configured axes are
+    /// linear (one entry per axis).
     pub fn sample(
         &mut self,
-        axes: &AxisTable,
+        linear: &[bool],
         pos: &[f64; cnc402_motion::MAX_AXES],
         speed: f64,
         state: TickState,
@@ -78,7 +77,7 @@ impl PathTracker {
         let d = [self.current, self.previous]
             .iter()
             .flatten()
-            .map(|m| deviation(axes, m, pos))
+            .map(|m| deviation(linear, m, pos))
             .fold(f64::INFINITY, f64::min);
         if d.is_finite() && d > self.figures.max_deviation {
             self.figures.max_deviation = d;
@@ -89,12 +88,13 @@ impl PathTracker {
 /// Distance over the linear axes of `pos` from move `m`'s programmed curve: a line's segment;
 /// an arc's radius band in its plane (start to end radius) and, along the other axes, the
 /// range they travel (a helix's pitch is not checked point by point).
-fn deviation(axes: &AxisTable, m: &PathMove, pos: &[f64; cnc402_motion::MAX_AXES]) -> f64 {
-    let lin = |i: usize| i < axes.n && axes.linear[i];
+fn deviation(linear: &[bool], m: &PathMove, pos: &[f64; cnc402_motion::MAX_AXES]) -> f64 {
+    let n = linear.len().min(cnc402_motion::MAX_AXES);
+    let lin = |i: usize| linear[i];
     match &m.geometry {
         Geometry::Line => {
             let (mut dd, mut dp) = (0.0, 0.0);
-            for i in (0..axes.n).filter(|&i| lin(i)) {
+            for i in (0..n).filter(|&i| lin(i)) {
                 let d = m.end.0[i] - m.start.0[i];
                 dd += d * d;
                 dp += d * (pos[i] - m.start.0[i]);
@@ -104,7 +104,7 @@ fn deviation(axes: &AxisTable, m: &PathMove, pos: &[f64; cnc402_motion::MAX_AXES
             } else {
                 0.0
             };
-            (0..axes.n)
+            (0..n)
                 .filter(|&i| lin(i))
                 .map(|i| {
                     let q = m.start.0[i] + (m.end.0[i] - m.start.0[i]) * u;
@@ -121,7 +121,7 @@ fn deviation(axes: &AxisTable, m: &PathMove, pos: &[f64; cnc402_motion::MAX_AXES
                 a.start_radius.max(a.end_radius),
             );
             let radial = (r0 - r).max(r - r1).max(0.0);
-            let axial: f64 = (0..axes.n)
+            let axial: f64 = (0..n)
                 .filter(|&i| lin(i) && i != p && i != q)
                 .map(|i| {
                     let (lo, hi) = (m.start.0[i].min(m.end.0[i]), m.start.0[i].max(m.end.0[i]));
@@ -162,7 +162,8 @@ mod tests {
     #[test]
     fn deviation_is_measured_off_lines_and_arcs_and_stops_are_counted() {
         let cfg = MachineConfig::default_machine();
-        let axes = AxisTable::new(&cfg);
+        let axes = crate::controller::AxisTable::new(&cfg);
+        let linear = &axes.linear[..axes.n];
         let (x, y) = (cfg.axis_index('X').unwrap(), cfg.axis_index('Y').unwrap());
         let mut end = AxisPos::default();
         end.0[x] = 10.0;
@@ -175,22 +176,22 @@ mod tests {
         );
         let mut pos = [0.0; cnc402_motion::MAX_AXES];
         pos[x] = 5.0;
-        t.sample(&axes, &pos, 10.0, TickState::Moving, false);
+        t.sample(linear, &pos, 10.0, TickState::Moving, false);
         assert_eq!(t.figures.max_deviation, 0.0);
         pos[y] = 0.003;
-        t.sample(&axes, &pos, 10.0, TickState::Moving, false);
+        t.sample(linear, &pos, 10.0, TickState::Moving, false);
         assert!((t.figures.max_deviation - 0.003).abs() < 1e-12);
         // Past the end: the distance to the end point.
         pos[x] = 10.004;
         pos[y] = 0.0;
-        t.sample(&axes, &pos, 0.0, TickState::Moving, false);
+        t.sample(linear, &pos, 0.0, TickState::Moving, false);
         assert!((t.figures.max_deviation - 0.004).abs() < 1e-12);
         // At rest, then moving again: one exact stop; a drive-led follow is not measured.
         pos[x] = 10.5;
-        t.sample(&axes, &pos, 3.0, TickState::Moving, true);
+        t.sample(linear, &pos, 3.0, TickState::Moving, true);
         assert_eq!(t.figures.exact_stops, 1);
         assert!((t.figures.max_deviation - 0.004).abs() < 1e-12);
-        t.sample(&axes, &pos, 3.0, TickState::Moving, false);
+        t.sample(linear, &pos, 3.0, TickState::Moving, false);
         assert!((t.figures.max_deviation - 0.5).abs() < 1e-12);
         assert_eq!(t.figures.exact_stops, 1, "no new stop without rest");
         // A quarter arc of radius 10 about (10, 10): 2 µm outside the radius.
@@ -214,7 +215,7 @@ mod tests {
         let a = std::f64::consts::FRAC_PI_4;
         pos[x] = 10.0 + 10.002 * a.sin();
         pos[y] = 10.0 - 10.002 * a.cos();
-        t.sample(&axes, &pos, 10.0, TickState::Moving, false);
+        t.sample(linear, &pos, 10.0, TickState::Moving, false);
         assert!(
             (t.figures.max_deviation - 0.002).abs() < 1e-9,
             "{:?}",

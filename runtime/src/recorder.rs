@@ -386,7 +386,8 @@ impl Recorder {
         self.plot_every = self.plot_every.saturating_mul(2);
     }
 
-    /// The plot series (Z and C setpoints, coupling error).
+    /// The plot series (every axis's setpoint, velocity and following error, path speed,
+    /// rigid-tap coupling error).
     pub fn plot_points(&self) -> &[PlotPoint] {
         &self.plot
     }

@@ -6,7 +6,6 @@ use std::fmt::Write as _;
 use serde_json::{Value, json};
 
 use crate::link::DriveStop;
-pub use crate::plot::write_plot;
 use crate::recorder::{PlotPoint, TapWindow};
 use crate::rt::LatencySummary;
 
