@@ -405,8 +405,14 @@ mod tests {
         // One decimal names a code of its own (G90.1), known or not.
         let e = words("G1.5 X1").unwrap_err();
         assert_eq!((e.col, e.message.as_str()), (1, "unknown G code G1.5"));
-        let e = words("G5.1 X1").unwrap_err();
-        assert!(e.message.contains("G5.1 (AI contour control)"), "{e}");
+        let e = words("G43.1 X1").unwrap_err();
+        assert!(
+            e.message.contains("G43.1 (dynamic tool length offset)"),
+            "{e}"
+        );
+        // G5.1 (Fanuc's AI contour control) is a path-mode switch, like G08.
+        let w = words("G5.1 Q1").unwrap();
+        assert_eq!(w.g_of(GGroup::PathMode).map(|g| g.0), Some(g_dec(5, 1)));
         let w = words("G90.1 X1").unwrap();
         assert_eq!(w.g_of(GGroup::ArcDistance).map(|g| g.0), Some(g_dec(90, 1)));
         let e = words("G[92+0.1]").unwrap_err();
