@@ -227,7 +227,7 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         write_report(p, &report)?;
     }
     if let Some(p) = &args.plot {
-        let title = format!("{} — Z and C setpoints", args.program.display());
+        let title = format!("cnc402 run {}", args.program.display());
         cnc402_runtime::write_plot(p, &report, &title).map_err(CliError::Io)?;
     }
     match report.error {

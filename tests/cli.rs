@@ -157,12 +157,28 @@ fn run_every_example_ok_with_exact_report_keys_and_coupled_taps() {
             "ticks",
             "program_time_s",
             "path_length_mm",
+            "feed_time_s",
+            "max_path_deviation_mm",
+            "exact_stops",
             "axes",
             "tapping",
             "bus",
         ] {
             assert!(v.get(key).is_some(), "{ex}: no key {key}");
         }
+        // The path figures: the feed alone is faster than the program (acceleration costs
+        // time), the setpoints stay on the programmed path, and every example stops at least
+        // once between two motions (taps, tool changes, spindle starts).
+        let feed_time = v["feed_time_s"].as_f64().unwrap();
+        let program_time = v["program_time_s"].as_f64().unwrap();
+        assert!(
+            feed_time > 0.0 && feed_time < program_time,
+            "{ex}: {feed_time} {program_time}"
+        );
+        let dev = v["max_path_deviation_mm"].as_f64().unwrap();
+        assert!((0.0..1e-6).contains(&dev), "{ex}: deviation {dev}");
+        assert!(v["exact_stops"].as_u64().unwrap() >= 1, "{ex}");
+        assert!(stdout.contains("exact stops"), "{stdout}");
         assert_eq!(v["ok"], true);
         assert!(v["error"].is_null());
         assert_eq!(v["period_us"], 1000);
@@ -298,6 +314,10 @@ fn trace_and_plot_are_well_formed() {
         svg.contains("<polyline") || svg.contains("<path"),
         "has line series"
     );
+    // A tapping program keeps its tapping panels beside the path panels.
+    for panel in PATH_PANELS.iter().chain(&TAP_PANELS) {
+        assert!(svg.contains(panel), "no {panel:?} panel");
+    }
     assert!(svg.contains("C setpoint") && svg.contains("coupling error"));
 }
 
@@ -1259,4 +1279,78 @@ fn fine_blocks_under_g64_run_at_the_feed() {
         .unwrap_or_else(|| panic!("no program time in {out}"));
     // The 10 mm rapid (about 0.2 s) plus 20 mm at 50 mm/s.
     assert!(secs < 1.0, "{secs} s: {out}");
+}
+
+/// The report's path figures on one path run in both modes: G61 comes to rest at each of
+/// the four junctions of five collinear blocks, G64 at none (and G05.1 Q1 is G64); the feed
+/// time is the path length over the feed; the setpoints stay on the programmed path.
+#[test]
+fn report_path_figures_count_exact_stops_and_the_feed_time() {
+    let dir = test_dir("path-figures");
+    for (mode, stops) in [("G61", 4), ("G64", 0), ("G05.1 Q1", 0), ("G05.1 Q0", 4)] {
+        let text = format!("G21 G90 G17 {mode}\nG1 X10 F600\nX20\nX30\nX40\nX50\nM30\n");
+        let prog = write_program(&dir, "p.nc", &text);
+        let report = dir.join("p.json");
+        let o = cnc402(&[
+            "run",
+            prog.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{mode}: {}", stderr(&o));
+        let v = read_json(&report);
+        assert_eq!(v["exact_stops"], stops, "{mode}");
+        let feed_time = v["feed_time_s"].as_f64().unwrap();
+        assert!(
+            (feed_time - 5.0).abs() < 1e-9,
+            "{mode}: 50 mm at 10 mm/s: {feed_time}"
+        );
+        let program_time = v["program_time_s"].as_f64().unwrap();
+        assert!(program_time > feed_time, "{mode}: {program_time}");
+        assert!(
+            v["max_path_deviation_mm"].as_f64().unwrap() < 1e-9,
+            "{mode}"
+        );
+    }
+}
+
+/// The captions of the plot's path panels, and of the panels only a tapping program gets.
+const PATH_PANELS: [&str; 4] = [
+    "toolpath XY (from above)",
+    "toolpath XZ (side view)",
+    "commanded velocity per axis",
+    "following error per axis",
+];
+const TAP_PANELS: [&str; 2] = [
+    "rigid tapping: Z and C setpoints",
+    "rigid-tap coupling error",
+];
+
+/// A contour program's plot: the toolpath from above and from the side, coloured by path
+/// speed (several colours), per-axis velocity and following error; no tapping panels.
+#[test]
+fn plot_of_a_contour_has_the_toolpath_velocity_and_following_error_panels() {
+    let plot = tmp("contour.svg");
+    let o = cnc402(&[
+        "run",
+        "examples/contour-arcs.nc",
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    assert!(svg.trim_end().ends_with("</svg>"));
+    for panel in PATH_PANELS {
+        assert!(svg.contains(panel), "no {panel:?} panel");
+    }
+    for panel in TAP_PANELS {
+        assert!(!svg.contains(panel), "{panel:?} without a tap");
+    }
+    // Slow arcs and fast rapids: the toolpath is drawn in more than a few speed colours.
+    let colours: std::collections::HashSet<&str> = svg
+        .match_indices("stroke=\"#")
+        .map(|(i, _)| &svg[i + 9..i + 15])
+        .collect();
+    // (Black and the four axis colours of the time panels are among them.)
+    assert!(colours.len() >= 10, "{colours:?}");
 }

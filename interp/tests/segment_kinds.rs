@@ -172,6 +172,30 @@ M30
     assert_eq!(segs[1].ends, cont);
 }
 
+/// Fanuc's AI contour control G05.1 Q1/Q0 is the same switch as G64/G61 (and G08 P1/P0),
+/// at the configured tolerance.
+#[test]
+fn g05_1_q1_and_q0_are_g64_and_g61() {
+    let tol = MachineConfig::default_machine().interp.path_tolerance;
+    let cont = SegmentEnd::Continuous { tolerance: tol };
+    let segs = run("G64 P0.05 G1 X1 F100
+G05.1 Q0
+X2
+G05.1 Q1 X3
+X4
+G61 X5
+M30
+");
+    let ends = |line: u32| on_line(&segs, line)[0].ends;
+    assert_eq!(ends(1), SegmentEnd::Continuous { tolerance: 0.05 });
+    assert_eq!(ends(3), SegmentEnd::ExactStop, "G05.1 Q0 = G61");
+    assert_eq!(ends(4), cont, "G05.1 Q1 = G64 at the configured tolerance");
+    assert_eq!(ends(5), cont, "modal");
+    assert_eq!(ends(6), SegmentEnd::ExactStop);
+    let e = err("G05.1 Q1 G64\nM30\n");
+    assert!(e.contains("t.nc:1:"), "{e}");
+}
+
 /// Bad path-mode input is a program error at the word, saying what was expected.
 #[test]
 fn bad_path_mode_words_are_errors_at_the_word() {
@@ -196,6 +220,8 @@ fn bad_path_mode_words_are_errors_at_the_word() {
         ),
         ("G08 P2\nM30\n", 5, "unknown lookahead switch"),
         ("G08\nM30\n", 1, "G08 without P"),
+        ("G05.1 Q7\nM30\n", 7, "unknown AI contour control switch"),
+        ("G1 X1 F10\nG05.1\nM30\n", 1, "G05.1 without Q"),
     ] {
         let e = err(prog);
         assert!(e.contains(says), "{prog}: {e}");

@@ -117,6 +117,8 @@ pub struct CycleController<L: DriveLink> {
     gate: Option<Arc<crate::program_stop::StopGate>>,
     /// Holding at a program stop until the gate releases it.
     held: bool,
+    /// Feed time, path deviation and exact stops (the report's path figures).
+    path: crate::path_figures::PathTracker,
 }
 
 /// One axis of a tap slaved to the other's actual position after that one's drive stopped
@@ -193,6 +195,7 @@ impl<L: DriveLink> CycleController<L> {
             tool_track: SpindleTrack::default(),
             gate: None,
             held: false,
+            path: Default::default(),
         }
     }
 
@@ -224,6 +227,12 @@ impl<L: DriveLink> CycleController<L> {
     /// would show the tap windows were dropped).
     pub fn tap_moves(&self) -> u64 {
         self.tap_moves
+    }
+
+    /// Feed time, path deviation and exact stops over every tick so far (exact whatever
+    /// [`dropped_status`](Self::dropped_status) says).
+    pub fn path_figures(&self) -> crate::path_figures::PathFigures {
+        self.path.figures
     }
 
     /// Largest |following error| per axis (axis units) over every tick so far, as the link's
@@ -320,6 +329,13 @@ impl<L: DriveLink> CycleController<L> {
             self.begin_stop(s);
         }
         self.follow_if_left_enabled();
+        self.path.sample(
+            &self.axes.linear[..self.axes.n],
+            &self.commands,
+            t.path_velocity,
+            t.state,
+            self.follow.is_some(),
+        );
         self.publish_status(&t, raised);
         self.tick += 1;
         self.phase_ticks = self.phase_ticks.saturating_add(1);
@@ -561,6 +577,10 @@ impl<L: DriveLink> CycleController<L> {
                     MoveKind::Path(p) => p.tap,
                     _ => None,
                 };
+                self.path.started(match &mv.kind {
+                    MoveKind::Path(p) => Some(p),
+                    _ => None,
+                });
                 if let Some(c) = self.tap {
                     self.tap_moves += 1;
                     self.tap_anchor = (

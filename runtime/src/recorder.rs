@@ -62,6 +62,14 @@ pub struct PlotPoint {
     pub coupling_um: f64,
     /// Coupling error of the actual positions in µm (equal sample age; 0 outside taps).
     pub coupling_act_um: f64,
+    /// Commanded position of every axis (config order; Z and C above are two of them).
+    pub cmd: [f64; MAX_AXES],
+    /// Commanded velocity of every axis at this tick: the last period's step over the period.
+    pub vel: [f64; MAX_AXES],
+    /// Following error of every axis, the interval's largest in magnitude (signed).
+    pub fe: [f64; MAX_AXES],
+    /// Path speed over the linear axes at this tick (mm/s).
+    pub speed: f64,
 }
 
 /// See the module doc.
@@ -87,8 +95,11 @@ pub struct Recorder {
     trace: Option<Box<dyn Write>>,
     trace_error: Option<std::io::Error>,
     plot: Vec<PlotPoint>,
-    plot_axes: Option<(usize, usize)>,
+    /// Z and C, for the tapping panels (0 when the machine has no such axis).
+    plot_axes: (Option<usize>, Option<usize>),
     plot_every: u64,
+    /// The interval's worst following error per axis.
+    plot_fe: [f64; MAX_AXES],
     plot_coupling: f64,
     plot_coupling_act: f64,
     /// Actual-level coupling error of the last record (µm), for the plot.
@@ -127,7 +138,8 @@ impl Recorder {
             trace: None,
             trace_error: None,
             plot: Vec::new(),
-            plot_axes: z.zip(c),
+            plot_axes: (z, c),
+            plot_fe: [0.0; MAX_AXES],
             plot_every: (expected_ticks / 4000).max(1),
             plot_coupling: 0.0,
             plot_coupling_act: 0.0,
@@ -171,25 +183,47 @@ impl Recorder {
         if self.last_act_error.abs() > self.plot_coupling_act.abs() {
             self.plot_coupling_act = self.last_act_error;
         }
-        if let Some((z, c)) = self.plot_axes
-            && s.tick.is_multiple_of(self.plot_every)
-        {
-            // One point per interval; the coupling error keeps the interval's worst value.
-            self.plot.push(PlotPoint {
-                t: s.tick as f64 * self.period,
-                z: s.cmd[z],
-                c: s.cmd[c],
-                coupling_um: self.plot_coupling,
-                coupling_act_um: self.plot_coupling_act,
-            });
-            self.plot_coupling = 0.0;
-            self.plot_coupling_act = 0.0;
-            if self.plot.len() >= PLOT_MAX_POINTS {
-                self.thin_plot();
+        for (w, fe) in self.plot_fe.iter_mut().zip(s.following_error) {
+            if fe.is_finite() && fe.abs() > w.abs() {
+                *w = fe;
             }
+        }
+        if s.tick.is_multiple_of(self.plot_every) {
+            self.push_plot_point(s);
         }
         self.ticks += 1;
         self.last = Some(*s);
+    }
+
+    /// One point of the plot series (one per interval; the coupling and following errors
+    /// keep the interval's worst value).
+    fn push_plot_point(&mut self, s: &Status) {
+        let at = |i: Option<usize>| i.map_or(0.0, |i| s.cmd[i]);
+        let prev = self.last.map_or(s.cmd, |p| p.cmd);
+        let mut vel = [0.0; MAX_AXES];
+        for (i, v) in vel.iter_mut().enumerate().take(self.n) {
+            *v = (s.cmd[i] - prev[i]) / self.period;
+        }
+        let speed = self
+            .path_axes
+            .linear_distance(&AxisPos(prev), &AxisPos(s.cmd))
+            / self.period;
+        self.plot.push(PlotPoint {
+            t: s.tick as f64 * self.period,
+            z: at(self.plot_axes.0),
+            c: at(self.plot_axes.1),
+            coupling_um: self.plot_coupling,
+            coupling_act_um: self.plot_coupling_act,
+            cmd: s.cmd,
+            vel,
+            fe: std::mem::take(&mut self.plot_fe),
+            speed,
+        });
+        self.plot_coupling = 0.0;
+        self.plot_coupling_act = 0.0;
+        if self.plot.len() >= PLOT_MAX_POINTS {
+            self.thin_plot();
+        }
     }
 
     /// The checker's sample of record `s` for tool axis `tool` and spindle `sp`: setpoints at
@@ -345,6 +379,9 @@ impl Recorder {
             if let Some(q) = self.plot.get(r + 1) {
                 p.coupling_um = worst(p.coupling_um, q.coupling_um);
                 p.coupling_act_um = worst(p.coupling_act_um, q.coupling_act_um);
+                for (a, b) in p.fe.iter_mut().zip(q.fe) {
+                    *a = worst(*a, b);
+                }
             }
             self.plot[w] = p;
             w += 1;
@@ -353,7 +390,8 @@ impl Recorder {
         self.plot_every = self.plot_every.saturating_mul(2);
     }
 
-    /// The plot series (Z and C setpoints, coupling error).
+    /// The plot series (every axis's setpoint, velocity and following error, path speed,
+    /// rigid-tap coupling error).
     pub fn plot_points(&self) -> &[PlotPoint] {
         &self.plot
     }
@@ -408,5 +446,32 @@ mod tests {
             "the series reaches {last} s"
         );
         assert!(p.windows(2).all(|w| w[1].t > w[0].t));
+    }
+
+    /// The plot's path series: every axis's position and velocity, the path speed over the
+    /// linear axes, and each interval's worst following error (signed), halved with the rest.
+    #[test]
+    fn plot_points_carry_velocity_speed_and_the_worst_following_error() {
+        let cfg = MachineConfig::default_machine();
+        let (x, y) = (cfg.axis_index('X').unwrap(), cfg.axis_index('Y').unwrap());
+        // 40,000 expected ticks: one point every 10 ticks.
+        let mut r = Recorder::new(&cfg, 40_000);
+        for t in 0..21 {
+            let mut s = status(t);
+            s.cmd[x] = 0.003 * t as f64;
+            s.cmd[y] = 0.004 * t as f64;
+            s.following_error[y] = if t == 13 { -0.02 } else { 0.01 };
+            r.record(&s);
+        }
+        let p = r.plot_points();
+        assert_eq!(p.len(), 3, "ticks 0, 10, 20");
+        assert!((p[1].vel[x] - 3.0).abs() < 1e-9 && (p[1].vel[y] - 4.0).abs() < 1e-9);
+        assert!((p[1].speed - 5.0).abs() < 1e-9, "{}", p[1].speed);
+        assert!((p[1].cmd[x] - 0.03).abs() < 1e-12);
+        assert_eq!(p[2].fe[y], -0.02, "the interval 11..=20 holds the worst");
+        assert_eq!(p[1].fe[y], 0.01);
+        r.thin_plot();
+        assert_eq!(r.plot_points()[0].fe[y], 0.01);
+        assert_eq!(r.plot_points()[1].fe[y], -0.02);
     }
 }

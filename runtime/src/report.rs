@@ -1,9 +1,7 @@
 //! The result of a run as data ([`RunReport`]), its JSON form (the keys `cnc402 run --report`
-//! promises), the human summary, and the SVG plot of Z and C against time with the coupling
-//! error.
+//! promises) and the human summary; the SVG plot is drawn by [`crate::plot`].
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use serde_json::{Value, json};
 
@@ -46,6 +44,14 @@ pub struct RunReport {
     /// Time of the program's motion (ticks before settling, times the period).
     pub program_time_s: f64,
     pub path_length_mm: f64,
+    /// The time the feed alone would need: Σ over the path moves run of length / the move's
+    /// programmed feed (a rapid: the rapid rate), as capped by the axes' velocity limits
+    /// along the move and, on arcs, the centripetal acceleration (see README "Run report").
+    pub feed_time_s: f64,
+    /// Largest distance of a commanded setpoint from the programmed path (mm).
+    pub max_path_deviation_mm: f64,
+    /// Junctions where the path speed went to zero between two path motions.
+    pub exact_stops: u64,
     pub axes: Vec<AxisReport>,
     pub tapping: Vec<TapWindow>,
     pub bus_frames: u64,
@@ -88,6 +94,9 @@ impl RunReport {
             ticks: 0,
             program_time_s: 0.0,
             path_length_mm: 0.0,
+            feed_time_s: 0.0,
+            max_path_deviation_mm: 0.0,
+            exact_stops: 0,
             axes: axes
                 .iter()
                 .map(|&name| AxisReport {
@@ -145,6 +154,9 @@ impl RunReport {
             "ticks": self.ticks,
             "program_time_s": self.program_time_s,
             "path_length_mm": self.path_length_mm,
+            "feed_time_s": self.feed_time_s,
+            "max_path_deviation_mm": self.max_path_deviation_mm,
+            "exact_stops": self.exact_stops,
             "axes": Value::Object(axes),
             "tapping": tapping,
             "bus": { "frames": self.bus_frames, "load_percent": self.bus_load_percent },
@@ -202,6 +214,19 @@ impl RunReport {
             self.period_us,
             self.program_time_s,
             self.path_length_mm
+        );
+        let _ = writeln!(
+            s,
+            "  path: the feed alone would need {:.3} s (program time {:.2}× that), largest \
+             deviation from the programmed path {:.2e} mm, {} exact stops",
+            self.feed_time_s,
+            if self.feed_time_s > 0.0 {
+                self.program_time_s / self.feed_time_s
+            } else {
+                0.0
+            },
+            self.max_path_deviation_mm,
+            self.exact_stops
         );
         for a in &self.axes {
             let _ = writeln!(
@@ -279,133 +304,4 @@ impl RunReport {
         }
         s
     }
-}
-
-/// Draws Z and C setpoints against time (top, two y axes) and the coupling error of the
-/// setpoints and of the actual positions in µm with the one-count bound (bottom) into an SVG
-/// file.
-/// The file is replaced whole (drawn in memory, then written with
-/// [`cnc402_durable::write_atomic`]).
-pub fn write_plot(path: &Path, report: &RunReport, title: &str) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let mut svg = String::new();
-    draw_plot(&mut svg, report, title, &err)?;
-    cnc402_durable::write_atomic(path, svg.as_bytes()).map_err(|e| err(&e))
-}
-
-fn draw_plot(
-    svg: &mut String,
-    report: &RunReport,
-    title: &str,
-    err: &dyn Fn(&dyn std::fmt::Display) -> String,
-) -> Result<(), String> {
-    use plotters::prelude::*;
-    let points: &[PlotPoint] = &report.plot;
-    let bound = report.coupling_bound_um;
-    let root = SVGBackend::with_string(svg, (1000, 700)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let (top, bottom) = root.split_vertically(430);
-    let t_max = points.last().map_or(1.0, |p| p.t).max(1e-3);
-    let range = |f: fn(&PlotPoint) -> f64| {
-        let (lo, hi) = points
-            .iter()
-            .map(f)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-                (l.min(v), h.max(v))
-            });
-        if !lo.is_finite() {
-            (-1.0, 1.0)
-        } else if hi - lo < 1e-9 {
-            (lo - 1.0, hi + 1.0)
-        } else {
-            let m = (hi - lo) * 0.05;
-            (lo - m, hi + m)
-        }
-    };
-    let (z0, z1) = range(|p| p.z);
-    let (c0, c1) = range(|p| p.c);
-    let mut chart = ChartBuilder::on(&top)
-        .caption(title, ("sans-serif", 20))
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(60)
-        .right_y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_max, z0..z1)
-        .map_err(|e| err(&e))?
-        .set_secondary_coord(0.0..t_max, c0..c1);
-    chart
-        .configure_mesh()
-        .x_desc("t [s]")
-        .y_desc("Z [mm]")
-        .draw()
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_secondary_axes()
-        .y_desc("C [deg]")
-        .draw()
-        .map_err(|e| err(&e))?;
-    chart
-        .draw_series(LineSeries::new(points.iter().map(|p| (p.t, p.z)), &BLUE))
-        .map_err(|e| err(&e))?
-        .label("Z setpoint")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
-    chart
-        .draw_secondary_series(LineSeries::new(points.iter().map(|p| (p.t, p.c)), &RED))
-        .map_err(|e| err(&e))?
-        .label("C setpoint")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(&e))?;
-
-    let e_max = points
-        .iter()
-        .map(|p| p.coupling_um.abs().max(p.coupling_act_um.abs()))
-        .fold(bound, f64::max)
-        .max(0.1)
-        * 1.1;
-    let mut chart2 = ChartBuilder::on(&bottom)
-        .caption(
-            "rigid-tap coupling error: setpoints (green), actual (purple), one count (dashed)",
-            ("sans-serif", 16),
-        )
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(60)
-        .right_y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_max, -e_max..e_max)
-        .map_err(|e| err(&e))?;
-    chart2
-        .configure_mesh()
-        .x_desc("t [s]")
-        .y_desc("error [µm of Z]")
-        .draw()
-        .map_err(|e| err(&e))?;
-    chart2
-        .draw_series(LineSeries::new(
-            points.iter().map(|p| (p.t, p.coupling_act_um)),
-            &MAGENTA.mix(0.8),
-        ))
-        .map_err(|e| err(&e))?;
-    chart2
-        .draw_series(LineSeries::new(
-            points.iter().map(|p| (p.t, p.coupling_um)),
-            &GREEN.mix(0.9),
-        ))
-        .map_err(|e| err(&e))?;
-    for b in [bound, -bound] {
-        chart2
-            .draw_series(DashedLineSeries::new(
-                [(0.0, b), (t_max, b)],
-                6,
-                4,
-                BLACK.stroke_width(1),
-            ))
-            .map_err(|e| err(&e))?;
-    }
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
 }

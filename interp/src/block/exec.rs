@@ -450,9 +450,9 @@ impl Exec<'_> {
         }
         self.st.exact_stop_once = self.w.g_of(GGroup::ExactStopOnce).is_some();
         if let Some((c, span)) = self.w.g_of(GGroup::PathMode) {
-            if c == 8 {
-                // The P is the switch: the tolerance is the configured one.
-                self.st.path_mode = self.g08_mode(span)?;
+            if c == 8 || c == g_dec(5, 1) {
+                // The P (G08) or Q (G05.1) is the switch: the tolerance is the configured one.
+                self.st.path_mode = self.fanuc_path_switch(c, span)?;
                 self.st.path_tolerance = self.cfg.interp.path_tolerance;
             } else {
                 self.st.path_mode = c;
@@ -467,20 +467,28 @@ impl Exec<'_> {
         Ok(())
     }
 
-    /// Fanuc's G08 P1 (lookahead on: G64 at the configured tolerance) / G08 P0 (off: G61).
-    fn g08_mode(&mut self, span: Span) -> Result<u32, NcError> {
-        match self.w.take('P') {
-            Some(p) if p.v == 1.0 => Ok(64),
-            Some(p) if p.v == 0.0 => Ok(61),
-            Some(p) => Err(self
+    /// Fanuc's on/off path-mode switches as G64 (on, at the configured tolerance) / G61
+    /// (off): G08 P1/P0 (lookahead) and G05.1 Q1/Q0 (AI contour control).
+    fn fanuc_path_switch(&mut self, code: u32, span: Span) -> Result<u32, NcError> {
+        let (name, letter, what) = if code == 8 {
+            ("G08", 'P', "lookahead")
+        } else {
+            ("G05.1", 'Q', "AI contour control")
+        };
+        let expected =
+            format!("{name} {letter}1 ({what} on, as G64) or {name} {letter}0 (off, as G61)");
+        match self.w.take(letter) {
+            Some(a) if a.v == 1.0 => Ok(64),
+            Some(a) if a.v == 0.0 => Ok(61),
+            Some(a) => Err(self
                 .err(
-                    p.span,
-                    format!("G08 P{}: unknown lookahead switch", fmt_num(p.v)),
+                    a.span,
+                    format!("{name} {letter}{}: unknown {what} switch", fmt_num(a.v)),
                 )
-                .with_expected("G08 P1 (lookahead on, as G64) or G08 P0 (off, as G61)")),
+                .with_expected(expected)),
             None => Err(self
-                .err(span, "G08 without P")
-                .with_expected("G08 P1 (lookahead on, as G64) or G08 P0 (off, as G61)")),
+                .err(span, format!("{name} without {letter}"))
+                .with_expected(expected)),
         }
     }
 

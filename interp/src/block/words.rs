@@ -41,7 +41,8 @@ pub enum GGroup {
     ToolLength,
     /// 14: G54-G59.
     WorkOffset,
-    /// 15: G61 G63 G64, and Fanuc's G08 (lookahead: P1 = G64, P0 = G61).
+    /// 15: G61 G63 G64, and Fanuc's G08 (lookahead: P1 = G64, P0 = G61) and G05.1 (AI
+    /// contour control: Q1 = G64, Q0 = G61).
     PathMode,
     /// 00: G9, exact stop at the end of this block's motion only.
     ExactStopOnce,
@@ -126,8 +127,10 @@ fn decimal_g_group(code: u32) -> Result<GGroup, String> {
     if code == g_dec(90, 1) || code == g_dec(91, 1) {
         return Ok(GGroup::ArcDistance);
     }
+    if code == g_dec(5, 1) {
+        return Ok(GGroup::PathMode);
+    }
     let what = match code {
-        c if c == g_dec(5, 1) => "AI contour control",
         c if (g_dec(92, 1)..=g_dec(92, 3)).contains(&c) => "G92 offset reset and restore",
         c if (g_dec(38, 2)..=g_dec(38, 5)).contains(&c) => "probing",
         c if c == g_dec(43, 1) => "dynamic tool length offset",
@@ -402,8 +405,14 @@ mod tests {
         // One decimal names a code of its own (G90.1), known or not.
         let e = words("G1.5 X1").unwrap_err();
         assert_eq!((e.col, e.message.as_str()), (1, "unknown G code G1.5"));
-        let e = words("G5.1 X1").unwrap_err();
-        assert!(e.message.contains("G5.1 (AI contour control)"), "{e}");
+        let e = words("G43.1 X1").unwrap_err();
+        assert!(
+            e.message.contains("G43.1 (dynamic tool length offset)"),
+            "{e}"
+        );
+        // G5.1 (Fanuc's AI contour control) is a path-mode switch, like G08.
+        let w = words("G5.1 Q1").unwrap();
+        assert_eq!(w.g_of(GGroup::PathMode).map(|g| g.0), Some(g_dec(5, 1)));
         let w = words("G90.1 X1").unwrap();
         assert_eq!(w.g_of(GGroup::ArcDistance).map(|g| g.0), Some(g_dec(90, 1)));
         let e = words("G[92+0.1]").unwrap_err();

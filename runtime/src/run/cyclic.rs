@@ -82,6 +82,8 @@ pub(super) struct LoopEnd {
     pub(super) max_following_error: [f64; MAX_AXES],
     /// Rigid-tap moves the controller started.
     pub(super) tap_moves: u64,
+    /// Feed time, path deviation, exact stops (from the controller).
+    pub(super) path: crate::path_figures::PathFigures,
     pub(super) counters: BusCounters,
     pub(super) bitrate: u32,
     pub(super) elapsed: Duration,
@@ -194,6 +196,7 @@ fn cyclic_end(
         dropped: ctrl.dropped_status(),
         max_following_error: ctrl.max_following_error(),
         tap_moves: ctrl.tap_moves(),
+        path: ctrl.path_figures(),
         counters,
         bitrate: ctrl.link().bitrate(),
         elapsed,
@@ -218,6 +221,7 @@ fn failed_end(
         dropped: 0,
         max_following_error: [0.0; MAX_AXES],
         tap_moves: 0,
+        path: Default::default(),
         counters: link.counters(),
         bitrate: link.bitrate(),
         elapsed: Duration::from_nanos(now.nanos()),

@@ -80,6 +80,9 @@ pub(super) fn build_report(
         ticks: end.ticks,
         program_time_s,
         path_length_mm: rec.path_length,
+        feed_time_s: end.path.feed_time_s,
+        max_path_deviation_mm: end.path.max_deviation,
+        exact_stops: end.path.exact_stops,
         axes,
         tapping: rec
             .taps

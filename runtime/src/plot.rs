@@ -1,0 +1,317 @@
+//! The SVG plot of a run (`cnc402 run --plot`): the toolpath from above (XY) and from the side
+//! (XZ) coloured by path speed, every axis's commanded velocity and following error against
+//! time, and, when the program taps, Z and C against time with the rigid-tap coupling error.
+
+use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use crate::recorder::PlotPoint;
+use crate::report::RunReport;
+
+type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+type Err<'e> = &'e dyn Fn(&dyn std::fmt::Display) -> String;
+type Xy =
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>;
+/// A chart against time with a scale on each side.
+type TimeChart<'a, 'b> = plotters::chart::DualCoordChartContext<'a, SVGBackend<'b>, Xy, Xy>;
+
+/// Height of the toolpath row, of each time-series panel, and of the two tapping panels.
+const PATH_H: u32 = 430;
+const SERIES_H: u32 = 260;
+const TAP_H: (u32, u32) = (430, 270);
+const WIDTH: u32 = 1000;
+/// Path speeds are drawn in this many colours (blue: at rest, red: the run's fastest).
+const SPEED_BUCKETS: usize = 12;
+
+/// Draws the plot of `report` into an SVG file (see the module doc). The file is replaced
+/// whole (drawn in memory, then written with [`cnc402_durable::write_atomic`]).
+pub fn write_plot(path: &Path, report: &RunReport, title: &str) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let mut svg = String::new();
+    draw_plot(&mut svg, report, title, &err)?;
+    cnc402_durable::write_atomic(path, svg.as_bytes()).map_err(|e| err(&e))
+}
+
+fn draw_plot(svg: &mut String, report: &RunReport, title: &str, err: Err) -> Result<(), String> {
+    let taps = !report.tapping.is_empty();
+    let height = PATH_H + 2 * SERIES_H + if taps { TAP_H.0 + TAP_H.1 } else { 0 };
+    let root = SVGBackend::with_string(svg, (WIDTH, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root
+        .titled(title, ("sans-serif", 20))
+        .map_err(|e| err(&e))?;
+    let (path_row, rest) = root.split_vertically(PATH_H - 30);
+    let (vel, rest) = rest.split_vertically(SERIES_H);
+    let (fe, rest) = rest.split_vertically(SERIES_H);
+    let points: &[PlotPoint] = &report.plot;
+    let names: Vec<char> = report.axes.iter().map(|a| a.name).collect();
+    let index = |c: char| names.iter().position(|&n| n == c);
+    let v_max = points.iter().map(|p| p.speed).fold(0.0, f64::max);
+    let (left, right) = path_row.split_horizontally(WIDTH / 2);
+    for (area, (a, b)) in [(left, ('X', 'Y')), (right, ('X', 'Z'))] {
+        if let (Some(i), Some(j)) = (index(a), index(b)) {
+            let view = if b == 'Y' { "from above" } else { "side view" };
+            let caption =
+                format!("toolpath {a}{b} ({view}), path speed blue 0 → red {v_max:.1} mm/s");
+            toolpath(&area, points, [i, j], [a, b], v_max, &caption, err)?;
+        }
+    }
+    let linear: Vec<bool> = names.iter().map(|&c| !matches!(c, 'A'..='C')).collect();
+    let series = |area: &Area, caption: &str, unit: &str, f: fn(&PlotPoint, usize) -> f64| {
+        time_series(area, points, &names, &linear, (caption, unit), f, err)
+    };
+    series(&vel, "commanded velocity per axis", "/s", |p, i| p.vel[i])?;
+    series(&fe, "following error per axis", "", |p, i| p.fe[i])?;
+    if taps {
+        let (top, bottom) = rest.split_vertically(TAP_H.0);
+        tap_positions(&top, points, err)?;
+        tap_coupling(&bottom, points, report.coupling_bound_um, err)?;
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// `lo..hi` of `values` with a 5 % margin (±1 around a constant, -1..1 for none).
+fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+            (l.min(v), h.max(v))
+        });
+    if !lo.is_finite() {
+        (-1.0, 1.0)
+    } else if hi - lo < 1e-9 {
+        (lo - 1.0, hi + 1.0)
+    } else {
+        let m = (hi - lo) * 0.05;
+        (lo - m, hi + m)
+    }
+}
+
+/// The toolpath in the plane of axes `ij`, at equal scale on both, each stretch drawn in the
+/// colour of its path speed.
+fn toolpath(
+    area: &Area,
+    points: &[PlotPoint],
+    ij: [usize; 2],
+    names: [char; 2],
+    v_max: f64,
+    caption: &str,
+    err: Err,
+) -> Result<(), String> {
+    let (mut x0, mut x1) = range(points.iter().map(|p| p.cmd[ij[0]]));
+    let (mut y0, mut y1) = range(points.iter().map(|p| p.cmd[ij[1]]));
+    // Equal scale: widen the narrower range to the plotting area's aspect.
+    let (w, h) = area.dim_in_pixel();
+    let aspect = (w.saturating_sub(70)).max(1) as f64 / (h.saturating_sub(70)).max(1) as f64;
+    if (x1 - x0) < (y1 - y0) * aspect {
+        let grow = ((y1 - y0) * aspect - (x1 - x0)) / 2.0;
+        (x0, x1) = (x0 - grow, x1 + grow);
+    } else {
+        let grow = ((x1 - x0) / aspect - (y1 - y0)) / 2.0;
+        (y0, y1) = (y0 - grow, y1 + grow);
+    }
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 14))
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(50)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc(format!("{} [mm]", names[0]))
+        .y_desc(format!("{} [mm]", names[1]))
+        .draw()
+        .map_err(|e| err(&e))?;
+    let bucket = |v: f64| {
+        let f = if v_max > 0.0 { v / v_max } else { 0.0 };
+        ((f * SPEED_BUCKETS as f64) as usize).min(SPEED_BUCKETS - 1)
+    };
+    // One polyline per run of points in the same speed colour (joined to the run before).
+    let mut start = 0;
+    while start + 1 < points.len() {
+        let b = bucket(points[start + 1].speed);
+        let mut end = start + 1;
+        while end + 1 < points.len() && bucket(points[end + 1].speed) == b {
+            end += 1;
+        }
+        let hue = 0.66 * (1.0 - b as f64 / (SPEED_BUCKETS - 1) as f64);
+        let colour = HSLColor(hue, 0.9, 0.45);
+        chart
+            .draw_series(LineSeries::new(
+                points[start..=end]
+                    .iter()
+                    .map(|p| (p.cmd[ij[0]], p.cmd[ij[1]])),
+                colour.stroke_width(2),
+            ))
+            .map_err(|e| err(&e))?;
+        start = end;
+    }
+    Ok(())
+}
+
+/// `f(point, axis)` of every axis against time: linear axes on the left scale (mm), rotary
+/// axes on the right (degrees).
+fn time_series(
+    area: &Area,
+    points: &[PlotPoint],
+    names: &[char],
+    linear: &[bool],
+    (caption, unit): (&str, &str),
+    f: fn(&PlotPoint, usize) -> f64,
+    err: Err,
+) -> Result<(), String> {
+    let t_max = points.last().map_or(1.0, |p| p.t).max(1e-3);
+    let of = |lin: bool| {
+        range(
+            (0..names.len())
+                .filter(|&i| linear[i] == lin)
+                .flat_map(|i| points.iter().map(move |p| f(p, i))),
+        )
+    };
+    let mut chart = time_chart(area, (caption, 14), t_max, [of(true), of(false)], err)?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc(format!("linear axes [mm{unit}]"))
+        .draw()
+        .map_err(|e| err(&e))?;
+    if linear.iter().any(|l| !l) {
+        chart
+            .configure_secondary_axes()
+            .y_desc(format!("rotary axes [deg{unit}]"))
+            .draw()
+            .map_err(|e| err(&e))?;
+    }
+    for (i, &name) in names.iter().enumerate() {
+        let colour = Palette99::pick(i).to_rgba();
+        let line = LineSeries::new(points.iter().map(|p| (p.t, f(p, i))), colour);
+        let drawn = if linear[i] {
+            chart.draw_series(line)
+        } else {
+            chart.draw_secondary_series(line)
+        };
+        drawn
+            .map_err(|e| err(&e))?
+            .label(name.to_string())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    }
+    legend(&mut chart, err)
+}
+
+/// An empty chart on `area` from 0 to `t_max` s, with the left and right scales `lr`.
+fn time_chart<'a, 'b>(
+    area: &'a Area<'b>,
+    (caption, size): (&str, u32),
+    t_max: f64,
+    [(l0, l1), (r0, r1)]: [(f64, f64); 2],
+    err: Err,
+) -> Result<TimeChart<'a, 'b>, String> {
+    Ok(ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", size))
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .right_y_label_area_size(70)
+        .build_cartesian_2d(0.0..t_max, l0..l1)
+        .map_err(|e| err(&e))?
+        .set_secondary_coord(0.0..t_max, r0..r1))
+}
+
+/// The labels of `chart`'s series, boxed.
+fn legend<'a, 'b: 'a>(chart: &mut TimeChart<'a, 'b>, err: Err) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(&e))
+}
+
+/// Z and C setpoints against time, on two y axes.
+fn tap_positions(area: &Area, points: &[PlotPoint], err: Err) -> Result<(), String> {
+    let t_max = points.last().map_or(1.0, |p| p.t).max(1e-3);
+    let ranges = [
+        range(points.iter().map(|p| p.z)),
+        range(points.iter().map(|p| p.c)),
+    ];
+    let caption = ("rigid tapping: Z and C setpoints", 16);
+    let mut chart = time_chart(area, caption, t_max, ranges, err)?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc("Z [mm]")
+        .draw()
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_secondary_axes()
+        .y_desc("C [deg]")
+        .draw()
+        .map_err(|e| err(&e))?;
+    chart
+        .draw_series(LineSeries::new(points.iter().map(|p| (p.t, p.z)), &BLUE))
+        .map_err(|e| err(&e))?
+        .label("Z setpoint")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
+    chart
+        .draw_secondary_series(LineSeries::new(points.iter().map(|p| (p.t, p.c)), &RED))
+        .map_err(|e| err(&e))?
+        .label("C setpoint")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+    legend(&mut chart, err)
+}
+
+/// The coupling error of the setpoints and of the actual positions in µm, with the
+/// one-count bound.
+fn tap_coupling(area: &Area, points: &[PlotPoint], bound: f64, err: Err) -> Result<(), String> {
+    let t_max = points.last().map_or(1.0, |p| p.t).max(1e-3);
+    let e_max = points
+        .iter()
+        .map(|p| p.coupling_um.abs().max(p.coupling_act_um.abs()))
+        .fold(bound, f64::max)
+        .max(0.1)
+        * 1.1;
+    let mut chart = ChartBuilder::on(area)
+        .caption(
+            "rigid-tap coupling error: setpoints (green), actual (purple), one count (dashed)",
+            ("sans-serif", 16),
+        )
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .right_y_label_area_size(70)
+        .build_cartesian_2d(0.0..t_max, -e_max..e_max)
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc("error [µm of Z]")
+        .draw()
+        .map_err(|e| err(&e))?;
+    chart
+        .draw_series(LineSeries::new(
+            points.iter().map(|p| (p.t, p.coupling_act_um)),
+            &MAGENTA.mix(0.8),
+        ))
+        .map_err(|e| err(&e))?;
+    chart
+        .draw_series(LineSeries::new(
+            points.iter().map(|p| (p.t, p.coupling_um)),
+            &GREEN.mix(0.9),
+        ))
+        .map_err(|e| err(&e))?;
+    for b in [bound, -bound] {
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(0.0, b), (t_max, b)],
+                6,
+                4,
+                BLACK.stroke_width(1),
+            ))
+            .map_err(|e| err(&e))?;
+    }
+    Ok(())
+}
