@@ -537,3 +537,13 @@ fn r_half_circle_a_rounding_short_is_a_half_circle() {
         e.message
     );
 }
+
+/// G5.1 is Fanuc's AI contour control switch in fanuc and haas, but LinuxCNC's quadratic
+/// B-spline in its dialect: refused there rather than read as a path mode.
+#[test]
+fn g5_1_in_the_linuxcnc_dialect_is_a_spline_not_a_path_mode() {
+    run("G05.1 Q1\nG1 X1 F100\nM30\n").unwrap();
+    let e = run("(dialect: linuxcnc)\nG5.1 X1 Y1 I1 J0\n").unwrap_err();
+    assert_eq!((e.line, e.col), (2, 1));
+    assert!(e.message.contains("quadratic B-spline"), "{}", e.message);
+}

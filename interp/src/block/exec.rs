@@ -470,6 +470,15 @@ impl Exec<'_> {
     /// Fanuc's on/off path-mode switches as G64 (on, at the configured tolerance) / G61
     /// (off): G08 P1/P0 (lookahead) and G05.1 Q1/Q0 (AI contour control).
     fn fanuc_path_switch(&mut self, code: u32, span: Span) -> Result<u32, NcError> {
+        if code != 8 && self.dialect == Dialect::LinuxCnc {
+            // LinuxCNC's G5.1 is a quadratic B-spline move, not Fanuc's contour control.
+            return Err(self
+                .err(
+                    span,
+                    "G5.1 (quadratic B-spline, LinuxCNC) is not supported yet",
+                )
+                .with_expected("G1/G2/G3 moves, or G64 P for continuous path"));
+        }
         let (name, letter, what) = if code == 8 {
             ("G08", 'P', "lookahead")
         } else {
