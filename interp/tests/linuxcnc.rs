@@ -241,3 +241,25 @@ fn m99_out_of_a_subroutine_drops_its_named_locals() {
     let p = "o1 sub\n#<t> = 5\nM99\no1 endsub\n#<t> = 1\no1 call\nG0 X#<t>\nM2\n";
     assert_eq!(ends(p), vec![[1.0, 0.0, 0.0]]);
 }
+
+#[test]
+fn g4_p_with_a_move_in_one_block_is_not_address_x_given_twice() {
+    let segs = run("G0 X0 Y0 Z0\nG04 P.001 G0 X1.0 Y1.0\nM2\n").unwrap_or_else(|e| panic!("{e}"));
+    let kinds: Vec<_> = segs
+        .iter()
+        .filter(|s| {
+            matches!(
+                s.kind,
+                SegmentKind::Dwell { .. } | SegmentKind::Rapid { .. }
+            )
+        })
+        .map(|s| s.kind.clone())
+        .collect();
+    assert_eq!(kinds[1], SegmentKind::Dwell { seconds: 0.001 });
+    assert!(matches!(kinds[2], SegmentKind::Rapid { end } if end[0] == 1.0 && end[1] == 1.0));
+    // A G4 with axis words and no motion G moves in the modal motion mode.
+    assert_eq!(
+        ends("G1 X0 Y0 Z1 F100\nG4 P0.5 X2\nM2\n"),
+        vec![[0.0, 0.0, 1.0], [2.0, 0.0, 1.0]]
+    );
+}

@@ -1,6 +1,7 @@
 //! LinuxCNC's block words that the Fanuc block layer reads otherwise, translated before the
 //! block runs (the `linuxcnc` dialect only): polar `@` radius and `^` angle become X and Y,
-//! `G4 P` seconds becomes `G4 X`, a canned cycle's `P` seconds becomes milliseconds, and
+//! a canned cycle's `P` seconds becomes milliseconds (the block layer reads G4's P as seconds
+//! in this dialect itself), and
 //! `G92.1`/`G92.2`/`G92.3` reset, suspend and restore the G92 shift (kept as LinuxCNC keeps
 //! it in `#5211`…: the last G92 set).
 
@@ -36,7 +37,7 @@ impl Interpreter {
         unit: &Unit,
         block: &Block,
     ) -> Result<Option<Block>, NcError> {
-        let special = |w: &Word| matches!(w.letter, '@' | '^' | 'G' | 'P');
+        let special = |w: &Word| matches!(w.letter, '@' | '^' | 'G');
         if !block.words.iter().any(special) {
             return Ok(None);
         }
@@ -60,16 +61,12 @@ impl Interpreter {
             .into_iter()
             .any(has);
         if let Some(k) = out.words.iter().position(|w| w.letter == 'P')
-            && (has(40) || cycle)
+            && cycle
+            && !has(40)
             && let Some(p) = expr::value_in(&unit.src, &out.words[k].value, self)?
         {
-            let span = out.words[k].span;
-            // G4 P is seconds; G4 X is the block layer's seconds. A cycle's P is whole ms.
-            out.words[k] = if has(40) {
-                number_word('X', p, span)
-            } else {
-                number_word('P', (p * 1000.0).round(), span)
-            };
+            // The block layer reads a cycle's P as whole milliseconds.
+            out.words[k] = number_word('P', (p * 1000.0).round(), out.words[k].span);
             changed = true;
         }
         if out.words.iter().any(|w| matches!(w.letter, '@' | '^')) {
