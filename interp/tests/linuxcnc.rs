@@ -263,3 +263,19 @@ fn g4_p_with_a_move_in_one_block_is_not_address_x_given_twice() {
         vec![[0.0, 0.0, 1.0], [2.0, 0.0, 1.0]]
     );
 }
+
+#[test]
+fn hole_circle_g91_polar_cycle_repeats_turn_about_the_origin() {
+    let p = "G0 X15 Y0 Z0\nG91 G81 R1 Z-5 ^60 L6 F100\nG80\nM2\n";
+    let holes: Vec<[f64; 2]> = ends(p)
+        .iter()
+        .filter(|e| (e[2] - 1.0).abs() < 1e-9 && (e[0].hypot(e[1]) - 15.0).abs() < 1e-6)
+        .map(|e| [e[0], e[1]])
+        .collect();
+    let mut angles: Vec<i64> = holes
+        .iter()
+        .map(|h| h[1].atan2(h[0]).to_degrees().round() as i64)
+        .collect();
+    angles.dedup();
+    assert_eq!(angles, vec![0, 60, 120, 180, -120, -60, 0]);
+}

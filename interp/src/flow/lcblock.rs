@@ -37,6 +37,7 @@ impl Interpreter {
         unit: &Unit,
         block: &Block,
     ) -> Result<Option<Block>, NcError> {
+        self.m.state.polar_step = None;
         let special = |w: &Word| matches!(w.letter, '@' | '^' | 'G');
         if !block.words.iter().any(special) {
             return Ok(None);
@@ -121,6 +122,7 @@ impl Interpreter {
             }
             r = radius.map_or(r0, |d| r0 + d);
             a = angle.map_or(a0, |d| a0 + d);
+            self.m.state.polar_step = Some([radius.unwrap_or(0.0), angle.unwrap_or(0.0)]);
         }
         let (x, y) = (r * a.to_radians().cos(), r * a.to_radians().sin());
         // The block layer reads X/Y in the distance mode: give it what that needs.
