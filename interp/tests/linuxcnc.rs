@@ -279,3 +279,11 @@ fn hole_circle_g91_polar_cycle_repeats_turn_about_the_origin() {
     angles.dedup();
     assert_eq!(angles, vec![0, 60, 120, 180, -120, -60, 0]);
 }
+
+#[test]
+fn debug_switch_5599_is_writable() {
+    assert_eq!(
+        ends("G0 X#5599\n#5599=0\nG0 Y[#5599 + 2]\nM2\n"),
+        vec![[1.0, 0.0, 0.0], [1.0, 2.0, 0.0]]
+    );
+}

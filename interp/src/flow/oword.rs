@@ -299,5 +299,8 @@ pub(crate) fn linuxcnc_read(it: &mut Interpreter, n: i64) -> Result<MVal, String
         let axis = b"XYZABCUVW"[(n - 5420) as usize] as char;
         return it.axis_position(axis).map(Some);
     }
+    if n == super::sysvars::LC_DEBUG_SWITCH {
+        return Ok(Some(it.flow.lc_debug_switch));
+    }
     Ok(Some(it.read_var(n)?.unwrap_or(0.0)))
 }

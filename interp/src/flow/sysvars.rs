@@ -8,6 +8,9 @@ use crate::vars::{MVal, VarClass};
 
 use super::Interpreter;
 
+/// LinuxCNC's `#5599`: whether `(debug,…)` comments print.
+pub(crate) const LC_DEBUG_SWITCH: i64 = 5599;
+
 impl VarSource for Interpreter {
     fn get(&mut self, n: i64) -> Result<Option<f64>, String> {
         if self.m.dialect == cnc402_lang::Dialect::LinuxCnc {
@@ -50,6 +53,10 @@ impl Interpreter {
     /// Writes `#n`; system variables with side effects (`#3000`, `#3006`) are handled by the
     /// assignment itself.
     pub(crate) fn write_var(&mut self, n: i64, v: MVal) -> Result<(), String> {
+        if n == LC_DEBUG_SWITCH && self.m.dialect == cnc402_lang::Dialect::LinuxCnc {
+            self.flow.lc_debug_switch = v.unwrap_or(0.0);
+            return Ok(());
+        }
         let class = VarClass::of(n, self.m.cfg.axes.len())?;
         if class == VarClass::Null {
             return Err("#0 is always vacant and cannot be written".into());
