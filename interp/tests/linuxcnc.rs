@@ -287,3 +287,31 @@ fn debug_switch_5599_is_writable() {
         vec![[1.0, 0.0, 0.0], [1.0, 2.0, 0.0]]
     );
 }
+
+#[test]
+fn g41_without_d_takes_the_loaded_tools_radius() {
+    let mut cfg = MachineConfig::default_machine();
+    cfg.tool_offsets[1].radius = 2.0;
+    let prog = |comp: &str| {
+        let text = format!(
+            "(dialect: linuxcnc)\nT2 M6\nG0 X0 Y-10 Z0\n{comp} G1 X0 Y0 F100\nX20\nY20\nG40 G0 X30 Y30\nM2\n"
+        );
+        run_program(&cfg, &SourceFile::new("t.ngc", text))
+            .unwrap_or_else(|e| panic!("{e}"))
+            .iter()
+            .filter_map(|s| match &s.kind {
+                SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => Some(*end),
+                _ => None,
+            })
+            .collect::<Vec<_>>()
+    };
+    let without_d = prog("G41");
+    assert_eq!(without_d, prog("G41 D2"));
+    assert!(without_d.iter().any(|e| (e[0] + 2.0).abs() < 1e-9));
+    // Fanuc still wants the D.
+    let fanuc = run_program(
+        &cfg,
+        &SourceFile::new("t.nc", "T2 M6\nG41 G1 X0 Y0 F100\nM2\n"),
+    );
+    assert!(fanuc.unwrap_err().message.contains("without D"));
+}
