@@ -315,3 +315,14 @@ fn g41_without_d_takes_the_loaded_tools_radius() {
     );
     assert!(fanuc.unwrap_err().message.contains("without D"));
 }
+
+#[test]
+fn g8_lathe_radius_mode_is_a_no_op_and_g7_is_refused() {
+    assert_eq!(
+        ends("G8\nG0 X1\nG8 G1 X2 F100\nM2\n"),
+        vec![[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]
+    );
+    let (line, col, m) = err("G0 X1\nG7\nM2\n");
+    assert_eq!((line, col), (3, 1));
+    assert!(m.contains("G7 (lathe diameter mode)"), "{m}");
+}

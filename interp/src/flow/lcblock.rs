@@ -1,9 +1,8 @@
 //! LinuxCNC's block words that the Fanuc block layer reads otherwise, translated before the
-//! block runs (the `linuxcnc` dialect only): polar `@` radius and `^` angle become X and Y,
-//! a canned cycle's `P` seconds becomes milliseconds (the block layer reads G4's P as seconds
-//! in this dialect itself), and
-//! `G92.1`/`G92.2`/`G92.3` reset, suspend and restore the G92 shift (kept as LinuxCNC keeps
-//! it in `#5211`…: the last G92 set).
+//! block runs (the `linuxcnc` dialect only): polar `@`/`^` become X and Y, a canned cycle's
+//! `P` seconds becomes milliseconds, `G8` (lathe radius mode) is dropped and `G7` refused,
+//! and `G92.1`/`G92.2`/`G92.3` reset, suspend and restore the G92 shift (kept as LinuxCNC
+//! keeps it in `#5211`…: the last G92 set).
 
 use cnc402_lang::NcError;
 use cnc402_lang::ast::{Block, Number, Span, Value, Word};
@@ -52,11 +51,22 @@ impl Interpreter {
         let mut out = block.clone();
         let mut changed = false;
         for (code, span) in &g {
-            if let Some(c @ 921..=923) = code {
-                self.g92_dot(*c);
-                out.words.retain(|w| w.span != *span);
-                changed = true;
+            match code {
+                Some(c @ 921..=923) => self.g92_dot(*c),
+                // G8: lathe radius mode, what a mill's X already is (Fanuc's G08 is lookahead).
+                Some(80) => {}
+                Some(70) => {
+                    return Err(NcError::new(
+                        &unit.src,
+                        *span,
+                        "G7 (lathe diameter mode) is not supported: X is a radius on this machine"
+                            .to_string(),
+                    ));
+                }
+                _ => continue,
             }
+            out.words.retain(|w| w.span != *span);
+            changed = true;
         }
         let cycle = [730, 810, 820, 830, 840, 850, 860, 870, 880, 890]
             .into_iter()
