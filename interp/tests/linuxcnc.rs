@@ -326,3 +326,16 @@ fn g8_lathe_radius_mode_is_a_no_op_and_g7_is_refused() {
     assert_eq!((line, col), (3, 1));
     assert!(m.contains("G7 (lathe diameter mode)"), "{m}");
 }
+
+#[test]
+fn else_if_in_two_words_and_return_labelled_by_an_if_of_the_sub() {
+    let p = "o1000 sub\no1010 if [#1 GT 0]\no1010 return [123]\no1010 endif\no1000 endsub [7]\no1000 call [1]\nG0 X#<_value>\no1000 call [0]\nG0 Y#<_value>\n#2 = 2\no<100> if [#2 EQ 1]\nG0 Z1\no<100> else if [#2 EQ 2]\nG0 Z2\no<100> end if\nM2\n";
+    assert_eq!(
+        ends(p),
+        vec![[123.0, 0.0, 0.0], [123.0, 7.0, 0.0], [123.0, 7.0, 2.0]]
+    );
+    // A label that is neither the sub's nor one of its constructs' stays an error.
+    let (line, _, m) = err("o1 sub\no2 return\no1 endsub\no1 call\nM2\n");
+    assert_eq!(line, 3);
+    assert!(m.contains("not inside a sub labelled o2"), "{m}");
+}
