@@ -339,3 +339,12 @@ fn else_if_in_two_words_and_return_labelled_by_an_if_of_the_sub() {
     assert_eq!(line, 3);
     assert!(m.contains("not inside a sub labelled o2"), "{m}");
 }
+
+#[test]
+fn several_parameter_assignments_on_one_line_evaluate_all_values_first() {
+    let p = "#101=1 #102=2\n#101=#102 #102=#101 #<a>=[#101+#102]\nG0 X#101 Y#102 Z#<a>\nM2\n";
+    assert_eq!(ends(p), vec![[2.0, 1.0, 3.0]]);
+    let (line, col, m) = err("#1=1 #2=\nM2\n");
+    assert_eq!((line, col), (2, 9));
+    assert!(m.contains("missing expression"), "{m}");
+}
