@@ -348,3 +348,10 @@ fn several_parameter_assignments_on_one_line_evaluate_all_values_first() {
     assert_eq!((line, col), (2, 9));
     assert!(m.contains("missing expression"), "{m}");
 }
+
+#[test]
+fn global_parameters_without_a_fanuc_meaning_are_writable() {
+    // #61 and #4100 mean nothing writable to Fanuc; LinuxCNC's #31-#5000 are globals.
+    let p = "#61=2 #4100=3\no1 sub\n#61=[#61+1]\no1 endsub\no1 call\nG0 X#61 Y#4100 Z#101\nM2\n";
+    assert_eq!(ends(p), vec![[3.0, 3.0, 0.0]]);
+}

@@ -302,5 +302,8 @@ pub(crate) fn linuxcnc_read(it: &mut Interpreter, n: i64) -> Result<MVal, String
     if n == super::sysvars::LC_DEBUG_SWITCH {
         return Ok(Some(it.flow.lc_debug_switch));
     }
+    if let Some(&v) = it.flow.lc_globals.get(&n) {
+        return Ok(Some(v));
+    }
     Ok(Some(it.read_var(n)?.unwrap_or(0.0)))
 }
