@@ -8,9 +8,6 @@ use crate::vars::{MVal, VarClass};
 
 use super::Interpreter;
 
-/// LinuxCNC's `#5599`: whether `(debug,…)` comments print.
-pub(crate) const LC_DEBUG_SWITCH: i64 = 5599;
-
 /// LinuxCNC's global parameters; those Fanuc gives no writable meaning are kept apart.
 pub(crate) const LC_GLOBALS: std::ops::RangeInclusive<i64> = 31..=5000;
 
@@ -57,7 +54,7 @@ impl Interpreter {
     /// assignment itself.
     pub(crate) fn write_var(&mut self, n: i64, v: MVal) -> Result<(), String> {
         if self.m.dialect == cnc402_lang::Dialect::LinuxCnc {
-            if n == LC_DEBUG_SWITCH {
+            if n == super::oword::LC_DEBUG_SWITCH {
                 self.flow.lc_debug_switch = v.unwrap_or(0.0);
                 return Ok(());
             }
