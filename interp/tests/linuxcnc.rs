@@ -241,3 +241,117 @@ fn m99_out_of_a_subroutine_drops_its_named_locals() {
     let p = "o1 sub\n#<t> = 5\nM99\no1 endsub\n#<t> = 1\no1 call\nG0 X#<t>\nM2\n";
     assert_eq!(ends(p), vec![[1.0, 0.0, 0.0]]);
 }
+
+#[test]
+fn g4_p_with_a_move_in_one_block_is_not_address_x_given_twice() {
+    let segs = run("G0 X0 Y0 Z0\nG04 P.001 G0 X1.0 Y1.0\nM2\n").unwrap_or_else(|e| panic!("{e}"));
+    let kinds: Vec<_> = segs
+        .iter()
+        .filter(|s| {
+            matches!(
+                s.kind,
+                SegmentKind::Dwell { .. } | SegmentKind::Rapid { .. }
+            )
+        })
+        .map(|s| s.kind.clone())
+        .collect();
+    assert_eq!(kinds[1], SegmentKind::Dwell { seconds: 0.001 });
+    assert!(matches!(kinds[2], SegmentKind::Rapid { end } if end[0] == 1.0 && end[1] == 1.0));
+    // A G4 with axis words and no motion G moves in the modal motion mode.
+    assert_eq!(
+        ends("G1 X0 Y0 Z1 F100\nG4 P0.5 X2\nM2\n"),
+        vec![[0.0, 0.0, 1.0], [2.0, 0.0, 1.0]]
+    );
+}
+
+#[test]
+fn hole_circle_g91_polar_cycle_repeats_turn_about_the_origin() {
+    let p = "G0 X15 Y0 Z0\nG91 G81 R1 Z-5 ^60 L6 F100\nG80\nM2\n";
+    let holes: Vec<[f64; 2]> = ends(p)
+        .iter()
+        .filter(|e| (e[2] - 1.0).abs() < 1e-9 && (e[0].hypot(e[1]) - 15.0).abs() < 1e-6)
+        .map(|e| [e[0], e[1]])
+        .collect();
+    let mut angles: Vec<i64> = holes
+        .iter()
+        .map(|h| h[1].atan2(h[0]).to_degrees().round() as i64)
+        .collect();
+    angles.dedup();
+    assert_eq!(angles, vec![0, 60, 120, 180, -120, -60, 0]);
+}
+
+#[test]
+fn debug_switch_5599_is_writable() {
+    assert_eq!(
+        ends("G0 X#5599\n#5599=0\nG0 Y[#5599 + 2]\nM2\n"),
+        vec![[1.0, 0.0, 0.0], [1.0, 2.0, 0.0]]
+    );
+}
+
+#[test]
+fn g41_without_d_takes_the_loaded_tools_radius() {
+    let mut cfg = MachineConfig::default_machine();
+    cfg.tool_offsets[1].radius = 2.0;
+    let prog = |comp: &str| {
+        let text = format!(
+            "(dialect: linuxcnc)\nT2 M6\nG0 X0 Y-10 Z0\n{comp} G1 X0 Y0 F100\nX20\nY20\nG40 G0 X30 Y30\nM2\n"
+        );
+        run_program(&cfg, &SourceFile::new("t.ngc", text))
+            .unwrap_or_else(|e| panic!("{e}"))
+            .iter()
+            .filter_map(|s| match &s.kind {
+                SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => Some(*end),
+                _ => None,
+            })
+            .collect::<Vec<_>>()
+    };
+    let without_d = prog("G41");
+    assert_eq!(without_d, prog("G41 D2"));
+    assert!(without_d.iter().any(|e| (e[0] + 2.0).abs() < 1e-9));
+    // Fanuc still wants the D.
+    let fanuc = run_program(
+        &cfg,
+        &SourceFile::new("t.nc", "T2 M6\nG41 G1 X0 Y0 F100\nM2\n"),
+    );
+    assert!(fanuc.unwrap_err().message.contains("without D"));
+}
+
+#[test]
+fn g8_lathe_radius_mode_is_a_no_op_and_g7_is_refused() {
+    assert_eq!(
+        ends("G8\nG0 X1\nG8 G1 X2 F100\nM2\n"),
+        vec![[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]
+    );
+    let (line, col, m) = err("G0 X1\nG7\nM2\n");
+    assert_eq!((line, col), (3, 1));
+    assert!(m.contains("G7 (lathe diameter mode)"), "{m}");
+}
+
+#[test]
+fn else_if_in_two_words_and_return_labelled_by_an_if_of_the_sub() {
+    let p = "o1000 sub\no1010 if [#1 GT 0]\no1010 return [123]\no1010 endif\no1000 endsub [7]\no1000 call [1]\nG0 X#<_value>\no1000 call [0]\nG0 Y#<_value>\n#2 = 2\no<100> if [#2 EQ 1]\nG0 Z1\no<100> else if [#2 EQ 2]\nG0 Z2\no<100> end if\nM2\n";
+    assert_eq!(
+        ends(p),
+        vec![[123.0, 0.0, 0.0], [123.0, 7.0, 0.0], [123.0, 7.0, 2.0]]
+    );
+    // A label that is neither the sub's nor one of its constructs' stays an error.
+    let (line, _, m) = err("o1 sub\no2 return\no1 endsub\no1 call\nM2\n");
+    assert_eq!(line, 3);
+    assert!(m.contains("not inside a sub labelled o2"), "{m}");
+}
+
+#[test]
+fn several_parameter_assignments_on_one_line_evaluate_all_values_first() {
+    let p = "#101=1 #102=2\n#101=#102 #102=#101 #<a>=[#101+#102]\nG0 X#101 Y#102 Z#<a>\nM2\n";
+    assert_eq!(ends(p), vec![[2.0, 1.0, 3.0]]);
+    let (line, col, m) = err("#1=1 #2=\nM2\n");
+    assert_eq!((line, col), (2, 9));
+    assert!(m.contains("missing expression"), "{m}");
+}
+
+#[test]
+fn global_parameters_without_a_fanuc_meaning_are_writable() {
+    // #61 and #4100 mean nothing writable to Fanuc; LinuxCNC's #31-#5000 are globals.
+    let p = "#61=2 #4100=3\no1 sub\n#61=[#61+1]\no1 endsub\no1 call\nG0 X#61 Y#4100 Z#101\nM2\n";
+    assert_eq!(ends(p), vec![[3.0, 3.0, 0.0]]);
+}

@@ -75,6 +75,9 @@ pub enum LineKind {
     /// (the comment is in [`Line::comments`]). `target` is an [`ExprKind::Var`] or
     /// [`ExprKind::IndirectVar`].
     Assign { target: Box<Expr>, value: Box<Expr> },
+    /// LinuxCNC dialect: several assignments on one line (`#41=0 #42=#41`): every right-hand
+    /// side is evaluated first, then the parameters are set in order. (target, value) pairs.
+    Assigns(Vec<(Expr, Expr)>),
     /// `GOTO 100`, `GOTO #10`, `GOTO [#1+10]`: jump to the block with that N number.
     Goto { target: Box<Expr> },
     /// `IF [#1 EQ 2] GOTO 100`: conditional jump.

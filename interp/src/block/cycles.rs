@@ -138,7 +138,7 @@ impl Exec<'_> {
         // the R level is a distance from the initial level that carries the part of the
         // offset vector G28/G30/G53 took out at the reference, as any G91 Z move does.
         let r_level = if self.st.incremental {
-            data.initial + data.initial_tlo_pending + r
+            data.lc_g91_r_from.unwrap_or(data.initial) + data.initial_tlo_pending + r
         } else {
             r + self.st.origin(id)
         };
@@ -310,13 +310,28 @@ impl Exec<'_> {
         let unit = self.st.unit();
         let mut ex = Expander::at_machine(cc, state, self.st.pos, levels);
         ex.begin();
-        let mut holes = Vec::with_capacity(d.reps as usize);
-        for _ in 0..d.reps {
+        let mut holes: Vec<[f64; 2]> = Vec::with_capacity(d.reps as usize);
+        // LinuxCNC's G91 polar repeats (G17 only: polar words are X and Y).
+        let polar_step = self
+            .st
+            .polar_step
+            .filter(|_| d.letters.0 == 'X' && d.letters.1 == 'Y');
+        for k in 0..d.reps {
             self.st.pos = ex.position();
             let mut pos = self.st.pos;
-            for (w, i) in [(d.wa, ia), (d.wb, ib)] {
-                if let Some(a) = w {
-                    pos[i] = self.word_target(i, a.v * unit);
+            match (polar_step, holes.last()) {
+                (Some([dr, da]), Some(&[x, y])) if k > 0 => {
+                    let r = x.hypot(y) + dr * unit;
+                    let a = y.atan2(x) + da.to_radians();
+                    pos[ia] = r * a.cos() + state.offset.0[ia];
+                    pos[ib] = r * a.sin() + state.offset.0[ib];
+                }
+                _ => {
+                    for (w, i) in [(d.wa, ia), (d.wb, ib)] {
+                        if let Some(a) = w {
+                            pos[i] = self.word_target(i, a.v * unit);
+                        }
+                    }
                 }
             }
             holes.push([pos[ia] - state.offset.0[ia], pos[ib] - state.offset.0[ib]]);
@@ -340,6 +355,7 @@ impl Exec<'_> {
         let data = &mut self.st.cycle_data;
         let below_r = (data.initial - r_level) * (r_level - bottom) < 0.0;
         if linuxcnc.is_some_and(|l| l.first) && below_r && !self.st.incremental {
+            data.lc_g91_r_from = Some(data.initial);
             data.initial = r_level;
         }
         data.initial

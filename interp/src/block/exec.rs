@@ -208,6 +208,11 @@ impl Exec<'_> {
         self.tool_length()?;
         self.m_before_motion()?;
         match self.w.g_of(GGroup::NonModal) {
+            Some((4, _)) if self.dialect == Dialect::LinuxCnc => {
+                // LinuxCNC runs a dwell and a move of one block in that order.
+                self.dwell()?;
+                self.motion()?;
+            }
             Some((4, _)) => self.dwell()?,
             Some((10, span)) => self.data_input(span)?,
             Some((92, span)) => self.set_coordinates(span)?,
@@ -378,6 +383,7 @@ impl Exec<'_> {
             ));
         }
         if g.iter().any(|x| x.0 == 4)
+            && self.dialect != Dialect::LinuxCnc
             && let Some(o) = motion.or(cycle)
         {
             return Err(self.err(
@@ -691,8 +697,21 @@ impl Exec<'_> {
         }
     }
 
-    /// G4: `X` seconds or `P` milliseconds (Fanuc; LinuxCNC's P is seconds).
+    /// G4: `X` seconds or `P` milliseconds (Fanuc); LinuxCNC's is `P` seconds only, its X
+    /// being an axis word of the block's move.
     fn dwell(&mut self) -> Result<(), NcError> {
+        if self.dialect == Dialect::LinuxCnc {
+            let Some(p) = self.w.take('P') else {
+                return Ok(());
+            };
+            if p.v < 0.0 {
+                return Err(self.err(p.span, "dwell time must not be negative"));
+            }
+            if p.v > 0.0 {
+                self.push(SegmentKind::Dwell { seconds: p.v });
+            }
+            return Ok(());
+        }
         let x = self.w.take('X');
         let p = self.w.take('P');
         let seconds = match (x, p) {

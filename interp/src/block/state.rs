@@ -115,6 +115,9 @@ pub struct CycleData {
     /// takes the tool to be (after G88 too: the operator took it out); `None` before the
     /// series' first block has drilled.
     pub lc_level: Option<f64>,
+    /// LinuxCNC: the machine level the series began at, when the preliminary move made R the
+    /// initial level; a G91 R still counts from here, as rs274 counts it.
+    pub lc_g91_r_from: Option<f64>,
 }
 
 /// What is cut off at a corner.
@@ -217,6 +220,11 @@ pub struct ModalState {
     pub flood: bool,
     /// The running program's dialect (LinuxCNC's canned cycles differ from Fanuc's).
     pub dialect: cnc402_lang::Dialect,
+    /// LinuxCNC: the G91 polar increments of the block being run (`@` radius in program
+    /// units, `^` degrees; set by the block translation in `flow/lcblock.rs`): a G17 canned
+    /// cycle's repeats each turn and stretch the last hole by them, as LinuxCNC drills a
+    /// bolt circle.
+    pub polar_step: Option<[f64; 2]>,
     /// Group 07: G41/G42 with D and radius, `None` in G40 (see `block/comp.rs`).
     pub comp: Option<CutterComp>,
     /// The D number last programmed (0: none).
@@ -232,6 +240,7 @@ impl ModalState {
             motion: Motion::Rapid,
             cycle: None,
             cycle_data: CycleData::default(),
+            polar_step: None,
             plane: match cfg.interp.plane {
                 PlaneDefault::XY => Plane::XY,
                 PlaneDefault::ZX => Plane::ZX,

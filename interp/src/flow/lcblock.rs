@@ -1,8 +1,8 @@
 //! LinuxCNC's block words that the Fanuc block layer reads otherwise, translated before the
-//! block runs (the `linuxcnc` dialect only): polar `@` radius and `^` angle become X and Y,
-//! `G4 P` seconds becomes `G4 X`, a canned cycle's `P` seconds becomes milliseconds, and
-//! `G92.1`/`G92.2`/`G92.3` reset, suspend and restore the G92 shift (kept as LinuxCNC keeps
-//! it in `#5211`…: the last G92 set).
+//! block runs (the `linuxcnc` dialect only): polar `@`/`^` become X and Y, a canned cycle's
+//! `P` seconds becomes milliseconds, `G8` (lathe radius mode) is dropped and `G7` refused,
+//! and `G92.1`/`G92.2`/`G92.3` reset, suspend and restore the G92 shift (kept as LinuxCNC
+//! keeps it in `#5211`…: the last G92 set).
 
 use cnc402_lang::NcError;
 use cnc402_lang::ast::{Block, Number, Span, Value, Word};
@@ -36,7 +36,8 @@ impl Interpreter {
         unit: &Unit,
         block: &Block,
     ) -> Result<Option<Block>, NcError> {
-        let special = |w: &Word| matches!(w.letter, '@' | '^' | 'G' | 'P');
+        self.m.state.polar_step = None;
+        let special = |w: &Word| matches!(w.letter, '@' | '^' | 'G');
         if !block.words.iter().any(special) {
             return Ok(None);
         }
@@ -50,26 +51,33 @@ impl Interpreter {
         let mut out = block.clone();
         let mut changed = false;
         for (code, span) in &g {
-            if let Some(c @ 921..=923) = code {
-                self.g92_dot(*c);
-                out.words.retain(|w| w.span != *span);
-                changed = true;
+            match code {
+                Some(c @ 921..=923) => self.g92_dot(*c),
+                // G8: lathe radius mode, what a mill's X already is (Fanuc's G08 is lookahead).
+                Some(80) => {}
+                Some(70) => {
+                    return Err(NcError::new(
+                        &unit.src,
+                        *span,
+                        "G7 (lathe diameter mode) is not supported: X is a radius on this machine"
+                            .to_string(),
+                    ));
+                }
+                _ => continue,
             }
+            out.words.retain(|w| w.span != *span);
+            changed = true;
         }
         let cycle = [730, 810, 820, 830, 840, 850, 860, 870, 880, 890]
             .into_iter()
             .any(has);
         if let Some(k) = out.words.iter().position(|w| w.letter == 'P')
-            && (has(40) || cycle)
+            && cycle
+            && !has(40)
             && let Some(p) = expr::value_in(&unit.src, &out.words[k].value, self)?
         {
-            let span = out.words[k].span;
-            // G4 P is seconds; G4 X is the block layer's seconds. A cycle's P is whole ms.
-            out.words[k] = if has(40) {
-                number_word('X', p, span)
-            } else {
-                number_word('P', (p * 1000.0).round(), span)
-            };
+            // The block layer reads a cycle's P as whole milliseconds.
+            out.words[k] = number_word('P', (p * 1000.0).round(), out.words[k].span);
             changed = true;
         }
         if out.words.iter().any(|w| matches!(w.letter, '@' | '^')) {
@@ -124,6 +132,7 @@ impl Interpreter {
             }
             r = radius.map_or(r0, |d| r0 + d);
             a = angle.map_or(a0, |d| a0 + d);
+            self.m.state.polar_step = Some([radius.unwrap_or(0.0), angle.unwrap_or(0.0)]);
         }
         let (x, y) = (r * a.to_radians().cos(), r * a.to_radians().sin());
         // The block layer reads X/Y in the distance mode: give it what that needs.

@@ -119,6 +119,18 @@ impl Interpreter {
                 self.flow.seen_block = true;
                 self.assign(&unit, line, target, value)
             }
+            LineKind::Assigns(pairs) => {
+                self.flow.seen_block = true;
+                let mut values = Vec::with_capacity(pairs.len());
+                for (target, value) in pairs {
+                    let to = self.var_target(&unit, target)?;
+                    values.push((target, to, self.eval_at(&unit.src, value)?));
+                }
+                for (target, to, v) in values {
+                    self.set_var(&unit, line, (target, to), v)?;
+                }
+                Ok(())
+            }
             LineKind::Goto { target } => {
                 self.flow.seen_block = true;
                 let n = self.seq_target(&unit, target)?;
@@ -218,24 +230,46 @@ impl Interpreter {
         target: &Expr,
         value: &Expr,
     ) -> Result<(), NcError> {
-        let n = match &target.kind {
-            ExprKind::Var(n) => i64::from(*n),
-            ExprKind::IndirectVar(e) => var_number(self.eval_at(&unit.src, e)?.unwrap_or(0.0)),
-            ExprKind::Named(name) => {
-                let v = self.eval_at(&unit.src, value)?;
+        let to = self.var_target(unit, target)?;
+        let v = self.eval_at(&unit.src, value)?;
+        self.set_var(unit, line, (target, to), v)
+    }
+
+    /// What an assignment's target names: `#n` / `#[expr]` (the index evaluated now, before
+    /// the value, as Fanuc and LinuxCNC read a line) or `#<name>` (`None`).
+    fn var_target(&mut self, unit: &Unit, target: &Expr) -> Result<Option<i64>, NcError> {
+        match &target.kind {
+            ExprKind::Var(n) => Ok(Some(i64::from(*n))),
+            ExprKind::IndirectVar(e) => {
+                Ok(Some(var_number(self.eval_at(&unit.src, e)?.unwrap_or(0.0))))
+            }
+            ExprKind::Named(_) => Ok(None),
+            _ => Err(NcError::new(
+                &unit.src,
+                target.span,
+                "an assignment needs a variable on the left",
+            )),
+        }
+    }
+
+    /// Sets the assignment target (`target` as written, `to` as [`Self::var_target`] read it)
+    /// to the evaluated `v`: `#3000` alarms, `#3006` stops with its message.
+    fn set_var(
+        &mut self,
+        unit: &Unit,
+        line: &Line,
+        (target, to): (&Expr, Option<i64>),
+        v: crate::vars::MVal,
+    ) -> Result<(), NcError> {
+        let n = match (&target.kind, to) {
+            (_, Some(n)) => n,
+            (ExprKind::Named(name), None) => {
                 return self
                     .write_named(name, v)
                     .map_err(|m| NcError::new(&unit.src, target.span, m));
             }
-            _ => {
-                return Err(NcError::new(
-                    &unit.src,
-                    target.span,
-                    "an assignment needs a variable on the left",
-                ));
-            }
+            (_, None) => return Ok(()),
         };
-        let v = self.eval_at(&unit.src, value)?;
         let text = line
             .comments
             .first()

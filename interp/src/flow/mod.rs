@@ -90,6 +90,12 @@ struct Flow {
     main_m99_line: Option<u32>,
     /// LinuxCNC: the G92 shift as the last G92 set it (what G92.3 restores).
     g92_kept: [f64; cnc402_config::MAX_AXES],
+    /// LinuxCNC's `#5599`, the switch of `(debug,…)` output (1 at start, as LinuxCNC): kept
+    /// so that programs can set and read it; `(debug,…)` comments are comments here.
+    lc_debug_switch: f64,
+    /// LinuxCNC's global parameters `#31`-`#5000` that have no Fanuc meaning here (`#61`),
+    /// by number: at most 4970 entries.
+    lc_globals: std::collections::BTreeMap<i64, f64>,
 }
 
 /// The macro variables and their storage.
@@ -140,6 +146,8 @@ impl Interpreter {
                 seen_block: false,
                 main_m99_line: None,
                 g92_kept: Default::default(),
+                lc_debug_switch: 1.0,
+                lc_globals: Default::default(),
             },
             vars: Vars::default(),
             hll: Hll::default(),
@@ -227,6 +235,8 @@ impl Interpreter {
         self.flow.seen_block = false;
         self.flow.main_m99_line = None;
         self.flow.g92_kept = Default::default();
+        self.flow.lc_debug_switch = 1.0;
+        self.flow.lc_globals.clear();
     }
 
     /// The next segment, `Ok(None)` at the end of the program, or the error that ends it:

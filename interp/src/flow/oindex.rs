@@ -172,26 +172,39 @@ impl OIndex {
             OWordKind::EndIf => self.close_if(program, stack, i, label, Open::If),
             OWordKind::EndWhile => self.close_if(program, stack, i, label, Open::While),
             OWordKind::EndRepeat => self.close_if(program, stack, i, label, Open::Repeat),
-            OWordKind::Break | OWordKind::Continue | OWordKind::Return(_) => {
-                let want_loop = !matches!(o.kind, OWordKind::Return(_));
-                let found = stack.iter_mut().rev().find(|b| {
-                    b.label == label
-                        && (if want_loop {
-                            b.open.is_loop()
-                        } else {
-                            b.open == Open::Sub
-                        })
-                });
+            OWordKind::Return(_) => {
+                // rs274 also takes the label of an if or loop inside the sub (retval.ngc's
+                // `o1010 return` in `o1010 if`): it returns from the innermost sub.
+                let Some(sub) = stack.iter().rposition(|b| b.open == Open::Sub) else {
+                    self.errors
+                        .insert(i, format!("{label}: not inside a sub labelled {label}"));
+                    return;
+                };
+                if stack[sub..].iter().any(|b| b.label == label) {
+                    stack[sub].members.push(i);
+                } else {
+                    self.errors.insert(
+                        i,
+                        format!(
+                            "{label}: not inside a sub labelled {label} (or an if or loop of it)"
+                        ),
+                    );
+                }
+            }
+            OWordKind::Break | OWordKind::Continue => {
+                let found = stack
+                    .iter_mut()
+                    .rev()
+                    .find(|b| b.label == label && b.open.is_loop());
                 match found {
                     Some(b) => b.members.push(i),
                     None => {
-                        let what = if want_loop {
-                            "while, do or repeat loop"
-                        } else {
-                            "sub"
-                        };
-                        self.errors
-                            .insert(i, format!("{label}: not inside a {what} labelled {label}"));
+                        self.errors.insert(
+                            i,
+                            format!(
+                                "{label}: not inside a while, do or repeat loop labelled {label}"
+                            ),
+                        );
                     }
                 }
             }

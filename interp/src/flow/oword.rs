@@ -292,12 +292,21 @@ impl Interpreter {
     }
 }
 
+/// LinuxCNC's `#5599`: whether `(debug,…)` comments print.
+pub(crate) const LC_DEBUG_SWITCH: i64 = 5599;
+
 /// A LinuxCNC program's numbered parameter read: vacant reads as 0 (LinuxCNC has no
 /// vacant), and `#5420`-`#5428` are the current X Y Z A B C U V W.
 pub(crate) fn linuxcnc_read(it: &mut Interpreter, n: i64) -> Result<MVal, String> {
     if (5420..=5428).contains(&n) {
         let axis = b"XYZABCUVW"[(n - 5420) as usize] as char;
         return it.axis_position(axis).map(Some);
+    }
+    if n == LC_DEBUG_SWITCH {
+        return Ok(Some(it.flow.lc_debug_switch));
+    }
+    if let Some(&v) = it.flow.lc_globals.get(&n) {
+        return Ok(Some(v));
     }
     Ok(Some(it.read_var(n)?.unwrap_or(0.0)))
 }

@@ -8,6 +8,9 @@ use crate::vars::{MVal, VarClass};
 
 use super::Interpreter;
 
+/// LinuxCNC's global parameters; those Fanuc gives no writable meaning are kept apart.
+pub(crate) const LC_GLOBALS: std::ops::RangeInclusive<i64> = 31..=5000;
+
 impl VarSource for Interpreter {
     fn get(&mut self, n: i64) -> Result<Option<f64>, String> {
         if self.m.dialect == cnc402_lang::Dialect::LinuxCnc {
@@ -50,6 +53,18 @@ impl Interpreter {
     /// Writes `#n`; system variables with side effects (`#3000`, `#3006`) are handled by the
     /// assignment itself.
     pub(crate) fn write_var(&mut self, n: i64, v: MVal) -> Result<(), String> {
+        if self.m.dialect == cnc402_lang::Dialect::LinuxCnc {
+            if n == super::oword::LC_DEBUG_SWITCH {
+                self.flow.lc_debug_switch = v.unwrap_or(0.0);
+                return Ok(());
+            }
+            if LC_GLOBALS.contains(&n)
+                && (self.flow.lc_globals.contains_key(&n) || !self.fanuc_writable(n))
+            {
+                self.flow.lc_globals.insert(n, v.unwrap_or(0.0));
+                return Ok(());
+            }
+        }
         let class = VarClass::of(n, self.m.cfg.axes.len())?;
         if class == VarClass::Null {
             return Err("#0 is always vacant and cannot be written".into());
@@ -67,5 +82,19 @@ impl Interpreter {
         Err(format!(
             "#{n} cannot be written (locals #1-#33, common #100-#199, non-volatile #{NV_FIRST}-#{NV_LAST}, work offsets #5221-#5326, tool offsets #2001-#2400 and #10001-#13400, #3000, #3006)"
         ))
+    }
+
+    /// `#n` has a writable meaning in the Fanuc variable map (what the linuxcnc dialect keeps
+    /// there rather than among its own globals).
+    fn fanuc_writable(&self, n: i64) -> bool {
+        matches!(n, 3000 | 3006)
+            || matches!(
+                VarClass::of(n, self.m.cfg.axes.len()),
+                Ok(VarClass::Local(_)
+                    | VarClass::Common(_)
+                    | VarClass::NonVolatile(_)
+                    | VarClass::WorkOffset { .. }
+                    | VarClass::ToolOffset { .. })
+            )
     }
 }

@@ -11,6 +11,9 @@ use crate::ast::{
 use crate::dialect::Dialect;
 
 /// A C expression as a word value: ends at the line end, names must not look like words.
+/// Most parameter assignments on one LinuxCNC line (rs274 allows 50 parameter settings a line).
+const MAX_ASSIGNS_PER_LINE: usize = 50;
+
 const IN_BLOCK: ECx = ECx {
     nl: false,
     in_block: true,
@@ -106,6 +109,7 @@ impl<'a> Cx<'a> {
             Some(b'O' | b'o') if self.dialect == Dialect::LinuxCnc => {
                 return self.oword(i, comments);
             }
+            Some(b'#') if self.dialect == Dialect::LinuxCnc => self.assignments(i)?,
             Some(b'#') => self.assignment(i)?,
             Some(b'I' | b'i') if starts_with_kw(i, "IF") => self.if_statement(i, comments)?,
             Some(b'W' | b'w') if macro_kw(i, "WHILE", "WH").is_some() => {
@@ -154,6 +158,37 @@ impl<'a> Cx<'a> {
         let (rest, ()) = self.trivia(rest, comments)?;
         self.expect_end(rest, "after the statement")?;
         Ok((rest, kind))
+    }
+
+    /// LinuxCNC: one or more assignments on a line, `#1=0 #2=[#1+1]` (at most
+    /// [`MAX_ASSIGNS_PER_LINE`]); one is a [`LineKind::Assign`].
+    fn assignments(&self, i: &'a str) -> PResult<'a, LineKind> {
+        let (mut r, first) = self.assignment(i)?;
+        let mut all = Vec::new();
+        while ws(r).starts_with('#') {
+            if all.len() == MAX_ASSIGNS_PER_LINE {
+                let at = ws(r);
+                return fail(
+                    at,
+                    char_len(at),
+                    "too many parameter assignments on one line",
+                );
+            }
+            let (rest, next) = self.assignment(ws(r))?;
+            all.push(next);
+            r = rest;
+        }
+        if all.is_empty() {
+            return Ok((r, first));
+        }
+        let pairs = std::iter::once(first)
+            .chain(all)
+            .filter_map(|k| match k {
+                LineKind::Assign { target, value } => Some((*target, *value)),
+                _ => None,
+            })
+            .collect();
+        Ok((r, LineKind::Assigns(pairs)))
     }
 
     /// `#n = expr` or `#[expr] = expr`; `i` starts with `#`.

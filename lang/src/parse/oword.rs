@@ -38,8 +38,19 @@ impl<'a> Cx<'a> {
                 KEYWORDS,
             );
         }
-        let kw = kw_at[..kw_len].to_ascii_lowercase();
-        let r = &kw_at[kw_len..];
+        let mut kw = kw_at[..kw_len].to_ascii_lowercase();
+        let mut r = &kw_at[kw_len..];
+        // LinuxCNC reads a line without its spaces: `else if` is `elseif`, `end if` `endif`.
+        let next_at = ws(r);
+        let next_len = next_at.bytes().take_while(u8::is_ascii_alphabetic).count();
+        if next_len > 0 && next_at.len() < r.len() {
+            let joined = format!("{kw}{}", next_at[..next_len].to_ascii_lowercase());
+            let known = ["elseif", "endif", "endsub", "endwhile", "endrepeat"];
+            if known.contains(&joined.as_str()) {
+                kw = joined;
+                r = &next_at[next_len..];
+            }
+        }
         let (r, kind) = match kw.as_str() {
             "sub" => (r, OWordKind::Sub),
             "else" => (r, OWordKind::Else),
