@@ -85,7 +85,7 @@ impl Exec<'_> {
                 .err(span, format!("G{code} while a canned cycle is active"))
                 .with_expected("G80 before G41/G42"));
         }
-        if d_span.is_none() && self.st.dialect == cnc402_lang::Dialect::LinuxCnc {
+        if d_span.is_none() && self.dialect == cnc402_lang::Dialect::LinuxCnc {
             // LinuxCNC: G41/G42 without D take the radius of the tool in the spindle.
             self.st.d = self.st.tool_loaded.unwrap_or(0).min(TOOL_OFFSETS as u32);
         }

@@ -153,7 +153,7 @@ impl Exec<'_> {
         self.check_work(&name, cyc, ld, (r_level - bottom).abs(), d.reps)?;
         let state = self.canon_state();
         let o = state.offset.0[id];
-        let linuxcnc = (self.st.dialect == cnc402_lang::Dialect::LinuxCnc).then(|| LinuxCncCycle {
+        let linuxcnc = (self.dialect == cnc402_lang::Dialect::LinuxCnc).then(|| LinuxCncCycle {
             first: data.lc_level.is_none(),
             level: data.lc_level.unwrap_or(self.st.pos[id]) - o,
         });

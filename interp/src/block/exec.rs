@@ -940,7 +940,7 @@ impl Exec<'_> {
                 };
             } else if self.tlo_commanded
                 && self.st.tool_axis == Some(i)
-                && self.st.dialect != cnc402_lang::Dialect::LinuxCnc
+                && self.dialect != cnc402_lang::Dialect::LinuxCnc
             {
                 // (LinuxCNC applies a new tool length offset at the axis' next move.)
                 // No move when the vector does not change (G49 after G28 Z: Fanuc cancelled

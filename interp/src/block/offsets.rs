@@ -92,7 +92,7 @@ impl Exec<'_> {
         }
         if let Some(h) = h {
             self.st.h = self.offset_number(h, "H", true)? as u32;
-        } else if let (Some((43, _)), cnc402_lang::Dialect::LinuxCnc) = (g, self.st.dialect) {
+        } else if let (Some((43, _)), cnc402_lang::Dialect::LinuxCnc) = (g, self.dialect) {
             // LinuxCNC: G43 without H takes the tool in the spindle's offset.
             self.st.h = self.st.tool_loaded.unwrap_or(0).min(TOOL_OFFSETS as u32);
         }
@@ -206,7 +206,7 @@ impl Exec<'_> {
         };
         // LinuxCNC: G10 L2 sets in G91 too, P0 is the active system, and L20 sets the offset
         // from the current position.
-        let linuxcnc = self.st.dialect == cnc402_lang::Dialect::LinuxCnc;
+        let linuxcnc = self.dialect == cnc402_lang::Dialect::LinuxCnc;
         let add = self.st.incremental && !linuxcnc;
         match lv {
             2 | 20 if lv == 2 || linuxcnc => {

@@ -218,8 +218,6 @@ pub struct ModalState {
     /// Coolant: M7 (mist), M8 (flood); M9 turns both off.
     pub mist: bool,
     pub flood: bool,
-    /// The running program's dialect (LinuxCNC's canned cycles differ from Fanuc's).
-    pub dialect: cnc402_lang::Dialect,
     /// LinuxCNC: the G91 polar increments of the block being run (`@` radius in program
     /// units, `^` degrees; set by the block translation in `flow/lcblock.rs`): a G17 canned
     /// cycle's repeats each turn and stretch the last hole by them, as LinuxCNC drills a
@@ -278,7 +276,6 @@ impl ModalState {
             noted_mcodes: Vec::new(),
             mist: false,
             flood: false,
-            dialect: cnc402_lang::Dialect::default(),
             comp: None,
             d: 0,
             comp_starting: false,

@@ -215,7 +215,6 @@ impl Interpreter {
         let (units, main) = units::split_units(&src, &program);
         self.m.reset();
         self.m.dialect = program.dialect;
-        self.m.state.dialect = program.dialect;
         self.flow.main_src = src;
         self.flow.units = units;
         self.flow.lib_cache.clear();
