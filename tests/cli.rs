@@ -1279,6 +1279,12 @@ fn fine_blocks_under_g64_run_at_the_feed() {
         .unwrap_or_else(|| panic!("no program time in {out}"));
     // The 10 mm rapid (about 0.2 s) plus 20 mm at 50 mm/s.
     assert!(secs < 1.0, "{secs} s: {out}");
+    // Regression (virtual_time_loop_ticked_ahead_of_the_feeder): on the embedded simulator the
+    // loop waits for the feeder, so a fine G64 path never pauses for want of a move, however
+    // slow the feeder thread (a debug build's is slow): no starved tick, no exact stop.
+    let r = read_json(&report);
+    assert_eq!(r["starved_ticks"], 0, "{r}");
+    assert_eq!(r["exact_stops"], 0, "{r}");
 }
 
 /// The report's path figures on one path run in both modes: G61 comes to rest at each of

@@ -258,6 +258,13 @@ impl Interpolator {
         self.stop_carry.is_some() && matches!(self.job, Job::Idle)
     }
 
+    /// True between two moves of a blended chain: the path is at speed and the next tick
+    /// needs the next move (without it the path pauses on the spot, see
+    /// [`starved_at_speed`](Self::starved_at_speed)).
+    pub fn needs_next_move(&self) -> bool {
+        matches!(self.job, Job::Idle) && self.blend.is_some()
+    }
+
     /// Ticks that found the path at speed with no next move (see the module doc).
     pub fn starved_at_speed(&self) -> u64 {
         self.starved_at_speed

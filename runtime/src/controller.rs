@@ -246,6 +246,9 @@ impl<L: DriveLink> CycleController<L> {
     /// The virtual-time driver steps only then, so virtual time does not depend on how fast
     /// the feeder thread is.
     pub fn has_work(&self) -> bool {
+        if self.short_of_moves() {
+            return false;
+        }
         self.phase != Phase::Running
             || self.held
             || self.input_done
@@ -253,6 +256,22 @@ impl<L: DriveLink> CycleController<L> {
             || !self.moves.is_empty()
             || self.stop_request.load(Ordering::Relaxed)
             || self.matching.is_active()
+    }
+
+    /// The path is at speed between two blended moves and the ring may not hold the moves the
+    /// next tick runs through (moves shorter than a period pass several a tick): it is neither
+    /// full nor holding the end of the blended chain (the program's end, a move that is not a
+    /// path move, or a path move that ends at rest — the feeder stops pushing before a buffer
+    /// stop such as M0, so waiting for more than that would wait forever). A tick now could pause the path for want of a move;
+    /// virtual time waits for the feeder instead, so a G64 run on the embedded simulator does
+    /// not depend on how fast the feeder thread plans. Allocation-free.
+    pub fn short_of_moves(&self) -> bool {
+        self.phase == Phase::Running
+            && !self.held
+            && !self.input_done
+            && self.interp.needs_next_move()
+            && !self.moves.is_full()
+            && !self.moves.iter().any(ends_the_chain)
     }
 
     /// Ticks run so far.
@@ -667,4 +686,17 @@ pub fn start_position(axes: &AxisTable, pos: &[f64; MAX_AXES]) -> AxisPos {
     let mut p = AxisPos::default();
     p.0[..axes.n].copy_from_slice(&pos[..axes.n]);
     p
+}
+
+/// True for a ring entry after which the blended chain does not go on: the program's end, a
+/// move that is not a path move (dwell, spindle, tool change, events), or a path move that
+/// ends at rest.
+fn ends_the_chain(input: &LoopInput) -> bool {
+    match input {
+        LoopInput::End => true,
+        LoopInput::Move(m) => match &m.kind {
+            MoveKind::Path(p) => p.end_speed == 0.0,
+            _ => true,
+        },
+    }
 }
