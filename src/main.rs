@@ -97,6 +97,11 @@ struct RunArgs {
     /// Run against the wall clock at the configured period (always so on a real CAN bus).
     #[arg(long)]
     realtime: bool,
+    /// Refuse to run (exit 4, naming the limit to raise) unless the real-time loop gets locked
+    /// memory and SCHED_FIFO; without it the run goes on with a warning. Needs a real-time
+    /// loop: a CAN interface or --realtime (docs/real-machine.md).
+    #[arg(long)]
+    require_rt: bool,
     /// On a CAN interface: how long to wait for every drive's boot-up after NMT reset
     /// communication (default 30 s; drives that start late, a slow emulated guest).
     #[arg(long, value_name = "SECONDS")]

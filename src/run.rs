@@ -136,6 +136,13 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
             cfg.bus.interface
         )));
     }
+    if args.require_rt && !args.realtime && cfg.bus.is_sim() {
+        return Err(CliError::Usage(
+            "--require-rt needs a real-time loop: the embedded simulator runs in virtual time \
+             unless --realtime is given"
+                .into(),
+        ));
+    }
     let timeouts = timeouts(args).map_err(CliError::Usage)?;
     let stats_every = match args.stats_every {
         Some(s) => Some(parse_stats_every(s).map_err(CliError::Usage)?),
@@ -184,6 +191,7 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         optional_stop: args.optional_stop,
         no_operator_terminal,
         stats_every,
+        require_rt: args.require_rt,
         ..RunOptions::default()
     };
 

@@ -77,6 +77,11 @@ pub struct InterpDefaults {
     pub path_tolerance: f64,
     /// The largest tolerance a program may ask for with `G64 P` / `Q` (mm).
     pub max_path_tolerance: f64,
+    /// G64's collinearity tolerance when the program gives neither P nor Q (mm, LinuxCNC's
+    /// `G64_DEFAULT_NAIVETOLERANCE`): feed lines whose corners lie within it of one straight
+    /// line run as that line; 0 merges nothing. Also for `G64 P` without Q (LinuxCNC takes
+    /// P there; README "Continuous path" says why cnc402 does not).
+    pub collinear_tolerance: f64,
     /// G64 or G61 at program start.
     pub path_mode: PathModeDefault,
     /// The physical spindle angle (degrees, 0 ≤ angle < 360, in the spindle axis's machine
@@ -126,6 +131,8 @@ pub(crate) struct RawInterp {
     path_tolerance: Spanned<f64>,
     #[serde(default = "default_max_path_tol")]
     max_path_tolerance: Spanned<f64>,
+    #[serde(default = "default_collinear_tol")]
+    collinear_tolerance: Spanned<f64>,
     #[serde(default = "default_path_mode")]
     path_mode: Spanned<String>,
     #[serde(default = "default_orient_angle")]
@@ -165,6 +172,7 @@ impl Default for RawInterp {
             arc_tolerance_relative: default_arc_tol_relative(),
             path_tolerance: default_path_tol(),
             max_path_tolerance: default_max_path_tol(),
+            collinear_tolerance: default_collinear_tol(),
             path_mode: default_path_mode(),
             spindle_orient_angle: default_orient_angle(),
             program_dir: default_program_dir(),
@@ -210,6 +218,9 @@ fn default_path_tol() -> Spanned<f64> {
 fn default_max_path_tol() -> Spanned<f64> {
     sp(1.0)
 }
+fn default_collinear_tol() -> Spanned<f64> {
+    sp(0.0)
+}
 fn default_path_mode() -> Spanned<String> {
     sp("continuous".into())
 }
@@ -227,6 +238,16 @@ impl RawInterp {
     /// Checks each key; a left-out `tap_peck_retract` takes `peck_retract`'s value.
     pub(crate) fn validate(&self) -> Result<InterpDefaults, Invalid> {
         let d = self.validate_keys()?;
+        if d.collinear_tolerance > d.max_path_tolerance {
+            return Err((
+                self.collinear_tolerance.span(),
+                "interp.collinear_tolerance".into(),
+                format!(
+                    "must be at most interp.max_path_tolerance ({}), got {}",
+                    d.max_path_tolerance, d.collinear_tolerance
+                ),
+            ));
+        }
         if d.path_tolerance > d.max_path_tolerance {
             return Err((
                 self.path_tolerance.span(),
@@ -313,6 +334,15 @@ impl RawInterp {
                 "interp.max_path_tolerance",
                 MAX_LENGTH,
             )?,
+            collinear_tolerance: if *i.collinear_tolerance.get_ref() == 0.0 {
+                0.0
+            } else {
+                positive_at_most(
+                    &i.collinear_tolerance,
+                    "interp.collinear_tolerance",
+                    MAX_LENGTH,
+                )?
+            },
             path_mode: match i.path_mode.get_ref().to_ascii_lowercase().as_str() {
                 "continuous" | "g64" => PathModeDefault::Continuous,
                 "exact" | "g61" => PathModeDefault::ExactStop,

@@ -309,6 +309,20 @@ mod tests {
     }
 
     #[test]
+    fn collinear_tolerance_key() {
+        assert_eq!(parse(SHIPPED).unwrap().interp.collinear_tolerance, 0.0);
+        let key = "collinear_tolerance = 0.0";
+        assert!(SHIPPED.contains(key), "the shipped config sets the key");
+        let text = SHIPPED.replace(key, "collinear_tolerance = 0.02");
+        assert_eq!(parse(&text).unwrap().interp.collinear_tolerance, 0.02);
+        for bad in ["-0.01", "nan", "inf", "2.0"] {
+            let text = SHIPPED.replace(key, &format!("collinear_tolerance = {bad}"));
+            let e = parse(&text).unwrap_err();
+            assert_eq!(e.key, "interp.collinear_tolerance", "{bad}");
+        }
+    }
+
+    #[test]
     fn path_tolerance_key() {
         assert_eq!(parse(SHIPPED).unwrap().interp.path_tolerance, 0.01);
         let text = SHIPPED.replace("path_tolerance = 0.01", "");

@@ -151,7 +151,10 @@ fn rigid_tap_strokes_and_shared_states() {
     assert_eq!(ops[3].state.path_mode, PathMode::ExactStop);
     assert_eq!(
         ops[4].state.path_mode,
-        PathMode::Continuous { tolerance: 0.05 }
+        PathMode::Continuous {
+            tolerance: 0.05,
+            collinear: 0.0
+        }
     );
 }
 

@@ -80,37 +80,38 @@ fn moves_that_couple_nothing_are_no_taps() {
 
 #[test]
 fn path_modes_set_how_segments_end() {
-    let cont = |t: f64| SegmentEnd::Continuous { tolerance: t };
+    // G64 P without Q takes interp.collinear_tolerance (LinuxCNC would take P).
+    let cont = |t: f64, q: f64| SegmentEnd::Continuous {
+        tolerance: t,
+        collinear: q,
+    };
+    let d = MachineConfig::default_machine().interp;
     let segs = run(
         "G1 X1 F100\nG64 P0.05 X2\nG61 X3\nG63 X4\nG64 X5\nG20 G64 P0.001 G0 X1\nG21 G61 G4 P10\nG64 G4 P20\nG1 X6\nM30\n",
     );
     let ends =
         |line: u32| -> Vec<SegmentEnd> { on_line(&segs, line).iter().map(|s| s.ends).collect() };
     // The default is G64 with the default tolerance.
-    assert_eq!(
-        ends(1),
-        [cont(MachineConfig::default_machine().interp.path_tolerance)]
-    );
-    assert_eq!(ends(2), [cont(0.05)]);
+    assert_eq!(ends(1), [cont(d.path_tolerance, d.collinear_tolerance)]);
+    assert_eq!(ends(2), [cont(0.05, d.collinear_tolerance)]);
     assert_eq!(ends(3), [SegmentEnd::ExactStop]);
     assert_eq!(ends(4), [SegmentEnd::ExactStop]);
     // G64 without P is the default again, not the last P.
-    assert_eq!(
-        ends(5),
-        [cont(MachineConfig::default_machine().interp.path_tolerance)]
-    );
+    assert_eq!(ends(5), [cont(d.path_tolerance, d.collinear_tolerance)]);
     // P in program units (inch), rapids too.
-    let SegmentEnd::Continuous { tolerance } = ends(6)[0] else {
+    let SegmentEnd::Continuous {
+        tolerance,
+        collinear,
+    } = ends(6)[0]
+    else {
         panic!("{:?}", ends(6))
     };
     assert!((tolerance - 0.0254).abs() < 1e-15);
+    assert_eq!(collinear, d.collinear_tolerance);
     // A dwell is no path: exact stop; in a G64 block with G4 the P is the dwell's.
     assert_eq!(ends(7), [SegmentEnd::ExactStop]);
     assert!(matches!(on_line(&segs, 8)[0].kind, SegmentKind::Dwell { seconds } if seconds == 0.02));
-    assert_eq!(
-        ends(9),
-        [cont(MachineConfig::default_machine().interp.path_tolerance)]
-    );
+    assert_eq!(ends(9), [cont(d.path_tolerance, d.collinear_tolerance)]);
     // Non-path segments end in an exact stop whatever the mode.
     let stop = segs.last().unwrap();
     assert!(matches!(stop.kind, SegmentKind::Stop { .. }));
@@ -133,8 +134,11 @@ fn g64_p_must_be_positive() {
 /// `interp.path_mode` gives the mode at program start.
 #[test]
 fn g9_g08_and_the_configured_default_mode() {
-    let tol = MachineConfig::default_machine().interp.path_tolerance;
-    let cont = SegmentEnd::Continuous { tolerance: tol };
+    let d = MachineConfig::default_machine().interp;
+    let cont = SegmentEnd::Continuous {
+        tolerance: d.path_tolerance,
+        collinear: d.collinear_tolerance,
+    };
     let segs = run("G1 X1 F100
 G9 X2
 X3
@@ -176,8 +180,11 @@ M30
 /// at the configured tolerance.
 #[test]
 fn g05_1_q1_and_q0_are_g64_and_g61() {
-    let tol = MachineConfig::default_machine().interp.path_tolerance;
-    let cont = SegmentEnd::Continuous { tolerance: tol };
+    let d = MachineConfig::default_machine().interp;
+    let cont = SegmentEnd::Continuous {
+        tolerance: d.path_tolerance,
+        collinear: d.collinear_tolerance,
+    };
     let segs = run("G64 P0.05 G1 X1 F100
 G05.1 Q0
 X2
@@ -187,7 +194,13 @@ G61 X5
 M30
 ");
     let ends = |line: u32| on_line(&segs, line)[0].ends;
-    assert_eq!(ends(1), SegmentEnd::Continuous { tolerance: 0.05 });
+    assert_eq!(
+        ends(1),
+        SegmentEnd::Continuous {
+            tolerance: 0.05,
+            collinear: 0.0
+        }
+    );
     assert_eq!(ends(3), SegmentEnd::ExactStop, "G05.1 Q0 = G61");
     assert_eq!(ends(4), cont, "G05.1 Q1 = G64 at the configured tolerance");
     assert_eq!(ends(5), cont, "modal");
@@ -233,7 +246,13 @@ fn bad_path_mode_words_are_errors_at_the_word() {
     }
     // Q with P is accepted.
     let segs = run("G64 P0.02 Q0.01\nG1 X1 F100\nM30\n");
-    assert_eq!(segs[0].ends, SegmentEnd::Continuous { tolerance: 0.02 });
+    assert_eq!(
+        segs[0].ends,
+        SegmentEnd::Continuous {
+            tolerance: 0.02,
+            collinear: 0.01
+        }
+    );
 }
 
 /// A canned cycle under G64 ends every move in an exact stop (it must reach each level it
@@ -257,6 +276,9 @@ fn a_g84_hole_under_g64_gives_exact_stop_taps() {
     assert!(hole.iter().all(|s| s.ends == SegmentEnd::ExactStop));
     assert_eq!(
         on_line(&segs, 5)[0].ends,
-        SegmentEnd::Continuous { tolerance: 0.05 }
+        SegmentEnd::Continuous {
+            tolerance: 0.05,
+            collinear: 0.0
+        }
     );
 }

@@ -37,7 +37,10 @@ fn polyline(pts: &[AxisPos], feed: f64, tol: f64) -> Vec<Segment> {
         .map(|(i, p)| Segment {
             kind: SegmentKind::Linear { end: *p, feed },
             source: src(i as u32 + 1),
-            ends: SegmentEnd::Continuous { tolerance: tol },
+            ends: SegmentEnd::Continuous {
+                tolerance: tol,
+                collinear: 0.0,
+            },
         })
         .collect()
 }

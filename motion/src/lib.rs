@@ -77,6 +77,7 @@
 //! # Ok::<(), MotionError>(())
 //! ```
 
+pub mod collinear;
 pub mod counts;
 pub mod error;
 pub mod interpolator;

@@ -39,6 +39,7 @@ use std::collections::VecDeque;
 
 use cnc402_config::MachineConfig;
 
+use crate::collinear::CollinearChain;
 use crate::error::{MotionError, MotionErrorKind};
 use crate::planner::{MoveKind, PathMove, PlannedMove, Planner};
 use crate::profile::{JerkProfile, Limits, PathProfile, double_s, ramp_distance};
@@ -114,6 +115,8 @@ pub struct Lookahead {
     /// A lone segment between two junctions may use the axes' whole acceleration: near its
     /// ends its acceleration is at most jerk·T, which with the jump fits every axis's limit.
     lone_full: bool,
+    /// Feed lines waiting to be merged under `G64 Q` (see [`crate::collinear`]).
+    chain: CollinearChain,
 }
 
 impl Lookahead {
@@ -122,6 +125,10 @@ impl Lookahead {
         let planner = Planner::new(config);
         let (accel, n_axes, period) = planner.axis_accelerations();
         let capacity = capacity.max(2);
+        let mut linear = [false; MAX_AXES];
+        for (l, a) in linear.iter_mut().zip(&config.axes) {
+            *l = a.kind == cnc402_config::AxisKind::Linear;
+        }
         let lone_full = config
             .axes
             .iter()
@@ -140,6 +147,7 @@ impl Lookahead {
             infeasible: 0,
             refine_from: 0,
             lone_full,
+            chain: CollinearChain::new(linear),
         }
     }
 
@@ -156,7 +164,13 @@ impl Lookahead {
 
     /// Segments held, not yet given out as moves.
     pub fn pending(&self) -> usize {
-        self.window.len()
+        self.window.len() + self.chain.len()
+    }
+
+    /// How far `G64 Q` merging moved the path: the largest distance (mm) of a programmed
+    /// corner from the merged line that replaced it (0 when nothing merged).
+    pub fn merge_deviation(&self) -> f64 {
+        self.chain.max_deviation()
     }
 
     /// Junctions planned at a speed the profile could not reach exactly (for tests: 0).
@@ -170,8 +184,34 @@ impl Lookahead {
     }
 
     /// Plans `seg` after the segments before it. A `Continuous` path segment waits in the
-    /// window; anything else first brings the window to rest. On error nothing changes.
+    /// window (a feed line under `G64 Q` first in the collinear chain, which may merge it with
+    /// its neighbours); anything else first brings the window to rest. On error nothing
+    /// changes, except that a merged line the error broke off has been planned.
     pub fn push(&mut self, seg: &Segment) -> Result<(), MotionError> {
+        let at = self.chain.end().unwrap_or_else(|| self.planner.position());
+        if let Some(q) = self.chain.mergeable(seg, &at) {
+            if !self.chain.is_empty() && !self.chain.extend(seg, q) {
+                self.flush_chain()?;
+            }
+            if self.chain.is_empty() {
+                self.chain.begin(seg, at);
+            }
+            return Ok(());
+        }
+        self.flush_chain()?;
+        self.push_one(seg)
+    }
+
+    /// Plans the merged line the collinear chain holds, if any.
+    fn flush_chain(&mut self) -> Result<(), MotionError> {
+        match self.chain.take() {
+            Some(line) => self.push_one(&line),
+            None => Ok(()),
+        }
+    }
+
+    /// [`push`](Self::push) past the collinear chain.
+    fn push_one(&mut self, seg: &Segment) -> Result<(), MotionError> {
         let start = self.planner.position();
         let mv = self.planner.plan(seg)?;
         let MoveKind::Path(path) = mv.kind else {
@@ -180,7 +220,7 @@ impl Lookahead {
             return Ok(());
         };
         let tolerance = match seg.ends {
-            SegmentEnd::Continuous { tolerance } if path.tap.is_none() => Some(tolerance),
+            SegmentEnd::Continuous { tolerance, .. } if path.tap.is_none() => Some(tolerance),
             _ => None,
         };
         if tolerance.is_some() && path.length <= 0.0 {
@@ -224,6 +264,7 @@ impl Lookahead {
 
     /// The end of the program: plans what the window holds to rest.
     pub fn finish(&mut self) -> Result<(), MotionError> {
+        self.flush_chain()?;
         self.flush()
     }
 

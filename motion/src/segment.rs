@@ -289,8 +289,10 @@ pub enum StopKind {
 pub enum SegmentEnd {
     /// Come to rest on the end point (G61, G63, taps, every non-path segment).
     ExactStop,
-    /// G64: the path may pass within `tolerance` (mm, > 0) of the end point.
-    Continuous { tolerance: f64 },
+    /// G64: the path may pass within `tolerance` (mm, > 0) of the end point; runs of feed
+    /// lines whose corners lie within `collinear` (mm, LinuxCNC's `G64 Q`; 0 = never) of one
+    /// straight line run as that line (see [`crate::collinear`]).
+    Continuous { tolerance: f64, collinear: f64 },
 }
 
 /// A rigid tap: the tool (drilling) axis and the spindle axis, a position axis here, move

@@ -16,7 +16,10 @@ fn cont(kind: SegmentKind, line: u32, tolerance: f64) -> Segment {
     Segment {
         kind,
         source: src(line),
-        ends: SegmentEnd::Continuous { tolerance },
+        ends: SegmentEnd::Continuous {
+            tolerance,
+            collinear: 0.0,
+        },
     }
 }
 
@@ -562,4 +565,105 @@ fn stop_along_blended_moves_decelerates_across_moves_within_limits() {
     assert_eq!(ticks.last().unwrap().path_velocity, 0.0);
     // It stopped well before the end of the program.
     assert!(ticks.len() < 600, "{}", ticks.len());
+}
+
+/// `G64 P… Q…`: the same polyline with collinearity tolerance `q` (LinuxCNC's naive CAM).
+fn polyline_q(pts: &[AxisPos], feed: f64, tol: f64, q: f64) -> Vec<Segment> {
+    let mut segs = polyline(pts, feed, tol);
+    for s in &mut segs {
+        s.ends = SegmentEnd::Continuous {
+            tolerance: tol,
+            collinear: q,
+        };
+    }
+    segs
+}
+
+/// Every sample within `tol` of the programmed polyline `pts`, searching the blocks a merged
+/// move can stand for (a merged move carries its last block's line).
+fn check_near_polyline(ticks: &[Tick], pts: &[AxisPos], tol: f64) -> f64 {
+    let mut worst: f64 = 0.0;
+    for t in &ticks[1..] {
+        let l = t.line as usize;
+        let from = l.saturating_sub(cnc402_motion::collinear::MAX_CHAIN + 2);
+        let best = (from..(l + 1).min(pts.len() - 1))
+            .map(|k| dist_to_segment(&t.pos, &pts[k], &pts[k + 1]))
+            .fold(f64::INFINITY, f64::min);
+        worst = worst.max(best);
+    }
+    assert!(worst <= tol, "path deviation {worst} > {tol}");
+    worst
+}
+
+#[test]
+fn g64_q_merges_noisy_collinear_cam_steps_into_few_moves() {
+    let cfg = MachineConfig::default_machine();
+    // 1000 blocks of 0.1 mm along X, each vertex up to 3 µm off the line (CAM noise).
+    let pts: Vec<AxisPos> = (0..=1000)
+        .map(|i| {
+            let noise = 0.003 * ((i * 7919) % 13) as f64 / 12.0 - 0.0015;
+            xyzc(
+                i as f64 * 0.1,
+                if i == 0 || i == 1000 { 0.0 } else { noise },
+                0.0,
+                0.0,
+            )
+        })
+        .collect();
+    let segs = polyline_q(&pts, 3000.0, 0.01, 0.01);
+    let run = run_blended(&cfg, pts[0], &segs, 200);
+    assert!(
+        run.moves.len() <= 11,
+        "{} moves for 1000 blocks: at most 100 blocks a move",
+        run.moves.len()
+    );
+    check_limits(&cfg, &run.ticks);
+    let dev = check_near_polyline(&run.ticks, &pts, 0.01);
+    assert!(dev > 0.0, "merging moved the path off the noisy vertices");
+    assert_eq!(
+        run.ticks.last().unwrap().pos,
+        *pts.last().unwrap(),
+        "exact end"
+    );
+    let secs = (run.ticks.len() - 1) as f64 * cfg.bus.period_s();
+    assert!(secs < 100.0 / 50.0 * 1.10, "{secs} s for 100 mm at 50 mm/s");
+    // The same program with Q = 0 merges nothing.
+    let plain = run_blended(&cfg, pts[0], &polyline_q(&pts, 3000.0, 0.01, 0.0), 200);
+    assert_eq!(plain.moves.len(), 1000);
+}
+
+#[test]
+fn g64_q_never_merges_across_a_corner_beyond_q() {
+    let cfg = MachineConfig::default_machine();
+    let mut pts = vec![xyzc(0.0, 0.0, 0.0, 0.0)];
+    for (x, y) in [(20.0, 0.0), (20.0, 20.0), (0.0, 20.0), (0.0, 0.0)] {
+        pts.push(xyzc(x, y, 0.0, 0.0));
+    }
+    let with_q = run_blended(&cfg, pts[0], &polyline_q(&pts, 3000.0, 0.01, 0.01), 100);
+    let without = run_blended(&cfg, pts[0], &polyline_q(&pts, 3000.0, 0.01, 0.0), 100);
+    let kinds = |r: &Run| r.moves.iter().map(|m| m.kind).collect::<Vec<_>>();
+    assert_eq!(
+        kinds(&with_q),
+        kinds(&without),
+        "90° corners are never merged"
+    );
+}
+
+/// Merging a curve's fine blocks into chords stays within Q and every limit, but the chords
+/// meet at sharper corners (about 5° for r 10 mm, Q 0.01 mm), which this planner takes
+/// slower: why `G64 P` alone does not merge in cnc402 (README "Continuous path").
+#[test]
+fn fine_circle_under_g64_q_stays_within_q_and_the_limits() {
+    let cfg = MachineConfig::default_machine();
+    let pts = circle_points(6_000, 10.0, 0.01);
+    let segs = polyline_q(&pts, 3000.0, 0.01, 0.01);
+    let run = run_blended(&cfg, pts[0], &segs, 1000);
+    // Chords within 0.01 mm of a 10 mm radius span about 0.9 mm: about 90 blocks a move.
+    assert!(run.moves.len() < 6_000 / 50, "{} moves", run.moves.len());
+    check_limits(&cfg, &run.ticks);
+    check_near_polyline(&run.ticks, &pts, 0.01);
+    assert_eq!(run.ticks.last().unwrap().pos, *pts.last().unwrap());
+    let secs = (run.ticks.len() - 1) as f64 * cfg.bus.period_s();
+    let feed_only = path_length(&pts) / 50.0;
+    println!("fine circle under G64 P0.01 Q0.01: {secs} s against {feed_only} s at the feed");
 }

@@ -519,7 +519,10 @@ fn a_tap_plans_like_its_linear_move_and_carries_its_coupling() {
     let end = xyzc(5.0, 5.0, -10.0, 3120.0);
     let pitch = -13.0 / 3120.0 * 360.0;
     let mut as_tap = tap(end, 750.0, pitch, 4);
-    as_tap.ends = SegmentEnd::Continuous { tolerance: 0.02 };
+    as_tap.ends = SegmentEnd::Continuous {
+        tolerance: 0.02,
+        collinear: 0.0,
+    };
     let mut planner = Planner::new(&c);
     planner.set_position(start);
     let t = planner.plan(&as_tap).unwrap();
@@ -538,7 +541,13 @@ fn a_tap_plans_like_its_linear_move_and_carries_its_coupling() {
     );
     assert_eq!(lp.tap, None);
     assert_eq!(PathMove { tap: None, ..tp }, lp);
-    assert_eq!(t.ends, SegmentEnd::Continuous { tolerance: 0.02 });
+    assert_eq!(
+        t.ends,
+        SegmentEnd::Continuous {
+            tolerance: 0.02,
+            collinear: 0.0,
+        }
+    );
     assert_eq!(l.ends, SegmentEnd::ExactStop);
     let tap_ticks = run(&c, start, &[tap(end, 750.0, pitch, 4)]);
     assert_eq!(tap_ticks, run(&c, start, &[lin(end, 750.0, 4)]));

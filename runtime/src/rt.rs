@@ -12,7 +12,9 @@ use nix::time::{ClockId, ClockNanosleepFlags, clock_gettime, clock_nanosleep};
 /// SCHED_FIFO priority the loop thread asks for.
 pub const RT_PRIORITY: i32 = 80;
 
-/// Which real-time privileges the loop thread got.
+/// Which real-time privileges the loop thread got. A refusal's text names the limit to
+/// raise (RLIMIT_MEMLOCK, RLIMIT_RTPRIO) with its value, not only the errno ("Out of memory"
+/// alone sent people looking for a memory leak); docs/real-machine.md says how to raise them.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RtGrant {
     /// `mlockall(MCL_CURRENT | MCL_FUTURE)` succeeded, or why not.
@@ -35,13 +37,68 @@ impl RtGrant {
             s(&self.fifo)
         )
     }
+
+    /// Both granted.
+    pub fn is_full(&self) -> bool {
+        self.mlockall.is_ok() && self.fifo.is_ok()
+    }
+}
+
+/// A resource limit's soft value (`None`: unlimited or unreadable).
+fn soft_limit(resource: libc::__rlimit_resource_t) -> Option<u64> {
+    let mut r = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: plain syscall writing into a valid rlimit struct.
+    let rc = unsafe { libc::getrlimit(resource, &mut r) };
+    (rc == 0 && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur)
+}
+
+/// Why `mlockall` failed, naming the locked-memory limit (`memlock`: RLIMIT_MEMLOCK in
+/// bytes, `None` = unlimited).
+pub fn mlock_refusal(e: nix::errno::Errno, memlock: Option<u64>) -> String {
+    use nix::errno::Errno;
+    let limit = memlock.map_or("unlimited".to_string(), |b| format!("{} kB", b / 1024));
+    match e {
+        Errno::ENOMEM | Errno::EPERM => format!(
+            "{}: the locked-memory limit (RLIMIT_MEMLOCK, `ulimit -l`) is {limit}, too small to \
+             lock the whole process; raise it to unlimited for this user (limits.d: \
+             `USER - memlock unlimited`; systemd: LimitMEMLOCK=infinity) or grant CAP_IPC_LOCK",
+            e.desc()
+        ),
+        _ => format!("{} (RLIMIT_MEMLOCK {limit})", e.desc()),
+    }
+}
+
+/// Why SCHED_FIFO at [`RT_PRIORITY`] was refused, naming the real-time priority limit
+/// (`rtprio`: RLIMIT_RTPRIO, `None` = unlimited).
+pub fn fifo_refusal(e: nix::errno::Errno, rtprio: Option<u64>) -> String {
+    use nix::errno::Errno;
+    let limit = rtprio.map_or("unlimited".to_string(), |p| p.to_string());
+    match e {
+        Errno::EPERM => format!(
+            "{}: the real-time priority limit (RLIMIT_RTPRIO, `ulimit -r`) is {limit}, SCHED_FIFO \
+             {RT_PRIORITY} needs at least {RT_PRIORITY}; raise it for this user (limits.d: \
+             `USER - rtprio 99`; systemd: LimitRTPRIO=99) or grant CAP_SYS_NICE{}",
+            e.desc(),
+            if rtprio.is_none_or(|p| p >= RT_PRIORITY as u64) {
+                " (the limit allows it: a cgroup without real-time runtime refuses it, \
+                 see docs/real-machine.md)"
+            } else {
+                ""
+            }
+        ),
+        _ => format!("{} (RLIMIT_RTPRIO {limit})", e.desc()),
+    }
 }
 
 /// Locks memory and switches the calling thread to SCHED_FIFO where the process may; never
-/// fails (the loop runs anyway, just with worse latency).
+/// fails (the loop runs anyway, just with worse latency, unless the run requires both: see
+/// [`RtGrant::is_full`]).
 pub fn request_realtime() -> RtGrant {
     let mlock = mlockall(MlockAllFlags::MCL_CURRENT | MlockAllFlags::MCL_FUTURE)
-        .map_err(|e| e.desc().to_string());
+        .map_err(|e| mlock_refusal(e, soft_limit(libc::RLIMIT_MEMLOCK)));
     let param = libc::sched_param {
         sched_priority: RT_PRIORITY,
     };
@@ -50,7 +107,10 @@ pub fn request_realtime() -> RtGrant {
     let fifo = if rc == 0 {
         Ok(())
     } else {
-        Err(nix::errno::Errno::from_raw(rc).desc().to_string())
+        Err(fifo_refusal(
+            nix::errno::Errno::from_raw(rc),
+            soft_limit(libc::RLIMIT_RTPRIO),
+        ))
     };
     RtGrant {
         mlockall: mlock,
@@ -212,6 +272,25 @@ pub fn sigint_seen() -> bool {
 
 #[cfg(test)]
 mod tests {
+
+    use nix::errno::Errno;
+
+    /// Regression (rt_refusal_said_only_out_of_memory): a non-root user's mlockall failed
+    /// with "Out of memory" and nothing else; the text now names the limit and its value.
+    #[test]
+    fn rt_refusals_name_the_limit_to_raise() {
+        let m = mlock_refusal(Errno::ENOMEM, Some(8 * 1024 * 1024));
+        assert!(m.contains("RLIMIT_MEMLOCK"), "{m}");
+        assert!(m.contains("8192 kB"), "{m}");
+        assert!(m.contains("memlock unlimited"), "{m}");
+        let f = fifo_refusal(Errno::EPERM, Some(0));
+        assert!(f.contains("RLIMIT_RTPRIO"), "{f}");
+        assert!(f.contains("is 0"), "{f}");
+        assert!(f.contains("CAP_SYS_NICE"), "{f}");
+        assert!(!f.contains("cgroup"), "{f}");
+        // Allowed by the limit, refused anyway: the cgroup's real-time runtime.
+        assert!(fifo_refusal(Errno::EPERM, None).contains("cgroup"));
+    }
     use super::*;
 
     #[test]

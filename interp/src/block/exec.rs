@@ -460,10 +460,11 @@ impl Exec<'_> {
                 // The P (G08) or Q (G05.1) is the switch: the tolerance is the configured one.
                 self.st.path_mode = self.fanuc_path_switch(c, span)?;
                 self.st.path_tolerance = self.cfg.interp.path_tolerance;
+                self.st.path_collinear = self.cfg.interp.collinear_tolerance;
             } else {
                 self.st.path_mode = c;
                 if c == 64 {
-                    self.st.path_tolerance = self.g64_tolerance()?;
+                    (self.st.path_tolerance, self.st.path_collinear) = self.g64_tolerance()?;
                 }
             }
         }
@@ -507,16 +508,22 @@ impl Exec<'_> {
         }
     }
 
-    /// The tolerance of a G64 block: its `P` (LinuxCNC's meaning, in program units, > 0),
-    /// else the config's `interp.path_tolerance`; `Q` (LinuxCNC's collinearity tolerance)
-    /// only with `P`. Both at most `interp.max_path_tolerance`. A block whose P is a dwell, a
-    /// G10/G28/G30 selector or canned-cycle data leaves that P alone.
-    fn g64_tolerance(&mut self) -> Result<f64, NcError> {
+    /// The tolerances of a G64 block (path, collinearity; mm): its `P` (LinuxCNC's meaning,
+    /// in program units, > 0), else the config's `interp.path_tolerance`; `Q` (LinuxCNC's
+    /// collinearity tolerance) only with `P`, else the config's `interp.collinear_tolerance`
+    /// (LinuxCNC takes P there: see README "Continuous path" for why cnc402 does not). Both at
+    /// most `interp.max_path_tolerance`. A block whose P is a dwell, a G10/G28/G30 selector or
+    /// canned-cycle data leaves that P alone.
+    fn g64_tolerance(&mut self) -> Result<(f64, f64), NcError> {
+        let defaults = (
+            self.cfg.interp.path_tolerance,
+            self.cfg.interp.collinear_tolerance,
+        );
         let p_taken = self.w.g_of(GGroup::NonModal).is_some()
             || self.w.g_of(GGroup::Cycle).is_some_and(|g| g.0 != 80)
             || self.st.cycle.is_some();
         if p_taken {
-            return Ok(self.cfg.interp.path_tolerance);
+            return Ok(defaults);
         }
         let expected = "G64, G64 P<tolerance> or G64 P<tolerance> Q<tolerance>, each > 0";
         let p = self.w.take('P');
@@ -555,7 +562,11 @@ impl Exec<'_> {
                     .with_expected(format!("a tolerance of at most {} mm", fmt_num(max))));
             }
         }
-        Ok(p.map_or(self.cfg.interp.path_tolerance, |p| p.v * self.st.unit()))
+        let unit = self.st.unit();
+        Ok((
+            p.map_or(defaults.0, |p| p.v * unit),
+            q.map_or(defaults.1, |q| q.v * unit),
+        ))
     }
 
     fn cancel_cycle(&mut self) {

@@ -210,6 +210,9 @@ pub struct ModalState {
     /// The tolerance of G64 (mm, > 0): its `P` word, else the config's
     /// `interp.path_tolerance`.
     pub path_tolerance: f64,
+    /// G64's collinearity tolerance (mm, ≥ 0; LinuxCNC's Q): its `Q` word, else the
+    /// config's `interp.collinear_tolerance`.
+    pub path_collinear: f64,
     /// A G1 move held back by its `,R`/`,C` corner word until the next block's move.
     pub pending_corner: Option<PendingCorner>,
     /// Machine M codes (`[mcodes]`) whose once-a-run note was given (at most one per
@@ -272,6 +275,7 @@ impl ModalState {
             },
             exact_stop_once: false,
             path_tolerance: cfg.interp.path_tolerance,
+            path_collinear: cfg.interp.collinear_tolerance,
             pending_corner: None,
             noted_mcodes: Vec::new(),
             mist: false,
@@ -344,6 +348,7 @@ impl ModalState {
                 63 => PathMode::Tapping,
                 _ => PathMode::Continuous {
                     tolerance: self.path_tolerance,
+                    collinear: self.path_collinear,
                 },
             },
             work_offset: self.work_offset,

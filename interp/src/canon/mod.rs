@@ -43,8 +43,9 @@ pub enum PathMode {
     ExactStop,
     /// G63: tapping mode (exact stop, overrides ignored).
     Tapping,
-    /// G64: continuous path within `tolerance` mm of the programmed corner.
-    Continuous { tolerance: f64 },
+    /// G64: continuous path within `tolerance` mm of the programmed corner; feed lines within
+    /// `collinear` mm of one straight line may run as that line (LinuxCNC's Q; 0 = never).
+    Continuous { tolerance: f64, collinear: f64 },
 }
 
 impl PathMode {
@@ -52,7 +53,13 @@ impl PathMode {
     pub fn segment_end(self) -> SegmentEnd {
         match self {
             PathMode::ExactStop | PathMode::Tapping => SegmentEnd::ExactStop,
-            PathMode::Continuous { tolerance } => SegmentEnd::Continuous { tolerance },
+            PathMode::Continuous {
+                tolerance,
+                collinear,
+            } => SegmentEnd::Continuous {
+                tolerance,
+                collinear,
+            },
         }
     }
 

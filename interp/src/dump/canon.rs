@@ -139,8 +139,15 @@ fn state_obj(o: &mut String, st: &CanonState, cfg: &MachineConfig) {
         ",\"state\":{{\"plane\":\"{plane}\",\"units\":\"{units}\",\"feed_mode\":\"{feed}\",\"path_mode\":\"G{}\"",
         st.path_mode.code()
     );
-    if let PathMode::Continuous { tolerance } = st.path_mode {
+    if let PathMode::Continuous {
+        tolerance,
+        collinear,
+    } = st.path_mode
+    {
         let _ = write!(o, ",\"tolerance\":{}", num(tolerance));
+        if collinear > 0.0 {
+            let _ = write!(o, ",\"collinear\":{}", num(collinear));
+        }
     }
     let _ = write!(o, ",\"work_offset\":\"G{}\"", 54 + st.work_offset);
     axes_obj(o, "offset", &st.offset, cfg);

@@ -226,7 +226,7 @@ pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig)
 /// let seg = Segment {
 ///     kind: SegmentKind::Linear { end, feed: 300.0 },
 ///     source: Source { file: "a.nc".into(), line: 3, n: Some(30) },
-///     ends: SegmentEnd::Continuous { tolerance: 0.01 },
+///     ends: SegmentEnd::Continuous { tolerance: 0.01, collinear: 0.0 },
 /// };
 /// assert_eq!(segment_to_json(&seg, &cfg),
 ///     r#"{"kind":"linear","file":"a.nc","line":3,"n":30,"end":{"X":12.5,"Y":0,"Z":0,"C":0},"feed":300,"ends":"continuous","tolerance":0.01}"#);
@@ -237,12 +237,18 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
     kind_keys(&mut o, &seg.kind, cfg);
     match seg.ends {
         SegmentEnd::ExactStop => o.push_str(",\"ends\":\"exact_stop\""),
-        SegmentEnd::Continuous { tolerance } => {
+        SegmentEnd::Continuous {
+            tolerance,
+            collinear,
+        } => {
             let _ = write!(
                 o,
                 ",\"ends\":\"continuous\",\"tolerance\":{}",
                 num(tolerance)
             );
+            if collinear > 0.0 {
+                let _ = write!(o, ",\"collinear\":{}", num(collinear));
+            }
         }
     }
     o.push('}');
@@ -381,7 +387,10 @@ mod tests {
         s.kind = SegmentKind::Rapid {
             end: AxisPos::default(),
         };
-        s.ends = SegmentEnd::Continuous { tolerance: 0.05 };
+        s.ends = SegmentEnd::Continuous {
+            tolerance: 0.05,
+            collinear: 0.0,
+        };
         assert_eq!(
             segment_to_json(&s, &cfg),
             r#"{"kind":"rapid","file":"q\"x.nc","line":7,"n":null,"end":{"X":0,"Y":0,"Z":0,"C":0},"ends":"continuous","tolerance":0.05}"#

@@ -88,6 +88,10 @@ pub struct RunOptions {
     pub no_operator_terminal: bool,
     /// Hand the progress callback a [`StatsSample`] every this often (wall clock).
     pub stats_every: Option<Duration>,
+    /// Refuse to run the real-time loop without locked memory and SCHED_FIFO (an error
+    /// naming the limit to raise, before any drive is touched) instead of running on with a
+    /// warning.
+    pub require_rt: bool,
 }
 
 impl Default for RunOptions {
@@ -107,6 +111,7 @@ impl Default for RunOptions {
             optional_stop: false,
             no_operator_terminal: false,
             stats_every: None,
+            require_rt: false,
         }
     }
 }
@@ -238,6 +243,7 @@ pub fn run_program(
         stop_request,
         no_operator_terminal,
         stats_every,
+        require_rt,
         ..
     } = opts;
     if let Some(t) = trace {
@@ -265,7 +271,13 @@ pub fn run_program(
     };
     let end = match timing {
         Timing::Virtual => run_virtual(cfg, spec, feed, io, status_rx, &mut side),
-        Timing::RealTime => run_realtime(cfg, spec, feed, io, status_rx, &mut side, counters),
+        Timing::RealTime => {
+            let rt = RealTimeSetup {
+                counters,
+                require_rt,
+            };
+            run_realtime(cfg, spec, feed, io, status_rx, &mut side, rt)
+        }
     };
     side.stop_feeder();
     let end = end?;
@@ -298,6 +310,13 @@ fn run_virtual(
     })
 }
 
+/// What the real-time loop thread is given besides the loop's own inputs.
+struct RealTimeSetup {
+    counters: std::sync::Arc<LoopCounters>,
+    /// See [`RunOptions::require_rt`].
+    require_rt: bool,
+}
+
 /// The loop on a thread of its own in real time (memory locked and SCHED_FIFO where
 /// permitted); the calling thread starts the feeder once the drives are enabled and drains
 /// the status ring every 2 ms until the loop ends.
@@ -308,8 +327,12 @@ fn run_realtime(
     io: LoopIo,
     mut status: StatusConsumer,
     side: &mut Side,
-    counters: std::sync::Arc<LoopCounters>,
+    rt: RealTimeSetup,
 ) -> Result<LoopEnd, RunError> {
+    let RealTimeSetup {
+        counters,
+        require_rt,
+    } = rt;
     let (ready_tx, ready_rx) = std::sync::mpsc::sync_channel::<[f64; MAX_AXES]>(1);
     let cfg_t = cfg.clone();
     let period_ns = cfg.bus.period_us as u64 * 1000;
@@ -317,8 +340,10 @@ fn run_realtime(
         .name("cnc402-loop".into())
         .spawn(move || -> Result<LoopEnd, RunError> {
             let grant = request_realtime();
-            if grant.mlockall.is_ok() && grant.fifo.is_ok() {
+            if grant.is_full() {
                 log::info!("{}", grant.describe());
+            } else if require_rt {
+                return Err(RunError::Io(format!("--require-rt: {}", grant.describe())));
             } else {
                 log::warn!(
                     "{} — running anyway, expect more late wake-ups",
