@@ -14,7 +14,7 @@ fn segments_does_not_write_nonvolatile_variables() {
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/config/machine.toml"))
             .unwrap();
     let cfg_text = shipped.replace(
-        "variables_file = \"var/macro_variables.txt\"",
+        "variables_file = \"../var/macro_variables.txt\"",
         &format!("variables_file = {:?}", vars.to_str().unwrap()),
     );
     assert_ne!(

@@ -51,7 +51,7 @@ fn segments_of_o0001_read_the_variables_set_by_vars() {
     let vars = dir.join("v.txt");
     let shipped = std::fs::read_to_string("config/machine.toml").unwrap();
     let cfg_text = shipped.replace(
-        "variables_file = \"var/macro_variables.txt\"",
+        "variables_file = \"../var/macro_variables.txt\"",
         &format!("variables_file = {:?}", vars.to_str().unwrap()),
     );
     assert_ne!(cfg_text, shipped);
@@ -139,7 +139,7 @@ fn vars_set_during_a_run_is_not_overwritten_by_the_run() {
     let f = vars.to_str().unwrap();
     let shipped = std::fs::read_to_string("config/machine.toml").unwrap();
     let cfg_text = shipped.replace(
-        "variables_file = \"var/macro_variables.txt\"",
+        "variables_file = \"../var/macro_variables.txt\"",
         &format!("variables_file = {f:?}"),
     );
     assert_ne!(cfg_text, shipped);

@@ -120,17 +120,13 @@ impl MachineConfig {
     }
 
     /// A path from the config, made usable: absolute paths stay; relative ones are taken from
-    /// the parent of the config file's folder, so that `config/machine.toml`'s `examples`
-    /// means `<repository>/examples` whatever the working directory.
+    /// the config file's own folder, whatever the working directory (so `config/machine.toml`
+    /// says `../examples`, and a config in `/etc/cnc402/` keeps `var/…` in `/etc/cnc402/var/`).
     pub fn resolve(&self, p: &Path) -> PathBuf {
         if p.is_absolute() {
             return p.to_path_buf();
         }
-        let base = self
-            .path
-            .parent()
-            .and_then(Path::parent)
-            .unwrap_or(Path::new(""));
+        let base = self.path.parent().unwrap_or(Path::new(""));
         base.join(p)
     }
 
@@ -211,18 +207,37 @@ mod tests {
         assert_eq!(c.spindle_index(), Some(3));
     }
 
+    /// Regression (config_paths_resolved_against_the_parent_folder): a config in
+    /// `/etc/cnc402/` put its variables in `/etc/var/`; relative paths now start at the
+    /// config file's own folder.
+    #[test]
+    fn relative_paths_resolve_against_the_config_files_folder() {
+        let text = SHIPPED.replace(
+            "variables_file = \"../var/macro_variables.txt\"",
+            "variables_file = \"var/vars.txt\"",
+        );
+        let c = MachineConfig::parse(&text, Path::new("/etc/cnc402/machine.toml")).unwrap();
+        assert_eq!(
+            c.variables_file(),
+            Some(PathBuf::from("/etc/cnc402/var/vars.txt"))
+        );
+        assert_eq!(c.program_dir(), PathBuf::from("/etc/cnc402/../examples"));
+        let c = MachineConfig::parse(&text, Path::new("machine.toml")).unwrap();
+        assert_eq!(c.variables_file(), Some(PathBuf::from("var/vars.txt")));
+    }
+
     #[test]
     fn variables_file_key() {
         let c = parse(SHIPPED).unwrap();
         assert_eq!(
             c.interp.variables_file.as_deref(),
-            Some(Path::new("var/macro_variables.txt"))
+            Some(Path::new("../var/macro_variables.txt"))
         );
-        let text = SHIPPED.replace("variables_file = \"var/macro_variables.txt\"", "");
+        let text = SHIPPED.replace("variables_file = \"../var/macro_variables.txt\"", "");
         let c = parse(&text).unwrap();
         assert_eq!(c.variables_file(), None);
         let text = SHIPPED.replace(
-            "variables_file = \"var/macro_variables.txt\"",
+            "variables_file = \"../var/macro_variables.txt\"",
             "variables_file = \"/tmp/v.txt\"",
         );
         assert_eq!(
@@ -230,7 +245,7 @@ mod tests {
             Some(PathBuf::from("/tmp/v.txt"))
         );
         let text = SHIPPED.replace(
-            "variables_file = \"var/macro_variables.txt\"",
+            "variables_file = \"../var/macro_variables.txt\"",
             "variables_file = \" \"",
         );
         let e = parse(&text).unwrap_err();
@@ -361,19 +376,19 @@ mod tests {
         let c = parse(SHIPPED).unwrap();
         assert_eq!(
             c.interp.library_dir.as_deref(),
-            Some(Path::new("examples/axioma"))
+            Some(Path::new("../examples/axioma"))
         );
-        let text = SHIPPED.replace("library_dir = \"examples/axioma\"", "");
+        let text = SHIPPED.replace("library_dir = \"../examples/axioma\"", "");
         assert_eq!(parse(&text).unwrap().library_dir(), None);
         let text = SHIPPED.replace(
-            "library_dir = \"examples/axioma\"",
+            "library_dir = \"../examples/axioma\"",
             "library_dir = \"/opt/cycles\"",
         );
         assert_eq!(
             parse(&text).unwrap().library_dir(),
             Some(PathBuf::from("/opt/cycles"))
         );
-        let text = SHIPPED.replace("library_dir = \"examples/axioma\"", "library_dir = \"\"");
+        let text = SHIPPED.replace("library_dir = \"../examples/axioma\"", "library_dir = \"\"");
         assert_eq!(parse(&text).unwrap_err().key, "interp.library_dir");
     }
 

@@ -103,7 +103,11 @@ fn macro_m_code_with_missing_program_is_refused_at_load() {
     std::fs::create_dir_all(&progs).unwrap();
     std::fs::create_dir_all(root.join("config")).unwrap();
     std::fs::write(progs.join("o9001.CNC"), "O9001\nM99\n").unwrap();
-    let base = SHIPPED.replacen("program_dir = \"examples\"", "program_dir = \"progs\"", 1);
+    let base = SHIPPED.replacen(
+        "program_dir = \"../examples\"",
+        "program_dir = \"../progs\"",
+        1,
+    );
     let cfg_path = root.join("config/m.toml");
     let entry = "101 = { action = \"macro\", program = 9002 }";
     let text = base.replacen("[mcodes]\n", &format!("[mcodes]\n{entry}\n"), 1);

@@ -266,8 +266,8 @@ fn variables_file_naming_a_folder_is_refused_at_its_key() {
     std::fs::write(
         &path,
         with(
-            "variables_file = \"var/macro_variables.txt\"",
-            "variables_file = \"var\"",
+            "variables_file = \"../var/macro_variables.txt\"",
+            "variables_file = \"../var\"",
         ),
     )
     .unwrap();
@@ -280,8 +280,8 @@ fn variables_file_naming_a_folder_is_refused_at_its_key() {
     std::fs::write(
         &path,
         with(
-            "library_dir = \"examples/axioma\"",
-            "library_dir = \"lib.nc\"",
+            "library_dir = \"../examples/axioma\"",
+            "library_dir = \"../lib.nc\"",
         ),
     )
     .unwrap();
@@ -295,7 +295,7 @@ fn variables_file_naming_a_folder_is_refused_at_its_key() {
 
 #[test]
 fn blank_program_dir_is_refused() {
-    let text = with("program_dir = \"examples\"", "program_dir = \"  \"");
+    let text = with("program_dir = \"../examples\"", "program_dir = \"  \"");
     refused(&text, "interp.program_dir", "program_dir = ");
 }
 

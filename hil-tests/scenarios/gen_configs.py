@@ -29,7 +29,7 @@ HEADER = """\
 # compares feedback with the command of its age, but keeps only 32 cycles of history and its
 # monitor has no time-out: after a 100-200 ms stall of the guest's loop every fast axis
 # "exceeds" 0.5 mm / 90 degrees; the following-error scenario uses machine-vcan-tight-fe.toml);
-# paths relative to this file's grandparent (hil-tests/); no variables file (runs must not
+# paths relative to this file's folder (hil-tests/scenarios/); no variables file (runs must not
 # write var/).
 """
 
@@ -47,9 +47,9 @@ def base(src):
     s = sub1(r"^heartbeat_timeout_ms = .*$", "heartbeat_timeout_ms = 2000     # HIL (machine.toml: 200)", s)
     s = sub1(r"^tpdo_timeout_cycles = .*$", "tpdo_timeout_cycles = 2000      # HIL (machine.toml: 5)", s)
     s = sub1(r"^sdo_timeout_ms = .*$", "sdo_timeout_ms = 1000           # HIL (machine.toml: 100; 100 ms expired once in the guest)", s)
-    s = sub1(r"^program_dir = .*$", 'program_dir = "../examples"     # HIL', s)
+    s = sub1(r"^program_dir = .*$", 'program_dir = "../../examples"  # HIL', s)
     s = sub1(r"^variables_file = .*$", "# HIL: no variables_file (kept in memory)", s)
-    s = sub1(r"^library_dir = .*$", 'library_dir = "../examples/axioma" # HIL', s)
+    s = sub1(r"^library_dir = .*$", 'library_dir = "../../examples/axioma" # HIL', s)
     return s
 
 

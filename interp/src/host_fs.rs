@@ -100,9 +100,9 @@ fn folder_of(name: &str) -> Option<PathBuf> {
 
 impl ProgramLibrary for FsLibrary {
     fn find(&mut self, number: u32, main: &str) -> Result<Option<SourceFile>, String> {
-        if let Some(here) = folder_of(main)
-            && let Some(f) = ProgramDir::new(here).read(number)?
-        {
+        // A bare name (`m.nc`) is in the working directory: its folder is `.`, not none.
+        let here = folder_of(main).unwrap_or_else(|| PathBuf::from("."));
+        if let Some(f) = ProgramDir::new(here).read(number)? {
             return Ok(Some(f));
         }
         match &self.program_dir {

@@ -247,6 +247,13 @@ impl WriteLock {
             path: lock_path.clone(),
             err,
         };
+        // The first write creates the file's folder too (a fresh config's `var/`).
+        if !dir.as_os_str().is_empty() {
+            std::fs::create_dir_all(&dir).map_err(|err| VarFileError::Io {
+                path: dir.clone(),
+                err,
+            })?;
+        }
         let file = OpenOptions::new()
             .read(true)
             .write(true)
