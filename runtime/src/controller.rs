@@ -339,8 +339,9 @@ impl<L: DriveLink> CycleController<L> {
         );
         if self.contouring() {
             let act = std::array::from_fn(|i| self.feedback[i].actual);
-            self.path
-                .sample_actual(&self.axes.linear[..self.axes.n], &act);
+            let age = std::array::from_fn(|i| self.feedback[i].age);
+            let linear = &self.axes.linear[..self.axes.n];
+            self.path.sample_actual(linear, &act, &age, self.tick);
         }
         self.publish_status(&t, raised);
         self.tick += 1;

@@ -16,6 +16,11 @@ const REST_SPEED: f64 = 1e-6;
 /// the figure errs on the large side.
 pub const RECENT_MOVES: usize = 32;
 
+/// Cycles of actual positions kept per axis to compare the axes at equal sample age (a late
+/// TPDO leaves one axis's position a cycle older: at 100 mm/s that alone would read as tens
+/// of µm off a circle).
+const ACT_HISTORY: usize = 8;
+
 /// See the module doc.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PathFigures {
@@ -48,6 +53,9 @@ pub struct PathTracker {
     recent: [Curve; RECENT_MOVES],
     recent_n: usize,
     recent_head: usize,
+    /// Per axis, the actual positions by the tick they were sampled at (tick + 1; 0: none),
+    /// in a ring indexed by that tick.
+    act_history: [[(u64, f64); ACT_HISTORY]; MAX_AXES],
 }
 
 /// What [`deviation`] needs of a move: its end points and its geometry.
@@ -102,12 +110,34 @@ impl PathTracker {
         }
     }
 
-    /// One tick's actual positions `act` (only while the drives follow the path: the caller
-    /// leaves out stops after a drive fault and drive-led tap follows).
-    pub fn sample_actual(&mut self, linear: &[bool], act: &[f64; MAX_AXES]) {
+    /// Tick `tick`'s actual positions `act`, each sampled `age` cycles before it (only while
+    /// the drives follow the path: the caller leaves out stops after a drive fault and
+    /// drive-led tap follows). The linear axes are measured together at the newest tick all
+    /// of them have a sample of.
+    pub fn sample_actual(
+        &mut self,
+        linear: &[bool],
+        act: &[f64; MAX_AXES],
+        age: &[u32; MAX_AXES],
+        tick: u64,
+    ) {
+        let axes = || (0..linear.len().min(MAX_AXES)).filter(|&i| linear[i]);
+        let mut common = tick;
+        for i in axes() {
+            let sampled = tick.saturating_sub(u64::from(age[i]));
+            self.act_history[i][sampled as usize % ACT_HISTORY] = (sampled + 1, act[i]);
+            common = common.min(sampled);
+        }
+        let mut pos = [0.0; MAX_AXES];
+        for i in axes() {
+            match self.act_history[i][common as usize % ACT_HISTORY] {
+                (k, p) if k == common + 1 => pos[i] = p,
+                _ => return,
+            }
+        }
         let d = self.recent[..self.recent_n]
             .iter()
-            .map(|c| deviation(linear, c, act))
+            .map(|c| deviation(linear, c, &pos))
             .fold(f64::INFINITY, f64::min);
         if d.is_finite() && d > self.figures.max_deviation_act {
             self.figures.max_deviation_act = d;
