@@ -314,4 +314,54 @@ mod tests {
             t.figures
         );
     }
+
+    #[test]
+    fn actual_positions_are_measured_at_equal_age_against_the_recent_moves() {
+        let cfg = MachineConfig::default_machine();
+        let axes = crate::controller::AxisTable::new(&cfg);
+        let linear = &axes.linear[..axes.n];
+        let (x, y) = (cfg.axis_index('X').unwrap(), cfg.axis_index('Y').unwrap());
+        // Ten 1 mm moves along X, then one along Y.
+        let mut t = PathTracker::default();
+        for k in 0..10 {
+            let mut end = AxisPos::default();
+            end.0[x] = k as f64 + 1.0;
+            let from = [k as f64, 0.0, 0.0];
+            t.started(Some(&planned(
+                &cfg,
+                from,
+                SegmentKind::Linear { end, feed: 600.0 },
+            )));
+        }
+        let mut end = AxisPos::default();
+        end.0[x] = 10.0;
+        end.0[y] = 5.0;
+        let up = SegmentKind::Linear { end, feed: 600.0 };
+        t.started(Some(&planned(&cfg, [10.0, 0.0, 0.0], up)));
+        // The actual lagging eight moves behind is on the path.
+        let mut act = [0.0; cnc402_motion::MAX_AXES];
+        act[x] = 2.5;
+        t.sample_actual(linear, &act, &[0; cnc402_motion::MAX_AXES], 1);
+        assert_eq!(t.figures.max_deviation_act, 0.0);
+        // Y a cycle older than X: X's sample of that cycle is taken, not this one's.
+        act[x] = 10.0;
+        act[y] = 1.0;
+        t.sample_actual(linear, &act, &[0; cnc402_motion::MAX_AXES], 2);
+        assert_eq!(t.figures.max_deviation_act, 0.0);
+        act[x] = 10.003;
+        act[y] = 1.5;
+        let mut age = [0; cnc402_motion::MAX_AXES];
+        t.sample_actual(linear, &act, &age, 3);
+        assert!((t.figures.max_deviation_act - 0.003).abs() < 1e-12);
+        act[x] = 10.05;
+        age[y] = 1;
+        t.sample_actual(linear, &act, &age, 4);
+        assert!(
+            (t.figures.max_deviation_act - 0.003).abs() < 1e-12,
+            "(10.05, 1.5) is not a position the axes were at together"
+        );
+        age[y] = 0;
+        t.sample_actual(linear, &act, &age, 5);
+        assert!((t.figures.max_deviation_act - 0.05).abs() < 1e-12);
+    }
 }
