@@ -5,12 +5,19 @@
 //! the path instead). Prints the figures: `cargo test -p cnc402-runtime --test
 //! contour_matching -- --nocapture`.
 
+mod common;
+
 use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use cnc402_config::{DriveModel, MachineConfig, SimDynamics};
+use cnc402_drives::Instant;
 use cnc402_lang::SourceFile;
-use cnc402_runtime::{RunOptions, RunReport, run_program};
+use cnc402_runtime::controller::{CycleController, Step};
+use cnc402_runtime::ring::{Consumer, move_ring, status_ring};
+use cnc402_runtime::{Outcome, Phase, RunOptions, RunReport, SimLink, Status, run_program};
 
 const RADIUS: f64 = 10.0;
 /// The circle's centre; it starts and ends at (CX, CY - RADIUS), entered along +X.
@@ -246,4 +253,87 @@ fn a_tap_stays_coupled_when_its_tool_axis_contours_matched() {
             z.final_position
         );
     }
+}
+
+/// Runs `text` on the controller over the simulated bus, calling `hook` with every status
+/// record (it may raise the operator's stop); returns the outcome and the records.
+fn drive(
+    cfg: &MachineConfig,
+    text: &str,
+    mut hook: impl FnMut(&Status, &AtomicBool),
+) -> (Outcome, Vec<Status>) {
+    let mut link = SimLink::simulated(cfg, None).unwrap();
+    let start = common::started(&mut link);
+    let mut feeder = common::feeder(cfg, "t.nc", text, &start);
+    let (mut mp, mc) = move_ring(64);
+    let (sp, mut sc) = status_ring(1024);
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut ctrl = CycleController::new(cfg, start, link, mc, sp, stop.clone());
+    let period = Duration::from_micros(cfg.bus.period_us as u64);
+    let mut now = Instant::ZERO;
+    let mut out = Vec::new();
+    loop {
+        feeder.fill(&mut mp).expect("program");
+        now += period;
+        let step = ctrl.step(now);
+        while let Some(s) = sc.try_pop() {
+            hook(&s, &stop);
+            out.push(s);
+        }
+        if let Step::Done(o) = step {
+            return (o, out);
+        }
+        assert!(out.len() < 200_000, "runaway");
+    }
+}
+
+/// An operator's stop mid-circle, a dwell and the program's end with X, Y matched: the path
+/// decelerates on the circle, and the shaped setpoints catch up with the point the path
+/// rests at — exactly, in counts — before the quick stop, during the dwell, and at the end.
+#[test]
+fn at_a_stop_and_a_hold_the_shaped_setpoints_reach_the_held_point_exactly() {
+    let cfg = slow_x(true, true);
+    let (outcome, st) = drive(&cfg, &circle_program(6000), |s, stop| {
+        if s.tick >= 400 {
+            stop.store(true, Ordering::SeqCst);
+        }
+    });
+    assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
+    // The last record before the quick stop took over: setpoints equal the held path's.
+    let last = st
+        .iter()
+        .rev()
+        .find(|s| s.phase == Phase::Stopping)
+        .unwrap();
+    assert!(last.cmd[1] > 1.0, "stopped on the circle: {:?}", last.cmd);
+    for i in 0..2 {
+        let want = (last.cmd[i] * cfg.axes[i].counts_per_unit).round() as i32;
+        assert_eq!(last.cmd_counts[i], want, "axis {i}");
+        assert!((last.act_counts[i] - want).abs() <= 1, "axis {i}: {last:?}");
+    }
+    // A dwell halfway round the circle, and the end of the program.
+    let text = circle_program(6000).replace(
+        "G3 X10.0 Y0. I0. J10.0",
+        "G3 X20. Y10. I0. J10.\nG4 P200\nG3 X10. Y0. I-10. J0.",
+    );
+    let (outcome, st) = drive(&cfg, &text, |_, _| {});
+    assert_eq!(outcome, Outcome::Finished);
+    let counts = |s: &Status, i: usize| (s.cmd[i] * cfg.axes[i].counts_per_unit).round() as i32;
+    let dwell_start = st.iter().find(|s| s.line == 5).unwrap();
+    let dwell_end = st.iter().rev().find(|s| s.line == 5).unwrap();
+    let end = st.last().unwrap();
+    assert_ne!(
+        dwell_start.cmd_counts[1],
+        counts(dwell_start, 1),
+        "Y still shaped"
+    );
+    for i in 0..2 {
+        assert_eq!(dwell_end.cmd_counts[i], counts(dwell_end, i), "axis {i}");
+        assert_eq!(end.cmd_counts[i], counts(end, i), "axis {i}");
+        assert!(
+            (end.act_counts[i] - end.cmd_counts[i]).abs() <= 1,
+            "{end:?}"
+        );
+    }
+    assert_eq!((end.cmd[0], end.cmd[1]), (20.0, 0.0));
 }
