@@ -335,6 +335,11 @@ mod tests {
             assert!(e.key.starts_with("planner.match_axes"), "{bad}: {e}");
             assert!(e.to_string().contains(says), "{bad}: {e}");
         }
+        // A virtual axis has no drive to match.
+        let e =
+            parse(&set(r#"["X", "Y"]"#).replacen("node = 1\n", "virtual = true\n", 1)).unwrap_err();
+        assert_eq!(e.key, "planner.match_axes[0]", "{e}");
+        assert!(e.message.contains("virtual"), "{e}");
         // An axis without a model (and the tap rule satisfied: no linear axis has one).
         let mut no_models = set(r#"["X", "Y"]"#);
         for _ in 0..4 {
