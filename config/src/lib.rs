@@ -162,8 +162,9 @@ struct RawConfig {
 fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
     let bus = raw.bus.validate()?;
     let interp = raw.interp.validate()?;
-    let planner = raw.planner.validate()?;
+    let mut planner = raw.planner.validate()?;
     let axes = axes::validate(&raw.axis, &bus)?;
+    planner.match_axes = raw.planner.match_axes(&axes)?;
     let work_offsets = work_offsets::validate(&raw.work_offsets, &axes)?;
     let tool_offsets = tool_offsets::validate(&raw.tool_offsets)?;
     let mcodes = mcodes::validate(&raw.mcodes)?;
@@ -335,6 +336,52 @@ mod tests {
             let e = parse(&text).unwrap_err();
             assert_eq!(e.key, "interp.collinear_tolerance", "{bad}");
         }
+    }
+
+    #[test]
+    fn planner_match_axes_key() {
+        assert!(parse(SHIPPED).unwrap().planner.match_axes.is_empty());
+        let text = SHIPPED.replace("match_axes = []", "");
+        assert_ne!(text, SHIPPED, "the shipped config sets the key");
+        assert!(parse(&text).unwrap().planner.match_axes.is_empty());
+        let set = |v: &str| SHIPPED.replace("match_axes = []", &format!("match_axes = {v}"));
+        let c = parse(&set(r#"["X", "y", "Z"]"#)).unwrap();
+        assert_eq!(c.planner.match_axes, vec![0, 1, 2]);
+        let line = SHIPPED
+            .lines()
+            .position(|l| l.starts_with("match_axes"))
+            .unwrap()
+            + 1;
+        for (bad, says) in [
+            (r#"["X", "Q"]"#, "unknown axis \"Q\""),
+            (r#"["X", "x"]"#, "named twice"),
+            (r#"["X", "C"]"#, "spindle"),
+            (r#"["X"]"#, "nothing to be matched"),
+            (r#"["X", 3]"#, ""),
+        ] {
+            let e = parse(&set(bad)).unwrap_err();
+            assert_eq!(e.line, line, "{bad}: {e}");
+            assert!(e.key.starts_with("planner.match_axes"), "{bad}: {e}");
+            assert!(e.to_string().contains(says), "{bad}: {e}");
+        }
+        // A virtual axis has no drive to match.
+        let e =
+            parse(&set(r#"["X", "Y"]"#).replacen("node = 1\n", "virtual = true\n", 1)).unwrap_err();
+        assert_eq!(e.key, "planner.match_axes[0]", "{e}");
+        assert!(e.message.contains("virtual"), "{e}");
+        // An axis without a model (and the tap rule satisfied: no linear axis has one).
+        let mut no_models = set(r#"["X", "Y"]"#);
+        for _ in 0..4 {
+            no_models =
+                no_models.replace("dynamics = { delay_cycles = 1, bandwidth_hz = 150.0 }", "");
+        }
+        let e = parse(&no_models).unwrap_err();
+        assert_eq!(
+            (e.key.as_str(), e.line),
+            ("planner.match_axes[0]", line),
+            "{e}"
+        );
+        assert!(e.message.contains("no drive model"), "{e}");
     }
 
     #[test]

@@ -1,7 +1,8 @@
-//! Dynamic matching of coupled axes (a rigid tap's tool axis and spindle): each axis's
-//! setpoints are shaped so that, through its own drive, it lags exactly like the slowest
-//! axis of the pair — the largest dead time and the lowest closed-loop bandwidth of the
-//! master's drive models. Fixed-size state, no allocation: it runs in the 1 ms loop.
+//! Dynamic matching of coupled axes (a rigid tap's tool axis and spindle, the contouring
+//! axes a config names): each axis's setpoints are shaped so that, through its own drive, it
+//! lags exactly like the slowest axis of its set — the largest dead time and the lowest
+//! closed-loop bandwidth of the master's drive models. Fixed-size state, no allocation: it
+//! runs in the 1 ms loop.
 
 use cnc402_config::{DriveModel, MAX_MODEL_DELAY_CYCLES};
 
@@ -30,6 +31,20 @@ pub fn slowest(models: &[DriveModel]) -> Option<DriveModel> {
         delay_cycles,
         bandwidth_hz,
     })
+}
+
+/// Cycles after which a shaper matching to `target` has caught up with an input that stopped
+/// changing, to 1e-13 of the step it lagged by: the delay line empties, then the target's
+/// lag decays by 1 − gain a cycle (30 natural time constants). A bound for the loop: the
+/// shaped setpoints of a set at rest reach the commanded ones within it.
+pub fn settling_cycles(target: DriveModel, period_s: f64) -> u32 {
+    let pole = 1.0 - loop_gain(target.bandwidth_hz, period_s);
+    let lag = if pole > 0.0 {
+        (30.0 / -pole.ln()).ceil().min(1e6) as u32
+    } else {
+        0
+    };
+    target.delay_cycles + 2 + lag
 }
 
 /// The shaping filter of one axis: `extra` cycles of delay, then `F_target / F_own` — the
@@ -164,6 +179,26 @@ mod tests {
             assert!(worst < 1e-9, "{fast:?} vs {slow:?}: {worst}");
             assert!(shaper.settled_at(5.0, 1e-9));
         }
+    }
+
+    #[test]
+    fn a_rested_input_is_caught_up_within_the_settling_cycles() {
+        for (own, target) in [
+            (model(1, 150.0), model(2, 40.0)),
+            (model(0, 0.0), model(16, 1.0)),
+            (model(0, 0.0), model(3, 0.0)),
+        ] {
+            let n = settling_cycles(target, 0.001);
+            let mut s = AxisShaper::new(own, target, 0.001, 0.0);
+            // A 1 m step: the largest lag a set could be left with at rest.
+            let mut k = 0;
+            while !s.settled_at(1000.0, 1e-8) {
+                s.shape(1000.0);
+                k += 1;
+                assert!(k <= n, "{own:?} -> {target:?}: not caught up in {n} cycles");
+            }
+        }
+        assert_eq!(settling_cycles(model(3, 0.0), 0.001), 5);
     }
 
     #[test]

@@ -12,9 +12,9 @@ use cnc402_drives::Instant;
 use cnc402_motion::{AxisPos, Interpolator, MoveKind};
 
 use crate::link::{DriveFeedback, DriveLink, DriveStop, StopCause};
+use crate::matching::Matching;
 use crate::ring::{Consumer, LoopInput, MoveConsumer, Observer, Producer, StatusProducer};
 use crate::status::{Outcome, Phase, Status, TapCoupling, within_one_count};
-use crate::tap_match::TapMatch;
 
 /// Ticks the drives get to come to rest after the last setpoint before the run ends.
 pub const SETTLE_TICKS: u32 = 50;
@@ -89,9 +89,10 @@ pub struct CycleController<L: DriveLink> {
     tap: Option<TapCoupling>,
     /// The path's setpoints (and a tap follower's): what the status shows.
     commands: [f64; MAX_AXES],
-    /// What the drives get: `commands` with a tap's axes shaped by `matching`.
+    /// What the drives get: `commands` with the matched axes (a tap's, the contouring set)
+    /// shaped by `matching`.
     sent: [f64; MAX_AXES],
-    matching: TapMatch,
+    matching: Matching,
     feedback: [DriveFeedback; MAX_AXES],
     /// The first stop, the line executing then and its move number.
     stop: Option<(DriveStop, u32, u64)>,
@@ -179,7 +180,7 @@ impl<L: DriveLink> CycleController<L> {
             tap: None,
             commands: start.0,
             sent: start.0,
-            matching: TapMatch::new(cfg),
+            matching: Matching::new(cfg, &start.0),
             feedback,
             stop: None,
             motion_error: None,
@@ -328,10 +329,10 @@ impl<L: DriveLink> CycleController<L> {
             );
             self.commands[i] = v;
             // The follower meets the leader's actual position by its own model.
-            self.matching.cancel();
+            self.matching.cancel(i);
         }
         self.sent = self.commands;
-        let tapping = self.tap.is_some() && !self.interp.is_idle();
+        let tapping = self.tap.is_some() && !self.interp.is_idle() && !self.interp.is_held();
         self.matching.apply(&mut self.sent, tapping);
 
         let mut raised = None;
@@ -355,6 +356,12 @@ impl<L: DriveLink> CycleController<L> {
             t.state,
             self.follow.is_some(),
         );
+        if self.contouring() {
+            let act = std::array::from_fn(|i| self.feedback[i].actual);
+            let age = std::array::from_fn(|i| self.feedback[i].age);
+            let linear = &self.axes.linear[..self.axes.n];
+            self.path.sample_actual(linear, &act, &age, self.tick);
+        }
         self.publish_status(&t, raised);
         self.tick += 1;
         self.phase_ticks = self.phase_ticks.saturating_add(1);
@@ -479,7 +486,9 @@ impl<L: DriveLink> CycleController<L> {
                 Step::Continue
             }
             Phase::Stopping => {
-                if self.interp.is_held() {
+                // Shaped setpoints catch up with the held path first (bounded: see
+                // `Matching::is_active`).
+                if self.interp.is_held() && !self.matching.is_active() {
                     self.enter(Phase::QuickStop);
                 }
                 Step::Continue
@@ -492,7 +501,10 @@ impl<L: DriveLink> CycleController<L> {
                 }
             }
             Phase::Settling => {
-                if self.phase_ticks >= SETTLE_TICKS || self.settled() {
+                // The last setpoint is the program's end exactly, shaped or not.
+                if (self.phase_ticks >= SETTLE_TICKS || self.settled())
+                    && !self.matching.is_active()
+                {
                     Step::Done(Outcome::Finished)
                 } else {
                     Step::Continue
@@ -518,6 +530,16 @@ impl<L: DriveLink> CycleController<L> {
     fn enter(&mut self, phase: Phase) {
         self.phase = phase;
         self.phase_ticks = 0;
+    }
+
+    /// Whether the drives are still following the path as a contour: not once a drive stopped
+    /// following (only an operator's stop decelerates along the path), nor in the quick
+    /// stop, nor while a tap's axis follows a stopped drive.
+    fn contouring(&self) -> bool {
+        let path_kept = self
+            .stop
+            .is_none_or(|(s, _, _)| s.cause == StopCause::Operator);
+        path_kept && self.phase != Phase::QuickStop && self.follow.is_none()
     }
 
     /// Every drive's actual position is within one count of its last setpoint.

@@ -11,6 +11,7 @@ pub mod controller;
 pub mod feeder;
 pub mod link;
 pub mod master_link;
+pub mod matching;
 pub mod path_figures;
 pub mod plot;
 pub mod program_stop;
@@ -23,7 +24,6 @@ pub mod sim_machine;
 pub mod socket_machine;
 pub mod status;
 pub mod sync;
-pub mod tap_match;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 

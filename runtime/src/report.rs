@@ -50,6 +50,9 @@ pub struct RunReport {
     pub feed_time_s: f64,
     /// Largest distance of a commanded setpoint from the programmed path (mm).
     pub max_path_deviation_mm: f64,
+    /// Largest distance of the drives' actual positions from the programmed path (mm): the
+    /// contour error their lags make.
+    pub max_path_deviation_mm_act: f64,
     /// Junctions where the path speed went to zero between two path motions.
     pub exact_stops: u64,
     pub axes: Vec<AxisReport>,
@@ -96,6 +99,7 @@ impl RunReport {
             path_length_mm: 0.0,
             feed_time_s: 0.0,
             max_path_deviation_mm: 0.0,
+            max_path_deviation_mm_act: 0.0,
             exact_stops: 0,
             axes: axes
                 .iter()
@@ -156,6 +160,7 @@ impl RunReport {
             "path_length_mm": self.path_length_mm,
             "feed_time_s": self.feed_time_s,
             "max_path_deviation_mm": self.max_path_deviation_mm,
+            "max_path_deviation_mm_act": self.max_path_deviation_mm_act,
             "exact_stops": self.exact_stops,
             "axes": Value::Object(axes),
             "tapping": tapping,
@@ -218,7 +223,8 @@ impl RunReport {
         let _ = writeln!(
             s,
             "  path: the feed alone would need {:.3} s (program time {:.2}× that), largest \
-             deviation from the programmed path {:.2e} mm, {} exact stops",
+             deviation from the programmed path {:.2e} mm (actual positions {:.4} mm), {} exact \
+             stops",
             self.feed_time_s,
             if self.feed_time_s > 0.0 {
                 self.program_time_s / self.feed_time_s
@@ -226,6 +232,7 @@ impl RunReport {
                 0.0
             },
             self.max_path_deviation_mm,
+            self.max_path_deviation_mm_act,
             self.exact_stops
         );
         for a in &self.axes {

@@ -49,7 +49,17 @@ fn run_program_armed(
     fault: Option<FaultPlan>,
     stop_at: Option<u32>,
 ) -> (u64, Outcome, u64) {
-    let cfg = machine();
+    run_armed_on(&machine(), program, fault, stop_at)
+}
+
+/// [`run_program_armed`] on `cfg`.
+fn run_armed_on(
+    cfg: &MachineConfig,
+    program: &str,
+    fault: Option<FaultPlan>,
+    stop_at: Option<u32>,
+) -> (u64, Outcome, u64) {
+    let cfg = cfg.clone();
     let mut link = SimLink::simulated(&cfg, None).expect("sim link");
     if let Some(f) = fault {
         link = link.with_fault(f);
@@ -121,6 +131,34 @@ fn full_tick_path_allocates_nothing_stopping_along_blended_moves() {
     let (n, outcome, ticks) = run_program_armed(&blended(), None, Some(200));
     assert!(matches!(outcome, Outcome::Stopped { .. }), "{outcome:?}");
     assert_eq!(n, 0, "allocations in {ticks} ticks");
+}
+
+/// X slow (simulated and modelled) with X, Y, Z matched: the contouring set is shaped every
+/// tick, and the tap's pair on top of it.
+#[test]
+fn full_tick_path_allocates_nothing_with_matched_contouring_axes() {
+    let mut cfg = machine();
+    let slow = cnc402_config::DriveModel {
+        delay_cycles: 2,
+        bandwidth_hz: 40.0,
+    };
+    cfg.axes[0].dynamics = Some(slow);
+    cfg.axes[0].sim = cnc402_config::SimDynamics {
+        delay_cycles: 2,
+        bandwidth_hz: 40.0,
+    };
+    cfg.axes[0].following_error_window = 5.0;
+    cfg.planner.match_axes = vec![0, 1, 2];
+    for (program, stop_at) in [
+        (TAP.to_string(), None),
+        (blended(), None),
+        (blended(), Some(200)),
+    ] {
+        let (n, outcome, ticks) = run_armed_on(&cfg, &program, None, stop_at);
+        let stopped = matches!(outcome, Outcome::Stopped { .. });
+        assert_eq!(stopped, stop_at.is_some(), "{outcome:?}");
+        assert_eq!(n, 0, "allocations in {ticks} ticks");
+    }
 }
 
 #[test]

@@ -82,6 +82,7 @@ pub(super) fn build_report(
         path_length_mm: rec.path_length,
         feed_time_s: end.path.feed_time_s,
         max_path_deviation_mm: end.path.max_deviation,
+        max_path_deviation_mm_act: end.path.max_deviation_act,
         exact_stops: end.path.exact_stops,
         axes,
         tapping: rec
