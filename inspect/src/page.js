@@ -124,7 +124,7 @@ function draw() {
   }
   for (const b of D.breaks) for (const blk of b.blocks) {
     const i = firstPiece.get(blk);
-    if (i !== undefined) marker(pieceStart(i), '#b0009b', '⏸ ' + b.spec, false);
+    if (i !== undefined) marker(pieceStart(i), '#b0009b', 'break ' + b.spec, false);
   }
   if (ERR_AT) marker(ERR_AT, '#d00', 'error: line ' + D.error.line, true);
   if (picked) {
@@ -228,16 +228,24 @@ function sidePanel() {
     (D.truncated ? '. The program goes on past the segment limit; the rest is not drawn.' : '.');
 }
 
-// ---- start; #view=top|front|side|iso and #pick=X,Y,Z (a click at that point's screen position) ----
+// ---- start: #view=top|front|side|iso, #pick=X,Y,Z (a click at that point's screen position),
+// #zoom=F (with pick: that point in the middle, F times closer; a pixel is 1/F as much path) ----
 function start() {
   const params = new URLSearchParams(location.hash.slice(1));
   if (VIEWS[params.get('view')]) [view.yaw, view.pitch] = VIEWS[params.get('view')];
   sidePanel(); fit(); draw();
   const pick = params.get('pick');
-  if (pick) {
-    const [x, y, z] = pick.split(',').map(Number);
-    const s = project(x, y, z), r = canvas.getBoundingClientRect();
-    canvas.dispatchEvent(new MouseEvent('click', { clientX: r.left + s[0], clientY: r.top + s[1], bubbles: true }));
+  if (!pick) return;
+  const [x, y, z] = pick.split(',').map(Number);
+  const zoom = Number(params.get('zoom'));
+  if (zoom > 0) {
+    view.scale *= zoom;
+    const s = project(x, y, z);
+    view.panX -= s[0] - Math.round(canvas.clientWidth / 2);
+    view.panY -= s[1] - Math.round(canvas.clientHeight / 2);
+    draw();
   }
+  const s = project(x, y, z), r = canvas.getBoundingClientRect();
+  canvas.dispatchEvent(new MouseEvent('click', { clientX: r.left + s[0], clientY: r.top + s[1], bubbles: true }));
 }
 window.addEventListener('load', start);
