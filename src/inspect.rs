@@ -86,7 +86,12 @@ fn toolpath(
         cnc402_interp::host_fs::VarsAccess::ReadOnly,
     );
     interp.load(src.clone(), ast.clone());
-    let tp = Toolpath::collect(cfg, &mut interp, frame, cnc402_runtime::feeder::DRY_RUN_MOVES);
+    let tp = Toolpath::collect(
+        cfg,
+        &mut interp,
+        frame,
+        cnc402_runtime::feeder::DRY_RUN_MOVES,
+    );
     if tp.truncated {
         eprintln!(
             "note: the program goes on past the first {} segments (what `cnc402 run` checks \
@@ -122,7 +127,11 @@ pub fn which(cfg: &MachineConfig, args: WhichArgs) -> Result<(), CliError> {
         args.y,
         args.z,
         frame.name(),
-        if args.machine { "" } else { " of each block's offsets" }
+        if args.machine {
+            ""
+        } else {
+            " of each block's offsets"
+        }
     );
     for h in &hits {
         let b = &tp.blocks[h.block];
@@ -215,7 +224,10 @@ pub fn view(cfg: &MachineConfig, args: ViewArgs) -> Result<(), CliError> {
         stats.drawn,
         stats.vertices,
         if stats.tolerance > 0.0 {
-            format!(" (merged within {} mm; block lookup exact)", stats.tolerance)
+            format!(
+                " (merged within {} mm; block lookup exact)",
+                stats.tolerance
+            )
         } else {
             String::new()
         }

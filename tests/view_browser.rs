@@ -70,7 +70,10 @@ fn view(program: &str, out: &Path, extra: &[&str]) -> std::process::Output {
 ///
 /// The page's DOM after loading `page#fragment` in the headless browser.
 fn dump_dom(browser: &Path, page: &Path, fragment: &str, profile: &Path) -> String {
-    let url = format!("file://{}#{fragment}", page.canonicalize().unwrap().display());
+    let url = format!(
+        "file://{}#{fragment}",
+        page.canonicalize().unwrap().display()
+    );
     let mut child = Command::new(browser)
         .args([
             "--headless",
@@ -133,7 +136,9 @@ fn element_text(dom: &str, id: &str) -> String {
 
 #[test]
 fn clicking_the_spike_of_the_lab_example_names_block_n1981() {
-    let Some(browser) = browser_or_skip() else { return };
+    let Some(browser) = browser_or_skip() else {
+        return;
+    };
     let dir = scratch("lab");
     let page = dir.join("lab.html");
     let o = view(
@@ -141,28 +146,64 @@ fn clicking_the_spike_of_the_lab_example_names_block_n1981() {
         &page,
         &["--break", "N1700", "--break", "N2200"],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     // The top of the spike, and a point halfway along N1700 (ramp lap 3) in work coordinates.
-    let dom = dump_dom(&browser, &page, "pick=-10.803,43.983,40.524", &dir.join("p1"));
-    assert_eq!(picked(&dom, "n"), "1981", "{}", element_text(&dom, "picked"));
+    let dom = dump_dom(
+        &browser,
+        &page,
+        "pick=-10.803,43.983,40.524",
+        &dir.join("p1"),
+    );
+    assert_eq!(
+        picked(&dom, "n"),
+        "1981",
+        "{}",
+        element_text(&dom, "picked")
+    );
     assert_eq!(picked(&dom, "file"), "examples/lab-contour/contour.nc");
     assert_eq!(picked(&dom, "line"), "1984");
     assert!(element_text(&dom, "picked").contains("N1981 G1 X-10.803 Y43.983 Z40.524"));
-    let dom = dump_dom(&browser, &page, "pick=13.5925,-29.2830,-7.0705&zoom=20", &dir.join("p2"));
-    assert_eq!(picked(&dom, "n"), "1700", "{}", element_text(&dom, "picked"));
+    let dom = dump_dom(
+        &browser,
+        &page,
+        "pick=13.5925,-29.2830,-7.0705&zoom=20",
+        &dir.join("p2"),
+    );
+    assert_eq!(
+        picked(&dom, "n"),
+        "1700",
+        "{}",
+        element_text(&dom, "picked")
+    );
     assert!(dom.contains("N1700: examples/lab-contour/contour.nc:1703 N1700"));
     // Away from every path: nothing is named.
-    let dom = dump_dom(&browser, &page, "view=top&pick=0,25,-7.524", &dir.join("p3"));
+    let dom = dump_dom(
+        &browser,
+        &page,
+        "view=top&pick=0,25,-7.524",
+        &dir.join("p3"),
+    );
     assert_eq!(picked(&dom, "n"), "", "{}", element_text(&dom, "picked"));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_merged_drawing_still_names_the_exact_block() {
-    let Some(browser) = browser_or_skip() else { return };
+    let Some(browser) = browser_or_skip() else {
+        return;
+    };
     let dir = scratch("merged");
     let page = dir.join("merged.html");
-    let o = view("examples/lab-contour/contour.nc", &page, &["--max-points", "300"]);
+    let o = view(
+        "examples/lab-contour/contour.nc",
+        &page,
+        &["--max-points", "300"],
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(err.contains("merged within"), "{err}");
@@ -180,7 +221,9 @@ fn a_merged_drawing_still_names_the_exact_block() {
 
 #[test]
 fn the_page_of_a_program_with_an_error_shows_it_and_still_picks() {
-    let Some(browser) = browser_or_skip() else { return };
+    let Some(browser) = browser_or_skip() else {
+        return;
+    };
     let dir = scratch("error");
     let prog = dir.join("bad.nc");
     std::fs::write(
@@ -190,10 +233,18 @@ fn the_page_of_a_program_with_an_error_shows_it_and_still_picks() {
     .unwrap();
     let page = dir.join("bad.html");
     let o = view(prog.to_str().unwrap(), &page, &[]);
-    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let dom = dump_dom(&browser, &page, "view=top&pick=10,10,-1", &dir.join("p"));
     let error = element_text(&dom, "error");
-    assert!(error.contains("bad.nc:4:8: X 400 is outside the soft limits"), "{error}");
+    assert!(
+        error.contains("bad.nc:4:8: X 400 is outside the soft limits"),
+        "{error}"
+    );
     // The top of the G2 arc (R10 from X0 to X20, clockwise: through X10 Y10).
     assert_eq!(picked(&dom, "n"), "30", "{}", element_text(&dom, "picked"));
     let _ = std::fs::remove_dir_all(&dir);

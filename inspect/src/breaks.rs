@@ -143,7 +143,11 @@ fn mark_at_or_after(tp: &Toolpath, file: &str, line: u32, r: &mut Resolved) {
             r.warning = Some(format!(
                 "breakpoint {}: no block at or after {file}:{line} makes motion; nearest: {}",
                 r.spec,
-                if near.is_empty() { "none".into() } else { near.join(", ") }
+                if near.is_empty() {
+                    "none".into()
+                } else {
+                    near.join(", ")
+                }
             ));
         }
     }
@@ -177,7 +181,10 @@ fn missing_n(tp: &Toolpath, n: u32, numbered: &[(u32, u32)]) -> String {
             format!("N{m}{at}")
         })
         .collect();
-    format!("breakpoint N{n}: no block N{n} in the program; nearest: {}", near.join(", "))
+    format!(
+        "breakpoint N{n}: no block N{n} in the program; nearest: {}",
+        near.join(", ")
+    )
 }
 
 #[cfg(test)]
@@ -211,7 +218,11 @@ mod tests {
             })
         );
         for bad in ["N", "N17x", "part.nc", "part.nc:0", ":4", "X12"] {
-            assert!(BreakSpec::parse(bad).unwrap_err().contains("expected N<number>"));
+            assert!(
+                BreakSpec::parse(bad)
+                    .unwrap_err()
+                    .contains("expected N<number>")
+            );
         }
     }
 
@@ -222,7 +233,10 @@ mod tests {
         let r = resolve(&tp, &BreakSpec::N(1705), "N1705", "dir/a.nc", &numbered);
         assert!(r.blocks.is_empty());
         let w = r.warning.unwrap();
-        assert!(w.contains("N1700 (dir/a.nc:4 N1700)") && w.contains("N1710"), "{w}");
+        assert!(
+            w.contains("N1700 (dir/a.nc:4 N1700)") && w.contains("N1710"),
+            "{w}"
+        );
         // N1710 is in the text but makes no motion: marked at the next block that does.
         let r = resolve(&tp, &BreakSpec::N(1710), "N1710", "dir/a.nc", &numbered);
         assert_eq!(r.blocks, vec![2]);
@@ -234,12 +248,17 @@ mod tests {
     fn a_file_line_matches_the_end_of_the_path() {
         let tp = program();
         let spec = BreakSpec::parse("a.nc:4").unwrap();
-        assert_eq!(resolve(&tp, &spec, "a.nc:4", "dir/a.nc", &[]).blocks, vec![1]);
+        assert_eq!(
+            resolve(&tp, &spec, "a.nc:4", "dir/a.nc", &[]).blocks,
+            vec![1]
+        );
         let spec = BreakSpec::parse("b.nc:4").unwrap();
         let r = resolve(&tp, &spec, "b.nc:4", "dir/a.nc", &[]);
         assert!(r.warning.unwrap().contains("no block of b.nc ran"));
         let spec = BreakSpec::parse("a.nc:9").unwrap();
-        let w = resolve(&tp, &spec, "a.nc:9", "dir/a.nc", &[]).warning.unwrap();
+        let w = resolve(&tp, &spec, "a.nc:9", "dir/a.nc", &[])
+            .warning
+            .unwrap();
         assert!(w.contains("nearest: dir/a.nc:6"), "{w}");
     }
 }

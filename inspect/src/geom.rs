@@ -73,7 +73,13 @@ impl Path3 {
         };
         let (p, q, n) = plane_axes(plane);
         let (s, e) = (self.start, self.end);
-        let sweep = arc_sweep([s[p], s[q]], [e[p], e[q]], [center[p], center[q]], dir, turns);
+        let sweep = arc_sweep(
+            [s[p], s[q]],
+            [e[p], e[q]],
+            [center[p], center[q]],
+            dir,
+            turns,
+        );
         let sign = if dir == ArcDir::Ccw { 1.0 } else { -1.0 };
         let params = ArcParams {
             a0: (s[q] - center[q]).atan2(s[p] - center[p]),

@@ -120,7 +120,7 @@ function draw() {
   }
   if (TRACE) {
     if (document.getElementById('showcmd').checked) strokeSeries(TRACE.cmd, '#777', [2, 3], 1);
-    if (document.getElementById('showact').checked) strokeSeries(TRACE.act, '#e0a000', [], 1.5);
+    if (document.getElementById('showact').checked) strokeSeries(TRACE.act, 'rgba(224,160,0,0.55)', [], 1);
   }
   for (const b of D.breaks) for (const blk of b.blocks) {
     const i = firstPiece.get(blk);

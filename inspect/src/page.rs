@@ -86,7 +86,10 @@ fn drawing(tp: &Toolpath) -> Drawing {
     };
     for (i, p) in tp.pieces.iter().enumerate() {
         let poly = p.path.polyline(ARC_TOLERANCE);
-        let joined = d.points.last().is_some_and(|last| dist(last, &poly[0]) < 1e-6);
+        let joined = d
+            .points
+            .last()
+            .is_some_and(|last| dist(last, &poly[0]) < 1e-6);
         for (k, v) in poly.into_iter().enumerate() {
             if k == 0 && joined {
                 continue;
@@ -143,7 +146,11 @@ fn page_data(tp: &Toolpath, input: &PageInput, sources: &mut SourceText) -> (Val
         .iter()
         .map(|b| json!([b.file, b.line, b.n, sources.line(&tp.files[b.file], b.line)]))
         .collect();
-    let ends: Vec<P3> = tp.pieces.iter().flat_map(|p| [p.path.start, p.path.end]).collect();
+    let ends: Vec<P3> = tp
+        .pieces
+        .iter()
+        .flat_map(|p| [p.path.start, p.path.end])
+        .collect();
     let kinds: Vec<PieceKind> = tp.pieces.iter().map(|p| p.kind).collect();
     let kind_str: String = kinds
         .iter()
@@ -208,7 +215,9 @@ fn page_data(tp: &Toolpath, input: &PageInput, sources: &mut SourceText) -> (Val
 
 /// `s` safe inside an HTML element's text.
 fn html_escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
 }
 
 /// The whole page for `tp`.
@@ -269,7 +278,10 @@ mod tests {
         };
         let (data, stats) = page_data(&tp, &input, &mut SourceText::default());
         assert!(stats.drawn <= 500 && stats.drawn > 10, "{stats:?}");
-        assert!(stats.tolerance >= 0.001 && stats.tolerance < 0.01, "{stats:?}");
+        assert!(
+            stats.tolerance >= 0.001 && stats.tolerance < 0.01,
+            "{stats:?}"
+        );
         // Every piece keeps its exact ends: 2 points × 3 numbers.
         assert_eq!(data["pieces"]["ends"].as_array().unwrap().len(), 5000 * 6);
         let (_, small) = page_data(&zigzag(10), &input, &mut SourceText::default());
@@ -286,7 +298,11 @@ mod tests {
             max_points: 10,
         };
         let (html, _) = render(&tp, &input, &mut SourceText::default());
-        assert_eq!(html.matches("</script>").count(), 2, "the script and the data");
+        assert_eq!(
+            html.matches("</script>").count(),
+            2,
+            "the script and the data"
+        );
         assert!(html.contains("&lt;/script&gt;&lt;b&gt;x.nc"));
     }
 }

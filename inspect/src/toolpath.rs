@@ -99,7 +99,12 @@ fn xyz_of(p: &AxisPos, xyz: [Option<usize>; 3]) -> P3 {
 impl Toolpath {
     /// Runs `interp` (loaded, not yet started) to its end, its first error, or `limit`
     /// segments, and keeps the path in `frame`.
-    pub fn collect(cfg: &MachineConfig, interp: &mut Interpreter, frame: Frame, limit: u64) -> Self {
+    pub fn collect(
+        cfg: &MachineConfig,
+        interp: &mut Interpreter,
+        frame: Frame,
+        limit: u64,
+    ) -> Self {
         let xyz = xyz_indices(cfg);
         let mut tp = Toolpath {
             frame: Some(frame),
@@ -149,7 +154,10 @@ impl Toolpath {
             };
             let (start, shape_kind) = match frame {
                 Frame::Machine => (at, seg.kind.clone()),
-                Frame::Work => (state.to_work(&at), state.convert(seg.kind.clone(), xyz, false)),
+                Frame::Work => (
+                    state.to_work(&at),
+                    state.convert(seg.kind.clone(), xyz, false),
+                ),
             };
             let shape = match shape_kind {
                 SegmentKind::Arc {

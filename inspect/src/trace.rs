@@ -50,7 +50,9 @@ pub fn read(input: impl BufRead, cap: usize) -> Result<Vec<TraceRow>, String> {
                     .get(c)
                     .and_then(|v| v.parse::<f64>().ok())
                     .filter(|v| v.is_finite())
-                    .ok_or_else(|| format!("trace line {}: column {} is not a number", i + 2, c + 1)),
+                    .ok_or_else(|| {
+                        format!("trace line {}: column {} is not a number", i + 2, c + 1)
+                    }),
             }
         };
         let line = f
@@ -94,9 +96,9 @@ pub fn to_frame(rows: &mut [TraceRow], tp: &Toolpath, main_file: &str) {
         if let Some(o) = by_line.get(&r.line) {
             offset = *o;
         }
-        for k in 0..3 {
-            r.cmd[k] -= offset[k];
-            r.act[k] -= offset[k];
+        for (k, o) in offset.iter().enumerate() {
+            r.cmd[k] -= o;
+            r.act[k] -= o;
         }
     }
 }
@@ -109,7 +111,12 @@ mod tests {
     fn a_long_trace_is_thinned_to_the_cap() {
         let mut csv = String::from("t,line,X_cmd,X_act,Z_cmd,Z_act,C_cmd,C_act,X_sw\n");
         for i in 0..1000 {
-            csv.push_str(&format!("{}.0,{},{i},{},-1,-1.5,0,0,0x1237\n", i, i / 100, i as f64 - 0.5));
+            csv.push_str(&format!(
+                "{}.0,{},{i},{},-1,-1.5,0,0,0x1237\n",
+                i,
+                i / 100,
+                i as f64 - 0.5
+            ));
         }
         let rows = read(csv.as_bytes(), 100).unwrap();
         assert!(rows.len() < 100 && rows.len() >= 50, "{}", rows.len());
@@ -121,7 +128,11 @@ mod tests {
     #[test]
     fn a_bad_trace_says_what_is_wrong() {
         assert!(read("".as_bytes(), 10).unwrap_err().contains("empty trace"));
-        assert!(read("t,X_cmd\n".as_bytes(), 10).unwrap_err().contains("`line`"));
+        assert!(
+            read("t,X_cmd\n".as_bytes(), 10)
+                .unwrap_err()
+                .contains("`line`")
+        );
         let e = read("t,line,X_cmd\n0,1,abc\n".as_bytes(), 10).unwrap_err();
         assert!(e.contains("trace line 2: column 3"), "{e}");
     }

@@ -35,7 +35,11 @@ pub fn nearest_blocks(tp: &Toolpath, point: &P3, count: usize) -> Vec<Hit> {
         }
     }
     let mut hits: Vec<Hit> = best.into_iter().flatten().collect();
-    hits.sort_by(|a, b| a.distance.total_cmp(&b.distance).then(a.block.cmp(&b.block)));
+    hits.sort_by(|a, b| {
+        a.distance
+            .total_cmp(&b.distance)
+            .then(a.block.cmp(&b.block))
+    });
     hits.truncate(count);
     hits
 }
