@@ -102,6 +102,12 @@ fn toolpath(
     Ok((tp, ast, src))
 }
 
+/// A coordinate to the µm, without a sign on a zero that rounding made negative.
+fn mm(v: f64) -> String {
+    let s = format!("{v:.3}");
+    if s == "-0.000" { "0.000".into() } else { s }
+}
+
 fn frame(machine: bool) -> Frame {
     if machine { Frame::Machine } else { Frame::Work }
 }
@@ -137,13 +143,13 @@ pub fn which(cfg: &MachineConfig, args: WhichArgs) -> Result<(), CliError> {
         let b = &tp.blocks[h.block];
         let file = tp.files[b.file].clone();
         println!(
-            "{:>10.3} mm  {}  {:<5}  at X{:.3} Y{:.3} Z{:.3}  | {}",
+            "{:>10.3} mm  {}  {:<5}  at X{} Y{} Z{}  | {}",
             h.distance,
             tp.block_label(h.block),
             h.kind.name(),
-            h.nearest[0],
-            h.nearest[1],
-            h.nearest[2],
+            mm(h.nearest[0]),
+            mm(h.nearest[1]),
+            mm(h.nearest[2]),
             text.line(&file, b.line)
         );
     }

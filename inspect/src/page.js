@@ -168,7 +168,7 @@ function showPick(p) {
   el.dataset.file = name; el.dataset.line = line; el.dataset.n = n === null ? '' : n; el.dataset.kind = KINDS[p.piece];
   const where = `X${fmt(p.point[0])} Y${fmt(p.point[1])} Z${fmt(p.point[2])}`;
   el.textContent = `${name}:${line}${n === null ? '' : ' N' + n}  (${({ R: 'rapid', F: 'feed', T: 'tap' })[KINDS[p.piece]]})\n${text}\n\nat ${where} (${D.frame} coordinates)\n` +
-    `exact list: cnc402 which ${D.program} ${fmt(p.point[0])} ${fmt(p.point[1])} ${fmt(p.point[2])}`;
+    `exact list: cnc402 which ${D.program} ${fmt(p.point[0])} ${fmt(p.point[1])} ${fmt(p.point[2])}` + (D.frame === 'machine' ? ' --machine' : '');
   draw();
 }
 
