@@ -126,7 +126,7 @@ function draw() {
     const i = firstPiece.get(blk);
     if (i !== undefined) marker(pieceStart(i), '#b0009b', 'break ' + b.spec, false);
   }
-  if (ERR_AT) marker(ERR_AT, '#d00', 'error: line ' + D.error.line, true);
+  if (ERR_AT) marker(ERR_AT, '#d00', 'error: ' + D.error.file.split('/').pop() + ':' + D.error.line, true);
   if (picked) {
     PBLOCK.forEach((b, i) => {
       if (b !== picked.block) return;
