@@ -17,6 +17,9 @@ pub mod exit {
     /// A file cannot be read or written, or the CAN interface cannot be opened (missing
     /// interface; a kernel without AF_CAN, errno 97).
     pub const IO: u8 = 4;
+    /// `cnc402 which`: no path passes within `--within` of the point (the message says how
+    /// far the nearest is).
+    pub const FAR: u8 = 5;
     /// Bad command-line usage.
     pub const USAGE: u8 = 64;
 }
@@ -33,6 +36,8 @@ pub enum CliError {
     Fault(String),
     /// A command-line value that clap cannot check by itself.
     Usage(String),
+    /// `cnc402 which`: the point is far from every path.
+    Far(String),
 }
 
 impl CliError {
@@ -43,6 +48,7 @@ impl CliError {
             CliError::Io(m) => (exit::IO, miette::miette!("{m}")),
             CliError::Fault(m) => (exit::FAULT, miette::miette!("{m}")),
             CliError::Usage(m) => (exit::USAGE, miette::miette!("{m}")),
+            CliError::Far(m) => (exit::FAR, miette::miette!("{m}")),
         };
         eprintln!("{report:?}");
         ExitCode::from(code)

@@ -4,7 +4,8 @@
 //! Exit codes (documented in README.md):
 //! 0 success · 1 the machine stopped on a fault or safety reaction during `run` ·
 //! 2 the program is wrong (parse, interpreter or planning error) · 3 the machine config is wrong ·
-//! 4 an I/O error (file unreadable, CAN interface missing) · 64 bad command-line usage.
+//! 4 an I/O error (file unreadable, CAN interface missing) · 5 `which`: no path near the
+//! point · 64 bad command-line usage.
 
 // CliError carries an NcError (large); it ends the process, so its size costs nothing.
 #![allow(clippy::result_large_err)]
@@ -15,6 +16,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cli_error;
+mod inspect;
 mod run;
 mod vars;
 use cli_error::{CliError, exit};
@@ -64,6 +66,16 @@ enum Command {
     ///
     /// Example: cnc402 run examples/m10x1.5-rigid-tap.nc --report run.json
     Run(RunArgs),
+    /// Point → block: the blocks whose path passes nearest a point (work coordinates of each
+    /// block's offsets), nearest first, with file, line, N and distance.
+    ///
+    /// Example: cnc402 which examples/contour-arcs.nc 60 20 -2
+    Which(inspect::WhichArgs),
+    /// Write the toolpath as one self-contained HTML page (3D view; click a point for its
+    /// block; breakpoints, the dry run's error and a run's trace marked).
+    ///
+    /// Example: cnc402 view examples/contour-arcs.nc -o path.html --break N150
+    View(inspect::ViewArgs),
     /// List, set or clear the non-volatile macro variables #500-#999
     /// (`interp.variables_file`), e.g. to fill the parameter pages of a macro program.
     ///
@@ -168,6 +180,8 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let cfg = load_config(&cli.config)?;
             run::run(&cfg, &args)
         }
+        Command::Which(args) => inspect::which(&load_config(&cli.config)?, args),
+        Command::View(args) => inspect::view(&load_config(&cli.config)?, args),
         Command::Vars { file, command } => {
             let cfg = load_config(&cli.config)?;
             vars::vars(&cfg, file, command)

@@ -7,7 +7,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};
 
-const CRATES: [&str; 11] = [
+const CRATES: [&str; 12] = [
     ".",
     "lang",
     "interp",
@@ -19,6 +19,7 @@ const CRATES: [&str; 11] = [
     "drivectl",
     "hil-tests",
     "testkit",
+    "inspect",
 ];
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {

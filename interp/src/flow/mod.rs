@@ -24,7 +24,7 @@ use crate::block::Machine;
 use crate::block::state::ModalState;
 use crate::block::words::Words;
 pub use crate::block::{MainM99, Options};
-use crate::canon::{self, CanonOp};
+use crate::canon::{self, CanonOp, CanonState};
 use crate::comp;
 use crate::expr::{self, C_LIKE_ONLY};
 use crate::hll::Hll;
@@ -77,8 +77,9 @@ struct Flow {
     last_n: Option<f64>,
     /// Operations of executed blocks not given out yet.
     queue: VecDeque<CanonOp>,
-    /// Segments of the last operation not given out yet.
-    lowered: VecDeque<Segment>,
+    /// Segments of the last operation not given out yet, each with the state of the
+    /// operation it was lowered from (its work → machine offset).
+    lowered: VecDeque<(Segment, Arc<CanonState>)>,
     /// Cutter radius compensation between the canonical operations and lowering.
     comp: comp::Stage,
     /// The machine indices of X, Y and Z (arc centres), for lowering.
@@ -243,6 +244,13 @@ impl Interpreter {
     /// coordinates. Use one of the two per run: the segments of an operation taken with
     /// `next_canon` are not given out here.
     pub fn next_segment(&mut self) -> Result<Option<Segment>, NcError> {
+        Ok(self.next_lowered()?.map(|(s, _)| s))
+    }
+
+    /// As [`next_segment`](Self::next_segment), with the state of the (compensated)
+    /// operation the segment was lowered from: `state.to_work` gives its positions in the
+    /// work coordinates the program was written in (what `cnc402 which` and `view` show).
+    pub fn next_lowered(&mut self) -> Result<Option<(Segment, Arc<CanonState>)>, NcError> {
         loop {
             if let Some(s) = self.flow.lowered.pop_front() {
                 return Ok(Some(s));
@@ -281,10 +289,15 @@ impl Interpreter {
             return Err(self.comp_error(e));
         }
         let before = self.flow.lowered.len();
+        let mut segments = Vec::new();
         while let Some(c) = self.flow.comp.pop() {
-            lower::lower(&c, self.flow.xyz, &mut self.flow.lowered);
+            lower::lower(&c, self.flow.xyz, &mut segments);
+            let state = &c.state;
+            self.flow
+                .lowered
+                .extend(segments.drain(..).map(|s| (s, state.clone())));
         }
-        for s in self.flow.lowered.range(before..) {
+        for (s, _) in self.flow.lowered.range(before..) {
             self.m.account(s);
         }
         if !keep {
