@@ -33,7 +33,10 @@ pub use master_link::{CycleBus, LinkTimeouts, MasterLink};
 pub use plot::write_plot;
 pub use program_stop::{AtStop, StopDecision, StopGate, StopPolicy, StopRecord};
 pub use report::RunReport;
-pub use run::{Progress, RunError, RunOptions, StatsSample, Timing, make_link, run_program};
+pub use feeder::ProgramInput;
+pub use run::{
+    Progress, RunError, RunOptions, StatsSample, Timing, make_link, run_input, run_program,
+};
 pub use sim_machine::{SimFault, SimFaultPlan, SimLink, SimMachine};
 pub use socket_machine::{SocketLink, SocketMachine};
 pub use status::{Outcome, Phase, Status};
