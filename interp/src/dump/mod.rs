@@ -49,10 +49,57 @@ use cnc402_motion::segment::{
 /// assert_eq!(num(1.0 / 3.0), "0.333333");
 /// ```
 pub fn num(v: f64) -> String {
-    if v.is_finite() {
-        fmt_num(v)
-    } else {
-        "null".into()
+    let mut o = String::new();
+    write_num(&mut o, v);
+    o
+}
+
+/// [`num`] written onto `o` without allocating: a segment dump prints millions of numbers.
+/// Below 1e9 the rounded value is k·1e-6 with |k| < 1e15; a decimal of at most 15
+/// significant digits is the shortest form of the nearest double (which is what `fmt_num`
+/// prints), so printing k's digits with the point put back gives the same text.
+///
+/// ```
+/// use cnc402_interp::dump::{num, write_num};
+/// for v in [0.0, -0.0, 1.5, -2.50000004, 1e-7, 123456.0000004, 999999999.9999996, 1e300] {
+///     let mut o = String::new();
+///     write_num(&mut o, v);
+///     assert_eq!(o, cnc402_interp::words::fmt_num(v), "{v}");
+/// }
+/// ```
+pub fn write_num(o: &mut String, v: f64) {
+    if !v.is_finite() {
+        o.push_str("null");
+        return;
+    }
+    if v.abs() >= 1e9 {
+        o.push_str(&fmt_num(v));
+        return;
+    }
+    let k = (v * 1e6).round();
+    if k == 0.0 {
+        o.push('0');
+        return;
+    }
+    // |k| < 1e15 < 2^63: exact as an integer.
+    let k = k as i64;
+    if k < 0 {
+        o.push('-');
+    }
+    let k = k.unsigned_abs();
+    let (whole, frac) = (k / 1_000_000, k % 1_000_000);
+    let _ = write!(o, "{whole}");
+    if frac != 0 {
+        let mut digits = [b'0'; 6];
+        let mut f = frac;
+        for d in digits.iter_mut().rev() {
+            *d = b'0' + (f % 10) as u8;
+            f /= 10;
+        }
+        let len = 6 - digits.iter().rev().take_while(|&&d| d == b'0').count();
+        o.push('.');
+        // ASCII digits only.
+        o.push_str(std::str::from_utf8(&digits[..len]).unwrap_or("0"));
     }
 }
 
@@ -60,6 +107,12 @@ pub fn num(v: f64) -> String {
 /// everything else (non-ASCII too) as UTF-8, which JSON allows.
 pub fn json_str(s: &str) -> String {
     let mut o = String::with_capacity(s.len() + 2);
+    write_json_str(&mut o, s);
+    o
+}
+
+/// [`json_str`] written onto `o`.
+pub fn write_json_str(o: &mut String, s: &str) {
     o.push('"');
     for c in s.chars() {
         match c {
@@ -75,7 +128,6 @@ pub fn json_str(s: &str) -> String {
         }
     }
     o.push('"');
-    o
 }
 
 /// `,"<key>":{"X":…}` with every configured axis.
@@ -85,7 +137,8 @@ pub(crate) fn axes_obj(o: &mut String, key: &str, end: &AxisPos, cfg: &MachineCo
         if i > 0 {
             o.push(',');
         }
-        let _ = write!(o, "\"{}\":{}", ax.name, num(end[i]));
+        let _ = write!(o, "\"{}\":", ax.name);
+        write_num(o, end[i]);
     }
     o.push('}');
 }
@@ -109,12 +162,9 @@ pub fn kind_name(kind: &SegmentKind) -> &'static str {
 
 /// `{"<key>":"<name>","file":…,"line":…,"n":…` (the object stays open).
 pub(crate) fn source_keys(o: &mut String, key: &str, name: &str, source: &Source) {
-    let _ = write!(
-        o,
-        "{{\"{key}\":\"{name}\",\"file\":{},\"line\":{},\"n\":",
-        json_str(&source.file),
-        source.line
-    );
+    let _ = write!(o, "{{\"{key}\":\"{name}\",\"file\":");
+    write_json_str(o, &source.file);
+    let _ = write!(o, ",\"line\":{},\"n\":", source.line);
     match source.n {
         Some(n) => {
             let _ = write!(o, "{n}");
@@ -129,7 +179,8 @@ pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig)
         SegmentKind::Rapid { end } => axes_obj(o, "end", end, cfg),
         SegmentKind::Linear { end, feed } => {
             axes_obj(o, "end", end, cfg);
-            let _ = write!(o, ",\"feed\":{}", num(*feed));
+            o.push_str(",\"feed\":");
+            write_num(o, *feed);
         }
         SegmentKind::Tap(TapSegment {
             end,
@@ -238,11 +289,8 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
     match seg.ends {
         SegmentEnd::ExactStop => o.push_str(",\"ends\":\"exact_stop\""),
         SegmentEnd::Continuous { tolerance } => {
-            let _ = write!(
-                o,
-                ",\"ends\":\"continuous\",\"tolerance\":{}",
-                num(tolerance)
-            );
+            o.push_str(",\"ends\":\"continuous\",\"tolerance\":");
+            write_num(&mut o, tolerance);
         }
     }
     o.push('}');
@@ -422,5 +470,32 @@ mod tests {
             j,
             r#"{"kind":"spindle_orient","file":"q\"x.nc","line":7,"n":null,"angle":270,"program":-90,"ends":"exact_stop"}"#
         );
+    }
+}
+
+#[cfg(test)]
+mod num_tests {
+    use super::*;
+
+    /// `write_num` is the dump's fast path of `fmt_num`: the same text for every value.
+    #[test]
+    fn write_num_prints_what_fmt_num_prints() {
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for _ in 0..200_000 {
+            let r = next();
+            let mag = 10f64.powi((r % 20) as i32 - 8);
+            let v = ((next() >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2.0 * mag;
+            for v in [v, (v * 1e4).round() / 1e4, v.trunc()] {
+                let mut o = String::new();
+                write_num(&mut o, v);
+                assert_eq!(o, fmt_num(v), "{v:e}");
+            }
+        }
     }
 }
