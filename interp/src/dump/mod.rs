@@ -88,7 +88,7 @@ pub fn write_num(o: &mut String, v: f64) {
     }
     let k = k.unsigned_abs();
     let (whole, frac) = (k / 1_000_000, k % 1_000_000);
-    let _ = write!(o, "{whole}");
+    push_u64(o, whole);
     if frac != 0 {
         let mut digits = [b'0'; 6];
         let mut f = frac;
@@ -109,6 +109,22 @@ pub fn json_str(s: &str) -> String {
     let mut o = String::with_capacity(s.len() + 2);
     write_json_str(&mut o, s);
     o
+}
+
+/// `v`'s decimal digits written onto `o` (what `{v}` prints, without the formatter).
+fn push_u64(o: &mut String, mut v: u64) {
+    let mut digits = [0u8; 20];
+    let mut at = digits.len();
+    loop {
+        at -= 1;
+        digits[at] = b'0' + (v % 10) as u8;
+        v /= 10;
+        if v == 0 {
+            break;
+        }
+    }
+    // ASCII digits only.
+    o.push_str(std::str::from_utf8(&digits[at..]).unwrap_or("0"));
 }
 
 /// [`json_str`] written onto `o`.
@@ -132,12 +148,16 @@ pub fn write_json_str(o: &mut String, s: &str) {
 
 /// `,"<key>":{"X":…}` with every configured axis.
 pub(crate) fn axes_obj(o: &mut String, key: &str, end: &AxisPos, cfg: &MachineConfig) {
-    let _ = write!(o, ",\"{key}\":{{");
+    o.push_str(",\"");
+    o.push_str(key);
+    o.push_str("\":{");
     for (i, ax) in cfg.axes.iter().enumerate() {
         if i > 0 {
             o.push(',');
         }
-        let _ = write!(o, "\"{}\":", ax.name);
+        o.push('"');
+        o.push(ax.name);
+        o.push_str("\":");
         write_num(o, end[i]);
     }
     o.push('}');
@@ -162,13 +182,17 @@ pub fn kind_name(kind: &SegmentKind) -> &'static str {
 
 /// `{"<key>":"<name>","file":…,"line":…,"n":…` (the object stays open).
 pub(crate) fn source_keys(o: &mut String, key: &str, name: &str, source: &Source) {
-    let _ = write!(o, "{{\"{key}\":\"{name}\",\"file\":");
+    o.push_str("{\"");
+    o.push_str(key);
+    o.push_str("\":\"");
+    o.push_str(name);
+    o.push_str("\",\"file\":");
     write_json_str(o, &source.file);
-    let _ = write!(o, ",\"line\":{},\"n\":", source.line);
+    o.push_str(",\"line\":");
+    push_u64(o, u64::from(source.line));
+    o.push_str(",\"n\":");
     match source.n {
-        Some(n) => {
-            let _ = write!(o, "{n}");
-        }
+        Some(n) => push_u64(o, u64::from(n)),
         None => o.push_str("null"),
     }
 }
