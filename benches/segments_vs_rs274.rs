@@ -19,7 +19,11 @@ fn program(dir: &Path) -> PathBuf {
     let mut text = String::from("G21 G90 G17\nG64 P0.01\nG0 X10 Y0 Z0\nF3000\n");
     for i in 1..=BLOCKS {
         let a = i as f64 * 0.001;
-        text.push_str(&format!("G1 X{:.4} Y{:.4}\n", 10.0 * a.cos(), 10.0 * a.sin()));
+        text.push_str(&format!(
+            "G1 X{:.4} Y{:.4}\n",
+            10.0 * a.cos(),
+            10.0 * a.sin()
+        ));
     }
     text.push_str("M2\n");
     f.write_all(text.as_bytes()).expect("written");

@@ -84,7 +84,12 @@ fn programs(dir: &Path, out: &mut Vec<PathBuf>) {
 fn every_shipped_program_streams_as_it_runs_whole() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let mut files = Vec::new();
-    for d in ["examples", "tests/real-programs", "interp/tests", "runtime/tests"] {
+    for d in [
+        "examples",
+        "tests/real-programs",
+        "interp/tests",
+        "runtime/tests",
+    ] {
         programs(&root.join(d), &mut files);
     }
     files.sort();
@@ -106,7 +111,10 @@ fn filler(n: usize) -> String {
 
 /// Streams `text` and checks it against the whole parse; returns the segment count.
 fn same_both_ways(text: &str) -> usize {
-    let (a, b) = (whole("p.nc", text.as_bytes()), streamed("p.nc", text.as_bytes()));
+    let (a, b) = (
+        whole("p.nc", text.as_bytes()),
+        streamed("p.nc", text.as_bytes()),
+    );
     assert_eq!(a.1, None, "{:?}", a.1);
     assert_eq!(b.1, None, "{:?}", b.1);
     assert!(a.0 == b.0, "segments differ");
@@ -201,10 +209,7 @@ fn an_error_on_line_900000_names_that_line_and_its_block() {
         (900_000, 4, "G1 X Y2"),
         "{e}"
     );
-    assert!(
-        e.to_string().starts_with("big.nc:900000:4: "),
-        "{e}"
-    );
+    assert!(e.to_string().starts_with("big.nc:900000:4: "), "{e}");
     // An interpreter error: found when the block runs, after the moves before it.
     let text = long_program(900_010, 900_000, "G1 G7 X1");
     let mut it = Interpreter::new(&cfg());

@@ -3,6 +3,10 @@
 //! keep `file:line:col` and the block) and parses it when asked; it can go back to a line
 //! whose byte offset was remembered. Memory is one line, whatever the program's length.
 
+// NcError is big (it carries the block for its message); a read returns one at most once per
+// run, so boxing it would only make the API clumsier (as in `parse`).
+#![allow(clippy::result_large_err)]
+
 use std::io::{self, BufRead, Read, Seek, SeekFrom};
 use std::sync::Arc;
 
@@ -122,7 +126,11 @@ impl LineReader {
         body = body.strip_suffix(b"\r").unwrap_or(body);
         let text: Arc<str> = match std::str::from_utf8(body) {
             Ok(t) => t.into(),
-            Err(_) => body.iter().map(|&b| char::from(b)).collect::<String>().into(),
+            Err(_) => body
+                .iter()
+                .map(|&b| char::from(b))
+                .collect::<String>()
+                .into(),
         };
         let line_no = u32::try_from(at.index + 1).unwrap_or(u32::MAX);
         Ok(ReadLine::Text(
@@ -199,7 +207,6 @@ pub fn is_statement_line(text: &str) -> bool {
 /// let e = parse_line(&SourceFile::window("p.nc", "G1 X", 9), Dialect::Fanuc).unwrap_err();
 /// assert_eq!((e.line, e.col), (9, 4));
 /// ```
-#[allow(clippy::result_large_err)]
 pub fn parse_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcError> {
     let Program { mut lines, .. } = crate::parse::parse_gcode(window, dialect)?;
     match lines.pop() {

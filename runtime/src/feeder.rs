@@ -35,7 +35,9 @@ impl ProgramInput {
     pub fn source(&self) -> SourceFile {
         match self {
             ProgramInput::Parsed { src, .. } => src.clone(),
-            ProgramInput::File { path, .. } => SourceFile::window(path.display().to_string(), "", 1),
+            ProgramInput::File { path, .. } => {
+                SourceFile::window(path.display().to_string(), "", 1)
+            }
         }
     }
 
@@ -190,7 +192,8 @@ impl Feeder {
             let Some(seg) = self.interp.next_segment()? else {
                 self.interp_done = true;
                 let finished = lock(&self.lookahead).finish();
-                finished.map_err(|e| motion_error_to_nc(&self.src_of(&self.last_file, e.line), &e))?;
+                finished
+                    .map_err(|e| motion_error_to_nc(&self.src_of(&self.last_file, e.line), &e))?;
                 continue;
             };
             lock(&self.lookahead).push(&seg).map_err(|e| {

@@ -54,8 +54,8 @@ impl Interpreter {
                     let mut at = link.next;
                     // Each step moves forward to the next branch: at most the branches.
                     while let Some(v) = self.line_view(unit, at)?
-                        && let Some(OWordKind::ElseIf(c2)) = oword_of(&v.program, at - v.base)
-                            .map(|o| &o.kind)
+                        && let Some(OWordKind::ElseIf(c2)) =
+                            oword_of(&v.program, at - v.base).map(|o| &o.kind)
                     {
                         if self.o_truth(&v, c2)? {
                             break;
@@ -119,7 +119,9 @@ impl Interpreter {
             }
             OWordKind::Continue => {
                 let head = self.line_view(unit, link.head)?;
-                let head = head.as_ref().and_then(|v| oword_of(&v.program, link.head - v.base));
+                let head = head
+                    .as_ref()
+                    .and_then(|v| oword_of(&v.program, link.head - v.base));
                 match head.map(|o| &o.kind) {
                     Some(OWordKind::While(_)) => self.set_pc(link.head),
                     _ => self.set_pc(link.end),

@@ -57,11 +57,7 @@ pub(crate) fn load(mut reader: LineReader, dialect: Dialect) -> Result<Loaded, N
     let mut prefix_has_code = false;
     let name = reader.name().clone();
     let mut last = SourceFile::window(name.clone(), "", 1);
-    loop {
-        let (window, at) = match reader.read()? {
-            ReadLine::Text(w, at) => (w, at),
-            ReadLine::End => break,
-        };
+    while let ReadLine::Text(window, at) = reader.read()? {
         let text = window.line_text(window.first_line());
         if !linuxcnc && is_statement_line(text) {
             return Ok(Loaded::CLike(reader.whole()?));
@@ -153,9 +149,7 @@ impl Stream {
             .max()
             .unwrap_or_default();
         if here.index > i || best.index > here.index {
-            self.reader
-                .seek(best)
-                .map_err(|e| self.io_error(i, &e))?;
+            self.reader.seek(best).map_err(|e| self.io_error(i, &e))?;
         }
         while self.reader.position().index < i {
             if !self.reader.skip()? {
@@ -231,6 +225,9 @@ impl Stream {
 /// Whether a line may carry a sequence number: `N` (after a block-delete `/`) starts it.
 fn starts_with_n(text: &str) -> bool {
     let t = text.trim_start_matches([' ', '\t']);
-    let t = t.strip_prefix('/').unwrap_or(t).trim_start_matches([' ', '\t']);
+    let t = t
+        .strip_prefix('/')
+        .unwrap_or(t)
+        .trim_start_matches([' ', '\t']);
     t.starts_with(['N', 'n'])
 }

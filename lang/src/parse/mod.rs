@@ -385,10 +385,12 @@ impl<'a> Cx<'a> {
     fn line_no_at(&self, off: usize) -> u32 {
         let first = self.first_line - 1;
         if self.line_starts.is_empty() {
-            return first + 1 + self.text.as_bytes()[..off.min(self.text.len())]
-                .iter()
-                .filter(|&&b| b == b'\n')
-                .count() as u32;
+            return first
+                + 1
+                + self.text.as_bytes()[..off.min(self.text.len())]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count() as u32;
         }
         match self.line_starts.binary_search(&(off as u32)) {
             Ok(k) => first + k as u32 + 1,

@@ -95,8 +95,8 @@ impl<'a> Side<'a> {
     ) -> Result<(), RunError> {
         let axes = AxisTable::new(self.cfg);
         let start = start_position(&axes, start);
-        let feeder = Feeder::from_input(self.cfg, &feed.input, start, false)
-            .map_err(RunError::Program)?;
+        let feeder =
+            Feeder::from_input(self.cfg, &feed.input, start, false).map_err(RunError::Program)?;
         let h = spawn_feeder(
             feeder,
             feed.moves,
