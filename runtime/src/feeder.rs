@@ -41,8 +41,9 @@ impl ProgramInput {
         }
     }
 
-    /// Loads the program into `interp` (a file: opened and read line by line).
-    fn load_into(&self, interp: &mut Interpreter) -> Result<(), NcError> {
+    /// Loads the program into `interp` (a file: opened and read line by line; `checked`: its
+    /// every line parsed before, by the dry run).
+    fn load_into(&self, interp: &mut Interpreter, checked: bool) -> Result<(), NcError> {
         match self {
             ProgramInput::Parsed { src, program } => {
                 interp.load(src.clone(), program.clone());
@@ -58,7 +59,11 @@ impl ProgramInput {
                     )
                 })?;
                 let input = Box::new(std::io::BufReader::with_capacity(1 << 16, file));
-                interp.load_stream(name, input, *dialect)
+                if checked {
+                    interp.load_stream_checked(name, input, *dialect)
+                } else {
+                    interp.load_stream(name, input, *dialect)
+                }
             }
         }
     }
@@ -138,7 +143,8 @@ impl Feeder {
     }
 
     /// A feeder of `input` for a machine at `start`; `dry`: as [`dry`](Self::dry). A file is
-    /// opened and its every line parsed once here (the error of a line that does not parse).
+    /// opened here; the dry run's load parses its every line (the error of a line that does
+    /// not parse), the run's (`dry` false, after its dry run) only its flow lines.
     pub fn from_input(
         cfg: &MachineConfig,
         input: &ProgramInput,
@@ -146,7 +152,8 @@ impl Feeder {
         dry: bool,
     ) -> Result<Feeder, NcError> {
         let mut interp = new_interp(cfg, start, dry);
-        input.load_into(&mut interp)?;
+        // The run comes after its dry run, which parsed every line.
+        input.load_into(&mut interp, !dry)?;
         Ok(Feeder::with_interp(cfg, interp, input.source(), start, dry))
     }
 

@@ -241,11 +241,33 @@ impl Interpreter {
         input: Box<dyn cnc402_lang::stream::ProgramRead>,
         forced: Option<cnc402_lang::Dialect>,
     ) -> Result<(), NcError> {
+        self.load_stream_with(name, input, forced, false)
+    }
+
+    /// [`load_stream`](Self::load_stream) of a file whose every line parsed before (the run
+    /// after its dry run): the load pass parses only the lines that may be flow lines. Should
+    /// the file have changed since, a line that no longer parses is the error when it runs.
+    pub fn load_stream_checked(
+        &mut self,
+        name: impl Into<Arc<str>>,
+        input: Box<dyn cnc402_lang::stream::ProgramRead>,
+        forced: Option<cnc402_lang::Dialect>,
+    ) -> Result<(), NcError> {
+        self.load_stream_with(name, input, forced, true)
+    }
+
+    fn load_stream_with(
+        &mut self,
+        name: impl Into<Arc<str>>,
+        input: Box<dyn cnc402_lang::stream::ProgramRead>,
+        forced: Option<cnc402_lang::Dialect>,
+        checked: bool,
+    ) -> Result<(), NcError> {
         let mut reader = cnc402_lang::stream::LineReader::new(name, input);
         let head = reader.head()?;
         let dialect = cnc402_lang::choose_dialect(&head, forced, self.m.cfg.interp.dialect)?;
         let main_src = Arc::new(SourceFile::window(reader.name().clone(), "", 1));
-        match stream::load(reader, dialect)? {
+        match stream::load(reader, dialect, checked)? {
             stream::Loaded::CLike(src) => {
                 let program = cnc402_lang::parse_in(&src, dialect)?;
                 self.load(src, program);

@@ -45,8 +45,13 @@ pub(crate) enum Loaded {
 
 /// Reads the whole of `reader` once in `dialect`: parses every line (the first syntax error
 /// ends the load), splits the units as [`super::units::split_units`] does, and remembers the
-/// flow lines' positions.
-pub(crate) fn load(mut reader: LineReader, dialect: Dialect) -> Result<Loaded, NcError> {
+/// flow lines' positions. `checked`: every line of the file parsed before (a run after its
+/// dry run), so only lines that may be flow lines are parsed now.
+pub(crate) fn load(
+    mut reader: LineReader,
+    dialect: Dialect,
+    checked: bool,
+) -> Result<Loaded, NcError> {
     let linuxcnc = dialect == Dialect::LinuxCnc;
     let mut anchors = BTreeMap::new();
     anchors.insert(0, 0);
@@ -62,8 +67,15 @@ pub(crate) fn load(mut reader: LineReader, dialect: Dialect) -> Result<Loaded, N
         if !linuxcnc && is_statement_line(text) {
             return Ok(Loaded::CLike(reader.whole()?));
         }
-        let line = parse_line(&window, dialect)?;
         let i = at.index;
+        // Once the prefix question is settled, a checked line with none of the letters of
+        // `O`, `WHILE`, `END`, an O-word, `:` or `%` is a plain block: nothing to index.
+        if checked && (seen_o || prefix_has_code) && !may_be_flow(text) {
+            scan.plain_line(i);
+            last = window;
+            continue;
+        }
+        let line = parse_line(&window, dialect)?;
         match line.kind {
             LineKind::ProgramNumber { .. } => {
                 // A prefix of `%`, comments and empty lines belongs to the first program.
@@ -220,6 +232,13 @@ impl Stream {
             ReadLine::End => Ok(SourceFile::window(self.reader.name().clone(), "", line_no)),
         }
     }
+}
+
+/// Whether a line may be one the flow indexes: a program number (`O`, `:`), `%`, a WHILE or
+/// END (also `WH`, `EN`), or a LinuxCNC O-word; every such line holds one of these letters.
+fn may_be_flow(text: &str) -> bool {
+    text.bytes()
+        .any(|b| matches!(b, b'O' | b'o' | b'W' | b'w' | b'E' | b'e' | b'%' | b':'))
 }
 
 /// Whether a line may carry a sequence number: `N` (after a block-delete `/`) starts it.

@@ -108,6 +108,11 @@ impl UnitScan {
         }
     }
 
+    /// Takes line `i`, known to be a plain block (no flow, no `%`; its labels not kept).
+    pub(crate) fn plain_line(&mut self, i: usize) {
+        self.restart.get_or_insert(i);
+    }
+
     fn open_loop(&mut self, i: usize, id: u8) {
         if !(1..=3).contains(&id) {
             self.loop_errors
