@@ -248,6 +248,20 @@ fn an_error_on_line_900000_names_that_line_and_its_block() {
     assert!(e.to_string().starts_with("big.nc:900000:"), "{e}");
 }
 
+/// Errors found at a later block about an earlier one point into the earlier block's line,
+/// not into the window of the block at hand.
+#[test]
+fn an_unfinished_corner_is_reported_at_its_corner_word() {
+    for text in [
+        "G1 X10 Y0 ,R2 F100\nG0 X0\nM30\n",
+        "G1 X10 Y0 F100\nG1 Y10 ,C1\n(end)\n",
+    ] {
+        let (a, b) = (whole("p.nc", text.as_bytes()), streamed("p.nc", text.as_bytes()));
+        assert!(a.1.is_some(), "{text}");
+        assert_eq!(a, b, "{text}");
+    }
+}
+
 #[test]
 fn a_c_like_program_is_read_whole_and_runs_the_same() {
     let text = "int i;\nfor (i = 0; i < 3; i++) {\nG91 G1 X1 F100\n}\nM30\n";
