@@ -1,6 +1,7 @@
 //! Program flow: the [`Interpreter`] and its public API, a program counter over the lines of
-//! a program (parsed whole, or read line by line by `stream`), the call stack (`M98`/`M99`, `G65`, `G66`: [`units`] and `macros`) and the macro
-//! variables as the program reads and writes them ([`sysvars`]). Blocks run in the block layer
+//! a program (parsed whole, or read line by line by `stream`), the call stack (`M98`/`M99`,
+//! `G65`, `G66`: [`units`] and `macros`) and the macro variables as the program reads and
+//! writes them ([`sysvars`]). Blocks run in the block layer
 //! ([`Machine`]); a C-like program runs in `hll`. Segments are produced on demand
 //! ([`Interpreter::next_segment`]) so that the interpreter can run ahead of motion and, with
 //! Macro B, stop at sync points (reading a position variable waits for queued motion).
