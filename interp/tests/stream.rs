@@ -256,7 +256,10 @@ fn an_unfinished_corner_is_reported_at_its_corner_word() {
         "G1 X10 Y0 ,R2 F100\nG0 X0\nM30\n",
         "G1 X10 Y0 F100\nG1 Y10 ,C1\n(end)\n",
     ] {
-        let (a, b) = (whole("p.nc", text.as_bytes()), streamed("p.nc", text.as_bytes()));
+        let (a, b) = (
+            whole("p.nc", text.as_bytes()),
+            streamed("p.nc", text.as_bytes()),
+        );
         assert!(a.1.is_some(), "{text}");
         assert_eq!(a, b, "{text}");
     }
