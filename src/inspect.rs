@@ -14,7 +14,6 @@ use cnc402_lang::ast::Program;
 use cnc402_lang::{Dialect, SourceFile};
 
 use crate::cli_error::CliError;
-use crate::load_program;
 
 /// `cnc402 which` arguments.
 #[derive(clap::Args, Debug)]
@@ -69,6 +68,14 @@ pub struct ViewArgs {
 
 /// Most trace rows drawn.
 const TRACE_ROWS: usize = 50_000;
+
+/// The whole program text: `which` and `view` keep every block (a page shows them all), unlike
+/// `segments` and `run`, which stream.
+fn load_program(path: &Path) -> Result<SourceFile, CliError> {
+    let bytes =
+        std::fs::read(path).map_err(|e| CliError::Io(format!("{}: {e}", path.display())))?;
+    Ok(SourceFile::from_bytes(path.display().to_string(), bytes))
+}
 
 /// The program's toolpath by a dry run of the interpreter (at most as many segments as
 /// `cnc402 run` checks before motion), with the parsed program and its source.

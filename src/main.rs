@@ -193,13 +193,17 @@ fn load_config(path: &std::path::Path) -> Result<cnc402_config::MachineConfig, C
     cnc402_config::MachineConfig::load(path).map_err(CliError::Config)
 }
 
-pub(crate) fn load_program(path: &std::path::Path) -> Result<cnc402_lang::SourceFile, CliError> {
-    let bytes =
-        std::fs::read(path).map_err(|e| CliError::Io(format!("{}: {e}", path.display())))?;
-    Ok(cnc402_lang::SourceFile::from_bytes(
-        path.display().to_string(),
-        bytes,
-    ))
+/// Opens a program to be read line by line (a missing or unreadable file is exit 4 here,
+/// before anything runs).
+pub(crate) fn open_program(
+    path: &std::path::Path,
+) -> Result<std::io::BufReader<std::fs::File>, CliError> {
+    let io = |e: std::io::Error| CliError::Io(format!("{}: {e}", path.display()));
+    let file = std::fs::File::open(path).map_err(io)?;
+    if file.metadata().map_err(io)?.is_dir() {
+        return Err(CliError::Io(format!("{}: is a directory", path.display())));
+    }
+    Ok(std::io::BufReader::with_capacity(1 << 16, file))
 }
 
 /// What `segments` and `canon` print.
@@ -217,8 +221,8 @@ fn dump(
     what: Dump,
 ) -> Result<(), CliError> {
     use std::io::Write;
-    let src = load_program(program)?;
-    let ast = cnc402_interp::parse_program(cfg, &src, dialect).map_err(CliError::Program)?;
+    // Read line by line: memory stays bounded whatever the program's length.
+    let file = open_program(program)?;
     // The interpreter does no I/O: sub-programs, `#use` files and the variables file come
     // from the file system through host_fs. A dump never writes the variables file.
     let mut interp = cnc402_interp::host_fs::interpreter(
@@ -226,7 +230,10 @@ fn dump(
         cnc402_interp::Options::default(),
         cnc402_interp::host_fs::VarsAccess::ReadOnly,
     );
-    interp.load(src, ast);
+    let name = program.display().to_string();
+    interp
+        .load_stream(name, Box::new(file), dialect)
+        .map_err(CliError::Program)?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let io = |e: std::io::Error| CliError::Io(e.to_string());

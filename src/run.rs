@@ -148,11 +148,13 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         Some(s) => Some(parse_stats_every(s).map_err(CliError::Usage)?),
         None => None,
     };
-    let src = crate::load_program(&args.program)?;
-    let ast = match cnc402_interp::parse_program(cfg, &src, args.dialect) {
-        Ok(a) => a,
-        Err(e) => return Err(not_run(cfg, args, RunError::Program(e))),
+    // Read line by line by the dry run and the run: memory bounded by the lookahead.
+    crate::open_program(&args.program)?;
+    let input = cnc402_runtime::ProgramInput::File {
+        path: args.program.clone(),
+        dialect: args.dialect,
     };
+    let src = input.source();
     let trace: Option<Box<dyn Write>> = match &args.trace {
         // Written to `.<name>.tmp<pid>` while the run goes on, put in place when the run is
         // done with it, however it ended; a killed run leaves the previous trace.
@@ -222,7 +224,7 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
             b.set_message(format!("{name}:{}", p.line));
         }
     };
-    let result = cnc402_runtime::run_program(cfg, src, ast, opts, &mut on_progress);
+    let result = cnc402_runtime::run_input(cfg, input, opts, &mut on_progress);
     if let Some(b) = &bar {
         b.finish_and_clear();
     }

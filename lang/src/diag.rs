@@ -25,6 +25,9 @@ pub struct SourceFile {
     pub text: Arc<str>,
     /// Byte offset of the start of every line; `line_starts[0] == 0`.
     line_starts: Vec<u32>,
+    /// The program's line number of the text's first line: 1 for a whole program, more for
+    /// a window of a program read line by line ([`SourceFile::window`]).
+    first_line: u32,
 }
 
 impl SourceFile {
@@ -44,7 +47,36 @@ impl SourceFile {
             name,
             text,
             line_starts,
+            first_line: 1,
         }
+    }
+
+    /// A window of a longer program: `text` is the program's text from the start of line
+    /// `first_line` on (a program read line by line keeps only the block it runs). Spans are
+    /// byte offsets into `text`; lines and errors count from `first_line`.
+    ///
+    /// ```
+    /// use cnc402_lang::{SourceFile, NcError, ast::Span};
+    /// let w = SourceFile::window("big.nc", "G1 X Y2", 900_000);
+    /// assert_eq!(w.line_col(3), (900_000, 4));
+    /// assert_eq!(w.line_text(900_000), "G1 X Y2");
+    /// let e = NcError::new(&w, Span::new(3, 4), "no value after address X");
+    /// assert_eq!(e.to_string(), "big.nc:900000:4: no value after address X\n    G1 X Y2");
+    /// ```
+    pub fn window(name: impl Into<Arc<str>>, text: impl Into<Arc<str>>, first_line: u32) -> Self {
+        let mut s = SourceFile::new(name, text);
+        s.first_line = first_line.max(1);
+        s
+    }
+
+    /// The program's line number of the text's first line (1 unless a [`window`](Self::window)).
+    pub fn first_line(&self) -> u32 {
+        self.first_line
+    }
+
+    /// The program's line number of the text's last line.
+    pub fn last_line(&self) -> u32 {
+        self.first_line.saturating_add(self.line_count() - 1)
     }
 
     /// Wraps a program read from a file: UTF-8 where the whole file is valid UTF-8, else
@@ -98,13 +130,13 @@ impl SourceFile {
             end -= 1;
         }
         let col = self.text[start..end].chars().count() as u32 + 1;
-        (idx as u32 + 1, col)
+        (self.first_line.saturating_add(idx as u32), col)
     }
 
     /// The text of 1-based `line`, without its `\n` or `\r\n`; `""` for a line that does not
     /// exist.
     pub fn line_text(&self, line: u32) -> &str {
-        let Some(i) = (line as usize).checked_sub(1) else {
+        let Some(i) = (line as usize).checked_sub(self.first_line as usize) else {
             return "";
         };
         let Some(&start) = self.line_starts.get(i) else {
@@ -121,7 +153,7 @@ impl SourceFile {
 
     /// Byte span of 1-based `line` (without terminator), or an empty span at the end.
     pub fn line_span(&self, line: u32) -> Span {
-        let Some(i) = (line as usize).checked_sub(1) else {
+        let Some(i) = (line as usize).checked_sub(self.first_line as usize) else {
             return Span::new(0, 0);
         };
         match self.line_starts.get(i) {
@@ -283,8 +315,8 @@ impl Snippet {
         } else {
             col.saturating_sub(SNIPPET_CHARS / 2)
         };
-        let first = line.saturating_sub(1).max(1);
-        let last = (line + 1).min(src.line_count()).max(line);
+        let first = line.saturating_sub(1).max(src.first_line());
+        let last = line.saturating_add(1).min(src.last_line()).max(line);
         let mut text = String::new();
         let mut snippet = Snippet {
             name: src.name.clone(),

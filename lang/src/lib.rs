@@ -6,6 +6,7 @@ pub mod ast;
 pub mod diag;
 pub mod dialect;
 mod parse;
+pub mod stream;
 
 pub use diag::{NcError, SourceFile};
 pub use dialect::Dialect;

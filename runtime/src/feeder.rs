@@ -1,7 +1,8 @@
 //! The feeder: runs the interpreter and the planner (with its lookahead, which blends G64
 //! blocks) ahead of the loop (outside it) and pushes planned moves into the move ring while
 //! there is room. Errors become [`NcError`]s that point at the program line (a planner error
-//! has no column: it names the block).
+//! has no column: it names the block). A program comes parsed whole or as a file read line
+//! by line ([`ProgramInput`]); then the feeder, like the interpreter, holds a bounded window.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -14,6 +15,59 @@ use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::{AxisPos, Lookahead, MotionError, MoveKind, PlannedMove, SegmentKind};
 
 use crate::ring::{LoopInput, MoveProducer, Observer, Producer};
+
+/// Where a run's program comes from.
+#[derive(Clone, Debug)]
+pub enum ProgramInput {
+    /// Parsed whole (a text given in memory; what tests use).
+    Parsed { src: SourceFile, program: Program },
+    /// A file read line by line when the interpreter reaches each block (memory bounded by
+    /// the lookahead, not by the program); `dialect` as `--dialect` forces it.
+    File {
+        path: std::path::PathBuf,
+        dialect: Option<cnc402_lang::Dialect>,
+    },
+}
+
+impl ProgramInput {
+    /// The program's text for messages: the whole text, or (a file read line by line) an
+    /// empty window named after it, whose lines [`line_source`] reads again.
+    pub fn source(&self) -> SourceFile {
+        match self {
+            ProgramInput::Parsed { src, .. } => src.clone(),
+            ProgramInput::File { path, .. } => {
+                SourceFile::window(path.display().to_string(), "", 1)
+            }
+        }
+    }
+
+    /// Loads the program into `interp` (a file: opened and read line by line; `checked`: its
+    /// every line parsed before, by the dry run).
+    fn load_into(&self, interp: &mut Interpreter, checked: bool) -> Result<(), NcError> {
+        match self {
+            ProgramInput::Parsed { src, program } => {
+                interp.load(src.clone(), program.clone());
+                Ok(())
+            }
+            ProgramInput::File { path, dialect } => {
+                let name = path.display().to_string();
+                let file = std::fs::File::open(path).map_err(|e| {
+                    NcError::new(
+                        &SourceFile::window(name.clone(), "", 1),
+                        Default::default(),
+                        format!("cannot read the program: {e}"),
+                    )
+                })?;
+                let input = Box::new(std::io::BufReader::with_capacity(1 << 16, file));
+                if checked {
+                    interp.load_stream_checked(name, input, *dialect)
+                } else {
+                    interp.load_stream(name, input, *dialect)
+                }
+            }
+        }
+    }
+}
 
 /// An interpreter and a planner in step; see the module doc.
 pub struct Feeder {
@@ -37,9 +91,26 @@ pub struct Feeder {
     vars_file: Option<std::path::PathBuf>,
 }
 
-/// A planner error as a program error at the block's line.
+/// A planner error as a program error at the block's line (`src` as [`line_source`] gives it).
 pub fn motion_error_to_nc(src: &SourceFile, e: &MotionError) -> NcError {
     NcError::new(src, src.line_span(e.line), e.to_string())
+}
+
+/// The text holding line `line` of `file` for a message: `main` when it is that file and
+/// holds its text, else the line read again from disk (one line: a program read line by
+/// line is never read whole for a message); `main` if it cannot be read.
+pub fn line_source(file: &str, line: u32, main: &SourceFile) -> SourceFile {
+    let holds = main.first_line() <= line && line <= main.last_line() && !main.text.is_empty();
+    if &*main.name == file && holds {
+        return main.clone();
+    }
+    let Ok(f) = std::fs::File::open(file) else {
+        return main.clone();
+    };
+    let input = Box::new(std::io::BufReader::new(f));
+    cnc402_lang::stream::LineReader::new(file, input)
+        .line_window(line)
+        .unwrap_or_else(|_| main.clone())
 }
 
 /// The text of `file` for messages: `main` itself, or an included / sub-program file read
@@ -58,43 +129,41 @@ impl Feeder {
     /// Loads `program` for a machine standing at `start` (machine coordinates). Writes to the
     /// non-volatile variables `#500–#999` go to the config's `variables_file`.
     pub fn new(cfg: &MachineConfig, src: SourceFile, program: Program, start: AxisPos) -> Feeder {
-        Feeder::with_interp(cfg, src, program, start, false)
+        let mut interp = new_interp(cfg, start, false);
+        interp.load(src.clone(), program);
+        Feeder::with_interp(cfg, interp, src, start, false)
     }
 
     /// As [`new`](Self::new), but `#500–#999` start from the variables file and writes stay
     /// in memory: a dry run must not change what the real run will read.
     pub fn dry(cfg: &MachineConfig, src: SourceFile, program: Program, start: AxisPos) -> Feeder {
-        Feeder::with_interp(cfg, src, program, start, true)
+        let mut interp = new_interp(cfg, start, true);
+        interp.load(src.clone(), program);
+        Feeder::with_interp(cfg, interp, src, start, true)
+    }
+
+    /// A feeder of `input` for a machine at `start`; `dry`: as [`dry`](Self::dry). A file is
+    /// opened here; the dry run's load parses its every line (the error of a line that does
+    /// not parse), the run's (`dry` false, after its dry run) only its flow lines.
+    pub fn from_input(
+        cfg: &MachineConfig,
+        input: &ProgramInput,
+        start: AxisPos,
+        dry: bool,
+    ) -> Result<Feeder, NcError> {
+        let mut interp = new_interp(cfg, start, dry);
+        // The run comes after its dry run, which parsed every line.
+        input.load_into(&mut interp, !dry)?;
+        Ok(Feeder::with_interp(cfg, interp, input.source(), start, dry))
     }
 
     fn with_interp(
         cfg: &MachineConfig,
+        interp: Interpreter,
         src: SourceFile,
-        program: Program,
         start: AxisPos,
         dry: bool,
     ) -> Feeder {
-        // A machine run repeats a main program that ends in M99, as a Fanuc control does; the
-        // dry run checks one pass (it would never end otherwise).
-        let opts = Options {
-            start,
-            main_m99: if dry {
-                cnc402_interp::MainM99::End
-            } else {
-                cnc402_interp::MainM99::Repeat
-            },
-            ..Options::default()
-        };
-        // The interpreter does no I/O itself: the file system (sub-programs, `#use` files,
-        // the non-volatile variables file) is injected here. The dry run reads the variables
-        // the way the real run will but keeps its writes in memory.
-        let access = if dry {
-            VarsAccess::ReadOnly
-        } else {
-            VarsAccess::Write
-        };
-        let mut interp = host_fs::interpreter(cfg, opts, access);
-        interp.load(src.clone(), program);
         let mut lookahead = Lookahead::new(cfg, cfg.planner.lookahead);
         lookahead.planner_mut().set_position(start);
         Feeder {
@@ -130,12 +199,13 @@ impl Feeder {
             let Some(seg) = self.interp.next_segment()? else {
                 self.interp_done = true;
                 let finished = lock(&self.lookahead).finish();
-                finished.map_err(|e| motion_error_to_nc(&self.src_of(&self.last_file), &e))?;
+                finished
+                    .map_err(|e| motion_error_to_nc(&self.src_of(&self.last_file, e.line), &e))?;
                 continue;
             };
-            lock(&self.lookahead)
-                .push(&seg)
-                .map_err(|e| motion_error_to_nc(&source_for(&seg.source.file, &self.src), &e))?;
+            lock(&self.lookahead).push(&seg).map_err(|e| {
+                motion_error_to_nc(&line_source(&seg.source.file, e.line, &self.src), &e)
+            })?;
             if self.last_file.as_ref() != Some(&seg.source.file) {
                 self.last_file = Some(seg.source.file.clone());
             }
@@ -150,11 +220,9 @@ impl Feeder {
         self.lookahead.clone()
     }
 
-    fn src_of(&self, file: &Option<Arc<str>>) -> SourceFile {
-        match file {
-            Some(f) => source_for(f, &self.src),
-            None => self.src.clone(),
-        }
+    fn src_of(&self, file: &Option<Arc<str>>, line: u32) -> SourceFile {
+        let main = self.src.name.clone();
+        line_source(file.as_ref().unwrap_or(&main), line, &self.src)
     }
 
     /// Pushes moves into `ring` until it is full or the program is over (then `End`).
@@ -224,10 +292,7 @@ impl Feeder {
                 Ok(())
             }
             Err(e) => {
-                let src = match &self.last_file {
-                    Some(f) => source_for(f, &self.src),
-                    None => self.src.clone(),
-                };
+                let src = self.src_of(&self.last_file.clone(), line);
                 let span = src.line_span(line);
                 Err(NcError::new(
                     &src,
@@ -254,6 +319,30 @@ impl Feeder {
     pub fn source(&self) -> &SourceFile {
         &self.src
     }
+}
+
+/// An interpreter for a run (`dry`: the dry run) of a machine standing at `start`.
+fn new_interp(cfg: &MachineConfig, start: AxisPos, dry: bool) -> Interpreter {
+    // A machine run repeats a main program that ends in M99, as a Fanuc control does; the
+    // dry run checks one pass (it would never end otherwise).
+    let opts = Options {
+        start,
+        main_m99: if dry {
+            cnc402_interp::MainM99::End
+        } else {
+            cnc402_interp::MainM99::Repeat
+        },
+        ..Options::default()
+    };
+    // The interpreter does no I/O itself: the file system (sub-programs, `#use` files,
+    // the non-volatile variables file) is injected here. The dry run reads the variables
+    // the way the real run will but keeps its writes in memory.
+    let access = if dry {
+        VarsAccess::ReadOnly
+    } else {
+        VarsAccess::Write
+    };
+    host_fs::interpreter(cfg, opts, access)
 }
 
 /// The lookahead, whoever held it last (a panic elsewhere does not poison planning).
@@ -314,7 +403,23 @@ pub fn dry_run_bounded(
     gate: Option<&crate::program_stop::StopGate>,
     max_moves: u64,
 ) -> Result<DryRun, NcError> {
-    let mut f = Feeder::dry(cfg, src.clone(), program.clone(), start);
+    let input = ProgramInput::Parsed {
+        src: src.clone(),
+        program: program.clone(),
+    };
+    dry_run_input(cfg, &input, start, gate, max_moves)
+}
+
+/// [`dry_run_bounded`] of a program from `input` (a file: read line by line, in bounded
+/// memory).
+pub fn dry_run_input(
+    cfg: &MachineConfig,
+    input: &ProgramInput,
+    start: AxisPos,
+    gate: Option<&crate::program_stop::StopGate>,
+    max_moves: u64,
+) -> Result<DryRun, NcError> {
+    let mut f = Feeder::from_input(cfg, input, start, true)?;
     let mut d = DryRun::default();
     // The first stop that holds, and the non-volatile reads made before it.
     let mut held_at: Option<(u32, u64)> = None;

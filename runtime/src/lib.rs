@@ -28,12 +28,15 @@ pub mod sync;
 pub mod testing;
 
 pub use controller::{CycleController, Step};
+pub use feeder::ProgramInput;
 pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, Startup, StopCause};
 pub use master_link::{CycleBus, LinkTimeouts, MasterLink};
 pub use plot::write_plot;
 pub use program_stop::{AtStop, StopDecision, StopGate, StopPolicy, StopRecord};
 pub use report::RunReport;
-pub use run::{Progress, RunError, RunOptions, StatsSample, Timing, make_link, run_program};
+pub use run::{
+    Progress, RunError, RunOptions, StatsSample, Timing, make_link, run_input, run_program,
+};
 pub use sim_machine::{SimFault, SimFaultPlan, SimLink, SimMachine};
 pub use socket_machine::{SocketLink, SocketMachine};
 pub use status::{Outcome, Phase, Status};

@@ -99,6 +99,7 @@ impl Exec<'_> {
                     source: self.source.clone(),
                     word: a.span,
                     file: self.src.name.clone(),
+                    window: (self.src.line_count() == 1).then(|| self.src.clone()),
                 });
                 self.st.pos = end;
             }
@@ -109,6 +110,10 @@ impl Exec<'_> {
     /// The error for a held move whose next block is not a G1 move: at the corner word if
     /// it is in this file, else at this block.
     pub(crate) fn corner_unfinished(&self, p: &PendingCorner, why: &str) -> NcError {
+        if let Some(w) = &p.window {
+            return NcError::new(w, p.word, format!("corner rounding/chamfer: {why}"))
+                .with_expected("a G1 move in the plane in the block after a `,R`/`,C` block");
+        }
         let at = if p.file == self.src.name {
             p.word
         } else {

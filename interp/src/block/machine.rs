@@ -88,7 +88,7 @@ impl Machine {
     pub(crate) fn end_of_program(&self, src: &SourceFile) -> Result<(), NcError> {
         match &self.state.pending_corner {
             Some(p) if p.file == src.name => Err(NcError::new(
-                src,
+                p.window.as_ref().unwrap_or(src),
                 p.word,
                 "corner rounding/chamfer: the program ends after this move",
             )

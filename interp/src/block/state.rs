@@ -141,6 +141,9 @@ pub struct PendingCorner {
     /// The corner word, for errors found at the next block.
     pub word: Span,
     pub file: std::sync::Arc<str>,
+    /// The corner block's text when it is a one-line window of a program read line by line
+    /// (`word` is a span in it, not in the next block's window).
+    pub window: Option<cnc402_lang::SourceFile>,
 }
 
 /// Everything modal.

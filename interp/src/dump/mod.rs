@@ -49,10 +49,57 @@ use cnc402_motion::segment::{
 /// assert_eq!(num(1.0 / 3.0), "0.333333");
 /// ```
 pub fn num(v: f64) -> String {
-    if v.is_finite() {
-        fmt_num(v)
-    } else {
-        "null".into()
+    let mut o = String::new();
+    write_num(&mut o, v);
+    o
+}
+
+/// [`num`] written onto `o` without allocating: a segment dump prints millions of numbers.
+/// Below 1e9 the rounded value is k·1e-6 with |k| < 1e15; a decimal of at most 15
+/// significant digits is the shortest form of the nearest double (which is what `fmt_num`
+/// prints), so printing k's digits with the point put back gives the same text.
+///
+/// ```
+/// use cnc402_interp::dump::{num, write_num};
+/// for v in [0.0, -0.0, 1.5, -2.50000004, 1e-7, 123456.0000004, 999999999.9999996, 1e300] {
+///     let mut o = String::new();
+///     write_num(&mut o, v);
+///     assert_eq!(o, cnc402_interp::words::fmt_num(v), "{v}");
+/// }
+/// ```
+pub fn write_num(o: &mut String, v: f64) {
+    if !v.is_finite() {
+        o.push_str("null");
+        return;
+    }
+    if v.abs() >= 1e9 {
+        o.push_str(&fmt_num(v));
+        return;
+    }
+    let k = (v * 1e6).round();
+    if k == 0.0 {
+        o.push('0');
+        return;
+    }
+    // |k| < 1e15 < 2^63: exact as an integer.
+    let k = k as i64;
+    if k < 0 {
+        o.push('-');
+    }
+    let k = k.unsigned_abs();
+    let (whole, frac) = (k / 1_000_000, k % 1_000_000);
+    push_u64(o, whole);
+    if frac != 0 {
+        let mut digits = [b'0'; 6];
+        let mut f = frac;
+        for d in digits.iter_mut().rev() {
+            *d = b'0' + (f % 10) as u8;
+            f /= 10;
+        }
+        let len = 6 - digits.iter().rev().take_while(|&&d| d == b'0').count();
+        o.push('.');
+        // ASCII digits only.
+        o.push_str(std::str::from_utf8(&digits[..len]).unwrap_or("0"));
     }
 }
 
@@ -60,6 +107,28 @@ pub fn num(v: f64) -> String {
 /// everything else (non-ASCII too) as UTF-8, which JSON allows.
 pub fn json_str(s: &str) -> String {
     let mut o = String::with_capacity(s.len() + 2);
+    write_json_str(&mut o, s);
+    o
+}
+
+/// `v`'s decimal digits written onto `o` (what `{v}` prints, without the formatter).
+fn push_u64(o: &mut String, mut v: u64) {
+    let mut digits = [0u8; 20];
+    let mut at = digits.len();
+    loop {
+        at -= 1;
+        digits[at] = b'0' + (v % 10) as u8;
+        v /= 10;
+        if v == 0 {
+            break;
+        }
+    }
+    // ASCII digits only.
+    o.push_str(std::str::from_utf8(&digits[at..]).unwrap_or("0"));
+}
+
+/// [`json_str`] written onto `o`.
+pub fn write_json_str(o: &mut String, s: &str) {
     o.push('"');
     for c in s.chars() {
         match c {
@@ -75,17 +144,21 @@ pub fn json_str(s: &str) -> String {
         }
     }
     o.push('"');
-    o
 }
 
 /// `,"<key>":{"X":…}` with every configured axis.
 pub(crate) fn axes_obj(o: &mut String, key: &str, end: &AxisPos, cfg: &MachineConfig) {
-    let _ = write!(o, ",\"{key}\":{{");
+    o.push_str(",\"");
+    o.push_str(key);
+    o.push_str("\":{");
     for (i, ax) in cfg.axes.iter().enumerate() {
         if i > 0 {
             o.push(',');
         }
-        let _ = write!(o, "\"{}\":{}", ax.name, num(end[i]));
+        o.push('"');
+        o.push(ax.name);
+        o.push_str("\":");
+        write_num(o, end[i]);
     }
     o.push('}');
 }
@@ -109,16 +182,17 @@ pub fn kind_name(kind: &SegmentKind) -> &'static str {
 
 /// `{"<key>":"<name>","file":…,"line":…,"n":…` (the object stays open).
 pub(crate) fn source_keys(o: &mut String, key: &str, name: &str, source: &Source) {
-    let _ = write!(
-        o,
-        "{{\"{key}\":\"{name}\",\"file\":{},\"line\":{},\"n\":",
-        json_str(&source.file),
-        source.line
-    );
+    o.push_str("{\"");
+    o.push_str(key);
+    o.push_str("\":\"");
+    o.push_str(name);
+    o.push_str("\",\"file\":");
+    write_json_str(o, &source.file);
+    o.push_str(",\"line\":");
+    push_u64(o, u64::from(source.line));
+    o.push_str(",\"n\":");
     match source.n {
-        Some(n) => {
-            let _ = write!(o, "{n}");
-        }
+        Some(n) => push_u64(o, u64::from(n)),
         None => o.push_str("null"),
     }
 }
@@ -129,7 +203,8 @@ pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig)
         SegmentKind::Rapid { end } => axes_obj(o, "end", end, cfg),
         SegmentKind::Linear { end, feed } => {
             axes_obj(o, "end", end, cfg);
-            let _ = write!(o, ",\"feed\":{}", num(*feed));
+            o.push_str(",\"feed\":");
+            write_num(o, *feed);
         }
         SegmentKind::Tap(TapSegment {
             end,
@@ -241,13 +316,11 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
             tolerance,
             collinear,
         } => {
-            let _ = write!(
-                o,
-                ",\"ends\":\"continuous\",\"tolerance\":{}",
-                num(tolerance)
-            );
+            o.push_str(",\"ends\":\"continuous\",\"tolerance\":");
+            write_num(&mut o, tolerance);
             if collinear > 0.0 {
-                let _ = write!(o, ",\"collinear\":{}", num(collinear));
+                o.push_str(",\"collinear\":");
+                write_num(&mut o, collinear);
             }
         }
     }
@@ -431,5 +504,32 @@ mod tests {
             j,
             r#"{"kind":"spindle_orient","file":"q\"x.nc","line":7,"n":null,"angle":270,"program":-90,"ends":"exact_stop"}"#
         );
+    }
+}
+
+#[cfg(test)]
+mod num_tests {
+    use super::*;
+
+    /// `write_num` is the dump's fast path of `fmt_num`: the same text for every value.
+    #[test]
+    fn write_num_prints_what_fmt_num_prints() {
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for _ in 0..200_000 {
+            let r = next();
+            let mag = 10f64.powi((r % 20) as i32 - 8);
+            let v = ((next() >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2.0 * mag;
+            for v in [v, (v * 1e4).round() / 1e4, v.trunc()] {
+                let mut o = String::new();
+                write_num(&mut o, v);
+                assert_eq!(o, fmt_num(v), "{v:e}");
+            }
+        }
     }
 }

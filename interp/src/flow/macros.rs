@@ -70,8 +70,12 @@ impl Interpreter {
             return self.end_of_unit(&unit);
         }
         frame.pc += 1;
+        // A streamed unit's line is read now: `unit` becomes the view holding it.
+        let Some(unit) = self.line_view(&unit, pc)? else {
+            return self.end_of_unit(&unit);
+        };
         let program = unit.program.clone();
-        let line = &program.lines[pc];
+        let line = &program.lines[pc - unit.base];
         if line.block_delete && self.m.opts.block_delete {
             return Ok(());
         }
@@ -160,10 +164,10 @@ impl Interpreter {
             }
             LineKind::While { cond, id } => {
                 self.flow.seen_block = true;
-                if let Some(m) = unit.loop_errors.get(&pc) {
+                if let Some(m) = unit.ix.loop_errors.get(&pc) {
                     return Err(err(line.span, m.clone()));
                 }
-                let Some(&end) = unit.loops.get(&pc) else {
+                let Some(&end) = unit.ix.loops.get(&pc) else {
                     return Err(err(line.span, format!("WHILE … DO {id} has no END {id}")));
                 };
                 if !self.truth(&unit, cond)? {
@@ -172,15 +176,36 @@ impl Interpreter {
                 Ok(())
             }
             LineKind::End { id } => {
-                if let Some(m) = unit.loop_errors.get(&pc) {
+                if let Some(m) = unit.ix.loop_errors.get(&pc) {
                     return Err(err(line.span, m.clone()));
                 }
-                let Some(&w) = unit.loops.get(&pc) else {
+                let Some(&w) = unit.ix.loops.get(&pc) else {
                     return Err(err(line.span, format!("END {id} without WHILE … DO {id}")));
                 };
                 self.set_pc(w);
                 Ok(())
             }
+        }
+    }
+
+    /// A unit holding line `i` of `unit`: `unit` itself when it holds its whole program, else
+    /// (streamed) a view of the line read now; `None` past the end of the file.
+    pub(super) fn line_view(
+        &mut self,
+        unit: &Arc<Unit>,
+        i: usize,
+    ) -> Result<Option<Arc<Unit>>, NcError> {
+        match (&mut self.flow.stream, unit.streamed) {
+            (Some(s), true) => s.view(unit, i),
+            _ => Ok((i < unit.program.lines.len()).then(|| unit.clone())),
+        }
+    }
+
+    /// The line of `N n` in `unit`, for a jump from the line before `from`.
+    fn find_label(&mut self, unit: &Unit, n: u32, from: usize) -> Result<Option<usize>, NcError> {
+        match (&mut self.flow.stream, unit.streamed) {
+            (Some(s), true) => s.find_label(unit, n, from),
+            _ => Ok(unit.ix.labels.get(&n).copied()),
         }
     }
 
@@ -212,7 +237,8 @@ impl Interpreter {
 
     /// Continues at `N n` of `unit` (the current frame's program).
     fn jump(&mut self, unit: &Unit, n: u32, span: Span) -> Result<(), NcError> {
-        let Some(&i) = unit.labels.get(&n) else {
+        let from = self.flow.frames.last().map_or(unit.start, |f| f.pc);
+        let Some(i) = self.find_label(unit, n, from)? else {
             return Err(NcError::new(
                 &unit.src,
                 span,
@@ -315,7 +341,11 @@ impl Interpreter {
     fn end_of_unit(&mut self, unit: &Unit) -> Result<(), NcError> {
         if self.flow.frames.len() <= 1 {
             self.flow.done = true;
-            return self.m.end_of_program(&unit.src);
+            let src = match (&self.flow.stream, unit.streamed) {
+                (Some(s), true) => s.last.clone(),
+                _ => unit.src.clone(),
+            };
+            return self.m.end_of_program(&src);
         }
         self.ret(unit, None, Span::default())
     }
@@ -338,15 +368,7 @@ impl Interpreter {
                 (Some(n), _) => self.jump(unit, n, span),
                 (None, MainM99::Repeat) => {
                     // Over the opening `%` (past the first block it would end the program).
-                    let start = (unit.start..unit.end)
-                        .find(|&i| {
-                            !matches!(
-                                unit.program.lines.get(i).map(|l| &l.kind),
-                                Some(LineKind::Percent)
-                            )
-                        })
-                        .unwrap_or(unit.start);
-                    self.set_pc(start);
+                    self.set_pc(unit.ix.restart);
                     Ok(())
                 }
                 (None, MainM99::End) => {
@@ -369,7 +391,8 @@ impl Interpreter {
         }
         if let Some(n) = seq {
             let caller = self.cur_unit();
-            let Some(&i) = caller.labels.get(&n) else {
+            let from = self.flow.frames.last().map_or(caller.start, |f| f.pc);
+            let Some(i) = self.find_label(&caller, n, from)? else {
                 return Err(NcError::new(
                     &unit.src,
                     span,
@@ -396,7 +419,7 @@ impl Interpreter {
             .flow
             .units
             .iter()
-            .find(|u| u.number == Some(number) && Arc::ptr_eq(&u.src, &cur.src))
+            .find(|u| u.number == Some(number) && u.src.name == cur.src.name)
             .or_else(|| self.flow.units.iter().find(|u| u.number == Some(number)))
         {
             return Ok(u.clone());
@@ -592,9 +615,7 @@ impl Interpreter {
                     && mc.depth == self.flow.frames.len()
                 {
                     let span = unit
-                        .program
-                        .lines
-                        .get(
+                        .line(
                             self.flow
                                 .frames
                                 .last()

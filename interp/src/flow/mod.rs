@@ -1,6 +1,7 @@
 //! Program flow: the [`Interpreter`] and its public API, a program counter over the lines of
-//! a parsed program, the call stack (`M98`/`M99`, `G65`, `G66`: [`units`] and `macros`) and the macro
-//! variables as the program reads and writes them ([`sysvars`]). Blocks run in the block layer
+//! a program (parsed whole, or read line by line by `stream`), the call stack (`M98`/`M99`,
+//! `G65`, `G66`: [`units`] and `macros`) and the macro variables as the program reads and
+//! writes them ([`sysvars`]). Blocks run in the block layer
 //! ([`Machine`]); a C-like program runs in `hll`. Segments are produced on demand
 //! ([`Interpreter::next_segment`]) so that the interpreter can run ahead of motion and, with
 //! Macro B, stop at sync points (reading a position variable waits for queued motion).
@@ -9,6 +10,7 @@ mod lcblock;
 mod macros;
 mod oindex;
 mod oword;
+mod stream;
 mod sysvars;
 pub mod units;
 
@@ -60,6 +62,8 @@ struct Flow {
     main_src: Arc<SourceFile>,
     /// The programs of the main file; the first runs first.
     units: Vec<Arc<Unit>>,
+    /// The main file when it is read line by line ([`Interpreter::load_stream`]).
+    stream: Option<stream::Stream>,
     /// Programs found in the library, by number.
     lib_cache: HashMap<u32, Arc<Unit>>,
     /// LinuxCNC subroutine files (`o<name> call` of `name.ngc`) read so far, by name.
@@ -130,6 +134,7 @@ impl Interpreter {
             flow: Flow {
                 main_src: Arc::new(SourceFile::new("", "")),
                 units: Vec::new(),
+                stream: None,
                 lib_cache: HashMap::new(),
                 o_files: HashMap::new(),
                 frames: Vec::new(),
@@ -214,8 +219,85 @@ impl Interpreter {
         let src = Arc::new(src);
         let program = Arc::new(program);
         let (units, main) = units::split_units(&src, &program);
+        self.flow.stream = None;
+        self.start(src, units, main, program.dialect);
+    }
+
+    /// Starts the program read line by line from `input` (named `name` in errors, usually its
+    /// path), in bounded memory: the dialect is `forced` (`--dialect`), else its header's
+    /// (read from its first lines), else the config's. Every line is parsed once here (a
+    /// syntax error anywhere is this error), then read and parsed again when it runs; see
+    /// `flow/stream.rs`. A C-like program is read and compiled whole, as [`load`](Self::load)
+    /// does. Programs called from other files are read whole.
+    ///
+    /// ```
+    /// use cnc402_config::MachineConfig;
+    /// let mut it = cnc402_interp::Interpreter::new(&MachineConfig::default_machine());
+    /// let text = "N1 #1=0\nN2 G91 G1 X1 F100\n#1=#1+1\nIF[#1LT3]GOTO2\nM30\n";
+    /// it.load_stream("p.nc", Box::new(std::io::Cursor::new(text)), None).unwrap();
+    /// assert_eq!(it.filter(|s| s.is_ok()).count(), 4); // three moves and the end
+    /// ```
+    pub fn load_stream(
+        &mut self,
+        name: impl Into<Arc<str>>,
+        input: Box<dyn cnc402_lang::stream::ProgramRead>,
+        forced: Option<cnc402_lang::Dialect>,
+    ) -> Result<(), NcError> {
+        self.load_stream_with(name, input, forced, false)
+    }
+
+    /// [`load_stream`](Self::load_stream) of a file whose every line parsed before (the run
+    /// after its dry run): the load pass parses only the lines that may be flow lines. Should
+    /// the file have changed since, a line that no longer parses is the error when it runs.
+    pub fn load_stream_checked(
+        &mut self,
+        name: impl Into<Arc<str>>,
+        input: Box<dyn cnc402_lang::stream::ProgramRead>,
+        forced: Option<cnc402_lang::Dialect>,
+    ) -> Result<(), NcError> {
+        self.load_stream_with(name, input, forced, true)
+    }
+
+    fn load_stream_with(
+        &mut self,
+        name: impl Into<Arc<str>>,
+        input: Box<dyn cnc402_lang::stream::ProgramRead>,
+        forced: Option<cnc402_lang::Dialect>,
+        checked: bool,
+    ) -> Result<(), NcError> {
+        let mut reader = cnc402_lang::stream::LineReader::new(name, input);
+        let head = reader.head()?;
+        let dialect = cnc402_lang::choose_dialect(&head, forced, self.m.cfg.interp.dialect)?;
+        let main_src = Arc::new(SourceFile::window(reader.name().clone(), "", 1));
+        match stream::load(reader, dialect, checked)? {
+            stream::Loaded::CLike(src) => {
+                let program = cnc402_lang::parse_in(&src, dialect)?;
+                self.load(src, program);
+            }
+            stream::Loaded::Streamed(s, units) => {
+                let empty = Program {
+                    lines: Vec::new(),
+                    dialect,
+                };
+                // Not C-like: this only ends a C-like program loaded before.
+                self.hll.load(&self.m.cfg, &main_src, &empty, None);
+                self.flow.stream = Some(s);
+                self.start(main_src, units, 0, dialect);
+            }
+        }
+        Ok(())
+    }
+
+    /// Resets everything for a fresh start of `units[main]` of the file `src`.
+    fn start(
+        &mut self,
+        src: Arc<SourceFile>,
+        units: Vec<Arc<Unit>>,
+        main: usize,
+        dialect: cnc402_lang::Dialect,
+    ) {
         self.m.reset();
-        self.m.dialect = program.dialect;
+        self.m.dialect = dialect;
         self.flow.main_src = src;
         self.flow.units = units;
         self.flow.lib_cache.clear();
@@ -307,18 +389,22 @@ impl Interpreter {
     }
 
     /// A compensation error at the line of the block it names.
-    fn comp_error(&self, e: comp::CompError) -> NcError {
+    fn comp_error(&mut self, e: comp::CompError) -> NcError {
+        if let Some(s) = &mut self.flow.stream
+            && *self.flow.main_src.name == *e.source.file
+        {
+            return match s.line_window(e.source.line) {
+                Ok(w) => comp_error_at(&w, e),
+                Err(read) => read,
+            };
+        }
         let f = &self.flow;
         let src = std::iter::once(&f.main_src)
             .chain(f.units.iter().map(|u| &u.src))
             .chain(f.lib_cache.values().map(|u| &u.src))
             .find(|s| s.name == e.source.file)
             .unwrap_or(&f.main_src);
-        let line = src.line_span(e.source.line);
-        let lead =
-            src.line_text(e.source.line).len() - src.line_text(e.source.line).trim_start().len();
-        let at = cnc402_lang::ast::Span::new(line.start as usize + lead, line.end as usize);
-        NcError::new(src, at, e.message)
+        comp_error_at(src, e)
     }
 
     fn pull_op(&mut self) -> Result<Option<CanonOp>, NcError> {
@@ -349,13 +435,15 @@ impl Interpreter {
         &self.m.state
     }
 
-    /// The 1-based line of the first block numbered `N n` in the main program, if any.
-    pub fn label_line(&self, n: u32) -> Option<u32> {
-        let u = self.flow.frames.first()?;
-        u.unit
-            .labels
-            .get(&n)
-            .map(|&i| u.unit.program.lines[i].line_no)
+    /// The 1-based line of the first block numbered `N n` in the main program, if any (a
+    /// program read line by line: the one a jump from its start would find).
+    pub fn label_line(&mut self, n: u32) -> Option<u32> {
+        let u = self.flow.frames.first()?.unit.clone();
+        let i = match (&mut self.flow.stream, u.streamed) {
+            (Some(s), true) => s.find_label(&u, n, u.start).ok()??,
+            _ => *u.ix.labels.get(&n)?,
+        };
+        Some(i as u32 + 1)
     }
 
     /// Runs one block of `unit` (the current frame's program), with words evaluated against
@@ -439,6 +527,15 @@ impl Interpreter {
         }
         self.after_block(unit, call, has_axis)
     }
+}
+
+/// A compensation error `e` at its line of `src` (the whole file or the line's window).
+fn comp_error_at(src: &SourceFile, e: comp::CompError) -> NcError {
+    let line = src.line_span(e.source.line);
+    let text = src.line_text(e.source.line);
+    let lead = text.len() - text.trim_start().len();
+    let at = cnc402_lang::ast::Span::new(line.start as usize + lead, line.end as usize);
+    NcError::new(src, at, e.message)
 }
 
 impl AsRef<Hll> for Interpreter {

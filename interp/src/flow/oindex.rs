@@ -56,12 +56,39 @@ impl Open {
 
 /// A construct being read: its label, kind, head, branch lines and the lines inside it that
 /// refer to it (`break`, `continue`, `return`).
-struct Building<'p> {
-    label: &'p OLabel,
+struct Building {
+    label: OLabel,
     open: Open,
     head: usize,
     branches: Vec<usize>,
+    /// An `else` branch is open (only `endif` may follow).
+    after_else: bool,
     members: Vec<usize>,
+}
+
+/// Builds an [`OIndex`] from the O-word lines of a unit given one at a time, in order (a
+/// program read line by line is paired as it is read). Memory: the O-word lines only.
+#[derive(Default)]
+pub(crate) struct OIndexBuilder {
+    ix: OIndex,
+    stack: Vec<Building>,
+}
+
+impl OIndexBuilder {
+    /// Takes the O-word line `i` (0-based; line number `i + 1`).
+    pub(crate) fn line(&mut self, i: usize, o: &OWord) {
+        self.ix.line(&mut self.stack, i, o);
+    }
+
+    /// The index, with every construct still open reported at its head.
+    pub(crate) fn finish(self) -> OIndex {
+        let mut ix = self.ix;
+        for b in self.stack {
+            ix.errors
+                .insert(b.head, format!("{} {} has no end", b.label, b.open.word()));
+        }
+        ix
+    }
 }
 
 pub(crate) fn oword_of(program: &Program, i: usize) -> Option<&OWord> {
@@ -75,57 +102,47 @@ impl OIndex {
     /// Pairs the O-word lines `start..end` of `program` (empty unless it is in the LinuxCNC
     /// dialect).
     pub fn build(program: &Program, start: usize, end: usize) -> OIndex {
-        let mut ix = OIndex::default();
+        let mut b = OIndexBuilder::default();
         if program.dialect != Dialect::LinuxCnc {
-            return ix;
+            return b.finish();
         }
-        let mut stack: Vec<Building> = Vec::new();
         for i in start..end {
             if let Some(o) = oword_of(program, i) {
-                ix.line(program, &mut stack, i, o);
+                b.line(i, o);
             }
         }
-        for b in stack {
-            ix.errors
-                .insert(b.head, format!("{} {} has no end", b.label, b.open.word()));
-        }
-        ix
+        b.finish()
     }
 
-    fn line<'p>(
-        &mut self,
-        program: &Program,
-        stack: &mut Vec<Building<'p>>,
-        i: usize,
-        o: &'p OWord,
-    ) {
+    fn line(&mut self, stack: &mut Vec<Building>, i: usize, o: &OWord) {
         let label = &o.label;
         let top_is = |stack: &Vec<Building>, open: Open| {
             stack
                 .last()
-                .is_some_and(|b| b.open == open && b.label == label)
+                .is_some_and(|b| b.open == open && b.label == *label)
         };
-        let push = |ix: &mut OIndex, stack: &mut Vec<Building<'p>>, open: Open| {
+        let push = |ix: &mut OIndex, stack: &mut Vec<Building>, open: Open| {
             // LinuxCNC: a label names one block; an inner block needs a label of its own (a
             // subroutine may reuse its label for one block inside).
             if let Some(b) = stack
                 .iter()
-                .find(|b| b.label == label && b.open != Open::Sub)
+                .find(|b| b.label == *label && b.open != Open::Sub)
             {
                 ix.errors.insert(
                     i,
                     format!(
                         "duplicate O-word label {label}: already used by the {} of line {}",
                         b.open.word(),
-                        program.lines[b.head].line_no
+                        b.head + 1
                     ),
                 );
             }
             stack.push(Building {
-                label,
+                label: label.clone(),
                 open,
                 head: i,
                 branches: vec![i],
+                after_else: false,
                 members: Vec::new(),
             })
         };
@@ -138,7 +155,7 @@ impl OIndex {
                             "{label} sub inside {} {} of line {}: subroutines are defined at the top level",
                             b.label,
                             b.open.word(),
-                            program.lines[b.head].line_no
+                            b.head + 1
                         ),
                     );
                 }
@@ -151,16 +168,11 @@ impl OIndex {
             OWordKind::While(_) => push(self, stack, Open::While),
             OWordKind::ElseIf(_) | OWordKind::Else => {
                 if !top_is(stack, Open::If) {
-                    self.mismatch(program, stack, i, label, "if");
+                    self.mismatch(stack, i, o, "if");
                     return;
                 }
                 let Some(b) = stack.last_mut() else { return };
-                let after_else = b
-                    .branches
-                    .last()
-                    .and_then(|&j| oword_of(program, j))
-                    .is_some_and(|p| p.kind == OWordKind::Else);
-                if after_else {
+                if std::mem::replace(&mut b.after_else, o.kind == OWordKind::Else) {
                     self.errors.insert(
                         i,
                         format!("{label}: nothing may follow {label} else but endif"),
@@ -168,10 +180,10 @@ impl OIndex {
                 }
                 b.branches.push(i);
             }
-            OWordKind::EndSub(_) => self.close_if(program, stack, i, label, Open::Sub),
-            OWordKind::EndIf => self.close_if(program, stack, i, label, Open::If),
-            OWordKind::EndWhile => self.close_if(program, stack, i, label, Open::While),
-            OWordKind::EndRepeat => self.close_if(program, stack, i, label, Open::Repeat),
+            OWordKind::EndSub(_) => self.close_if(stack, i, o, Open::Sub),
+            OWordKind::EndIf => self.close_if(stack, i, o, Open::If),
+            OWordKind::EndWhile => self.close_if(stack, i, o, Open::While),
+            OWordKind::EndRepeat => self.close_if(stack, i, o, Open::Repeat),
             OWordKind::Return(_) => {
                 // rs274 also takes the label of an if or loop inside the sub (retval.ngc's
                 // `o1010 return` in `o1010 if`): it returns from the innermost sub.
@@ -180,7 +192,7 @@ impl OIndex {
                         .insert(i, format!("{label}: not inside a sub labelled {label}"));
                     return;
                 };
-                if stack[sub..].iter().any(|b| b.label == label) {
+                if stack[sub..].iter().any(|b| b.label == *label) {
                     stack[sub].members.push(i);
                 } else {
                     self.errors.insert(
@@ -195,7 +207,7 @@ impl OIndex {
                 let found = stack
                     .iter_mut()
                     .rev()
-                    .find(|b| b.label == label && b.open.is_loop());
+                    .find(|b| b.label == *label && b.open.is_loop());
                 match found {
                     Some(b) => b.members.push(i),
                     None => {
@@ -213,39 +225,25 @@ impl OIndex {
     }
 
     /// The end of the construct on top of the stack if it is `open` labelled `label`.
-    fn close_if(
-        &mut self,
-        program: &Program,
-        stack: &mut Vec<Building>,
-        i: usize,
-        label: &OLabel,
-        open: Open,
-    ) {
+    fn close_if(&mut self, stack: &mut Vec<Building>, i: usize, o: &OWord, open: Open) {
         if stack
             .last()
-            .is_some_and(|b| b.open == open && b.label == label)
+            .is_some_and(|b| b.open == open && b.label == o.label)
         {
             self.close(stack, i);
         } else {
-            self.mismatch(program, stack, i, label, open.word());
+            self.mismatch(stack, i, o, open.word());
         }
     }
 
-    fn mismatch(
-        &mut self,
-        program: &Program,
-        stack: &[Building],
-        i: usize,
-        label: &OLabel,
-        want: &str,
-    ) {
-        let what = oword_of(program, i).map_or("", |o| kind_word(&o.kind));
+    fn mismatch(&mut self, stack: &[Building], i: usize, o: &OWord, want: &str) {
+        let (label, what) = (&o.label, kind_word(&o.kind));
         let msg = match stack.last() {
             Some(b) => format!(
                 "{label} {what} does not close {} {} of line {}: O-word blocks must nest, each ended with its own label",
                 b.label,
                 b.open.word(),
-                program.lines[b.head].line_no
+                b.head + 1
             ),
             None => format!("{label} {what} without {label} {want} before it"),
         };

@@ -33,20 +33,19 @@ impl Interpreter {
     ) -> Result<(), NcError> {
         self.flow.seen_block = true;
         let err = |m: String| NcError::new(&unit.src, line.span, m);
-        if let Some(m) = unit.owords.errors.get(&pc) {
+        if let Some(m) = unit.ix.owords.errors.get(&pc) {
             return Err(err(m.clone()));
         }
         if let OWordKind::Call(args) = &o.kind {
             return self.o_call(unit, line, o, args);
         }
-        let Some(&link) = unit.owords.links.get(&pc) else {
+        let Some(&link) = unit.ix.owords.links.get(&pc) else {
             return Err(err(format!(
                 "{} {}: not paired",
                 o.label,
                 kind_word(&o.kind)
             )));
         };
-        let kind_at = |i: usize| oword_of(&unit.program, i).map(|o| &o.kind);
         match &o.kind {
             OWordKind::Sub => self.set_pc(link.end + 1),
             OWordKind::EndSub(v) | OWordKind::Return(v) => return self.o_return(unit, line, v),
@@ -54,11 +53,14 @@ impl Interpreter {
                 if !self.o_truth(unit, c)? {
                     let mut at = link.next;
                     // Each step moves forward to the next branch: at most the branches.
-                    while let Some(OWordKind::ElseIf(c2)) = kind_at(at) {
-                        if self.o_truth(unit, c2)? {
+                    while let Some(v) = self.line_view(unit, at)?
+                        && let Some(OWordKind::ElseIf(c2)) =
+                            oword_of(&v.program, at - v.base).map(|o| &o.kind)
+                    {
+                        if self.o_truth(&v, c2)? {
                             break;
                         }
-                        at = unit.owords.links.get(&at).map_or(link.end, |l| l.next);
+                        at = unit.ix.owords.links.get(&at).map_or(link.end, |l| l.next);
                     }
                     self.set_pc(at + 1);
                 }
@@ -115,10 +117,16 @@ impl Interpreter {
                 }
                 self.set_pc(link.end + 1);
             }
-            OWordKind::Continue => match kind_at(link.head) {
-                Some(OWordKind::While(_)) => self.set_pc(link.head),
-                _ => self.set_pc(link.end),
-            },
+            OWordKind::Continue => {
+                let head = self.line_view(unit, link.head)?;
+                let head = head
+                    .as_ref()
+                    .and_then(|v| oword_of(&v.program, link.head - v.base));
+                match head.map(|o| &o.kind) {
+                    Some(OWordKind::While(_)) => self.set_pc(link.head),
+                    _ => self.set_pc(link.end),
+                }
+            }
             OWordKind::Call(_) => {}
         }
         Ok(())
@@ -144,7 +152,7 @@ impl Interpreter {
         let err = |m: String| NcError::new(&unit.src, o.label_span, m);
         let mut target = std::iter::once(unit)
             .chain(self.flow.units.iter())
-            .find_map(|u| u.owords.subs.get(&o.label).map(|&i| (u.clone(), i)));
+            .find_map(|u| u.ix.owords.subs.get(&o.label).map(|&i| (u.clone(), i)));
         if let (None, OLabel::Name(name)) = (&target, &o.label) {
             target = self.o_file(name, unit, o)?;
         }
@@ -189,7 +197,7 @@ impl Interpreter {
         unit: &Unit,
         o: &OWord,
     ) -> Result<Option<(Arc<Unit>, usize)>, NcError> {
-        let found = |u: &Arc<Unit>| u.owords.subs.get(&o.label).map(|&i| (u.clone(), i));
+        let found = |u: &Arc<Unit>| u.ix.owords.subs.get(&o.label).map(|&i| (u.clone(), i));
         if let Some(u) = self.flow.o_files.get(name) {
             return Ok(found(u));
         }

@@ -7,7 +7,7 @@ use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 
 use cnc402_lang::SourceFile;
-use cnc402_lang::ast::{Block, LineKind, Program, Span, Value};
+use cnc402_lang::ast::{Block, Line, LineKind, Program, Span, Value};
 
 use crate::vars::MVal;
 
@@ -18,17 +18,33 @@ pub const MAX_FRAMES: usize = 15;
 pub const MAX_MACRO_LEVELS: usize = 4;
 
 /// One program of a file: `O9001` through the line before the next `O` line (or the file's
-/// end), with its sequence numbers and paired loops.
+/// end), with its sequence numbers and paired loops. A unit of a program read line by line
+/// (`streamed`) holds no lines: the interpreter reads each as it runs it and makes a
+/// [`Unit::view`] of it, so that errors point into that line's window.
 #[derive(Debug)]
 pub struct Unit {
+    /// The whole file, or (a view) the window of the one line in `program`.
     pub src: Arc<SourceFile>,
+    /// The whole program, or (a view) the one line read.
     pub program: Arc<Program>,
+    /// Index of `program.lines[0]` in the file: 0, or a view's line index.
+    pub base: usize,
     /// The `O` number; `None` for a file without one.
     pub number: Option<u32>,
-    /// Line indices `start..end` into `program.lines`.
+    /// Line indices `start..end` of the file.
     pub start: usize,
     pub end: usize,
-    /// N number → line index (first occurrence in this unit).
+    /// Its sequence numbers and paired loops, shared by its views.
+    pub ix: Arc<UnitIndex>,
+    /// Lines come from the interpreter's line reader (`super::stream`).
+    pub streamed: bool,
+}
+
+/// What is found once when a unit is loaded: where the flow may go.
+#[derive(Debug, Default)]
+pub struct UnitIndex {
+    /// N number → line index (first occurrence in this unit). Empty for a streamed unit
+    /// (a block per line could carry one): its GOTOs search the file.
     pub labels: HashMap<u32, usize>,
     /// WHILE line ↔ its END line (both directions).
     pub loops: HashMap<usize, usize>,
@@ -36,95 +52,187 @@ pub struct Unit {
     pub loop_errors: HashMap<usize, String>,
     /// LinuxCNC O-word pairs and subroutines (empty in the other dialects).
     pub owords: super::oindex::OIndex,
+    /// Where an endless main program starts over (`M99`): its first line that is not `%`.
+    pub restart: usize,
+}
+
+/// Builds a unit's [`UnitIndex`] from its lines given one at a time, in order.
+pub(crate) struct UnitScan {
+    start: usize,
+    number: Option<u32>,
+    /// `None`: labels are not kept (a streamed unit).
+    labels: Option<HashMap<u32, usize>>,
+    loops: HashMap<usize, usize>,
+    loop_errors: HashMap<usize, String>,
+    open: Vec<(u8, usize)>,
+    owords: Option<super::oindex::OIndexBuilder>,
+    restart: Option<usize>,
+}
+
+impl UnitScan {
+    /// A unit starting at line index `start`; `keep_labels` false for a streamed unit;
+    /// `linuxcnc`: O-word lines are paired.
+    pub(crate) fn new(start: usize, keep_labels: bool, linuxcnc: bool) -> UnitScan {
+        UnitScan {
+            start,
+            number: None,
+            labels: keep_labels.then(HashMap::new),
+            loops: HashMap::new(),
+            loop_errors: HashMap::new(),
+            open: Vec::new(),
+            owords: linuxcnc.then(Default::default),
+            restart: None,
+        }
+    }
+
+    /// Takes line `i` (0-based, line number `i + 1`).
+    pub(crate) fn line(&mut self, i: usize, l: &Line) {
+        if let (Some(labels), Some(n)) = (&mut self.labels, l.n) {
+            labels.entry(n.value).or_insert(i);
+        }
+        if self.restart.is_none() && !matches!(l.kind, LineKind::Percent) {
+            self.restart = Some(i);
+        }
+        match &l.kind {
+            LineKind::ProgramNumber { number, .. } => {
+                self.number.get_or_insert(*number);
+            }
+            LineKind::While { id, .. } => self.open_loop(i, *id),
+            LineKind::End { id } => self.close_loop(i, *id),
+            LineKind::OWord(o) => {
+                if let Some(b) = &mut self.owords {
+                    b.line(i, o);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Takes line `i`, known to be a plain block (no flow, no `%`; its labels not kept).
+    pub(crate) fn plain_line(&mut self, i: usize) {
+        self.restart.get_or_insert(i);
+    }
+
+    fn open_loop(&mut self, i: usize, id: u8) {
+        if !(1..=3).contains(&id) {
+            self.loop_errors
+                .insert(i, format!("DO {id}: loop numbers are 1, 2 and 3"));
+        } else if let Some(&(_, at)) = self.open.iter().find(|o| o.0 == id) {
+            self.loop_errors.insert(
+                i,
+                format!(
+                    "DO {id} inside the loop DO {id} of line {}: nested loops need different numbers",
+                    at + 1
+                ),
+            );
+        } else if self.open.len() >= 3 {
+            self.loop_errors
+                .insert(i, "WHILE loops nested more than 3 deep".into());
+        }
+        // Bounded: a WHILE with an error never pairs, and at most 3 + errors stay open.
+        if self.open.len() < 64 {
+            self.open.push((id, i));
+        }
+    }
+
+    fn close_loop(&mut self, i: usize, id: u8) {
+        match self.open.last() {
+            Some(&(top, w)) if top == id => {
+                self.open.pop();
+                if !self.loop_errors.contains_key(&w) {
+                    self.loops.insert(w, i);
+                    self.loops.insert(i, w);
+                }
+            }
+            Some(&(top, w)) => {
+                let msg = if let Some(&(_, w2)) = self.open.iter().find(|o| o.0 == id) {
+                    let m = format!(
+                        "END {id} (line {}) closes DO {id} of line {} while DO {top} of line {} is still open: loops must not cross",
+                        i + 1,
+                        w2 + 1,
+                        w + 1
+                    );
+                    // The WHILE runs first: it carries the message too.
+                    self.loop_errors.insert(w2, m.clone());
+                    m
+                } else {
+                    format!(
+                        "END {id} without a WHILE … DO {id} before it (DO {top} of line {} is open)",
+                        w + 1
+                    )
+                };
+                self.loop_errors.insert(i, msg);
+            }
+            None => {
+                self.loop_errors
+                    .insert(i, format!("END {id} without a WHILE … DO {id} before it"));
+            }
+        }
+    }
+
+    /// The unit's number and index, its lines ending before line index `end`.
+    pub(crate) fn finish(mut self, end: usize) -> (Option<u32>, UnitIndex) {
+        for (id, w) in std::mem::take(&mut self.open) {
+            self.loop_errors
+                .entry(w)
+                .or_insert_with(|| format!("WHILE … DO {id} has no END {id}"));
+        }
+        let ix = UnitIndex {
+            labels: self.labels.unwrap_or_default(),
+            loops: self.loops,
+            loop_errors: self.loop_errors,
+            owords: self.owords.map(|b| b.finish()).unwrap_or_default(),
+            restart: self.restart.unwrap_or(self.start).min(end.max(self.start)),
+        };
+        (self.number, ix)
+    }
 }
 
 impl Unit {
     fn new(src: &Arc<SourceFile>, program: &Arc<Program>, start: usize, end: usize) -> Unit {
-        let number = match program.lines.get(start).map(|l| &l.kind) {
-            Some(LineKind::ProgramNumber { number, .. }) => Some(*number),
-            _ => program.lines[start..end].iter().find_map(|l| match l.kind {
-                LineKind::ProgramNumber { number, .. } => Some(number),
-                _ => None,
-            }),
-        };
-        let mut labels = HashMap::new();
-        let mut loops = HashMap::new();
-        let mut loop_errors = HashMap::new();
-        let mut open: Vec<(u8, usize)> = Vec::new();
-        let line_of = |i: usize| program.lines[i].line_no;
-        for i in start..end {
-            let l = &program.lines[i];
-            if let Some(n) = l.n {
-                labels.entry(n.value).or_insert(i);
-            }
-            match l.kind {
-                LineKind::While { id, .. } => {
-                    if !(1..=3).contains(&id) {
-                        loop_errors.insert(i, format!("DO {id}: loop numbers are 1, 2 and 3"));
-                    } else if let Some(&(_, at)) = open.iter().find(|o| o.0 == id) {
-                        loop_errors.insert(
-                            i,
-                            format!(
-                                "DO {id} inside the loop DO {id} of line {}: nested loops need different numbers",
-                                line_of(at)
-                            ),
-                        );
-                    } else if open.len() >= 3 {
-                        loop_errors.insert(i, "WHILE loops nested more than 3 deep".into());
-                    }
-                    open.push((id, i));
-                }
-                LineKind::End { id } => match open.last() {
-                    Some(&(top, w)) if top == id => {
-                        open.pop();
-                        if !loop_errors.contains_key(&w) {
-                            loops.insert(w, i);
-                            loops.insert(i, w);
-                        }
-                    }
-                    Some(&(top, w)) => {
-                        let msg = if let Some(&(_, w2)) = open.iter().find(|o| o.0 == id) {
-                            let m = format!(
-                                "END {id} (line {}) closes DO {id} of line {} while DO {top} of line {} is still open: loops must not cross",
-                                line_of(i),
-                                line_of(w2),
-                                line_of(w)
-                            );
-                            // The WHILE runs first: it carries the message too.
-                            loop_errors.insert(w2, m.clone());
-                            m
-                        } else {
-                            format!(
-                                "END {id} without a WHILE … DO {id} before it (DO {top} of line {} is open)",
-                                line_of(w)
-                            )
-                        };
-                        loop_errors.insert(i, msg);
-                    }
-                    None => {
-                        loop_errors
-                            .insert(i, format!("END {id} without a WHILE … DO {id} before it"));
-                    }
-                },
-                _ => {}
-            }
+        let linuxcnc = program.dialect == cnc402_lang::Dialect::LinuxCnc;
+        let mut scan = UnitScan::new(start, true, linuxcnc);
+        for (i, l) in program.lines[start..end].iter().enumerate() {
+            scan.line(start + i, l);
         }
-        for (id, w) in open {
-            loop_errors
-                .entry(w)
-                .or_insert_with(|| format!("WHILE … DO {id} has no END {id}"));
-        }
+        let (number, ix) = scan.finish(end);
         Unit {
             src: src.clone(),
             program: program.clone(),
+            base: 0,
             number,
             start,
             end,
-            labels,
-            loops,
-            loop_errors,
-            owords: super::oindex::OIndex::build(program, start, end),
+            ix: Arc::new(ix),
+            streamed: false,
         }
+    }
+
+    /// Line `i` of the file if this unit holds it (a whole program, or a view of line `i`).
+    pub fn line(&self, i: usize) -> Option<&Line> {
+        self.program.lines.get(i.checked_sub(self.base)?)
+    }
+
+    /// A view of this (streamed) unit holding line `i`, read into `src` as `line`.
+    pub fn view(&self, src: SourceFile, line: Line, i: usize) -> Unit {
+        Unit {
+            src: Arc::new(src),
+            program: Arc::new(Program {
+                lines: vec![line],
+                dialect: self.program.dialect,
+            }),
+            base: i,
+            number: self.number,
+            start: self.start,
+            end: self.end,
+            ix: self.ix.clone(),
+            streamed: self.streamed,
+        }
+    }
+
+    /// The same unit whatever view of it is at hand (for the runaway guard).
+    pub fn id(&self) -> usize {
+        Arc::as_ptr(&self.ix) as usize
     }
 
     pub(crate) fn name(&self) -> String {
@@ -223,11 +331,11 @@ impl Runaway {
         if self.recent.len() == 512 {
             self.recent.pop_front();
         }
-        self.recent.push_back((unit as *const Unit as usize, line));
+        self.recent.push_back((unit.id(), line));
     }
     /// The line range the recent blocks of `unit` ran over.
     pub(crate) fn lines(&self, unit: &Unit) -> (u32, u32) {
-        let id = unit as *const Unit as usize;
+        let id = unit.id();
         let ls = self.recent.iter().filter(|r| r.0 == id).map(|r| r.1);
         let lo = ls.clone().min().unwrap_or(0);
         let hi = ls.max().unwrap_or(0);

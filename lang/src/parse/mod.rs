@@ -96,15 +96,41 @@ pub fn parse_in(src: &SourceFile, dialect: Dialect) -> Result<Program, NcError> 
         .count();
     // LinuxCNC programs are never C-like: `@` there is a polar word.
     let c_like = statement_lines > 0 && dialect != Dialect::LinuxCnc;
+    parse_lines(src, dialect, c_like, statement_lines)
+}
+
+/// Whether `line` (one line of a program) is a statement of the C-like language.
+pub(crate) fn is_statement_line(line: &str) -> bool {
+    clike::classify(line.trim_start_matches([' ', '\t'])) == clike::Class::Statement
+}
+
+/// [`parse_in`] for a text known to hold no C-like statement (a line of a program read line
+/// by line, see [`crate::stream`]).
+#[allow(clippy::result_large_err)]
+pub(crate) fn parse_gcode(src: &SourceFile, dialect: Dialect) -> Result<Program, NcError> {
+    parse_lines(src, dialect, false, 0)
+}
+
+/// The line loop of [`parse_in`]: `c_like` as the whole program decided it, from
+/// `statement_lines` (0, 1 or 2: one lone statement may be a G-code typo).
+#[allow(clippy::result_large_err)]
+fn parse_lines(
+    src: &SourceFile,
+    dialect: Dialect,
+    c_like: bool,
+    statement_lines: usize,
+) -> Result<Program, NcError> {
+    let text: &str = &src.text;
     let cx = Cx {
         text,
         line_starts: src.line_starts(),
+        first_line: src.first_line(),
         c_like,
         dialect,
     };
     let mut lines = Vec::with_capacity(text.len() / 24 + 1);
     let mut rest = text;
-    let mut line_no: u32 = 1;
+    let mut line_no: u32 = src.first_line();
     loop {
         let (line_text, after) = match rest.find('\n') {
             Some(i) => (&rest[..i], Some(&rest[i + 1..])),
@@ -242,6 +268,7 @@ pub fn parse_expr(src: &SourceFile) -> Result<Expr, NcError> {
     let cx = Cx {
         text,
         line_starts: src.line_starts(),
+        first_line: src.first_line(),
         c_like: false,
         dialect: Dialect::Fanuc,
     };
@@ -332,6 +359,8 @@ pub(crate) struct Cx<'a> {
     text: &'a str,
     /// Line starts of `text` (empty: count newlines instead).
     line_starts: &'a [u32],
+    /// The program's line number of `text`'s first line (see [`SourceFile::window`]).
+    first_line: u32,
     /// The program uses the C-like language: G-code lines take C expressions after `=`,
     /// `AXSTR(…)=` words and `//` comments.
     c_like: bool,
@@ -346,6 +375,7 @@ impl<'a> Cx<'a> {
         Cx {
             text,
             line_starts: &[],
+            first_line: 1,
             c_like: false,
             dialect: Dialect::Fanuc,
         }
@@ -353,15 +383,18 @@ impl<'a> Cx<'a> {
 
     /// 1-based line number of byte offset `off`.
     fn line_no_at(&self, off: usize) -> u32 {
+        let first = self.first_line - 1;
         if self.line_starts.is_empty() {
-            return 1 + self.text.as_bytes()[..off.min(self.text.len())]
-                .iter()
-                .filter(|&&b| b == b'\n')
-                .count() as u32;
+            return first
+                + 1
+                + self.text.as_bytes()[..off.min(self.text.len())]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count() as u32;
         }
         match self.line_starts.binary_search(&(off as u32)) {
-            Ok(k) => k as u32 + 1,
-            Err(k) => k as u32,
+            Ok(k) => first + k as u32 + 1,
+            Err(k) => first + k as u32,
         }
     }
 

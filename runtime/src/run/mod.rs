@@ -23,7 +23,7 @@ use cnc402_lang::SourceFile;
 use cnc402_lang::ast::Program;
 use cnc402_motion::AxisPos;
 
-use crate::feeder::{dry_run, motion_error_to_nc};
+use crate::feeder::{ProgramInput, dry_run_input, motion_error_to_nc};
 use crate::link::{DriveLink, FaultPlan};
 use crate::master_link::{LinkTimeouts, MasterLink};
 use crate::program_stop::{AtStop, StopGate};
@@ -188,9 +188,27 @@ pub fn run_program(
     opts: RunOptions,
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<RunReport, RunError> {
+    run_input(cfg, ProgramInput::Parsed { src, program }, opts, progress)
+}
+
+/// [`run_program`] of a program from `input` (a file: read line by line, so the dry run and
+/// the run hold memory bounded by the lookahead, not by the program).
+pub fn run_input(
+    cfg: &MachineConfig,
+    input: ProgramInput,
+    opts: RunOptions,
+    progress: &mut dyn FnMut(&Progress),
+) -> Result<RunReport, RunError> {
+    let src = input.source();
     let gate = Arc::new(StopGate::new(opts.at_stop, opts.optional_stop));
-    let dry =
-        dry_run(cfg, &src, &program, AxisPos::default(), Some(&gate)).map_err(RunError::Program)?;
+    let dry = dry_run_input(
+        cfg,
+        &input,
+        AxisPos::default(),
+        Some(&gate),
+        crate::feeder::DRY_RUN_MOVES,
+    )
+    .map_err(RunError::Program)?;
     if let Some((line, e)) = &dry.after_hold {
         log::warn!(
             "{}:{line}: the program, run on past this stop as it stands, would fail at {}:{}:{}: \
@@ -258,8 +276,7 @@ pub fn run_program(
     let (moves_tx, moves_rx) = move_ring(MOVE_RING);
     let (status_tx, status_rx) = status_ring(status_cap);
     let feed = FeederStart {
-        src,
-        program,
+        input,
         moves: moves_tx,
         stop_request: stop_request.clone(),
     };
@@ -286,7 +303,8 @@ pub fn run_program(
         return Err(RunError::Program(e));
     }
     if let Outcome::MotionFailed { error } = &end.outcome {
-        return Err(RunError::Program(motion_error_to_nc(&src_keep, error)));
+        let text = crate::feeder::line_source(&src_keep.name, error.line, &src_keep);
+        return Err(RunError::Program(motion_error_to_nc(&text, error)));
     }
     trace_result.map_err(|e| RunError::Io(format!("trace: {e}")))?;
     Ok(build_report(cfg, &src_keep, &side, &end))

@@ -8,7 +8,7 @@ use cnc402_lang::SourceFile;
 use super::cyclic::LoopEnd;
 use super::side::Side;
 use crate::controller::AxisTable;
-use crate::feeder::source_for;
+use crate::feeder::line_source;
 use crate::link::DriveStop;
 use crate::report::{AxisReport, RunReport, StopReport};
 use crate::status::Outcome;
@@ -130,7 +130,7 @@ fn stop_report(
         .find(|a| stop.node != 0 && a.node == Some(stop.node))
         .map(|a| a.name);
     let file = side.shared.file_of(move_index);
-    let text = source_for(file.as_deref().unwrap_or(&src.name), src);
+    let text = line_source(file.as_deref().unwrap_or(&src.name), line, src);
     let location = format!("{}:{}", text.name, line);
     let block = text.line_text(line).trim().to_string();
     let mut msg = stop.cause_text();

@@ -7,8 +7,7 @@ use std::sync::atomic::AtomicBool;
 use std::thread::JoinHandle;
 
 use cnc402_config::{MAX_AXES, MachineConfig};
-use cnc402_lang::ast::Program;
-use cnc402_lang::{NcError, SourceFile};
+use cnc402_lang::NcError;
 use cnc402_motion::MoveEvent;
 
 use super::error::RunError;
@@ -34,8 +33,7 @@ pub struct Progress {
 
 /// The program, and where the feeder that plans it sends its moves.
 pub(super) struct FeederStart {
-    pub(super) src: SourceFile,
-    pub(super) program: Program,
+    pub(super) input: crate::feeder::ProgramInput,
     pub(super) moves: MoveProducer,
     pub(super) stop_request: Arc<AtomicBool>,
 }
@@ -97,7 +95,8 @@ impl<'a> Side<'a> {
     ) -> Result<(), RunError> {
         let axes = AxisTable::new(self.cfg);
         let start = start_position(&axes, start);
-        let feeder = Feeder::new(self.cfg, feed.src, feed.program, start);
+        let feeder =
+            Feeder::from_input(self.cfg, &feed.input, start, false).map_err(RunError::Program)?;
         let h = spawn_feeder(
             feeder,
             feed.moves,

@@ -1,0 +1,220 @@
+//! Reading a program line by line, for programs too long to hold (CAM output of millions of
+//! blocks): [`LineReader`] hands out one line at a time as a [`SourceFile`] window (so errors
+//! keep `file:line:col` and the block) and parses it when asked; it can go back to a line
+//! whose byte offset was remembered. Memory is one line, whatever the program's length.
+
+// NcError is big (it carries the block for its message); a read returns one at most once per
+// run, so boxing it would only make the API clumsier (as in `parse`).
+#![allow(clippy::result_large_err)]
+
+use std::io::{self, BufRead, Read, Seek, SeekFrom};
+use std::sync::Arc;
+
+use crate::ast::{Line, Program};
+use crate::diag::{NcError, SourceFile};
+use crate::dialect::Dialect;
+
+/// Anything a program can be read from line by line: a buffered file, or bytes in memory.
+pub trait ProgramRead: BufRead + Seek + Send {}
+impl<T: BufRead + Seek + Send> ProgramRead for T {}
+
+/// Longest line a streamed program may have (bytes): a longer one is an error at its line,
+/// not a read that grows without bound.
+pub const MAX_LINE_BYTES: usize = 1 << 20;
+
+/// Where a line starts: its 0-based index (line number − 1) and byte offset in the file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+pub struct LinePos {
+    pub index: usize,
+    pub offset: u64,
+}
+
+/// What [`LineReader::read`] found.
+pub enum ReadLine {
+    /// The line's text (as a window) and where it started.
+    Text(SourceFile, LinePos),
+    /// The end of the file.
+    End,
+}
+
+/// A program file read one line at a time. Lines end with `\n` (a `\r` before it is
+/// dropped); each line is UTF-8 where valid, else Latin-1 (so one line's stray byte does not
+/// change how the others read, as it does when a whole file is decoded).
+pub struct LineReader {
+    name: Arc<str>,
+    input: Box<dyn ProgramRead>,
+    /// The next line to be read.
+    next: LinePos,
+    buf: Vec<u8>,
+}
+
+impl LineReader {
+    /// A reader of `input`, named `name` in errors, at its first line.
+    pub fn new(name: impl Into<Arc<str>>, input: Box<dyn ProgramRead>) -> LineReader {
+        LineReader {
+            name: name.into(),
+            input,
+            next: LinePos::default(),
+            buf: Vec::new(),
+        }
+    }
+
+    /// The program's name (its path).
+    pub fn name(&self) -> &Arc<str> {
+        &self.name
+    }
+
+    /// Where the next line starts.
+    pub fn position(&self) -> LinePos {
+        self.next
+    }
+
+    /// Goes to the line at `pos` (a position this reader gave out).
+    pub fn seek(&mut self, pos: LinePos) -> io::Result<()> {
+        if pos != self.next {
+            self.input.seek(SeekFrom::Start(pos.offset))?;
+            self.next = pos;
+        }
+        Ok(())
+    }
+
+    /// Reads the next line's bytes into the buffer; `false` at the end of the file.
+    fn fill(&mut self) -> Result<bool, NcError> {
+        self.buf.clear();
+        let line_no = self.next.index.saturating_add(1);
+        let input: &mut dyn ProgramRead = &mut *self.input;
+        let n = io::Read::take(input, MAX_LINE_BYTES as u64 + 1)
+            .read_until(b'\n', &mut self.buf)
+            .map_err(|e| self.io_error(line_no, &e))?;
+        if n == 0 {
+            return Ok(false);
+        }
+        if self.buf.last() != Some(&b'\n') && n > MAX_LINE_BYTES {
+            return Err(NcError::new(
+                &SourceFile::window(self.name.clone(), "", line_no as u32),
+                crate::ast::Span::new(0, 0),
+                format!("line longer than {MAX_LINE_BYTES} bytes"),
+            ));
+        }
+        self.next.index += 1;
+        self.next.offset += n as u64;
+        Ok(true)
+    }
+
+    /// An error reading line `line_no` (the file changed or went away under the run).
+    fn io_error(&self, line_no: usize, e: &io::Error) -> NcError {
+        NcError::new(
+            &SourceFile::window(self.name.clone(), "", line_no as u32),
+            crate::ast::Span::new(0, 0),
+            format!("cannot read the program: {e}"),
+        )
+    }
+
+    /// Passes over the next line without decoding it; `false` at the end of the file.
+    pub fn skip(&mut self) -> Result<bool, NcError> {
+        self.fill()
+    }
+
+    /// The next line, as a window of the program.
+    pub fn read(&mut self) -> Result<ReadLine, NcError> {
+        let at = self.next;
+        if !self.fill()? {
+            return Ok(ReadLine::End);
+        }
+        let mut body: &[u8] = &self.buf;
+        body = body.strip_suffix(b"\n").unwrap_or(body);
+        body = body.strip_suffix(b"\r").unwrap_or(body);
+        let text: Arc<str> = match std::str::from_utf8(body) {
+            Ok(t) => t.into(),
+            Err(_) => body
+                .iter()
+                .map(|&b| char::from(b))
+                .collect::<String>()
+                .into(),
+        };
+        let line_no = u32::try_from(at.index + 1).unwrap_or(u32::MAX);
+        Ok(ReadLine::Text(
+            SourceFile::window(self.name.clone(), text, line_no),
+            at,
+        ))
+    }
+
+    /// The head of the program (its first [`crate::HEADER_LINES`] lines) as one text, for the
+    /// dialect header; the reader is back at the first line afterwards.
+    pub fn head(&mut self) -> Result<SourceFile, NcError> {
+        self.seek(LinePos::default())
+            .map_err(|e| self.io_error(1, &e))?;
+        let mut text = String::new();
+        for _ in 0..crate::HEADER_LINES {
+            match self.read()? {
+                ReadLine::Text(w, _) => {
+                    text.push_str(w.line_text(w.first_line()));
+                    text.push('\n');
+                }
+                ReadLine::End => break,
+            }
+        }
+        self.seek(LinePos::default())
+            .map_err(|e| self.io_error(1, &e))?;
+        Ok(SourceFile::new(self.name.clone(), text))
+    }
+
+    /// The whole program as one text (for a program that must be held whole: the C-like
+    /// language is compiled whole).
+    pub fn whole(&mut self) -> Result<SourceFile, NcError> {
+        self.seek(LinePos::default())
+            .map_err(|e| self.io_error(1, &e))?;
+        let mut bytes = Vec::new();
+        self.input
+            .read_to_end(&mut bytes)
+            .map_err(|e| self.io_error(1, &e))?;
+        self.input
+            .seek(SeekFrom::Start(0))
+            .map_err(|e| self.io_error(1, &e))?;
+        Ok(SourceFile::from_bytes(self.name.clone(), bytes))
+    }
+
+    /// The window of line `line_no` (1-based), read from the start; an empty window past the
+    /// end. For messages about a line that is no longer held (a planner error).
+    pub fn line_window(&mut self, line_no: u32) -> Result<SourceFile, NcError> {
+        self.seek(LinePos::default())
+            .map_err(|e| self.io_error(1, &e))?;
+        for _ in 1..line_no {
+            if !self.skip()? {
+                break;
+            }
+        }
+        match self.read()? {
+            ReadLine::Text(w, _) => Ok(w),
+            ReadLine::End => Ok(SourceFile::window(self.name.clone(), "", line_no)),
+        }
+    }
+}
+
+/// Whether a line (as read) is a statement of the C-like language: a program with one is
+/// parsed whole ([`crate::parse_in`] decides how it reads), never line by line.
+pub fn is_statement_line(text: &str) -> bool {
+    crate::parse::is_statement_line(text)
+}
+
+/// Parses one line of a G-code program (ISO, Fanuc, Haas or LinuxCNC, not C-like) given as
+/// a window: the [`Line`] with spans into the window and its line number.
+///
+/// ```
+/// use cnc402_lang::{SourceFile, Dialect, stream::parse_line};
+/// let l = parse_line(&SourceFile::window("p.nc", "N40 G1 X2", 7), Dialect::Fanuc).unwrap();
+/// assert_eq!((l.line_no, l.n.unwrap().value), (7, 40));
+/// let e = parse_line(&SourceFile::window("p.nc", "G1 X", 9), Dialect::Fanuc).unwrap_err();
+/// assert_eq!((e.line, e.col), (9, 4));
+/// ```
+pub fn parse_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcError> {
+    let Program { mut lines, .. } = crate::parse::parse_gcode(window, dialect)?;
+    match lines.pop() {
+        Some(l) if lines.is_empty() => Ok(l),
+        _ => Err(NcError::new(
+            window,
+            crate::ast::Span::new(0, 0),
+            "one line expected",
+        )),
+    }
+}
