@@ -28,6 +28,8 @@ pub(super) struct VirtualClock<'s, 'a> {
     held_since: Option<(std::time::Instant, u32)>,
     /// The interpreter waited for motion when the last tick was taken.
     waiting: bool,
+    /// A poll with nothing to do already found the feeder thread ended.
+    feeder_ended_seen: bool,
     side: &'s mut Side<'a>,
     status: StatusConsumer,
     stop_request: Arc<AtomicBool>,
@@ -50,6 +52,7 @@ impl<'s, 'a> VirtualClock<'s, 'a> {
             spins: 0,
             held_since: None,
             waiting: false,
+            feeder_ended_seen: false,
             side,
             status,
             stop_request,
@@ -62,10 +65,17 @@ impl<'s, 'a> VirtualClock<'s, 'a> {
     }
 
     /// Nothing to do yet: the feeder thread is still planning. Waits a little for it, and
-    /// stops the machine if it ended without `End` (an error).
+    /// stops the machine if it ended without `End` (an error). The first time it is seen
+    /// ended, the loop looks at the ring once more: the feeder may have pushed its last moves
+    /// and `End` after the loop's state was taken and before it ended (that race stopped
+    /// whole runs as an operator stop at line 0).
     fn wait_for_feeder(&mut self) {
         if self.side.feeder.as_ref().is_some_and(|h| h.is_finished()) {
-            self.stop_request.store(true, Ordering::SeqCst);
+            if self.feeder_ended_seen {
+                self.stop_request.store(true, Ordering::SeqCst);
+            }
+            self.feeder_ended_seen = true;
+            return;
         }
         self.spins += 1;
         if self.spins > 64 {
