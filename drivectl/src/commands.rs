@@ -63,6 +63,18 @@ pub fn dispatch(ctx: &mut Ctx, cmd: Command) -> Result<()> {
             position,
             interrupt_after,
         } => crate::motion::move_to(ctx, node, position, interrupt_after),
+        Command::Identify {
+            node,
+            amplitude,
+            duration,
+        } => crate::identify::identify(
+            ctx,
+            crate::identify::Request {
+                node,
+                amplitude,
+                duration_s: duration,
+            },
+        ),
         Command::Monitor {
             log,
             duration,
@@ -862,14 +874,14 @@ fn nmt(ctx: &mut Ctx, cmd: NmtCmd, target: NodeOrAll) -> Result<()> {
 
 // ---- CiA 402 state machine -------------------------------------------------------------
 
-fn read_sw(ctx: &mut Ctx, n: u8) -> Result<Statusword> {
+pub(crate) fn read_sw(ctx: &mut Ctx, n: u8) -> Result<Statusword> {
     let node = node_id(n)?;
     Ok(Statusword(
         ctx.with_sdo(|sdo| sdo.read_u16(node, obj::STATUSWORD, 0))?,
     ))
 }
 
-fn fault_detail(ctx: &mut Ctx, n: u8) -> String {
+pub(crate) fn fault_detail(ctx: &mut Ctx, n: u8) -> String {
     let Ok(node) = node_id(n) else {
         return String::new();
     };

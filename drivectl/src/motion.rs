@@ -48,7 +48,7 @@ impl Law {
     }
 }
 
-fn axis_of(ctx: &Ctx, node: u8) -> Result<AxisConfig> {
+pub(crate) fn axis_of(ctx: &Ctx, node: u8) -> Result<AxisConfig> {
     ctx.cfg
         .axes
         .iter()
@@ -62,7 +62,7 @@ fn axis_of(ctx: &Ctx, node: u8) -> Result<AxisConfig> {
         })
 }
 
-fn limits(axis: &AxisConfig) -> Result<Limits> {
+pub(crate) fn limits(axis: &AxisConfig) -> Result<Limits> {
     let l = Limits {
         velocity: axis.max_velocity,
         acceleration: axis.max_acceleration,
@@ -78,7 +78,7 @@ fn limits(axis: &AxisConfig) -> Result<Limits> {
     }
 }
 
-fn check_soft(axis: &AxisConfig, p: f64) -> Result<()> {
+pub(crate) fn check_soft(axis: &AxisConfig, p: f64) -> Result<()> {
     if let Some((lo, hi)) = axis.soft_limits
         && !(lo..=hi).contains(&p)
     {
@@ -92,7 +92,7 @@ fn check_soft(axis: &AxisConfig, p: f64) -> Result<()> {
 
 /// A target must be a position the drive can take: INT32 counts (0x607A). Rotary axes have
 /// no soft limits, so `move 4 1e12` was taken and ran for days of wrapping counts.
-fn check_counts(axis: &AxisConfig, p: f64) -> Result<()> {
+pub(crate) fn check_counts(axis: &AxisConfig, p: f64) -> Result<()> {
     let reach = i32::MAX as f64 / axis.counts_per_unit;
     if p.abs() > reach {
         return Err(CliError::usage(format!(
@@ -163,7 +163,7 @@ pub fn move_to(ctx: &mut Ctx, node: u8, target: f64, interrupt_after: Option<f64
 }
 
 /// A master for the one axis, booted to Operation Enabled in cyclic synchronous position.
-fn boot_one(ctx: &mut Ctx, node: u8, axis: &AxisConfig) -> Result<Master> {
+pub(crate) fn boot_one(ctx: &mut Ctx, node: u8, axis: &AxisConfig) -> Result<Master> {
     let mut one = ctx.cfg.clone();
     one.axes = vec![axis.clone()];
     let options = MasterOptions {
@@ -230,7 +230,7 @@ fn passes_soft_limit(law: &Law, t: f64, axis: &AxisConfig, lim: Limits) -> bool 
 }
 
 /// Sleeps until `t` seconds after `wall0` on the wall clock (at once if that has passed).
-fn sleep_until(wall0: WallInstant, t: f64) {
+pub(crate) fn sleep_until(wall0: WallInstant, t: f64) {
     let wall = wall0.elapsed().as_secs_f64();
     if t > wall {
         std::thread::sleep(Duration::from_secs_f64(t - wall));
@@ -239,7 +239,7 @@ fn sleep_until(wall0: WallInstant, t: f64) {
 
 /// Ten more cycles holding `cmd` after cycle `k` (each `period` s after `t_start`), the last
 /// actual position into `actual`; returns the number of the last cycle.
-fn settle(
+pub(crate) fn settle(
     ctx: &mut Ctx,
     m: &mut Master,
     t_start: cnc402_drives::Instant,
