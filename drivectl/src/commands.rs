@@ -874,14 +874,14 @@ fn nmt(ctx: &mut Ctx, cmd: NmtCmd, target: NodeOrAll) -> Result<()> {
 
 // ---- CiA 402 state machine -------------------------------------------------------------
 
-pub(crate) fn read_sw(ctx: &mut Ctx, n: u8) -> Result<Statusword> {
+fn read_sw(ctx: &mut Ctx, n: u8) -> Result<Statusword> {
     let node = node_id(n)?;
     Ok(Statusword(
         ctx.with_sdo(|sdo| sdo.read_u16(node, obj::STATUSWORD, 0))?,
     ))
 }
 
-pub(crate) fn fault_detail(ctx: &mut Ctx, n: u8) -> String {
+fn fault_detail(ctx: &mut Ctx, n: u8) -> String {
     let Ok(node) = node_id(n) else {
         return String::new();
     };

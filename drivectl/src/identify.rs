@@ -7,8 +7,9 @@
 use core::time::Duration;
 use std::time::Instant as WallInstant;
 
-use cia402::State;
+use cia402::{State, Statusword, objects as obj};
 use cnc402_config::{AxisConfig, MAX_MODEL_DELAY_CYCLES};
+use cnc402_drives::master::emcy_text;
 use cnc402_motion::profile::{JerkProfile, Limits, PathProfile, rest_to_rest};
 use serde_json::json;
 
@@ -172,7 +173,8 @@ pub struct Request {
 /// The drive must be OPERATION ENABLED (the operator enabled it) and not in FAULT; nothing
 /// moves otherwise.
 fn check_enabled(ctx: &mut Ctx, node: u8) -> Result<()> {
-    let sw = crate::commands::read_sw(ctx, node)?;
+    let id = crate::node_id(node)?;
+    let sw = Statusword(ctx.with_sdo(|sdo| sdo.read_u16(id, obj::STATUSWORD, 0))?);
     match sw.state() {
         Some(State::OperationEnabled) => Ok(()),
         Some(s) if s.is_fault() => Err(CliError::state(format!(
@@ -180,7 +182,10 @@ fn check_enabled(ctx: &mut Ctx, node: u8) -> Result<()> {
              `drivectl fault-reset {node}`, then `drivectl enable {node}`",
             ctx.label(node),
             s.name(),
-            crate::commands::fault_detail(ctx, node)
+            match ctx.with_sdo(|sdo| sdo.read_u16(id, obj::ERROR_CODE, 0)) {
+                Ok(c) => format!("error code 0x603F = {c:#06x} ({})", emcy_text(c)),
+                Err(e) => format!("error code unreadable: {e}"),
+            }
         ))),
         s => Err(CliError::state(format!(
             "{}: statusword {:#06x} ({}), not OPERATION ENABLED: identify moves only a drive \
