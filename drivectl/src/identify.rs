@@ -4,7 +4,6 @@
 //! the setpoint of every cycle, and a first-order-plus-dead-time model is fitted by least
 //! squares of the simulated output over every candidate dead time (`fit`, pure).
 
-use core::time::Duration;
 use std::time::Instant as WallInstant;
 
 use cia402::{State, Statusword, objects as obj};
@@ -15,7 +14,7 @@ use serde_json::json;
 
 use crate::Ctx;
 use crate::error::{CliError, Result};
-use crate::motion::{axis_of, boot_one, check_counts, check_soft, limits, settle, sleep_until};
+use crate::motion::{axis_of, boot_one, check_counts, check_soft, cycle_at, limits, settle};
 
 /// Longest test motion (s): identification needs a second or two, never minutes.
 pub const MAX_DURATION_S: f64 = 10.0;
@@ -197,8 +196,9 @@ fn check_enabled(ctx: &mut Ctx, node: u8) -> Result<()> {
     }
 }
 
-/// The strokes for `req` on `axis` from `start`, refused (exit 2) outside the axis limits.
-fn plan(req: &Request, axis: &AxisConfig, lim: Limits, start: f64) -> Result<Strokes> {
+/// The stroke `req` asks for on `axis` (exit 2 when it is no distance or the duration is
+/// out of range), checked before the bus is asked anything.
+fn amplitude_of(req: &Request, axis: &AxisConfig) -> Result<f64> {
     let amplitude = req.amplitude.unwrap_or(axis.following_error_window);
     if !(amplitude.is_finite() && amplitude != 0.0) {
         return Err(CliError::usage(format!(
@@ -211,6 +211,12 @@ fn plan(req: &Request, axis: &AxisConfig, lim: Limits, start: f64) -> Result<Str
             req.duration_s
         )));
     }
+    Ok(amplitude)
+}
+
+/// The strokes for `req` on `axis` from `start`, refused (exit 2) outside the axis limits.
+fn plan(req: &Request, axis: &AxisConfig, lim: Limits, start: f64) -> Result<Strokes> {
+    let amplitude = amplitude_of(req, axis)?;
     let end = start + amplitude;
     check_soft(axis, end).map_err(|e| {
         CliError::usage(format!(
@@ -238,7 +244,7 @@ pub fn identify(ctx: &mut Ctx, req: Request) -> Result<()> {
     let axis = axis_of(ctx, node)?;
     let lim = limits(&axis)?;
     // Arguments first (nothing on the bus), then the drive's state, then the start position.
-    plan(&req, &axis, lim, 0.0).map(|_| ())?;
+    amplitude_of(&req, &axis)?;
     check_enabled(ctx, node)?;
     let start = read_position(ctx, node, &axis)?;
     let strokes = plan(&req, &axis, lim, start)?;
@@ -250,32 +256,24 @@ pub fn identify(ctx: &mut Ctx, req: Request) -> Result<()> {
         start,
         ..Record::default()
     };
-    let sim = ctx.link.sim().is_some();
     let t_start = ctx.now();
     let wall0 = WallInstant::now();
     let mut k: u64 = 0;
     let mut result = Ok(());
     let mut actual = start;
+    let mut cmd = start;
+    let mut interrupted = false;
     // Record through the motion and long enough after it for the slowest model to settle.
     let end = strokes.ends_at() + DWELL_S;
     while (k as f64) * period < end {
         k += 1;
         let t = k as f64 * period;
         if ctx.interrupted() {
-            result = Err(CliError::state(format!(
-                "{}: Ctrl-C: identify stopped (the strokes are small: the axis holds where \
-                 it is)",
-                ctx.label(node)
-            )));
+            interrupted = true;
             break;
         }
-        let cmd = strokes.at(t);
-        let when = t_start + Duration::from_secs_f64(t);
-        if sim {
-            sleep_until(wall0, t);
-        }
-        ctx.link.pass_until(when);
-        match m.cycle(&mut ctx.link, when, &[cmd]) {
+        cmd = strokes.at(t);
+        match cycle_at(ctx, &mut m, (t_start, wall0), t, cmd) {
             Ok(fb) => {
                 actual = fb.actual[0];
                 rec.push(cmd, fb.fresh[0].then_some((fb.age[0], actual)));
@@ -289,10 +287,18 @@ pub fn identify(ctx: &mut Ctx, req: Request) -> Result<()> {
             }
         }
     }
+    // Hold the last setpoint a few cycles before disabling (on Ctrl-C too: a stroke is
+    // short and slow, the drive's loop stops it within them).
     if result.is_ok() {
-        settle(ctx, &mut m, t_start, period, k, strokes.start, &mut actual);
+        settle(ctx, &mut m, t_start, period, k, cmd, &mut actual);
     }
     let disabled = m.disable(&mut ctx.link);
+    if interrupted {
+        result = Err(CliError::state(format!(
+            "{}: Ctrl-C: identify stopped at {actual:.4}, no model",
+            ctx.label(node)
+        )));
+    }
     result?;
     disabled.map_err(CliError::from)?;
     let fit = fit(&rec, period).ok_or_else(|| {

@@ -7,7 +7,7 @@ use core::time::Duration;
 use std::time::Instant as WallInstant;
 
 use cnc402_config::AxisConfig;
-use cnc402_drives::master::{Master, MasterOptions};
+use cnc402_drives::master::{Feedback, Master, MasterOptions, SafetyStop};
 use cnc402_motion::profile::{
     JerkProfile, Limits, PathProfile, State, rest_to_rest, velocity_change,
 };
@@ -230,11 +230,29 @@ fn passes_soft_limit(law: &Law, t: f64, axis: &AxisConfig, lim: Limits) -> bool 
 }
 
 /// Sleeps until `t` seconds after `wall0` on the wall clock (at once if that has passed).
-pub(crate) fn sleep_until(wall0: WallInstant, t: f64) {
+fn sleep_until(wall0: WallInstant, t: f64) {
     let wall = wall0.elapsed().as_secs_f64();
     if t > wall {
         std::thread::sleep(Duration::from_secs_f64(t - wall));
     }
+}
+
+/// One master cycle `t` s after `start` (bus time, wall clock) commanding `cmd`: the bus
+/// advanced to that time, and on the simulator virtual time paced to the wall clock (live
+/// there too).
+pub(crate) fn cycle_at(
+    ctx: &mut Ctx,
+    m: &mut Master,
+    start: (cnc402_drives::Instant, WallInstant),
+    t: f64,
+    cmd: f64,
+) -> core::result::Result<Feedback, SafetyStop> {
+    if ctx.link.sim().is_some() {
+        sleep_until(start.1, t);
+    }
+    let when = start.0 + Duration::from_secs_f64(t);
+    ctx.link.pass_until(when);
+    m.cycle(&mut ctx.link, when, &[cmd])
 }
 
 /// Ten more cycles holding `cmd` after cycle `k` (each `period` s after `t_start`), the last
@@ -270,7 +288,6 @@ fn run(
     let mut m = boot_one(ctx, node, &axis)?;
     let p0 = m.positions()[0];
     let period = m.period().as_secs_f64();
-    let sim = ctx.link.sim().is_some();
     let mut law = initial_law(&plan, p0, lim)?;
     let stop_at = match plan {
         Plan::Jog { duration, .. } => duration,
@@ -318,13 +335,7 @@ fn run(
         }
         let s = law.at(t);
         cmd = s.s;
-        let when = t_start + Duration::from_secs_f64(t);
-        if sim {
-            // Live on the simulator too: pace virtual time to the wall clock.
-            sleep_until(wall0, t);
-        }
-        ctx.link.pass_until(when);
-        match m.cycle(&mut ctx.link, when, &[cmd]) {
+        match cycle_at(ctx, &mut m, (t_start, wall0), t, cmd) {
             Ok(fb) => {
                 actual = fb.actual[0];
                 if !ctx.json && t - last_print >= 0.1 {
