@@ -445,15 +445,30 @@ fn the_richer_sim_keys_are_read_and_checked_at_their_key() {
     let plain = parse(SHIPPED).unwrap().axes[0].sim;
     assert_eq!(plain, cnc402_config::SimDynamics::default());
     for (bad, key) in [
-        ("sim = { bandwidth_hz = 40.0, kv = 250.0 }", "axis[0].sim.kv"),
-        ("sim = { velocity_feedforward = 1.5 }", "axis[0].sim.velocity_feedforward"),
+        (
+            "sim = { bandwidth_hz = 40.0, kv = 250.0 }",
+            "axis[0].sim.kv",
+        ),
+        (
+            "sim = { velocity_feedforward = 1.5 }",
+            "axis[0].sim.velocity_feedforward",
+        ),
         ("sim = { max_velocity = -1.0 }", "axis[0].sim.max_velocity"),
-        ("sim = { max_acceleration = nan }", "axis[0].sim.max_acceleration"),
+        (
+            "sim = { max_acceleration = nan }",
+            "axis[0].sim.max_acceleration",
+        ),
         // 0.00001 mm at 10000 counts/mm is a tenth of a count: finer than the drive counts.
-        ("sim = { encoder_resolution = 0.00001 }", "axis[0].sim.encoder_resolution"),
+        (
+            "sim = { encoder_resolution = 0.00001 }",
+            "axis[0].sim.encoder_resolution",
+        ),
         ("sim = { kv = -3.0 }", "axis[0].sim.kv"),
     ] {
         let e = refused(&with(x, bad), key, bad);
-        assert!(e.message.contains("must") || e.message.contains("not both"), "{e}");
+        assert!(
+            e.message.contains("must") || e.message.contains("not both"),
+            "{e}"
+        );
     }
 }

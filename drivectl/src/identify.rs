@@ -87,7 +87,7 @@ fn alpha_of(bandwidth_hz: f64, period_s: f64) -> f64 {
 /// dead time with the least squared error. `None` when nothing was sampled.
 pub fn fit(rec: &Record, period_s: f64) -> Option<Fit> {
     let samples = rec.actual.iter().flatten().count();
-    if samples == 0 || !(period_s > 0.0) {
+    if samples == 0 || period_s.is_nan() || period_s <= 0.0 {
         return None;
     }
     let cost_at = |delay: usize, log_f: f64| cost(rec, delay, alpha_of(log_f.exp(), period_s));
