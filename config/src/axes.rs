@@ -107,13 +107,66 @@ pub struct ExpectedIdentity {
     pub revision_min: Option<u32>,
 }
 
-/// How the simulated drive of an axis follows its CSP setpoints.
+/// How the simulated drive of an axis follows its CSP setpoints: a dead time, a P position
+/// loop (gain Kv = 2π·`bandwidth_hz`) with optional velocity feedforward, velocity and
+/// acceleration (current) limits, and an encoder of finite resolution. With the defaults of
+/// the new keys (no feedforward, no limits, one-count encoder) it is the first-order model
+/// of `delay_cycles` and `bandwidth_hz` alone.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SimDynamics {
     /// Pure delay between a setpoint taking effect and the position loop seeing it.
     pub delay_cycles: u32,
-    /// First-order tracking bandwidth of the position loop (Hz); 0 = ideal (actual = target).
+    /// Bandwidth of the closed position loop without feedforward (Hz): the loop gain is
+    /// Kv = 2π·f (1/s); 0 = ideal (actual = target). Key `bandwidth_hz`, or `kv` in 1/s.
     pub bandwidth_hz: f64,
+    /// Fraction of the demand velocity fed forward to the velocity loop, 0 (off) ..= 1 (full).
+    pub velocity_feedforward: f64,
+    /// Largest motor speed, axis units/s; 0 = unlimited.
+    pub max_velocity: f64,
+    /// Largest motor acceleration (the current limit), axis units/s²; 0 = unlimited.
+    pub max_acceleration: f64,
+    /// Encoder resolution, axis units: 0x6064 and the position loop see the position
+    /// truncated to a multiple of it; 0 = one count.
+    pub encoder_resolution: f64,
+}
+
+impl Default for SimDynamics {
+    /// The keys' defaults: 1 cycle, 150 Hz, no feedforward, no limits, one-count encoder.
+    fn default() -> SimDynamics {
+        SimDynamics {
+            delay_cycles: 1,
+            bandwidth_hz: 150.0,
+            velocity_feedforward: 0.0,
+            max_velocity: 0.0,
+            max_acceleration: 0.0,
+            encoder_resolution: 0.0,
+        }
+    }
+}
+
+impl SimDynamics {
+    /// The position loop gain Kv (1/s); 0 = ideal.
+    pub fn kv(&self) -> f64 {
+        2.0 * std::f64::consts::PI * self.bandwidth_hz
+    }
+
+    /// The first-order-plus-dead-time model this drive behaves like for the master (what
+    /// `drivectl identify` should find): the dead time, and the bandwidth whose ramp lag
+    /// equals the drive's, Kv·/(2π·(1 − feedforward)); 0 (ideal) with full feedforward or an
+    /// ideal loop. Limits and encoder steps are not part of it (a small motion stays within
+    /// them).
+    pub fn equivalent_model(&self) -> DriveModel {
+        let residual = 1.0 - self.velocity_feedforward;
+        let bandwidth_hz = if self.bandwidth_hz == 0.0 || residual <= 0.0 {
+            0.0
+        } else {
+            self.bandwidth_hz / residual
+        };
+        DriveModel {
+            delay_cycles: self.delay_cycles,
+            bandwidth_hz,
+        }
+    }
 }
 
 /// One `[[axis]]` as written, with spans.
@@ -172,28 +225,16 @@ fn default_feedback_delay() -> Spanned<i64> {
     sp(1)
 }
 
-#[derive(Deserialize)]
+#[derive(Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawSim {
-    #[serde(default = "default_delay")]
-    delay_cycles: Spanned<i64>,
-    #[serde(default = "default_bandwidth")]
-    bandwidth_hz: Spanned<f64>,
-}
-
-impl Default for RawSim {
-    fn default() -> Self {
-        RawSim {
-            delay_cycles: default_delay(),
-            bandwidth_hz: default_bandwidth(),
-        }
-    }
-}
-fn default_delay() -> Spanned<i64> {
-    sp(1)
-}
-fn default_bandwidth() -> Spanned<f64> {
-    sp(150.0)
+    delay_cycles: Option<Spanned<i64>>,
+    bandwidth_hz: Option<Spanned<f64>>,
+    kv: Option<Spanned<f64>>,
+    velocity_feedforward: Option<Spanned<f64>>,
+    max_velocity: Option<Spanned<f64>>,
+    max_acceleration: Option<Spanned<f64>>,
+    encoder_resolution: Option<Spanned<f64>>,
 }
 
 /// Checks the `[[axis]]` list in order against the bus (no axis may use
@@ -253,6 +294,85 @@ fn models_complete(raw: &[Table<RawAxis>], axes: &[AxisConfig]) -> Result<(), In
     }
 }
 
+/// A finite number in `lo..=hi`.
+fn in_range(v: &Spanned<f64>, key: &str, lo: f64, hi: f64) -> Result<f64, Invalid> {
+    let x = *v.get_ref();
+    if x.is_finite() && (lo..=hi).contains(&x) {
+        Ok(x)
+    } else {
+        Err((
+            v.span(),
+            key.to_string(),
+            format!("must be a number in {lo}..={hi}, got {x}"),
+        ))
+    }
+}
+
+impl RawSim {
+    /// The simulated drive of axis `k` (`counts_per_unit` scales the encoder check). The
+    /// loop gain is given as `bandwidth_hz` or as `kv` (1/s), not both.
+    fn validate(&self, k: usize, counts_per_unit: f64) -> Result<SimDynamics, Invalid> {
+        let key = |f: &str| format!("axis[{k}].sim.{f}");
+        let d = SimDynamics::default();
+        let opt = |v: &Option<Spanned<f64>>, f: &str, hi: f64, default: f64| {
+            v.as_ref()
+                .map_or(Ok(default), |v| in_range(v, &key(f), 0.0, hi))
+        };
+        let bandwidth_hz = match (&self.bandwidth_hz, &self.kv) {
+            (Some(_), Some(kv)) => {
+                return Err((
+                    kv.span(),
+                    key("kv"),
+                    "give the position loop as bandwidth_hz or as kv (= 2π·bandwidth_hz), not both"
+                        .into(),
+                ));
+            }
+            (_, Some(kv)) => {
+                in_range(
+                    kv,
+                    &key("kv"),
+                    0.0,
+                    2.0 * std::f64::consts::PI * MAX_BANDWIDTH_HZ,
+                )? / (2.0 * std::f64::consts::PI)
+            }
+            (bw, None) => opt(bw, "bandwidth_hz", MAX_BANDWIDTH_HZ, d.bandwidth_hz)?,
+        };
+        let encoder_resolution = opt(&self.encoder_resolution, "encoder_resolution", 1e6, 0.0)?;
+        let steps = encoder_resolution * counts_per_unit;
+        if encoder_resolution > 0.0 && !(1.0..=MAX_COUNTS).contains(&steps) {
+            let span = self.encoder_resolution.as_ref().map_or(0..0, |v| v.span());
+            return Err((
+                span,
+                key("encoder_resolution"),
+                format!(
+                    "must be 0 (one count) or 1..=2^31-1 counts, got {encoder_resolution} = {steps} counts"
+                ),
+            ));
+        }
+        Ok(SimDynamics {
+            delay_cycles: match &self.delay_cycles {
+                Some(v) => int_in(v, &key("delay_cycles"), 0, 100)? as u32,
+                None => d.delay_cycles,
+            },
+            bandwidth_hz,
+            velocity_feedforward: opt(
+                &self.velocity_feedforward,
+                "velocity_feedforward",
+                1.0,
+                0.0,
+            )?,
+            max_velocity: opt(&self.max_velocity, "max_velocity", MAX_VELOCITY, 0.0)?,
+            max_acceleration: opt(
+                &self.max_acceleration,
+                "max_acceleration",
+                MAX_ACCELERATION,
+                0.0,
+            )?,
+            encoder_resolution,
+        })
+    }
+}
+
 impl RawAxis {
     /// Checks axis `k` against the axes before it (`earlier`). The checks run in a fixed
     /// order, so the first error a file has is always the one reported.
@@ -275,21 +395,7 @@ impl RawAxis {
         let references = a.references(k, soft_limits, counts_per_unit)?;
         let identity = a.identity(k, node)?;
         let dynamics = a.model(k)?;
-        let bw = *a.sim.bandwidth_hz.get_ref();
-        if !(bw.is_finite() && bw >= 0.0) {
-            return Err((
-                a.sim.bandwidth_hz.span(),
-                key("sim.bandwidth_hz"),
-                format!("must be ≥ 0, got {bw}"),
-            ));
-        }
-        if bw > MAX_BANDWIDTH_HZ {
-            return Err((
-                a.sim.bandwidth_hz.span(),
-                key("sim.bandwidth_hz"),
-                format!("must be at most {MAX_BANDWIDTH_HZ}, got {bw}"),
-            ));
-        }
+        let sim = a.sim.validate(k, counts_per_unit)?;
         Ok(AxisConfig {
             name,
             kind,
@@ -316,10 +422,7 @@ impl RawAxis {
             references,
             identity,
             dynamics,
-            sim: SimDynamics {
-                delay_cycles: int_in(&a.sim.delay_cycles, &key("sim.delay_cycles"), 0, 100)? as u32,
-                bandwidth_hz: bw,
-            },
+            sim,
         })
     }
 

@@ -420,3 +420,55 @@ fn identity_on_a_virtual_axis_is_refused() {
     let e = refused(&text, "axis[1].identity", "identity =");
     assert!(e.message.contains("virtual"), "{e}");
 }
+
+#[test]
+fn the_richer_sim_keys_are_read_and_checked_at_their_key() {
+    let x = "sim = { delay_cycles = 1, bandwidth_hz = 150.0 }";
+    let text = with(
+        x,
+        "sim = { delay_cycles = 2, kv = 150.0, velocity_feedforward = 0.5, max_velocity = 300.0, \
+         max_acceleration = 5000.0, encoder_resolution = 0.001 }",
+    );
+    let s = parse(&text).unwrap().axes[0].sim;
+    assert_eq!(s.delay_cycles, 2);
+    assert!((s.kv() - 150.0).abs() < 1e-9, "{s:?}");
+    assert_eq!(
+        (s.velocity_feedforward, s.max_velocity, s.max_acceleration),
+        (0.5, 300.0, 5000.0)
+    );
+    assert_eq!(s.encoder_resolution, 0.001);
+    // The master's equivalent: half the ramp lag, twice the bandwidth.
+    let m = s.equivalent_model();
+    assert_eq!(m.delay_cycles, 2);
+    assert!((m.bandwidth_hz - 2.0 * 150.0 / (2.0 * std::f64::consts::PI)).abs() < 1e-9);
+    // Absent keys: the first-order model of old.
+    let plain = parse(SHIPPED).unwrap().axes[0].sim;
+    assert_eq!(plain, cnc402_config::SimDynamics::default());
+    for (bad, key) in [
+        (
+            "sim = { bandwidth_hz = 40.0, kv = 250.0 }",
+            "axis[0].sim.kv",
+        ),
+        (
+            "sim = { velocity_feedforward = 1.5 }",
+            "axis[0].sim.velocity_feedforward",
+        ),
+        ("sim = { max_velocity = -1.0 }", "axis[0].sim.max_velocity"),
+        (
+            "sim = { max_acceleration = nan }",
+            "axis[0].sim.max_acceleration",
+        ),
+        // 0.00001 mm at 10000 counts/mm is a tenth of a count: finer than the drive counts.
+        (
+            "sim = { encoder_resolution = 0.00001 }",
+            "axis[0].sim.encoder_resolution",
+        ),
+        ("sim = { kv = -3.0 }", "axis[0].sim.kv"),
+    ] {
+        let e = refused(&with(x, bad), key, bad);
+        assert!(
+            e.message.contains("must") || e.message.contains("not both"),
+            "{e}"
+        );
+    }
+}

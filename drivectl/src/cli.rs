@@ -289,6 +289,27 @@ pub enum Command {
         #[arg(long, hide = true, value_name = "SECONDS")]
         interrupt_after: Option<f64>,
     },
+    /// Measure the drive's dead time and closed position loop bandwidth from a small test
+    /// motion in CSP, and print the `dynamics` line for the config. The drive must be
+    /// enabled (`drivectl enable NODE`) and not in FAULT; the stroke must stay inside the
+    /// soft limits
+    #[command(
+        allow_negative_numbers = true,
+        after_help = "Examples:\n  drivectl enable 3 && drivectl identify 3\n  drivectl --iface sim --sim-setup enable:4 identify 4 --amplitude 5 --json"
+    )]
+    Identify {
+        /// Node id (must be an axis of the config)
+        #[arg(value_parser = parse_node)]
+        node: u8,
+        /// Stroke in axis units (mm, deg) from the actual position and back; sign = direction
+        /// [default: the axis's following_error_window]
+        #[arg(long, allow_negative_numbers = true, value_name = "UNITS")]
+        amplitude: Option<f64>,
+        /// Length of the test motion in seconds, 0..=10 (whole out-and-back strokes, at least
+        /// one)
+        #[arg(long, default_value_t = 1.0, value_name = "SECONDS")]
+        duration: f64,
+    },
     /// Decode all bus traffic live, with node names, bus load and SYNC period statistics
     #[command(
         after_help = "Example: drivectl --iface vcan0 monitor --log capture.log --duration 10"

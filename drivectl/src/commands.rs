@@ -63,6 +63,18 @@ pub fn dispatch(ctx: &mut Ctx, cmd: Command) -> Result<()> {
             position,
             interrupt_after,
         } => crate::motion::move_to(ctx, node, position, interrupt_after),
+        Command::Identify {
+            node,
+            amplitude,
+            duration,
+        } => crate::identify::identify(
+            ctx,
+            crate::identify::Request {
+                node,
+                amplitude,
+                duration_s: duration,
+            },
+        ),
         Command::Monitor {
             log,
             duration,

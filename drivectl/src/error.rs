@@ -21,7 +21,7 @@ pub enum Exit {
     /// 4: no answer in time: absent node, SDO timeout, no boot-up / heartbeat.
     Timeout = 4,
     /// 5: the drive is in the wrong state: stuck in a CiA 402 state, in FAULT, refuses a mode,
-    /// a safety stop during jog/move.
+    /// a safety stop during jog/move/identify, identify on a drive that is not enabled.
     DriveState = 5,
     /// 6: the CAN transport failed: interface missing, kernel without CAN, bus-off, down.
     Bus = 6,
@@ -40,7 +40,8 @@ Exit codes:
   3  SDO abort: the drive refused the transfer (abort code and its name are printed)
   4  timeout: absent node, no SDO response, no boot-up or heartbeat in time
   5  drive state: stuck in a CiA 402 state (state and why printed), drive in FAULT,
-     mode refused or not confirmed by 0x6061, safety stop during jog/move
+     mode refused or not confirmed by 0x6061, safety stop during jog/move/identify,
+     identify on a drive that is not enabled
   6  CAN transport: no such interface, kernel without CAN (errno 97), bus-off, down
   7  protocol: wrong data type/size, SDO protocol violation, not a CiA 402 device
   8  file: machine config or EDS/DCF unreadable or invalid";

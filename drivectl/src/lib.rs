@@ -1,6 +1,6 @@
 //! drivectl: the diagnostic CLI for CANopen CiA 402 drives, as a library so tests can call
 //! it. `main` parses [`cli::Cli`] and calls [`run`]; each command lives in [`commands`],
-//! [`motion`] (jog/move) or [`monitor`] (monitor/emcy). The bus is [`link::Link`]: a
+//! [`motion`] (jog/move), [`identify`] or [`monitor`] (monitor/emcy). The bus is [`link::Link`]: a
 //! SocketCAN interface or the embedded simulator.
 
 pub mod cli;
@@ -9,6 +9,7 @@ pub mod decode;
 pub mod dict;
 pub mod eds;
 pub mod error;
+pub mod identify;
 pub mod link;
 pub mod monitor;
 pub mod motion;

@@ -7,7 +7,7 @@ use core::time::Duration;
 use std::time::Instant as WallInstant;
 
 use cnc402_config::AxisConfig;
-use cnc402_drives::master::{Master, MasterOptions};
+use cnc402_drives::master::{Feedback, Master, MasterOptions, SafetyStop};
 use cnc402_motion::profile::{
     JerkProfile, Limits, PathProfile, State, rest_to_rest, velocity_change,
 };
@@ -48,7 +48,7 @@ impl Law {
     }
 }
 
-fn axis_of(ctx: &Ctx, node: u8) -> Result<AxisConfig> {
+pub(crate) fn axis_of(ctx: &Ctx, node: u8) -> Result<AxisConfig> {
     ctx.cfg
         .axes
         .iter()
@@ -62,7 +62,7 @@ fn axis_of(ctx: &Ctx, node: u8) -> Result<AxisConfig> {
         })
 }
 
-fn limits(axis: &AxisConfig) -> Result<Limits> {
+pub(crate) fn limits(axis: &AxisConfig) -> Result<Limits> {
     let l = Limits {
         velocity: axis.max_velocity,
         acceleration: axis.max_acceleration,
@@ -78,7 +78,7 @@ fn limits(axis: &AxisConfig) -> Result<Limits> {
     }
 }
 
-fn check_soft(axis: &AxisConfig, p: f64) -> Result<()> {
+pub(crate) fn check_soft(axis: &AxisConfig, p: f64) -> Result<()> {
     if let Some((lo, hi)) = axis.soft_limits
         && !(lo..=hi).contains(&p)
     {
@@ -92,7 +92,7 @@ fn check_soft(axis: &AxisConfig, p: f64) -> Result<()> {
 
 /// A target must be a position the drive can take: INT32 counts (0x607A). Rotary axes have
 /// no soft limits, so `move 4 1e12` was taken and ran for days of wrapping counts.
-fn check_counts(axis: &AxisConfig, p: f64) -> Result<()> {
+pub(crate) fn check_counts(axis: &AxisConfig, p: f64) -> Result<()> {
     let reach = i32::MAX as f64 / axis.counts_per_unit;
     if p.abs() > reach {
         return Err(CliError::usage(format!(
@@ -163,7 +163,7 @@ pub fn move_to(ctx: &mut Ctx, node: u8, target: f64, interrupt_after: Option<f64
 }
 
 /// A master for the one axis, booted to Operation Enabled in cyclic synchronous position.
-fn boot_one(ctx: &mut Ctx, node: u8, axis: &AxisConfig) -> Result<Master> {
+pub(crate) fn boot_one(ctx: &mut Ctx, node: u8, axis: &AxisConfig) -> Result<Master> {
     let mut one = ctx.cfg.clone();
     one.axes = vec![axis.clone()];
     let options = MasterOptions {
@@ -237,9 +237,27 @@ fn sleep_until(wall0: WallInstant, t: f64) {
     }
 }
 
+/// One master cycle `t` s after `start` (bus time, wall clock) commanding `cmd`: the bus
+/// advanced to that time, and on the simulator virtual time paced to the wall clock (live
+/// there too).
+pub(crate) fn cycle_at(
+    ctx: &mut Ctx,
+    m: &mut Master,
+    start: (cnc402_drives::Instant, WallInstant),
+    t: f64,
+    cmd: f64,
+) -> core::result::Result<Feedback, SafetyStop> {
+    if ctx.link.sim().is_some() {
+        sleep_until(start.1, t);
+    }
+    let when = start.0 + Duration::from_secs_f64(t);
+    ctx.link.pass_until(when);
+    m.cycle(&mut ctx.link, when, &[cmd])
+}
+
 /// Ten more cycles holding `cmd` after cycle `k` (each `period` s after `t_start`), the last
 /// actual position into `actual`; returns the number of the last cycle.
-fn settle(
+pub(crate) fn settle(
     ctx: &mut Ctx,
     m: &mut Master,
     t_start: cnc402_drives::Instant,
@@ -270,7 +288,6 @@ fn run(
     let mut m = boot_one(ctx, node, &axis)?;
     let p0 = m.positions()[0];
     let period = m.period().as_secs_f64();
-    let sim = ctx.link.sim().is_some();
     let mut law = initial_law(&plan, p0, lim)?;
     let stop_at = match plan {
         Plan::Jog { duration, .. } => duration,
@@ -318,13 +335,7 @@ fn run(
         }
         let s = law.at(t);
         cmd = s.s;
-        let when = t_start + Duration::from_secs_f64(t);
-        if sim {
-            // Live on the simulator too: pace virtual time to the wall clock.
-            sleep_until(wall0, t);
-        }
-        ctx.link.pass_until(when);
-        match m.cycle(&mut ctx.link, when, &[cmd]) {
+        match cycle_at(ctx, &mut m, (t_start, wall0), t, cmd) {
             Ok(fb) => {
                 actual = fb.actual[0];
                 if !ctx.json && t - last_print >= 0.1 {

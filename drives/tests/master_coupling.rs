@@ -76,6 +76,7 @@ fn a_slower_spindle_loop_shows_as_coupling_error() {
     config.axes[3].sim = SimDynamics {
         delay_cycles: 2,
         bandwidth_hz: 60.0,
+        ..SimDynamics::default()
     };
     config.axes[3].feedback_delay_cycles = 2;
     let w = tap(config);

@@ -262,6 +262,11 @@ fn following_error_beyond_the_window_stops_before_the_drive_faults() {
     // its own 10 ms (0x6066, written after boot, which set it to the config's 0).
     let mut config = MachineConfig::default_machine();
     config.axes[0].following_error_timeout_ms = 0;
+    // Without a drive model the command is expected at once (with one, the model's loop
+    // would follow the jump too: see master_following_error.rs).
+    for a in config.axes.iter_mut() {
+        a.dynamics = None;
+    }
     let mut rig = Rig::booted_for(config);
     {
         let mut ignore = |_: &cnc402_drives::wire::CanFrame| {};
@@ -676,6 +681,10 @@ fn the_following_error_allows_the_configured_feedback_delay_not_the_sims() {
     let run_with = |delay: u32| {
         let mut config = MachineConfig::default_machine();
         config.axes[0].feedback_delay_cycles = delay;
+        // feedback_delay_cycles counts only without a drive model.
+        for a in config.axes.iter_mut() {
+            a.dynamics = None;
+        }
         let mut rig = Rig::booted_for(config);
         let start = rig.master.positions();
         run(&mut rig, &start, 0, 400).unwrap()

@@ -7,9 +7,10 @@ mod master_common;
 
 use std::time::Duration;
 
-use cnc402_config::MachineConfig;
+use cnc402_config::{DriveModel, MachineConfig, SimDynamics};
 use cnc402_drives::bus::{Action, Direction, FaultRule};
-use cnc402_drives::master::{COMMAND_HISTORY, Feedback, SafetyStop, StopReason};
+use cnc402_drives::master::{BlockingSdo, COMMAND_HISTORY, Feedback, SafetyStop, StopReason};
+use cnc402_drives::wire::NodeId;
 use master_common::{MovingRig, tpdo_of};
 
 const Z: usize = 2;
@@ -159,4 +160,83 @@ fn following_error_must_persist_for_the_timeout() {
         matches!(stop.reason, StopReason::FollowingError { .. }),
         "{stop}"
     );
+}
+
+/// Z's drive made slow (sim: 2 cycles, 20 Hz) and its own window (0x6065) opened wide, so
+/// that only the master judges; Z cruises at 100 mm/s, lagging 0.8 mm behind its demand.
+fn slow_z(model: bool, sim: SimDynamics) -> Rig {
+    let mut config = MachineConfig::default_machine();
+    config.axes[Z].sim = sim;
+    for a in config.axes.iter_mut() {
+        a.dynamics = None;
+    }
+    config.axes[Z].feedback_delay_cycles = 2;
+    if model {
+        config.axes[Z].dynamics = Some(DriveModel {
+            delay_cycles: 2,
+            bandwidth_hz: 20.0,
+        });
+    }
+    let mut rig = Rig::booted(&config, &[]);
+    {
+        let mut ignore = |_: &cnc402_drives::wire::CanFrame| {};
+        let mut sdo = BlockingSdo::new(&mut rig.base.bus, Duration::from_millis(100), &mut ignore);
+        sdo.write_u32(NodeId::new(3).unwrap(), 0x6065, 0, 1_000_000)
+            .unwrap();
+    }
+    let now = rig.base.bus.inner_mut().now();
+    rig.base.next = rig.base.next.max(now + rig.base.master.period());
+    rig.motion.v_z = 100.0;
+    rig
+}
+
+fn slow_sim() -> SimDynamics {
+    SimDynamics {
+        delay_cycles: 2,
+        bandwidth_hz: 20.0,
+        ..SimDynamics::default()
+    }
+}
+
+/// Regression: "a slow drive trips the following error window on a normal move". The master
+/// expected the command itself (after `feedback_delay_cycles`), so a 20 Hz drive lagging
+/// 0.8 mm at 100 mm/s was a following error in a 0.5 mm window; with the drive model the
+/// expected position is the model's response, and the same move passes.
+#[test]
+fn a_slow_drive_does_not_trip_the_window_on_a_normal_move_with_its_model() {
+    let mut without = slow_z(false, slow_sim());
+    let stop = (0..600)
+        .find_map(|_| without.cycle().err())
+        .expect("without a model the lag is a following error");
+    assert!(
+        matches!(stop.reason, StopReason::FollowingError { .. }) && stop.axis == Some('Z'),
+        "{stop}"
+    );
+
+    let mut with = slow_z(true, slow_sim());
+    for k in 0..600 {
+        with.cycle().unwrap_or_else(|s| panic!("cycle {k}: {s}"));
+    }
+    let max = with.base.master.max_following_errors()[Z];
+    println!("max following error against the model: {max} mm");
+    assert!(max < 0.01, "{max}");
+}
+
+/// The model does not hide a real fault: the same drive, now current-limited to 60 mm/s
+/// (sim `max_velocity`), falls behind the 100 mm/s move and trips the window.
+#[test]
+fn a_drive_off_its_model_still_trips_the_window() {
+    let blocked = SimDynamics {
+        max_velocity: 60.0,
+        ..slow_sim()
+    };
+    let mut rig = slow_z(true, blocked);
+    let stop = (0..600)
+        .find_map(|_| rig.cycle().err())
+        .expect("a saturated drive is a following error");
+    let StopReason::FollowingError { error, window } = stop.reason else {
+        panic!("{stop}")
+    };
+    assert_eq!((stop.axis, window), (Some('Z'), 0.5));
+    assert!(error.abs() > 0.5 && error.abs() < 1.0, "{error}");
 }

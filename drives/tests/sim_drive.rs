@@ -27,6 +27,7 @@ fn axis(delay_cycles: u32, bandwidth_hz: f64) -> AxisConfig {
     a.sim = SimDynamics {
         delay_cycles,
         bandwidth_hz,
+        ..SimDynamics::default()
     };
     a
 }

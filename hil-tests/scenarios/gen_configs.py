@@ -6,6 +6,8 @@ machine changes; hil-tests/suite.sh warns when they drift):
                              emulated guest, paths relative to hil-tests/, no variables file
   machine-vcan-tight-fe.toml the same with X's following-error window 0.01 mm
   machine-vcan-wrap.toml     the same with C at 2^20 counts/rev (INT32 wrap after 20.5 s at 6000 rpm)
+  machine-vcan-mismatched.toml the same with the spindle's simulated drive slower than Z
+                             (sim and the master's dynamics: 2 cycles / 40 Hz; Z 1 / 150 Hz)
 
   python3 hil-tests/scenarios/gen_configs.py [--check] [--source PATH]
   (--check: exit 1 if a file would change; --source: another machine.toml, e.g. from
@@ -86,6 +88,14 @@ def main():
         + sub1(
             r"^counts_per_rev = 131072 .*$",
             "counts_per_rev = 1048576      # HIL: 2^20 (machine.toml: 131072), so 6000 rpm crosses 2^31 counts after 20.5 s, not 164 s",
+            widen(b),
+        ),
+        "machine-vcan-mismatched.toml": HEADER
+        + "# Variant for the mismatched-dynamics tap scenario: the spindle's drive slower than Z's.\n"
+        + sub1(
+            r"(^max_rpm = [^\n]*\n(?:[^\n]*\n)*?)^dynamics = [^\n]*\n^sim = [^\n]*$",
+            r"\1dynamics = { delay_cycles = 2, bandwidth_hz = 40.0 } # HIL: matches sim\n"
+            r"sim = { delay_cycles = 2, bandwidth_hz = 40.0 } # HIL (machine.toml: 1 cycle, 150 Hz)",
             widen(b),
         ),
     }

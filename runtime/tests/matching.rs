@@ -36,6 +36,7 @@ fn slow_spindle(model_it: bool) -> MachineConfig {
     cfg.axes[sp].sim = SimDynamics {
         delay_cycles: slow.0,
         bandwidth_hz: slow.1,
+        ..SimDynamics::default()
     };
     if model_it {
         cfg.axes[sp].dynamics = Some(DriveModel {

@@ -899,6 +899,7 @@ impl Master {
             a.age = 0;
             a.fe_beyond = 0;
             a.fe_comparable = true;
+            a.expected = a.actual;
         }
         self.sync_sent = false;
     }
@@ -926,6 +927,7 @@ impl Master {
         self.cycles = 0;
         for a in self.axes[..self.n_axes].iter_mut() {
             a.history = [a.actual; COMMAND_HISTORY];
+            a.expected = a.actual;
             a.last_command = a.actual;
             a.emcy = None;
             a.tpdo_missing = 0;

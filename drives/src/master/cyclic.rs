@@ -5,8 +5,11 @@
 //!
 //! Following error rule: the TPDO read in cycle k was sampled at SYNC k−1, where the drive
 //! took the command sent in cycle k−1; a drive with a pure delay of d cycles (the axis's
-//! `feedback_delay_cycles`) tracks the command of cycle k−1−d. So the monitor compares the
-//! fresh actual with the command sent `1 + d + age` cycles earlier — dead time is not error.
+//! `dynamics.delay_cycles`, else `feedback_delay_cycles`) tracks the command of cycle k−1−d.
+//! With a drive model (`dynamics`) the drive is expected where its first-order loop puts it
+//! (the commands through the model's lag), so a slow drive's normal lag on a move is not
+//! error and what trips is a drive off its model (blocked, saturated, faulty). So the monitor
+//! compares the fresh actual with the expected position of `1 + d + age` cycles earlier.
 //! Age: per drive the master counts SYNCs still owed a TPDO (+1 per SYNC, −1 per TPDO). A
 //! drive's steady lateness is the lowest count seen since enabling (a drive whose TPDO always
 //! misses the cycle edge shows 1 from its first answer on); a count above it is either a late
@@ -43,7 +46,8 @@ pub struct Feedback {
     pub actual: [f64; MAX_AXES],
     /// The command taken this cycle.
     pub command: [f64; MAX_AXES],
-    /// Delayed command minus actual (see the module doc), axis units; holds its last value
+    /// Expected position (the delayed command through the drive model) minus actual (see
+    /// the module doc), axis units; holds its last value
     /// while samples are older than the command history (not comparable).
     pub following_error: [f64; MAX_AXES],
     /// The last statusword of each drive (`None` for virtual axes).
@@ -126,6 +130,17 @@ impl super::AxisSlot {
     fn reference(&self, k: usize, age: u32) -> Option<f64> {
         let lag = self.fe_lag.checked_add(age as usize)?;
         (lag < COMMAND_HISTORY).then(|| self.history[(k + COMMAND_HISTORY - lag) % COMMAND_HISTORY])
+    }
+
+    /// The drive model's response to this cycle's command (the command itself when the
+    /// model has no lag: exactly, so runs without a model compare as before).
+    fn expect(&mut self, cmd: f64) -> f64 {
+        self.expected = if self.model_alpha >= 1.0 {
+            cmd
+        } else {
+            self.expected + self.model_alpha * (cmd - self.expected)
+        };
+        self.expected
     }
 
     /// The following error of the sample in `actual` read at age `age` (see `reference`).
@@ -510,7 +525,7 @@ impl Master {
         let sync_sent = self.sync_sent;
         let a = &mut self.axes[i];
         a.last_command = cmd;
-        a.history[k % COMMAND_HISTORY] = cmd;
+        a.history[k % COMMAND_HISTORY] = a.expect(cmd);
         if a.node.is_some() {
             a.take_sample(k, running, sync_sent);
             fb.age[i] = a.age;

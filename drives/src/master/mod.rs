@@ -175,6 +175,12 @@ pub(crate) struct AxisSlot {
     pub fe_not_comparable: u64,
     /// Cycles between a command leaving the master and the actual that answers it.
     pub fe_lag: usize,
+    /// The drive model's first-order loop per cycle, 1 − e^(−2π·f·T) (1: no lag, the
+    /// command itself is expected).
+    pub model_alpha: f64,
+    /// The model's response to the commands so far (axis units): where the drive should be
+    /// once the dead time has passed.
+    pub expected: f64,
     pub sequencer: EnableSequencer,
     pub controlword: Controlword,
     pub quick_stop: bool,
@@ -209,7 +215,8 @@ pub(crate) struct AxisSlot {
     /// Boot-up messages since the last NMT reset communication (two mean two devices on one
     /// node id, or a drive that reset itself while being configured).
     pub boot_ups: u32,
-    /// Commands in axis units, a ring indexed by the cycle count.
+    /// Expected positions in axis units, a ring indexed by the cycle count: the commands
+    /// through the drive model's first-order loop (the commands themselves without a model).
     pub history: [f64; COMMAND_HISTORY],
     pub last_command: f64,
     pub following_error: f64,
@@ -239,6 +246,8 @@ impl AxisSlot {
             fe_comparable: true,
             fe_not_comparable: 0,
             fe_lag: 1,
+            model_alpha: 1.0,
+            expected: 0.0,
             sequencer: EnableSequencer::new(Goal::OperationEnabled),
             controlword: Controlword::DISABLE_VOLTAGE,
             quick_stop: false,
@@ -288,6 +297,16 @@ impl AxisSlot {
         self.actual_counts = raw as i64;
         self.actual = raw as f64 / self.counts_per_unit;
     }
+}
+
+/// The per-cycle gain of a first-order loop of `bandwidth_hz` at `period_us`: 1 (no lag)
+/// for an ideal loop (0 Hz) or one fast enough to follow within the cycle.
+fn model_alpha(bandwidth_hz: f64, period_us: u32) -> f64 {
+    if !(bandwidth_hz.is_finite() && bandwidth_hz > 0.0) {
+        return 1.0;
+    }
+    let t = period_us as f64 * 1e-6;
+    (1.0 - (-2.0 * core::f64::consts::PI * bandwidth_hz * t).exp()).clamp(f64::MIN_POSITIVE, 1.0)
 }
 
 /// The CANopen master for the machine's drives (see the module doc for the call sequence).
@@ -383,7 +402,17 @@ impl Master {
             s.fe_timeout_cycles = (u64::from(a.following_error_timeout_ms) * 1000
                 / u64::from(config.bus.period_us.max(1)))
             .min(u64::from(u32::MAX)) as u32;
-            s.fe_lag = (1 + a.feedback_delay_cycles as usize).min(COMMAND_HISTORY - 1);
+            // The drive model, when given, says what the drive does with a command: its
+            // dead time replaces feedback_delay_cycles, its loop is expected to lag.
+            let (delay, alpha) = match a.dynamics {
+                Some(d) => (
+                    d.delay_cycles,
+                    model_alpha(d.bandwidth_hz, config.bus.period_us),
+                ),
+                None => (a.feedback_delay_cycles, 1.0),
+            };
+            s.fe_lag = (1 + delay as usize).min(COMMAND_HISTORY - 1);
+            s.model_alpha = alpha;
             if let Some(n) = node {
                 s.sdo = Some(SdoClient::new(
                     n,

@@ -13,7 +13,7 @@ use cia402::{
 };
 use cnc402_config::AxisConfig;
 
-use super::motion::AxisModel;
+use super::motion::{AxisModel, DriveDynamics};
 use super::objects::{self, DriveParams};
 use super::pdo::{self, RpdoSlot, TpdoSlot};
 use super::sdo_server::{ObjectAccess, SdoServer};
@@ -288,8 +288,6 @@ pub struct SimDrive {
     now: Instant,
     cia: DeviceStateMachine,
     axis: AxisModel,
-    delay_cycles: u32,
-    bandwidth_hz: f64,
     sdo: SdoServer,
     rpdo: [RpdoSlot; 4],
     tpdo: [TpdoSlot; 4],
@@ -389,13 +387,7 @@ impl SimDrive {
             powered_at: None,
             now: Instant::ZERO,
             cia: DeviceStateMachine::new(),
-            axis: AxisModel::new(
-                axis.sim.delay_cycles,
-                axis.sim.bandwidth_hz,
-                options.initial_position,
-            ),
-            delay_cycles: axis.sim.delay_cycles,
-            bandwidth_hz: axis.sim.bandwidth_hz,
+            axis: AxisModel::new(DriveDynamics::of_axis(axis), options.initial_position),
             sdo: SdoServer::new(),
             rpdo: [RpdoSlot::default(); 4],
             tpdo: [TpdoSlot::default(); 4],
@@ -488,9 +480,9 @@ impl SimDrive {
     pub fn od(&self) -> &ObjectDictionary {
         &self.od
     }
-    /// Simulated dynamics: (delay cycles, bandwidth Hz).
-    pub fn dynamics(&self) -> (u32, f64) {
-        (self.delay_cycles, self.bandwidth_hz)
+    /// Simulated dynamics (in counts).
+    pub fn dynamics(&self) -> DriveDynamics {
+        self.axis.dynamics()
     }
 
     // ---- fault injection ----------------------------------------------------------------
@@ -769,7 +761,7 @@ impl SimDrive {
         let position = self.axis.actual();
         self.od = self.defaults.clone();
         self.cia = DeviceStateMachine::new();
-        self.axis = AxisModel::new(self.delay_cycles, self.bandwidth_hz, position);
+        self.axis = AxisModel::new(self.axis.dynamics(), position);
         self.sdo.reset();
         self.fe_since = None;
         self.fe_exceeded = false;

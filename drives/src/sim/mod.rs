@@ -43,6 +43,6 @@ mod sdo_server;
 
 pub use drive::{FaultKind, FaultKindError, NmtStatus, SimDrive, SimDriveOptions, SimDriveStats};
 pub use machine::{device_of, simulated_machine, simulated_machine_with};
-pub use motion::AxisModel;
+pub use motion::{AxisModel, DriveDynamics};
 pub use objects::{PRODUCT_CODE, REVISION, VENDOR_ID, interpolation_period, interpolation_seconds};
 pub use sdo_server::{ObjectAccess, SdoServer};

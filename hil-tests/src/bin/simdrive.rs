@@ -58,6 +58,12 @@ struct Args {
     /// simdrive processes on one node id are a duplicate node id on the bus.
     #[arg(long, value_name = "NODE,..", value_delimiter = ',')]
     nodes: Vec<u8>,
+    /// Judge each tap window's actual-position coupling against UM micrometres (default:
+    /// reported only). When the config's Z and spindle `dynamics` differ, the master shapes
+    /// their setpoints apart on purpose (dynamic matching): the setpoint windows are then
+    /// reported only, and this is the tap's judgement.
+    #[arg(long, value_name = "UM")]
+    actual_limit_um: Option<f64>,
     /// Stop after this many seconds (default: run until SIGTERM/SIGINT).
     #[arg(long, value_name = "S")]
     duration: Option<f64>,
@@ -211,6 +217,7 @@ fn main() -> ExitCode {
         boot_delays: args.boot_delay.clone(),
         start_in_fault: args.start_in_fault.clone(),
         only_nodes: args.nodes.clone(),
+        actual_limit_um: args.actual_limit_um,
     };
     let mut host = match DriveHost::new(&cfg, &opts) {
         Ok(h) => h,
