@@ -33,6 +33,11 @@ pub enum CliError {
     Fault(String),
     /// A command-line value that clap cannot check by itself.
     Usage(String),
+    /// `cnc402 pages`: a value its field refuses, or the package's alarm with the values
+    /// (exit 2, as a wrong program).
+    Refused(String),
+    /// `cnc402 pages`: the pages file is wrong (file:line:col and key; exit 3, as a config).
+    Description(String),
 }
 
 impl CliError {
@@ -43,6 +48,8 @@ impl CliError {
             CliError::Io(m) => (exit::IO, miette::miette!("{m}")),
             CliError::Fault(m) => (exit::FAULT, miette::miette!("{m}")),
             CliError::Usage(m) => (exit::USAGE, miette::miette!("{m}")),
+            CliError::Refused(m) => (exit::PROGRAM, miette::miette!("{m}")),
+            CliError::Description(m) => (exit::CONFIG, miette::miette!("{m}")),
         };
         eprintln!("{report:?}");
         ExitCode::from(code)

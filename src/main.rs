@@ -15,6 +15,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cli_error;
+mod pages;
 mod run;
 mod vars;
 use cli_error::{CliError, exit};
@@ -75,6 +76,12 @@ enum Command {
         #[command(subcommand)]
         command: Option<vars::VarsCommand>,
     },
+    /// The parameter pages of a macro package (pages.toml next to its programs) as an
+    /// operator screen: fields with units, ranges and help, values checked and saved to the
+    /// non-volatile variables, a preview of the holes, and start (docs/pages.md).
+    ///
+    /// Example: cnc402 pages examples/mlt980/pages.toml --set pattern=circle --check
+    Pages(pages::PagesArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -171,6 +178,10 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Vars { file, command } => {
             let cfg = load_config(&cli.config)?;
             vars::vars(&cfg, file, command)
+        }
+        Command::Pages(args) => {
+            let cfg = load_config(&cli.config)?;
+            pages::pages(&cfg, args)
         }
     }
 }

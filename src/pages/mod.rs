@@ -1,0 +1,225 @@
+//! `cnc402 pages`: the parameter pages of a macro package (source 001) as an operator screen
+//! and as a scriptable check. The pages come from a description file next to the programs
+//! (`spec`), values are refused at the field with the reason (`state`), saved to the
+//! non-volatile variables file through `nvfile`, previewed by dry-running the package
+//! (`preview`), and start runs its main program through `cnc402 run`'s own code path.
+
+mod preview;
+mod screen;
+pub mod spec;
+mod state;
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use cnc402_config::MachineConfig;
+use cnc402_interp::nvfile::{self, NvTable};
+
+use crate::cli_error::CliError;
+use spec::Spec;
+use state::{PagesState, Store};
+
+/// `cnc402 pages`: the run options are `cnc402 run`'s own (flattened, so `--start` takes
+/// every option `run` takes); the positional program is the pages file, and run's `--plot`
+/// is `--run-plot` because `--plot` here is the preview.
+#[derive(clap::Args, Debug)]
+#[command(mut_arg("program", |a| a
+    .required(false)
+    .default_value("")
+    .hide_default_value(true)
+    .value_name("PAGES.toml")
+    .help("The macro package's pages file (default: pages.toml in interp.program_dir)")))]
+#[command(mut_arg("plot", |a| a
+    .long("run-plot")
+    .help("With --start or F8: the run's plot (Z and C against time), as `cnc402 run --plot`")))]
+pub struct PagesArgs {
+    #[command(flatten)]
+    pub run: crate::RunArgs,
+    /// Set a field by name or variable number (`pattern=circle`, `holes=6`, `530=3`; an
+    /// empty value makes it vacant). Without --check or --start: saved, then exit.
+    #[arg(long = "set", value_name = "FIELD=VALUE")]
+    pub sets: Vec<String>,
+    /// Fill every vacant field that has a default with it (before --set).
+    #[arg(long)]
+    pub defaults: bool,
+    /// Validate every shown field and dry-run the package, print the holes; save nothing.
+    /// Exit 0 if all is well, 2 naming the field or the package's alarm.
+    #[arg(long, conflicts_with = "start")]
+    pub check: bool,
+    /// Validate and dry-run as --check, save, then run the package's main program exactly
+    /// as `cnc402 run` does (same options).
+    #[arg(long)]
+    pub start: bool,
+    /// Write the preview (the holes the values produce) as SVG.
+    #[arg(long = "plot", value_name = "FILE.svg")]
+    pub preview_plot: Option<PathBuf>,
+}
+
+/// The variables file behind `save`: one locked, durable read-modify-write per save
+/// (`nvfile::set_vars`, the machinery of `cnc402 vars set`).
+struct FileStore {
+    path: PathBuf,
+    saves: u32,
+}
+
+impl FileStore {
+    fn save_all(&mut self, sets: &[(u32, Option<f64>)]) -> Result<(), String> {
+        nvfile::set_vars(&self.path, sets).map_err(|e| e.to_string())?;
+        self.saves += 1;
+        test_pause_after_save(self.saves);
+        Ok(())
+    }
+}
+
+impl Store for FileStore {
+    fn save(&mut self, var: u32, value: Option<f64>) -> Result<(), String> {
+        self.save_all(&[(var, value)])
+    }
+}
+
+/// Test hook for the power-cut test (tests/pages_cli.rs): with
+/// `CNC402_TEST_PAGES_PAUSE=FILE`, after the first save the process writes its pid to FILE
+/// and sleeps 30 s, so the test can kill it between two saves.
+fn test_pause_after_save(saves: u32) {
+    let Some(marker) = std::env::var_os("CNC402_TEST_PAGES_PAUSE") else {
+        return;
+    };
+    if saves == 1 && std::fs::write(&marker, std::process::id().to_string()).is_ok() {
+        std::thread::sleep(std::time::Duration::from_secs(30));
+    }
+}
+
+/// Runs `cnc402 pages`.
+pub fn pages(cfg: &MachineConfig, mut args: PagesArgs) -> Result<(), CliError> {
+    let pages_path = if args.run.program.as_os_str().is_empty() {
+        cfg.program_dir().join("pages.toml")
+    } else {
+        args.run.program.clone()
+    };
+    let spec = Spec::load(&pages_path).map_err(|e| CliError::Description(e.to_string()))?;
+    let vars_path = cfg.variables_file().ok_or_else(|| {
+        CliError::Usage("no variables file: set interp.variables_file in the machine config".into())
+    })?;
+    let file = NvTable::load(&vars_path).map_err(|e| CliError::Io(e.to_string()))?;
+    let mut state = PagesState::new(spec, |n| file.get(n));
+    let mut store = FileStore {
+        path: vars_path,
+        saves: 0,
+    };
+    let sets = assignments(&mut state, &args)?;
+    let title = format!("{} ({})", state.spec.name, pages_path.display());
+    let main = state.spec.main.clone();
+    if !args.check && !args.start && args.sets.is_empty() && !args.defaults {
+        if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
+            return Err(CliError::Usage(
+                "the pages screen needs a terminal; in scripts use --set, --check or --start"
+                    .into(),
+            ));
+        }
+        let started = screen::run_screen(cfg, &mut state, &mut store, &file)?;
+        if let Some(p) = &args.preview_plot {
+            let preview = preview::dry_run(cfg, &main, state.table(file.clone()))?;
+            preview::write_svg(p, &preview, &title)?;
+        }
+        if !started {
+            return Ok(());
+        }
+        args.run.program = main;
+        return crate::run::run(cfg, &args.run);
+    }
+    let preview = preview::dry_run(cfg, &main, state.table(file.clone()))?;
+    if let Some(p) = &args.preview_plot {
+        preview::write_svg(p, &preview, &title)?;
+    }
+    let problem = state.first_problem().map(|(i, why)| {
+        let f = &state.spec.fields[i];
+        format!("field `{}` (#{}, {}): {why}", f.name, f.var, f.label)
+    });
+    if !args.check && !args.start {
+        store.save_all(&sets).map_err(CliError::Io)?;
+        print!("{}", listing(&state));
+        print!("{}", preview::text(&preview));
+        for w in problem.iter().chain(preview.alarm.iter()) {
+            eprintln!("warning: saved, but {w}");
+        }
+        return Ok(());
+    }
+    print!("{}", preview::text(&preview));
+    if let Some(p) = problem {
+        return Err(CliError::Refused(p));
+    }
+    if let Some(a) = &preview.alarm {
+        return Err(CliError::Refused(format!(
+            "the package stops with these values: {a}"
+        )));
+    }
+    if args.check {
+        return Ok(());
+    }
+    store.save_all(&sets).map_err(CliError::Io)?;
+    args.run.program = main;
+    crate::run::run(cfg, &args.run)
+}
+
+/// `--defaults` and `--set` applied to the state (in memory), each value checked at its
+/// field: the variables to save. A bad value is refused naming the field (exit 2); an unknown
+/// field or a malformed assignment is a usage error.
+fn assignments(
+    state: &mut PagesState,
+    args: &PagesArgs,
+) -> Result<Vec<(u32, Option<f64>)>, CliError> {
+    let mut sets: Vec<(u32, Option<f64>)> = Vec::new();
+    let mut put = |state: &mut PagesState, i: usize, v: Option<f64>| {
+        state.values[i] = v;
+        let var = state.spec.fields[i].var;
+        sets.retain(|s| s.0 != var);
+        sets.push((var, v));
+    };
+    if args.defaults {
+        for i in 0..state.spec.fields.len() {
+            if state.values[i].is_none() && state.spec.fields[i].default.is_some() {
+                put(state, i, state.spec.fields[i].default);
+            }
+        }
+    }
+    for a in &args.sets {
+        let Some((name, value)) = a.split_once('=') else {
+            return Err(CliError::Usage(format!(
+                "--set {a:?}: expected FIELD=VALUE, e.g. holes=6"
+            )));
+        };
+        let Some(i) = state.spec.field_by_name(name) else {
+            let names: Vec<&str> = state.spec.fields.iter().map(|f| f.name.as_str()).collect();
+            return Err(CliError::Usage(format!(
+                "--set {a:?}: no field `{}` in {} (fields: {})",
+                name.trim(),
+                state.spec.path.display(),
+                names.join(", ")
+            )));
+        };
+        let f = &state.spec.fields[i];
+        let v = f.parse(value).map_err(|why| {
+            CliError::Refused(format!(
+                "field `{}` (#{}, {}): {why}",
+                f.name, f.var, f.label
+            ))
+        })?;
+        put(state, i, v);
+    }
+    Ok(sets)
+}
+
+/// The shown fields and their values, one `name (#var) = value unit` a line.
+fn listing(state: &PagesState) -> String {
+    let mut s = String::new();
+    for (i, f) in state.spec.fields.iter().enumerate() {
+        if state.shown(i) {
+            let v = match state.values[i] {
+                Some(_) => format!("{} {}", f.show(state.values[i]), f.unit),
+                None => "vacant".into(),
+            };
+            s.push_str(&format!("{} (#{}) = {}\n", f.name, f.var, v.trim_end()));
+        }
+    }
+    s
+}

@@ -1,0 +1,679 @@
+//! The page description of a macro package (`pages.toml`, format in docs/pages.md): pages of
+//! fields, each naming a non-volatile variable with its label, unit, type, allowed values,
+//! default, help and the choices of other fields that show it. Loaded and validated whole;
+//! every error names the file, line, column and key.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use cnc402_interp::nvfile::{NV_FIRST, NV_LAST};
+use serde::Deserialize;
+use toml::Spanned;
+
+/// At most this many pages: one soft key each (F1–F6; F7 and F8 are the field's default and
+/// start).
+pub const MAX_PAGES: usize = 6;
+/// At most this many fields on one page (what a screen can list).
+pub const MAX_FIELDS_PER_PAGE: usize = 40;
+/// At most this many choices in a choice field.
+pub const MAX_CHOICES: usize = 64;
+
+/// A validated page description.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spec {
+    /// The file it was read from.
+    pub path: PathBuf,
+    /// The package's name (title of the screen).
+    pub name: String,
+    /// The package's main program (resolved against the pages file's folder).
+    pub main: PathBuf,
+    pub pages: Vec<Page>,
+    /// Every field of every page, in page order.
+    pub fields: Vec<Field>,
+}
+
+/// One page: a title and its fields (indices into [`Spec::fields`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Page {
+    pub title: String,
+    pub fields: Vec<usize>,
+}
+
+/// One field: a non-volatile variable as the operator sees it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Field {
+    pub var: u32,
+    /// The name scripts use (`--set pattern=circle`).
+    pub name: String,
+    pub label: String,
+    pub unit: String,
+    pub kind: Kind,
+    pub default: Option<f64>,
+    /// A vacant value is refused while the field is shown.
+    pub required: bool,
+    pub help: String,
+    /// Shown only when each of these choice fields holds one of the listed values.
+    pub when: Vec<Condition>,
+    /// The page the field is on.
+    pub page: usize,
+}
+
+/// `when`: the field `field` (an index) holds one of `values`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Condition {
+    pub field: usize,
+    pub values: Vec<f64>,
+}
+
+/// What values a field takes.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Kind {
+    Number(Limits),
+    Integer(Limits),
+    Choice(Vec<Choice>),
+}
+
+/// Bounds of a number: `min <= v <= max`, `above < v < below` (each optional).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Limits {
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    pub above: Option<f64>,
+    pub below: Option<f64>,
+}
+
+/// One value of a choice field.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Choice {
+    pub value: f64,
+    pub name: String,
+    pub label: String,
+}
+
+/// A pages file that cannot be used: `file:line:col: key: message`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpecError {
+    pub file: String,
+    /// 1-based; 0 when the error is not at a place in the file.
+    pub line: usize,
+    pub col: usize,
+    pub key: String,
+    pub message: String,
+}
+
+impl fmt::Display for SpecError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file)?;
+        if self.line > 0 {
+            write!(f, ":{}:{}", self.line, self.col)?;
+        }
+        if !self.key.is_empty() {
+            write!(f, ": {}", self.key)?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFile {
+    package: RawPackage,
+    page: Vec<RawPage>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPackage {
+    name: String,
+    main: Spanned<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPage {
+    title: Spanned<String>,
+    field: Vec<RawField>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawField {
+    var: Spanned<i64>,
+    name: Spanned<String>,
+    label: String,
+    #[serde(default)]
+    unit: String,
+    #[serde(rename = "type")]
+    kind: Spanned<String>,
+    min: Option<Spanned<f64>>,
+    max: Option<Spanned<f64>>,
+    above: Option<Spanned<f64>>,
+    below: Option<Spanned<f64>>,
+    choices: Option<Spanned<Vec<RawChoice>>>,
+    default: Option<Spanned<f64>>,
+    #[serde(default)]
+    required: bool,
+    #[serde(default)]
+    help: String,
+    when: Option<Spanned<BTreeMap<String, Vec<String>>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawChoice {
+    value: f64,
+    name: String,
+    #[serde(default)]
+    label: String,
+}
+
+/// An error at a span with its key path (`page[1].field[3].var`).
+type At = (Option<Range<usize>>, String, String);
+
+fn at<T>(s: &Spanned<T>, key: String, message: String) -> At {
+    (Some(s.span()), key, message)
+}
+
+impl Spec {
+    /// Reads and validates `path`.
+    pub fn load(path: &Path) -> Result<Spec, SpecError> {
+        let text = std::fs::read_to_string(path).map_err(|e| SpecError {
+            file: path.display().to_string(),
+            line: 0,
+            col: 0,
+            key: String::new(),
+            message: format!("cannot read: {e}"),
+        })?;
+        Spec::parse(&text, path)
+    }
+
+    /// Parses and validates pages text read from `path` (used in messages and to find the
+    /// main program). The main program must exist.
+    pub fn parse(text: &str, path: &Path) -> Result<Spec, SpecError> {
+        let err = |(span, key, message): At| {
+            let (line, col) = span.map(|s| line_col(text, s.start)).unwrap_or((0, 0));
+            SpecError {
+                file: path.display().to_string(),
+                line,
+                col,
+                key,
+                message,
+            }
+        };
+        let de = toml::Deserializer::parse(text)
+            .map_err(|e| err((e.span(), String::new(), e.message().to_string())))?;
+        let raw: RawFile = serde_path_to_error::deserialize(de).map_err(|e| {
+            let key = e
+                .path()
+                .to_string()
+                .replace(".$__serde_spanned_private_value", "");
+            let inner = e.into_inner();
+            let key = if key == "." { String::new() } else { key };
+            err((inner.span(), key, inner.message().to_string()))
+        })?;
+        let folder = path.parent().unwrap_or(Path::new(""));
+        validate(raw, folder).map_err(err).map(|mut s| {
+            s.path = path.to_path_buf();
+            s
+        })
+    }
+
+    /// The field named `name`, or whose variable is `name` (`530`, `#530`).
+    pub fn field_by_name(&self, name: &str) -> Option<usize> {
+        let name = name.trim();
+        if let Some(i) = self.fields.iter().position(|f| f.name == name) {
+            return Some(i);
+        }
+        let n: u32 = name.strip_prefix('#').unwrap_or(name).parse().ok()?;
+        self.fields.iter().position(|f| f.var == n)
+    }
+}
+
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before
+        .rfind('\n')
+        .map(|i| before[i + 1..].chars().count())
+        .unwrap_or(before.chars().count())
+        + 1;
+    (line, col)
+}
+
+fn validate(raw: RawFile, folder: &Path) -> Result<Spec, At> {
+    let main = folder.join(raw.package.main.get_ref());
+    if !main.is_file() {
+        return Err(at(
+            &raw.package.main,
+            "package.main".into(),
+            format!("no such file: {}", main.display()),
+        ));
+    }
+    if raw.page.is_empty() || raw.page.len() > MAX_PAGES {
+        return Err((
+            None,
+            "page".into(),
+            format!(
+                "expected 1 to {MAX_PAGES} pages (one soft key each), found {}",
+                raw.page.len()
+            ),
+        ));
+    }
+    let mut pages = Vec::new();
+    let mut fields: Vec<Field> = Vec::new();
+    let mut whens = Vec::new();
+    for (p, page) in raw.page.into_iter().enumerate() {
+        let key = format!("page[{p}]");
+        if page.field.is_empty() || page.field.len() > MAX_FIELDS_PER_PAGE {
+            return Err(at(
+                &page.title,
+                format!("{key}.field"),
+                format!(
+                    "expected 1 to {MAX_FIELDS_PER_PAGE} fields, found {}",
+                    page.field.len()
+                ),
+            ));
+        }
+        let mut on_page = Vec::new();
+        for (i, f) in page.field.into_iter().enumerate() {
+            let key = format!("{key}.field[{i}]");
+            let field = field(&f, &key, p)?;
+            if let Some(other) = fields.iter().find(|o| o.var == field.var) {
+                return Err(at(
+                    &f.var,
+                    format!("{key}.var"),
+                    format!("#{} is already field `{}`", field.var, other.name),
+                ));
+            }
+            if fields.iter().any(|o| o.name == field.name) {
+                return Err(at(
+                    &f.name,
+                    format!("{key}.name"),
+                    format!("`{}` names another field already", field.name),
+                ));
+            }
+            on_page.push(fields.len());
+            fields.push(field);
+            whens.push((key, f.when));
+        }
+        pages.push(Page {
+            title: page.title.into_inner(),
+            fields: on_page,
+        });
+    }
+    let has_when: Vec<bool> = whens.iter().map(|(_, w)| w.is_some()).collect();
+    for (i, (key, when)) in whens.into_iter().enumerate() {
+        if let Some(w) = when {
+            fields[i].when = conditions(&fields, &has_when, i, &w, &format!("{key}.when"))?;
+        }
+    }
+    Ok(Spec {
+        path: PathBuf::new(),
+        name: raw.package.name,
+        main,
+        pages,
+        fields,
+    })
+}
+
+/// One field, checked on its own (what no other field decides).
+fn field(f: &RawField, key: &str, page: usize) -> Result<Field, At> {
+    let var = *f.var.get_ref();
+    if !(i64::from(NV_FIRST)..=i64::from(NV_LAST)).contains(&var) {
+        return Err(at(
+            &f.var,
+            format!("{key}.var"),
+            format!("#{var} is not a non-volatile variable (#{NV_FIRST}..#{NV_LAST})"),
+        ));
+    }
+    let name = f.name.get_ref();
+    if !valid_name(name) {
+        return Err(at(
+            &f.name,
+            format!("{key}.name"),
+            format!(
+                "{name:?}: expected lower-case letters, digits, `_` or `-`, starting with a letter"
+            ),
+        ));
+    }
+    let bounds = [
+        ("min", &f.min),
+        ("max", &f.max),
+        ("above", &f.above),
+        ("below", &f.below),
+    ];
+    let kind = match f.kind.get_ref().as_str() {
+        "number" | "integer" => {
+            if let Some(c) = &f.choices {
+                return Err(at(
+                    c,
+                    format!("{key}.choices"),
+                    "only a choice field has choices".into(),
+                ));
+            }
+            let l = limits(&bounds, key)?;
+            if f.kind.get_ref() == "number" {
+                Kind::Number(l)
+            } else {
+                Kind::Integer(l)
+            }
+        }
+        "choice" => {
+            if let Some((b, Some(s))) = bounds.iter().find(|(_, s)| s.is_some()) {
+                return Err(at(
+                    s,
+                    format!("{key}.{b}"),
+                    "a choice field has choices, not bounds".into(),
+                ));
+            }
+            Kind::Choice(choices(f, key)?)
+        }
+        other => {
+            return Err(at(
+                &f.kind,
+                format!("{key}.type"),
+                format!("{other:?}: expected \"number\", \"integer\" or \"choice\""),
+            ));
+        }
+    };
+    let mut field = Field {
+        var: var as u32,
+        name: name.clone(),
+        label: f.label.clone(),
+        unit: f.unit.clone(),
+        kind,
+        default: None,
+        required: f.required,
+        help: f.help.clone(),
+        when: Vec::new(),
+        page,
+    };
+    if let Some(d) = &f.default {
+        field
+            .check(Some(*d.get_ref()))
+            .map_err(|why| at(d, format!("{key}.default"), why))?;
+        field.default = Some(*d.get_ref());
+    }
+    Ok(field)
+}
+
+fn valid_name(name: &str) -> bool {
+    name.len() <= 32
+        && name.starts_with(|c: char| c.is_ascii_lowercase())
+        && name
+            .chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_' || c == '-')
+}
+
+fn limits(bounds: &[(&str, &Option<Spanned<f64>>); 4], key: &str) -> Result<Limits, At> {
+    for (b, s) in bounds {
+        if let Some(s) = s
+            && !s.get_ref().is_finite()
+        {
+            return Err(at(
+                s,
+                format!("{key}.{b}"),
+                "must be a finite number".into(),
+            ));
+        }
+    }
+    let get = |i: usize| bounds[i].1.as_ref().map(|s| *s.get_ref());
+    let l = Limits {
+        min: get(0),
+        max: get(1),
+        above: get(2),
+        below: get(3),
+    };
+    let low = [(0, l.min), (2, l.above)];
+    let high = [(1, l.max), (3, l.below)];
+    for (li, lo) in low {
+        for (hi, h) in high {
+            if let (Some(lo), Some(h)) = (lo, h)
+                && lo >= h
+                && !(li == 0 && hi == 1 && lo == h)
+            {
+                let s = bounds[hi].1.as_ref().map_or(0..0, |s| s.span());
+                return Err((
+                    Some(s),
+                    format!("{key}.{}", bounds[hi].0),
+                    format!(
+                        "leaves no value: {} = {lo}, {} = {h}",
+                        bounds[li].0, bounds[hi].0
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(l)
+}
+
+fn choices(f: &RawField, key: &str) -> Result<Vec<Choice>, At> {
+    let key = format!("{key}.choices");
+    let Some(raw) = &f.choices else {
+        return Err(at(&f.kind, key, "a choice field needs `choices`".into()));
+    };
+    let list = raw.get_ref();
+    if list.is_empty() || list.len() > MAX_CHOICES {
+        return Err(at(raw, key, format!("expected 1 to {MAX_CHOICES} choices")));
+    }
+    let mut out: Vec<Choice> = Vec::new();
+    for (i, c) in list.iter().enumerate() {
+        let bad = |m: String| at(raw, format!("{key}[{i}]"), m);
+        if !c.value.is_finite() {
+            return Err(bad("value must be a finite number".into()));
+        }
+        if !valid_name(&c.name) {
+            return Err(bad(format!(
+                "name {:?}: expected lower-case letters, digits, `_` or `-`, starting with a letter",
+                c.name
+            )));
+        }
+        if out.iter().any(|o| o.value == c.value || o.name == c.name) {
+            return Err(bad(format!(
+                "value {} or name {:?} is given twice",
+                c.value, c.name
+            )));
+        }
+        out.push(Choice {
+            value: c.value,
+            name: c.name.clone(),
+            label: if c.label.is_empty() {
+                c.name.clone()
+            } else {
+                c.label.clone()
+            },
+        });
+    }
+    Ok(out)
+}
+
+/// `when = { pattern = ["arc", "circle"] }`: each key a choice field without a `when` of its
+/// own (one level: what shows a field never hides behind another field), each value one of
+/// its choices.
+fn conditions(
+    fields: &[Field],
+    has_when: &[bool],
+    me: usize,
+    when: &Spanned<BTreeMap<String, Vec<String>>>,
+    key: &str,
+) -> Result<Vec<Condition>, At> {
+    let mut out = Vec::new();
+    for (name, values) in when.get_ref() {
+        let bad = |m: String| at(when, format!("{key}.{name}"), m);
+        let Some(i) = fields.iter().position(|f| &f.name == name) else {
+            return Err(bad(format!("no field is named `{name}`")));
+        };
+        let Kind::Choice(choices) = &fields[i].kind else {
+            return Err(bad(format!("`{name}` is not a choice field")));
+        };
+        if i == me || has_when[i] {
+            return Err(bad(format!(
+                "`{name}` is this field or is itself shown by a `when`"
+            )));
+        }
+        if values.is_empty() {
+            return Err(bad("expected at least one choice".into()));
+        }
+        let mut vals = Vec::new();
+        for v in values {
+            let Some(c) = choices.iter().find(|c| &c.name == v) else {
+                let names: Vec<&str> = choices.iter().map(|c| c.name.as_str()).collect();
+                return Err(bad(format!(
+                    "{v:?} is not one of its choices ({})",
+                    names.join(", ")
+                )));
+            };
+            vals.push(c.value);
+        }
+        out.push(Condition {
+            field: i,
+            values: vals,
+        });
+    }
+    Ok(out)
+}
+
+impl Field {
+    /// Checks a value for this field (`None`: vacant). The error is the reason, for the
+    /// operator.
+    pub fn check(&self, v: Option<f64>) -> Result<(), String> {
+        let Some(v) = v else {
+            return if self.required {
+                Err("a value is required".into())
+            } else {
+                Ok(())
+            };
+        };
+        if !v.is_finite() {
+            return Err("not a finite number".into());
+        }
+        match &self.kind {
+            Kind::Number(l) => l.check(v),
+            Kind::Integer(l) => {
+                if v.fract() != 0.0 {
+                    return Err(format!("{v} is not a whole number"));
+                }
+                l.check(v)
+            }
+            Kind::Choice(cs) => {
+                if cs.iter().any(|c| c.value == v) {
+                    Ok(())
+                } else {
+                    Err(format!("{} is not one of {}", fmt_num(v), self.allowed()))
+                }
+            }
+        }
+    }
+
+    /// Reads what the operator typed: a number, a choice's name or number, or nothing
+    /// (vacant), and checks it.
+    pub fn parse(&self, text: &str) -> Result<Option<f64>, String> {
+        let t = text.trim();
+        let v = if t.is_empty() {
+            None
+        } else if let Kind::Choice(cs) = &self.kind
+            && let Some(c) = cs.iter().find(|c| c.name.eq_ignore_ascii_case(t))
+        {
+            Some(c.value)
+        } else {
+            match t.parse::<f64>() {
+                Ok(v) if v.is_finite() => Some(v),
+                _ => return Err(format!("{t:?} is not {}", self.expects())),
+            }
+        };
+        self.check(v)?;
+        Ok(v)
+    }
+
+    /// What the field takes, in words: `a number (mm)`, `a whole number`, `a choice`.
+    fn expects(&self) -> String {
+        match &self.kind {
+            Kind::Number(_) => "a number".into(),
+            Kind::Integer(_) => "a whole number".into(),
+            Kind::Choice(_) => format!("one of {}", self.allowed()),
+        }
+    }
+
+    /// The allowed values, for the help line: `1 .. 999`, `> 0`, `linear (1), arc (2)`.
+    pub fn allowed(&self) -> String {
+        match &self.kind {
+            Kind::Number(l) | Kind::Integer(l) => l.describe(),
+            Kind::Choice(cs) => cs
+                .iter()
+                .map(|c| format!("{} ({})", c.name, fmt_num(c.value)))
+                .collect::<Vec<_>>()
+                .join(", "),
+        }
+    }
+
+    /// A value as the page shows it: a choice's name, or the number.
+    pub fn show(&self, v: Option<f64>) -> String {
+        let Some(v) = v else { return String::new() };
+        if let Kind::Choice(cs) = &self.kind
+            && let Some(c) = cs.iter().find(|c| c.value == v)
+        {
+            return c.name.clone();
+        }
+        fmt_num(v)
+    }
+
+    /// The label of the chosen value (`circle (ring) holes`), if a choice field holds one.
+    pub fn choice_label(&self, v: Option<f64>) -> Option<&str> {
+        let Kind::Choice(cs) = &self.kind else {
+            return None;
+        };
+        cs.iter()
+            .find(|c| Some(c.value) == v)
+            .map(|c| c.label.as_str())
+    }
+}
+
+impl Limits {
+    fn check(&self, v: f64) -> Result<(), String> {
+        let ok = self.min.is_none_or(|m| v >= m)
+            && self.max.is_none_or(|m| v <= m)
+            && self.above.is_none_or(|m| v > m)
+            && self.below.is_none_or(|m| v < m);
+        if ok {
+            Ok(())
+        } else {
+            Err(format!(
+                "{} is out of range: {}",
+                fmt_num(v),
+                self.describe()
+            ))
+        }
+    }
+
+    fn describe(&self) -> String {
+        let mut parts = Vec::new();
+        if let Some(m) = self.min {
+            parts.push(format!(">= {}", fmt_num(m)));
+        }
+        if let Some(m) = self.above {
+            parts.push(format!("> {}", fmt_num(m)));
+        }
+        if let Some(m) = self.max {
+            parts.push(format!("<= {}", fmt_num(m)));
+        }
+        if let Some(m) = self.below {
+            parts.push(format!("< {}", fmt_num(m)));
+        }
+        if parts.is_empty() {
+            "any number".into()
+        } else {
+            parts.join(" and ")
+        }
+    }
+}
+
+/// A number as an operator writes it: `3`, `-45`, `12.5` (shortest text that reads back).
+pub fn fmt_num(v: f64) -> String {
+    if v.fract() == 0.0 && v.abs() < 1e15 {
+        format!("{}", v as i64)
+    } else {
+        format!("{v}")
+    }
+}
