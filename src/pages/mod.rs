@@ -223,3 +223,25 @@ fn listing(state: &PagesState) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_field_save_changes_only_its_variable_in_the_file() {
+        let dir = std::env::temp_dir().join(format!("cnc402-pages-store-{}", std::process::id()));
+        let path = dir.join("v.txt");
+        nvfile::set_vars(&path, &[(520, Some(3.0)), (600, Some(1.5))]).unwrap();
+        let mut store = FileStore {
+            path: path.clone(),
+            saves: 0,
+        };
+        store.save(530, Some(3.0)).unwrap();
+        store.save(520, None).unwrap();
+        let t = NvTable::load(&path).unwrap();
+        assert_eq!(t.iter().collect::<Vec<_>>(), [(530, 3.0), (600, 1.5)]);
+        assert_eq!(store.saves, 2);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

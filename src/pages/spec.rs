@@ -677,3 +677,216 @@ pub fn fmt_num(v: f64) -> String {
         format!("{v}")
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A folder with an empty main program for pages texts to name.
+    fn folder(tag: &str) -> PathBuf {
+        let d =
+            std::env::temp_dir().join(format!("cnc402-pages-spec-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("O0001.nc"), "M30\n").unwrap();
+        d
+    }
+
+    const HEAD: &str = "[package]\nname = \"t\"\nmain = \"O0001.nc\"\n\n[[page]]\ntitle = \"P\"\n";
+
+    fn field(var: &str, name: &str, extra: &str) -> String {
+        format!(
+            "\n[[page.field]]\nvar = {var}\nname = \"{name}\"\nlabel = \"L\"\ntype = \"number\"\n{extra}"
+        )
+    }
+
+    fn parse(tag: &str, text: &str) -> Result<Spec, SpecError> {
+        let d = folder(tag);
+        let p = d.join("pages.toml");
+        let r = Spec::parse(text, &p);
+        std::fs::remove_dir_all(&d).unwrap();
+        r
+    }
+
+    /// `file:line: key` of an error, the file name cut to its last part.
+    fn place(e: &SpecError) -> (usize, &str) {
+        (e.line, e.key.as_str())
+    }
+
+    #[test]
+    fn the_shipped_mlt980_pages_cover_every_variable_its_programs_read() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/mlt980");
+        let spec = Spec::load(&dir.join("pages.toml")).unwrap();
+        let mut read = std::collections::BTreeSet::new();
+        for e in std::fs::read_dir(&dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.extension().is_some_and(|x| x == "CNC") {
+                let text = std::fs::read_to_string(&p).unwrap();
+                for (i, _) in text.match_indices('#') {
+                    let digits: String = text[i + 1..]
+                        .chars()
+                        .take_while(char::is_ascii_digit)
+                        .collect();
+                    if let Ok(n) = digits.parse::<u32>()
+                        && (NV_FIRST..=NV_LAST).contains(&n)
+                    {
+                        read.insert(n);
+                    }
+                }
+            }
+        }
+        let on_pages: std::collections::BTreeSet<u32> = spec.fields.iter().map(|f| f.var).collect();
+        assert_eq!(read.len(), 26, "{read:?}");
+        assert_eq!(read, on_pages);
+        assert_eq!(spec.main, dir.join("O0001.CNC"));
+    }
+
+    #[test]
+    fn a_valid_file_parses_with_conditions_limits_and_choices() {
+        let text = format!(
+            "{HEAD}{}{}",
+            "\n[[page.field]]\nvar = 530\nname = \"pattern\"\nlabel = \"P\"\ntype = \"choice\"\nchoices = [{ value = 1, name = \"a\" }, { value = 2, name = \"b\", label = \"B!\" }]\ndefault = 2\n",
+            field(
+                "507",
+                "holes",
+                "min = 1\nmax = 9\nwhen = { pattern = [\"b\"] }\n"
+            )
+            .replace("number", "integer")
+        );
+        let s = parse("ok", &text).unwrap();
+        assert_eq!(s.fields.len(), 2);
+        assert_eq!(s.fields[0].default, Some(2.0));
+        assert_eq!(s.fields[0].choice_label(Some(2.0)), Some("B!"));
+        assert_eq!(
+            s.fields[1].when,
+            [Condition {
+                field: 0,
+                values: vec![2.0]
+            }]
+        );
+        assert_eq!(
+            s.fields[1].kind,
+            Kind::Integer(Limits {
+                min: Some(1.0),
+                max: Some(9.0),
+                ..Limits::default()
+            })
+        );
+        assert_eq!(s.field_by_name("#507"), Some(1));
+        assert_eq!(s.field_by_name("530"), Some(0));
+        assert_eq!(s.field_by_name("nope"), None);
+    }
+
+    #[test]
+    fn errors_name_the_line_and_the_key() {
+        let cases: Vec<(String, usize, &str, &str)> = vec![
+            (
+                format!("{HEAD}{}", field("507", "holes", "colour = 3\n")),
+                13,
+                "page[0].field[0].colour",
+                "unknown field `colour`",
+            ),
+            (
+                format!("{HEAD}{}{}", field("507", "a", ""), field("507", "b", "")),
+                15,
+                "page[0].field[1].var",
+                "#507 is already field `a`",
+            ),
+            (
+                format!("{HEAD}{}", field("1000", "a", "")),
+                9,
+                "page[0].field[0].var",
+                "#1000 is not a non-volatile variable",
+            ),
+            (
+                format!("{HEAD}{}", field("499", "a", "")),
+                9,
+                "page[0].field[0].var",
+                "#499 is not",
+            ),
+            (
+                format!("{HEAD}{}{}", field("500", "a", ""), field("501", "a", "")),
+                16,
+                "page[0].field[1].name",
+                "names another field",
+            ),
+            (
+                format!("{HEAD}{}", field("500", "a", "min = 5\nmax = 1\n")),
+                14,
+                "page[0].field[0].max",
+                "leaves no value",
+            ),
+            (
+                format!("{HEAD}{}", field("500", "a", "default = 7\nmax = 1\n")),
+                13,
+                "page[0].field[0].default",
+                "7 is out of range",
+            ),
+            (
+                format!("{HEAD}{}", field("500", "a", "when = { b = [\"x\"] }\n")),
+                13,
+                "page[0].field[0].when.b",
+                "no field is named `b`",
+            ),
+            (
+                format!("{HEAD}{}", field("500", "a", "").replace("number", "text")),
+                12,
+                "page[0].field[0].type",
+                "expected \"number\"",
+            ),
+            (
+                format!("{HEAD}{}", field("500", "Bad Name", "")),
+                10,
+                "page[0].field[0].name",
+                "expected lower-case",
+            ),
+            (
+                HEAD.replace("O0001.nc", "O0002.nc") + &field("500", "a", ""),
+                3,
+                "package.main",
+                "no such file",
+            ),
+        ];
+        for (i, (text, line, key, msg)) in cases.iter().enumerate() {
+            let e = parse(&format!("e{i}"), text).expect_err(text);
+            assert_eq!(place(&e), (*line, *key), "{e}");
+            assert!(e.message.contains(msg), "{e}");
+            assert!(
+                e.to_string().contains(&format!("pages.toml:{line}:")),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_condition_on_a_number_field_or_a_shown_by_field_is_refused() {
+        let choice = "\n[[page.field]]\nvar = 530\nname = \"p\"\nlabel = \"P\"\ntype = \"choice\"\nchoices = [{ value = 1, name = \"a\" }]\n";
+        let on_number = format!(
+            "{HEAD}{}{}",
+            field("500", "n", ""),
+            field("501", "m", "when = { n = [\"a\"] }\n")
+        );
+        let e = parse("c1", &on_number).unwrap_err();
+        assert!(e.message.contains("not a choice field"), "{e}");
+        let chained = format!(
+            "{HEAD}{choice}{}{}",
+            choice
+                .replace("530", "531")
+                .replace("\"p\"", "\"q\"")
+                .trim_end()
+                .to_string()
+                + "\nwhen = { p = [\"a\"] }\n",
+            field("501", "m", "when = { q = [\"a\"] }\n")
+        );
+        let e = parse("c2", &chained).unwrap_err();
+        assert!(e.message.contains("itself shown by a `when`"), "{e}");
+        let bad_choice = format!(
+            "{HEAD}{choice}{}",
+            field("501", "m", "when = { p = [\"z\"] }\n")
+        );
+        let e = parse("c3", &bad_choice).unwrap_err();
+        assert!(
+            e.message.contains("\"z\" is not one of its choices (a)"),
+            "{e}"
+        );
+    }
+}
