@@ -427,3 +427,215 @@ fn a_wrong_pages_file_exits_3_with_its_line_and_key() {
         "{err}"
     );
 }
+
+/// A tmux server of its own running one command in a 150×45 terminal.
+struct Terminal {
+    socket: String,
+}
+
+impl Terminal {
+    /// `None` when tmux is not installed (the test then says so and checks nothing else).
+    fn start(tag: &str, command: &str) -> Option<Terminal> {
+        if Command::new("tmux").arg("-V").output().is_err() {
+            eprintln!("tmux is not installed: the terminal test is skipped");
+            return None;
+        }
+        let t = Terminal {
+            socket: format!("cnc402-pages-{tag}-{}", std::process::id()),
+        };
+        // The shell stays after the program so its exit code can be read from the screen.
+        let status = t
+            .tmux(&["new-session", "-d", "-x", "150", "-y", "45"])
+            .arg(format!("{command}; echo EXIT=$?; sleep 60"))
+            .status()
+            .unwrap();
+        assert!(status.success());
+        Some(t)
+    }
+
+    fn tmux(&self, args: &[&str]) -> Command {
+        let mut c = Command::new("tmux");
+        c.args(["-L", &self.socket]).args(args);
+        c
+    }
+
+    fn keys(&self, keys: &[&str]) {
+        for k in keys {
+            assert!(self.tmux(&["send-keys", k]).status().unwrap().success());
+        }
+    }
+
+    fn type_text(&self, text: &str) {
+        assert!(
+            self.tmux(&["send-keys", "-l", text])
+                .status()
+                .unwrap()
+                .success()
+        );
+    }
+
+    fn screen(&self) -> String {
+        let out = self.tmux(&["capture-pane", "-p"]).output().unwrap();
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    }
+
+    /// The screen once it shows `needle` (polled up to 600 times, 100 ms apart).
+    fn wait_for(&self, needle: &str) -> String {
+        for _ in 0..600 {
+            let s = self.screen();
+            if s.contains(needle) {
+                return s;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+        panic!("the screen never showed {needle:?}:\n{}", self.screen());
+    }
+}
+
+impl Drop for Terminal {
+    fn drop(&mut self) {
+        let _ = self.tmux(&["kill-server"]).status();
+    }
+}
+
+fn pages_command(m: &Machine, env: &str) -> String {
+    format!(
+        "cd {} && {env} {} pages --config {} {PAGES} --at-stop continue",
+        root().display(),
+        env!("CARGO_BIN_EXE_cnc402"),
+        m.config.display()
+    )
+}
+
+/// The process data already on the pages (as `cnc402 vars set` would leave them).
+fn preset(m: &Machine) {
+    let vars = [
+        (519, 81.0),
+        (524, 98.0),
+        (512, 50.0),
+        (503, -45.0),
+        (502, -20.0),
+        (520, 3.0),
+        (521, 800.0),
+        (522, 150.0),
+        (500, 0.0),
+        (501, 0.0),
+    ];
+    let sets: Vec<_> = vars.iter().map(|&(n, v)| (n, Some(v))).collect();
+    cnc402_interp::nvfile::set_vars(&m.vars, &sets).unwrap();
+}
+
+#[test]
+fn the_screen_takes_typed_values_refuses_bad_ones_previews_and_starts() {
+    let m = Machine::new("tui");
+    preset(&m);
+    let Some(t) = Terminal::start("tui", &pages_command(&m, "")) else {
+        return;
+    };
+    let s = t.wait_for("INPUT>");
+    for label in [
+        " F1 Pattern",
+        " F2 Hole data",
+        " F3 Process",
+        " F4 Other",
+        " F7 Default",
+        " F8 Start",
+    ] {
+        assert!(s.contains(label), "{label}\n{s}");
+    }
+    assert!(s.contains("Hole pattern") && s.contains("#530"), "{s}");
+    t.type_text("circle");
+    t.keys(&["Enter"]);
+    t.wait_for("saved #530 pattern = circle");
+    // Hole data: X, Y, radius, first angle, holes, R, Z.
+    t.keys(&["F2", "Down", "Down"]);
+    t.type_text("30");
+    t.keys(&["Enter"]);
+    t.wait_for("saved #504 radius = 30");
+    t.keys(&["Down", "Down"]);
+    t.type_text("0");
+    t.keys(&["Enter"]);
+    let s = t.wait_for("Number of holes (#507): 0 is out of range: >= 1 and <= 999");
+    assert!(
+        s.contains("allowed: >= 1 and <= 999"),
+        "the help line shows the range\n{s}"
+    );
+    t.type_text("6");
+    t.keys(&["Enter"]);
+    let s = t.wait_for("preview: 6 holes, G81");
+    assert!(s.contains("G81 R 5  bottom -15  return 50"), "{s}");
+    let f = m.file();
+    assert_eq!(
+        (f.get(530), f.get(504), f.get(507)),
+        (Some(3.0), Some(30.0), Some(6.0))
+    );
+    // Start: the pages leave the screen and the package runs as `cnc402 run` runs it.
+    t.keys(&["F8"]);
+    let s = t.wait_for("EXIT=");
+    assert!(s.contains("EXIT=0"), "{s}");
+    assert!(s.contains("program time"), "the run's summary\n{s}");
+}
+
+#[test]
+fn a_power_cut_between_two_field_saves_leaves_each_field_old_or_new() {
+    let m = Machine::new("cut");
+    preset(&m);
+    cnc402_interp::nvfile::set_vars(&m.vars, &[(530, Some(1.0))]).unwrap();
+    let marker = m.dir.join("paused");
+    let env = format!("CNC402_TEST_PAGES_PAUSE={}", marker.display());
+    let Some(t) = Terminal::start("cut", &pages_command(&m, &env)) else {
+        return;
+    };
+    t.wait_for("INPUT>");
+    // First save: the pattern. The process pauses right after it (the test hook)...
+    t.type_text("grid");
+    t.keys(&["Enter"]);
+    let mut pid = String::new();
+    for _ in 0..600 {
+        if let Ok(p) = std::fs::read_to_string(&marker) {
+            pid = p;
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    assert!(!pid.is_empty(), "no first save:\n{}", t.screen());
+    // ...the operator types the next field (the cycle), and the power goes before it is saved.
+    t.keys(&["Down"]);
+    t.type_text("82");
+    t.keys(&["Enter"]);
+    let killed = Command::new("kill")
+        .args(["-9", pid.trim()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    t.wait_for("EXIT=137");
+    let f = m.file();
+    assert_eq!(f.get(530), Some(4.0), "the first save is whole");
+    assert_eq!(
+        f.get(519),
+        Some(81.0),
+        "the second never happened: the old value"
+    );
+    assert_eq!(f.get(512), Some(50.0), "the other fields stand");
+    let leftovers: Vec<_> = std::fs::read_dir(&m.dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    // The next session reads and writes the file as usual.
+    let (code, out, err) = m.pages(&[
+        "--set",
+        "cycle=82",
+        "--set",
+        "rows=2",
+        "--set",
+        "count=2",
+        "--set",
+        "x-step=10",
+        "--set",
+        "y-step=10",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("holes: 4"), "{out}");
+}
