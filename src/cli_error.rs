@@ -25,7 +25,7 @@ pub mod exit {
 pub enum CliError {
     /// The NC program is wrong: printed with its location and a caret.
     Program(cnc402_lang::NcError),
-    /// The machine config is wrong.
+    /// The machine config (or `cnc402 pages`' pages file) is wrong.
     Config(cnc402_config::ConfigError),
     /// A file or device could not be used.
     Io(String),
@@ -36,8 +36,6 @@ pub enum CliError {
     /// `cnc402 pages`: a value its field refuses, or the package's alarm with the values
     /// (exit 2, as a wrong program).
     Refused(String),
-    /// `cnc402 pages`: the pages file is wrong (file:line:col and key; exit 3, as a config).
-    Description(String),
 }
 
 impl CliError {
@@ -49,7 +47,6 @@ impl CliError {
             CliError::Fault(m) => (exit::FAULT, miette::miette!("{m}")),
             CliError::Usage(m) => (exit::USAGE, miette::miette!("{m}")),
             CliError::Refused(m) => (exit::PROGRAM, miette::miette!("{m}")),
-            CliError::Description(m) => (exit::CONFIG, miette::miette!("{m}")),
         };
         eprintln!("{report:?}");
         ExitCode::from(code)

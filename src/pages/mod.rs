@@ -96,7 +96,7 @@ pub fn pages(cfg: &MachineConfig, mut args: PagesArgs) -> Result<(), CliError> {
     } else {
         args.run.program.clone()
     };
-    let spec = Spec::load(&pages_path).map_err(|e| CliError::Description(e.to_string()))?;
+    let spec = Spec::load(&pages_path).map_err(CliError::Config)?;
     let vars_path = cfg.variables_file().ok_or_else(|| {
         CliError::Usage("no variables file: set interp.variables_file in the machine config".into())
     })?;

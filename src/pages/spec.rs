@@ -4,10 +4,10 @@
 //! every error names the file, line, column and key.
 
 use std::collections::BTreeMap;
-use std::fmt;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
+use cnc402_config::ConfigError;
 use cnc402_interp::nvfile::{NV_FIRST, NV_LAST};
 use serde::Deserialize;
 use toml::Spanned;
@@ -92,29 +92,9 @@ pub struct Choice {
     pub label: String,
 }
 
-/// A pages file that cannot be used: `file:line:col: key: message`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SpecError {
-    pub file: String,
-    /// 1-based; 0 when the error is not at a place in the file.
-    pub line: usize,
-    pub col: usize,
-    pub key: String,
-    pub message: String,
-}
-
-impl fmt::Display for SpecError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.file)?;
-        if self.line > 0 {
-            write!(f, ":{}:{}", self.line, self.col)?;
-        }
-        if !self.key.is_empty() {
-            write!(f, ": {}", self.key)?;
-        }
-        write!(f, ": {}", self.message)
-    }
-}
+/// A pages file that cannot be used: `file:line:col: key: message`, the error type of the
+/// machine config (exit 3, a caret under the offending text).
+pub type SpecError = ConfigError;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -179,12 +159,8 @@ fn at<T>(s: &Spanned<T>, key: String, message: String) -> At {
 impl Spec {
     /// Reads and validates `path`.
     pub fn load(path: &Path) -> Result<Spec, SpecError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SpecError {
-            file: path.display().to_string(),
-            line: 0,
-            col: 0,
-            key: String::new(),
-            message: format!("cannot read: {e}"),
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            ConfigError::at("", path, None, String::new(), format!("cannot read: {e}"))
         })?;
         Spec::parse(&text, path)
     }
@@ -192,16 +168,7 @@ impl Spec {
     /// Parses and validates pages text read from `path` (used in messages and to find the
     /// main program). The main program must exist.
     pub fn parse(text: &str, path: &Path) -> Result<Spec, SpecError> {
-        let err = |(span, key, message): At| {
-            let (line, col) = span.map(|s| line_col(text, s.start)).unwrap_or((0, 0));
-            SpecError {
-                file: path.display().to_string(),
-                line,
-                col,
-                key,
-                message,
-            }
-        };
+        let err = |(span, key, message): At| ConfigError::at(text, path, span, key, message);
         let de = toml::Deserializer::parse(text)
             .map_err(|e| err((e.span(), String::new(), e.message().to_string())))?;
         let raw: RawFile = serde_path_to_error::deserialize(de).map_err(|e| {
@@ -229,17 +196,6 @@ impl Spec {
         let n: u32 = name.strip_prefix('#').unwrap_or(name).parse().ok()?;
         self.fields.iter().position(|f| f.var == n)
     }
-}
-
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before
-        .rfind('\n')
-        .map(|i| before[i + 1..].chars().count())
-        .unwrap_or(before.chars().count())
-        + 1;
-    (line, col)
 }
 
 fn validate(raw: RawFile, folder: &Path) -> Result<Spec, At> {
