@@ -118,7 +118,7 @@ pub fn pages(cfg: &MachineConfig, mut args: PagesArgs) -> Result<(), CliError> {
         }
         let started = screen::run_screen(cfg, &mut state, &mut store, &file)?;
         if let Some(p) = &args.preview_plot {
-            let preview = preview::dry_run(cfg, &main, state.table(file.clone()))?;
+            let preview = preview::of_pages(cfg, &state, &file)?;
             preview::write_svg(p, &preview, &title)?;
         }
         if !started {
@@ -127,7 +127,7 @@ pub fn pages(cfg: &MachineConfig, mut args: PagesArgs) -> Result<(), CliError> {
         args.run.program = main;
         return crate::run::run(cfg, &args.run);
     }
-    let preview = preview::dry_run(cfg, &main, state.table(file.clone()))?;
+    let preview = preview::of_pages(cfg, &state, &file)?;
     if let Some(p) = &args.preview_plot {
         preview::write_svg(p, &preview, &title)?;
     }

@@ -13,6 +13,7 @@ use cnc402_interp::{Interpreter, NvTable, Options};
 use cnc402_motion::segment::SegmentKind;
 
 use super::spec::fmt_num;
+use super::state::PagesState;
 use crate::cli_error::CliError;
 
 /// One hole the program will machine (work coordinates of the plane's two axes).
@@ -40,6 +41,18 @@ pub struct Preview {
     pub alarm: Option<String>,
     /// The dry run stopped at the operation limit before the program ended.
     pub truncated: bool,
+}
+
+/// The preview of the pages' values (over the other variables of `file`), the alarm with
+/// the pages' words for it.
+pub fn of_pages(
+    cfg: &MachineConfig,
+    state: &PagesState,
+    file: &NvTable,
+) -> Result<Preview, CliError> {
+    let mut p = dry_run(cfg, &state.spec.main, state.table(file.clone()))?;
+    p.alarm = p.alarm.map(|a| state.spec.explain(&a));
+    Ok(p)
 }
 
 /// Runs `main` with the non-volatile variables `table` and no store (the file is not

@@ -27,7 +27,7 @@ pub fn run_screen(
     file: &NvTable,
 ) -> Result<bool, CliError> {
     let ui = |e: std::io::Error| CliError::Io(format!("terminal: {e}"));
-    let mut preview = preview::dry_run(cfg, &state.spec.main, state.table(file.clone()))?;
+    let mut preview = preview::of_pages(cfg, state, file)?;
     let mut terminal = ratatui::try_init().map_err(ui)?;
     let result = (|| loop {
         terminal.draw(|f| render(f, state, &preview)).map_err(ui)?;
@@ -38,7 +38,7 @@ pub fn run_screen(
         match state.key(key, store) {
             Outcome::Stay => {}
             Outcome::Saved => {
-                preview = preview::dry_run(cfg, &state.spec.main, state.table(file.clone()))?;
+                preview = preview::of_pages(cfg, state, file)?;
             }
             Outcome::Quit => return Ok(false),
             Outcome::Start => match &preview.alarm {

@@ -32,6 +32,9 @@ pub struct Spec {
     pub pages: Vec<Page>,
     /// Every field of every page, in page order.
     pub fields: Vec<Field>,
+    /// What the package's alarms mean, in the operator's words (`alarm 501` → text), shown
+    /// after the package's own alarm text.
+    pub alarms: BTreeMap<u32, String>,
 }
 
 /// One page: a title and its fields (indices into [`Spec::fields`]).
@@ -108,6 +111,8 @@ struct RawFile {
 struct RawPackage {
     name: String,
     main: Spanned<String>,
+    #[serde(default)]
+    alarms: BTreeMap<Spanned<String>, String>,
 }
 
 #[derive(Deserialize)]
@@ -187,6 +192,19 @@ impl Spec {
         })
     }
 
+    /// `alarm` (`…: alarm 501: <the package's text>`) with the pages' words for that alarm
+    /// number appended, if they have some.
+    pub fn explain(&self, alarm: &str) -> String {
+        let number = alarm.split("alarm ").skip(1).find_map(|rest| {
+            let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+            digits.parse::<u32>().ok()
+        });
+        match number.and_then(|n| self.alarms.get(&n)) {
+            Some(words) => format!("{alarm} — {words}"),
+            None => alarm.to_string(),
+        }
+    }
+
     /// The field named `name`, or whose variable is `name` (`530`, `#530`).
     pub fn field_by_name(&self, name: &str) -> Option<usize> {
         let name = name.trim();
@@ -206,6 +224,17 @@ fn validate(raw: RawFile, folder: &Path) -> Result<Spec, At> {
             "package.main".into(),
             format!("no such file: {}", main.display()),
         ));
+    }
+    let mut alarms = BTreeMap::new();
+    for (k, text) in &raw.package.alarms {
+        let n: u32 = k.get_ref().parse().map_err(|_| {
+            at(
+                k,
+                format!("package.alarms.{}", k.get_ref()),
+                "expected an alarm number".into(),
+            )
+        })?;
+        alarms.insert(n, text.clone());
     }
     if raw.page.is_empty() || raw.page.len() > MAX_PAGES {
         return Err((
@@ -271,6 +300,7 @@ fn validate(raw: RawFile, folder: &Path) -> Result<Spec, At> {
         main,
         pages,
         fields,
+        alarms,
     })
 }
 
@@ -811,6 +841,28 @@ mod tests {
                 "{e}"
             );
         }
+    }
+
+    #[test]
+    fn alarms_get_the_pages_words_and_their_keys_are_numbers() {
+        let with = |alarms: &str| {
+            let head = HEAD.replace(
+                "\n\n[[page]]",
+                &format!("\n[package.alarms]\n{alarms}\n\n[[page]]"),
+            );
+            parse("alarms", &format!("{head}{}", field("500", "a", "")))
+        };
+        let s = with("507 = \"radius <= 0\"").unwrap();
+        assert_eq!(
+            s.explain("O9003.CNC:31:1: alarm 507: ∕x"),
+            "O9003.CNC:31:1: alarm 507: ∕x — radius <= 0"
+        );
+        assert_eq!(
+            s.explain("O1.nc:3:1: alarm 3001: y"),
+            "O1.nc:3:1: alarm 3001: y"
+        );
+        let e = with("seven = \"x\"").unwrap_err();
+        assert_eq!((e.line, e.key.as_str()), (5, "package.alarms.seven"), "{e}");
     }
 
     #[test]
