@@ -25,10 +25,10 @@ use state::{PagesState, Store};
 #[derive(clap::Args, Debug)]
 #[command(mut_arg("program", |a| a
     .required(false)
-    .default_value("")
-    .hide_default_value(true)
+    .default_value("pages.toml")
     .value_name("PAGES.toml")
-    .help("The macro package's pages file (default: pages.toml in interp.program_dir)")))]
+    .help("The macro package's pages file; a bare name not in the working directory is \
+           looked up in interp.program_dir")))]
 #[command(mut_arg("plot", |a| a
     .long("run-plot")
     .help("With --start or F8: the run's plot (Z and C against time), as `cnc402 run --plot`")))]
@@ -91,11 +91,7 @@ fn test_pause_after_save(saves: u32) {
 
 /// Runs `cnc402 pages`.
 pub fn pages(cfg: &MachineConfig, mut args: PagesArgs) -> Result<(), CliError> {
-    let pages_path = if args.run.program.as_os_str().is_empty() {
-        cfg.program_dir().join("pages.toml")
-    } else {
-        args.run.program.clone()
-    };
+    let pages_path = pages_file(cfg, &args.run.program);
     let spec = Spec::load(&pages_path).map_err(CliError::Config)?;
     let vars_path = cfg.variables_file().ok_or_else(|| {
         CliError::Usage("no variables file: set interp.variables_file in the machine config".into())
@@ -159,6 +155,17 @@ pub fn pages(cfg: &MachineConfig, mut args: PagesArgs) -> Result<(), CliError> {
     store.save_all(&sets).map_err(CliError::Io)?;
     args.run.program = main;
     crate::run::run(cfg, &args.run)
+}
+
+/// The pages file: as given, or a bare name not in the working directory from the program
+/// folder (as a bare program name's sub-programs are found).
+fn pages_file(cfg: &MachineConfig, given: &std::path::Path) -> PathBuf {
+    let bare = given.components().count() == 1 && given.is_relative();
+    if bare && !given.exists() {
+        cfg.program_dir().join(given)
+    } else {
+        given.to_path_buf()
+    }
 }
 
 /// `--defaults` and `--set` applied to the state (in memory), each value checked at its
@@ -227,6 +234,51 @@ fn listing(state: &PagesState) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `pages` flattens `run`'s options and renames two of them: an option added to `run`
+    /// under a name `pages` uses too, or a rename of `program`/`plot`, fails here.
+    #[test]
+    fn the_command_line_of_pages_is_consistent_with_runs() {
+        use clap::{CommandFactory, Parser};
+        crate::Cli::command().debug_assert();
+        let cli = crate::Cli::try_parse_from([
+            "cnc402",
+            "pages",
+            "p.toml",
+            "--set",
+            "holes=6",
+            "--check",
+            "--plot",
+            "a.svg",
+            "--run-plot",
+            "b.svg",
+            "--report",
+            "r.json",
+            "--realtime",
+        ])
+        .unwrap();
+        let crate::Command::Pages(a) = cli.command else {
+            panic!("not pages")
+        };
+        assert_eq!(a.run.program, PathBuf::from("p.toml"));
+        assert_eq!(a.preview_plot, Some(PathBuf::from("a.svg")));
+        assert_eq!(a.run.plot, Some(PathBuf::from("b.svg")));
+        assert!(a.run.realtime && a.check && a.run.report.is_some());
+        let cli = crate::Cli::try_parse_from(["cnc402", "pages"]).unwrap();
+        let crate::Command::Pages(a) = cli.command else {
+            panic!("not pages")
+        };
+        assert_eq!(a.run.program, PathBuf::from("pages.toml"));
+        let mut cfg = MachineConfig::default_machine();
+        cfg.interp.program_dir = PathBuf::from("/srv/nc");
+        assert_eq!(
+            pages_file(&cfg, &a.run.program),
+            PathBuf::from("/srv/nc/pages.toml")
+        );
+        let given = PathBuf::from("examples/mlt980/pages.toml");
+        assert_eq!(pages_file(&cfg, &given), given);
+        assert!(crate::Cli::try_parse_from(["cnc402", "pages", "--check", "--start"]).is_err());
+    }
 
     #[test]
     fn a_field_save_changes_only_its_variable_in_the_file() {
