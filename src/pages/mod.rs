@@ -64,6 +64,9 @@ struct FileStore {
 
 impl FileStore {
     fn save_all(&mut self, sets: &[(u32, Option<f64>)]) -> Result<(), String> {
+        if sets.is_empty() {
+            return Ok(());
+        }
         nvfile::set_vars(&self.path, sets).map_err(|e| e.to_string())?;
         self.saves += 1;
         test_pause_after_save(self.saves);
