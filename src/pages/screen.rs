@@ -290,3 +290,97 @@ fn render_preview(f: &mut Frame, p: &Preview, area: Rect) {
     };
     f.render_widget(Paragraph::new(line).wrap(Wrap { trim: true }), status);
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pages::preview::Hole;
+    use crate::pages::spec::Spec;
+    use ratatui::backend::TestBackend;
+
+    struct Nowhere;
+    impl Store for Nowhere {
+        fn save(&mut self, _: u32, _: Option<f64>) -> Result<(), String> {
+            Ok(())
+        }
+    }
+
+    fn screen_text(state: &PagesState, preview: &Preview) -> String {
+        let mut t = ratatui::Terminal::new(TestBackend::new(150, 40)).unwrap();
+        t.draw(|f| render(f, state, preview)).unwrap();
+        let buf = t.backend().buffer();
+        (0..buf.area.height)
+            .map(|y| {
+                (0..buf.area.width)
+                    .map(|x| buf[(x, y)].symbol())
+                    .collect::<String>()
+                    + "\n"
+            })
+            .collect()
+    }
+
+    #[test]
+    fn soft_keys_arrows_and_alt_digits_map_to_pages_keys() {
+        let k = |code, m| map_key(KeyEvent::new(code, m));
+        let none = KeyModifiers::NONE;
+        assert_eq!(k(KeyCode::F(1), none), Some(Key::Page(0)));
+        assert_eq!(k(KeyCode::F(6), none), Some(Key::Page(5)));
+        assert_eq!(k(KeyCode::F(7), none), Some(Key::Default));
+        assert_eq!(k(KeyCode::F(8), none), Some(Key::Start));
+        assert_eq!(k(KeyCode::F(9), none), None);
+        assert_eq!(k(KeyCode::Char('3'), KeyModifiers::ALT), Some(Key::Page(2)));
+        assert_eq!(k(KeyCode::Char('8'), KeyModifiers::ALT), Some(Key::Start));
+        assert_eq!(k(KeyCode::Char('3'), none), Some(Key::Char('3')));
+        assert_eq!(
+            k(KeyCode::Char('c'), KeyModifiers::CONTROL),
+            Some(Key::Quit)
+        );
+        assert_eq!(k(KeyCode::Delete, none), Some(Key::Delete));
+        assert_eq!(k(KeyCode::PageDown, none), Some(Key::Right));
+    }
+
+    /// Without a terminal (the tmux test needs tmux): the frame shows the soft keys, the
+    /// page's fields with values and problems, the help, a refusal and the preview.
+    #[test]
+    fn the_frame_shows_fields_help_refusal_soft_keys_and_preview() {
+        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/mlt980/pages.toml");
+        let mut s = PagesState::new(Spec::load(&p).unwrap(), |n| (n == 530).then_some(3.0));
+        s.key(Key::Page(1), &mut Nowhere);
+        for _ in 0..4 {
+            s.key(Key::Down, &mut Nowhere);
+        }
+        s.key(Key::Char('0'), &mut Nowhere);
+        s.key(Key::Enter, &mut Nowhere);
+        let hole = |x, y| Hole {
+            x,
+            y,
+            cycle: "G81".into(),
+            r: Some(5.0),
+            bottom: -15.0,
+            ret: Some(50.0),
+        };
+        let preview = Preview {
+            holes: vec![hole(30.0, 0.0), hole(-30.0, 0.0)],
+            axes: ['X', 'Y'],
+            alarm: None,
+            truncated: false,
+        };
+        let text = screen_text(&s, &preview);
+        for want in [
+            " F1 Pattern  F2 Hole data  F3 Process  F4 Other  F7 Default  F8 Start  Esc Quit",
+            "▶ Number of holes                #507",
+            "Radius                         #504  —              ! a value is required",
+            "Number of holes (#507, `holes`)  allowed: >= 1 and <= 999  required",
+            "INPUT> _ Number of holes (#507): 0 is out of range: >= 1 and <= 999",
+            "preview: 2 holes, G81",
+            "G81 R 5  bottom -15  return 50",
+        ] {
+            assert!(text.contains(want), "{want:?} not on\n{text}");
+        }
+        let alarm = Preview {
+            alarm: Some("O0001.CNC:76:1: alarm 501: x".into()),
+            ..preview
+        };
+        assert!(screen_text(&s, &alarm).contains("alarm: O0001.CNC:76:1: alarm 501: x"));
+    }
+}
