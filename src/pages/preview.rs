@@ -16,6 +16,9 @@ use super::spec::fmt_num;
 use super::state::PagesState;
 use crate::cli_error::CliError;
 
+/// At most this many holes are collected (a pattern of more is cut short and says so).
+pub const MAX_HOLES: usize = 100_000;
+
 /// One hole the program will machine (work coordinates of the plane's two axes).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Hole {
@@ -82,7 +85,14 @@ pub fn dry_run(cfg: &MachineConfig, main: &Path, table: NvTable) -> Result<Previ
     // there; its holes so far are the preview).
     for _ in 0..cnc402_runtime::feeder::DRY_RUN_MOVES {
         match it.next_canon() {
-            Ok(Some(op)) => collect(cfg, &op, xy, &mut preview),
+            Ok(Some(op)) => {
+                collect(cfg, &op, xy, &mut preview);
+                if preview.holes.len() >= MAX_HOLES {
+                    preview.holes.truncate(MAX_HOLES);
+                    preview.truncated = true;
+                    return Ok(preview);
+                }
+            }
             Ok(None) => return Ok(preview),
             Err(e) => {
                 preview.alarm = Some(first_line(&e));
@@ -169,7 +179,11 @@ pub fn text(p: &Preview) -> String {
         );
     }
     if p.truncated {
-        let _ = writeln!(s, "(the dry run stopped at its limit; the program goes on)");
+        let _ = writeln!(
+            s,
+            "(the dry run stopped at its limit of {MAX_HOLES} holes or {} operations; the program goes on)",
+            cnc402_runtime::feeder::DRY_RUN_MOVES
+        );
     }
     if let Some(a) = &p.alarm {
         let _ = writeln!(s, "alarm: {a}");
@@ -280,4 +294,68 @@ fn xml(t: &str) -> String {
 pub fn write_svg(path: &Path, p: &Preview, title: &str) -> Result<(), CliError> {
     cnc402_durable::write_atomic(path, svg(p, title).as_bytes())
         .map_err(|e| CliError::Io(format!("{}: {e}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(tag: &str, program: &str, table: NvTable) -> Preview {
+        let dir =
+            std::env::temp_dir().join(format!("cnc402-pages-preview-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let main = dir.join("O0001.nc");
+        std::fs::write(&main, program).unwrap();
+        let p = dry_run(&MachineConfig::default_machine(), &main, table).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        p
+    }
+
+    #[test]
+    fn holes_come_from_the_programs_cycles_with_the_table_in_memory() {
+        let mut t = NvTable::default();
+        t.set(500, Some(12.5)).unwrap();
+        let p = run(
+            "holes",
+            "G90 G0 Z10\nG99 G81 X#500 Y1 R2 Z-3 F100\nX20 Y#501\nG80\nM30\n",
+            t,
+        );
+        let xy: Vec<_> = p
+            .holes
+            .iter()
+            .map(|h| (h.x, h.y, h.cycle.as_str(), h.r, h.bottom))
+            .collect();
+        assert_eq!(
+            xy,
+            [
+                (12.5, 1.0, "G81", Some(2.0), -3.0),
+                (20.0, 1.0, "G81", Some(2.0), -3.0)
+            ]
+        );
+        assert_eq!((p.alarm, p.truncated), (None, false));
+    }
+
+    #[test]
+    fn the_programs_alarm_is_the_previews() {
+        let p = run(
+            "alarm",
+            "G90 G81 X1 R2 Z-3 F100\n#3000=7(VALUES WRONG)\nM30\n",
+            NvTable::default(),
+        );
+        assert_eq!(p.holes.len(), 1);
+        assert!(
+            p.alarm
+                .as_deref()
+                .is_some_and(|a| a.ends_with(":2:1: alarm 3007: VALUES WRONG")),
+            "{p:?}"
+        );
+    }
+
+    #[test]
+    fn a_pattern_of_more_holes_than_the_limit_is_cut_short_and_says_so() {
+        let prog = "G91 G0 Z10\n#1=0\nWHILE[#1 LT 30]DO1\nG98 G81 X0.01 R-1 Z-2 K5000 F100\nG80 G0 X-50\n#1=#1+1\nEND1\nM30\n";
+        let p = run("limit", prog, NvTable::default());
+        assert_eq!((p.holes.len(), p.truncated), (MAX_HOLES, true));
+        assert!(text(&p).contains("stopped at its limit of 100000 holes"));
+    }
 }
