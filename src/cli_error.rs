@@ -28,7 +28,7 @@ pub mod exit {
 pub enum CliError {
     /// The NC program is wrong: printed with its location and a caret.
     Program(cnc402_lang::NcError),
-    /// The machine config is wrong.
+    /// The machine config (or `cnc402 pages`' pages file) is wrong.
     Config(cnc402_config::ConfigError),
     /// A file or device could not be used.
     Io(String),
@@ -38,6 +38,9 @@ pub enum CliError {
     Usage(String),
     /// `cnc402 which`: the point is far from every path.
     Far(String),
+    /// `cnc402 pages`: a value its field refuses, or the package's alarm with the values
+    /// (exit 2, as a wrong program).
+    Refused(String),
 }
 
 impl CliError {
@@ -49,6 +52,7 @@ impl CliError {
             CliError::Fault(m) => (exit::FAULT, miette::miette!("{m}")),
             CliError::Usage(m) => (exit::USAGE, miette::miette!("{m}")),
             CliError::Far(m) => (exit::FAR, miette::miette!("{m}")),
+            CliError::Refused(m) => (exit::PROGRAM, miette::miette!("{m}")),
         };
         eprintln!("{report:?}");
         ExitCode::from(code)

@@ -69,14 +69,6 @@ pub struct ViewArgs {
 /// Most trace rows drawn.
 const TRACE_ROWS: usize = 50_000;
 
-/// The whole program text: `which` and `view` keep every block (a page shows them all), unlike
-/// `segments` and `run`, which stream.
-fn load_program(path: &Path) -> Result<SourceFile, CliError> {
-    let bytes =
-        std::fs::read(path).map_err(|e| CliError::Io(format!("{}: {e}", path.display())))?;
-    Ok(SourceFile::from_bytes(path.display().to_string(), bytes))
-}
-
 /// The program's toolpath by a dry run of the interpreter (at most as many segments as
 /// `cnc402 run` checks before motion), with the parsed program and its source.
 fn toolpath(
@@ -85,7 +77,7 @@ fn toolpath(
     dialect: Option<Dialect>,
     frame: Frame,
 ) -> Result<(Toolpath, Program, SourceFile), CliError> {
-    let src = load_program(program)?;
+    let src = crate::load_program(program)?;
     let ast = cnc402_interp::parse_program(cfg, &src, dialect).map_err(CliError::Program)?;
     let mut interp = cnc402_interp::host_fs::interpreter(
         cfg,

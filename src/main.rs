@@ -17,6 +17,7 @@ use clap::{Parser, Subcommand};
 
 mod cli_error;
 mod inspect;
+mod pages;
 mod run;
 mod vars;
 use cli_error::{CliError, exit};
@@ -87,6 +88,12 @@ enum Command {
         #[command(subcommand)]
         command: Option<vars::VarsCommand>,
     },
+    /// The parameter pages of a macro package (pages.toml next to its programs) as an
+    /// operator screen: fields with units, ranges and help, values checked and saved to the
+    /// non-volatile variables, a preview of the holes, and start (docs/pages.md).
+    ///
+    /// Example: cnc402 pages examples/mlt980/pages.toml --set pattern=circle --check
+    Pages(pages::PagesArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -186,11 +193,26 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let cfg = load_config(&cli.config)?;
             vars::vars(&cfg, file, command)
         }
+        Command::Pages(args) => {
+            let cfg = load_config(&cli.config)?;
+            pages::pages(&cfg, args)
+        }
     }
 }
 
 fn load_config(path: &std::path::Path) -> Result<cnc402_config::MachineConfig, CliError> {
     cnc402_config::MachineConfig::load(path).map_err(CliError::Config)
+}
+
+/// A program's whole text, for the commands that keep every block (`which`, `view`: a page
+/// shows them all; the `pages` preview), unlike `segments` and `run`, which stream.
+pub(crate) fn load_program(path: &std::path::Path) -> Result<cnc402_lang::SourceFile, CliError> {
+    let bytes =
+        std::fs::read(path).map_err(|e| CliError::Io(format!("{}: {e}", path.display())))?;
+    Ok(cnc402_lang::SourceFile::from_bytes(
+        path.display().to_string(),
+        bytes,
+    ))
 }
 
 /// Opens a program to be read line by line (a missing or unreadable file is exit 4 here,

@@ -71,8 +71,9 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 }
 
 impl ConfigError {
-    /// An error at `span` of `text` (no position when `None`), read from `path`.
-    pub(crate) fn at(
+    /// An error at `span` of `text` (no position when `None`), read from `path`. Public for
+    /// other description files read the same way (`cnc402 pages`' pages file).
+    pub fn at(
         text: &str,
         path: &Path,
         span: Option<Range<usize>>,

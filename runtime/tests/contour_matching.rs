@@ -121,6 +121,7 @@ fn slow_x(modelled: bool, matched: bool) -> MachineConfig {
     cfg.axes[x].sim = SimDynamics {
         delay_cycles: 2,
         bandwidth_hz: 40.0,
+        ..SimDynamics::default()
     };
     if modelled {
         cfg.axes[x].dynamics = Some(DriveModel {

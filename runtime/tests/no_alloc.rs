@@ -146,6 +146,7 @@ fn full_tick_path_allocates_nothing_with_matched_contouring_axes() {
     cfg.axes[0].sim = cnc402_config::SimDynamics {
         delay_cycles: 2,
         bandwidth_hz: 40.0,
+        ..cnc402_config::SimDynamics::default()
     };
     cfg.axes[0].following_error_window = 5.0;
     cfg.planner.match_axes = vec![0, 1, 2];
