@@ -1287,6 +1287,38 @@ fn fine_blocks_under_g64_run_at_the_feed() {
     assert_eq!(r["exact_stops"], 0, "{r}");
 }
 
+/// `G64 P… Q…` merges noisy collinear CAM steps; the report's largest path deviation counts
+/// how far merging moved the path off the programmed corners (≤ Q), and is 0 without Q.
+#[test]
+fn g64_q_merging_shows_in_the_reports_path_deviation() {
+    let dir = test_dir("g64_q");
+    for (mode, merged) in [("G64 P0.01 Q0.01", true), ("G64 P0.01", false)] {
+        let mut text = format!("G21 G90 G17 {mode}\nG0 X0 Y0 Z0\nG1 F3000\n");
+        for i in 1..=300 {
+            let y = if i % 2 == 0 { 0.004 } else { -0.004 };
+            text += &format!("X{:.3} Y{y:.3}\n", f64::from(i) * 0.1);
+        }
+        text += "Y0\nM30\n";
+        let p = write_program(&dir, "noisy.nc", &text);
+        let report = dir.join("r.json");
+        let o = cnc402(&[
+            "run",
+            p.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{mode}: {}", stderr(&o));
+        let dev = read_json(&report)["max_path_deviation_mm"]
+            .as_f64()
+            .unwrap();
+        if merged {
+            assert!((0.003..=0.01).contains(&dev), "{mode}: {dev}");
+        } else {
+            assert!(dev < 1e-9, "{mode}: {dev}");
+        }
+    }
+}
+
 /// The report's path figures on one path run in both modes: G61 comes to rest at each of
 /// the four junctions of five collinear blocks, G64 at none (and G05.1 Q1 is G64); the feed
 /// time is the path length over the feed; the setpoints stay on the programmed path.

@@ -81,7 +81,9 @@ pub(super) fn build_report(
         program_time_s,
         path_length_mm: rec.path_length,
         feed_time_s: end.path.feed_time_s,
-        max_path_deviation_mm: end.path.max_deviation,
+        // The setpoints against the moves planned, and the moves against the programmed
+        // corners where `G64 Q` merged lines.
+        max_path_deviation_mm: end.path.max_deviation.max(side.merge_deviation()),
         max_path_deviation_mm_act: end.path.max_deviation_act,
         exact_stops: end.path.exact_stops,
         axes,

@@ -57,6 +57,8 @@ pub(super) struct Side<'a> {
     pub(super) coolant_on: bool,
     /// Periodic figures (`RunOptions::stats_every`).
     pub(super) stats: Option<Stats>,
+    /// The feeder's lookahead, for what it did to the path (`G64 Q` merging) at the end.
+    lookahead: Option<Arc<std::sync::Mutex<cnc402_motion::Lookahead>>>,
 }
 
 impl<'a> Side<'a> {
@@ -75,6 +77,7 @@ impl<'a> Side<'a> {
             shared: Arc::new(SyncShared::default()),
             feeder: None,
             idle_ticks: 0,
+            lookahead: None,
             recorder,
             progress,
             expected,
@@ -97,6 +100,7 @@ impl<'a> Side<'a> {
         let start = start_position(&axes, start);
         let feeder =
             Feeder::from_input(self.cfg, &feed.input, start, false).map_err(RunError::Program)?;
+        self.lookahead = Some(feeder.lookahead());
         let h = spawn_feeder(
             feeder,
             feed.moves,
@@ -107,6 +111,14 @@ impl<'a> Side<'a> {
         .map_err(|e| RunError::Io(format!("cannot start the feeder thread: {e}")))?;
         self.feeder = Some(h);
         Ok(())
+    }
+
+    /// How far `G64 Q` merging moved the path off the programmed corners (mm; 0 without it).
+    /// After the run only: it takes the lookahead's lock.
+    pub(super) fn merge_deviation(&self) -> f64 {
+        self.lookahead
+            .as_ref()
+            .map_or(0.0, |l| crate::feeder::lock(l).merge_deviation())
     }
 
     /// Ends the feeder thread and keeps its program error, if any.
