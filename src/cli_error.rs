@@ -33,6 +33,9 @@ pub enum CliError {
     Fault(String),
     /// A command-line value that clap cannot check by itself.
     Usage(String),
+    /// A block the command line names is not in the program (`--from N…`): exit 2 like a
+    /// program error, without a location in it.
+    NoSuchBlock(String),
 }
 
 impl CliError {
@@ -43,6 +46,7 @@ impl CliError {
             CliError::Io(m) => (exit::IO, miette::miette!("{m}")),
             CliError::Fault(m) => (exit::FAULT, miette::miette!("{m}")),
             CliError::Usage(m) => (exit::USAGE, miette::miette!("{m}")),
+            CliError::NoSuchBlock(m) => (exit::PROGRAM, miette::miette!("{m}")),
         };
         eprintln!("{report:?}");
         ExitCode::from(code)

@@ -11,6 +11,7 @@ pub mod controller;
 pub mod feeder;
 pub mod link;
 pub mod master_link;
+pub mod operator;
 pub mod path_figures;
 pub mod plot;
 pub mod program_stop;

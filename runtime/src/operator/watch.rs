@@ -1,0 +1,249 @@
+//! The feeder's side of breakpoints, single block and block search: every segment the
+//! interpreter makes passes [`BlockWatch::admit`] before the planner, which tells where a new
+//! block begins (a new line, or the interpreter's block serial: each pass of a loop is a new
+//! block), inserts a program stop (the M0 machinery) before a block that must hold — never
+//! inside a rigid tap, from the tap in to the tap out — and, in a block search, keeps back
+//! the blocks before the range and ends after it.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use cnc402_motion::{AxisPos, Segment, SegmentEnd, SegmentKind, StopKind};
+
+use super::search::{Phase, Search, SearchSpec};
+use super::{BlockSpec, BreakHit, OperatorShared};
+
+/// What the feeder does after [`BlockWatch::admit`].
+#[derive(Debug, PartialEq, Eq)]
+pub enum Admit {
+    /// Plan what was handed out and go on.
+    Go,
+    /// The block search's range is over: the program ends here.
+    End,
+}
+
+/// The lines a `skip` passes: the block's line, and once it came round again, the span of
+/// the loop it repeats in.
+#[derive(Debug)]
+struct Skip {
+    file: Arc<str>,
+    line: u32,
+    span: (u32, u32),
+    came_round: bool,
+}
+
+/// Breakpoints, single block and block search for one run (see the module doc).
+#[derive(Debug)]
+pub struct BlockWatch {
+    breaks: Vec<BlockSpec>,
+    single_block: bool,
+    /// Holds are inserted (false in a dry run, which only searches).
+    holds: bool,
+    shared: Arc<OperatorShared>,
+    /// (file, line, serial) of the block the last segment came from.
+    last: Option<(Arc<str>, u32, u64)>,
+    /// Where the machine stood when the run began.
+    start: AxisPos,
+    /// Where the program's segments have put the tool (machine coordinates).
+    pos: AxisPos,
+    /// An open rigid tap: the tool axis and where it began.
+    tap: Option<(usize, f64)>,
+    /// A hold due at a block that began inside a tap: made once the tap is out.
+    pending: Option<BreakHit>,
+    skip: Option<Skip>,
+    search: Option<Search>,
+    /// The tool axis for the search's approach (the axis named Z).
+    z: Option<usize>,
+    /// The breaks of the program stops planned, in order (`None`: the program's own stop).
+    planned_stops: VecDeque<Option<BreakHit>>,
+}
+
+impl BlockWatch {
+    /// A watch for a machine standing at `start`.
+    pub fn new(
+        breaks: Vec<BlockSpec>,
+        single_block: bool,
+        search: Option<SearchSpec>,
+        shared: Arc<OperatorShared>,
+        start: AxisPos,
+        z: Option<usize>,
+    ) -> BlockWatch {
+        BlockWatch {
+            breaks,
+            single_block,
+            holds: true,
+            shared,
+            last: None,
+            start,
+            pos: start,
+            tap: None,
+            pending: None,
+            skip: None,
+            search: search.map(Search::new),
+            z,
+            planned_stops: VecDeque::new(),
+        }
+    }
+
+    /// The same watch without holds (the dry run: it searches, it does not stop).
+    pub fn without_holds(mut self) -> BlockWatch {
+        self.holds = false;
+        self
+    }
+
+    /// Takes in `seg`, made by the block with `serial`, and hands out what to plan in `out`.
+    pub fn admit(&mut self, seg: Segment, serial: u64, out: &mut Vec<Segment>) -> Admit {
+        let src = &seg.source;
+        let new_block = self
+            .last
+            .as_ref()
+            .is_none_or(|(f, l, s)| *l != src.line || *s != serial || **f != *src.file);
+        let mut first = self.last.is_none();
+        self.last = Some((src.file.clone(), src.line, serial));
+        let mut approach = Vec::new();
+        if let Some(search) = &mut self.search {
+            match search.phase {
+                Phase::Before if new_block && search.spec.from.matches(src) => {
+                    search.phase = Phase::In;
+                    approach = search.approach(self.start, self.pos, self.z, src);
+                    // The range's first block follows the approach without a single-block hold.
+                    first = true;
+                }
+                Phase::Before => {
+                    search.skip(&seg.kind);
+                    self.follow(&seg.kind);
+                    return Admit::Go;
+                }
+                Phase::InLast
+                    if new_block && !search.spec.to.as_ref().is_some_and(|t| t.matches(src)) =>
+                {
+                    return Admit::End;
+                }
+                _ => {}
+            }
+            if new_block && search.spec.to.as_ref().is_some_and(|t| t.matches(src)) {
+                search.phase = Phase::InLast;
+            }
+        }
+        out.append(&mut approach);
+        if self.holds {
+            if new_block && let Some(hit) = self.hold_due(&seg, first) {
+                self.pending = Some(hit);
+            }
+            if self.tap.is_none()
+                && let Some(hit) = self.pending.take()
+            {
+                self.shared.set_hit(hit.clone());
+                self.planned_stops.push_back(Some(hit));
+                out.push(Segment {
+                    kind: SegmentKind::Stop {
+                        kind: StopKind::Program,
+                    },
+                    source: seg.source.clone(),
+                    ends: SegmentEnd::ExactStop,
+                });
+            }
+        }
+        if let SegmentKind::Stop { .. } = seg.kind {
+            self.planned_stops.push_back(None);
+        }
+        self.follow(&seg.kind);
+        out.push(seg);
+        Admit::Go
+    }
+
+    /// The hold due before the block `seg` begins, if any (and the orders it used up).
+    fn hold_due(&mut self, seg: &Segment, first: bool) -> Option<BreakHit> {
+        let src = &seg.source;
+        if self.passes_skip(&src.file, src.line) {
+            return None;
+        }
+        let is_break = self.breaks.iter().any(|b| b.matches(src));
+        let mut orders = self.shared.orders();
+        let reason = if std::mem::take(&mut orders.step) {
+            "step"
+        } else if is_break {
+            orders.to_next_break = false;
+            "break"
+        } else if self.single_block && !orders.to_next_break && !first {
+            "step"
+        } else {
+            return None;
+        };
+        Some(BreakHit {
+            file: src.file.clone(),
+            line: src.line,
+            n: src.n,
+            reason,
+        })
+    }
+
+    /// Whether a `skip` passes the block at `file:line`; ends the skip once the program
+    /// leaves the loop it repeated in.
+    fn passes_skip(&mut self, file: &Arc<str>, line: u32) -> bool {
+        let ordered = self.shared.orders().skip.take();
+        if let Some((f, l)) = ordered {
+            self.skip = Some(Skip {
+                file: f,
+                line: l,
+                span: (l, l),
+                came_round: false,
+            });
+        }
+        let Some(s) = &mut self.skip else {
+            return false;
+        };
+        if *s.file != **file {
+            return false;
+        }
+        if line == s.line {
+            s.came_round = true;
+            return true;
+        }
+        if s.came_round {
+            if line < s.span.0 || line > s.span.1 {
+                self.skip = None;
+            }
+        } else {
+            s.span = (s.span.0.min(line), s.span.1.max(line));
+        }
+        false
+    }
+
+    /// Follows the program's position and an open rigid tap through `kind`.
+    fn follow(&mut self, kind: &SegmentKind) {
+        match kind {
+            SegmentKind::Tap(t) => {
+                let tool = t.tool as usize;
+                let began = self.tap.map_or(self.pos[tool], |(_, z0)| z0);
+                self.tap = ((t.end[tool] - began).abs() > 1e-9).then_some((tool, began));
+                self.pos = t.end;
+            }
+            SegmentKind::Rapid { end }
+            | SegmentKind::Linear { end, .. }
+            | SegmentKind::Arc { end, .. } => {
+                self.tap = None;
+                self.pos = *end;
+            }
+            _ => {}
+        }
+    }
+
+    /// The break of the next program stop the planner gave out (`None`: the program's own).
+    pub fn stop_out(&mut self) -> Option<BreakHit> {
+        self.planned_stops.pop_front().flatten()
+    }
+
+    /// After the program's end: why the search's range was never reached, if it was not.
+    pub fn unreached(&self) -> Option<String> {
+        self.search
+            .as_ref()
+            .filter(|s| s.phase == Phase::Before)
+            .map(|s| {
+                format!(
+                    "block search: {} was never reached (the program ended before it)",
+                    s.spec.from
+                )
+            })
+    }
+}
