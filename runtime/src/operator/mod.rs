@@ -92,6 +92,9 @@ pub struct BreakHit {
     pub n: Option<u32>,
     /// Why: "break" (a breakpoint), "step" (single block or `step`).
     pub reason: &'static str,
+    /// The hold was due inside a rigid tap (between a tap in and its tap out) and is made at
+    /// this block, the first after the tap.
+    pub after_tap: bool,
 }
 
 /// A hold at a break, as the report shows it.
@@ -142,7 +145,8 @@ impl OperatorLog {
             .iter()
             .map(|b| {
                 json!({"file": &*b.hit.file, "line": b.hit.line, "n": b.hit.n,
-                       "reason": b.hit.reason, "at_tick": b.at_tick})
+                       "reason": b.hit.reason, "after_tap": b.hit.after_tap,
+                       "at_tick": b.at_tick})
             })
             .collect();
         let commands: Vec<_> = self

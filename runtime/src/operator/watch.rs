@@ -127,12 +127,21 @@ impl BlockWatch {
         }
         out.append(&mut approach);
         if self.holds {
-            if new_block && let Some(hit) = self.hold_due(&seg, first) {
+            if new_block
+                && let Some(hit) = self.hold_due(&seg, first)
+                && self.pending.is_none()
+            {
                 self.pending = Some(hit);
             }
             if self.tap.is_none()
-                && let Some(hit) = self.pending.take()
+                && let Some(mut hit) = self.pending.take()
             {
+                // A hold that fell inside a tap is made here, after the tap out: say where.
+                if (hit.line, &hit.file) != (seg.source.line, &seg.source.file) {
+                    hit.after_tap = true;
+                    (hit.file, hit.line, hit.n) =
+                        (seg.source.file.clone(), seg.source.line, seg.source.n);
+                }
                 self.shared.set_hit(hit.clone());
                 self.planned_stops.push_back(Some(hit));
                 out.push(Segment {
@@ -175,6 +184,7 @@ impl BlockWatch {
             line: src.line,
             n: src.n,
             reason,
+            after_tap: false,
         })
     }
 

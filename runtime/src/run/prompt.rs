@@ -85,7 +85,10 @@ impl OperatorPrompt {
         let Some(hit) = self.shared.hit() else {
             return self.stop_reached(line, kind, file, tick);
         };
-        let n = hit.n.map(|n| format!(" N{n}")).unwrap_or_default();
+        let mut n = hit.n.map(|n| format!(" N{n}")).unwrap_or_default();
+        if hit.after_tap {
+            n.push_str(" (due inside a rigid tap: held after the tap out)");
+        }
         eprintln!(
             "{} at {}:{}{n}: {} | {position} — {COMMANDS}?",
             hit.reason,
