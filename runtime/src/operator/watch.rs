@@ -257,3 +257,114 @@ impl BlockWatch {
             })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::operator::Command;
+    use cnc402_motion::{Source, TapSegment};
+
+    fn at(line: u32, kind: SegmentKind) -> Segment {
+        Segment {
+            kind,
+            source: Source {
+                file: "w.nc".into(),
+                line,
+                n: None,
+            },
+            ends: SegmentEnd::ExactStop,
+        }
+    }
+
+    fn line_to(line: u32, x: f64) -> Segment {
+        let mut end = AxisPos::default();
+        end.0[0] = x;
+        at(line, SegmentKind::Linear { end, feed: 100.0 })
+    }
+
+    fn tap_to(line: u32, z: f64) -> Segment {
+        let mut end = AxisPos::default();
+        end.0[2] = z;
+        end.0[3] = -z * 360.0;
+        at(
+            line,
+            SegmentKind::Tap(TapSegment {
+                end,
+                feed: 100.0,
+                tool: 2,
+                spindle: 3,
+                pitch: -1.0,
+            }),
+        )
+    }
+
+    /// Feeds `segs` (line, serial), answering every hold with `answer`; the lines held at.
+    fn holds(w: &mut BlockWatch, segs: &[(Segment, u64)], answer: Command) -> Vec<u32> {
+        let mut held = Vec::new();
+        for (s, serial) in segs {
+            let mut out = Vec::new();
+            assert_eq!(w.admit(s.clone(), *serial, &mut out), Admit::Go);
+            for o in &out {
+                if let SegmentKind::Stop { .. } = o.kind
+                    && let Some(hit) = w.stop_out()
+                {
+                    held.push(hit.line);
+                    w.shared.order(answer, Some(&hit));
+                }
+            }
+        }
+        held
+    }
+
+    fn watch(breaks: Vec<BlockSpec>, single: bool) -> BlockWatch {
+        let shared = Arc::new(OperatorShared::default());
+        BlockWatch::new(breaks, single, None, shared, AxisPos::default(), Some(2))
+    }
+
+    #[test]
+    fn skip_passes_the_loop_and_ends_when_the_program_leaves_it() {
+        // Loop over lines 3..4 three times, then line 6; then the loop again (a second call).
+        let mut segs = Vec::new();
+        let mut serial = 0;
+        for _ in 0..2 {
+            for pass in 0..3 {
+                for line in [3, 4] {
+                    serial += 1;
+                    segs.push((line_to(line, f64::from(pass + line)), serial));
+                }
+            }
+            serial += 1;
+            segs.push((line_to(6, 0.0), serial));
+        }
+        let mut w = watch(
+            vec![BlockSpec::Line {
+                file: "w.nc".into(),
+                line: 4,
+            }],
+            false,
+        );
+        assert_eq!(holds(&mut w, &segs, Command::Continue), [4, 4, 4, 4, 4, 4]);
+        let mut w = watch(
+            vec![BlockSpec::Line {
+                file: "w.nc".into(),
+                line: 4,
+            }],
+            false,
+        );
+        // Skip at the first hold: the loop's other passes pass; after line 6, it holds again.
+        assert_eq!(holds(&mut w, &segs, Command::Skip), [4, 4]);
+    }
+
+    #[test]
+    fn single_block_never_holds_between_a_tap_in_and_its_tap_out() {
+        let segs = [
+            (line_to(1, 0.0), 1),
+            (tap_to(2, -10.0), 2),
+            (at(3, SegmentKind::Dwell { seconds: 0.5 }), 3),
+            (tap_to(4, 0.0), 4),
+            (line_to(5, 5.0), 5),
+        ];
+        let mut w = watch(Vec::new(), true);
+        assert_eq!(holds(&mut w, &segs, Command::Continue), [2, 5]);
+    }
+}
