@@ -63,7 +63,7 @@ enum Command {
     /// `bus.interface = "sim"`), print a summary, and exit non-zero on any error.
     ///
     /// Example: cnc402 run examples/m10x1.5-rigid-tap.nc --report run.json
-    Run(RunArgs),
+    Run(Box<RunArgs>),
     /// List, set or clear the non-volatile macro variables #500-#999
     /// (`interp.variables_file`), e.g. to fill the parameter pages of a macro program.
     ///

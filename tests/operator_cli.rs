@@ -61,18 +61,20 @@ fn run(dir: &Path, program: &str, commands: &str, extra: &[&str]) -> (Option<i32
     (o.status.code(), v, stderr(&o))
 }
 
-/// (line, reason) of every break the report lists.
-fn breaks(v: &Value) -> Vec<(u64, String)> {
+/// [`run`] that must exit 0: the report and stderr.
+fn run_ok(dir: &Path, program: &str, commands: &str, extra: &[&str]) -> (Value, String) {
+    let (code, v, err) = run(dir, program, commands, extra);
+    assert_eq!(code, Some(0), "{err}");
+    (v, err)
+}
+
+/// `"LINE REASON"` of every break the report lists.
+fn breaks(v: &Value) -> Vec<String> {
     v["breaks"]
         .as_array()
         .unwrap()
         .iter()
-        .map(|b| {
-            (
-                b["line"].as_u64().unwrap(),
-                b["reason"].as_str().unwrap().to_string(),
-            )
-        })
+        .map(|b| format!("{} {}", b["line"], b["reason"].as_str().unwrap()))
         .collect()
 }
 
@@ -87,22 +89,13 @@ N40 WHILE [#1 LT 3] DO1\nN50 G1 X[#1*10+10] F1000\n#1=#1+1\nEND1\nN60 G0 Z10\nN7
 fn a_break_inside_a_while_loop_holds_at_every_pass_in_order() {
     let dir = test_dir("while");
     let p = write(&dir, "loop.nc", WHILE_LOOP);
-    let (code, v, err) = run(
+    let (v, err) = run_ok(
         &dir,
         &p,
         "continue\ncontinue\ncontinue\ncontinue\n",
         &["--break", "N50", "--break", "N60"],
     );
-    assert_eq!(code, Some(0), "{err}");
-    assert_eq!(
-        breaks(&v),
-        vec![
-            (7, "break".into()),
-            (7, "break".into()),
-            (7, "break".into()),
-            (10, "break".into())
-        ]
-    );
+    assert_eq!(breaks(&v), ["7 break", "7 break", "7 break", "10 break"]);
     // Ticks rise; each hold is announced with its place, block and position.
     let ticks: Vec<u64> = v["breaks"]
         .as_array()
@@ -125,43 +118,28 @@ fn step_holds_before_each_following_block_and_next_runs_to_the_next_break() {
     let dir = test_dir("step");
     let p = write(&dir, "loop.nc", WHILE_LOOP);
     // At the first pass: step twice (passes 2 and 3), then next: to N60's break.
-    let (code, v, err) = run(
+    let (v, _) = run_ok(
         &dir,
         &p,
         "step\nstep\nnext\ncontinue\n",
         &["--break", "N50", "--break", "N60"],
     );
-    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(breaks(&v), ["7 break", "7 step", "7 step", "10 break"]);
+    // Single block: a hold before every block after the first one that makes motion.
+    let (v, err) = run_ok(&dir, &p, &"\n".repeat(10), &["--single-block"]);
     assert_eq!(
         breaks(&v),
-        vec![
-            (7, "break".into()),
-            (7, "step".into()),
-            (7, "step".into()),
-            (10, "break".into())
-        ]
+        ["7 step", "7 step", "7 step", "10 step", "11 step"],
+        "{err}"
     );
-    // Single block: a hold before every block after the first one that makes motion.
-    let (code, v, err) = run(&dir, &p, &"\n".repeat(10), &["--single-block"]);
-    assert_eq!(code, Some(0), "{err}");
-    let lines: Vec<u64> = breaks(&v).into_iter().map(|b| b.0).collect();
-    assert_eq!(lines, vec![7, 7, 7, 10, 11]);
     // `next` passes the single-block holds up to the next breakpoint.
-    let (code, v, err) = run(
+    let (v, _) = run_ok(
         &dir,
         &p,
         "next\ncontinue\ncontinue\n",
         &["--single-block", "--break", "N60"],
     );
-    assert_eq!(code, Some(0), "{err}");
-    assert_eq!(
-        breaks(&v),
-        vec![
-            (7, "step".into()),
-            (10, "break".into()),
-            (11, "step".into())
-        ]
-    );
+    assert_eq!(breaks(&v), ["7 step", "10 break", "11 step"]);
 }
 
 #[test]
@@ -179,13 +157,12 @@ fn breaks_in_a_subprogram_file_hold_at_each_call_and_skip_passes_the_rest() {
     );
     let sub = dir.join("O1000.nc");
     let at = format!("{}:3", sub.display());
-    let (code, v, err) = run(
+    let (v, _) = run_ok(
         &dir,
         &main,
         &"\n".repeat(5),
         &["--break", &at, "--break", "N30"],
     );
-    assert_eq!(code, Some(0), "{err}");
     let files: Vec<String> = v["breaks"]
         .as_array()
         .unwrap()
@@ -204,14 +181,13 @@ fn breaks_in_a_subprogram_file_hold_at_each_call_and_skip_passes_the_rest() {
         ["O1000.nc:3", "O1000.nc:3", "O1000.nc:3", "main.nc:4"]
     );
     // skip at the first call's N110: the other calls' N110 pass, N30 still holds.
-    let (code, v, err) = run(
+    let (v, _) = run_ok(
         &dir,
         &main,
         "skip\ncontinue\n",
         &["--break", "N110", "--break", "N30"],
     );
-    assert_eq!(code, Some(0), "{err}");
-    assert_eq!(breaks(&v), vec![(3, "break".into()), (4, "break".into())]);
+    assert_eq!(breaks(&v), ["3 break", "4 break"]);
     assert_eq!(final_pos(&v, "Y"), 15.0);
 }
 
@@ -224,23 +200,14 @@ fn a_c_like_statement_is_a_block() {
         "G21 G90 G17\nG0 X0 Y0 Z5\nint nI = 0;\nwhile (nI < 3) {\n  G1 X=(nI * 10 + 10) F1000\n  \
          MSG(\"pass \" + nI);\n  nI = nI + 1;\n}\nG0 Z10\nM02\n",
     );
-    let (code, v, err) = run(
+    let (v, err) = run_ok(
         &dir,
         &p,
         "step\ncontinue\ncontinue\ncontinue\n",
         &["--break", "c.nc:5"],
     );
-    assert_eq!(code, Some(0), "{err}");
     // The break on the G-code line holds at each pass; `step` holds at the MSG statement.
-    assert_eq!(
-        breaks(&v),
-        vec![
-            (5, "break".into()),
-            (6, "step".into()),
-            (5, "break".into()),
-            (5, "break".into())
-        ]
-    );
+    assert_eq!(breaks(&v), ["5 break", "6 step", "5 break", "5 break"]);
     let msgs: Vec<(u64, String)> = v["messages"]
         .as_array()
         .unwrap()
@@ -291,7 +258,7 @@ fn a_step_never_ends_inside_a_rigid_tap_and_the_machine_holds_still() {
          N50 G0 X10\nN55 M29 S500\nN60 G95 G84 Z-12 R2 Q4 F1.25\nN70 G80 G94 G0 Z20\nN80 M30\n",
     );
     let trace = dir.join("t.csv");
-    let (code, v, err) = run(
+    let (v, err) = run_ok(
         &dir,
         &p,
         &"step\n".repeat(10),
@@ -303,7 +270,6 @@ fn a_step_never_ends_inside_a_rigid_tap_and_the_machine_holds_still() {
             trace.to_str().unwrap(),
         ],
     );
-    assert_eq!(code, Some(0), "{err}");
     let b = v["breaks"].as_array().unwrap();
     let lines: Vec<u64> = b.iter().map(|b| b["line"].as_u64().unwrap()).collect();
     // No hold at N40 (the tap out): the hold due there is made at N50, after the tap.
@@ -325,15 +291,13 @@ fn a_step_never_ends_inside_a_rigid_tap_and_the_machine_holds_still() {
 fn stop_ends_the_program_at_the_hold_with_exit_0() {
     let dir = test_dir("stop");
     let p = write(&dir, "loop.nc", WHILE_LOOP);
-    let (code, v, err) = run(&dir, &p, "continue\nstop\n", &["--break", "N50"]);
-    assert_eq!(code, Some(0), "{err}");
+    let (v, _) = run_ok(&dir, &p, "continue\nstop\n", &["--break", "N50"]);
     assert_eq!(v["ok"], true);
     assert_eq!(v["stopped_by_operator"], true);
     assert_eq!(final_pos(&v, "X"), 10.0);
     assert_eq!(final_pos(&v, "Z"), 5.0);
     // End of the command input ends it there too.
-    let (code, v, err) = run(&dir, &p, "", &["--break", "N50"]);
-    assert_eq!(code, Some(0), "{err}");
+    let (v, err) = run_ok(&dir, &p, "", &["--break", "N50"]);
     assert!(err.contains("end of input"), "{err}");
     assert_eq!(final_pos(&v, "X"), 0.0);
 }
@@ -348,7 +312,7 @@ fn an_unknown_command_from_a_file_is_exit_64_at_its_line_and_nothing_moves() {
         err.contains("commands.txt:3: unknown command \"jump\""),
         "{err}"
     );
-    assert_eq!(v["command_error"].as_str().unwrap().contains(":3:"), true);
+    assert!(v["command_error"].as_str().unwrap().contains(":3:"));
     // Held at the second pass's start: the machine stayed at X10.
     assert_eq!(final_pos(&v, "X"), 10.0);
 }
@@ -409,7 +373,7 @@ fn an_unknown_command_on_stdin_is_asked_again_and_the_held_machine_stands_still(
 fn a_break_on_a_missing_block_warns_with_the_nearest_and_the_run_starts() {
     let dir = test_dir("missing");
     let p = write(&dir, "loop.nc", WHILE_LOOP);
-    let (code, v, err) = run(
+    let (v, err) = run_ok(
         &dir,
         &p,
         "",
@@ -422,7 +386,6 @@ fn a_break_on_a_missing_block_warns_with_the_nearest_and_the_run_starts() {
             "loop.nc:2",
         ],
     );
-    assert_eq!(code, Some(0), "{err}");
     assert!(
         err.contains("N55 is no block") && err.contains("nearest: N50, N60"),
         "{err}"
@@ -441,8 +404,7 @@ fn messages_reach_the_operator_with_their_lines() {
         "m.nc",
         "G21 G90 G0 X0 Y0 Z5\n(MSG, CHECK THE CLAMP)\n#3006=1 (INSERT PART)\nG0 X5\nM30\n",
     );
-    let (code, v, err) = run(&dir, &p, "\n", &[]);
-    assert_eq!(code, Some(0), "{err}");
+    let (v, err) = run_ok(&dir, &p, "\n", &[]);
     let msgs: Vec<(u64, String)> = v["messages"]
         .as_array()
         .unwrap()
@@ -473,10 +435,9 @@ fn block_search_runs_the_range_in_the_state_the_blocks_before_set_up() {
     let dir = test_dir("search");
     let p = write(&dir, "s.nc", SEARCH);
     // The full program, stopped after N110 by a break, against the search N90..N110.
-    let (code, full, err) = run(&dir, &p, "stop\n", &["--break", "N120"]);
-    assert_eq!(code, Some(0), "{err}");
+    let (full, _) = run_ok(&dir, &p, "stop\n", &["--break", "N120"]);
     let trace = dir.join("s.csv");
-    let (code, part, err) = run(
+    let (part, _) = run_ok(
         &dir,
         &p,
         "",
@@ -489,7 +450,6 @@ fn block_search_runs_the_range_in_the_state_the_blocks_before_set_up() {
             trace.to_str().unwrap(),
         ],
     );
-    assert_eq!(code, Some(0), "{err}");
     assert_eq!(part["search"], "N90 to N110");
     for a in ["X", "Y", "Z"] {
         // G55 (X+100), G91 from N70, tool length H2 (-165.52) from N30.

@@ -170,10 +170,12 @@ fn all_numbered_blocks(main: &SourceFile) -> Vec<(u32, u32)> {
     for e in entries.flatten().take(MAX_SIBLINGS) {
         let path = e.path();
         let small = e.metadata().is_ok_and(|m| m.len() <= MAX_SIBLING_BYTES);
-        if path.extension() == ext && small && path != p {
-            if let Ok(t) = std::fs::read(&path) {
-                known.extend(numbered_blocks(&String::from_utf8_lossy(&t)));
-            }
+        if path.extension() == ext
+            && small
+            && path != p
+            && let Ok(t) = std::fs::read(&path)
+        {
+            known.extend(numbered_blocks(&String::from_utf8_lossy(&t)));
         }
     }
     known
