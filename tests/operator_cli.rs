@@ -78,6 +78,16 @@ fn breaks(v: &Value) -> Vec<String> {
         .collect()
 }
 
+/// `"LINE: TEXT"` of every message the report lists.
+fn messages(v: &Value) -> Vec<String> {
+    v["messages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| format!("{}: {}", m["line"], m["text"].as_str().unwrap()))
+        .collect()
+}
+
 fn final_pos(v: &Value, axis: &str) -> f64 {
     v["axes"][axis]["final_position"].as_f64().unwrap()
 }
@@ -208,25 +218,8 @@ fn a_c_like_statement_is_a_block() {
     );
     // The break on the G-code line holds at each pass; `step` holds at the MSG statement.
     assert_eq!(breaks(&v), ["5 break", "6 step", "5 break", "5 break"]);
-    let msgs: Vec<(u64, String)> = v["messages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|m| {
-            (
-                m["line"].as_u64().unwrap(),
-                m["text"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect();
-    assert_eq!(
-        msgs,
-        vec![
-            (6, "pass 0".into()),
-            (6, "pass 1".into()),
-            (6, "pass 2".into())
-        ]
-    );
+    let msgs = messages(&v);
+    assert_eq!(msgs, ["6: pass 0", "6: pass 1", "6: pass 2"]);
     assert!(err.contains("c.nc:6: MSG: pass 2"), "{err}");
 }
 
@@ -405,21 +398,8 @@ fn messages_reach_the_operator_with_their_lines() {
         "G21 G90 G0 X0 Y0 Z5\n(MSG, CHECK THE CLAMP)\n#3006=1 (INSERT PART)\nG0 X5\nM30\n",
     );
     let (v, err) = run_ok(&dir, &p, "\n", &[]);
-    let msgs: Vec<(u64, String)> = v["messages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|m| {
-            (
-                m["line"].as_u64().unwrap(),
-                m["text"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect();
-    assert_eq!(
-        msgs,
-        vec![(2, "CHECK THE CLAMP".into()), (3, "INSERT PART".into())]
-    );
+    let msgs = messages(&v);
+    assert_eq!(msgs, ["2: CHECK THE CLAMP", "3: INSERT PART"]);
     assert!(err.contains("m.nc:2: MSG: CHECK THE CLAMP"), "{err}");
     // #3006 stops like M0: with a command stream it waits for the (empty = continue) line.
     assert_eq!(v["stops"][0]["line"], 3);
