@@ -467,3 +467,33 @@ fn block_search_errors_name_the_nearest_block_or_the_order() {
     let o = cnc402(&["run", &p, "--to", "N90"]);
     assert_eq!(o.status.code(), Some(64), "{}", stderr(&o));
 }
+
+#[test]
+fn breaks_in_a_linuxcnc_o_word_sub_and_a_step_from_m0() {
+    let dir = test_dir("oword");
+    let p = write(
+        &dir,
+        "lc.ngc",
+        "o100 sub\n  G91 G1 X5 F1000\n  G90\no100 endsub\nG21 G90 G17 G0 X0 Y0 Z5\n\
+         o100 call\no100 call\nM0\nG0 X0\nG0 Z9\nM2\n",
+    );
+    let (v, _) = run_ok(
+        &dir,
+        &p,
+        "continue\ncontinue\nstep\ncontinue\n",
+        &["--dialect", "linuxcnc", "--break", "lc.ngc:2"],
+    );
+    // At M0 the operator steps: the hold comes before the next block.
+    assert_eq!(breaks(&v), ["2 break", "2 break", "9 step"]);
+    assert_eq!(v["stops"][0]["line"], 8);
+    assert_eq!(v["stops"][0]["action"], "wait");
+    assert!(v["stops"][0]["waited_s"].as_f64().unwrap() >= 0.0);
+    let cmds: Vec<&str> = v["commands"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["command"].as_str().unwrap())
+        .collect();
+    assert_eq!(cmds, ["continue", "continue", "step", "continue"]);
+    assert_eq!(final_pos(&v, "Z"), 9.0);
+}
