@@ -497,3 +497,41 @@ fn breaks_in_a_linuxcnc_o_word_sub_and_a_step_from_m0() {
     assert_eq!(cmds, ["continue", "continue", "step", "continue"]);
     assert_eq!(final_pos(&v, "Z"), 9.0);
 }
+
+#[test]
+fn step_holds_before_each_repetition_of_a_cycle_and_skip_passes_the_rest() {
+    let dir = test_dir("repeat");
+    let p = write(
+        &dir,
+        "cyc.nc",
+        "G21 G90 G17\nN10 G0 X0 Y0 Z10\nN20 M3 S1000\nN30 G91 G99 G81 X10 Y0 Z-5 R-8 K4 F300\n\
+         N40 G80 G90 G0 Z20\nN50 G0 X0\nN60 M30\n",
+    );
+    let trace = dir.join("t.csv");
+    let (v, err) = run_ok(
+        &dir,
+        &p,
+        "step\nstep\nskip\ncontinue\n",
+        &[
+            "--break",
+            "N30",
+            "--break",
+            "N50",
+            "--trace",
+            trace.to_str().unwrap(),
+        ],
+    );
+    // The break before the cycle, a hold before holes 2 and 3; skip runs holes 3 and 4 and
+    // the program on to the break at N50.
+    assert_eq!(
+        breaks(&v),
+        ["4 break", "4 repeat", "4 repeat", "6 break"],
+        "{err}"
+    );
+    let rows = trace_rows(&trace);
+    let at = |i: usize| rows[v["breaks"][i]["at_tick"].as_u64().unwrap() as usize].1;
+    // Each repetition holds at the R level above the last hole, never in a hole.
+    assert_eq!(at(1), [10.0, 0.0, 2.0]);
+    assert_eq!(at(2), [20.0, 0.0, 2.0]);
+    assert_eq!(at(3), [40.0, 0.0, 20.0]);
+}

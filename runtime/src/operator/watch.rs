@@ -46,6 +46,9 @@ pub struct BlockWatch {
     start: AxisPos,
     /// Where the program's segments have put the tool (machine coordinates).
     pos: AxisPos,
+    /// Where the block's first feed (or tap) began on the tool axis: its repetitions begin
+    /// at or above it (`-inf` before the block feeds).
+    block_floor: f64,
     /// An open rigid tap: the tool axis and where it began.
     tap: Option<(usize, f64)>,
     /// A hold due at a block that began inside a tap: made once the tap is out.
@@ -76,6 +79,7 @@ impl BlockWatch {
             last: None,
             start,
             pos: start,
+            block_floor: f64::NEG_INFINITY,
             tap: None,
             pending: None,
             skip: None,
@@ -127,8 +131,9 @@ impl BlockWatch {
         }
         out.append(&mut approach);
         if self.holds {
-            if new_block
-                && let Some(hit) = self.hold_due(&seg, first)
+            let repeat = !new_block && self.repeats_block(&seg);
+            if (new_block || repeat)
+                && let Some(hit) = self.hold_due(&seg, first, repeat)
                 && self.pending.is_none()
             {
                 self.pending = Some(hit);
@@ -156,18 +161,38 @@ impl BlockWatch {
         if let SegmentKind::Stop { .. } = seg.kind {
             self.planned_stops.push_back(None);
         }
+        if new_block {
+            self.block_floor = f64::NEG_INFINITY;
+        }
+        if let (Some(z), true) = (self.z, self.block_floor == f64::NEG_INFINITY)
+            && matches!(
+                seg.kind,
+                SegmentKind::Linear { .. } | SegmentKind::Arc { .. } | SegmentKind::Tap(_)
+            )
+        {
+            self.block_floor = self.pos[z];
+        }
         self.follow(&seg.kind);
         out.push(seg);
         Admit::Go
     }
 
     /// The hold due before the block `seg` begins, if any (and the orders it used up).
-    fn hold_due(&mut self, seg: &Segment, first: bool) -> Option<BreakHit> {
+    fn hold_due(&mut self, seg: &Segment, first: bool, repeat: bool) -> Option<BreakHit> {
         let src = &seg.source;
-        if self.passes_skip(&src.file, src.line) {
+        let skipped = if repeat {
+            // A skip passes the rest of this block's repetitions.
+            self.take_skip_order();
+            self.skip
+                .as_ref()
+                .is_some_and(|s| s.line == src.line && *s.file == *src.file)
+        } else {
+            self.passes_skip(&src.file, src.line)
+        };
+        if skipped {
             return None;
         }
-        let is_break = self.breaks.iter().any(|b| b.matches(src));
+        let is_break = !repeat && self.breaks.iter().any(|b| b.matches(src));
         let mut orders = self.shared.orders();
         let reason = if std::mem::take(&mut orders.step) {
             "step"
@@ -183,14 +208,25 @@ impl BlockWatch {
             file: src.file.clone(),
             line: src.line,
             n: src.n,
-            reason,
+            reason: if repeat { "repeat" } else { reason },
             after_tap: false,
         })
     }
 
-    /// Whether a `skip` passes the block at `file:line`; ends the skip once the program
-    /// leaves the loop it repeated in.
-    fn passes_skip(&mut self, file: &Arc<str>, line: u32) -> bool {
+    /// Whether `seg`, inside the block, begins one more repetition of it (a canned cycle's
+    /// next hole or K/L repeat, G28's second leg): a rapid across the plane with the tool
+    /// axis at or above where the block began to feed (R or the initial level; a shift at a
+    /// hole's bottom, as G76 makes, is none).
+    fn repeats_block(&self, seg: &Segment) -> bool {
+        let (Some(z), SegmentKind::Rapid { end }) = (self.z, &seg.kind) else {
+            return false;
+        };
+        let across = (0..end.0.len()).any(|i| i != z && end[i] != self.pos[i]);
+        across && self.pos[z] >= self.block_floor - 1e-9
+    }
+
+    /// Takes a `skip` the operator ordered at the last hold.
+    fn take_skip_order(&mut self) {
         let ordered = self.shared.orders().skip.take();
         if let Some((f, l)) = ordered {
             self.skip = Some(Skip {
@@ -200,6 +236,12 @@ impl BlockWatch {
                 came_round: false,
             });
         }
+    }
+
+    /// Whether a `skip` passes the block at `file:line`; ends the skip once the program
+    /// leaves the loop it repeated in.
+    fn passes_skip(&mut self, file: &Arc<str>, line: u32) -> bool {
+        self.take_skip_order();
         let Some(s) = &mut self.skip else {
             return false;
         };
