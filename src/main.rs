@@ -134,8 +134,8 @@ struct RunArgs {
     /// exit 0).
     #[arg(long = "break", value_name = "N1700|FILE:LINE")]
     breaks: Vec<String>,
-    /// Hold before every block (a canned cycle is one block; a tap is never split); `next`
-    /// runs to the next breakpoint.
+    /// Hold before every block after the first (and before each further hole or K/L repeat
+    /// of a canned cycle; never inside a rigid tap); `next` runs to the next breakpoint.
     #[arg(long)]
     single_block: bool,
     /// Read the operator's commands (one a line, `#` comments) from FILE (`-`: stdin) instead
