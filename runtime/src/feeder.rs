@@ -186,8 +186,12 @@ impl Feeder {
                 };
             };
             let mut out = Vec::new();
-            if w.admit(seg, self.interp.block_serial(), &mut out) == crate::operator::Admit::End {
-                return Ok(None);
+            match w.admit(seg, self.interp.block_serial(), &mut out) {
+                crate::operator::Admit::Go => {}
+                crate::operator::Admit::End => return Ok(None),
+                crate::operator::Admit::Unreachable(m) => {
+                    return Err(NcError::new(&self.src, self.src.line_span(1), m));
+                }
             }
             let Some(last) = out.pop() else {
                 // Kept back by the search.

@@ -41,6 +41,8 @@ pub(super) enum Phase {
 pub(super) struct Search {
     pub(super) spec: SearchSpec,
     pub(super) phase: Phase,
+    /// Segments passed over so far.
+    pub(super) skipped: u64,
     /// The last tool change, spindle and coolant state of the skipped blocks.
     tool: Option<SegmentKind>,
     spindle: Option<SegmentKind>,
@@ -52,6 +54,7 @@ impl Search {
         Search {
             spec,
             phase: Phase::Before,
+            skipped: 0,
             tool: None,
             spindle: None,
             coolant: None,
@@ -60,6 +63,7 @@ impl Search {
 
     /// A skipped segment: its state is kept, its motion is not made.
     pub(super) fn skip(&mut self, kind: &SegmentKind) {
+        self.skipped += 1;
         match kind {
             SegmentKind::ToolChange { .. } => self.tool = Some(kind.clone()),
             SegmentKind::Spindle { .. } => self.spindle = Some(kind.clone()),

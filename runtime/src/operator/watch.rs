@@ -14,13 +14,19 @@ use super::search::{Phase, Search, SearchSpec};
 use super::{BlockSpec, BreakHit, OperatorShared};
 
 /// What the feeder does after [`BlockWatch::admit`].
-#[derive(Debug, PartialEq, Eq)]
+#[derive(Debug, PartialEq)]
 pub enum Admit {
     /// Plan what was handed out and go on.
     Go,
     /// The block search's range is over: the program ends here.
     End,
+    /// The block search cannot reach its range (why).
+    Unreachable(String),
 }
+
+/// Most segments a block search passes over before its range (as many as the dry run checks,
+/// `feeder::DRY_RUN_MOVES`): a program looping endlessly before `--from` ends with an error.
+pub const SEARCH_LIMIT: u64 = 1_000_000;
 
 /// The lines a `skip` passes: the block's line, and once it came round again, the span of
 /// the loop it repeats in.
@@ -59,6 +65,8 @@ pub struct BlockWatch {
     z: Option<usize>,
     /// The breaks of the program stops planned, in order (`None`: the program's own stop).
     planned_stops: VecDeque<Option<BreakHit>>,
+    /// [`SEARCH_LIMIT`], smaller in tests.
+    search_limit: u64,
 }
 
 impl BlockWatch {
@@ -86,6 +94,7 @@ impl BlockWatch {
             search: search.map(Search::new),
             z,
             planned_stops: VecDeque::new(),
+            search_limit: SEARCH_LIMIT,
         }
     }
 
@@ -114,6 +123,12 @@ impl BlockWatch {
                     first = true;
                 }
                 Phase::Before => {
+                    if search.skipped >= self.search_limit {
+                        return Admit::Unreachable(format!(
+                            "block search: {} not reached within the first {} segments",
+                            search.spec.from, self.search_limit
+                        ));
+                    }
                     search.skip(&seg.kind);
                     self.follow(&seg.kind);
                     return Admit::Go;
@@ -395,6 +410,36 @@ mod tests {
         );
         // Skip at the first hold: the loop's other passes pass; after line 6, it holds again.
         assert_eq!(holds(&mut w, &segs, Command::Skip), [4, 4]);
+    }
+
+    /// Regression: a program looping endlessly before `--from` would have kept the dry run
+    /// searching for ever.
+    #[test]
+    fn an_endless_loop_before_the_search_range_is_an_error_not_a_hang() {
+        let shared = Arc::new(OperatorShared::default());
+        let search = SearchSpec {
+            from: BlockSpec::N(99),
+            to: None,
+        };
+        let mut w = BlockWatch::new(
+            Vec::new(),
+            false,
+            Some(search),
+            shared,
+            AxisPos::default(),
+            Some(2),
+        );
+        w.search_limit = 50;
+        let mut out = Vec::new();
+        let admitted = (0..1000u32)
+            .map(|i| w.admit(line_to(1 + i % 2, f64::from(i % 2)), u64::from(i), &mut out))
+            .position(|a| a != Admit::Go);
+        assert_eq!(admitted, Some(50));
+        assert!(out.is_empty());
+        assert!(matches!(
+            w.admit(line_to(1, 0.0), 1001, &mut out),
+            Admit::Unreachable(m) if m.contains("N99 not reached within the first 50")
+        ));
     }
 
     #[test]
