@@ -41,6 +41,9 @@ pub enum CliError {
     /// `cnc402 pages`: a value its field refuses, or the package's alarm with the values
     /// (exit 2, as a wrong program).
     Refused(String),
+    /// A block the command line names is not in the program (`--from N…`): exit 2 like a
+    /// program error, without a location in it.
+    NoSuchBlock(String),
 }
 
 impl CliError {
@@ -53,6 +56,7 @@ impl CliError {
             CliError::Usage(m) => (exit::USAGE, miette::miette!("{m}")),
             CliError::Far(m) => (exit::FAR, miette::miette!("{m}")),
             CliError::Refused(m) => (exit::PROGRAM, miette::miette!("{m}")),
+            CliError::NoSuchBlock(m) => (exit::PROGRAM, miette::miette!("{m}")),
         };
         eprintln!("{report:?}");
         ExitCode::from(code)

@@ -66,7 +66,7 @@ enum Command {
     /// `bus.interface = "sim"`), print a summary, and exit non-zero on any error.
     ///
     /// Example: cnc402 run examples/m10x1.5-rigid-tap.nc --report run.json
-    Run(RunArgs),
+    Run(Box<RunArgs>),
     /// Point → block: the blocks whose path passes nearest a point (work coordinates of each
     /// block's offsets), nearest first, with file, line, N and distance.
     ///
@@ -144,6 +144,34 @@ struct RunArgs {
     /// largest following error per axis (for long runs: hil-tests/soak.sh).
     #[arg(long, value_name = "SECONDS")]
     stats_every: Option<f64>,
+    /// Hold before this block, as M0 does (drives enabled, setpoints held, faults still stop
+    /// the machine), and print where: `N1700` (every block numbered 1700, in any file of the
+    /// run) or `FILE:LINE` (`part.nc:42`, a sub-program file too). Repeatable. A break on a
+    /// block inside a loop holds at every pass; a break on a tap holds before the tap.
+    /// At a hold the operator types: continue (or Enter), step (one block), next (to the next
+    /// breakpoint), skip (pass this block's further repetitions), stop (end the program there,
+    /// exit 0).
+    #[arg(long = "break", value_name = "N1700|FILE:LINE")]
+    breaks: Vec<String>,
+    /// Hold before every block after the first (and before each further hole or K/L repeat
+    /// of a canned cycle; never inside a rigid tap); `next` runs to the next breakpoint.
+    #[arg(long)]
+    single_block: bool,
+    /// Read the operator's commands (one a line, `#` comments) from FILE (`-`: stdin) instead
+    /// of the terminal. An unknown command in FILE ends the run at that hold (exit 64, with
+    /// its line); from the terminal it is refused and asked again. End of input ends the
+    /// program at the hold. Makes M0 wait for a command too (unless --at-stop says otherwise).
+    #[arg(long, value_name = "FILE")]
+    commands: Option<PathBuf>,
+    /// Block search: run from this block (`N1700` or `FILE:LINE`) with the modal state the
+    /// blocks before it set up (they are interpreted without motion); the machine approaches
+    /// the block's start: Z up to the higher of here and there, the other axes at rapid,
+    /// spindle and coolant as the state says, Z down. A block that does not exist: exit 2.
+    #[arg(long, value_name = "N1700|FILE:LINE")]
+    from: Option<String>,
+    /// Block search: end after this block (needs --from; before --from: exit 64).
+    #[arg(long, value_name = "N2200|FILE:LINE", requires = "from")]
+    to: Option<String>,
     /// Testing: make drive NODE fault with EMCY CODE (hex) SECONDS after enable.
     #[arg(long, hide = true, value_name = "NODE:CODE@SECONDS")]
     inject_fault: Option<String>,

@@ -12,6 +12,8 @@ use cnc402_runtime::{
     AtStop, FaultPlan, LinkTimeouts, Progress, RunError, RunOptions, StatsSample, Timing,
 };
 
+use cnc402_runtime::operator::{BlockSpec, CommandInput, OperatorOptions, SearchError};
+
 use crate::RunArgs;
 use crate::cli_error::CliError;
 
@@ -123,6 +125,47 @@ fn write_report(p: &Path, report: &cnc402_runtime::RunReport) -> Result<(), CliE
     cnc402_durable::write_atomic(p, format!("{text}\n").as_bytes()).map_err(|e| io(&e))
 }
 
+/// The operator's controls from the command line, checked against the program: breakpoints
+/// that name no block are warnings (the run starts), a search bound that names none is exit
+/// 2, a search that runs backwards exit 64.
+fn operator_options(
+    args: &RunArgs,
+    src: &cnc402_lang::SourceFile,
+) -> Result<OperatorOptions, CliError> {
+    let spec = |s: &String| BlockSpec::parse(s).map_err(CliError::Usage);
+    let breaks = args
+        .breaks
+        .iter()
+        .map(spec)
+        .collect::<Result<Vec<_>, _>>()?;
+    for w in cnc402_runtime::operator::check_breaks(&breaks, src) {
+        eprintln!("warning: {w}");
+    }
+    let search = match &args.from {
+        None => None,
+        Some(from) => {
+            let to = args.to.as_ref().map(spec).transpose()?;
+            match cnc402_runtime::operator::resolve_search(spec(from)?, to, src) {
+                Ok(s) => Some(s),
+                Err(SearchError::NotFound(m)) => return Err(CliError::NoSuchBlock(m)),
+                Err(SearchError::Backwards(m)) => return Err(CliError::Usage(m)),
+            }
+        }
+    };
+    let commands = match &args.commands {
+        Some(p) => Some(Arc::new(CommandInput::open(p).map_err(|e| {
+            CliError::Io(format!("--commands {}: {e}", p.display()))
+        })?)),
+        None => None,
+    };
+    Ok(OperatorOptions {
+        breaks,
+        single_block: args.single_block,
+        search,
+        commands,
+    })
+}
+
 /// Runs the program and reports; see the subcommand's help.
 pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
     let fault = match &args.inject_fault {
@@ -168,13 +211,24 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
     if let Err(e) = cnc402_runtime::rt::install_sigint_handler() {
         log::warn!("cannot install the SIGINT handler: {e}");
     }
-    // M0 waits for the operator only when there is one at a terminal to press Enter.
+    // Breakpoints and search bounds are checked against the program's text: read whole for
+    // that check only (and dropped), since the run itself streams the file.
+    let operator = if args.breaks.is_empty() && args.from.is_none() {
+        operator_options(args, &src)?
+    } else {
+        operator_options(args, &crate::load_program(&args.program)?)?
+    };
+    // M0 waits for the operator only when there is one at a terminal to press Enter (or a
+    // command stream to read from).
     let asked = args.at_stop.map(|a| match a {
         crate::AtStopArg::Wait => AtStop::Wait,
         crate::AtStopArg::Continue => AtStop::Continue,
         crate::AtStopArg::End => AtStop::End,
     });
-    let (at_stop, no_operator_terminal) = AtStop::for_run(asked, std::io::stdin().is_terminal());
+    let (at_stop, no_operator_terminal) = AtStop::for_run(
+        asked,
+        std::io::stdin().is_terminal() || operator.commands.is_some(),
+    );
     // The test doubles' fields exist when a workspace test build turns on the runtime's
     // `testing` feature; in a plain build every field is named here.
     #[allow(clippy::needless_update)]
@@ -194,6 +248,7 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         no_operator_terminal,
         stats_every,
         require_rt: args.require_rt,
+        operator,
         ..RunOptions::default()
     };
 
@@ -239,6 +294,9 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
     if let Some(p) = &args.plot {
         let title = format!("cnc402 run {}", args.program.display());
         cnc402_runtime::write_plot(p, &report, &title).map_err(CliError::Io)?;
+    }
+    if let Some(e) = &report.operator.command_error {
+        return Err(CliError::Usage(format!("--commands: {e}")));
     }
     match report.error {
         None if report.ok => Ok(()),

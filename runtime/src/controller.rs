@@ -404,7 +404,7 @@ impl<L: DriveLink> CycleController<L> {
         if self.phase != Phase::Running {
             return;
         }
-        match g.decide(kind) {
+        match g.decide_at(kind, self.moves_started) {
             crate::program_stop::StopDecision::Hold => {
                 g.hold();
                 self.held = true;

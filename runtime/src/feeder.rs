@@ -89,6 +89,10 @@ pub struct Feeder {
     /// The non-volatile variables file a live run writes (`None` for a dry run, or when the
     /// config names none).
     vars_file: Option<std::path::PathBuf>,
+    /// Breakpoints, single block and block search (`None`: every segment is planned).
+    watch: Option<crate::operator::BlockWatch>,
+    /// The break of the last program stop given out (`None`: the program's own stop).
+    last_break: Option<crate::operator::BreakHit>,
 }
 
 /// A planner error as a program error at the block's line (`src` as [`line_source`] gives it).
@@ -177,7 +181,20 @@ impl Feeder {
             messages: VecDeque::new(),
             last_file: None,
             vars_file: if dry { None } else { cfg.variables_file() },
+            watch: None,
+            last_break: None,
         }
+    }
+
+    /// Watches the segments for breakpoints, single block and block search.
+    pub fn with_watch(mut self, watch: crate::operator::BlockWatch) -> Feeder {
+        self.watch = Some(watch);
+        self
+    }
+
+    /// The break of the program stop [`next_move`](Self::next_move) gave out last, once.
+    pub fn take_break(&mut self) -> Option<crate::operator::BreakHit> {
+        self.last_break.take()
     }
 
     /// The next planned move, `Ok(None)` at the end. Segments go through the lookahead, so
@@ -190,13 +207,17 @@ impl Feeder {
                 {
                     self.messages.push_back(text);
                 }
+                if let (MoveKind::ProgramStop { .. }, Some(w)) = (mv.kind, &mut self.watch) {
+                    self.last_break = w.stop_out();
+                }
                 return Ok(Some(mv));
             }
             if self.interp_done {
                 return Ok(None);
             }
             // No lock held here: the interpreter's motion sync takes it.
-            let Some(seg) = self.interp.next_segment()? else {
+            let next = self.interp.next_segment()?;
+            let Some(seg) = self.watched(next)? else {
                 self.interp_done = true;
                 let finished = lock(&self.lookahead).finish();
                 finished
@@ -212,6 +233,47 @@ impl Feeder {
             if let SegmentKind::Message { text } = seg.kind {
                 self.planned_messages.push_back(text);
             }
+        }
+    }
+
+    /// `next` through the watch: what it adds before a segment (holds, a search's approach)
+    /// is planned here and the segment handed back; `None` at the program's end (or the
+    /// search's), an error when a search never reached its range.
+    fn watched(
+        &mut self,
+        mut next: Option<cnc402_motion::Segment>,
+    ) -> Result<Option<cnc402_motion::Segment>, NcError> {
+        // Each turn takes one more segment from the interpreter, which ends or errs on its
+        // own limits: the loop is bounded by the program.
+        loop {
+            let Some(w) = &mut self.watch else {
+                return Ok(next);
+            };
+            let Some(seg) = next else {
+                return match w.unreached() {
+                    Some(m) => Err(NcError::new(&self.src, self.src.line_span(1), m)),
+                    None => Ok(None),
+                };
+            };
+            let mut out = Vec::new();
+            match w.admit(seg, self.interp.block_serial(), &mut out) {
+                crate::operator::Admit::Go => {}
+                crate::operator::Admit::End => return Ok(None),
+                crate::operator::Admit::Unreachable(m) => {
+                    return Err(NcError::new(&self.src, self.src.line_span(1), m));
+                }
+            }
+            let Some(last) = out.pop() else {
+                // Kept back by the search.
+                next = self.interp.next_segment()?;
+                continue;
+            };
+            for s in out {
+                lock(&self.lookahead)
+                    .push(&s)
+                    .map_err(|e| motion_error_to_nc(&source_for(&s.source.file, &self.src), &e))?;
+            }
+            return Ok(Some(last));
         }
     }
 
@@ -394,6 +456,21 @@ pub fn dry_run(
     dry_run_bounded(cfg, src, program, start, gate, DRY_RUN_MOVES)
 }
 
+/// [`dry_run_input`] through a block search's `watch` (only the range is planned).
+pub fn dry_run_watched(
+    cfg: &MachineConfig,
+    input: &ProgramInput,
+    gate: Option<&crate::program_stop::StopGate>,
+    watch: Option<crate::operator::BlockWatch>,
+) -> Result<DryRun, NcError> {
+    let f = Feeder::from_input(cfg, input, AxisPos::default(), true)?;
+    let f = match watch {
+        Some(w) => f.with_watch(w),
+        None => f,
+    };
+    dry_run_feeder(cfg, f, gate, DRY_RUN_MOVES)
+}
+
 /// [`dry_run`] checking at most `max_moves` moves.
 pub fn dry_run_bounded(
     cfg: &MachineConfig,
@@ -419,7 +496,16 @@ pub fn dry_run_input(
     gate: Option<&crate::program_stop::StopGate>,
     max_moves: u64,
 ) -> Result<DryRun, NcError> {
-    let mut f = Feeder::from_input(cfg, input, start, true)?;
+    let f = Feeder::from_input(cfg, input, start, true)?;
+    dry_run_feeder(cfg, f, gate, max_moves)
+}
+
+fn dry_run_feeder(
+    cfg: &MachineConfig,
+    mut f: Feeder,
+    gate: Option<&crate::program_stop::StopGate>,
+    max_moves: u64,
+) -> Result<DryRun, NcError> {
     let mut d = DryRun::default();
     // The first stop that holds, and the non-volatile reads made before it.
     let mut held_at: Option<(u32, u64)> = None;

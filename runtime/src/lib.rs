@@ -12,6 +12,7 @@ pub mod feeder;
 pub mod link;
 pub mod master_link;
 pub mod matching;
+pub mod operator;
 pub mod path_figures;
 pub mod plot;
 pub mod program_stop;

@@ -113,6 +113,10 @@ pub struct StopGate {
     end: AtomicBool,
     /// Wall-clock seconds of each finished wait, in order (never touched by the loop).
     waits: Mutex<Vec<f64>>,
+    /// The move number (1-based) of the program stop the feeder inserted for a breakpoint or
+    /// single block, 0 for none: it holds whatever the policy. One at a time: the feeder
+    /// interprets nothing past it until it is released.
+    break_at: AtomicU64,
 }
 
 impl StopGate {
@@ -187,6 +191,26 @@ impl StopGate {
             w.push(waited_s);
         }
         self.end.store(true, Ordering::SeqCst);
+    }
+
+    /// Feeder side: move number `index` is a hold of the operator's (breakpoint, step).
+    pub fn arm_break(&self, index: u64) {
+        self.break_at.store(index, Ordering::SeqCst);
+    }
+
+    /// Whether the program stop that is move number `index` is the operator's hold.
+    pub fn is_break(&self, index: u64) -> bool {
+        index != 0 && self.break_at.load(Ordering::SeqCst) == index
+    }
+
+    /// What the program stop of `kind` that is move number `index` does: the operator's
+    /// holds always hold, the program's own stops as [`decide`](Self::decide) says.
+    pub fn decide_at(&self, kind: StopKind, index: u64) -> StopDecision {
+        if self.is_break(index) {
+            StopDecision::Hold
+        } else {
+            self.decide(kind)
+        }
     }
 
     /// The recorded waits so far.

@@ -83,6 +83,9 @@ pub struct RunReport {
     /// The program stops (M0, M1 with optional stop on) in order, with what was done and how
     /// long the machine held there. `program_time_s` includes these waits.
     pub stops: Vec<crate::program_stop::StopRecord>,
+    /// Breaks hit, operator commands, program messages, block search
+    /// ([`crate::operator::OperatorLog`]; its keys are merged into the JSON).
+    pub operator: crate::operator::OperatorLog,
 }
 
 impl RunReport {
@@ -122,6 +125,7 @@ impl RunReport {
             coupling_bound_um: 0.0,
             plot: Vec::new(),
             stops: Vec::new(),
+            operator: Default::default(),
         }
     }
 
@@ -195,6 +199,11 @@ impl RunReport {
                 })
                 .collect(),
         );
+        if let Value::Object(op) = self.operator.to_json() {
+            for (k, val) in op {
+                v[k] = val;
+            }
+        }
         if let Some(s) = &self.stop {
             v["stop"] = json!({
                 "cause": s.stop.cause_text(),

@@ -265,6 +265,10 @@ pub fn spawn_feeder(
                 match next {
                     Ok(Some(mv)) => {
                         let index = shared.pushed.load(Ordering::SeqCst) + 1;
+                        let is_break = feeder.take_break().is_some();
+                        if let (true, Some(g)) = (is_break, gate.as_deref()) {
+                            g.arm_break(index);
+                        }
                         if let Some(f) = feeder.last_file() {
                             let mut files = shared.files.lock().unwrap_or_else(|e| e.into_inner());
                             if files.last().is_none_or(|(_, last)| last != f) {
@@ -275,7 +279,12 @@ pub fn spawn_feeder(
                             return None;
                         }
                         shared.pushed.fetch_add(1, Ordering::SeqCst);
-                        match after_stop(&mv, gate.as_deref()) {
+                        let after = if is_break {
+                            AfterStop::Hold
+                        } else {
+                            after_stop(&mv, gate.as_deref())
+                        };
+                        match after {
                             AfterStop::GoOn => {}
                             AfterStop::EndHere => return None,
                             AfterStop::Hold => {

@@ -6,6 +6,7 @@
 //! ([`Interpreter::next_segment`]) so that the interpreter can run ahead of motion and, with
 //! Macro B, stop at sync points (reading a position variable waits for queued motion).
 
+mod block_serial;
 mod lcblock;
 mod macros;
 mod oindex;

@@ -319,6 +319,9 @@ pub struct ModalCall {
 #[derive(Debug, Default)]
 pub struct Runaway {
     pub count: u64,
+    /// Blocks executed since the program was loaded (never reset by motion): with the C-like
+    /// requests, the block serial of `Interpreter::block_serial`.
+    pub total: u64,
     recent: VecDeque<(usize, u32)>,
 }
 
@@ -328,6 +331,7 @@ impl Runaway {
     }
     pub(crate) fn note(&mut self, unit: &Unit, line: u32) {
         self.count += 1;
+        self.total += 1;
         if self.recent.len() == 512 {
             self.recent.pop_front();
         }

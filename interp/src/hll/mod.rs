@@ -52,6 +52,8 @@ struct Running {
     thread: Option<std::thread::JoinHandle<()>>,
     /// Tells the executor to stop at its next statement or loop turn.
     halt: Arc<AtomicBool>,
+    /// Requests (statements that act on the machine) handled so far: see `Hll::requests`.
+    requests: u64,
     /// Blocks, messages and dwells in a row without motion (`canon::makes_motion`): the
     /// executor counts statements only, so a loop of `MSG` or `sleep(0)` is caught here.
     idle: u64,
@@ -84,6 +86,14 @@ impl std::fmt::Debug for Hll {
         f.debug_struct("Hll")
             .field("active", &self.run.is_some())
             .finish()
+    }
+}
+
+impl Hll {
+    /// Statements of the C-like program that acted on the machine (a segment or a G-code
+    /// line) so far; 0 when no C-like program runs.
+    pub fn requests(&self) -> u64 {
+        self.run.as_ref().map_or(0, |r| r.requests)
     }
 }
 
@@ -129,6 +139,7 @@ impl Hll {
             thread: None,
             halt: Arc::new(AtomicBool::new(false)),
             idle: 0,
+            requests: 0,
         };
         match compile::compile(cfg, src.clone(), program.clone(), library) {
             Ok(prog) => {
@@ -213,6 +224,7 @@ impl Running {
         file: ir::FileId,
         span: Span,
     ) -> Result<(), NcError> {
+        self.requests += 1;
         if canon::makes_motion(ops, from) {
             self.idle = 0;
             return Ok(());

@@ -23,9 +23,10 @@ use cnc402_lang::SourceFile;
 use cnc402_lang::ast::Program;
 use cnc402_motion::AxisPos;
 
-use crate::feeder::{ProgramInput, dry_run_input, motion_error_to_nc};
+use crate::feeder::{ProgramInput, dry_run_watched, motion_error_to_nc};
 use crate::link::{DriveLink, FaultPlan};
 use crate::master_link::{LinkTimeouts, MasterLink};
+use crate::operator::{BlockWatch, CommandInput, OperatorShared};
 use crate::program_stop::{AtStop, StopGate};
 use crate::recorder::Recorder;
 use crate::report::RunReport;
@@ -92,6 +93,8 @@ pub struct RunOptions {
     /// naming the limit to raise, before any drive is touched) instead of running on with a
     /// warning.
     pub require_rt: bool,
+    /// Breakpoints, single block, the operator's command input, block search.
+    pub operator: crate::operator::OperatorOptions,
 }
 
 impl Default for RunOptions {
@@ -112,6 +115,7 @@ impl Default for RunOptions {
             no_operator_terminal: false,
             stats_every: None,
             require_rt: false,
+            operator: Default::default(),
         }
     }
 }
@@ -201,14 +205,21 @@ pub fn run_input(
 ) -> Result<RunReport, RunError> {
     let src = input.source();
     let gate = Arc::new(StopGate::new(opts.at_stop, opts.optional_stop));
-    let dry = dry_run_input(
-        cfg,
-        &input,
-        AxisPos::default(),
-        Some(&gate),
-        crate::feeder::DRY_RUN_MOVES,
-    )
-    .map_err(RunError::Program)?;
+    let shared = Arc::new(OperatorShared::default());
+    // The dry run searches as the run will (its range only), and never holds.
+    let dry_watch = opts.operator.search.clone().map(|search| {
+        let z = cfg.axis_index('Z');
+        BlockWatch::new(
+            Vec::new(),
+            false,
+            Some(search),
+            shared.clone(),
+            AxisPos::default(),
+            z,
+        )
+        .without_holds()
+    });
+    let dry = dry_run_watched(cfg, &input, Some(&gate), dry_watch).map_err(RunError::Program)?;
     if let Some((line, e)) = &dry.after_hold {
         log::warn!(
             "{}:{line}: the program, run on past this stop as it stands, would fail at {}:{}:{}: \
@@ -262,13 +273,22 @@ pub fn run_input(
         no_operator_terminal,
         stats_every,
         require_rt,
+        operator,
         ..
     } = opts;
     if let Some(t) = trace {
         recorder = recorder.with_trace(t);
     }
-    let prompt = OperatorPrompt::new(gate, no_operator_terminal);
+    let commands = operator
+        .commands
+        .clone()
+        .unwrap_or_else(|| Arc::new(CommandInput::stdin()));
+    let mut prompt = OperatorPrompt::new(gate, no_operator_terminal, commands, shared);
+    if let Some(search) = &operator.search {
+        prompt.set_search(search.to_string());
+    }
     let mut side = Side::new(cfg, recorder, progress, dry.ticks, prompt, &src.name);
+    side.main = Some(src.clone());
     let counters = std::sync::Arc::new(LoopCounters::default());
     let real_time = timing == Timing::RealTime;
     side.stats = stats_every.map(|e| Stats::new(e, real_time.then(|| counters.clone())));
@@ -279,6 +299,7 @@ pub fn run_input(
         input,
         moves: moves_tx,
         stop_request: stop_request.clone(),
+        operator,
     };
     let io = LoopIo {
         moves: moves_rx,

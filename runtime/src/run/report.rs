@@ -113,6 +113,7 @@ pub(super) fn build_report(
         coupling_bound_um: coupling_bound_um(&axes_t, &rec.taps),
         plot: rec.plot_points().to_vec(),
         stops: side.prompt.records(),
+        operator: side.prompt.operator_log(),
     }
 }
 

@@ -7,7 +7,7 @@ use std::sync::atomic::AtomicBool;
 use std::thread::JoinHandle;
 
 use cnc402_config::{MAX_AXES, MachineConfig};
-use cnc402_lang::NcError;
+use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::MoveEvent;
 
 use super::error::RunError;
@@ -36,6 +36,8 @@ pub(super) struct FeederStart {
     pub(super) input: crate::feeder::ProgramInput,
     pub(super) moves: MoveProducer,
     pub(super) stop_request: Arc<AtomicBool>,
+    /// Breakpoints, single block and block search.
+    pub(super) operator: crate::operator::OperatorOptions,
 }
 
 /// The reporting side: recorder, progress callback, and what the feeder thread needs to know.
@@ -59,6 +61,9 @@ pub(super) struct Side<'a> {
     pub(super) stats: Option<Stats>,
     /// The feeder's lookahead, for what it did to the path (`G64 Q` merging) at the end.
     lookahead: Option<Arc<std::sync::Mutex<cnc402_motion::Lookahead>>>,
+    /// The main program (block texts at a break: a file read line by line is an empty
+    /// window, and the block's line is read again).
+    pub(super) main: Option<SourceFile>,
 }
 
 impl<'a> Side<'a> {
@@ -87,6 +92,7 @@ impl<'a> Side<'a> {
             src_name: src_name.to_string(),
             coolant_on: false,
             stats: None,
+            main: None,
         }
     }
 
@@ -98,9 +104,20 @@ impl<'a> Side<'a> {
     ) -> Result<(), RunError> {
         let axes = AxisTable::new(self.cfg);
         let start = start_position(&axes, start);
-        let feeder =
+        let mut feeder =
             Feeder::from_input(self.cfg, &feed.input, start, false).map_err(RunError::Program)?;
         self.lookahead = Some(feeder.lookahead());
+        let op = feed.operator;
+        if op.watches() {
+            feeder = feeder.with_watch(crate::operator::BlockWatch::new(
+                op.breaks,
+                op.single_block,
+                op.search,
+                self.prompt.shared.clone(),
+                start,
+                self.cfg.axis_index('Z'),
+            ));
+        }
         let h = spawn_feeder(
             feeder,
             feed.moves,
@@ -170,21 +187,48 @@ impl<'a> Side<'a> {
         }
     }
 
+    /// The source file of the move executing at `s`.
+    fn file_of(&self, s: &Status) -> String {
+        self.shared
+            .file_of(s.moves_started)
+            .map_or_else(|| self.src_name.clone(), |f| f.to_string())
+    }
+
+    /// The machine position at `s` (commanded), as `X10.000 Y0.000 …`.
+    fn position(&self, s: &Status) -> String {
+        let axes = self.cfg.axes.iter().take(MAX_AXES);
+        let parts: Vec<String> = axes
+            .zip(s.cmd)
+            .map(|(a, v)| format!("{}{v:.3}", a.name))
+            .collect();
+        parts.join(" ")
+    }
+
     /// The program's event in status record `s`, if any.
     fn event(&mut self, s: &Status) {
         match s.event {
             Some(MoveEvent::Message) => {
                 if let Some(text) = self.shared.take_message() {
-                    log::info!("line {}: {}", s.line, text);
+                    self.prompt.message(self.file_of(s), s.line, text);
                 }
             }
             Some(MoveEvent::ProgramStop { kind }) => {
-                let (shared, src_name) = (&self.shared, &self.src_name);
-                self.prompt.stop_reached(s.line, kind, || {
-                    shared
-                        .file_of(s.moves_started)
-                        .map_or_else(|| src_name.clone(), |f| f.to_string())
-                });
+                let file = self.file_of(s);
+                let main = self.main.clone();
+                let block = move |f: &str, line: u32| match &main {
+                    Some(m) => crate::feeder::line_source(f, line, m)
+                        .line_text(line)
+                        .to_string(),
+                    None => String::new(),
+                };
+                let position = self.position(s);
+                self.prompt.hold_reached(
+                    (s.line, s.tick, s.moves_started),
+                    kind,
+                    || file,
+                    block,
+                    position,
+                );
             }
             Some(MoveEvent::ToolChange { tool }) => {
                 log::info!("line {}: tool change to T{tool}", s.line);
