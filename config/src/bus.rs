@@ -73,6 +73,11 @@ fn default_master_node_id() -> Spanned<i64> {
 }
 
 impl RawBus {
+    /// Where `period_us` is written (an overloaded bus is reported there).
+    pub(crate) fn period_span(&self) -> std::ops::Range<usize> {
+        self.period_us.span()
+    }
+
     /// Checks each key's range and the heartbeat time-out against the heartbeat period.
     pub(crate) fn validate(&self) -> Result<BusConfig, Invalid> {
         let b = self;
@@ -134,10 +139,7 @@ impl RawBus {
 /// and 2560 are not (the drive would interpolate at a different period than the bus runs).
 fn period_us(v: &Spanned<i64>) -> Result<u32, Invalid> {
     let us = int_in(v, "bus.period_us", 100, 100_000)? as u32;
-    let exact = [1000, 100, 10, 1]
-        .iter()
-        .any(|&unit| us.is_multiple_of(unit) && (1..=255).contains(&(us / unit)));
-    if exact {
+    if is_interpolation_period(us) {
         Ok(us)
     } else {
         Err((
@@ -149,6 +151,14 @@ fn period_us(v: &Spanned<i64>) -> Result<u32, Invalid> {
             ),
         ))
     }
+}
+
+/// Whether `us` is a mantissa 1..=255 times 1000, 100, 10 or 1 µs (0x60C2 as the master
+/// writes it).
+pub(crate) fn is_interpolation_period(us: u32) -> bool {
+    [1000, 100, 10, 1]
+        .iter()
+        .any(|&unit| us.is_multiple_of(unit) && (1..=255).contains(&(us / unit)))
 }
 
 /// A name Linux accepts for a network interface (SocketCAN opens it by this name).
