@@ -777,7 +777,7 @@ impl Master {
 }
 
 /// Bits of one SDO request and its response (two 8-byte frames, worst-case stuffing).
-pub const SDO_EXCHANGE_BITS: f64 = 270.0;
+pub use cnc402_config::busload::SDO_EXCHANGE_BITS;
 
 fn no_drive(axis: usize, index: u16, sub: u8) -> SdoError {
     SdoError {

@@ -40,7 +40,8 @@ use cia402::{Controlword, EnableSequencer, Goal, Statusword};
 use cnc402_config::{ExpectedIdentity, MAX_AXES, MachineConfig};
 
 use crate::time::Instant;
-use crate::wire::{NmtState, NodeId, frame_bits};
+use crate::wire::{NmtState, NodeId};
+use cnc402_config::busload::{BusLoad, PdoLayout};
 
 pub use boot::{BootError, BootReport, DriveIdentity, InterpolationPeriod};
 pub use cyclic::Feedback;
@@ -420,24 +421,16 @@ impl Master {
                 ));
             }
         }
-        let drives = axes[..config.axes.len()]
-            .iter()
-            .filter(|a| a.node.is_some())
-            .count() as f64;
-        let bits_per_cycle = config.bus.bitrate as f64 * config.bus.period_us as f64 * 1e-6;
         let master_node =
             NodeId::new(config.bus.master_node_id).map_err(|_| MasterConfigError::BadNode {
                 axis: ' ',
                 node: config.bus.master_node_id,
             })?;
-        // The drives' heartbeats and the master's own.
-        let heartbeats = if config.bus.heartbeat_ms > 0 {
-            (drives + 1.0) * frame_bits(1) as f64 * config.bus.period_us as f64
-                / (config.bus.heartbeat_ms as f64 * 1000.0)
-        } else {
-            0.0
-        };
-        let cyclic_bits = frame_bits(0) as f64 + drives * 2.0 * frame_bits(6) as f64 + heartbeats;
+        // SYNC, the PDOs and the heartbeats as the load plan counts them (the config was
+        // refused if they and the SDO reserve overload the bus); SDOs get what is left.
+        let plan = BusLoad::of_config(&config.bus, &config.axes, PdoLayout::Standard);
+        let bits_per_cycle = plan.capacity_bits();
+        let cyclic_bits = plan.traffic_bits();
         Ok(Master {
             sdo_free_bits: (bits_per_cycle - cyclic_bits).max(0.0),
             sdo_credit: 0.0,
