@@ -3,6 +3,7 @@
 use serde::Deserialize;
 use toml::Spanned;
 
+use crate::busload::PdoLayout;
 use crate::check::{Invalid, int_in, sp};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -18,6 +19,9 @@ pub struct BusConfig {
     /// The master's own node id: it produces its heartbeat on 0x700 + id and the drives
     /// consume it (0x1016). No axis may use it. Default 127.
     pub master_node_id: u8,
+    /// What the cyclic PDOs carry (`"standard"`: control/status word with target/position
+    /// every SYNC; `"compact"`: target/position alone, the words event-driven).
+    pub pdo_layout: PdoLayout,
 }
 
 impl BusConfig {
@@ -48,6 +52,8 @@ pub(crate) struct RawBus {
     sdo_timeout_ms: Spanned<i64>,
     #[serde(default = "default_master_node_id")]
     master_node_id: Spanned<i64>,
+    #[serde(default = "default_pdo_layout")]
+    pdo_layout: Spanned<String>,
 }
 
 fn default_bitrate() -> Spanned<i64> {
@@ -70,6 +76,9 @@ fn default_sdo_timeout() -> Spanned<i64> {
 }
 fn default_master_node_id() -> Spanned<i64> {
     sp(127)
+}
+fn default_pdo_layout() -> Spanned<String> {
+    sp("standard".into())
 }
 
 impl RawBus {
@@ -118,6 +127,17 @@ impl RawBus {
             )? as u32,
             sdo_timeout_ms: int_in(&b.sdo_timeout_ms, "bus.sdo_timeout_ms", 1, 60_000)? as u32,
             master_node_id: int_in(&b.master_node_id, "bus.master_node_id", 1, 127)? as u8,
+            pdo_layout: match b.pdo_layout.get_ref().as_str() {
+                "standard" => PdoLayout::Standard,
+                "compact" => PdoLayout::Compact,
+                other => {
+                    return Err((
+                        b.pdo_layout.span(),
+                        "bus.pdo_layout".into(),
+                        format!("must be \"standard\" or \"compact\", got {other:?}"),
+                    ));
+                }
+            },
         };
         if bus.heartbeat_ms > 0 && bus.heartbeat_timeout_ms <= bus.heartbeat_ms as u32 {
             return Err((

@@ -44,6 +44,16 @@ pub enum PdoLayout {
     Compact,
 }
 
+impl PdoLayout {
+    /// As written in `bus.pdo_layout`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PdoLayout::Standard => "standard",
+            PdoLayout::Compact => "compact",
+        }
+    }
+}
+
 /// The planned load of one period, in bits, worst-case bit stuffing, per frame kind.
 /// Heartbeats, the SDO reserve and event-driven PDOs are averaged over their own periods.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,10 +113,15 @@ impl BusLoad {
         }
     }
 
-    /// The plan of the configured machine (`bus.period_us`, the drives of `axes`).
+    /// The plan of the drives of `axes` with `layout` at `bus.period_us`.
     pub fn of_config(bus: &BusConfig, axes: &[AxisConfig], layout: PdoLayout) -> BusLoad {
         let drives = axes.iter().filter(|a| a.node.is_some()).count();
         BusLoad::plan(bus, drives, layout, bus.period_us)
+    }
+
+    /// The plan of the configured machine (its `bus.pdo_layout`).
+    pub fn of_machine(config: &crate::MachineConfig) -> BusLoad {
+        BusLoad::of_config(&config.bus, &config.axes, config.bus.pdo_layout)
     }
 
     /// Bits the bus carries in one period.
@@ -180,7 +195,7 @@ fn percent(bits: f64, capacity: f64) -> f64 {
 /// The refusal of an overloaded config: the figures, the smallest period that fits and the
 /// compact layout's load at the configured period.
 pub(crate) fn check(bus: &BusConfig, axes: &[AxisConfig]) -> Result<(), String> {
-    let plan = BusLoad::of_config(bus, axes, PdoLayout::Standard);
+    let plan = BusLoad::of_config(bus, axes, bus.pdo_layout);
     if plan.fits() {
         return Ok(());
     }
@@ -191,20 +206,26 @@ pub(crate) fn check(bus: &BusConfig, axes: &[AxisConfig]) -> Result<(), String> 
         ),
         None => "no period up to 100000 µs fits: use fewer drives or a faster bitrate".into(),
     };
-    let compact = BusLoad::of_config(bus, axes, PdoLayout::Compact);
+    let compact = match bus.pdo_layout {
+        PdoLayout::Standard => format!(
+            "; bus.pdo_layout = \"compact\" (targets and positions alone in the cyclic PDOs) \
+             would need {:.1} % at {} µs",
+            BusLoad::of_config(bus, axes, PdoLayout::Compact).percent(),
+            bus.period_us
+        ),
+        PdoLayout::Compact => String::new(),
+    };
     Err(format!(
-        "the bus is overloaded: {} drives at {} bit/s need {:.1} bits per {} µs period, which \
-         carries {:.0}: {:.1} % worst case ({}); {smallest}; the compact PDO layout (targets and \
-         positions alone in the cyclic PDOs) would need {:.1} % at {} µs",
+        "the bus is overloaded: {} drives at {} bit/s with the {} PDO layout need {:.1} bits \
+         per {} µs period, which carries {:.0}: {:.1} % worst case ({}); {smallest}{compact}",
         plan.drives,
         bus.bitrate,
+        plan.layout.name(),
         plan.total_bits(),
         bus.period_us,
         plan.capacity_bits(),
         plan.percent(),
         plan.breakdown(),
-        compact.percent(),
-        bus.period_us,
     ))
 }
 
@@ -222,6 +243,7 @@ mod tests {
             tpdo_timeout_cycles: 5,
             sdo_timeout_ms: 100,
             master_node_id: 127,
+            pdo_layout: PdoLayout::Standard,
         }
     }
 

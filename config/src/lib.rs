@@ -626,7 +626,7 @@ mod tests {
         assert_eq!(e.line, 1 + SHIPPED[..SHIPPED.find("period_us =").unwrap()].lines().count());
         for figure in ["1218.2 bits per 1000 µs", "121.8 %", "RPDO1 5×115", "TPDO1 5×115",
             "heartbeats 7.8", "SDO reserve 5.4", "smallest period that fits is 1250 µs (97.7 %)",
-            "compact PDO layout", "109.3 % at 1000 µs"]
+            "bus.pdo_layout = \"compact\"", "109.3 % at 1000 µs"]
         {
             assert!(e.message.contains(figure), "{figure:?} missing in {e}");
         }
@@ -644,6 +644,28 @@ mod tests {
         let c = parse(SHIPPED).unwrap();
         let p = busload::BusLoad::of_config(&c.bus, &c.axes, busload::PdoLayout::Standard);
         assert!((p.percent() - 98.69).abs() < 1e-9, "{}", p.percent());
+        assert_eq!(c.bus.pdo_layout, busload::PdoLayout::Standard);
+    }
+
+    /// `bus.pdo_layout`: "standard" (default) or "compact"; anything else names the key.
+    /// 4 drives on 500 kbit/s at 1 ms are refused either way; at 2 ms both fit.
+    #[test]
+    fn pdo_layout_key() {
+        use busload::PdoLayout::Compact;
+        let compact = SHIPPED.replacen("master_node_id = 127", "master_node_id = 127\npdo_layout = \"compact\"", 1);
+        let c = parse(&compact).unwrap();
+        assert_eq!(c.bus.pdo_layout, Compact);
+        assert!((busload::BusLoad::of_machine(&c).percent() - 88.69).abs() < 1e-9);
+        let e = parse(&compact.replace("\"compact\"", "\"tight\"")).unwrap_err();
+        assert_eq!(e.key, "bus.pdo_layout");
+        let slow = compact.replacen("bitrate = 1000000", "bitrate = 500000", 1);
+        let e = parse(&slow).unwrap_err();
+        assert_eq!(e.key, "bus.period_us");
+        assert!(e.message.contains("compact PDO layout"), "{e}");
+        assert!(e.message.contains("smallest period that fits is 2000 µs (95.9 %)"), "{e}");
+        assert!(!e.message.contains("bus.pdo_layout = "), "{e}");
+        let slow2 = slow.replacen("period_us = 1000", "period_us = 2000", 1);
+        assert_eq!(parse(&slow2).unwrap().bus.period_us, 2000);
     }
 
     #[test]
