@@ -34,6 +34,17 @@ const COMPACT_EVENT_BYTES: usize = 2;
 /// Inhibit time of the compact layout's statusword TPDO2 (0x1801:3 in 100 µs units = 100).
 pub const COMPACT_EVENT_INHIBIT_MS: u32 = 10;
 
+/// The compact layout's refresh (ms): the statusword TPDO2's event timer and the period the
+/// master resends an unchanged controlword RPDO2 in: the heartbeat period, or
+/// [`SDO_RESERVE_PERIOD_MS_WITHOUT_HEARTBEAT`] with heartbeats off.
+pub fn event_refresh_ms(bus: &BusConfig) -> u16 {
+    if bus.heartbeat_ms > 0 {
+        bus.heartbeat_ms
+    } else {
+        SDO_RESERVE_PERIOD_MS_WITHOUT_HEARTBEAT as u16
+    }
+}
+
 /// The PDO layouts the load is planned for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PdoLayout {
@@ -89,7 +100,8 @@ impl BusLoad {
         let event_bits = match layout {
             PdoLayout::Standard => 0.0,
             PdoLayout::Compact => {
-                2.0 * n * per_period(frame_bits(COMPACT_EVENT_BYTES), COMPACT_EVENT_INHIBIT_MS)
+                let every_ms = COMPACT_EVENT_INHIBIT_MS.min(event_refresh_ms(bus) as u32);
+                2.0 * n * per_period(frame_bits(COMPACT_EVENT_BYTES), every_ms)
             }
         };
         let (heartbeat_bits, sdo_every_ms) = if bus.heartbeat_ms > 0 {
@@ -108,8 +120,7 @@ impl BusLoad {
             tpdo_bits: n * frame_bits(pdo_bytes) as f64,
             event_bits,
             heartbeat_bits,
-            sdo_reserve_bits: SDO_EXCHANGE_BITS * period_us as f64
-                / (sdo_every_ms as f64 * 1000.0),
+            sdo_reserve_bits: SDO_EXCHANGE_BITS * period_us as f64 / (sdo_every_ms as f64 * 1000.0),
         }
     }
 
@@ -287,7 +298,11 @@ mod tests {
     fn compact_four_drives_at_1ms() {
         let p = BusLoad::plan(&bus(1_000_000, 1000, 50), 4, PdoLayout::Compact, 1000);
         assert!((p.total_bits() - 886.9).abs() < 1e-9, "{p:?}");
-        println!("compact 4 drives 1 ms 1 Mbit/s: {:.2} % ({})", p.percent(), p.breakdown());
+        println!(
+            "compact 4 drives 1 ms 1 Mbit/s: {:.2} % ({})",
+            p.percent(),
+            p.breakdown()
+        );
     }
 
     /// 500 kbit/s, 2 ms = 1000 bits: standard 55 + 920 + 13 + 10.8 = 998.8 (99.88 %);

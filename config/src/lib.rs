@@ -623,11 +623,23 @@ mod tests {
         let text = format!("{SHIPPED}{fifth}");
         let e = parse(&text).unwrap_err();
         assert_eq!(e.key, "bus.period_us");
-        assert_eq!(e.line, 1 + SHIPPED[..SHIPPED.find("period_us =").unwrap()].lines().count());
-        for figure in ["1218.2 bits per 1000 µs", "121.8 %", "RPDO1 5×115", "TPDO1 5×115",
-            "heartbeats 7.8", "SDO reserve 5.4", "smallest period that fits is 1250 µs (97.7 %)",
-            "bus.pdo_layout = \"compact\"", "109.3 % at 1000 µs"]
-        {
+        assert_eq!(
+            e.line,
+            1 + SHIPPED[..SHIPPED.find("period_us =").unwrap()]
+                .lines()
+                .count()
+        );
+        for figure in [
+            "1218.2 bits per 1000 µs",
+            "121.8 %",
+            "RPDO1 5×115",
+            "TPDO1 5×115",
+            "heartbeats 7.8",
+            "SDO reserve 5.4",
+            "smallest period that fits is 1250 µs (97.7 %)",
+            "bus.pdo_layout = \"compact\"",
+            "109.3 % at 1000 µs",
+        ] {
             assert!(e.message.contains(figure), "{figure:?} missing in {e}");
         }
         println!("{e}");
@@ -652,7 +664,11 @@ mod tests {
     #[test]
     fn pdo_layout_key() {
         use busload::PdoLayout::Compact;
-        let compact = SHIPPED.replacen("master_node_id = 127", "master_node_id = 127\npdo_layout = \"compact\"", 1);
+        let compact = SHIPPED.replacen(
+            "master_node_id = 127",
+            "master_node_id = 127\npdo_layout = \"compact\"",
+            1,
+        );
         let c = parse(&compact).unwrap();
         assert_eq!(c.bus.pdo_layout, Compact);
         assert!((busload::BusLoad::of_machine(&c).percent() - 88.69).abs() < 1e-9);
@@ -662,7 +678,11 @@ mod tests {
         let e = parse(&slow).unwrap_err();
         assert_eq!(e.key, "bus.period_us");
         assert!(e.message.contains("compact PDO layout"), "{e}");
-        assert!(e.message.contains("smallest period that fits is 2000 µs (95.9 %)"), "{e}");
+        assert!(
+            e.message
+                .contains("smallest period that fits is 2000 µs (95.9 %)"),
+            "{e}"
+        );
         assert!(!e.message.contains("bus.pdo_layout = "), "{e}");
         let slow2 = slow.replacen("period_us = 1000", "period_us = 2000", 1);
         assert_eq!(parse(&slow2).unwrap().bus.period_us, 2000);

@@ -41,7 +41,7 @@ use cnc402_config::{ExpectedIdentity, MAX_AXES, MachineConfig};
 
 use crate::time::Instant;
 use crate::wire::{NmtState, NodeId};
-use cnc402_config::busload::{BusLoad, PdoLayout};
+use cnc402_config::busload::{self, BusLoad, PdoLayout};
 
 pub use boot::{BootError, BootReport, DriveIdentity, InterpolationPeriod};
 pub use cyclic::Feedback;
@@ -184,6 +184,10 @@ pub(crate) struct AxisSlot {
     pub expected: f64,
     pub sequencer: EnableSequencer,
     pub controlword: Controlword,
+    /// Compact layout: the controlword last sent in RPDO2 (`None`: send it next cycle) and
+    /// the cycles until it is sent again unchanged (a lost RPDO2 heals within that).
+    pub controlword_sent: Option<Controlword>,
+    pub controlword_refresh_in: u32,
     pub quick_stop: bool,
     /// The last target sent (counts, wrapped).
     pub target: i32,
@@ -251,6 +255,8 @@ impl AxisSlot {
             expected: 0.0,
             sequencer: EnableSequencer::new(Goal::OperationEnabled),
             controlword: Controlword::DISABLE_VOLTAGE,
+            controlword_sent: None,
+            controlword_refresh_in: 0,
             quick_stop: false,
             target: 0,
             statusword: None,
@@ -342,6 +348,12 @@ pub struct Master {
     pub(crate) last_feedback: Feedback,
     pub(crate) cyclic_bits: f64,
     pub(crate) bits_per_cycle: f64,
+    /// What the cyclic PDOs carry (`bus.pdo_layout`).
+    pub(crate) pdo_layout: PdoLayout,
+    /// Compact layout: the statusword's event timer and the controlword's refresh (ms, and
+    /// in cycles).
+    pub(crate) event_refresh_ms: u16,
+    pub(crate) event_refresh_cycles: u32,
 }
 
 impl Master {
@@ -428,7 +440,8 @@ impl Master {
             })?;
         // SYNC, the PDOs and the heartbeats as the load plan counts them (the config was
         // refused if they and the SDO reserve overload the bus); SDOs get what is left.
-        let plan = BusLoad::of_config(&config.bus, &config.axes, PdoLayout::Standard);
+        let plan = BusLoad::of_config(&config.bus, &config.axes, config.bus.pdo_layout);
+        let event_refresh_ms = busload::event_refresh_ms(&config.bus);
         let bits_per_cycle = plan.capacity_bits();
         let cyclic_bits = plan.traffic_bits();
         Ok(Master {
@@ -456,6 +469,11 @@ impl Master {
             syncs: 0,
             stop: None,
             unexpected_frames: 0,
+            pdo_layout: config.bus.pdo_layout,
+            event_refresh_ms,
+            event_refresh_cycles: (u32::from(event_refresh_ms) * 1000
+                / config.bus.period_us.max(1))
+            .max(1),
         })
     }
 
