@@ -115,9 +115,9 @@ fn four_axes_at_1ms_load_the_bus_at_most_85_percent_and_follow() {
     // feedback PDO went missing.
     assert_eq!(rig.master.phase(), Phase::Running);
     let end = command(&start, 1099);
-    for i in 0..4 {
+    for (i, &target) in end.iter().enumerate() {
         assert!(
-            (fb.actual[i] - end[i]).abs() < rig.config.axes[i].following_error_window,
+            (fb.actual[i] - target).abs() < rig.config.axes[i].following_error_window,
             "{i}"
         );
         assert_eq!(

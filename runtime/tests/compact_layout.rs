@@ -66,7 +66,10 @@ fn compact_drive_fault_mid_tap_stops_naming_node_and_emcy() {
     assert!(!r.ok);
     let stop = r.stop.as_ref().unwrap_or_else(|| panic!("{:?}", r.error));
     assert!(
-        matches!(stop.stop.cause, StopCause::DriveFault | StopCause::Emergency),
+        matches!(
+            stop.stop.cause,
+            StopCause::DriveFault | StopCause::Emergency
+        ),
         "{stop:?}"
     );
     assert_eq!(stop.stop.node, 3, "{stop:?}");

@@ -553,7 +553,11 @@ fn report_gives_planned_bus_load_next_to_the_measured_one() {
     let r = run_text(&cfg, "G21 G90\nG0 X5. Y2.\nG1 X6. F600.\nM30\n");
     assert!(r.ok, "{:?}", r.error);
     // 55 + 8 × 115 + 5 × 65 / 50 + 270 / 50 = 986.9 bits of 1000.
-    assert!((r.bus_planned_percent - 98.69).abs() < 1e-9, "{}", r.bus_planned_percent);
+    assert!(
+        (r.bus_planned_percent - 98.69).abs() < 1e-9,
+        "{}",
+        r.bus_planned_percent
+    );
     assert!(
         r.bus_load_percent > 90.0 && r.bus_load_percent <= r.bus_planned_percent,
         "measured {} planned {}",
@@ -561,5 +565,9 @@ fn report_gives_planned_bus_load_next_to_the_measured_one() {
         r.bus_planned_percent
     );
     assert_eq!(r.to_json()["bus"]["planned_percent"], r.bus_planned_percent);
-    assert!(r.summary().contains("(planned worst case 98.7 %)"), "{}", r.summary());
+    assert!(
+        r.summary().contains("(planned worst case 98.7 %)"),
+        "{}",
+        r.summary()
+    );
 }
