@@ -3,7 +3,6 @@
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::busload::PdoLayout;
 use crate::check::{Invalid, int_in, sp};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -30,6 +29,26 @@ impl BusConfig {
     }
     pub fn period_s(&self) -> f64 {
         self.period_us as f64 * 1e-6
+    }
+}
+
+/// What the cyclic PDOs carry (`bus.pdo_layout`; the load plan in `busload` counts each).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PdoLayout {
+    /// Controlword + target, statusword + position, every SYNC (6 bytes each way).
+    Standard,
+    /// Target and position alone every SYNC (4 bytes each way); control and status words
+    /// event-driven.
+    Compact,
+}
+
+impl PdoLayout {
+    /// As written in `bus.pdo_layout`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PdoLayout::Standard => "standard",
+            PdoLayout::Compact => "compact",
+        }
     }
 }
 

@@ -3,6 +3,7 @@
 //! A config whose plan exceeds 100 % is refused when it is read; the master takes its SDO
 //! credit and `cyclic_load_percent` from the same figures, so the arithmetic lives here once.
 
+pub use crate::bus::PdoLayout;
 use crate::{AxisConfig, BusConfig};
 
 /// Bits a classic 11-bit frame with `n` data bytes occupies, worst-case bit stuffing and
@@ -42,26 +43,6 @@ pub fn event_refresh_ms(bus: &BusConfig) -> u16 {
         bus.heartbeat_ms
     } else {
         SDO_RESERVE_PERIOD_MS_WITHOUT_HEARTBEAT as u16
-    }
-}
-
-/// The PDO layouts the load is planned for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PdoLayout {
-    /// Controlword + target, statusword + position, every SYNC (6 bytes each way).
-    Standard,
-    /// Target and position alone every SYNC (4 bytes each way); control and status words
-    /// event-driven.
-    Compact,
-}
-
-impl PdoLayout {
-    /// As written in `bus.pdo_layout`.
-    pub fn name(self) -> &'static str {
-        match self {
-            PdoLayout::Standard => "standard",
-            PdoLayout::Compact => "compact",
-        }
     }
 }
 

@@ -664,11 +664,7 @@ mod tests {
     #[test]
     fn pdo_layout_key() {
         use busload::PdoLayout::Compact;
-        let compact = SHIPPED.replacen(
-            "master_node_id = 127",
-            "master_node_id = 127\npdo_layout = \"compact\"",
-            1,
-        );
+        let compact = SHIPPED.replacen("pdo_layout = \"standard\"", "pdo_layout = \"compact\"", 1);
         let c = parse(&compact).unwrap();
         assert_eq!(c.bus.pdo_layout, Compact);
         assert!((busload::BusLoad::of_machine(&c).percent() - 88.69).abs() < 1e-9);
