@@ -18,6 +18,9 @@ pub struct BusConfig {
     /// The master's own node id: it produces its heartbeat on 0x700 + id and the drives
     /// consume it (0x1016). No axis may use it. Default 127.
     pub master_node_id: u8,
+    /// What the cyclic PDOs carry (`"standard"`: control/status word with target/position
+    /// every SYNC; `"compact"`: target/position alone, the words event-driven).
+    pub pdo_layout: PdoLayout,
 }
 
 impl BusConfig {
@@ -26,6 +29,26 @@ impl BusConfig {
     }
     pub fn period_s(&self) -> f64 {
         self.period_us as f64 * 1e-6
+    }
+}
+
+/// What the cyclic PDOs carry (`bus.pdo_layout`; the load plan in `busload` counts each).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PdoLayout {
+    /// Controlword + target, statusword + position, every SYNC (6 bytes each way).
+    Standard,
+    /// Target and position alone every SYNC (4 bytes each way); control and status words
+    /// event-driven.
+    Compact,
+}
+
+impl PdoLayout {
+    /// As written in `bus.pdo_layout`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PdoLayout::Standard => "standard",
+            PdoLayout::Compact => "compact",
+        }
     }
 }
 
@@ -48,6 +71,8 @@ pub(crate) struct RawBus {
     sdo_timeout_ms: Spanned<i64>,
     #[serde(default = "default_master_node_id")]
     master_node_id: Spanned<i64>,
+    #[serde(default = "default_pdo_layout")]
+    pdo_layout: Spanned<String>,
 }
 
 fn default_bitrate() -> Spanned<i64> {
@@ -71,8 +96,16 @@ fn default_sdo_timeout() -> Spanned<i64> {
 fn default_master_node_id() -> Spanned<i64> {
     sp(127)
 }
+fn default_pdo_layout() -> Spanned<String> {
+    sp("standard".into())
+}
 
 impl RawBus {
+    /// Where `period_us` is written (an overloaded bus is reported there).
+    pub(crate) fn period_span(&self) -> std::ops::Range<usize> {
+        self.period_us.span()
+    }
+
     /// Checks each key's range and the heartbeat time-out against the heartbeat period.
     pub(crate) fn validate(&self) -> Result<BusConfig, Invalid> {
         let b = self;
@@ -113,6 +146,17 @@ impl RawBus {
             )? as u32,
             sdo_timeout_ms: int_in(&b.sdo_timeout_ms, "bus.sdo_timeout_ms", 1, 60_000)? as u32,
             master_node_id: int_in(&b.master_node_id, "bus.master_node_id", 1, 127)? as u8,
+            pdo_layout: match b.pdo_layout.get_ref().as_str() {
+                "standard" => PdoLayout::Standard,
+                "compact" => PdoLayout::Compact,
+                other => {
+                    return Err((
+                        b.pdo_layout.span(),
+                        "bus.pdo_layout".into(),
+                        format!("must be \"standard\" or \"compact\", got {other:?}"),
+                    ));
+                }
+            },
         };
         if bus.heartbeat_ms > 0 && bus.heartbeat_timeout_ms <= bus.heartbeat_ms as u32 {
             return Err((
@@ -134,10 +178,7 @@ impl RawBus {
 /// and 2560 are not (the drive would interpolate at a different period than the bus runs).
 fn period_us(v: &Spanned<i64>) -> Result<u32, Invalid> {
     let us = int_in(v, "bus.period_us", 100, 100_000)? as u32;
-    let exact = [1000, 100, 10, 1]
-        .iter()
-        .any(|&unit| us.is_multiple_of(unit) && (1..=255).contains(&(us / unit)));
-    if exact {
+    if is_interpolation_period(us) {
         Ok(us)
     } else {
         Err((
@@ -149,6 +190,14 @@ fn period_us(v: &Spanned<i64>) -> Result<u32, Invalid> {
             ),
         ))
     }
+}
+
+/// Whether `us` is a mantissa 1..=255 times 1000, 100, 10 or 1 µs (0x60C2 as the master
+/// writes it).
+pub(crate) fn is_interpolation_period(us: u32) -> bool {
+    [1000, 100, 10, 1]
+        .iter()
+        .any(|&unit| us.is_multiple_of(unit) && (1..=255).contains(&(us / unit)))
 }
 
 /// A name Linux accepts for a network interface (SocketCAN opens it by this name).

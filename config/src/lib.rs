@@ -8,6 +8,7 @@
 
 mod axes;
 mod bus;
+pub mod busload;
 mod check;
 mod cutter_comp;
 mod error;
@@ -164,6 +165,8 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
     let interp = raw.interp.validate()?;
     let mut planner = raw.planner.validate()?;
     let axes = axes::validate(&raw.axis, &bus)?;
+    busload::check(&bus, &axes)
+        .map_err(|m| (raw.bus.period_span(), "bus.period_us".to_string(), m))?;
     planner.match_axes = raw.planner.match_axes(&axes)?;
     let work_offsets = work_offsets::validate(&raw.work_offsets, &axes)?;
     let tool_offsets = tool_offsets::validate(&raw.tool_offsets)?;
@@ -604,6 +607,81 @@ mod tests {
         let e = parse(&SHIPPED.replacen("period_us = 1000", "period_us = 0", 1)).unwrap_err();
         assert_eq!(e.key, "bus.period_us");
         assert!(e.line > 0);
+    }
+
+    /// A fifth drive-backed axis at 1 ms on 1 Mbit/s (issue 17: accepted, then the run stopped
+    /// with "feedback PDO missing on node 2") is refused at load with the figures. By hand:
+    /// 55 + 10 × 115 + 6 × 65 / 50 + 270 / 50 = 1218.2 bits of 1000; at 1250 µs 1221.5 of
+    /// 1250 = 97.7 %; compact 55 + 10 × 95 + 2 × 5 × 75 / 10 + 7.8 + 5.4 = 1093.2.
+    #[test]
+    fn overloaded_bus_fifth_axis_refused_at_load() {
+        let fifth = "\n[[axis]]\nname = \"U\"\nkind = \"linear\"\nnode = 5\n\
+                     counts_per_unit = 1000\nmax_velocity = 100.0\nmax_acceleration = 1000.0\n\
+                     max_jerk = 10000.0\nmin = -10.0\nmax = 10.0\n\
+                     following_error_window = 0.5\nfollowing_error_timeout_ms = 10\n\
+                     dynamics = { delay_cycles = 1, bandwidth_hz = 150.0 }\n";
+        let text = format!("{SHIPPED}{fifth}");
+        let e = parse(&text).unwrap_err();
+        assert_eq!(e.key, "bus.period_us");
+        assert_eq!(
+            e.line,
+            1 + SHIPPED[..SHIPPED.find("period_us =").unwrap()]
+                .lines()
+                .count()
+        );
+        for figure in [
+            "1218.2 bits per 1000 µs",
+            "121.8 %",
+            "RPDO1 5×115",
+            "TPDO1 5×115",
+            "heartbeats 7.8",
+            "SDO reserve 5.4",
+            "smallest period that fits is 1250 µs (97.7 %)",
+            "bus.pdo_layout = \"compact\"",
+            "109.3 % at 1000 µs",
+        ] {
+            assert!(e.message.contains(figure), "{figure:?} missing in {e}");
+        }
+        println!("{e}");
+        // The same five axes at the period it names load.
+        let ok = text.replacen("period_us = 1000", "period_us = 1250", 1);
+        assert!(parse(&ok).is_ok());
+        // A virtual fifth axis sends nothing on the bus.
+        assert!(parse(&text.replacen("node = 5", "virtual = true", 1)).is_ok());
+    }
+
+    /// The shipped machine plans at 98.7 % of 1 Mbit/s and is accepted.
+    #[test]
+    fn shipped_bus_load_is_planned() {
+        let c = parse(SHIPPED).unwrap();
+        let p = busload::BusLoad::of_config(&c.bus, &c.axes, busload::PdoLayout::Standard);
+        assert!((p.percent() - 98.69).abs() < 1e-9, "{}", p.percent());
+        assert_eq!(c.bus.pdo_layout, busload::PdoLayout::Standard);
+    }
+
+    /// `bus.pdo_layout`: "standard" (default) or "compact"; anything else names the key.
+    /// 4 drives on 500 kbit/s at 1 ms are refused either way; at 2 ms both fit.
+    #[test]
+    fn pdo_layout_key() {
+        use busload::PdoLayout::Compact;
+        let compact = SHIPPED.replacen("pdo_layout = \"standard\"", "pdo_layout = \"compact\"", 1);
+        let c = parse(&compact).unwrap();
+        assert_eq!(c.bus.pdo_layout, Compact);
+        assert!((busload::BusLoad::of_machine(&c).percent() - 88.69).abs() < 1e-9);
+        let e = parse(&compact.replace("\"compact\"", "\"tight\"")).unwrap_err();
+        assert_eq!(e.key, "bus.pdo_layout");
+        let slow = compact.replacen("bitrate = 1000000", "bitrate = 500000", 1);
+        let e = parse(&slow).unwrap_err();
+        assert_eq!(e.key, "bus.period_us");
+        assert!(e.message.contains("compact PDO layout"), "{e}");
+        assert!(
+            e.message
+                .contains("smallest period that fits is 2000 µs (95.9 %)"),
+            "{e}"
+        );
+        assert!(!e.message.contains("bus.pdo_layout = "), "{e}");
+        let slow2 = slow.replacen("period_us = 1000", "period_us = 2000", 1);
+        assert_eq!(parse(&slow2).unwrap().bus.period_us, 2000);
     }
 
     #[test]

@@ -58,7 +58,11 @@ pub struct RunReport {
     pub axes: Vec<AxisReport>,
     pub tapping: Vec<TapWindow>,
     pub bus_frames: u64,
+    /// Measured: the bits the bus carried over the run's wall (or virtual) time.
     pub bus_load_percent: f64,
+    /// Planned worst case at config load (`cnc402_config::busload`): SYNC, PDOs, heartbeats
+    /// and the SDO reserve, worst-case bit stuffing.
+    pub bus_planned_percent: f64,
     /// Wake-up latency of the real-time loop (real-time runs only).
     pub wakeup_latency: Option<LatencySummary>,
     /// Which real-time privileges were granted (real-time runs only).
@@ -115,6 +119,7 @@ impl RunReport {
             tapping: Vec::new(),
             bus_frames: 0,
             bus_load_percent: 0.0,
+            bus_planned_percent: 0.0,
             wakeup_latency: None,
             realtime_grant: None,
             starved_ticks: 0,
@@ -168,7 +173,11 @@ impl RunReport {
             "exact_stops": self.exact_stops,
             "axes": Value::Object(axes),
             "tapping": tapping,
-            "bus": { "frames": self.bus_frames, "load_percent": self.bus_load_percent },
+            "bus": {
+                "frames": self.bus_frames,
+                "load_percent": self.bus_load_percent,
+                "planned_percent": self.bus_planned_percent,
+            },
             "coupling_bound_um": self.coupling_bound_um,
             "starved_ticks": self.starved_ticks,
             "dropped_status": self.dropped_status,
@@ -297,8 +306,8 @@ impl RunReport {
         }
         let _ = writeln!(
             s,
-            "  bus: {} frames, load {:.1} %",
-            self.bus_frames, self.bus_load_percent
+            "  bus: {} frames, load {:.1} % (planned worst case {:.1} %)",
+            self.bus_frames, self.bus_load_percent, self.bus_planned_percent
         );
         if let Some(g) = &self.realtime_grant {
             let _ = writeln!(s, "  {g}");

@@ -543,3 +543,31 @@ fn only_tap_segments_couple_z_and_c() {
     assert!((rec.taps[0].pitch_mm - 1.5).abs() < 1e-12);
     assert_eq!(rec.taps[0].line, 3);
 }
+
+/// The report carries the planned worst-case bus load (config load's plan) next to the
+/// measured one; the measurement stays below the plan (the plan counts worst-case stuffing
+/// and the SDO reserve, the simulated bus counts the same worst-case bits without SDOs).
+#[test]
+fn report_gives_planned_bus_load_next_to_the_measured_one() {
+    let cfg = MachineConfig::default_machine();
+    let r = run_text(&cfg, "G21 G90\nG0 X5. Y2.\nG1 X6. F600.\nM30\n");
+    assert!(r.ok, "{:?}", r.error);
+    // 55 + 8 × 115 + 5 × 65 / 50 + 270 / 50 = 986.9 bits of 1000.
+    assert!(
+        (r.bus_planned_percent - 98.69).abs() < 1e-9,
+        "{}",
+        r.bus_planned_percent
+    );
+    assert!(
+        r.bus_load_percent > 90.0 && r.bus_load_percent <= r.bus_planned_percent,
+        "measured {} planned {}",
+        r.bus_load_percent,
+        r.bus_planned_percent
+    );
+    assert_eq!(r.to_json()["bus"]["planned_percent"], r.bus_planned_percent);
+    assert!(
+        r.summary().contains("(planned worst case 98.7 %)"),
+        "{}",
+        r.summary()
+    );
+}

@@ -11,6 +11,7 @@ use core::time::Duration;
 
 use cia402::{EnableSequencer, Goal, Progress, State, Statusword, Stuck, objects as obj};
 use cnc402_config::ExpectedIdentity;
+use cnc402_config::busload::PdoLayout as BusPdoLayout;
 
 use super::sdo::{BlockingSdo, SdoError, SdoErrorKind};
 use super::stop::{Emcy, SafetyStop};
@@ -292,6 +293,38 @@ pub const TPDO1_LAYOUT: PdoLayout = match PdoLayout::new(PdoDirection::Tpdo, &TP
 };
 /// Transmission type 1: synchronous, every SYNC.
 pub const SYNCHRONOUS_EVERY_SYNC: u8 = 1;
+/// Transmission type 255: event-driven (device profile specific).
+pub const EVENT_DRIVEN: u8 = 255;
+
+const COMPACT_RPDO1_MAPPING: [MappingEntry; 1] = [MappingEntry::new(obj::TARGET_POSITION, 0, 32)];
+const COMPACT_RPDO2_MAPPING: [MappingEntry; 1] = [MappingEntry::new(obj::CONTROLWORD, 0, 16)];
+const COMPACT_TPDO1_MAPPING: [MappingEntry; 1] = [MappingEntry::new(obj::POSITION_ACTUAL, 0, 32)];
+const COMPACT_TPDO2_MAPPING: [MappingEntry; 1] = [MappingEntry::new(obj::STATUSWORD, 0, 16)];
+
+/// `bus.pdo_layout = "compact"`, RPDO1: target position alone, synchronous.
+pub const COMPACT_RPDO1_LAYOUT: PdoLayout =
+    valid_layout(PdoDirection::Rpdo, &COMPACT_RPDO1_MAPPING);
+/// Compact RPDO2: controlword alone, event-driven (sent on change and every refresh period).
+pub const COMPACT_RPDO2_LAYOUT: PdoLayout =
+    valid_layout(PdoDirection::Rpdo, &COMPACT_RPDO2_MAPPING);
+/// Compact TPDO1: position actual alone, synchronous.
+pub const COMPACT_TPDO1_LAYOUT: PdoLayout =
+    valid_layout(PdoDirection::Tpdo, &COMPACT_TPDO1_MAPPING);
+/// Compact TPDO2: statusword alone, event-driven with an inhibit time and an event timer.
+pub const COMPACT_TPDO2_LAYOUT: PdoLayout =
+    valid_layout(PdoDirection::Tpdo, &COMPACT_TPDO2_MAPPING);
+
+const fn valid_layout(direction: PdoDirection, entries: &[MappingEntry]) -> PdoLayout {
+    match PdoLayout::new(direction, entries) {
+        Ok(l) => l,
+        Err(_) => panic!("a compact PDO mapping must be valid"),
+    }
+}
+
+/// The compact statusword TPDO2's inhibit time (0x1801:3, 100 µs units): at most one
+/// statusword per `COMPACT_EVENT_INHIBIT_MS`, the rate the load plan counts.
+const COMPACT_TPDO2_INHIBIT_100US: u16 =
+    (cnc402_config::busload::COMPACT_EVENT_INHIBIT_MS * 10) as u16;
 
 const COB_INVALID: u32 = 0x8000_0000;
 const COB_NO_RTR: u32 = 0x4000_0000;
@@ -311,29 +344,44 @@ fn optional<T>(r: Result<T, SdoError>) -> Result<Option<T>, SdoError> {
     }
 }
 
+/// One PDO as boot maps it.
+pub struct PdoSpec<'a> {
+    /// Communication parameter index (0x1400.. / 0x1800..).
+    pub comm: u16,
+    /// Mapping parameter index (0x1600.. / 0x1A00..).
+    pub mapping: u16,
+    pub cob_id: u16,
+    pub layout: &'a PdoLayout,
+    pub transmission_type: u8,
+    /// TPDOs: inhibit time (sub 3, 100 µs units) and event timer (sub 5, ms); written while
+    /// the PDO is invalid (CiA 301 forbids changing the inhibit time of a valid PDO).
+    pub event_timing: Option<(u16, u16)>,
+}
+
 /// Maps one PDO in the CiA 301 sequence: COB-ID bit 31 set (invalid) → mapping sub0 = 0 →
-/// the layout's entries → sub0 = n → transmission type → COB-ID valid. The COB-ID's bit 30
-/// (RTR not allowed) is kept as the drive reports it.
+/// the layout's entries → sub0 = n → transmission type (and event timing) → COB-ID valid.
+/// The COB-ID's bit 30 (RTR not allowed) is kept as the drive reports it.
 pub fn map_pdo<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
     node: NodeId,
-    comm: u16,
-    mapping: u16,
-    cob_id: u16,
-    layout: &PdoLayout,
-    transmission_type: u8,
+    pdo: &PdoSpec<'_>,
 ) -> Result<(), SdoError> {
+    let (comm, mapping) = (pdo.comm, pdo.mapping);
     let current = sdo.read_u32(node, comm, 1)?;
-    let valid = (current & COB_NO_RTR) | cob_id as u32;
+    let valid = (current & COB_NO_RTR) | pdo.cob_id as u32;
     sdo.write_u32(node, comm, 1, valid | COB_INVALID)?;
     sdo.write_u8(node, mapping, 0, 0)?;
-    let entries = layout.entries();
+    let entries = pdo.layout.entries();
     let count = entries.len() as u8;
     for (i, e) in entries.enumerate() {
         sdo.write_u32(node, mapping, i as u8 + 1, e.to_u32())?;
     }
     sdo.write_u8(node, mapping, 0, count)?;
-    sdo.write_u8(node, comm, 2, transmission_type)?;
+    sdo.write_u8(node, comm, 2, pdo.transmission_type)?;
+    if let Some((inhibit_100us, event_timer_ms)) = pdo.event_timing {
+        sdo.write_u16(node, comm, 3, inhibit_100us)?;
+        sdo.write_u16(node, comm, 5, event_timer_ms)?;
+    }
     sdo.write_u32(node, comm, 1, valid)
 }
 
@@ -352,6 +400,9 @@ struct DriveSetup {
     master_timeout_ms: u16,
     /// The identity the config expects (checked before anything is written).
     identity: Option<ExpectedIdentity>,
+    pdo_layout: BusPdoLayout,
+    /// The compact layout's statusword event timer (ms).
+    refresh_ms: u16,
 }
 
 /// 0x1018 as read against the identity the config expects: the first sub-index that differs.
@@ -387,33 +438,60 @@ fn check_identity(
     Ok(())
 }
 
-/// RPDO1 and TPDO1 as the layouts say, synchronous; TPDO2..4 off.
+/// The PDOs of `layout`: standard = RPDO1 and TPDO1 as [`RPDO1_LAYOUT`] and
+/// [`TPDO1_LAYOUT`], synchronous, TPDO2..4 off; compact = RPDO1/TPDO1 target/position alone,
+/// synchronous, RPDO2 controlword and TPDO2 statusword event-driven (the statusword with the
+/// inhibit time the load plan counts and an event timer of `refresh_ms`), TPDO3..4 off.
 fn map_cyclic_pdos<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
     n: NodeId,
+    layout: BusPdoLayout,
+    refresh_ms: u16,
 ) -> Result<(), SdoError> {
     let id = n.get() as u16;
-    map_pdo(
-        sdo,
-        n,
-        obj::RPDO_COMMUNICATION,
-        obj::RPDO_MAPPING,
-        0x200 + id,
-        &RPDO1_LAYOUT,
-        SYNCHRONOUS_EVERY_SYNC,
-    )?;
-    map_pdo(
-        sdo,
-        n,
-        obj::TPDO_COMMUNICATION,
-        obj::TPDO_MAPPING,
-        0x180 + id,
-        &TPDO1_LAYOUT,
-        SYNCHRONOUS_EVERY_SYNC,
-    )?;
-    // TPDO2..4 off: a drive's default mapping would only add bus load (4 CSP axes at 1 ms
-    // already use ~97 % of 1 Mbit/s).
-    for p in 1..4u16 {
+    let pdo = |p: u16, rpdo: bool, layout, transmission_type, event_timing| PdoSpec {
+        comm: if rpdo {
+            obj::RPDO_COMMUNICATION
+        } else {
+            obj::TPDO_COMMUNICATION
+        } + p,
+        mapping: if rpdo {
+            obj::RPDO_MAPPING
+        } else {
+            obj::TPDO_MAPPING
+        } + p,
+        cob_id: if rpdo { 0x200 } else { 0x180 } + 0x100 * p + id,
+        layout,
+        transmission_type,
+        event_timing,
+    };
+    let sync = SYNCHRONOUS_EVERY_SYNC;
+    let first_unused_tpdo = match layout {
+        BusPdoLayout::Standard => {
+            map_pdo(sdo, n, &pdo(0, true, &RPDO1_LAYOUT, sync, None))?;
+            map_pdo(sdo, n, &pdo(0, false, &TPDO1_LAYOUT, sync, None))?;
+            1
+        }
+        BusPdoLayout::Compact => {
+            let timing = Some((COMPACT_TPDO2_INHIBIT_100US, refresh_ms));
+            map_pdo(sdo, n, &pdo(0, true, &COMPACT_RPDO1_LAYOUT, sync, None))?;
+            map_pdo(
+                sdo,
+                n,
+                &pdo(1, true, &COMPACT_RPDO2_LAYOUT, EVENT_DRIVEN, None),
+            )?;
+            map_pdo(sdo, n, &pdo(0, false, &COMPACT_TPDO1_LAYOUT, sync, None))?;
+            map_pdo(
+                sdo,
+                n,
+                &pdo(1, false, &COMPACT_TPDO2_LAYOUT, EVENT_DRIVEN, timing),
+            )?;
+            2
+        }
+    };
+    // The other TPDOs off: a drive's default mapping would only add bus load (4 CSP axes at
+    // 1 ms already use ~97 % of 1 Mbit/s with the standard layout).
+    for p in first_unused_tpdo..4u16 {
         let comm = obj::TPDO_COMMUNICATION + p;
         if let Some(cob) = optional(sdo.read_u32(n, comm, 1))?
             && cob & COB_INVALID == 0
@@ -514,7 +592,7 @@ fn configure<B: TimedBus + ?Sized>(
     let serial = optional(sdo.read_u32(n, obj::IDENTITY, 4))?;
     let name = optional(sdo.read_string(n, obj::DEVICE_NAME, 0))?;
 
-    map_cyclic_pdos(sdo, n)?;
+    map_cyclic_pdos(sdo, n, d.pdo_layout, d.refresh_ms)?;
     write_cyclic_parameters(sdo, d)?;
     let (supervises_master, abort_connection_quick_stop) = supervise_master(sdo, d)?;
     let initial_statusword = Statusword(sdo.read_u16(n, obj::STATUSWORD, 0)?);
@@ -682,6 +760,8 @@ impl Master {
                 0
             },
             identity: a.identity,
+            pdo_layout: self.pdo_layout,
+            refresh_ms: self.event_refresh_ms,
         }
     }
 
@@ -889,6 +969,7 @@ impl Master {
         self.phase = Phase::Enabling;
         for a in self.axes[..self.n_axes].iter_mut() {
             a.sequencer = EnableSequencer::new(Goal::OperationEnabled);
+            a.controlword_sent = None;
             a.quick_stop = false;
             a.tpdo_missing = 0;
             a.tpdo_this_cycle = false;

@@ -25,7 +25,10 @@ use cia402::{Controlword, Goal, Progress, State, Statusword};
 use cnc402_config::MAX_AXES;
 use cnc402_motion::to_counts_wrapping;
 
-use super::boot::{RPDO1_LAYOUT, TPDO1_LAYOUT};
+use super::boot::{
+    COMPACT_RPDO1_LAYOUT, COMPACT_RPDO2_LAYOUT, COMPACT_TPDO1_LAYOUT, COMPACT_TPDO2_LAYOUT,
+    RPDO1_LAYOUT, TPDO1_LAYOUT,
+};
 use super::sdo::{SdoError, SdoEvent};
 use super::stop::{SafetyStop, StopReason};
 use super::{COMMAND_HISTORY, Master, Phase, StopMode};
@@ -34,6 +37,7 @@ use crate::time::Instant;
 use crate::wire::{
     CanFrame, EmcyRepr, Function, HeartbeatRepr, NmtState, PdoObject, PdoValues, SyncRepr,
 };
+use cnc402_config::busload::PdoLayout as BusPdoLayout;
 
 /// What one cycle gives back, per axis (indexed like `config.axes`; `Copy`, no heap).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -108,13 +112,44 @@ fn parse_tpdo1(data: &[u8]) -> Option<(Statusword, i32)> {
     Some((Statusword(sw), pos))
 }
 
+/// The feedback PDOs of `layout`: (statusword, position) from TPDO `pdo` (1-based); each
+/// `None` when that PDO does not carry it; `None` as a whole when the frame does not fit.
+fn parse_feedback(
+    layout: BusPdoLayout,
+    pdo: u8,
+    data: &[u8],
+) -> Option<(Option<Statusword>, Option<i32>)> {
+    match (layout, pdo) {
+        (BusPdoLayout::Standard, 1) => parse_tpdo1(data).map(|(sw, pos)| (Some(sw), Some(pos))),
+        (BusPdoLayout::Compact, 1) => {
+            let v = COMPACT_TPDO1_LAYOUT.unpack(data).ok()?;
+            Some((None, Some(v.get(PdoObject::PositionActual)? as u32 as i32)))
+        }
+        (BusPdoLayout::Compact, 2) => {
+            let v = COMPACT_TPDO2_LAYOUT.unpack(data).ok()?;
+            Some((Some(Statusword(v.get(PdoObject::Statusword)? as u16)), None))
+        }
+        _ => None,
+    }
+}
+
 /// Encodes an RPDO1 by the layout boot mapped ([`RPDO1_LAYOUT`]).
 fn rpdo1(cob_id: u16, cw: Controlword, target: i32) -> CanFrame {
+    pdo_frame(&RPDO1_LAYOUT, cob_id, cw, target)
+}
+
+/// `layout` packed with the controlword and the target (each left out if not mapped).
+fn pdo_frame(
+    layout: &crate::wire::PdoLayout,
+    cob_id: u16,
+    cw: Controlword,
+    target: i32,
+) -> CanFrame {
     let values = PdoValues::new()
         .with(PdoObject::Controlword, cw.bits() as u64)
         .with(PdoObject::TargetPosition, target as u32 as u64);
-    let (data, len) = RPDO1_LAYOUT.pack(&values);
-    // The id is 0x200 + node (≤ 0x27F) and the layout at most 8 bytes.
+    let (data, len) = layout.pack(&values);
+    // The id is 0x200/0x300 + node (≤ 0x37F) and the layout at most 8 bytes.
     CanFrame::from_parts(cob_id, data, len)
 }
 
@@ -272,20 +307,24 @@ impl Master {
     /// next send phase, which also paces SDO traffic to one frame per drive per cycle).
     pub(crate) fn absorb(&mut self, frame: &CanFrame, now: Instant) {
         match frame.function() {
-            Function::Tpdo(1, node) => {
+            Function::Tpdo(pdo @ (1 | 2), node) => {
                 let Some(i) = self.slot_of(node) else {
                     self.unexpected_frames += 1;
                     return;
                 };
-                match parse_tpdo1(frame.data()) {
+                match parse_feedback(self.pdo_layout, pdo, frame.data()) {
                     Some((sw, pos)) => {
                         let a = &mut self.axes[i];
-                        a.statusword = Some(sw);
-                        a.set_actual_raw(pos);
-                        a.tpdo_this_cycle = true;
-                        a.tpdos = a.tpdos.wrapping_add(1);
-                        a.owed = a.owed.saturating_sub(1);
-                        a.window_tpdos = a.window_tpdos.saturating_add(1);
+                        if sw.is_some() {
+                            a.statusword = sw;
+                        }
+                        if let Some(pos) = pos {
+                            a.set_actual_raw(pos);
+                            a.tpdo_this_cycle = true;
+                            a.tpdos = a.tpdos.wrapping_add(1);
+                            a.owed = a.owed.saturating_sub(1);
+                            a.window_tpdos = a.window_tpdos.saturating_add(1);
+                        }
                     }
                     None => self.unexpected_frames += 1,
                 }
@@ -568,8 +607,24 @@ impl Master {
             let Some((cw, target)) = a.next_rpdo(self.phase, target) else {
                 continue;
             };
-            let cob = 0x200 + node.get() as u16;
-            if let Err(e) = bus.send(&rpdo1(cob, cw, target)) {
+            let id = node.get() as u16;
+            let sent = match self.pdo_layout {
+                BusPdoLayout::Standard => bus.send(&rpdo1(0x200 + id, cw, target)),
+                BusPdoLayout::Compact => {
+                    // The controlword when it changes, and every refresh period unchanged.
+                    a.controlword_refresh_in = a.controlword_refresh_in.saturating_sub(1);
+                    let cw_sent = if a.controlword_sent != Some(cw) || a.controlword_refresh_in == 0
+                    {
+                        a.controlword_sent = Some(cw);
+                        a.controlword_refresh_in = self.event_refresh_cycles;
+                        bus.send(&pdo_frame(&COMPACT_RPDO2_LAYOUT, 0x300 + id, cw, target))
+                    } else {
+                        Ok(())
+                    };
+                    cw_sent.and(bus.send(&pdo_frame(&COMPACT_RPDO1_LAYOUT, 0x200 + id, cw, target)))
+                }
+            };
+            if let Err(e) = sent {
                 err = err.or(Some(e));
             }
         }
@@ -777,7 +832,7 @@ impl Master {
 }
 
 /// Bits of one SDO request and its response (two 8-byte frames, worst-case stuffing).
-pub const SDO_EXCHANGE_BITS: f64 = 270.0;
+pub use cnc402_config::busload::SDO_EXCHANGE_BITS;
 
 fn no_drive(axis: usize, index: u16, sub: u8) -> SdoError {
     SdoError {

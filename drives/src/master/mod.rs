@@ -40,7 +40,8 @@ use cia402::{Controlword, EnableSequencer, Goal, Statusword};
 use cnc402_config::{ExpectedIdentity, MAX_AXES, MachineConfig};
 
 use crate::time::Instant;
-use crate::wire::{NmtState, NodeId, frame_bits};
+use crate::wire::{NmtState, NodeId};
+use cnc402_config::busload::{self, BusLoad, PdoLayout};
 
 pub use boot::{BootError, BootReport, DriveIdentity, InterpolationPeriod};
 pub use cyclic::Feedback;
@@ -183,6 +184,10 @@ pub(crate) struct AxisSlot {
     pub expected: f64,
     pub sequencer: EnableSequencer,
     pub controlword: Controlword,
+    /// Compact layout: the controlword last sent in RPDO2 (`None`: send it next cycle) and
+    /// the cycles until it is sent again unchanged (a lost RPDO2 heals within that).
+    pub controlword_sent: Option<Controlword>,
+    pub controlword_refresh_in: u32,
     pub quick_stop: bool,
     /// The last target sent (counts, wrapped).
     pub target: i32,
@@ -250,6 +255,8 @@ impl AxisSlot {
             expected: 0.0,
             sequencer: EnableSequencer::new(Goal::OperationEnabled),
             controlword: Controlword::DISABLE_VOLTAGE,
+            controlword_sent: None,
+            controlword_refresh_in: 0,
             quick_stop: false,
             target: 0,
             statusword: None,
@@ -341,6 +348,12 @@ pub struct Master {
     pub(crate) last_feedback: Feedback,
     pub(crate) cyclic_bits: f64,
     pub(crate) bits_per_cycle: f64,
+    /// What the cyclic PDOs carry (`bus.pdo_layout`).
+    pub(crate) pdo_layout: PdoLayout,
+    /// Compact layout: the statusword's event timer and the controlword's refresh (ms, and
+    /// in cycles).
+    pub(crate) event_refresh_ms: u16,
+    pub(crate) event_refresh_cycles: u32,
 }
 
 impl Master {
@@ -420,24 +433,17 @@ impl Master {
                 ));
             }
         }
-        let drives = axes[..config.axes.len()]
-            .iter()
-            .filter(|a| a.node.is_some())
-            .count() as f64;
-        let bits_per_cycle = config.bus.bitrate as f64 * config.bus.period_us as f64 * 1e-6;
         let master_node =
             NodeId::new(config.bus.master_node_id).map_err(|_| MasterConfigError::BadNode {
                 axis: ' ',
                 node: config.bus.master_node_id,
             })?;
-        // The drives' heartbeats and the master's own.
-        let heartbeats = if config.bus.heartbeat_ms > 0 {
-            (drives + 1.0) * frame_bits(1) as f64 * config.bus.period_us as f64
-                / (config.bus.heartbeat_ms as f64 * 1000.0)
-        } else {
-            0.0
-        };
-        let cyclic_bits = frame_bits(0) as f64 + drives * 2.0 * frame_bits(6) as f64 + heartbeats;
+        // SYNC, the PDOs and the heartbeats as the load plan counts them (the config was
+        // refused if they and the SDO reserve overload the bus); SDOs get what is left.
+        let plan = BusLoad::of_config(&config.bus, &config.axes, config.bus.pdo_layout);
+        let event_refresh_ms = busload::event_refresh_ms(&config.bus);
+        let bits_per_cycle = plan.capacity_bits();
+        let cyclic_bits = plan.traffic_bits();
         Ok(Master {
             sdo_free_bits: (bits_per_cycle - cyclic_bits).max(0.0),
             sdo_credit: 0.0,
@@ -463,6 +469,11 @@ impl Master {
             syncs: 0,
             stop: None,
             unexpected_frames: 0,
+            pdo_layout: config.bus.pdo_layout,
+            event_refresh_ms,
+            event_refresh_cycles: (u32::from(event_refresh_ms) * 1000
+                / config.bus.period_us.max(1))
+            .max(1),
         })
     }
 

@@ -131,11 +131,9 @@ impl CanFrame {
     }
 }
 
-/// Bits a classic 11-bit frame with `n` data bytes occupies, worst-case bit stuffing and
-/// intermission included (≈ 55 + 10·n: SYNC 55, a 6-byte PDO 115, an 8-byte PDO 135).
-pub const fn frame_bits(n: usize) -> u32 {
-    55 + 10 * (if n > 8 { 8 } else { n }) as u32
-}
+/// Bits a classic 11-bit frame with `n` data bytes occupies (worst-case stuffing,
+/// intermission): the bus-load plan's arithmetic, kept in one place in `cnc402_config`.
+pub use cnc402_config::busload::frame_bits;
 
 impl fmt::Debug for CanFrame {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

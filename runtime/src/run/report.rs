@@ -99,6 +99,7 @@ pub(super) fn build_report(
             .collect(),
         bus_frames: end.counters.bus_frames,
         bus_load_percent: end.counters.load_percent(end.bitrate, end.elapsed),
+        bus_planned_percent: cnc402_config::busload::BusLoad::of_machine(cfg).percent(),
         wakeup_latency: end.latency,
         realtime_grant: end.grant.clone(),
         starved_ticks: end.starved,
