@@ -11,6 +11,7 @@ mod bus;
 mod check;
 mod cutter_comp;
 mod error;
+pub mod exit;
 mod interp;
 mod mcodes;
 mod planner;
