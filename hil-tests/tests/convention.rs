@@ -46,6 +46,11 @@ fn simdrive_ends_with_the_shared_codes() {
             String::from_utf8_lossy(&o.stderr)
         );
     }
+    let help = String::from_utf8_lossy(&simdrive(&["--help"], None).stdout).into_owned();
+    assert!(
+        help.contains("Exit codes (") && help.contains("9   check failed"),
+        "{help}"
+    );
     let v = simdrive(&["--version"], None);
     assert!(String::from_utf8_lossy(&v.stdout).starts_with("simdrive "));
 }

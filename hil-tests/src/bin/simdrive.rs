@@ -24,13 +24,17 @@ use cnc402_hil::simdrive::{
     parse_start_in_fault,
 };
 
+/// The example of `--help` (`--help` adds the exit codes).
+const EXAMPLE: &str = "Example:\n  simdrive --config config/machine.toml --iface vcan0 --report drive.json \\\n      --fault 3:fault:0x7300@2.5 --boot-delay 2:1.5 --start-in-fault 1";
+
 /// Command line of simdrive.
 #[derive(Parser, Debug)]
 #[command(
     name = "simdrive",
     version,
     about = "Simulated CiA 402 drives on a CAN interface, with coupling, SYNC and protocol checks",
-    after_help = "Example:\n  simdrive --config config/machine.toml --iface vcan0 --report drive.json \\\n      --fault 3:fault:0x7300@2.5 --boot-delay 2:1.5 --start-in-fault 1"
+    after_help = EXAMPLE,
+    after_long_help = format!("{EXAMPLE}\n\n{}", exit::help_table())
 )]
 struct Args {
     /// Machine description (one drive per axis with a node id).
