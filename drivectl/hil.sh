@@ -9,9 +9,9 @@
 #   (or, as a suite scenario: hil-tests/run.sh suite --no-build drivectl/hil.sh)
 #
 # Checks: SocketCanBus (examples/sockcheck.rs: order, completeness, SDO during PDOs); scan finds the four drives of config/machine.toml; info; SDO read (expedited and
-# segmented), write, abort (exit 3) and absent node (exit 4); enable/state/disable step by
+# segmented), write, abort (exit 6) and absent node (exit 7); enable/state/disable step by
 # step; mode csp; a short CSP move; a drive faulted by the peer: EMCY seen by `emcy`, state
-# FAULT, enable refused (exit 5), fault-reset; `monitor --log` in candump format (emcy and
+# FAULT, enable refused (exit 1), fault-reset; `monitor --log` in candump format (emcy and
 # monitor listen from before the peer starts until SIGINT after these checks); with simdrive,
 # its report (no protocol errors from all this traffic, frames for other nodes apart). Prints
 # "drivectl HIL: N passed, M failed" and exits 1 if any failed.
@@ -113,16 +113,16 @@ hil_wait_ready peer "$peer_ready" 30 || { bad "peer did not start"; hil_log peer
 # emcy_seen: the listener has the EMCY 0x7300 (29440) of node 4.
 emcy_seen() { grep '"code":29440' "$out/emcy.log" 2>/dev/null | grep -q '"node":4'; }
 
-# The kernel has CAN here: a missing interface is named as such (exit 6), not errno 97.
-expect no-such-iface 6 'cannot open CAN interface nosuch0: no such interface' -- "$dc" --iface nosuch0 scan
+# The kernel has CAN here: a missing interface is named as such (exit 4), not errno 97.
+expect no-such-iface 4 'cannot open CAN interface nosuch0: no such interface' -- "$dc" --iface nosuch0 scan
 expect scan 0 'node 4 \(C\).*CiA 402' -- "${D[@]}" scan --listen-ms 100
 expect scan-json 0 '"nodes":\[\{"axis":"X"' -- "${D[@]}" --json scan --listen-ms 50
 expect info 0 'supported modes +0x00000080' -- "${D[@]}" info 3
 expect sdo-read-segmented 0 '"cnc402 simdrive Z"' -- "${D[@]}" sdo read 3 1008
 expect sdo-write 0 'expedited' -- "${D[@]}" sdo write 3 0x1017 u16 100
 expect sdo-readback 0 '= 100 ' -- "${D[@]}" sdo read 3 0x1017
-expect sdo-abort 3 '0x06020000' -- "${D[@]}" sdo read 3 0x2000
-expect sdo-absent 4 'node 9: SDO read of 0x1000:00: no response' -- "${D[@]}" --timeout-ms 100 sdo read 9 0x1000
+expect sdo-abort 6 '0x06020000' -- "${D[@]}" sdo read 3 0x2000
+expect sdo-absent 7 'node 9: SDO read of 0x1000:00: no response' -- "${D[@]}" --timeout-ms 100 sdo read 9 0x1000
 expect mode 0 'confirmed by 0x6061' -- "${D[@]}" mode 3 csp
 expect enable 0 'reached 0x[0-9a-f]{4} \(OPERATION ENABLED\)' -- "${D[@]}" enable 3
 expect state 0 'OPERATION ENABLED' -- "${D[@]}" state 3
@@ -132,7 +132,7 @@ expect move 0 'done from' -- "${D[@]}" move 1 2
 # listener has seen it.
 hil_wait_until peer 60 emcy_seen || bad "no EMCY 0x7300 from node 4 within 60 s of the checks (the peer's fault)"
 expect state-fault 0 'FAULT: error code 0x603F = 0x7300' -- "${D[@]}" state 4
-expect enable-fault 5 'drive in 0x0208 \(FAULT\)' -- "${D[@]}" enable 4
+expect enable-fault 1 'drive in 0x0208 \(FAULT\)' -- "${D[@]}" enable 4
 expect fault-reset 0 'fault reset → 0x0240' -- "${D[@]}" fault-reset 4
 
 # The listeners' part is over: Ctrl-C (SIGINT) to both, which end with exit 0.

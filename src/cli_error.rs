@@ -2,27 +2,8 @@
 
 use std::process::ExitCode;
 
-/// Documented exit codes (README.md, "Exit codes").
-pub mod exit {
-    /// The machine stopped during `run`: a drive fault or safety reaction, or the operator's
-    /// SIGINT (Ctrl-C). SIGINT is deliberately 1 and not the shell's 130: it is handled, not
-    /// fatal — the path decelerates (a tap stays coupled), every drive gets quick stop, the
-    /// drives are disabled and the report is written, exactly as for a fault. Also when the
-    /// real-time loop's clock fails ("real-time clock failed: …"; the drives are disabled).
-    pub const FAULT: u8 = 1;
-    /// Parse, interpreter or planning error.
-    pub const PROGRAM: u8 = 2;
-    /// The machine config is wrong.
-    pub const CONFIG: u8 = 3;
-    /// A file cannot be read or written, or the CAN interface cannot be opened (missing
-    /// interface; a kernel without AF_CAN, errno 97).
-    pub const IO: u8 = 4;
-    /// `cnc402 which`: no path passes within `--within` of the point (the message says how
-    /// far the nearest is).
-    pub const FAR: u8 = 5;
-    /// Bad command-line usage.
-    pub const USAGE: u8 = 64;
-}
+/// The exit codes, shared with `drivectl` and `simdrive` (docs/exit-codes.md).
+pub use cnc402_config::exit;
 
 #[derive(Debug)]
 pub enum CliError {

@@ -190,7 +190,7 @@ fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
-            let code = if e.use_stderr() { exit::USAGE } else { 0 };
+            let code = exit::for_clap(e.use_stderr());
             let _ = e.print();
             return ExitCode::from(code);
         }

@@ -12,6 +12,7 @@ pub mod busload;
 mod check;
 mod cutter_comp;
 mod error;
+pub mod exit;
 mod interp;
 mod mcodes;
 mod planner;

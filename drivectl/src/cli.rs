@@ -26,7 +26,7 @@ a drive that stops answering SDO, a drive already enabled).
 
 /// Exit code table and the notes above, shown by `--help`.
 fn long_after_help() -> String {
-    format!("{AFTER_HELP}\n{}", crate::error::EXIT_CODE_TABLE)
+    format!("{AFTER_HELP}\n{}", cnc402_config::exit::help_table())
 }
 
 /// drivectl: diagnose and commission CANopen CiA 402 drives.

@@ -57,14 +57,14 @@ impl Eds {
     pub fn load(path: &Path) -> Result<Eds> {
         let bytes = std::fs::read(path).map_err(|e| {
             CliError::new(
-                Exit::File,
+                Exit::Config,
                 format!("cannot read EDS {}: {e}", path.display()),
             )
         })?;
         // EDS files are often Latin-1: decode lossily rather than refuse them.
         let text = String::from_utf8_lossy(&bytes);
         Eds::parse(&text).map_err(|(line, m)| {
-            CliError::new(Exit::File, format!("{}:{line}: {m}", path.display()))
+            CliError::new(Exit::Config, format!("{}:{line}: {m}", path.display()))
         })
     }
 

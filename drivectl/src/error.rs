@@ -1,50 +1,57 @@
 //! drivectl's errors: every failure carries a message in protocol terms (node, object, abort
-//! code and name, state) and one of the documented exit codes ([`Exit`]).
+//! code and name, state) and a cause ([`Exit`]) that maps to one of the exit codes shared by
+//! all binaries (docs/exit-codes.md).
 
 use core::fmt;
 
+use cnc402_config::exit;
 use cnc402_drives::bus::BusError;
 use cnc402_drives::master::{BootError, SdoError, SdoErrorKind, SequenceError};
 
-/// Exit codes (also in `drivectl --help` and README.md).
+/// What ended a command; [`Exit::code`] maps each cause onto the exit codes all binaries of
+/// the workspace share (`cnc402_config::exit`, docs/exit-codes.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Exit {
-    /// 0: success.
-    Ok = 0,
-    /// 1: an error not covered below (internal, I/O on a log file).
-    Other = 1,
-    /// 2: bad command line (clap's own usage errors use 2 too), value out of range, target
-    /// outside the soft limits.
-    Usage = 2,
-    /// 3: the drive aborted an SDO transfer (abort code and name printed).
-    SdoAbort = 3,
-    /// 4: no answer in time: absent node, SDO timeout, no boot-up / heartbeat.
-    Timeout = 4,
-    /// 5: the drive is in the wrong state: stuck in a CiA 402 state, in FAULT, refuses a mode,
+    /// Success.
+    Ok,
+    /// A bad command line, a value out of range for its type, a target outside the soft
+    /// limits.
+    Usage,
+    /// The drive aborted an SDO transfer (abort code and name printed).
+    SdoAbort,
+    /// No answer in time: absent node, SDO timeout, no boot-up / heartbeat.
+    Timeout,
+    /// The drive is in the wrong state: stuck in a CiA 402 state, in FAULT, refuses a mode,
     /// a safety stop during jog/move/identify, identify on a drive that is not enabled.
-    DriveState = 5,
-    /// 6: the CAN transport failed: interface missing, kernel without CAN, bus-off, down.
-    Bus = 6,
-    /// 7: protocol error: wrong data type/size, SDO protocol violation, not a CiA 402 device.
-    Protocol = 7,
-    /// 8: a file could not be read or parsed (machine config, EDS/DCF).
-    File = 8,
+    DriveState,
+    /// The CAN transport failed: interface missing, kernel without CAN, bus-off, down.
+    Bus,
+    /// Protocol error: wrong data type/size, SDO protocol violation, not a CiA 402 device.
+    Protocol,
+    /// The machine config or an EDS/DCF is unreadable or invalid.
+    Config,
+    /// A local file or the terminal failed (the `--log` file, the TUI).
+    Io,
+    /// A master state drivectl should never meet (busy, no bus capacity, no drive).
+    Internal,
 }
 
-/// The exit code table as printed in `--help`.
-pub const EXIT_CODE_TABLE: &str = "\
-Exit codes:
-  0  success
-  1  other error (internal, writing the log file)
-  2  usage: bad arguments, value out of range for its type, target outside soft limits
-  3  SDO abort: the drive refused the transfer (abort code and its name are printed)
-  4  timeout: absent node, no SDO response, no boot-up or heartbeat in time
-  5  drive state: stuck in a CiA 402 state (state and why printed), drive in FAULT,
-     mode refused or not confirmed by 0x6061, safety stop during jog/move/identify,
-     identify on a drive that is not enabled
-  6  CAN transport: no such interface, kernel without CAN (errno 97), bus-off, down
-  7  protocol: wrong data type/size, SDO protocol violation, not a CiA 402 device
-  8  file: machine config or EDS/DCF unreadable or invalid";
+impl Exit {
+    /// The process exit code of this cause.
+    pub fn code(self) -> u8 {
+        match self {
+            Exit::Ok => exit::OK,
+            Exit::Usage => exit::USAGE,
+            Exit::SdoAbort => exit::SDO_ABORT,
+            Exit::Timeout => exit::TIMEOUT,
+            Exit::DriveState => exit::FAULT,
+            Exit::Bus | Exit::Io => exit::IO,
+            Exit::Protocol => exit::PROTOCOL,
+            Exit::Config => exit::CONFIG,
+            Exit::Internal => exit::INTERNAL,
+        }
+    }
+}
 
 /// A failure: exit code plus message.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -63,19 +70,19 @@ impl CliError {
             message: message.into(),
         }
     }
-    /// Exit 2.
+    /// A usage error.
     pub fn usage(m: impl Into<String>) -> CliError {
         CliError::new(Exit::Usage, m)
     }
-    /// Exit 5.
+    /// The drive is in the wrong state.
     pub fn state(m: impl Into<String>) -> CliError {
         CliError::new(Exit::DriveState, m)
     }
-    /// Exit 4.
+    /// No answer in time.
     pub fn timeout(m: impl Into<String>) -> CliError {
         CliError::new(Exit::Timeout, m)
     }
-    /// Exit 7.
+    /// A protocol error.
     pub fn protocol(m: impl Into<String>) -> CliError {
         CliError::new(Exit::Protocol, m)
     }
@@ -83,14 +90,15 @@ impl CliError {
     pub fn kind(&self) -> &'static str {
         match self.exit {
             Exit::Ok => "ok",
-            Exit::Other => "other",
             Exit::Usage => "usage",
             Exit::SdoAbort => "sdo_abort",
             Exit::Timeout => "timeout",
             Exit::DriveState => "drive_state",
             Exit::Bus => "bus",
             Exit::Protocol => "protocol",
-            Exit::File => "file",
+            Exit::Config => "config",
+            Exit::Io => "io",
+            Exit::Internal => "internal",
         }
     }
     /// Prefixes the message with context.
@@ -116,7 +124,7 @@ pub fn sdo_exit(kind: &SdoErrorKind) -> Exit {
         SdoErrorKind::Protocol { .. } | SdoErrorKind::WrongSize { .. } => Exit::Protocol,
         SdoErrorKind::Bus(_) => Exit::Bus,
         SdoErrorKind::Busy | SdoErrorKind::NoBusCapacity { .. } | SdoErrorKind::NoDrive { .. } => {
-            Exit::Other
+            Exit::Internal
         }
     }
 }

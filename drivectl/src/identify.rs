@@ -196,7 +196,7 @@ fn check_enabled(ctx: &mut Ctx, node: u8) -> Result<()> {
     }
 }
 
-/// The stroke `req` asks for on `axis` (exit 2 when it is no distance or the duration is
+/// The stroke `req` asks for on `axis` (a usage error when it is no distance or the duration is
 /// out of range), checked before the bus is asked anything.
 fn amplitude_of(req: &Request, axis: &AxisConfig) -> Result<f64> {
     let amplitude = req.amplitude.unwrap_or(axis.following_error_window);
@@ -214,7 +214,7 @@ fn amplitude_of(req: &Request, axis: &AxisConfig) -> Result<f64> {
     Ok(amplitude)
 }
 
-/// The strokes for `req` on `axis` from `start`, refused (exit 2) outside the axis limits.
+/// The strokes for `req` on `axis` from `start`, refused (a usage error) outside the axis limits.
 fn plan(req: &Request, axis: &AxisConfig, lim: Limits, start: f64) -> Result<Strokes> {
     let amplitude = amplitude_of(req, axis)?;
     let end = start + amplitude;

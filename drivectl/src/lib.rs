@@ -111,7 +111,7 @@ pub fn load_config(cli: &Cli) -> Result<MachineConfig> {
     if !path.exists() && path.as_os_str() == cnc402_config::DEFAULT_PATH {
         return Ok(MachineConfig::default_machine());
     }
-    MachineConfig::load(path).map_err(|e| CliError::new(Exit::File, e.to_string()))
+    MachineConfig::load(path).map_err(|e| CliError::new(Exit::Config, e.to_string()))
 }
 
 /// Runs a parsed command line. `interrupted` is set by the caller's Ctrl-C handler.
@@ -137,6 +137,12 @@ pub fn run(cli: Cli, interrupted: Arc<AtomicBool>) -> Result<()> {
             .timeout_ms
             .unwrap_or(cfg.bus.sdo_timeout_ms as u64)
             .max(1),
+    );
+    log::debug!(
+        "config {}: {} axes; interface {iface}, SDO timeout {} ms",
+        cfg.path.display(),
+        cfg.axes.len(),
+        timeout.as_millis()
     );
     let link = Link::open(&iface, &cfg, &cli.global.sim_setup)?;
     let mut ctx = Ctx {

@@ -5,10 +5,19 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
+use cnc402_config::exit;
 use drivectl::cli::Cli;
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // RUST_LOG as in cnc402 (default: warnings only).
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(exit::for_clap(e.use_stderr()));
+        }
+    };
     let json = cli.global.json;
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();
@@ -24,11 +33,11 @@ fn main() -> ExitCode {
             if json {
                 println!(
                     "{}",
-                    serde_json::json!({ "error": { "kind": e.kind(), "message": e.message, "exit": e.exit as u8 } })
+                    serde_json::json!({ "error": { "kind": e.kind(), "message": e.message, "exit": e.exit.code() } })
                 );
             }
             eprintln!("drivectl: error: {e}");
-            ExitCode::from(e.exit as u8)
+            ExitCode::from(e.exit.code())
         }
     }
 }

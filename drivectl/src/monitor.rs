@@ -59,17 +59,12 @@ fn log_time(sim: bool, wall0: SystemTime, start: Instant, t: Instant) -> f64 {
 }
 
 /// Creates the `--log` file (buffered, written under a temporary name and put in place whole
-/// when the capture ends, however it ends); an error is exit 1 naming the path.
+/// when the capture ends, however it ends); an error is an I/O error naming the path.
 fn create_log(log: Option<&Path>) -> Result<Option<AtomicFile>> {
     log.map(|p| {
         AtomicFile::create(p)
             .map(AtomicFile::commit_on_drop)
-            .map_err(|e| {
-                CliError::new(
-                    Exit::Other,
-                    format!("cannot create log {}: {e}", p.display()),
-                )
-            })
+            .map_err(|e| CliError::new(Exit::Io, format!("cannot create log {}: {e}", p.display())))
     })
     .transpose()
 }
@@ -389,7 +384,7 @@ pub fn monitor(
     );
     if let Some(e) = log_err {
         return Err(CliError::new(
-            Exit::Other,
+            Exit::Io,
             format!("writing the log failed: {e}"),
         ));
     }
@@ -505,8 +500,8 @@ pub fn monitor_tui(ctx: &mut Ctx, log: Option<&Path>, duration: Option<f64>) -> 
     );
     let end = duration.map(|d| start + d);
     let mut terminal = ratatui::try_init()
-        .map_err(|e| CliError::new(Exit::Other, format!("cannot start the TUI: {e}")))?;
-    let ui_err = |e: std::io::Error| CliError::new(Exit::Other, format!("terminal: {e}"));
+        .map_err(|e| CliError::new(Exit::Io, format!("cannot start the TUI: {e}")))?;
+    let ui_err = |e: std::io::Error| CliError::new(Exit::Io, format!("terminal: {e}"));
     let mut on = |ctx: &mut Ctx, ev: Event<'_>| -> Result<()> {
         match ev {
             Event::Frame(t, f) => {
@@ -514,7 +509,7 @@ pub fn monitor_tui(ctx: &mut Ctx, log: Option<&Path>, duration: Option<f64>) -> 
                 if let Some(w) = log.as_mut() {
                     let ts = log_time(sim, wall0, start, t);
                     writeln!(w, "{}", candump_line(ts, &iface, f)).map_err(|e| {
-                        CliError::new(Exit::Other, format!("writing the log failed: {e}"))
+                        CliError::new(Exit::Io, format!("writing the log failed: {e}"))
                     })?;
                 }
             }
@@ -538,7 +533,7 @@ pub fn monitor_tui(ctx: &mut Ctx, log: Option<&Path>, duration: Option<f64>) -> 
     ratatui::restore();
     if let Some(w) = log {
         w.commit()
-            .map_err(|e| CliError::new(Exit::Other, format!("writing the log failed: {e}")))?;
+            .map_err(|e| CliError::new(Exit::Io, format!("writing the log failed: {e}")))?;
     }
     r.map(|_| ())
 }

@@ -72,7 +72,7 @@ pub(crate) fn limits(axis: &AxisConfig) -> Result<Limits> {
         Ok(l)
     } else {
         Err(CliError::new(
-            Exit::File,
+            Exit::Config,
             format!("axis {}: limits {l:?} are not all positive", axis.name),
         ))
     }
@@ -171,7 +171,7 @@ pub(crate) fn boot_one(ctx: &mut Ctx, node: u8, axis: &AxisConfig) -> Result<Mas
         ..MasterOptions::default()
     };
     let mut m = Master::with_options(&one, options)
-        .map_err(|e| CliError::new(Exit::File, e.to_string()))?;
+        .map_err(|e| CliError::new(Exit::Config, e.to_string()))?;
     if !ctx.json {
         ctx.say(format!(
             "{}: boot (reset communication, PDO mapping, CSP), enable",

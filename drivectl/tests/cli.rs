@@ -86,7 +86,7 @@ fn scan_finds_every_configured_drive_with_identity() {
 #[test]
 fn scan_of_absent_nodes_times_out_naming_them() {
     let o = sim(&["scan", "--nodes", "9,10"]);
-    check(&o, 4, "no node answered on sim (probed 2 node id(s)");
+    check(&o, 7, "no node answered on sim (probed 2 node id(s)");
 }
 
 #[test]
@@ -121,11 +121,11 @@ fn info_of_an_absent_node_times_out_naming_it() {
     let o = sim(&["info", "9"]);
     check(
         &o,
-        4,
+        7,
         "node 9: SDO read of 0x1000:00: no response within 100 ms",
     );
     let o = sim(&["--json", "--timeout-ms", "30", "info", "9"]);
-    assert_eq!(o.code, 4);
+    assert_eq!(o.code, 7);
     let j = o.json();
     assert_eq!(j["error"]["kind"], "timeout");
     assert!(j["error"]["message"].as_str().unwrap().contains("30 ms"));
@@ -153,20 +153,20 @@ fn sdo_errors_name_abort_codes_and_types() {
     let o = sim(&["sdo", "read", "3", "0x2000"]);
     check(
         &o,
-        3,
+        6,
         "aborted by the drive with 0x06020000 (object does not exist",
     );
     let o = sim(&["sdo", "write", "3", "0x6041", "u16", "1"]);
-    check(&o, 3, "0x06010002 (attempt to write a read-only object)");
+    check(&o, 6, "0x06010002 (attempt to write a read-only object)");
     let o = sim(&["sdo", "read", "3", "0x6041", "u32"]);
-    check(&o, 7, "wrong data type: the drive returned 2 byte(s)");
+    check(&o, 8, "wrong data type: the drive returned 2 byte(s)");
     let o = sim(&["sdo", "write", "3", "0x6065", "u8", "300"]);
-    check(&o, 2, "outside 0..=255");
+    check(&o, 64, "outside 0..=255");
     let o = sim(&["sdo", "read", "3", "0x6041", "float128"]);
-    check(&o, 2, "unknown data type `float128`");
+    check(&o, 64, "unknown data type `float128`");
     // A segmented download (string > 4 bytes) to a read-only object: the abort comes back.
     let o = sim(&["sdo", "write", "3", "0x1008", "string", "new name"]);
-    check(&o, 3, "SDO write of 0x1008:00");
+    check(&o, 6, "SDO write of 0x1008:00");
     let o = sim(&["--json", "sdo", "read", "3", "0x2000"]);
     assert_eq!(o.json()["error"]["kind"], "sdo_abort");
 }
@@ -191,7 +191,7 @@ fn eds_names_and_types_are_used() {
     check(&o, 0, "Status word (ACME)");
     // The EDS says 0x2100 is an INTEGER16 named "Drive temperature"; the sim lacks it.
     let o = sim(&["--eds", e, "sdo", "read", "3", "0x2100"]);
-    check(&o, 3, "0x06020000");
+    check(&o, 6, "0x06020000");
     let o = dc(&["eds", e]);
     check(&o, 0, "ACME Servo 9");
     assert!(o.stdout.contains("Drive temperature"));
@@ -199,7 +199,7 @@ fn eds_names_and_types_are_used() {
     let j = dc(&["--json", "eds", e]).json();
     assert!(j["objects"].as_array().unwrap().len() >= 5);
     let o = dc(&["eds", "drivectl/tests/data/broken.eds"]);
-    check(&o, 8, "broken.eds:3: expected KEY=VALUE");
+    check(&o, 3, "broken.eds:3: expected KEY=VALUE");
 }
 
 #[test]
@@ -209,7 +209,7 @@ fn nmt_reset_waits_for_the_boot_up() {
     let j = sim(&["--json", "nmt", "reset", "all"]).json();
     assert_eq!(j["seen"].as_array().unwrap().len(), 4);
     let o = sim(&["nmt", "reset", "9"]);
-    check(&o, 4, "node 9: no boot-up within");
+    check(&o, 7, "node 9: no boot-up within");
     check(
         &sim(&["nmt", "start", "3"]),
         0,
@@ -249,7 +249,7 @@ fn a_drive_in_fault() {
     let o = sim(&["--sim-setup", "fault:2:0x2310", "state", "2"]);
     check(&o, 0, "FAULT: error code 0x603F = 0x2310 (current)");
     let o = sim(&["--sim-setup", "fault:2:0x2310", "enable", "2"]);
-    check(&o, 5, "drive in 0x0208 (FAULT) (error code 0x603F = 0x2310");
+    check(&o, 1, "drive in 0x0208 (FAULT) (error code 0x603F = 0x2310");
     let o = sim(&["--sim-setup", "fault:2:0x2310", "fault-reset", "2"]);
     check(&o, 0, "fault reset → 0x0240 (SWITCH ON DISABLED)");
     let o = sim(&["--sim-setup", "fault:2", "enable", "2", "--fault-reset"]);
@@ -266,7 +266,7 @@ fn a_drive_in_fault() {
     ]);
     check(
         &o,
-        5,
+        1,
         "stuck in FAULT: fault reset edge sent, the fault persists",
     );
     assert!(o.stderr.contains("0x4310 (temperature)"), "{}", o.stderr);
@@ -279,14 +279,14 @@ fn a_drive_in_fault() {
         "--within-ms",
         "100",
     ]);
-    check(&o, 5, "stuck in FAULT");
+    check(&o, 1, "stuck in FAULT");
     assert!(o.stderr.contains("fault persists"), "{}", o.stderr);
 }
 
 #[test]
 fn a_drive_that_stops_answering_sdo_times_out_naming_it() {
     let o = sim(&["--sim-setup", "sdo:2", "enable", "2"]);
-    check(&o, 4, "node 2: SDO read of 0x6041:00: no response");
+    check(&o, 7, "node 2: SDO read of 0x6041:00: no response");
 }
 
 #[test]
@@ -294,12 +294,12 @@ fn a_mode_the_drive_refuses() {
     let o = sim(&["mode", "2", "pp"]);
     check(
         &o,
-        5,
+        1,
         "does not support profile position (1): 0x6502 = 0x00000080",
     );
     // Written anyway: the drive itself refuses with an abort.
     let o = sim(&["mode", "2", "homing", "--force"]);
-    check(&o, 3, "refused homing (6)");
+    check(&o, 6, "refused homing (6)");
     assert!(o.stderr.contains("0x06090030"), "{}", o.stderr);
     let j = sim(&["--json", "mode", "2", "csp"]).json();
     assert_eq!(j["mode"], 8);
@@ -326,14 +326,14 @@ fn move_and_jog_follow_a_jerk_limited_profile() {
     assert!(end < -3.0 && end > -6.0, "{j}");
     check(
         &sim(&["move", "1", "1000"]),
-        2,
+        64,
         "outside the soft limits -300..300",
     );
-    check(&sim(&["jog", "1", "--velocity", "900"]), 2, "outside ±250");
-    check(&sim(&["move", "9", "1"]), 2, "node 9 is not an axis");
+    check(&sim(&["jog", "1", "--velocity", "900"]), 64, "outside ±250");
+    check(&sim(&["move", "9", "1"]), 64, "node 9 is not an axis");
     // A drive whose TPDOs never come cannot be enabled through the cyclic master.
     let o = sim(&["--sim-setup", "tpdo:1", "move", "1", "1"]);
-    assert_eq!(o.code, 5, "{}", o.all());
+    assert_eq!(o.code, 1, "{}", o.all());
 }
 
 #[test]
@@ -407,7 +407,7 @@ fn monitor_logs_candump_format_and_emcy_decodes() {
 #[test]
 fn a_missing_interface_is_a_transport_error() {
     let o = dc(&["--iface", "nosuchcan0", "scan"]);
-    assert_eq!(o.code, 6, "{}", o.all());
+    assert_eq!(o.code, 4, "{}", o.all());
     assert!(
         o.stderr.contains("no CAN support (AF_CAN, errno 97)")
             || o.stderr.contains("nosuchcan0: no such interface"),
@@ -416,7 +416,7 @@ fn a_missing_interface_is_a_transport_error() {
     );
     check(
         &dc(&["--iface", "can0", "--sim-setup", "enable:1", "scan"]),
-        2,
+        64,
         "--sim-setup only applies",
     );
 }
@@ -424,7 +424,16 @@ fn a_missing_interface_is_a_transport_error() {
 #[test]
 fn help_has_examples_exit_codes_and_completions() {
     let o = dc(&["--help"]);
-    check(&o, 0, "Exit codes:");
+    check(&o, 0, "Exit codes (");
+    // The shared table, whole (docs/exit-codes.md).
+    for (code, name, _) in cnc402_config::exit::TABLE {
+        assert!(
+            o.stdout.lines().any(|l| l.split_whitespace().next() == Some(&code.to_string())
+                && l.contains(name)),
+            "exit {code} ({name}) missing from --help:\n{}",
+            o.stdout
+        );
+    }
     assert!(o.stdout.contains("--iface sim runs the embedded simulator"));
     for sub in [
         "scan",
@@ -455,8 +464,8 @@ fn help_has_examples_exit_codes_and_completions() {
     }
     let o = dc(&["completions", "bash"]);
     check(&o, 0, "_drivectl()");
-    assert_eq!(dc(&["info", "300"]).code, 2);
-    assert_eq!(dc(&["bogus"]).code, 2);
+    assert_eq!(dc(&["info", "300"]).code, 64);
+    assert_eq!(dc(&["bogus"]).code, 64);
 }
 
 #[test]
@@ -497,17 +506,17 @@ fn monitor_reads_pdo_mappings_from_the_drives() {
 #[test]
 fn json_errors_are_one_document_with_the_exit_code() {
     let cases: [(&[&str], i32, &str); 6] = [
-        (&["--json", "--iface", "sim", "info", "9"], 4, "timeout"),
+        (&["--json", "--iface", "sim", "info", "9"], 7, "timeout"),
         (
             &["--json", "--iface", "sim", "sdo", "read", "3", "0x2000"],
-            3,
+            6,
             "sdo_abort",
         ),
         (
             &[
                 "--json", "--iface", "sim", "sdo", "read", "3", "0x6041", "u32",
             ],
-            7,
+            8,
             "protocol",
         ),
         (
@@ -523,7 +532,7 @@ fn json_errors_are_one_document_with_the_exit_code() {
                 "--within-ms",
                 "50",
             ],
-            5,
+            1,
             "drive_state",
         ),
         (
@@ -537,10 +546,10 @@ fn json_errors_are_one_document_with_the_exit_code() {
                 "1",
                 "1",
             ],
-            5,
+            1,
             "drive_state",
         ),
-        (&["--json", "--iface", "nosuchcan0", "scan"], 6, "bus"),
+        (&["--json", "--iface", "nosuchcan0", "scan"], 4, "bus"),
     ];
     for (args, code, kind) in cases {
         let o = dc(args);
@@ -555,17 +564,17 @@ fn json_errors_are_one_document_with_the_exit_code() {
 fn unreadable_files_are_file_errors() {
     check(
         &sim(&["--config", "no/such/machine.toml", "scan"]),
-        8,
+        3,
         "no/such/machine.toml",
     );
     check(
         &sim(&["--eds", "no/such.eds", "scan"]),
-        8,
+        3,
         "cannot read EDS no/such.eds",
     );
     check(
         &sim(&["monitor", "--duration=-1"]),
-        2,
+        64,
         "--duration -1 is not a time",
     );
 }
@@ -575,12 +584,12 @@ fn sub_index_10_is_hex_as_the_help_says_not_decimal() {
     // It read 0x1018:0a; `:ff` was refused as a number above 255... of decimal digits.
     check(
         &sim(&["sdo", "read", "1", "0x1018:10"]),
-        3,
+        6,
         "SDO read of 0x1018:10",
     );
     check(
         &sim(&["sdo", "read", "1", "0x1018:ff"]),
-        3,
+        6,
         "SDO read of 0x1018:ff",
     );
     check(
@@ -588,7 +597,7 @@ fn sub_index_10_is_hex_as_the_help_says_not_decimal() {
         0,
         "0x1018:04",
     );
-    check(&sim(&["sdo", "read", "1", "1018:100"]), 2, "sub-index");
+    check(&sim(&["sdo", "read", "1", "1018:100"]), 64, "sub-index");
 }
 
 #[test]
@@ -616,7 +625,7 @@ fn timeout_ms_and_listen_ms_beyond_a_minute_are_usage_errors() {
         &["enable", "1", "--step-ms", "60001"],
     ] {
         let o = sim(args);
-        assert_eq!(o.code, 2, "{args:?}: {}", o.all());
+        assert_eq!(o.code, 64, "{args:?}: {}", o.all());
         assert!(o.stderr.contains("not in"), "{args:?}: {}", o.all());
     }
     check(
@@ -638,17 +647,17 @@ fn timeout_ms_and_listen_ms_beyond_a_minute_are_usage_errors() {
 fn durations_beyond_a_week_are_usage_errors() {
     check(
         &sim(&["emcy", "--duration", "1e18"]),
-        2,
+        64,
         "--duration 1000000000000000000 is too long",
     );
     check(
         &sim(&["monitor", "--stats-every", "1e300", "--duration", "0.01"]),
-        2,
+        64,
         "--stats-every",
     );
     check(
         &sim(&["jog", "3", "--velocity", "1", "--for", "1e12"]),
-        2,
+        64,
         "--for 1000000000000 is not a time in seconds",
     );
 }
@@ -658,9 +667,9 @@ fn move_4_1e12_is_beyond_the_drives_32_bit_position() {
     // The spindle has no soft limits: the move was taken and ran for 2.7e7 s.
     check(
         &sim(&["move", "4", "1e12"]),
-        2,
+        64,
         "beyond the drive's 32-bit position",
     );
-    check(&sim(&["move", "4", "-6e6"]), 2, "32-bit position");
-    check(&sim(&["move", "1", "1e12"]), 2, "outside the soft limits");
+    check(&sim(&["move", "4", "-6e6"]), 64, "32-bit position");
+    check(&sim(&["move", "1", "1e12"]), 64, "outside the soft limits");
 }

@@ -130,18 +130,18 @@ fn identify_finds_the_simulated_truth_within_20_percent() {
 #[test]
 fn identify_refuses_and_moves_nothing() {
     let path = repo().join("config/machine.toml");
-    // Not enabled: exit 5, named.
+    // Not enabled: exit 1 (drive state), named.
     let (code, _, err) = drivectl(&path, &["identify", "3"]);
-    assert_eq!(code, 5, "{err}");
+    assert_eq!(code, 1, "{err}");
     assert!(
         err.contains("not OPERATION ENABLED") && err.contains("nothing moved"),
         "{err}"
     );
-    // In FAULT: exit 5 with the error code.
+    // In FAULT: exit 1 with the error code.
     let (code, _, err) = drivectl(&path, &["--sim-setup", "fault:3:0x2310", "identify", "3"]);
-    assert_eq!(code, 5, "{err}");
+    assert_eq!(code, 1, "{err}");
     assert!(err.contains("FAULT") && err.contains("0x2310"), "{err}");
-    // Beyond the soft limits (Z max is +50 from 0): exit 2, before the bus is asked anything.
+    // Beyond the soft limits (Z max is +50 from 0): exit 64 (usage), before the bus is asked anything.
     let (code, _, err) = drivectl(
         &path,
         &[
@@ -153,7 +153,7 @@ fn identify_refuses_and_moves_nothing() {
             "60",
         ],
     );
-    assert_eq!(code, 2, "{err}");
+    assert_eq!(code, 64, "{err}");
     assert!(err.contains("soft limits"), "{err}");
     for bad in [
         ["--amplitude", "0"],
@@ -164,11 +164,11 @@ fn identify_refuses_and_moves_nothing() {
             &path,
             &["--sim-setup", "enable:3", "identify", "3", bad[0], bad[1]],
         );
-        assert_eq!(code, 2, "{bad:?}: {err}");
+        assert_eq!(code, 64, "{bad:?}: {err}");
     }
     // Not an axis of the config.
     let (code, _, err) = drivectl(&path, &["identify", "9"]);
-    assert_eq!(code, 2, "{err}");
+    assert_eq!(code, 64, "{err}");
     // A human run prints the line to paste.
     let (code, out, err) = drivectl(&path, &["--sim-setup", "enable:3", "identify", "3"]);
     assert_eq!(code, 0, "{err}");

@@ -7,7 +7,7 @@
 # simdrive's drives outlive the downed interface (counted in bus.down_events) and take the
 # decelerating path when it is back: Z and C stay coupled within one count at setpoint level
 # in cnc402's report. simdrive's own sends fail while the interface is down, so its "no
-# transmit errors" check fails and it exits 1: expected here, not judged.
+# transmit errors" check fails and it exits 9: expected here, not judged.
 source "$HIL_REPO/hil-tests/scenarios/common.bash"
 # Whatever happens below, the next scenarios get vcan0 up.
 trap 'ip link set "$HIL_IFACE" up 2>/dev/null' EXIT

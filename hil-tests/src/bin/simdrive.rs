@@ -4,8 +4,9 @@
 //! injects faults on command and writes a JSON report when it ends (SIGTERM, SIGINT,
 //! `--duration`).
 //!
-//! Exit codes: 0 every check passed; 1 a check failed (see the report); 2 bad arguments or
-//! config; 6 the interface could not be opened or failed; 4 the report could not be written.
+//! Exit codes (shared by all binaries, docs/exit-codes.md): 0 every check passed; 9 a check
+//! failed (see the report); 3 the config is wrong or lacks a node asked for; 4 the interface
+//! could not be opened or failed, or the report could not be written; 64 bad arguments.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -13,7 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use clap::Parser;
-use cnc402_config::MachineConfig;
+use cnc402_config::{MachineConfig, exit};
 use cnc402_drives::bus::{BusError, CanBus, CanDevice};
 use cnc402_drives::master::TimedBus;
 use cnc402_drives::socketcan::SocketCanBus;
@@ -23,11 +24,17 @@ use cnc402_hil::simdrive::{
     parse_start_in_fault,
 };
 
+/// The example of `--help` (`--help` adds the exit codes).
+const EXAMPLE: &str = "Example:\n  simdrive --config config/machine.toml --iface vcan0 --report drive.json \\\n      --fault 3:fault:0x7300@2.5 --boot-delay 2:1.5 --start-in-fault 1";
+
 /// Command line of simdrive.
 #[derive(Parser, Debug)]
 #[command(
+    name = "simdrive",
+    version,
     about = "Simulated CiA 402 drives on a CAN interface, with coupling, SYNC and protocol checks",
-    after_help = "Example:\n  simdrive --config config/machine.toml --iface vcan0 --report drive.json \\\n      --fault 3:fault:0x7300@2.5 --boot-delay 2:1.5 --start-in-fault 1"
+    after_help = EXAMPLE,
+    after_long_help = format!("{EXAMPLE}\n\n{}", exit::help_table())
 )]
 struct Args {
     /// Machine description (one drive per axis with a node id).
@@ -199,14 +206,23 @@ fn serve(
 }
 
 fn main() -> ExitCode {
-    let args = Args::parse();
+    // RUST_LOG as in cnc402 (default: warnings only).
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(exit::for_clap(e.use_stderr()));
+        }
+    };
     let cfg = match MachineConfig::load(&args.config) {
         Ok(c) => c,
         Err(e) => {
             eprintln!("simdrive: {e}");
-            return ExitCode::from(2);
+            return ExitCode::from(exit::CONFIG);
         }
     };
+    log::debug!("config {}: {} axes", cfg.path.display(), cfg.axes.len());
     let opts = HostOptions {
         faults: args.fault.clone(),
         fault_clock: match args.fault_clock.as_str() {
@@ -223,14 +239,14 @@ fn main() -> ExitCode {
         Ok(h) => h,
         Err(e) => {
             eprintln!("simdrive: {e}");
-            return ExitCode::from(2);
+            return ExitCode::from(exit::CONFIG);
         }
     };
     if let Some(d) = args.duration
         && !(d.is_finite() && d > 0.0)
     {
         eprintln!("simdrive: --duration must be a positive number of seconds");
-        return ExitCode::from(2);
+        return ExitCode::from(exit::USAGE);
     }
     let stats_every = match args.stats_every {
         None => None,
@@ -239,15 +255,16 @@ fn main() -> ExitCode {
         }
         Some(_) => {
             eprintln!("simdrive: --stats-every must be seconds from 0.01 to 86400");
-            return ExitCode::from(2);
+            return ExitCode::from(exit::USAGE);
         }
     };
     install_signals();
+    log::debug!("opening CAN interface {}", args.iface);
     let mut bus = match SocketCanBus::open(&args.iface) {
         Ok(b) => b,
         Err(e) => {
             eprintln!("simdrive: {e}");
-            return ExitCode::from(6);
+            return ExitCode::from(exit::IO);
         }
     };
     let granted = grants(args.no_rt, args.fifo_priority);
@@ -311,16 +328,16 @@ fn main() -> ExitCode {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
         if let Err(e) = cnc402_durable::write_atomic(path, (text + "\n").as_bytes()) {
             eprintln!("simdrive: cannot write {}: {e}", path.display());
-            return ExitCode::from(4);
+            return ExitCode::from(exit::IO);
         }
     }
     if let Some(f) = failure {
         eprintln!("simdrive: {f}");
-        return ExitCode::from(6);
+        return ExitCode::from(exit::IO);
     }
     if ok {
         ExitCode::SUCCESS
     } else {
-        ExitCode::from(1)
+        ExitCode::from(exit::CHECK_FAILED)
     }
 }
