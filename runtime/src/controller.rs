@@ -261,11 +261,11 @@ impl<L: DriveLink> CycleController<L> {
 
     /// The path is at speed between two blended moves and the ring may not hold the moves the
     /// next tick runs through (moves shorter than a period pass several a tick): it is neither
-    /// full nor holding the end of the blended chain (the program's end, a move that is not a
-    /// path move, or a path move that ends at rest — the feeder stops pushing before a buffer
-    /// stop such as M0, so waiting for more than that would wait forever). A tick now could pause the path for want of a move;
-    /// virtual time waits for the feeder instead, so a G64 run on the embedded simulator does
-    /// not depend on how fast the feeder thread plans. Allocation-free.
+    /// full nor holding the end of the blended chain (see [`ends_the_chain`]; the feeder stops
+    /// pushing before a buffer stop such as M0, so waiting for more would wait forever). A
+    /// tick now could pause the path for want of a move; virtual time waits for the feeder
+    /// instead, so a G64 run on the embedded simulator does not depend on how fast the feeder
+    /// thread plans. Allocation-free; the ring is scanned only between blended moves.
     pub fn short_of_moves(&self) -> bool {
         self.phase == Phase::Running
             && !self.held
