@@ -261,7 +261,7 @@ impl<L: DriveLink> CycleController<L> {
 
     /// The path is at speed between two blended moves and the ring may not hold the moves the
     /// next tick runs through (moves shorter than a period pass several a tick): it is neither
-    /// full nor holding the end of the blended chain (see [`ends_the_chain`]; the feeder stops
+    /// full nor holding the end of the blended chain (see `ends_the_chain`; the feeder stops
     /// pushing before a buffer stop such as M0, so waiting for more would wait forever). A
     /// tick now could pause the path for want of a move; virtual time waits for the feeder
     /// instead, so a G64 run on the embedded simulator does not depend on how fast the feeder
