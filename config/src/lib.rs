@@ -11,6 +11,7 @@ mod bus;
 pub mod busload;
 mod check;
 mod cutter_comp;
+pub mod eds;
 mod error;
 pub mod exit;
 mod interp;

@@ -1129,7 +1129,7 @@ fn set_mode(ctx: &mut Ctx, n: u8, m: ModeArg, force: bool) -> Result<()> {
 
 /// `drivectl eds FILE`: lists the objects.
 pub fn eds_list(path: &Path, json_out: bool) -> Result<()> {
-    let eds = crate::eds::Eds::load(path)?;
+    let eds = crate::eds::load(path)?;
     if json_out {
         let objects: Vec<Json> = eds
             .objects

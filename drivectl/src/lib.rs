@@ -124,7 +124,7 @@ pub fn run(cli: Cli, interrupted: Arc<AtomicBool>) -> Result<()> {
     }
     let cfg = load_config(&cli)?;
     let eds = match &cli.global.eds {
-        Some(p) => Some(eds::Eds::load(p)?),
+        Some(p) => Some(eds::load(p)?),
         None => None,
     };
     let iface = cli
