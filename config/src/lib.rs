@@ -10,6 +10,7 @@ mod axes;
 mod bus;
 pub mod busload;
 mod check;
+pub mod commissioning;
 mod cutter_comp;
 pub mod eds;
 mod error;
@@ -29,6 +30,7 @@ pub use axes::{
     MIN_MODEL_BANDWIDTH_HZ, SimDynamics,
 };
 pub use bus::BusConfig;
+pub use commissioning::{Commissioning, SdoWrite, SkippedParameter};
 pub use cutter_comp::{CompCorner, CompGouge, CompStartup, CutterComp};
 pub use error::ConfigError;
 pub use interp::{InterpDefaults, PathModeDefault, PlaneDefault, ReturnPlane, Units};
@@ -91,7 +93,7 @@ impl MachineConfig {
                 inner.message().to_string(),
             )
         })?;
-        validate(raw, path).map_err(|(span, key, message)| err(Some(span), key, message))
+        validate(raw, path, text).map_err(|(span, key, message)| err(Some(span), key, message))
     }
 
     /// Index of the axis named `letter` (upper case).
@@ -162,11 +164,12 @@ struct RawConfig {
 /// Validates the sections in file order of dependence: the bus first (the axes check their
 /// nodes against the master's), then the interpreter defaults, the axes, and the offsets
 /// (work offsets name axes).
-fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
+fn validate(raw: RawConfig, path: &Path, text: &str) -> Result<MachineConfig, Invalid> {
     let bus = raw.bus.validate()?;
     let interp = raw.interp.validate()?;
     let mut planner = raw.planner.validate()?;
-    let axes = axes::validate(&raw.axis, &bus)?;
+    let mut axes = axes::validate(&raw.axis, &bus)?;
+    commissioning::validate(&raw.axis, &mut axes, path, text)?;
     busload::check(&bus, &axes)
         .map_err(|m| (raw.bus.period_span(), "bus.period_us".to_string(), m))?;
     planner.match_axes = raw.planner.match_axes(&axes)?;
