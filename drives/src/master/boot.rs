@@ -10,8 +10,8 @@ use core::fmt;
 use core::time::Duration;
 
 use cia402::{EnableSequencer, Goal, Progress, State, Statusword, Stuck, objects as obj};
-use cnc402_config::ExpectedIdentity;
 use cnc402_config::busload::PdoLayout as BusPdoLayout;
+use cnc402_config::{ExpectedIdentity, SdoWrite};
 
 use super::sdo::{BlockingSdo, SdoError, SdoErrorKind};
 use super::stop::{Emcy, SafetyStop};
@@ -84,6 +84,11 @@ pub struct DriveIdentity {
     /// 0x6007 written to [`ABORT_CONNECTION_QUICK_STOP`]; `false`: the drive has no 0x6007
     /// and takes its own default reaction when the master falls silent.
     pub abort_connection_quick_stop: bool,
+    /// The commissioning writes made (the DCF's parameter values, then the config's `sdo`
+    /// list), after the master's own set-up.
+    pub commissioning_writes: usize,
+    /// The DCF's parameter values not written, and why (read-only, set by the master …).
+    pub skipped_parameters: Vec<cnc402_config::SkippedParameter>,
 }
 
 /// 0x6007 abort connection option code written at boot: 3 = quick stop (CiA 402: 0 no
@@ -165,6 +170,28 @@ pub enum BootError {
         /// Boot-up messages seen.
         boot_ups: u32,
     },
+    /// A commissioning write (DCF parameter value or config `sdo` entry) failed.
+    Commissioning {
+        /// Axis letter.
+        axis: char,
+        /// The write, with where it was asked for.
+        write: Box<SdoWrite>,
+        /// The failed transfer (node, object, abort code or timeout).
+        error: SdoError,
+    },
+    /// A PDO the drive will not remap, whose fixed mapping lacks what the master needs.
+    FixedMapping {
+        /// Axis letter.
+        axis: char,
+        /// Node id.
+        node: u8,
+        /// The PDO (`RPDO1`, `TPDO2` …).
+        pdo: String,
+        /// The mapping the drive has (index, sub, bits).
+        found: Vec<MappingEntry>,
+        /// What is missing or in the way.
+        problem: String,
+    },
     /// A monitor tripped while enabling.
     Stopped(SafetyStop),
     /// The transport failed.
@@ -245,6 +272,36 @@ impl fmt::Display for BootError {
                     ", the config expects {rule}{expected:#010x} (axis identity): another \
                      device than the one commissioned on this node"
                 )
+            }
+            BootError::Commissioning { axis, write, error } => {
+                write!(f, "axis {axis}: commissioning write ")?;
+                match &write.name {
+                    Some(n) => write!(f, "\"{n}\" ")?,
+                    None => {}
+                }
+                write!(
+                    f,
+                    "({}) from {} failed: {error}",
+                    write.data_type, write.origin
+                )
+            }
+            BootError::FixedMapping {
+                axis,
+                node,
+                pdo,
+                found,
+                problem,
+            } => {
+                write!(
+                    f,
+                    "axis {axis} (node {node}): {pdo} has a fixed mapping the drive will not \
+                     change ["
+                )?;
+                for (k, e) in found.iter().enumerate() {
+                    let sep = if k > 0 { ", " } else { "" };
+                    write!(f, "{sep}{:#06x}:{:02x}/{}", e.index, e.sub, e.bits)?;
+                }
+                write!(f, "], and it is unusable: {problem}")
             }
             BootError::Stopped(s) => write!(f, "while enabling: {s}"),
             BootError::Bus(e) => write!(f, "{e}"),
@@ -403,6 +460,8 @@ struct DriveSetup {
     pdo_layout: BusPdoLayout,
     /// The compact layout's statusword event timer (ms).
     refresh_ms: u16,
+    /// The commissioning writes (after the master's own set-up) and the DCF values skipped.
+    commissioning: cnc402_config::Commissioning,
 }
 
 /// 0x1018 as read against the identity the config expects: the first sub-index that differs.
@@ -595,6 +654,7 @@ fn configure<B: TimedBus + ?Sized>(
     map_cyclic_pdos(sdo, n, d.pdo_layout, d.refresh_ms)?;
     write_cyclic_parameters(sdo, d)?;
     let (supervises_master, abort_connection_quick_stop) = supervise_master(sdo, d)?;
+    commission(sdo, d)?;
     let initial_statusword = Statusword(sdo.read_u16(n, obj::STATUSWORD, 0)?);
     Ok(DriveIdentity {
         axis: d.axis,
@@ -612,7 +672,27 @@ fn configure<B: TimedBus + ?Sized>(
         position: 0.0,
         supervises_master,
         abort_connection_quick_stop,
+        commissioning_writes: d.commissioning.writes.len(),
+        skipped_parameters: d.commissioning.skipped.clone(),
     })
+}
+
+/// The commissioning writes in order (the DCF's values, then the config's `sdo` list), after
+/// the master's set-up so an explicit entry may override what the master wrote. The first
+/// refused write stops boot, naming the object and where it was asked for.
+fn commission<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    d: &DriveSetup,
+) -> Result<(), BootError> {
+    for w in &d.commissioning.writes {
+        sdo.download(d.node, w.index, w.sub, &w.data)
+            .map_err(|error| BootError::Commissioning {
+                axis: d.axis,
+                write: Box::new(w.clone()),
+                error,
+            })?;
+    }
+    Ok(())
 }
 
 impl Master {
@@ -762,6 +842,7 @@ impl Master {
             identity: a.identity,
             pdo_layout: self.pdo_layout,
             refresh_ms: self.event_refresh_ms,
+            commissioning: self.commissioning.get(i).cloned().unwrap_or_default(),
         }
     }
 

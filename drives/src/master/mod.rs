@@ -354,6 +354,8 @@ pub struct Master {
     /// in cycles).
     pub(crate) event_refresh_ms: u16,
     pub(crate) event_refresh_cycles: u32,
+    /// Per axis, what boot writes after its own set-up (`dcf`, `sdo` in the config).
+    pub(crate) commissioning: Vec<cnc402_config::Commissioning>,
 }
 
 impl Master {
@@ -474,6 +476,11 @@ impl Master {
             event_refresh_cycles: (u32::from(event_refresh_ms) * 1000
                 / config.bus.period_us.max(1))
             .max(1),
+            commissioning: config
+                .axes
+                .iter()
+                .map(|a| a.commissioning.clone())
+                .collect(),
         })
     }
 
