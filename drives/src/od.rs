@@ -15,6 +15,15 @@ use crate::wire::AbortCode;
 /// config, the master, the simulator and drivectl share one).
 pub use cnc402_config::eds::DataType;
 
+/// 0x1010: store parameters (CiA 301); sub 1 saves all parameters.
+pub const STORE_PARAMETERS: u16 = 0x1010;
+/// 0x1011: restore default parameters; sub 1 restores all (effective after a reset).
+pub const RESTORE_DEFAULTS: u16 = 0x1011;
+/// The signature a store takes: "save" in ASCII, as a little-endian UNSIGNED32.
+pub const SAVE_SIGNATURE: u32 = 0x6576_6173;
+/// The signature a restore takes: "load".
+pub const LOAD_SIGNATURE: u32 = 0x6461_6F6C;
+
 /// A typed value. Equality and hashing compare type and bits (so a REAL NaN equals itself
 /// and 0.0 differs from -0.0).
 #[derive(Clone, Debug)]

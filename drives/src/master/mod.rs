@@ -234,6 +234,8 @@ pub(crate) struct AxisSlot {
     pub disabled: bool,
     /// Enabling: the sequencer's last progress.
     pub progress: cia402::Progress,
+    /// The PDO layouts the drive has (set at boot; a fixed mapping the master accepted).
+    pub pdos: boot::MappedPdos,
 }
 
 impl AxisSlot {
@@ -286,6 +288,7 @@ impl AxisSlot {
             sdo_tx: None,
             disabled: false,
             progress: cia402::Progress::Moving(None),
+            pdos: boot::MappedPdos::of(PdoLayout::Standard),
         }
     }
 
@@ -398,6 +401,7 @@ impl Master {
                 });
             }
             let s = &mut axes[i];
+            s.pdos = boot::MappedPdos::of(config.bus.pdo_layout);
             s.name = a.name;
             s.node = node;
             s.counts_per_unit = if a.counts_per_unit.is_finite() && a.counts_per_unit > 0.0 {
