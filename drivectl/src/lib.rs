@@ -14,6 +14,7 @@ pub mod link;
 pub mod monitor;
 pub mod motion;
 pub mod period;
+pub mod store;
 pub mod tui;
 pub mod values;
 
