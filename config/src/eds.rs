@@ -255,7 +255,7 @@ impl DataType {
 fn hex_bytes(s: &str) -> Option<Vec<u8>> {
     let h: String = s.chars().filter(|c| !c.is_whitespace()).collect();
     let h = h.strip_prefix("0x").unwrap_or(&h);
-    if h.len() % 2 != 0 || !h.chars().all(|c| c.is_ascii_hexdigit()) {
+    if !h.len().is_multiple_of(2) || !h.chars().all(|c| c.is_ascii_hexdigit()) {
         return None;
     }
     (0..h.len() / 2)

@@ -142,23 +142,24 @@ fn store_survives_a_reboot_and_restore_brings_the_defaults_back() {
     rig.power_on();
     let window_default = rig.drive(0).od().get_u64(0x6065, 0).unwrap();
     let mut other = |_: &cnc402_drives::wire::CanFrame| {};
-    let mut sdo = BlockingSdo::new(
-        &mut rig.bus,
-        std::time::Duration::from_millis(100),
-        &mut other,
-    );
-    sdo.write_u32(node1(), 0x6065, 0, 4321).unwrap();
-    // A wrong signature is refused (CiA 301: 0x08000020).
-    let e = sdo.write_u32(node1(), 0x1010, 1, 0x1234).unwrap_err();
-    assert_eq!(e.abort_code(), Some(AbortCode::CannotStore));
-    assert_eq!(
-        sdo.read_u32(node1(), 0x1010, 1).unwrap(),
-        1,
-        "saves on command"
-    );
-    sdo.write_u32(node1(), 0x1010, 1, SAVE_SIGNATURE).unwrap();
-    sdo.write_u32(node1(), 0x6065, 0, 99).unwrap();
-    drop(sdo);
+    {
+        let mut sdo = BlockingSdo::new(
+            &mut rig.bus,
+            std::time::Duration::from_millis(100),
+            &mut other,
+        );
+        sdo.write_u32(node1(), 0x6065, 0, 4321).unwrap();
+        // A wrong signature is refused (CiA 301: 0x08000020).
+        let e = sdo.write_u32(node1(), 0x1010, 1, 0x1234).unwrap_err();
+        assert_eq!(e.abort_code(), Some(AbortCode::CannotStore));
+        assert_eq!(
+            sdo.read_u32(node1(), 0x1010, 1).unwrap(),
+            1,
+            "saves on command"
+        );
+        sdo.write_u32(node1(), 0x1010, 1, SAVE_SIGNATURE).unwrap();
+        sdo.write_u32(node1(), 0x6065, 0, 99).unwrap();
+    }
     assert_eq!(rig.drive(0).stores(), 1);
     let now = rig.bus.now();
     rig.bus
@@ -171,13 +172,13 @@ fn store_survives_a_reboot_and_restore_brings_the_defaults_back() {
         "the stored value"
     );
     // Restore: the defaults come back at the next reset, not before.
-    let mut sdo = BlockingSdo::new(
+    BlockingSdo::new(
         &mut rig.bus,
         std::time::Duration::from_millis(100),
         &mut other,
-    );
-    sdo.write_u32(node1(), 0x1011, 1, LOAD_SIGNATURE).unwrap();
-    drop(sdo);
+    )
+    .write_u32(node1(), 0x1011, 1, LOAD_SIGNATURE)
+    .unwrap();
     assert_eq!(rig.drive(0).od().get_u64(0x6065, 0), Some(4321));
     let now = rig.bus.now();
     rig.bus

@@ -275,9 +275,8 @@ impl fmt::Display for BootError {
             }
             BootError::Commissioning { axis, write, error } => {
                 write!(f, "axis {axis}: commissioning write ")?;
-                match &write.name {
-                    Some(n) => write!(f, "\"{n}\" ")?,
-                    None => {}
+                if let Some(n) = &write.name {
+                    write!(f, "\"{n}\" ")?;
                 }
                 write!(
                     f,
@@ -656,7 +655,9 @@ fn map_cyclic_pdos<B: TimedBus + ?Sized>(
     let id = n.get() as u16;
     let mut mapped = MappedPdos::of(layout);
     let sync = SYNCHRONOUS_EVERY_SYNC;
-    let (kinds, used): (&[(bool, u8, Option<(u16, u16)>)], u16) = match layout {
+    // (RPDO?, transmission type, TPDO event timing) of PDO 1, 2 … each way, in map order.
+    type Plan = (bool, u8, Option<(u16, u16)>);
+    let (kinds, used): (&[Plan], u16) = match layout {
         BusPdoLayout::Standard => (&[(true, sync, None), (false, sync, None)], 1),
         BusPdoLayout::Compact => (
             &[
