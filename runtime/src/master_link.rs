@@ -214,7 +214,9 @@ pub fn drive_stop(s: &SafetyStop) -> DriveStop {
         StopReason::NmtState(NmtState::BootUp) => StopCause::DriveRebooted,
         StopReason::NotEnabled | StopReason::NmtState(_) => StopCause::NotEnabled,
         StopReason::HeartbeatLost { .. } => StopCause::HeartbeatLost,
-        StopReason::TpdoMissing { .. } => StopCause::TpdoMissing,
+        StopReason::TpdoMissing { .. } | StopReason::StatuswordStale { .. } => {
+            StopCause::TpdoMissing
+        }
         StopReason::FollowingError { .. } => StopCause::FollowingError,
         StopReason::BadSetpoint => StopCause::BadSetpoint,
         StopReason::Bus(_) => StopCause::Bus,

@@ -1267,6 +1267,10 @@ impl Master {
             if a.node.is_some() && a.last_heartbeat.is_none() {
                 a.last_heartbeat = Some(now);
             }
+            // The statusword's age counts from here (the enable phase may have been long).
+            if a.node.is_some() {
+                a.statusword_at = Some(now);
+            }
         }
     }
 

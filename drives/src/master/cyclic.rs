@@ -318,6 +318,7 @@ impl Master {
                         let a = &mut self.axes[i];
                         if sw.is_some() {
                             a.statusword = sw;
+                            a.statusword_at = Some(now);
                         }
                         if let Some(pos) = pos {
                             a.set_actual_raw(pos);
@@ -429,6 +430,14 @@ impl Master {
             && s != NmtState::Operational
         {
             return Some(StopReason::NmtState(s));
+        }
+        if let Some(t) = a.statusword_at
+            && self.pdo_layout == BusPdoLayout::Compact
+            && now.saturating_since(t) > self.statusword_timeout
+        {
+            return Some(StopReason::StatuswordStale {
+                silent_ms: now.saturating_since(t).as_millis() as u64,
+            });
         }
         if a.tpdo_missing >= self.tpdo_timeout_cycles {
             return Some(StopReason::TpdoMissing {

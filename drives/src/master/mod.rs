@@ -236,6 +236,8 @@ pub(crate) struct AxisSlot {
     pub progress: cia402::Progress,
     /// The PDO layouts the drive has (set at boot; a fixed mapping the master accepted).
     pub pdos: boot::MappedPdos,
+    /// When a statusword last arrived (the compact layout's staleness monitor).
+    pub statusword_at: Option<Instant>,
 }
 
 impl AxisSlot {
@@ -289,6 +291,7 @@ impl AxisSlot {
             disabled: false,
             progress: cia402::Progress::Moving(None),
             pdos: boot::MappedPdos::of(PdoLayout::Standard),
+            statusword_at: None,
         }
     }
 
@@ -357,6 +360,8 @@ pub struct Master {
     /// in cycles).
     pub(crate) event_refresh_ms: u16,
     pub(crate) event_refresh_cycles: u32,
+    /// Compact layout: a statusword older than this trips [`StopReason::StatuswordStale`].
+    pub(crate) statusword_timeout: Duration,
     /// Per axis, what boot writes after its own set-up (`dcf`, `sdo` in the config).
     pub(crate) commissioning: Vec<cnc402_config::Commissioning>,
 }
@@ -485,6 +490,14 @@ impl Master {
                 .iter()
                 .map(|a| a.commissioning.clone())
                 .collect(),
+            // Three event-timer periods (two statuswords lost in a row), and never less than
+            // the TPDO time-out the other monitors allow.
+            statusword_timeout: Duration::from_millis(3 * u64::from(event_refresh_ms)).max(
+                Duration::from_micros(
+                    u64::from(config.bus.tpdo_timeout_cycles.max(1))
+                        * u64::from(config.bus.period_us),
+                ),
+            ),
         })
     }
 
