@@ -146,6 +146,8 @@ pub fn run(cli: Cli, interrupted: Arc<AtomicBool>) -> Result<()> {
         timeout.as_millis()
     );
     let link = Link::open(&iface, &cfg, &cli.global.sim_setup)?;
+    // With the compact layout, its PDOs are decoded by the mapping cnc402 sets.
+    let pdo_maps = decode::PdoMaps::of_config(&cfg);
     let mut ctx = Ctx {
         names: NodeNames::from_config(&cfg),
         cfg,
@@ -155,7 +157,7 @@ pub fn run(cli: Cli, interrupted: Arc<AtomicBool>) -> Result<()> {
         timeout,
         other: Vec::new(),
         interrupted,
-        pdo_maps: decode::PdoMaps::default(),
+        pdo_maps,
     };
     commands::dispatch(&mut ctx, cli.command)
 }
