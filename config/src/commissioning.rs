@@ -209,6 +209,18 @@ impl RawSdoWrite {
     ) -> Result<SdoWrite, Invalid> {
         let at = |span: Range<usize>, field: &str, m: String| (span, format!("{key}.{field}"), m);
         let addr = self.object_addr(key, eds)?;
+        if matches!(addr.index, 0x1010 | 0x1011) {
+            // A store at every boot would wear the drive's flash and keep whatever a
+            // half-finished commissioning left: it is done once, confirmed, by hand.
+            return Err(at(
+                self.value.span(),
+                "value",
+                format!(
+                    "{addr} stores or restores the drive's parameters: not a boot write; use \
+                     `drivectl store NODE` once the values are right"
+                ),
+            ));
+        }
         let entry = eds.and_then(|e| e.get(addr));
         let data_type = match (&self.data_type, entry.and_then(|e| e.data_type())) {
             (Some(t), known) => {
@@ -480,6 +492,11 @@ ParameterValue=3
                 "{ index = 0x6065, value = [1], type = \"u32\" }",
                 "axis[0].sdo[0].value",
                 "array",
+            ),
+            (
+                "{ index = 0x1010, sub = 1, value = 0x65766173, type = \"u32\" }",
+                "axis[0].sdo[0].value",
+                "drivectl store",
             ),
         ] {
             let (r, _) =
