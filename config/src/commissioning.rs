@@ -10,8 +10,6 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::AxisConfig;
-use crate::axes::RawAxis;
 use crate::check::{Invalid, Table};
 use crate::eds::{DataType, Eds, ObjectAddr, find_object};
 
@@ -94,20 +92,29 @@ fn line_of(text: &str, offset: usize) -> usize {
     text[..offset.min(text.len())].matches('\n').count() + 1
 }
 
-/// Resolves every axis's `dcf` and `sdo` keys into [`Commissioning`]; `path` is the config
-/// file (relative DCF paths start at its folder), `text` its contents (for line numbers).
+/// One axis's commissioning keys as written: `dcf` and `sdo`.
+pub(crate) type RawKeys<'a> = (
+    Option<&'a Spanned<String>>,
+    &'a [Spanned<Table<RawSdoWrite>>],
+);
+
+/// Resolves every axis's `dcf` and `sdo` keys (`raw`, with the axes' node ids `nodes`) into
+/// [`Commissioning`], one per axis; `path` is the config file (relative DCF paths start at
+/// its folder), `text` its contents (for line numbers).
 pub(crate) fn validate(
-    raw: &[Table<RawAxis>],
-    axes: &mut [AxisConfig],
+    raw: &[RawKeys<'_>],
+    nodes: &[Option<u8>],
     path: &Path,
     text: &str,
-) -> Result<(), Invalid> {
-    for (k, (r, axis)) in raw.iter().zip(axes.iter_mut()).enumerate() {
-        let (dcf, sdo) = r.0.commissioning_keys();
+) -> Result<Vec<Commissioning>, Invalid> {
+    let mut out = Vec::with_capacity(raw.len());
+    for (k, (&(dcf, sdo), node)) in raw.iter().zip(nodes).enumerate() {
+        let mut c = Commissioning::default();
         if dcf.is_none() && sdo.is_empty() {
+            out.push(c);
             continue;
         }
-        let Some(node) = axis.node else {
+        let Some(node) = *node else {
             let span = dcf.map(Spanned::span).unwrap_or_else(|| sdo[0].span());
             return Err((
                 span,
@@ -115,7 +122,6 @@ pub(crate) fn validate(
                 "a virtual axis has no drive to commission".into(),
             ));
         };
-        let mut c = Commissioning::default();
         if let Some(d) = dcf {
             load_dcf(&mut c, d, k, node, path)?;
         }
@@ -125,9 +131,9 @@ pub(crate) fn validate(
             let write = w.get_ref().0.resolve(&key, c.eds.as_ref(), node, origin)?;
             c.writes.push(write);
         }
-        axis.commissioning = c;
+        out.push(c);
     }
-    Ok(())
+    Ok(out)
 }
 
 /// Reads the DCF/EDS of axis `k` into `c`: its file, and its parameter values as writes

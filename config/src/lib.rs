@@ -169,7 +169,14 @@ fn validate(raw: RawConfig, path: &Path, text: &str) -> Result<MachineConfig, In
     let interp = raw.interp.validate()?;
     let mut planner = raw.planner.validate()?;
     let mut axes = axes::validate(&raw.axis, &bus)?;
-    commissioning::validate(&raw.axis, &mut axes, path, text)?;
+    let keys: Vec<_> = raw.axis.iter().map(|a| a.0.commissioning_keys()).collect();
+    let nodes: Vec<Option<u8>> = axes.iter().map(|a| a.node).collect();
+    for (a, c) in axes
+        .iter_mut()
+        .zip(commissioning::validate(&keys, &nodes, path, text)?)
+    {
+        a.commissioning = c;
+    }
     busload::check(&bus, &axes)
         .map_err(|m| (raw.bus.period_span(), "bus.period_us".to_string(), m))?;
     planner.match_axes = raw.planner.match_axes(&axes)?;
