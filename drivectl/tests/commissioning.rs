@@ -151,3 +151,36 @@ fn store_needs_a_confirmation_and_writes_the_signature() {
     let o = sim(&["--timeout-ms", "20", "store", "9", "--yes"]);
     assert_ne!(o.code, 0, "{}", o.all);
 }
+
+/// Regression (eds_compact_sub_objects_were_skipped): drivectl's own EDS reader skipped
+/// `CompactSubObj` arrays, so their sub-objects had no names or types; it now uses the
+/// master's reader, which expands them.
+#[test]
+fn eds_compact_sub_objects_were_skipped() {
+    let dir = std::env::temp_dir().join(format!("drivectl-compact-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let eds = dir.join("compact.eds");
+    std::fs::write(
+        &eds,
+        "[1A00]\nParameterName=TPDO1 mapping\nObjectType=0x8\nDataType=0x0007\n\
+         AccessType=rw\nCompactSubObj=2\n[1A00Value]\nNrOfEntries=2\n1=0x60410010\n\
+         2=0x60640020\n[1A00Name]\nNrOfEntries=1\n2=Position entry\n",
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["--json", "eds", eds.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let objects = v["objects"].as_array().unwrap();
+    let sub = |s: u64| {
+        objects
+            .iter()
+            .find(|e| e["index"] == 0x1A00 && e["sub"] == s)
+            .unwrap_or_else(|| panic!("no 0x1a00:{s} in {objects:?}"))
+    };
+    assert_eq!(sub(0)["default"], "2");
+    assert_eq!(sub(1)["value"], "0x60410010");
+    assert!(sub(2)["name"].as_str().unwrap().contains("Position entry"));
+}
