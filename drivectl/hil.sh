@@ -123,6 +123,14 @@ expect sdo-write 0 'expedited' -- "${D[@]}" sdo write 3 0x1017 u16 100
 expect sdo-readback 0 '= 100 ' -- "${D[@]}" sdo read 3 0x1017
 expect sdo-abort 6 '0x06020000' -- "${D[@]}" sdo read 3 0x2000
 expect sdo-absent 7 'node 9: SDO read of 0x1000:00: no response' -- "${D[@]}" --timeout-ms 100 sdo read 9 0x1000
+# Objects by name (the standard objects; python-canopen's "Parent.Sub" form) and store.
+expect sdo-read-by-name 0 '0x6041:00 statusword = ' -- "${D[@]}" sdo read 3 STATUSWORD
+expect sdo-read-dotted-name 0 '0x1018:01 vendor id = 12846082 ' -- "${D[@]}" sdo read 3 "Identity object.Vendor ID"
+expect sdo-write-by-name 0 '0x1017:00 producer heartbeat time ← 100 \[UNSIGNED16\]' -- "${D[@]}" sdo write 3 "producer heartbeat time" 100
+expect sdo-unknown-name 64 'nearest: "controlword" \(0x6040:00\)' -- "${D[@]}" sdo read 3 controlwrd
+# stdin not a terminal (the guest's console could be one): refused, nothing asked.
+expect store-needs-yes 64 'without --yes' -- sh -c '"$@" </dev/null' _ "${D[@]}" store 3
+expect store 0 'parameters stored' -- "${D[@]}" store 3 --yes
 expect mode 0 'confirmed by 0x6061' -- "${D[@]}" mode 3 csp
 expect enable 0 'reached 0x[0-9a-f]{4} \(OPERATION ENABLED\)' -- "${D[@]}" enable 3
 expect state 0 'OPERATION ENABLED' -- "${D[@]}" state 3

@@ -82,6 +82,9 @@ pub struct AxisConfig {
     /// bandwidth_hz = … }`), for matching coupled axes; `None` when not given.
     pub dynamics: Option<DriveModel>,
     pub sim: SimDynamics,
+    /// The DCF/EDS and SDO writes boot applies after its own set-up (`dcf`, `sdo`; see
+    /// `commissioning`).
+    pub commissioning: crate::commissioning::Commissioning,
 }
 
 /// The master's model of a drive from setpoint to actual position: a dead time of
@@ -199,6 +202,9 @@ pub(crate) struct RawAxis {
     dynamics: Option<Spanned<RawModel>>,
     #[serde(default, deserialize_with = "table")]
     sim: RawSim,
+    dcf: Option<Spanned<String>>,
+    #[serde(default)]
+    sdo: Vec<Spanned<Table<crate::commissioning::RawSdoWrite>>>,
 }
 
 /// `dynamics = { delay_cycles = N, bandwidth_hz = F }` as written (both required).
@@ -423,7 +429,19 @@ impl RawAxis {
             identity,
             dynamics,
             sim,
+            // Resolved with the config's path (crate::commissioning::validate).
+            commissioning: Default::default(),
         })
+    }
+
+    /// The commissioning keys as written: `dcf` and `sdo`.
+    pub(crate) fn commissioning_keys(
+        &self,
+    ) -> (
+        Option<&Spanned<String>>,
+        &[Spanned<Table<crate::commissioning::RawSdoWrite>>],
+    ) {
+        (self.dcf.as_ref(), &self.sdo)
     }
 
     /// The address letter, upper case, not used by an earlier axis.

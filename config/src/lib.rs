@@ -10,7 +10,9 @@ mod axes;
 mod bus;
 pub mod busload;
 mod check;
+pub mod commissioning;
 mod cutter_comp;
+pub mod eds;
 mod error;
 pub mod exit;
 mod interp;
@@ -28,6 +30,7 @@ pub use axes::{
     MIN_MODEL_BANDWIDTH_HZ, SimDynamics,
 };
 pub use bus::BusConfig;
+pub use commissioning::{Commissioning, SdoWrite, SkippedParameter};
 pub use cutter_comp::{CompCorner, CompGouge, CompStartup, CutterComp};
 pub use error::ConfigError;
 pub use interp::{InterpDefaults, PathModeDefault, PlaneDefault, ReturnPlane, Units};
@@ -90,7 +93,7 @@ impl MachineConfig {
                 inner.message().to_string(),
             )
         })?;
-        validate(raw, path).map_err(|(span, key, message)| err(Some(span), key, message))
+        validate(raw, path, text).map_err(|(span, key, message)| err(Some(span), key, message))
     }
 
     /// Index of the axis named `letter` (upper case).
@@ -161,11 +164,19 @@ struct RawConfig {
 /// Validates the sections in file order of dependence: the bus first (the axes check their
 /// nodes against the master's), then the interpreter defaults, the axes, and the offsets
 /// (work offsets name axes).
-fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
+fn validate(raw: RawConfig, path: &Path, text: &str) -> Result<MachineConfig, Invalid> {
     let bus = raw.bus.validate()?;
     let interp = raw.interp.validate()?;
     let mut planner = raw.planner.validate()?;
-    let axes = axes::validate(&raw.axis, &bus)?;
+    let mut axes = axes::validate(&raw.axis, &bus)?;
+    let keys: Vec<_> = raw.axis.iter().map(|a| a.0.commissioning_keys()).collect();
+    let nodes: Vec<Option<u8>> = axes.iter().map(|a| a.node).collect();
+    for (a, c) in axes
+        .iter_mut()
+        .zip(commissioning::validate(&keys, &nodes, path, text)?)
+    {
+        a.commissioning = c;
+    }
     busload::check(&bus, &axes)
         .map_err(|m| (raw.bus.period_span(), "bus.period_us".to_string(), m))?;
     planner.match_axes = raw.planner.match_axes(&axes)?;

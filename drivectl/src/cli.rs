@@ -342,6 +342,23 @@ pub enum Command {
         #[arg(long, value_name = "SECONDS")]
         duration: Option<f64>,
     },
+    /// Store the drive's parameters in its non-volatile memory (0x1010:1 = "save"), or with
+    /// --restore bring back its factory defaults (0x1011:1 = "load", effective after a reset).
+    /// Asks for confirmation on a terminal; in a pipe or script it needs --yes
+    #[command(
+        after_help = "Examples:\n  drivectl store 3\n  drivectl store 3 --yes\n  drivectl store 3 --restore --yes"
+    )]
+    Store {
+        /// Node id
+        #[arg(value_parser = parse_node)]
+        node: u8,
+        /// Do it without asking
+        #[arg(long)]
+        yes: bool,
+        /// Restore the factory defaults instead of storing
+        #[arg(long)]
+        restore: bool,
+    },
     /// Read a CiA 306 EDS/DCF and list its objects (names, types, access, defaults)
     #[command(after_help = "Example: drivectl eds vendor.eds --json")]
     Eds {
@@ -372,34 +389,33 @@ pub struct SeqArgs {
 pub enum SdoCmd {
     /// Read INDEX[:SUB]; TYPE from the command line, the EDS or the standard objects
     #[command(
-        after_help = "Examples:\n  drivectl sdo read 3 0x6064 i32\n  drivectl sdo read 3 1008      # device name, segmented\n  drivectl sdo read 3 1018:1 --json"
+        after_help = "Examples:\n  drivectl sdo read 3 0x6064 i32\n  drivectl sdo read 3 controlword\n  drivectl sdo read 3 \"Identity object.Vendor ID\"\n  drivectl sdo read 3 1008      # device name, segmented\n  drivectl sdo read 3 1018:1 --json"
     )]
     Read {
         /// Node id
         #[arg(value_parser = parse_node)]
         node: u8,
-        /// Object, hex index and sub-index: 6041, 0x1018:1
-        #[arg(value_parser = crate::values::parse_object)]
-        object: crate::values::ObjectAddr,
+        /// Object: hex index and sub-index (6041, 0x1018:1) or a name from the EDS/DCF or
+        /// the standard objects, any case (controlword, "Store parameters.Save all
+        /// parameters")
+        object: String,
         /// Data type (u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 bool string bytes)
         r#type: Option<String>,
     },
     /// Write VALUE as TYPE to INDEX[:SUB] (strings/bytes longer than 4 bytes: segmented)
     #[command(
         allow_negative_numbers = true,
-        after_help = "Examples:\n  drivectl sdo write 3 0x6060 i8 8\n  drivectl sdo write 3 0x1017 u16 100\n  drivectl sdo write 3 0x607A i32 -5000"
+        after_help = "Examples:\n  drivectl sdo write 3 0x6060 i8 8\n  drivectl sdo write 3 \"modes of operation\" 8\n  drivectl sdo write 3 0x1017 u16 100\n  drivectl sdo write 3 0x607A i32 -5000"
     )]
     Write {
         /// Node id
         #[arg(value_parser = parse_node)]
         node: u8,
-        /// Object, hex index and sub-index: 6040, 0x1017:0
-        #[arg(value_parser = crate::values::parse_object)]
-        object: crate::values::ObjectAddr,
-        /// Data type (u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 bool string bytes)
-        r#type: String,
-        /// The value (decimal, 0x hex; bytes as hex digits)
-        #[arg(allow_negative_numbers = true)]
-        value: String,
+        /// Object: hex index and sub-index (6040, 0x1017:0) or a name (controlword)
+        object: String,
+        /// Data type (u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 bool string bytes), then the
+        /// value; the type may be left out when the EDS/DCF or the standard objects know it
+        #[arg(allow_negative_numbers = true, value_name = "[TYPE] VALUE", num_args = 1..=2, required = true)]
+        type_and_value: Vec<String>,
     },
 }

@@ -34,13 +34,23 @@ pub fn dispatch(ctx: &mut Ctx, cmd: Command) -> Result<()> {
             node,
             object,
             r#type,
-        }) => sdo_read(ctx, node, object, r#type.as_deref()),
+        }) => {
+            let a = resolve_object(ctx, node, &object)?;
+            sdo_read(ctx, node, a, r#type.as_deref())
+        }
         Command::Sdo(SdoCmd::Write {
             node,
             object,
-            r#type,
-            value,
-        }) => sdo_write(ctx, node, object, &r#type, &value),
+            type_and_value,
+        }) => {
+            let a = resolve_object(ctx, node, &object)?;
+            match type_and_value.as_slice() {
+                [t, value] => sdo_write(ctx, node, a, Some(t), value),
+                [value] => sdo_write(ctx, node, a, None, value),
+                _ => Err(CliError::usage("give [TYPE] VALUE")),
+            }
+        }
+        Command::Store { node, yes, restore } => crate::store::store(ctx, node, yes, restore),
         Command::Nmt { command, target } => nmt(ctx, command, target),
         Command::State { node } => state(ctx, node),
         Command::Enable {
@@ -757,9 +767,30 @@ fn sdo_read(ctx: &mut Ctx, n: u8, a: ObjectAddr, ty: Option<&str>) -> Result<()>
     Ok(())
 }
 
-fn sdo_write(ctx: &mut Ctx, n: u8, a: ObjectAddr, ty: &str, value: &str) -> Result<()> {
+/// The object a command line names for node `n` (hex or a name; see
+/// [`Dictionary::resolve`](crate::dict::Dictionary::resolve)): the `--eds` file, else the
+/// node's DCF from the config, else the standard objects.
+fn resolve_object(ctx: &Ctx, n: u8, text: &str) -> Result<ObjectAddr> {
+    let node_eds = ctx
+        .cfg
+        .axes
+        .iter()
+        .find(|a| a.node == Some(n))
+        .and_then(|a| a.commissioning.eds.as_ref());
+    ctx.dict.resolve(node_eds, text)
+}
+
+fn sdo_write(ctx: &mut Ctx, n: u8, a: ObjectAddr, ty: Option<&str>, value: &str) -> Result<()> {
     let node = node_id(n)?;
-    let t = type_for(ctx, a, Some(ty))?.unwrap_or(DataType::OctetString);
+    let t = match type_for(ctx, a, ty)? {
+        Some(t) => t,
+        None => {
+            return Err(CliError::usage(format!(
+                "{a}: the type is unknown (not in the EDS/DCF or the standard objects); give \
+                 it: drivectl sdo write {n} {a} TYPE {value}"
+            )));
+        }
+    };
     let bytes = values::encode(t, value)?;
     if let Some(known) = ctx.dict.data_type(a)
         && known.size().is_some()
@@ -1129,7 +1160,7 @@ fn set_mode(ctx: &mut Ctx, n: u8, m: ModeArg, force: bool) -> Result<()> {
 
 /// `drivectl eds FILE`: lists the objects.
 pub fn eds_list(path: &Path, json_out: bool) -> Result<()> {
-    let eds = crate::eds::Eds::load(path)?;
+    let eds = crate::eds::load(path)?;
     if json_out {
         let objects: Vec<Json> = eds
             .objects

@@ -86,6 +86,26 @@ impl PdoMaps {
     pub fn insert(&mut self, cob_id: u16, kind: &'static str, map: PdoMap) {
         self.0.insert(cob_id, (kind, map));
     }
+    /// The mappings cnc402 sets with `bus.pdo_layout = "compact"` (RPDO1 target, RPDO2
+    /// controlword, TPDO1 position, TPDO2 statusword) for each configured drive; empty for
+    /// the standard layout, which [`decode`] knows without a map.
+    pub fn of_config(cfg: &MachineConfig) -> PdoMaps {
+        use cnc402_config::busload::PdoLayout;
+        use cnc402_drives::master::boot::MappedPdos;
+        let mut maps = PdoMaps::default();
+        if cfg.bus.pdo_layout != PdoLayout::Compact {
+            return maps;
+        }
+        let pdos = MappedPdos::of(PdoLayout::Compact);
+        for node in cfg.axes.iter().filter_map(|a| a.node) {
+            let id = u16::from(node);
+            maps.insert(0x200 + id, "rpdo1", pdos.rx[0].map());
+            maps.insert(0x300 + id, "rpdo2", pdos.rx[1].map());
+            maps.insert(0x180 + id, "tpdo1", pdos.tx[0].map());
+            maps.insert(0x280 + id, "tpdo2", pdos.tx[1].map());
+        }
+        maps
+    }
     /// Number of mappings.
     pub fn len(&self) -> usize {
         self.0.len()
@@ -377,6 +397,26 @@ fn initiate(k: &InitiateKind) -> String {
 mod tests {
     use super::*;
     use cnc402_drives::wire::MappingEntry;
+
+    #[test]
+    fn the_compact_layout_is_decoded_from_the_config() {
+        let mut cfg = MachineConfig::default_machine();
+        let dict = Dictionary::new(None);
+        assert!(PdoMaps::of_config(&cfg).is_empty());
+        cfg.bus.pdo_layout = cnc402_config::busload::PdoLayout::Compact;
+        let maps = PdoMaps::of_config(&cfg);
+        assert_eq!(maps.len(), 16);
+        // TPDO2 of node 3: the statusword alone; TPDO1: the position alone.
+        let sw = CanFrame::new(0x283, &[0x37, 0x06]).unwrap();
+        let d = decode(&sw, &dict, &maps);
+        assert_eq!((d.kind, d.node), ("tpdo2", Some(3)));
+        assert!(d.text.contains("statusword"), "{}", d.text);
+        let pos = CanFrame::new(0x183, &(-5i32).to_le_bytes()).unwrap();
+        let d = decode(&pos, &dict, &maps);
+        assert!(d.text.contains("-5"), "{}", d.text);
+        let cw = CanFrame::new(0x303, &[0x0F, 0x00]).unwrap();
+        assert!(decode(&cw, &dict, &maps).text.contains("controlword"));
+    }
 
     #[test]
     fn pdos_decode_by_the_mapping_read_from_the_drive() {

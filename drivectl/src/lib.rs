@@ -14,6 +14,7 @@ pub mod link;
 pub mod monitor;
 pub mod motion;
 pub mod period;
+pub mod store;
 pub mod tui;
 pub mod values;
 
@@ -124,7 +125,7 @@ pub fn run(cli: Cli, interrupted: Arc<AtomicBool>) -> Result<()> {
     }
     let cfg = load_config(&cli)?;
     let eds = match &cli.global.eds {
-        Some(p) => Some(eds::Eds::load(p)?),
+        Some(p) => Some(eds::load(p)?),
         None => None,
     };
     let iface = cli
@@ -145,6 +146,8 @@ pub fn run(cli: Cli, interrupted: Arc<AtomicBool>) -> Result<()> {
         timeout.as_millis()
     );
     let link = Link::open(&iface, &cfg, &cli.global.sim_setup)?;
+    // With the compact layout, its PDOs are decoded by the mapping cnc402 sets.
+    let pdo_maps = decode::PdoMaps::of_config(&cfg);
     let mut ctx = Ctx {
         names: NodeNames::from_config(&cfg),
         cfg,
@@ -154,7 +157,7 @@ pub fn run(cli: Cli, interrupted: Arc<AtomicBool>) -> Result<()> {
         timeout,
         other: Vec::new(),
         interrupted,
-        pdo_maps: decode::PdoMaps::default(),
+        pdo_maps,
     };
     commands::dispatch(&mut ctx, cli.command)
 }

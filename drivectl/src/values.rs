@@ -1,26 +1,12 @@
 //! Object addresses (`INDEX[:SUB]`), CANopen data types as typed on the command line, and
 //! the conversions between values and the little-endian bytes SDO carries.
 
-use core::fmt;
-
 use serde_json::{Value as Json, json};
 
 use crate::error::{CliError, Result};
 
-/// An object address: index and sub-index.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct ObjectAddr {
-    /// Index.
-    pub index: u16,
-    /// Sub-index.
-    pub sub: u8,
-}
-
-impl fmt::Display for ObjectAddr {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{:#06x}:{:02x}", self.index, self.sub)
-    }
-}
+/// An object address: index and sub-index (the EDS reader's, shared with the master).
+pub use cnc402_config::eds::ObjectAddr;
 
 /// Parses an unsigned number in decimal or `0x` hex.
 pub fn parse_uint(s: &str) -> Option<u64> {
@@ -95,24 +81,7 @@ pub const TYPE_NAMES: &str = "bool, u8, u16, u32, u64, i8, i16, i32, i64, f32, f
 /// Parses a type name as typed on the command line: short (`u16`, `f32`, `bytes`) or CiA 301
 /// (`unsigned16`, `real32`, `visible_string`), any case; `None` for an unknown name.
 pub fn parse_type(s: &str) -> Option<DataType> {
-    use DataType::*;
-    Some(match s.to_ascii_lowercase().as_str() {
-        "bool" | "boolean" => Boolean,
-        "u8" | "uint8" | "unsigned8" => Unsigned8,
-        "u16" | "uint16" | "unsigned16" => Unsigned16,
-        "u32" | "uint32" | "unsigned32" => Unsigned32,
-        "u64" | "uint64" | "unsigned64" => Unsigned64,
-        "i8" | "int8" | "integer8" => Integer8,
-        "i16" | "int16" | "integer16" => Integer16,
-        "i32" | "int32" | "integer32" => Integer32,
-        "i64" | "int64" | "integer64" => Integer64,
-        "f32" | "real32" | "float" => Real32,
-        "f64" | "real64" | "double" => Real64,
-        "string" | "str" | "vs" | "visible_string" => VisibleString,
-        "bytes" | "hex" | "octet_string" | "os" => OctetString,
-        "domain" => Domain,
-        _ => return None,
-    })
+    DataType::from_name(s)
 }
 
 /// Parses a value typed by the user as type `t`: integers in decimal or (`-`)`0x` hex,

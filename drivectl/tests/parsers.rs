@@ -16,6 +16,27 @@ proptest! {
     }
 
     #[test]
+    fn compact_eds_and_nodeid_values_never_panic(
+        n in "[0-9x]{0,5}",
+        value in "(\\$NODEID|\\$nodeid|0x[0-9A-F]{0,18}|[0-9]{0,22}|-|\\+| ){0,6}",
+        node in proptest::option::of(any::<u8>()),
+    ) {
+        let text = format!(
+            "[1600]\nParameterName=m\nDataType=0x0007\nAccessType=rw\nCompactSubObj={n}\nDefaultValue={value}\n[1600Value]\n1={value}\n"
+        );
+        if let Ok(eds) = Eds::parse(&text) {
+            for a in eds.objects.keys() {
+                let _ = eds.encoded_value(*a, node);
+            }
+        }
+        for t in TYPES {
+            let _ = parse_type(t).map(|ty| ty.encode_text(&value, node));
+        }
+        let names = Eds::parse(&text).map(|e| e.lookup_names()).unwrap_or_default();
+        let _ = drivectl::eds::find_object(&names, &value);
+    }
+
+    #[test]
     fn object_and_hex_parsers_never_panic(s in ".{0,20}") {
         let _ = parse_object(&s);
         let _ = parse_hex_bytes(&s);

@@ -11,151 +11,18 @@ use std::hash::{Hash, Hasher};
 
 use crate::wire::AbortCode;
 
-/// A CANopen basic data type.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum DataType {
-    /// BOOLEAN (1 byte on SDO, 1 bit in a PDO).
-    Boolean,
-    /// INTEGER8.
-    Integer8,
-    /// INTEGER16.
-    Integer16,
-    /// INTEGER32.
-    Integer32,
-    /// INTEGER64.
-    Integer64,
-    /// UNSIGNED8.
-    Unsigned8,
-    /// UNSIGNED16.
-    Unsigned16,
-    /// UNSIGNED32.
-    Unsigned32,
-    /// UNSIGNED64.
-    Unsigned64,
-    /// REAL32 (IEEE 754 single).
-    Real32,
-    /// REAL64 (IEEE 754 double).
-    Real64,
-    /// VISIBLE_STRING.
-    VisibleString,
-    /// OCTET_STRING.
-    OctetString,
-    /// DOMAIN.
-    Domain,
-}
+/// A CANopen basic data type (defined with the EDS/DCF reader in `cnc402_config::eds`, so the
+/// config, the master, the simulator and drivectl share one).
+pub use cnc402_config::eds::DataType;
 
-impl DataType {
-    /// Bytes of a fixed-size type; `None` for strings and domains.
-    pub const fn size(self) -> Option<usize> {
-        match self {
-            DataType::Boolean | DataType::Integer8 | DataType::Unsigned8 => Some(1),
-            DataType::Integer16 | DataType::Unsigned16 => Some(2),
-            DataType::Integer32 | DataType::Unsigned32 | DataType::Real32 => Some(4),
-            DataType::Integer64 | DataType::Unsigned64 | DataType::Real64 => Some(8),
-            DataType::VisibleString | DataType::OctetString | DataType::Domain => None,
-        }
-    }
-    /// Bits when mapped into a PDO; `None` for types that cannot be mapped.
-    pub const fn pdo_bits(self) -> Option<u8> {
-        match self {
-            DataType::Boolean => Some(1),
-            t => match t.size() {
-                Some(n) => Some((n * 8) as u8),
-                None => None,
-            },
-        }
-    }
-    /// Whether it is a signed integer type (INTEGER8..64).
-    pub const fn is_signed(self) -> bool {
-        matches!(
-            self,
-            DataType::Integer8 | DataType::Integer16 | DataType::Integer32 | DataType::Integer64
-        )
-    }
-
-    /// The inclusive value range of an integer type; `None` for the others.
-    pub const fn int_range(self) -> Option<(i128, i128)> {
-        Some(match self {
-            DataType::Integer8 => (i8::MIN as i128, i8::MAX as i128),
-            DataType::Integer16 => (i16::MIN as i128, i16::MAX as i128),
-            DataType::Integer32 => (i32::MIN as i128, i32::MAX as i128),
-            DataType::Integer64 => (i64::MIN as i128, i64::MAX as i128),
-            DataType::Unsigned8 => (0, u8::MAX as i128),
-            DataType::Unsigned16 => (0, u16::MAX as i128),
-            DataType::Unsigned32 => (0, u32::MAX as i128),
-            DataType::Unsigned64 => (0, u64::MAX as i128),
-            _ => return None,
-        })
-    }
-
-    /// From a CiA 301 data type index, as in an EDS `DataType=` (0x0001 BOOLEAN ..
-    /// 0x001B UNSIGNED64); `None` for the types this dictionary does not have.
-    pub const fn from_code(code: u16) -> Option<DataType> {
-        Some(match code {
-            0x0001 => DataType::Boolean,
-            0x0002 => DataType::Integer8,
-            0x0003 => DataType::Integer16,
-            0x0004 => DataType::Integer32,
-            0x0005 => DataType::Unsigned8,
-            0x0006 => DataType::Unsigned16,
-            0x0007 => DataType::Unsigned32,
-            0x0008 => DataType::Real32,
-            0x0009 => DataType::VisibleString,
-            0x000A => DataType::OctetString,
-            0x000F => DataType::Domain,
-            0x0011 => DataType::Real64,
-            0x0015 => DataType::Integer64,
-            0x001B => DataType::Unsigned64,
-            _ => return None,
-        })
-    }
-
-    /// The CiA 301 data type index (inverse of [`DataType::from_code`]).
-    pub const fn code(self) -> u16 {
-        match self {
-            DataType::Boolean => 0x0001,
-            DataType::Integer8 => 0x0002,
-            DataType::Integer16 => 0x0003,
-            DataType::Integer32 => 0x0004,
-            DataType::Unsigned8 => 0x0005,
-            DataType::Unsigned16 => 0x0006,
-            DataType::Unsigned32 => 0x0007,
-            DataType::Real32 => 0x0008,
-            DataType::VisibleString => 0x0009,
-            DataType::OctetString => 0x000A,
-            DataType::Domain => 0x000F,
-            DataType::Real64 => 0x0011,
-            DataType::Integer64 => 0x0015,
-            DataType::Unsigned64 => 0x001B,
-        }
-    }
-
-    /// The CiA 301 name (`UNSIGNED16`, `VISIBLE_STRING`).
-    pub const fn cia_name(self) -> &'static str {
-        match self {
-            DataType::Boolean => "BOOLEAN",
-            DataType::Integer8 => "INTEGER8",
-            DataType::Integer16 => "INTEGER16",
-            DataType::Integer32 => "INTEGER32",
-            DataType::Integer64 => "INTEGER64",
-            DataType::Unsigned8 => "UNSIGNED8",
-            DataType::Unsigned16 => "UNSIGNED16",
-            DataType::Unsigned32 => "UNSIGNED32",
-            DataType::Unsigned64 => "UNSIGNED64",
-            DataType::Real32 => "REAL32",
-            DataType::Real64 => "REAL64",
-            DataType::VisibleString => "VISIBLE_STRING",
-            DataType::OctetString => "OCTET_STRING",
-            DataType::Domain => "DOMAIN",
-        }
-    }
-}
-
-impl fmt::Display for DataType {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.cia_name())
-    }
-}
+/// 0x1010: store parameters (CiA 301); sub 1 saves all parameters.
+pub const STORE_PARAMETERS: u16 = 0x1010;
+/// 0x1011: restore default parameters; sub 1 restores all (effective after a reset).
+pub const RESTORE_DEFAULTS: u16 = 0x1011;
+/// The signature a store takes: "save" in ASCII, as a little-endian UNSIGNED32.
+pub const SAVE_SIGNATURE: u32 = 0x6576_6173;
+/// The signature a restore takes: "load".
+pub const LOAD_SIGNATURE: u32 = 0x6461_6F6C;
 
 /// A typed value. Equality and hashing compare type and bits (so a REAL NaN equals itself
 /// and 0.0 differs from -0.0).

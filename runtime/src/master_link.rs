@@ -214,7 +214,9 @@ pub fn drive_stop(s: &SafetyStop) -> DriveStop {
         StopReason::NmtState(NmtState::BootUp) => StopCause::DriveRebooted,
         StopReason::NotEnabled | StopReason::NmtState(_) => StopCause::NotEnabled,
         StopReason::HeartbeatLost { .. } => StopCause::HeartbeatLost,
-        StopReason::TpdoMissing { .. } => StopCause::TpdoMissing,
+        StopReason::TpdoMissing { .. } | StopReason::StatuswordStale { .. } => {
+            StopCause::TpdoMissing
+        }
         StopReason::FollowingError { .. } => StopCause::FollowingError,
         StopReason::BadSetpoint => StopCause::BadSetpoint,
         StopReason::Bus(_) => StopCause::Bus,
@@ -246,6 +248,20 @@ impl<B: CycleBus> DriveLink for MasterLink<B> {
                     report.enable_cycles,
                     self.bus.now()
                 );
+                for d in &report.drives {
+                    for s in &d.skipped_parameters {
+                        log::info!(
+                            "axis {} (node {}): DCF value {:#06x}:{:02x} \"{}\" ({}) not written: {}",
+                            d.axis,
+                            d.node,
+                            s.index,
+                            s.sub,
+                            s.name,
+                            s.origin,
+                            s.reason
+                        );
+                    }
+                }
                 // The first cyclic SYNC follows the last enable cycle by one period.
                 self.bus_base = report.enabled_at + self.master.period();
                 self.last = self.master.positions();

@@ -10,8 +10,8 @@ use core::fmt;
 use core::time::Duration;
 
 use cia402::{EnableSequencer, Goal, Progress, State, Statusword, Stuck, objects as obj};
-use cnc402_config::ExpectedIdentity;
 use cnc402_config::busload::PdoLayout as BusPdoLayout;
+use cnc402_config::{ExpectedIdentity, SdoWrite};
 
 use super::sdo::{BlockingSdo, SdoError, SdoErrorKind};
 use super::stop::{Emcy, SafetyStop};
@@ -84,6 +84,11 @@ pub struct DriveIdentity {
     /// 0x6007 written to [`ABORT_CONNECTION_QUICK_STOP`]; `false`: the drive has no 0x6007
     /// and takes its own default reaction when the master falls silent.
     pub abort_connection_quick_stop: bool,
+    /// The commissioning writes made (the DCF's parameter values, then the config's `sdo`
+    /// list), after the master's own set-up.
+    pub commissioning_writes: usize,
+    /// The DCF's parameter values not written, and why (read-only, set by the master …).
+    pub skipped_parameters: Vec<cnc402_config::SkippedParameter>,
 }
 
 /// 0x6007 abort connection option code written at boot: 3 = quick stop (CiA 402: 0 no
@@ -165,6 +170,28 @@ pub enum BootError {
         /// Boot-up messages seen.
         boot_ups: u32,
     },
+    /// A commissioning write (DCF parameter value or config `sdo` entry) failed.
+    Commissioning {
+        /// Axis letter.
+        axis: char,
+        /// The write, with where it was asked for.
+        write: Box<SdoWrite>,
+        /// The failed transfer (node, object, abort code or timeout).
+        error: SdoError,
+    },
+    /// A PDO the drive will not remap, whose fixed mapping lacks what the master needs.
+    FixedMapping {
+        /// Axis letter.
+        axis: char,
+        /// Node id.
+        node: u8,
+        /// The PDO (`RPDO1`, `TPDO2` …).
+        pdo: String,
+        /// The mapping the drive has (index, sub, bits).
+        found: Vec<MappingEntry>,
+        /// What is missing or in the way.
+        problem: String,
+    },
     /// A monitor tripped while enabling.
     Stopped(SafetyStop),
     /// The transport failed.
@@ -245,6 +272,35 @@ impl fmt::Display for BootError {
                     ", the config expects {rule}{expected:#010x} (axis identity): another \
                      device than the one commissioned on this node"
                 )
+            }
+            BootError::Commissioning { axis, write, error } => {
+                write!(f, "axis {axis}: commissioning write ")?;
+                if let Some(n) = &write.name {
+                    write!(f, "\"{n}\" ")?;
+                }
+                write!(
+                    f,
+                    "({}) from {} failed: {error}",
+                    write.data_type, write.origin
+                )
+            }
+            BootError::FixedMapping {
+                axis,
+                node,
+                pdo,
+                found,
+                problem,
+            } => {
+                write!(
+                    f,
+                    "axis {axis} (node {node}): {pdo} has a fixed mapping the drive will not \
+                     change ["
+                )?;
+                for (k, e) in found.iter().enumerate() {
+                    let sep = if k > 0 { ", " } else { "" };
+                    write!(f, "{sep}{:#06x}:{:02x}/{}", e.index, e.sub, e.bits)?;
+                }
+                write!(f, "], and it is unusable: {problem}")
             }
             BootError::Stopped(s) => write!(f, "while enabling: {s}"),
             BootError::Bus(e) => write!(f, "{e}"),
@@ -358,31 +414,145 @@ pub struct PdoSpec<'a> {
     pub event_timing: Option<(u16, u16)>,
 }
 
+impl PdoSpec<'_> {
+    /// `RPDO1` … `TPDO4`, for messages.
+    fn name(&self) -> String {
+        match self.comm {
+            c @ 0x1400..=0x15FF => format!("RPDO{}", c - 0x1400 + 1),
+            c => format!("TPDO{}", c.wrapping_sub(0x1800) + 1),
+        }
+    }
+}
+
+/// Why a PDO could not be mapped: a transfer failed, or the drive keeps a fixed mapping
+/// that lacks what the master needs.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MapPdoError {
+    /// An SDO transfer failed.
+    Sdo(SdoError),
+    /// The drive refused the remap and its own mapping is unusable.
+    Fixed {
+        /// `RPDO1` …
+        pdo: String,
+        /// The mapping the drive has.
+        found: Vec<MappingEntry>,
+        /// What is missing or in the way.
+        problem: String,
+    },
+}
+
+impl From<SdoError> for MapPdoError {
+    fn from(e: SdoError) -> MapPdoError {
+        MapPdoError::Sdo(e)
+    }
+}
+
+/// The abort codes by which a drive says a PDO's mapping cannot be changed (a read-only
+/// mapping object, or one that takes no other objects).
+fn refuses_remap(e: &SdoError) -> bool {
+    matches!(
+        e.abort_code(),
+        Some(
+            AbortCode::WriteReadOnly
+                | AbortCode::UnsupportedAccess
+                | AbortCode::CannotMap
+                | AbortCode::MappingTooLong
+                | AbortCode::ParameterIncompatible
+                | AbortCode::DeviceIncompatible
+        )
+    )
+}
+
 /// Maps one PDO in the CiA 301 sequence: COB-ID bit 31 set (invalid) → mapping sub0 = 0 →
 /// the layout's entries → sub0 = n → transmission type (and event timing) → COB-ID valid.
-/// The COB-ID's bit 30 (RTR not allowed) is kept as the drive reports it.
+/// The COB-ID's bit 30 (RTR not allowed) is kept as the drive reports it. A drive that
+/// refuses to change the mapping ([`refuses_remap`]) keeps its own if [`fixed_layout`]
+/// accepts it. Returns the layout in use.
 pub fn map_pdo<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
     node: NodeId,
     pdo: &PdoSpec<'_>,
-) -> Result<(), SdoError> {
+) -> Result<PdoLayout, MapPdoError> {
     let (comm, mapping) = (pdo.comm, pdo.mapping);
     let current = sdo.read_u32(node, comm, 1)?;
     let valid = (current & COB_NO_RTR) | pdo.cob_id as u32;
     sdo.write_u32(node, comm, 1, valid | COB_INVALID)?;
-    sdo.write_u8(node, mapping, 0, 0)?;
-    let entries = pdo.layout.entries();
-    let count = entries.len() as u8;
-    for (i, e) in entries.enumerate() {
-        sdo.write_u32(node, mapping, i as u8 + 1, e.to_u32())?;
-    }
-    sdo.write_u8(node, mapping, 0, count)?;
+    let layout = match sdo.write_u8(node, mapping, 0, 0) {
+        Ok(()) => {
+            let entries = pdo.layout.entries();
+            let count = entries.len() as u8;
+            for (i, e) in entries.enumerate() {
+                sdo.write_u32(node, mapping, i as u8 + 1, e.to_u32())?;
+            }
+            sdo.write_u8(node, mapping, 0, count)?;
+            *pdo.layout
+        }
+        Err(e) if refuses_remap(&e) => {
+            let found = read_mapping(sdo, node, mapping)?;
+            fixed_layout(pdo.layout, &found).map_err(|problem| MapPdoError::Fixed {
+                pdo: pdo.name(),
+                found,
+                problem,
+            })?
+        }
+        Err(e) => return Err(e.into()),
+    };
     sdo.write_u8(node, comm, 2, pdo.transmission_type)?;
     if let Some((inhibit_100us, event_timer_ms)) = pdo.event_timing {
         sdo.write_u16(node, comm, 3, inhibit_100us)?;
         sdo.write_u16(node, comm, 5, event_timer_ms)?;
     }
-    sdo.write_u32(node, comm, 1, valid)
+    sdo.write_u32(node, comm, 1, valid)?;
+    Ok(layout)
+}
+
+/// The mapping a drive has at `mapping` (sub 0 = count, at most 8 entries read).
+fn read_mapping<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    node: NodeId,
+    mapping: u16,
+) -> Result<Vec<MappingEntry>, SdoError> {
+    let count = sdo.read_u8(node, mapping, 0)?.min(8);
+    (1..=count)
+        .map(|sub| sdo.read_u32(node, mapping, sub).map(MappingEntry::from_u32))
+        .collect()
+}
+
+/// A drive's own mapping `found` as the layout the master uses instead of `wanted`: it must
+/// be a valid layout of known objects carrying every object of `wanted`; an RPDO may carry
+/// nothing else but the mode of operation (sent as CSP), since the master would write 0 to
+/// any other object.
+pub fn fixed_layout(wanted: &PdoLayout, found: &[MappingEntry]) -> Result<PdoLayout, String> {
+    let layout = PdoLayout::new(wanted.direction(), found).map_err(|e| e.to_string())?;
+    let missing: Vec<String> = wanted
+        .fields()
+        .iter()
+        .filter(|f| !layout.maps(f.object))
+        .map(|f| object_label(f.object))
+        .collect();
+    if !missing.is_empty() {
+        return Err(format!("it lacks {}", missing.join(" and ")));
+    }
+    if matches!(wanted.direction(), PdoDirection::Rpdo) {
+        let extra: Vec<String> = layout
+            .fields()
+            .iter()
+            .filter(|f| !wanted.maps(f.object) && f.object != PdoObject::ModesOfOperation)
+            .map(|f| object_label(f.object))
+            .collect();
+        if !extra.is_empty() {
+            return Err(format!(
+                "it also carries {}, which the master does not drive",
+                extra.join(" and ")
+            ));
+        }
+    }
+    Ok(layout)
+}
+
+fn object_label(o: PdoObject) -> String {
+    let e = o.entry();
+    format!("{:?} {:#06x}", o, e.index)
 }
 
 /// The configuration one drive gets (from the machine config).
@@ -403,6 +573,8 @@ struct DriveSetup {
     pdo_layout: BusPdoLayout,
     /// The compact layout's statusword event timer (ms).
     refresh_ms: u16,
+    /// The commissioning writes (after the master's own set-up) and the DCF values skipped.
+    commissioning: cnc402_config::Commissioning,
 }
 
 /// 0x1018 as read against the identity the config expects: the first sub-index that differs.
@@ -438,60 +610,101 @@ fn check_identity(
     Ok(())
 }
 
+/// An RPDO the master does not use.
+pub const UNUSED_RPDO: PdoLayout = valid_layout(PdoDirection::Rpdo, &[]);
+/// A TPDO the master does not use.
+pub const UNUSED_TPDO: PdoLayout = valid_layout(PdoDirection::Tpdo, &[]);
+
+/// The layouts of PDO 1 and 2 each way as a drive has them after boot: what the master
+/// mapped, or a drive's fixed mapping it accepted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MappedPdos {
+    /// RPDO1, RPDO2.
+    pub rx: [PdoLayout; 2],
+    /// TPDO1, TPDO2.
+    pub tx: [PdoLayout; 2],
+}
+
+impl MappedPdos {
+    /// What `layout` maps when the drive takes it as written.
+    pub const fn of(layout: BusPdoLayout) -> MappedPdos {
+        match layout {
+            BusPdoLayout::Standard => MappedPdos {
+                rx: [RPDO1_LAYOUT, UNUSED_RPDO],
+                tx: [TPDO1_LAYOUT, UNUSED_TPDO],
+            },
+            BusPdoLayout::Compact => MappedPdos {
+                rx: [COMPACT_RPDO1_LAYOUT, COMPACT_RPDO2_LAYOUT],
+                tx: [COMPACT_TPDO1_LAYOUT, COMPACT_TPDO2_LAYOUT],
+            },
+        }
+    }
+}
+
 /// The PDOs of `layout`: standard = RPDO1 and TPDO1 as [`RPDO1_LAYOUT`] and
 /// [`TPDO1_LAYOUT`], synchronous, TPDO2..4 off; compact = RPDO1/TPDO1 target/position alone,
 /// synchronous, RPDO2 controlword and TPDO2 statusword event-driven (the statusword with the
 /// inhibit time the load plan counts and an event timer of `refresh_ms`), TPDO3..4 off.
+/// Returns the layouts in use (a drive's fixed mapping where it keeps one).
 fn map_cyclic_pdos<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
     n: NodeId,
     layout: BusPdoLayout,
     refresh_ms: u16,
-) -> Result<(), SdoError> {
+) -> Result<MappedPdos, MapPdoError> {
     let id = n.get() as u16;
-    let pdo = |p: u16, rpdo: bool, layout, transmission_type, event_timing| PdoSpec {
-        comm: if rpdo {
-            obj::RPDO_COMMUNICATION
-        } else {
-            obj::TPDO_COMMUNICATION
-        } + p,
-        mapping: if rpdo {
-            obj::RPDO_MAPPING
-        } else {
-            obj::TPDO_MAPPING
-        } + p,
-        cob_id: if rpdo { 0x200 } else { 0x180 } + 0x100 * p + id,
-        layout,
-        transmission_type,
-        event_timing,
-    };
+    let mut mapped = MappedPdos::of(layout);
     let sync = SYNCHRONOUS_EVERY_SYNC;
-    let first_unused_tpdo = match layout {
-        BusPdoLayout::Standard => {
-            map_pdo(sdo, n, &pdo(0, true, &RPDO1_LAYOUT, sync, None))?;
-            map_pdo(sdo, n, &pdo(0, false, &TPDO1_LAYOUT, sync, None))?;
-            1
-        }
-        BusPdoLayout::Compact => {
-            let timing = Some((COMPACT_TPDO2_INHIBIT_100US, refresh_ms));
-            map_pdo(sdo, n, &pdo(0, true, &COMPACT_RPDO1_LAYOUT, sync, None))?;
-            map_pdo(
-                sdo,
-                n,
-                &pdo(1, true, &COMPACT_RPDO2_LAYOUT, EVENT_DRIVEN, None),
-            )?;
-            map_pdo(sdo, n, &pdo(0, false, &COMPACT_TPDO1_LAYOUT, sync, None))?;
-            map_pdo(
-                sdo,
-                n,
-                &pdo(1, false, &COMPACT_TPDO2_LAYOUT, EVENT_DRIVEN, timing),
-            )?;
-            2
-        }
+    // (RPDO?, transmission type, TPDO event timing) of PDO 1, 2 … each way, in map order.
+    type Plan = (bool, u8, Option<(u16, u16)>);
+    let (kinds, used): (&[Plan], u16) = match layout {
+        BusPdoLayout::Standard => (&[(true, sync, None), (false, sync, None)], 1),
+        BusPdoLayout::Compact => (
+            &[
+                (true, sync, None),
+                (true, EVENT_DRIVEN, None),
+                (false, sync, None),
+                (
+                    false,
+                    EVENT_DRIVEN,
+                    Some((COMPACT_TPDO2_INHIBIT_100US, refresh_ms)),
+                ),
+            ],
+            2,
+        ),
     };
+    let (mut next_rx, mut next_tx) = (0usize, 0usize);
+    for &(rpdo, transmission_type, event_timing) in kinds {
+        let (p, slot) = if rpdo {
+            next_rx += 1;
+            (next_rx - 1, &mut mapped.rx[next_rx - 1])
+        } else {
+            next_tx += 1;
+            (next_tx - 1, &mut mapped.tx[next_tx - 1])
+        };
+        let p16 = p as u16;
+        let spec = PdoSpec {
+            comm: if rpdo {
+                obj::RPDO_COMMUNICATION
+            } else {
+                obj::TPDO_COMMUNICATION
+            } + p16,
+            mapping: if rpdo {
+                obj::RPDO_MAPPING
+            } else {
+                obj::TPDO_MAPPING
+            } + p16,
+            cob_id: if rpdo { 0x200 } else { 0x180 } + 0x100 * p16 + id,
+            layout: &*slot,
+            transmission_type,
+            event_timing,
+        };
+        let in_use = map_pdo(sdo, n, &spec)?;
+        *slot = in_use;
+    }
     // The other TPDOs off: a drive's default mapping would only add bus load (4 CSP axes at
     // 1 ms already use ~97 % of 1 Mbit/s with the standard layout).
-    for p in first_unused_tpdo..4u16 {
+    for p in used..4u16 {
         let comm = obj::TPDO_COMMUNICATION + p;
         if let Some(cob) = optional(sdo.read_u32(n, comm, 1))?
             && cob & COB_INVALID == 0
@@ -499,7 +712,7 @@ fn map_cyclic_pdos<B: TimedBus + ?Sized>(
             sdo.write_u32(n, comm, 1, cob | COB_INVALID)?;
         }
     }
-    Ok(())
+    Ok(mapped)
 }
 
 /// CSP mode, the interpolation and SYNC period, the following-error window and time-out,
@@ -575,7 +788,7 @@ fn configure<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
     d: &DriveSetup,
     seen_at: Instant,
-) -> Result<DriveIdentity, BootError> {
+) -> Result<(DriveIdentity, MappedPdos), BootError> {
     let n = d.node;
     let device_type = sdo.read_u32(n, obj::DEVICE_TYPE, 0)?;
     if device_type & 0xFFFF != 0x0192 {
@@ -592,11 +805,25 @@ fn configure<B: TimedBus + ?Sized>(
     let serial = optional(sdo.read_u32(n, obj::IDENTITY, 4))?;
     let name = optional(sdo.read_string(n, obj::DEVICE_NAME, 0))?;
 
-    map_cyclic_pdos(sdo, n, d.pdo_layout, d.refresh_ms)?;
+    let pdos = map_cyclic_pdos(sdo, n, d.pdo_layout, d.refresh_ms).map_err(|e| match e {
+        MapPdoError::Sdo(e) => BootError::Sdo(e),
+        MapPdoError::Fixed {
+            pdo,
+            found,
+            problem,
+        } => BootError::FixedMapping {
+            axis: d.axis,
+            node: n.get(),
+            pdo,
+            found,
+            problem,
+        },
+    })?;
     write_cyclic_parameters(sdo, d)?;
     let (supervises_master, abort_connection_quick_stop) = supervise_master(sdo, d)?;
+    commission(sdo, d)?;
     let initial_statusword = Statusword(sdo.read_u16(n, obj::STATUSWORD, 0)?);
-    Ok(DriveIdentity {
+    let ident = DriveIdentity {
         axis: d.axis,
         node: n.get(),
         device_type,
@@ -612,7 +839,28 @@ fn configure<B: TimedBus + ?Sized>(
         position: 0.0,
         supervises_master,
         abort_connection_quick_stop,
-    })
+        commissioning_writes: d.commissioning.writes.len(),
+        skipped_parameters: d.commissioning.skipped.clone(),
+    };
+    Ok((ident, pdos))
+}
+
+/// The commissioning writes in order (the DCF's values, then the config's `sdo` list), after
+/// the master's set-up so an explicit entry may override what the master wrote. The first
+/// refused write stops boot, naming the object and where it was asked for.
+fn commission<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    d: &DriveSetup,
+) -> Result<(), BootError> {
+    for w in &d.commissioning.writes {
+        sdo.download(d.node, w.index, w.sub, &w.data)
+            .map_err(|error| BootError::Commissioning {
+                axis: d.axis,
+                write: Box::new(w.clone()),
+                error,
+            })?;
+    }
+    Ok(())
 }
 
 impl Master {
@@ -762,6 +1010,7 @@ impl Master {
             identity: a.identity,
             pdo_layout: self.pdo_layout,
             refresh_ms: self.event_refresh_ms,
+            commissioning: self.commissioning.get(i).cloned().unwrap_or_default(),
         }
     }
 
@@ -820,7 +1069,8 @@ impl Master {
         {
             self.check_single_boot_up(i)?;
         }
-        let mut ident = configured?;
+        let (mut ident, pdos) = configured?;
+        self.axes[i].pdos = pdos;
         bus.send(
             &NmtRepr {
                 command: NmtCommand::Start,
@@ -1016,6 +1266,10 @@ impl Master {
             a.max_following_error = 0.0;
             if a.node.is_some() && a.last_heartbeat.is_none() {
                 a.last_heartbeat = Some(now);
+            }
+            // The statusword's age counts from here (the enable phase may have been long).
+            if a.node.is_some() {
+                a.statusword_at = Some(now);
             }
         }
     }

@@ -25,10 +25,9 @@ use cia402::{Controlword, Goal, Progress, State, Statusword};
 use cnc402_config::MAX_AXES;
 use cnc402_motion::to_counts_wrapping;
 
-use super::boot::{
-    COMPACT_RPDO1_LAYOUT, COMPACT_RPDO2_LAYOUT, COMPACT_TPDO1_LAYOUT, COMPACT_TPDO2_LAYOUT,
-    RPDO1_LAYOUT, TPDO1_LAYOUT,
-};
+use super::boot::MappedPdos;
+#[cfg(test)]
+use super::boot::RPDO1_LAYOUT;
 use super::sdo::{SdoError, SdoEvent};
 use super::stop::{SafetyStop, StopReason};
 use super::{COMMAND_HISTORY, Master, Phase, StopMode};
@@ -102,38 +101,38 @@ impl Feedback {
     }
 }
 
-/// Decodes a TPDO1 by the layout boot mapped ([`TPDO1_LAYOUT`]); `None` when its length is
+/// Decodes a TPDO1 by the standard layout ([`TPDO1_LAYOUT`]); `None` when its length is
 /// not the layout's.
+#[cfg(test)]
 fn parse_tpdo1(data: &[u8]) -> Option<(Statusword, i32)> {
-    let v = TPDO1_LAYOUT.unpack(data).ok()?;
-    let sw = v.get(PdoObject::Statusword)? as u16;
-    // INTEGER32 on the wire: the raw bits are the two's complement count.
-    let pos = v.get(PdoObject::PositionActual)? as u32 as i32;
-    Some((Statusword(sw), pos))
-}
-
-/// The feedback PDOs of `layout`: (statusword, position) from TPDO `pdo` (1-based); each
-/// `None` when that PDO does not carry it; `None` as a whole when the frame does not fit.
-fn parse_feedback(
-    layout: BusPdoLayout,
-    pdo: u8,
-    data: &[u8],
-) -> Option<(Option<Statusword>, Option<i32>)> {
-    match (layout, pdo) {
-        (BusPdoLayout::Standard, 1) => parse_tpdo1(data).map(|(sw, pos)| (Some(sw), Some(pos))),
-        (BusPdoLayout::Compact, 1) => {
-            let v = COMPACT_TPDO1_LAYOUT.unpack(data).ok()?;
-            Some((None, Some(v.get(PdoObject::PositionActual)? as u32 as i32)))
-        }
-        (BusPdoLayout::Compact, 2) => {
-            let v = COMPACT_TPDO2_LAYOUT.unpack(data).ok()?;
-            Some((Some(Statusword(v.get(PdoObject::Statusword)? as u16)), None))
-        }
+    match parse_feedback(&MappedPdos::of(BusPdoLayout::Standard), 1, data)? {
+        (Some(sw), Some(pos)) => Some((sw, pos)),
         _ => None,
     }
 }
 
-/// Encodes an RPDO1 by the layout boot mapped ([`RPDO1_LAYOUT`]).
+/// The feedback in TPDO `pdo` (1-based) by the layouts the drive has: (statusword,
+/// position), each `None` when that PDO does not carry it; `None` as a whole when the PDO is
+/// not one the master uses or the frame does not fit its layout.
+fn parse_feedback(
+    pdos: &MappedPdos,
+    pdo: u8,
+    data: &[u8],
+) -> Option<(Option<Statusword>, Option<i32>)> {
+    let layout = pdos.tx.get(usize::from(pdo).checked_sub(1)?)?;
+    if layout.byte_len() == 0 {
+        return None;
+    }
+    let v = layout.unpack(data).ok()?;
+    Some((
+        v.get(PdoObject::Statusword).map(|w| Statusword(w as u16)),
+        // INTEGER32 on the wire: the raw bits are the two's complement count.
+        v.get(PdoObject::PositionActual).map(|p| p as u32 as i32),
+    ))
+}
+
+/// Encodes an RPDO1 by the standard layout ([`RPDO1_LAYOUT`]).
+#[cfg(test)]
 fn rpdo1(cob_id: u16, cw: Controlword, target: i32) -> CanFrame {
     pdo_frame(&RPDO1_LAYOUT, cob_id, cw, target)
 }
@@ -145,9 +144,11 @@ fn pdo_frame(
     cw: Controlword,
     target: i32,
 ) -> CanFrame {
+    // A fixed mapping may carry the mode of operation: it stays CSP (8).
     let values = PdoValues::new()
         .with(PdoObject::Controlword, cw.bits() as u64)
-        .with(PdoObject::TargetPosition, target as u32 as u64);
+        .with(PdoObject::TargetPosition, target as u32 as u64)
+        .with(PdoObject::ModesOfOperation, 8);
     let (data, len) = layout.pack(&values);
     // The id is 0x200/0x300 + node (≤ 0x37F) and the layout at most 8 bytes.
     CanFrame::from_parts(cob_id, data, len)
@@ -312,11 +313,12 @@ impl Master {
                     self.unexpected_frames += 1;
                     return;
                 };
-                match parse_feedback(self.pdo_layout, pdo, frame.data()) {
+                match parse_feedback(&self.axes[i].pdos, pdo, frame.data()) {
                     Some((sw, pos)) => {
                         let a = &mut self.axes[i];
                         if sw.is_some() {
                             a.statusword = sw;
+                            a.statusword_at = Some(now);
                         }
                         if let Some(pos) = pos {
                             a.set_actual_raw(pos);
@@ -428,6 +430,14 @@ impl Master {
             && s != NmtState::Operational
         {
             return Some(StopReason::NmtState(s));
+        }
+        if let Some(t) = a.statusword_at
+            && self.pdo_layout == BusPdoLayout::Compact
+            && now.saturating_since(t) > self.statusword_timeout
+        {
+            return Some(StopReason::StatuswordStale {
+                silent_ms: now.saturating_since(t).as_millis() as u64,
+            });
         }
         if a.tpdo_missing >= self.tpdo_timeout_cycles {
             return Some(StopReason::TpdoMissing {
@@ -608,8 +618,9 @@ impl Master {
                 continue;
             };
             let id = node.get() as u16;
+            let [rx1, rx2] = a.pdos.rx;
             let sent = match self.pdo_layout {
-                BusPdoLayout::Standard => bus.send(&rpdo1(0x200 + id, cw, target)),
+                BusPdoLayout::Standard => bus.send(&pdo_frame(&rx1, 0x200 + id, cw, target)),
                 BusPdoLayout::Compact => {
                     // The controlword when it changes, and every refresh period unchanged.
                     a.controlword_refresh_in = a.controlword_refresh_in.saturating_sub(1);
@@ -617,11 +628,11 @@ impl Master {
                     {
                         a.controlword_sent = Some(cw);
                         a.controlword_refresh_in = self.event_refresh_cycles;
-                        bus.send(&pdo_frame(&COMPACT_RPDO2_LAYOUT, 0x300 + id, cw, target))
+                        bus.send(&pdo_frame(&rx2, 0x300 + id, cw, target))
                     } else {
                         Ok(())
                     };
-                    cw_sent.and(bus.send(&pdo_frame(&COMPACT_RPDO1_LAYOUT, 0x200 + id, cw, target)))
+                    cw_sent.and(bus.send(&pdo_frame(&rx1, 0x200 + id, cw, target)))
                 }
             };
             if let Err(e) = sent {

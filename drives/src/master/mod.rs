@@ -234,6 +234,10 @@ pub(crate) struct AxisSlot {
     pub disabled: bool,
     /// Enabling: the sequencer's last progress.
     pub progress: cia402::Progress,
+    /// The PDO layouts the drive has (set at boot; a fixed mapping the master accepted).
+    pub pdos: boot::MappedPdos,
+    /// When a statusword last arrived (the compact layout's staleness monitor).
+    pub statusword_at: Option<Instant>,
 }
 
 impl AxisSlot {
@@ -286,6 +290,8 @@ impl AxisSlot {
             sdo_tx: None,
             disabled: false,
             progress: cia402::Progress::Moving(None),
+            pdos: boot::MappedPdos::of(PdoLayout::Standard),
+            statusword_at: None,
         }
     }
 
@@ -354,6 +360,10 @@ pub struct Master {
     /// in cycles).
     pub(crate) event_refresh_ms: u16,
     pub(crate) event_refresh_cycles: u32,
+    /// Compact layout: a statusword older than this trips [`StopReason::StatuswordStale`].
+    pub(crate) statusword_timeout: Duration,
+    /// Per axis, what boot writes after its own set-up (`dcf`, `sdo` in the config).
+    pub(crate) commissioning: Vec<cnc402_config::Commissioning>,
 }
 
 impl Master {
@@ -396,6 +406,7 @@ impl Master {
                 });
             }
             let s = &mut axes[i];
+            s.pdos = boot::MappedPdos::of(config.bus.pdo_layout);
             s.name = a.name;
             s.node = node;
             s.counts_per_unit = if a.counts_per_unit.is_finite() && a.counts_per_unit > 0.0 {
@@ -474,6 +485,19 @@ impl Master {
             event_refresh_cycles: (u32::from(event_refresh_ms) * 1000
                 / config.bus.period_us.max(1))
             .max(1),
+            commissioning: config
+                .axes
+                .iter()
+                .map(|a| a.commissioning.clone())
+                .collect(),
+            // Three event-timer periods (two statuswords lost in a row), and never less than
+            // the TPDO time-out the other monitors allow.
+            statusword_timeout: Duration::from_millis(3 * u64::from(event_refresh_ms)).max(
+                Duration::from_micros(
+                    u64::from(config.bus.tpdo_timeout_cycles.max(1))
+                        * u64::from(config.bus.period_us),
+                ),
+            ),
         })
     }
 

@@ -108,6 +108,12 @@ pub enum StopReason {
         /// The window, in axis units.
         window: f64,
     },
+    /// Compact layout: the drive's event-driven statusword (TPDO2) did not come for this
+    /// long, more than its event timer allows (three timer periods, or the TPDO time-out).
+    StatuswordStale {
+        /// Milliseconds since the last statusword.
+        silent_ms: u64,
+    },
     /// A commanded position was not finite.
     BadSetpoint,
     /// The CAN transport failed.
@@ -123,6 +129,11 @@ impl fmt::Display for StopReason {
             StopReason::HeartbeatLost { silent_ms } => {
                 write!(f, "heartbeat lost (none for {silent_ms} ms)")
             }
+            StopReason::StatuswordStale { silent_ms } => write!(
+                f,
+                "statusword stale: no TPDO2 statusword for {silent_ms} ms (its event timer \
+                 sends one every heartbeat period)"
+            ),
             StopReason::NmtState(NmtState::BootUp) => {
                 write!(
                     f,

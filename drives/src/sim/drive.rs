@@ -3,6 +3,8 @@
 //! machine, CSP following with configurable dynamics, following-error monitoring, and a
 //! fault injection API. Works on [`crate::bus::SimBus`] and on any frame source with a clock.
 
+mod commissioning;
+
 use core::fmt;
 use core::str::FromStr;
 use core::time::Duration;
@@ -314,6 +316,10 @@ pub struct SimDrive {
     /// 0x1005's identifier, cached: every frame on the bus is compared with it.
     sync_id: u16,
     hot: Hot,
+    /// Stores/restores carried out (0x1010/0x1011) and the fixed PDO mappings
+    /// (`commissioning`).
+    stores: u64,
+    fixed: Vec<(u16, Vec<crate::wire::MappingEntry>)>,
 }
 
 impl fmt::Debug for SimDrive {
@@ -376,7 +382,8 @@ impl SimDrive {
             quick_stop_deceleration: decel,
             interpolation_period: objects::interpolation_period(period_us),
         };
-        let defaults = objects::build(&params);
+        let mut defaults = objects::build(&params);
+        commissioning::insert_store_objects(&mut defaults);
         let mut d = SimDrive {
             node,
             options,
@@ -410,6 +417,8 @@ impl SimDrive {
             nominal_period: period,
             sync_id: 0x80,
             hot: Hot::load(&ObjectDictionary::new(), period),
+            stores: 0,
+            fixed: Vec::new(),
         };
         d.hot = Hot::load(&d.od, period);
         d.reload_pdos();
@@ -1148,6 +1157,9 @@ impl ObjectAccess for SimDrive {
         match index {
             o::PREDEFINED_ERROR_FIELD if value.as_u64() != Some(0) => {
                 return Err(AbortCode::InvalidValue);
+            }
+            crate::od::STORE_PARAMETERS | crate::od::RESTORE_DEFAULTS if sub >= 1 => {
+                return self.store_command(index, value.as_u64().unwrap_or(0) as u32);
             }
             o::MODES_OF_OPERATION => {
                 let supported = self.od.get_u64(o::SUPPORTED_DRIVE_MODES, 0).unwrap_or(0) as u32;
