@@ -1,0 +1,103 @@
+//! The post-processor (issue 16, source 003): a job read at cnc402's canonical layer (moves,
+//! arcs, taps and canned cycles as operations, tool calls, offsets, compensation, spindle,
+//! coolant) becomes a program for one target control ([`rules::Target`]), built whole in
+//! memory and assembled at the end, then read back by cnc402's own interpreter and compared
+//! with the job segment by segment ([`verify`]) so that a posted program never moves
+//! differently from its job without an error.
+
+// NcError (lang's) is large; an error ends the post, so its size costs nothing that matters.
+#![allow(clippy::result_large_err)]
+
+pub mod assemble;
+pub mod emit;
+pub mod input;
+pub mod rules;
+pub mod verify;
+
+use cnc402_config::MachineConfig;
+use cnc402_motion::segment::Source;
+
+pub use rules::{Rules, Target};
+
+/// Why a job could not be posted.
+#[derive(Debug)]
+pub enum PostError {
+    /// The job itself is wrong (it does not run in cnc402).
+    Job(cnc402_lang::NcError),
+    /// The target cannot express what the job does (at `source`, if one block is to blame).
+    Target {
+        target: &'static str,
+        source: Option<Source>,
+        message: String,
+    },
+}
+
+impl PostError {
+    pub fn target(rules: &Rules, source: Option<&Source>, message: impl Into<String>) -> Self {
+        PostError::Target {
+            target: rules.name,
+            source: source.cloned(),
+            message: message.into(),
+        }
+    }
+}
+
+impl std::fmt::Display for PostError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PostError::Job(e) => write!(f, "{e}"),
+            PostError::Target {
+                target,
+                source,
+                message,
+            } => {
+                if let Some(s) = source {
+                    write!(f, "{}:{}: ", s.file, s.line)?;
+                    if let Some(n) = s.n {
+                        write!(f, "block N{n}: ")?;
+                    }
+                }
+                write!(f, "{message} (target {target})")
+            }
+        }
+    }
+}
+
+impl std::error::Error for PostError {}
+
+/// Posts the job `name` (its text `text`) for `target` on machine `cfg` and proves the result
+/// by reading it back: the program text, or why it cannot be posted.
+pub fn post(
+    cfg: &MachineConfig,
+    name: &str,
+    text: &str,
+    target: Target,
+) -> Result<String, PostError> {
+    let rules = target.rules();
+    let posted = post_unproven(cfg, name, text, target)?;
+    verify::same_motion(cfg, &rules, name, text, &posted)?;
+    Ok(posted)
+}
+
+/// [`post`] without the read-back: the program as built (for looking into a refusal).
+pub fn post_unproven(
+    cfg: &MachineConfig,
+    name: &str,
+    text: &str,
+    target: Target,
+) -> Result<String, PostError> {
+    let rules = target.rules();
+    let job = input::read_job(cfg, name, text)?;
+    let program = emit::emit(cfg, &rules, &job)?;
+    let posted = match target {
+        Target::Itnc530 => {
+            return Err(PostError::target(
+                &rules,
+                None,
+                "iTNC 530 output is not built yet (docs/post.md, \"Not done\")",
+            ));
+        }
+        _ => assemble::assemble_iso(&program, &rules)?,
+    };
+    Ok(posted)
+}
