@@ -39,12 +39,13 @@ impl Modal {
     pub fn new(cfg: &MachineConfig) -> Modal {
         Modal {
             motion: None,
-            plane: None,
+            // As the preamble (G17 G40 G49) leaves them.
+            plane: Some(Plane::XY),
             feed: None,
             path_mode: None,
             work: None,
-            tool_length: None,
-            comp: None,
+            tool_length: Some((49, 0)),
+            comp: Some(None),
             work_zeros: cfg.work_offsets,
             tools: cfg.tool_offsets.clone(),
             offset: AxisPos(cfg.work_offsets[0]),

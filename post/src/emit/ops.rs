@@ -10,7 +10,7 @@ use cnc402_motion::segment::{ArcDir, AxisPos, SegmentKind, SpindleDir, StopKind}
 use super::Emitter;
 use super::format::{decimal, feed, position, speed};
 use crate::PostError;
-use crate::assemble::Block;
+use crate::assemble::{Block, Word};
 
 const SAME: f64 = 1e-9;
 
@@ -24,6 +24,8 @@ pub struct CycleModal {
     pub axis: usize,
     /// The cycle's words as last written (`Z-6.`, `R2.`, …), letter first.
     pub words: Vec<String>,
+    /// G98 or G99.
+    pub ret: &'static str,
 }
 
 impl Emitter<'_> {
@@ -85,7 +87,14 @@ impl Emitter<'_> {
     /// M19, or the spindle axis sent to its reference (G28) when the job's C reads it after.
     fn orient(&mut self, op: &CanonOp, angle: f64, program: Option<f64>) -> Result<Vec<String>, PostError> {
         match program {
-            None if (angle - self.cfg.interp.spindle_orient_angle).abs() <= SAME => Ok(vec!["M19".into()]),
+            None if (angle - self.cfg.interp.spindle_orient_angle).abs() <= SAME => {
+                // M19 stops the spindle itself: an M5 just before it would stop it twice.
+                let last = self.program.main.last().map(|b| b.words.as_slice());
+                if last == Some(&[Word::Text("M5".into())][..]) {
+                    self.program.main.pop();
+                }
+                Ok(vec!["M19".into()])
+            }
             None => Err(self.refuse(op, format!("a spindle orientation to {angle}° other than the machine's M19 angle"))),
             Some(_) => {
                 let Some(c) = self.cfg.spindle_index() else {
@@ -164,6 +173,11 @@ impl Emitter<'_> {
             if moves || offset_changed || length_set || always.contains(&i) {
                 words.push(position(self.rules, self.letter(i), end[i], &op.source)?);
             }
+        }
+        if words.is_empty() {
+            // A move to where the tool is is still a move of the job (a block without axis
+            // words would be none).
+            words.push(position(self.rules, self.letter(0), end[0], &op.source)?);
         }
         Ok(words)
     }
@@ -249,7 +263,10 @@ impl Emitter<'_> {
             self.push(vec!["M29".into(), s], Some(op));
         }
         let mut words = self.modal_words(op)?;
-        words.push(if cc.words.return_to_r { "G99" } else { "G98" }.into());
+        let ret = if cc.words.return_to_r { "G99" } else { "G98" };
+        if !continues || self.modal.cycle.as_ref().is_some_and(|c| c.ret != ret) {
+            words.push(ret.into());
+        }
         let code = format!("G{}", cc.code);
         let data = self.cycle_data(op, cc)?;
         let mut first = true;
@@ -269,7 +286,13 @@ impl Emitter<'_> {
                 w.extend(data.iter().filter(|d| new_code || !had.contains(d)).cloned());
                 first = false;
             }
-            self.modal.cycle = Some(CycleModal { code: cc.code, initial, axis: drill, words: data.clone() });
+            self.modal.cycle = Some(CycleModal {
+                code: cc.code,
+                initial,
+                axis: drill,
+                words: data.clone(),
+                ret,
+            });
             self.push(w, Some(op));
         }
         self.modal.offset = op.state.offset;
