@@ -155,7 +155,13 @@ impl<'r> Lines<'r> {
         }
         let mut line = words.join(" ");
         if let Some(c) = &b.comment {
-            line.push_str(&comment_text(c, self.rules));
+            // A comment is shortened to the control's line, not refused: it moves nothing.
+            let room = self.rules.max_line.saturating_sub(line.len() + 3);
+            let short: String = c.chars().take(room).collect();
+            if !short.is_empty() {
+                let text = comment_text(short.trim_end(), self.rules);
+                line.push_str(if line.is_empty() { text.trim_start() } else { &text });
+            }
         }
         if line.len() > self.rules.max_line {
             return Err(PostError::target(
@@ -232,4 +238,18 @@ mod tests {
     }
 
     use crate::rules::Numbering;
+
+    #[test]
+    fn a_comment_is_shortened_to_the_line() {
+        let mut rules = Target::Arumatik.rules();
+        rules.max_line = 20;
+        let mut b = Block::new(vec!["M0".into()], None);
+        b.comment = Some("MSG, a very long message for the operator".into());
+        let p = Program {
+            main: vec![b],
+            ..Program::default()
+        };
+        let text = assemble_iso(&p, &rules).unwrap();
+        assert!(text.contains("N1 M0 (MSG, A VERY)\n"), "{text}");
+    }
 }

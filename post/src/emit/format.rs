@@ -18,39 +18,62 @@ pub fn decimal(value: f64, decimals: u32) -> String {
     text.to_string()
 }
 
-/// A position word (`X-2.5`) within the control's range.
+/// How a length is written: in the program's units (G20 inches take one decimal more, the
+/// control's 0.0001" increment); angles always in degrees.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Unit {
+    Mm,
+    Inch,
+    Degree,
+}
+
+impl Unit {
+    /// `value` (mm or degrees) in this unit, and its decimals on a control of `rules`.
+    fn convert(self, value: f64, rules: &Rules, decimals: u32) -> (f64, u32) {
+        let _ = rules;
+        match self {
+            Unit::Inch => (value / 25.4, decimals + 1),
+            Unit::Mm | Unit::Degree => (value, decimals),
+        }
+    }
+}
+
+/// A position word (`X-2.5`; `value` in mm or degrees) within the control's range.
 pub fn position(
     rules: &Rules,
     letter: char,
     value: f64,
+    unit: Unit,
     at: &Source,
 ) -> Result<String, PostError> {
-    if !value.is_finite() || value.abs() > rules.max_position {
+    let (v, decimals) = unit.convert(value, rules, rules.position_decimals);
+    if !v.is_finite() || v.abs() > rules.max_position {
         return Err(PostError::target(
             rules,
             Some(at),
             format!(
-                "{letter}{value} is outside the control's range (±{})",
+                "{letter}{v} is outside the control's range (±{})",
                 rules.max_position
             ),
         ));
     }
-    Ok(format!("{letter}{}", decimal(value, rules.position_decimals)))
+    Ok(format!("{letter}{}", decimal(v, decimals)))
 }
 
-/// An F word in mm/min.
-pub fn feed(rules: &Rules, value: f64, at: &Source) -> Result<String, PostError> {
-    if !(value > 0.0 && value <= rules.max_feed) {
+/// An F word (`value` in mm/min, written per minute in the program's units).
+pub fn feed(rules: &Rules, value: f64, unit: Unit, at: &Source) -> Result<String, PostError> {
+    let (v, decimals) = unit.convert(value, rules, rules.feed_decimals);
+    if !(v > 0.0 && v <= rules.max_feed) {
         return Err(PostError::target(
             rules,
             Some(at),
             format!(
-                "feed F{value} is outside the control's range (0 < F <= {})",
+                "feed F{v} is outside the control's range (0 < F <= {})",
                 rules.max_feed
             ),
         ));
     }
-    Ok(format!("F{}", decimal(value, rules.feed_decimals)))
+    Ok(format!("F{}", decimal(v, decimals)))
 }
 
 /// An S word: whole rpm within the control's range (S has no decimals on these controls; a
@@ -98,7 +121,10 @@ mod tests {
         );
         assert!(speed(&rules, 1000.5, &at).is_err());
         assert_eq!(speed(&rules, 1000.0, &at).unwrap(), "S1000");
-        assert!(position(&rules, 'X', 1e6, &at).is_err());
-        assert!(feed(&rules, 0.0, &at).is_err());
+        assert!(position(&rules, 'X', 1e6, Unit::Mm, &at).is_err());
+        assert!(feed(&rules, 0.0, Unit::Mm, &at).is_err());
+        assert_eq!(position(&rules, 'X', 25.4, Unit::Inch, &at).unwrap(), "X1.");
+        assert_eq!(position(&rules, 'Z', -0.0762, Unit::Inch, &at).unwrap(), "Z-0.003");
+        assert_eq!(feed(&rules, 119.99976, Unit::Inch, &at).unwrap(), "F4.7244");
     }
 }

@@ -7,7 +7,9 @@ use cnc402_interp::canon::{CanonOp, CompSide, PathMode};
 use cnc402_motion::segment::{AxisPos, MAX_AXES, Plane};
 
 use super::Emitter;
-use super::format::{decimal, position};
+use super::format::{Unit, position};
+use cnc402_config::AxisKind;
+use cnc402_interp::canon::ProgramUnits;
 use crate::PostError;
 
 /// What the control holds between blocks (`None`: not yet written, so written next time).
@@ -16,6 +18,8 @@ pub struct Modal {
     /// Group 01 as last written: 0, 1, 2, 3, or a cycle code.
     pub motion: Option<u32>,
     pub plane: Option<Plane>,
+    /// G20/G21 as written.
+    pub units: Option<ProgramUnits>,
     pub feed: Option<String>,
     pub path_mode: Option<u32>,
     pub work: Option<usize>,
@@ -41,6 +45,7 @@ impl Modal {
             motion: None,
             // As the preamble (G17 G40 G49) leaves them.
             plane: Some(Plane::XY),
+            units: None,
             feed: None,
             path_mode: None,
             work: None,
@@ -74,6 +79,12 @@ impl Emitter<'_> {
         let st = &op.state;
         let mut words = Vec::new();
         self.length_written = false;
+        if self.modal.units != Some(st.units) {
+            // A block of its own: the G10 values below are read in the new units.
+            let code = if st.units == ProgramUnits::Inch { "G20" } else { "G21" };
+            self.push(vec![code.into()], Some(op));
+            self.modal.units = Some(st.units);
+        }
         if self.modal.plane != Some(st.plane) {
             words.push(format!("G{}", plane_code(st.plane)));
             self.modal.plane = Some(st.plane);
@@ -112,8 +123,8 @@ impl Emitter<'_> {
             let geometry = sign * st.tool_length - t.length_wear;
             if (t.length - geometry).abs() > SAME {
                 self.data_input(op, "tool length")?;
-                let r = decimal(geometry, self.rules.position_decimals);
-                self.push(vec!["G10".into(), "L10".into(), format!("P{}", want.1), format!("R{r}")], Some(op));
+                let r = self.length_word('R', geometry, op)?;
+                self.push(vec!["G10".into(), "L10".into(), format!("P{}", want.1), r], Some(op));
                 self.modal.tools[want.1 as usize - 1].length = geometry;
                 self.modal.tool_length = None;
             }
@@ -162,7 +173,7 @@ impl Emitter<'_> {
         self.data_input(op, "work zero (G92 or G10 of the job)")?;
         let mut words = vec!["G10".into(), "L2".into(), format!("P{}", st.work_offset + 1)];
         for i in differ {
-            words.push(position(self.rules, self.letter(i), want[i], &op.source)?);
+            words.push(self.axis_word(i, want[i], op)?);
             self.modal.work_zeros[st.work_offset][i] = want[i];
         }
         self.push(words, Some(op));
@@ -179,8 +190,8 @@ impl Emitter<'_> {
             let geometry = c.radius - t.radius_wear;
             if (t.radius - geometry).abs() > SAME {
                 self.data_input(op, "cutter radius")?;
-                let r = decimal(geometry, self.rules.position_decimals);
-                self.push(vec!["G10".into(), "L12".into(), format!("P{}", c.d), format!("R{r}")], Some(op));
+                let r = self.length_word('R', geometry, op)?;
+                self.push(vec!["G10".into(), "L12".into(), format!("P{}", c.d), r], Some(op));
                 self.modal.tools[c.d as usize - 1].radius = geometry;
                 self.modal.comp = None;
             }
@@ -194,6 +205,29 @@ impl Emitter<'_> {
             Some((CompSide::Left, d)) => vec!["G41".into(), format!("D{d}")],
             Some((CompSide::Right, d)) => vec!["G42".into(), format!("D{d}")],
         })
+    }
+
+    /// How lengths are written now.
+    pub(crate) fn length_unit(&self) -> Unit {
+        if self.modal.units == Some(ProgramUnits::Inch) {
+            Unit::Inch
+        } else {
+            Unit::Mm
+        }
+    }
+
+    /// The word of axis `i` at `value` (mm or degrees).
+    pub(crate) fn axis_word(&self, i: usize, value: f64, op: &CanonOp) -> Result<String, PostError> {
+        let unit = match self.cfg.axes[i].kind {
+            AxisKind::Linear => self.length_unit(),
+            _ => Unit::Degree,
+        };
+        position(self.rules, self.letter(i), value, unit, &op.source)
+    }
+
+    /// A length word other than an axis (I J K R Q), `value` in mm.
+    pub(crate) fn length_word(&self, letter: char, value: f64, op: &CanonOp) -> Result<String, PostError> {
+        position(self.rules, letter, value, self.length_unit(), &op.source)
     }
 
     /// Refuses an offset change on a control without programmable data input.

@@ -8,7 +8,7 @@ use cnc402_interp::canon::{CannedCycle, CanonOp, CanonState};
 use cnc402_motion::segment::{ArcDir, AxisPos, SegmentKind, SpindleDir, StopKind};
 
 use super::Emitter;
-use super::format::{decimal, feed, position, speed};
+use super::format::{decimal, feed, speed};
 use crate::PostError;
 use crate::assemble::{Block, Word};
 
@@ -149,7 +149,7 @@ impl Emitter<'_> {
             words.extend(self.arc_words(op, end, *center, *turns)?);
         }
         if let Some(f) = f {
-            let f = feed(self.rules, f, &op.source)?;
+            let f = feed(self.rules, f, self.length_unit(), &op.source)?;
             if self.modal.feed.as_deref() != Some(&f) {
                 words.push(f.clone());
                 self.modal.feed = Some(f);
@@ -171,13 +171,13 @@ impl Emitter<'_> {
             // Type A: the block that sets or cancels the length moves the tool axis by it.
             let length_set = self.length_written && op.state.tool_axis == Some(i);
             if moves || offset_changed || length_set || always.contains(&i) {
-                words.push(position(self.rules, self.letter(i), end[i], &op.source)?);
+                words.push(self.axis_word(i, end[i], op)?);
             }
         }
         if words.is_empty() {
             // A move to where the tool is is still a move of the job (a block without axis
             // words would be none).
-            words.push(position(self.rules, self.letter(0), end[0], &op.source)?);
+            words.push(self.axis_word(0, end[0], op)?);
         }
         Ok(words)
     }
@@ -225,7 +225,7 @@ impl Emitter<'_> {
                 continue;
             }
             let Some(i) = idx(axis) else { continue };
-            words.push(position(self.rules, letter, center[k] - start[i], &op.source)?);
+            words.push(self.length_word(letter, center[k] - start[i], op)?);
         }
         Ok(words)
     }
@@ -279,7 +279,7 @@ impl Emitter<'_> {
             }
             // Every hole names both plane axes: a block without them would not drill.
             for (k, v) in hole.iter().enumerate() {
-                w.push(position(self.rules, self.letter(cc.axes[k]), *v, &op.source)?);
+                w.push(self.axis_word(cc.axes[k], *v, op)?);
             }
             if first {
                 let had = self.modal.cycle.as_ref().map(|c| c.words.clone()).unwrap_or_default();
@@ -302,16 +302,16 @@ impl Emitter<'_> {
     /// Z R (Q) (P) F of a cycle, absolute.
     fn cycle_data(&self, op: &CanonOp, cc: &CannedCycle) -> Result<Vec<String>, PostError> {
         let mut data = vec![
-            position(self.rules, self.letter(cc.axes[2]), cc.bottom, &op.source)?,
-            position(self.rules, 'R', cc.r_level, &op.source)?,
+            self.axis_word(cc.axes[2], cc.bottom, op)?,
+            self.length_word('R', cc.r_level, op)?,
         ];
         if let Some(q) = cc.words.q {
-            data.push(position(self.rules, 'Q', q, &op.source)?);
+            data.push(self.length_word('Q', q, op)?);
         }
         if let Some(p) = cc.words.p {
             data.push(format!("P{}", (p * 1000.0).round() as u64));
         }
-        data.push(feed(self.rules, cc.feed, &op.source)?);
+        data.push(feed(self.rules, cc.feed, self.length_unit(), &op.source)?);
         Ok(data)
     }
 
