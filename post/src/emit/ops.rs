@@ -335,3 +335,63 @@ impl Emitter<'_> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cnc402_interp::canon::{CanonKind, FeedMode, PathMode, ProgramUnits};
+    use cnc402_motion::segment::{Plane, Source};
+
+    fn op(kind: SegmentKind) -> CanonOp {
+        CanonOp {
+            kind: CanonKind::Single(kind),
+            source: Source {
+                file: "j.nc".into(),
+                line: 7,
+                n: Some(70),
+            },
+            state: Arc::new(CanonState {
+                plane: Plane::XY,
+                units: ProgramUnits::Mm,
+                feed_mode: FeedMode::PerMinute,
+                path_mode: PathMode::ExactStop,
+                work_offset: 0,
+                offset: AxisPos::default(),
+                tool: None,
+                tool_length_mode: 49,
+                h: 0,
+                tool_length: 0.0,
+                tool_axis: Some(2),
+                comp: None,
+            }),
+        }
+    }
+
+    #[test]
+    fn an_arc_of_more_than_one_turn_is_refused() {
+        let cfg = cnc402_config::MachineConfig::default_machine();
+        let rules = crate::Target::Fanuc16.rules();
+        let mut e = Emitter::new(&cfg, &rules);
+        let mut end = AxisPos::default();
+        end[0] = 10.0;
+        e.op(&op(SegmentKind::Rapid { end })).unwrap();
+        let arc = |turns| {
+            op(SegmentKind::Arc {
+                end,
+                center: [0.0, 0.0, 0.0],
+                plane: Plane::XY,
+                dir: ArcDir::Ccw,
+                turns,
+                feed: 100.0,
+            })
+        };
+        // One full circle is a G3 with the end on the start.
+        e.op(&arc(1)).unwrap();
+        let err = e.op(&arc(2)).unwrap_err().to_string();
+        assert_eq!(
+            err,
+            "j.nc:7: block N70: an arc of more than one full turn (the control's G2/G3 has no \
+             turn count) (target fanuc16)"
+        );
+    }
+}
