@@ -63,7 +63,11 @@ pub fn same_motion(
     let job = steps(segments(cfg, name, text, None)?);
     let posted_name = format!("{name}.{}", rules.name);
     let back = segments(cfg, &posted_name, posted, Some(Dialect::Fanuc)).map_err(|e| {
-        PostError::target(rules, None, format!("the posted program does not read back: {e}"))
+        PostError::target(
+            rules,
+            None,
+            format!("the posted program does not read back: {e}"),
+        )
     })?;
     let back = steps(back);
     for (i, (a, b)) in job.iter().zip(&back).enumerate() {

@@ -104,7 +104,10 @@ fn the_real_program_corpus_posts_or_is_refused_never_moved_differently() {
     }
     files.sort();
     let (mut ok, mut refused) = (0, 0);
-    for f in files.iter().filter(|f| !f.to_string_lossy().ends_with(".py")) {
+    for f in files
+        .iter()
+        .filter(|f| !f.to_string_lossy().ends_with(".py"))
+    {
         for target in [Target::Fanuc16, Target::Fanuc0, Target::Arumatik] {
             match post_and_prove(&cfg, f, target) {
                 Ok(_) => ok += 1,
@@ -112,7 +115,10 @@ fn the_real_program_corpus_posts_or_is_refused_never_moved_differently() {
                 Err(PostError::Job(_)) => {}
                 Err(e @ PostError::Target { .. }) => {
                     let text = e.to_string();
-                    assert!(text.ends_with(&format!("(target {})", target.name())), "{text}");
+                    assert!(
+                        text.ends_with(&format!("(target {})", target.name())),
+                        "{text}"
+                    );
                     refused += 1;
                 }
             }
@@ -155,8 +161,12 @@ fn boring_cycles_as_plain_blocks_on_arumatik_which_lacks_g76() {
 #[test]
 fn fanuc_milling_offsets_on_fanuc32() {
     let cfg = config("config/machine.toml");
-    let text = post_and_prove(&cfg, &repo().join("examples/fanuc-milling.nc"), Target::Fanuc32)
-        .unwrap();
+    let text = post_and_prove(
+        &cfg,
+        &repo().join("examples/fanuc-milling.nc"),
+        Target::Fanuc32,
+    )
+    .unwrap();
     // The G10 of the job's second vise, the wear it measured, G28's cancelled length.
     assert!(text.contains("G10 L2 P2 X120. Y40.\n"), "{text}");
     assert!(text.contains("G10 L10 P1 R-180.05\n"), "{text}");
@@ -176,7 +186,10 @@ fn a_helix_is_refused_on_arumatik_naming_block_and_target() {
     );
     // Fanuc 16 interpolates helices; the full circle after it is one G3 with I/J.
     let text = post_and_prove(&cfg, &fixture("helix.nc"), Target::Fanuc16).unwrap();
-    assert!(text.contains("G3 X10. Y0. Z-2. I-10. J0. F400.\n"), "{text}");
+    assert!(
+        text.contains("G3 X10. Y0. Z-2. I-10. J0. F400.\n"),
+        "{text}"
+    );
     assert!(text.contains(" X10. Y0. I-10. J0.\n"), "{text}");
 }
 
@@ -186,10 +199,20 @@ fn post_text(text: &str, target: Target) -> Result<String, PostError> {
 
 #[test]
 fn a_speed_or_tool_beyond_the_control_is_refused() {
-    let e = post_text("T1 M6\nS5000.5 M3\nM30\n", Target::Fanuc16).unwrap_err().to_string();
-    assert!(e.contains("job.nc:2: spindle speed S5000.5 is not a whole number"), "{e}");
-    let e = post_text("T100 M6\nM30\n", Target::Arumatik).unwrap_err().to_string();
-    assert_eq!(e, "job.nc:1: T100 is past the control's T99 (target arumatik)");
+    let e = post_text("T1 M6\nS5000.5 M3\nM30\n", Target::Fanuc16)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("job.nc:2: spindle speed S5000.5 is not a whole number"),
+        "{e}"
+    );
+    let e = post_text("T100 M6\nM30\n", Target::Arumatik)
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "job.nc:1: T100 is past the control's T99 (target arumatik)"
+    );
 }
 
 #[test]
@@ -200,7 +223,12 @@ fn a_changed_posted_program_is_caught_by_the_read_back() {
     let posted = post_and_prove(&cfg, &job, Target::Fanuc16).unwrap();
     let rules = Target::Fanuc16.rules();
     let name = job.display().to_string();
-    for (from, to) in [("X40.", "X40.002"), ("F80.", "F81."), ("S800", "S801"), ("M8", "M7")] {
+    for (from, to) in [
+        ("X40.", "X40.002"),
+        ("F80.", "F81."),
+        ("S800", "S801"),
+        ("M8", "M7"),
+    ] {
         let wrong = posted.replacen(from, to, 1);
         assert_ne!(wrong, posted);
         let e = verify::same_motion(&cfg, &rules, &name, &text, &wrong).unwrap_err();

@@ -160,7 +160,11 @@ impl<'r> Lines<'r> {
             let short: String = c.chars().take(room).collect();
             if !short.is_empty() {
                 let text = comment_text(short.trim_end(), self.rules);
-                line.push_str(if line.is_empty() { text.trim_start() } else { &text });
+                line.push_str(if line.is_empty() {
+                    text.trim_start()
+                } else {
+                    &text
+                });
             }
         }
         if line.len() > self.rules.max_line {

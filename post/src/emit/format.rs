@@ -124,7 +124,10 @@ mod tests {
         assert!(position(&rules, 'X', 1e6, Unit::Mm, &at).is_err());
         assert!(feed(&rules, 0.0, Unit::Mm, &at).is_err());
         assert_eq!(position(&rules, 'X', 25.4, Unit::Inch, &at).unwrap(), "X1.");
-        assert_eq!(position(&rules, 'Z', -0.0762, Unit::Inch, &at).unwrap(), "Z-0.003");
+        assert_eq!(
+            position(&rules, 'Z', -0.0762, Unit::Inch, &at).unwrap(),
+            "Z-0.003"
+        );
         assert_eq!(feed(&rules, 119.99976, Unit::Inch, &at).unwrap(), "F4.7244");
     }
 }

@@ -21,7 +21,12 @@ pub use modal::Modal;
 pub fn emit(cfg: &MachineConfig, rules: &Rules, ops: &[CanonOp]) -> Result<Program, PostError> {
     let mut e = Emitter::new(cfg, rules);
     e.program.title = format!("cnc402 post {}", rules.name);
-    e.push(["G17", "G40", "G49", "G80", "G90", "G94"].map(String::from).to_vec(), None);
+    e.push(
+        ["G17", "G40", "G49", "G80", "G90", "G94"]
+            .map(String::from)
+            .to_vec(),
+        None,
+    );
     for op in ops {
         e.op(op)?;
     }

@@ -8,9 +8,9 @@ use cnc402_motion::segment::{AxisPos, MAX_AXES, Plane};
 
 use super::Emitter;
 use super::format::{Unit, position};
+use crate::PostError;
 use cnc402_config::AxisKind;
 use cnc402_interp::canon::ProgramUnits;
-use crate::PostError;
 
 /// What the control holds between blocks (`None`: not yet written, so written next time).
 #[derive(Clone, Debug)]
@@ -81,7 +81,11 @@ impl Emitter<'_> {
         self.length_written = false;
         if self.modal.units != Some(st.units) {
             // A block of its own: the G10 values below are read in the new units.
-            let code = if st.units == ProgramUnits::Inch { "G20" } else { "G21" };
+            let code = if st.units == ProgramUnits::Inch {
+                "G20"
+            } else {
+                "G21"
+            };
             self.push(vec![code.into()], Some(op));
             self.modal.units = Some(st.units);
         }
@@ -124,7 +128,10 @@ impl Emitter<'_> {
             if (t.length - geometry).abs() > SAME {
                 self.data_input(op, "tool length")?;
                 let r = self.length_word('R', geometry, op)?;
-                self.push(vec!["G10".into(), "L10".into(), format!("P{}", want.1), r], Some(op));
+                self.push(
+                    vec!["G10".into(), "L10".into(), format!("P{}", want.1), r],
+                    Some(op),
+                );
                 self.modal.tools[want.1 as usize - 1].length = geometry;
                 self.modal.tool_length = None;
             }
@@ -171,7 +178,11 @@ impl Emitter<'_> {
             return Ok(());
         }
         self.data_input(op, "work zero (G92 or G10 of the job)")?;
-        let mut words = vec!["G10".into(), "L2".into(), format!("P{}", st.work_offset + 1)];
+        let mut words = vec![
+            "G10".into(),
+            "L2".into(),
+            format!("P{}", st.work_offset + 1),
+        ];
         for i in differ {
             words.push(self.axis_word(i, want[i], op)?);
             self.modal.work_zeros[st.work_offset][i] = want[i];
@@ -184,14 +195,22 @@ impl Emitter<'_> {
     fn compensation(&mut self, op: &CanonOp) -> Result<Vec<String>, PostError> {
         let want = op.state.comp.map(|c| (c.side, c.d));
         if let Some(c) = op.state.comp {
-            let Some(t) = self.modal.tools.get((c.d as usize).wrapping_sub(1)).copied() else {
+            let Some(t) = self
+                .modal
+                .tools
+                .get((c.d as usize).wrapping_sub(1))
+                .copied()
+            else {
                 return Err(self.refuse(op, format!("D{} is not a tool offset number", c.d)));
             };
             let geometry = c.radius - t.radius_wear;
             if (t.radius - geometry).abs() > SAME {
                 self.data_input(op, "cutter radius")?;
                 let r = self.length_word('R', geometry, op)?;
-                self.push(vec!["G10".into(), "L12".into(), format!("P{}", c.d), r], Some(op));
+                self.push(
+                    vec!["G10".into(), "L12".into(), format!("P{}", c.d), r],
+                    Some(op),
+                );
                 self.modal.tools[c.d as usize - 1].radius = geometry;
                 self.modal.comp = None;
             }
@@ -217,7 +236,12 @@ impl Emitter<'_> {
     }
 
     /// The word of axis `i` at `value` (mm or degrees).
-    pub(crate) fn axis_word(&self, i: usize, value: f64, op: &CanonOp) -> Result<String, PostError> {
+    pub(crate) fn axis_word(
+        &self,
+        i: usize,
+        value: f64,
+        op: &CanonOp,
+    ) -> Result<String, PostError> {
         let unit = match self.cfg.axes[i].kind {
             AxisKind::Linear => self.length_unit(),
             _ => Unit::Degree,
@@ -226,7 +250,12 @@ impl Emitter<'_> {
     }
 
     /// A length word other than an axis (I J K R Q), `value` in mm.
-    pub(crate) fn length_word(&self, letter: char, value: f64, op: &CanonOp) -> Result<String, PostError> {
+    pub(crate) fn length_word(
+        &self,
+        letter: char,
+        value: f64,
+        op: &CanonOp,
+    ) -> Result<String, PostError> {
         position(self.rules, letter, value, self.length_unit(), &op.source)
     }
 

@@ -57,7 +57,10 @@ impl Emitter<'_> {
             SegmentKind::SpindleOrient { angle, program } => self.orient(op, *angle, *program)?,
             SegmentKind::ToolChange { tool } => {
                 if *tool > self.rules.max_tool {
-                    return Err(self.refuse(op, format!("T{tool} is past the control's T{}", self.rules.max_tool)));
+                    return Err(self.refuse(
+                        op,
+                        format!("T{tool} is past the control's T{}", self.rules.max_tool),
+                    ));
                 }
                 vec![format!("T{tool}"), "M6".into()]
             }
@@ -85,7 +88,12 @@ impl Emitter<'_> {
     }
 
     /// M19, or the spindle axis sent to its reference (G28) when the job's C reads it after.
-    fn orient(&mut self, op: &CanonOp, angle: f64, program: Option<f64>) -> Result<Vec<String>, PostError> {
+    fn orient(
+        &mut self,
+        op: &CanonOp,
+        angle: f64,
+        program: Option<f64>,
+    ) -> Result<Vec<String>, PostError> {
         match program {
             None if (angle - self.cfg.interp.spindle_orient_angle).abs() <= SAME => {
                 // M19 stops the spindle itself: an M5 just before it would stop it twice.
@@ -95,12 +103,20 @@ impl Emitter<'_> {
                 }
                 Ok(vec!["M19".into()])
             }
-            None => Err(self.refuse(op, format!("a spindle orientation to {angle}° other than the machine's M19 angle"))),
+            None => Err(self.refuse(
+                op,
+                format!("a spindle orientation to {angle}° other than the machine's M19 angle"),
+            )),
             Some(_) => {
                 let Some(c) = self.cfg.spindle_index() else {
-                    return Err(self.refuse(op, "a spindle reference without a spindle axis".into()));
+                    return Err(
+                        self.refuse(op, "a spindle reference without a spindle axis".into())
+                    );
                 };
-                self.push(vec!["G91".into(), "G28".into(), format!("{}0", self.letter(c))], Some(op));
+                self.push(
+                    vec!["G91".into(), "G28".into(), format!("{}0", self.letter(c))],
+                    Some(op),
+                );
                 Ok(vec!["G90".into()])
             }
         }
@@ -162,7 +178,12 @@ impl Emitter<'_> {
 
     /// The words of the axes that move to `end` (work coordinates), or whose offset changed,
     /// or that `always` names.
-    fn axis_words(&self, op: &CanonOp, end: &AxisPos, always: &[usize]) -> Result<Vec<String>, PostError> {
+    fn axis_words(
+        &self,
+        op: &CanonOp,
+        end: &AxisPos,
+        always: &[usize],
+    ) -> Result<Vec<String>, PostError> {
         let mut words = Vec::new();
         let machine = op.state.to_machine(end);
         for i in self.axes() {
@@ -197,7 +218,13 @@ impl Emitter<'_> {
 
     /// I/J/K of an arc from the tool's position, refusing what the control cannot do: more
     /// than one turn, a helix where it has no helical interpolation.
-    fn arc_words(&self, op: &CanonOp, end: &AxisPos, center: [f64; 3], turns: u32) -> Result<Vec<String>, PostError> {
+    fn arc_words(
+        &self,
+        op: &CanonOp,
+        end: &AxisPos,
+        center: [f64; 3],
+        turns: u32,
+    ) -> Result<Vec<String>, PostError> {
         let start = op.state.to_work(&self.pos);
         let (a, b, normal) = op.state.plane.letters();
         let idx = |l: char| self.cfg.axis_index(l);
@@ -207,10 +234,15 @@ impl Emitter<'_> {
             .zip(in_plane(end))
             .all(|(s, e)| (s - e).abs() <= SAME);
         if turns > 1 || (turns == 1 && !closed) {
-            return Err(self.refuse(op, "an arc of more than one full turn (the control's G2/G3 has no turn count)".into()));
+            return Err(self.refuse(
+                op,
+                "an arc of more than one full turn (the control's G2/G3 has no turn count)".into(),
+            ));
         }
         let helix = self.axes().any(|i| {
-            Some(i) != idx(a) && Some(i) != idx(b) && (op.state.to_machine(end)[i] - self.pos[i]).abs() > SAME
+            Some(i) != idx(a)
+                && Some(i) != idx(b)
+                && (op.state.to_machine(end)[i] - self.pos[i]).abs() > SAME
         });
         if helix && !self.rules.helical {
             return Err(self.refuse(
@@ -245,9 +277,12 @@ impl Emitter<'_> {
         }
         let drill = cc.axes[2];
         let initial = cc.initial_level + op.state.offset[drill];
-        let continues = self.modal.cycle.as_ref().is_some_and(|c| {
-            c.axis == drill && (c.initial - initial).abs() <= SAME
-        }) && self.modal.offset == op.state.offset;
+        let continues = self
+            .modal
+            .cycle
+            .as_ref()
+            .is_some_and(|c| c.axis == drill && (c.initial - initial).abs() <= SAME)
+            && self.modal.offset == op.state.offset;
         if !continues {
             self.end_cycle(op);
             if (self.pos[drill] - initial).abs() > SAME {
@@ -282,8 +317,17 @@ impl Emitter<'_> {
                 w.push(self.axis_word(cc.axes[k], *v, op)?);
             }
             if first {
-                let had = self.modal.cycle.as_ref().map(|c| c.words.clone()).unwrap_or_default();
-                w.extend(data.iter().filter(|d| new_code || !had.contains(d)).cloned());
+                let had = self
+                    .modal
+                    .cycle
+                    .as_ref()
+                    .map(|c| c.words.clone())
+                    .unwrap_or_default();
+                w.extend(
+                    data.iter()
+                        .filter(|d| new_code || !had.contains(d))
+                        .cloned(),
+                );
                 first = false;
             }
             self.modal.cycle = Some(CycleModal {
