@@ -154,3 +154,43 @@ fn a_wrong_job_a_missing_job_and_an_unknown_target() {
     ]);
     assert_eq!(o.status.code(), Some(exit::USAGE.into()), "{}", stderr(&o));
 }
+
+#[test]
+fn an_itnc530_program_is_read_by_segments_through_the_heidenhain_reader() {
+    let out = tmp("contour.h");
+    let job = "post/tests/fixtures/contour.nc";
+    let o = cnc402(&[
+        "post",
+        "--target",
+        "itnc530",
+        job,
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        text.starts_with("0 BEGIN PGM CNC402 MM\n1 TOOL CALL 1 Z\n"),
+        "{text}"
+    );
+    let (back, want) = (segments(out.to_str().unwrap()), segments(job));
+    assert_eq!(back.len(), want.len());
+    for (b, w) in back.iter().zip(&want) {
+        assert!(close(b, w), "posted {b}, job {w}");
+    }
+}
+
+#[test]
+fn a_heidenhain_block_outside_the_subset_is_an_error_at_its_line() {
+    let bad = tmp("bad.h");
+    std::fs::write(
+        &bad,
+        "0 BEGIN PGM BAD MM\n1 TOOL CALL 1 Z S100\n2 CYCL DEF 200 DRILLING\n",
+    )
+    .unwrap();
+    let o = cnc402(&["segments", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(exit::PROGRAM.into()));
+    let e = stderr(&o);
+    assert!(e.contains("bad.h:3:1"), "{e}");
+    assert!(e.contains("cycle 200 is not in the subset"), "{e}");
+}

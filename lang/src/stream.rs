@@ -145,7 +145,12 @@ impl LineReader {
 
     /// A Heidenhain program's line as the ISO block it translates to (the first line decides
     /// whether the program is one: [`crate::heidenhain::is_heidenhain`]).
-    fn heidenhain_line(&mut self, index: usize, text: Arc<str>, line_no: u32) -> Result<Arc<str>, NcError> {
+    fn heidenhain_line(
+        &mut self,
+        index: usize,
+        text: Arc<str>,
+        line_no: u32,
+    ) -> Result<Arc<str>, NcError> {
         if index == 0 {
             self.heidenhain = crate::heidenhain::is_heidenhain(&self.name, &text)
                 .then(crate::heidenhain::Translator::default);

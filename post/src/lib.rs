@@ -88,16 +88,10 @@ pub fn post_unproven(
 ) -> Result<String, PostError> {
     let rules = target.rules();
     let job = input::read_job(cfg, name, text)?;
+    if target == Target::Itnc530 {
+        let (program, inch) = emit::heidenhain::emit_itnc(cfg, &rules, &job)?;
+        return emit::heidenhain::assemble_itnc(&program, inch, &rules);
+    }
     let program = emit::emit(cfg, &rules, &job)?;
-    let posted = match target {
-        Target::Itnc530 => {
-            return Err(PostError::target(
-                &rules,
-                None,
-                "iTNC 530 output is not built yet (docs/post.md, \"Not done\")",
-            ));
-        }
-        _ => assemble::assemble_iso(&program, &rules)?,
-    };
-    Ok(posted)
+    assemble::assemble_iso(&program, &rules)
 }

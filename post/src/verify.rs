@@ -52,6 +52,30 @@ pub fn segments(
     Ok(out)
 }
 
+/// The segments of a posted program, read line by line as `cnc402 segments` reads a file
+/// (so a Heidenhain program goes through its reader; an ISO one is read as Fanuc).
+pub fn read_back(cfg: &MachineConfig, name: &str, posted: &str) -> Result<Vec<Segment>, PostError> {
+    let mut it = cnc402_interp::host_fs::interpreter(
+        cfg,
+        cnc402_interp::Options::default(),
+        cnc402_interp::host_fs::VarsAccess::ReadOnly,
+    );
+    let input = std::io::Cursor::new(posted.as_bytes().to_vec());
+    let heidenhain =
+        cnc402_lang::heidenhain::is_heidenhain(name, posted.lines().next().unwrap_or(""));
+    let dialect = (!heidenhain).then_some(Dialect::Fanuc);
+    it.load_stream(name, Box::new(input), dialect)
+        .map_err(PostError::Job)?;
+    let mut out = Vec::new();
+    while let Some(s) = it.next_segment().map_err(PostError::Job)? {
+        if out.len() == 4 * MAX_OPERATIONS {
+            break;
+        }
+        out.push(s);
+    }
+    Ok(out)
+}
+
 /// Checks that `posted` moves as the job `text` does.
 pub fn same_motion(
     cfg: &MachineConfig,
@@ -62,7 +86,7 @@ pub fn same_motion(
 ) -> Result<(), PostError> {
     let job = steps(segments(cfg, name, text, None)?);
     let posted_name = format!("{name}.{}", rules.name);
-    let back = segments(cfg, &posted_name, posted, Some(Dialect::Fanuc)).map_err(|e| {
+    let back = read_back(cfg, &posted_name, posted).map_err(|e| {
         PostError::target(
             rules,
             None,

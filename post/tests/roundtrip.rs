@@ -8,6 +8,15 @@ use std::path::{Path, PathBuf};
 use cnc402_config::MachineConfig;
 use cnc402_post::{PostError, Target, verify};
 
+const ALL_TARGETS: [Target; 6] = [
+    Target::Fanuc0,
+    Target::Fanuc16,
+    Target::Fanuc18,
+    Target::Fanuc32,
+    Target::Arumatik,
+    Target::Itnc530,
+];
+
 const ISO_TARGETS: [Target; 5] = [
     Target::Fanuc0,
     Target::Fanuc16,
@@ -31,7 +40,11 @@ fn post_and_prove(cfg: &MachineConfig, job: &Path, target: Target) -> Result<Str
     let posted = cnc402_post::post(cfg, &name, &text, target)?;
     verify::same_motion(cfg, &target.rules(), &name, &text, &posted)
         .expect("a posted program reads back the same");
-    assert!(posted.starts_with("%\nO"), "{posted}");
+    if target == Target::Itnc530 {
+        assert!(posted.starts_with("0 BEGIN PGM CNC402 "), "{posted}");
+    } else {
+        assert!(posted.starts_with("%\nO"), "{posted}");
+    }
     Ok(posted)
 }
 
@@ -48,6 +61,39 @@ const REFUSED: &[(&str, &str, &str)] = &[
         "fanuc-milling.nc",
         "block N70: the job sets a tool length the machine's tables do not hold, and the \
          control has no G10 to set it (target arumatik)",
+    ),
+    (
+        "itnc530",
+        "bolt-circle-drilling.nc",
+        "block N50: canned cycle G81: iTNC cycles",
+    ),
+    (
+        "itnc530",
+        "contour-arcs.nc",
+        "block N190: a helix (CP with IZ",
+    ),
+    (
+        "itnc530",
+        "fanuc-milling.nc",
+        "block N70: a tool length other than the called tool's",
+    ),
+    (
+        "itnc530",
+        "m10x1.5-rigid-tap.nc",
+        "block N40: canned cycle G84",
+    ),
+    ("itnc530", "peck-tap.nc", "block N40: canned cycle G84"),
+    (
+        "itnc530",
+        "plate-cutter-comp.nc",
+        "block N230: a cutter radius other than the called",
+    ),
+    ("itnc530", "multipass_tap.nc", "(target itnc530)"),
+    ("itnc530", "source_000_main.nc", "(target itnc530)"),
+    (
+        "itnc530",
+        "contour.nc",
+        "block N4: a datum other than the machine's G54",
     ),
 ];
 
@@ -74,7 +120,7 @@ fn every_example_posts_for_every_target_or_is_refused_by_name() {
     for (job, cfg) in &jobs {
         let cfg = config(cfg);
         let file = job.file_name().unwrap().to_str().unwrap();
-        for target in ISO_TARGETS {
+        for target in ALL_TARGETS {
             let expected = REFUSED
                 .iter()
                 .find(|(t, f, _)| *t == target.name() && *f == file);
@@ -88,7 +134,7 @@ fn every_example_posts_for_every_target_or_is_refused_by_name() {
             }
         }
     }
-    assert_eq!(posted, jobs.len() * ISO_TARGETS.len() - REFUSED.len());
+    assert_eq!(posted, jobs.len() * ALL_TARGETS.len() - REFUSED.len());
 }
 
 #[test]
@@ -108,7 +154,12 @@ fn the_real_program_corpus_posts_or_is_refused_never_moved_differently() {
         .iter()
         .filter(|f| !f.to_string_lossy().ends_with(".py"))
     {
-        for target in [Target::Fanuc16, Target::Fanuc0, Target::Arumatik] {
+        for target in [
+            Target::Fanuc16,
+            Target::Fanuc0,
+            Target::Arumatik,
+            Target::Itnc530,
+        ] {
             match post_and_prove(&cfg, f, target) {
                 Ok(_) => ok += 1,
                 // A job that does not run in cnc402 cannot be posted; that is its own error.
@@ -156,6 +207,18 @@ fn boring_cycles_native_on_fanuc0() {
 #[test]
 fn boring_cycles_as_plain_blocks_on_arumatik_which_lacks_g76() {
     golden("boring.nc", Target::Arumatik);
+}
+
+#[test]
+fn a_contour_on_the_itnc530_reads_back_through_the_heidenhain_reader() {
+    golden("contour.nc", Target::Itnc530);
+}
+
+#[test]
+fn the_contour_on_every_iso_target() {
+    for t in ISO_TARGETS {
+        post_and_prove(&config("config/machine.toml"), &fixture("contour.nc"), t).unwrap();
+    }
 }
 
 #[test]

@@ -71,7 +71,11 @@ impl Translator {
         };
         let mut out = self.block(text)?;
         if !tail.is_empty() {
-            out = if out.is_empty() { tail } else { format!("{out} {tail}") };
+            out = if out.is_empty() {
+                tail
+            } else {
+                format!("{out} {tail}")
+            };
         }
         Ok(out)
     }
@@ -88,7 +92,11 @@ impl Translator {
             "C" => self.arc(rest),
             "CYCL" => cycle(rest),
             "STOP" => {
-                let m = if rest.trim().is_empty() { "M0" } else { rest.trim() };
+                let m = if rest.trim().is_empty() {
+                    "M0"
+                } else {
+                    rest.trim()
+                };
                 Ok(m.to_string())
             }
             _ if head.starts_with('M') => Ok(m_words(&split_words(text)?)?.join(" ")),

@@ -2,7 +2,11 @@ use super::*;
 
 fn translate(lines: &[&str]) -> Result<Vec<String>, String> {
     let mut t = Translator::default();
-    lines.iter().enumerate().map(|(i, l)| t.line(i, l)).collect()
+    lines
+        .iter()
+        .enumerate()
+        .map(|(i, l)| t.line(i, l))
+        .collect()
 }
 
 #[test]

@@ -4,6 +4,7 @@
 //! match the job's at every block.
 
 pub mod format;
+pub mod heidenhain;
 mod modal;
 mod ops;
 
@@ -77,7 +78,7 @@ impl<'a> Emitter<'a> {
     }
 
     /// Moves the tool as `op` moves it (its lowering, cycles expanded).
-    fn advance(&mut self, op: &CanonOp) {
+    pub(crate) fn advance(&mut self, op: &CanonOp) {
         let mut segments = Vec::new();
         cnc402_interp::lower::lower(op, self.xyz, &mut segments);
         for s in segments {
