@@ -14,6 +14,10 @@ pub struct PostArgs {
     target: String,
     /// The job: any program cnc402 reads.
     job: PathBuf,
+    /// The tool table of CL jobs' cutting data (`[tool.N] diameter = mm, teeth = n`):
+    /// `SPINDL/ vc, SMM` → rpm = 1000·Vc/(π·D), `FEDRAT/ fz, MMPT` → F = fz·z·n.
+    #[arg(long, value_name = "FILE.toml")]
+    tools: Option<PathBuf>,
     /// Write the posted program here (`-`: standard output).
     #[arg(short = 'o', long = "output", value_name = "OUT")]
     output: PathBuf,
@@ -23,11 +27,21 @@ pub struct PostArgs {
 pub fn post(cfg: &cnc402_config::MachineConfig, args: PostArgs) -> Result<(), CliError> {
     let target = Target::from_name(&args.target)
         .ok_or_else(|| CliError::Usage(format!("no target {}", args.target)))?;
+    let tools = match &args.tools {
+        None => cnc402_post::input::tools::ToolTable::default(),
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| CliError::Io(format!("{}: {e}", path.display())))?;
+            cnc402_post::input::tools::ToolTable::parse(&text)
+                .map_err(|e| CliError::Usage(format!("{}: {e}", path.display())))?
+        }
+    };
     let src = crate::load_program(&args.job)?;
-    let posted = cnc402_post::post(cfg, &src.name, &src.text, target).map_err(|e| match e {
-        PostError::Job(e) => CliError::Program(e),
-        e => CliError::Refused(e.to_string()),
-    })?;
+    let posted =
+        cnc402_post::post_with(cfg, &src.name, &src.text, target, &tools).map_err(|e| match e {
+            PostError::Job(e) => CliError::Program(e),
+            e => CliError::Refused(e.to_string()),
+        })?;
     if args.output.as_os_str() == "-" {
         print!("{posted}");
         return Ok(());

@@ -194,3 +194,38 @@ fn a_heidenhain_block_outside_the_subset_is_an_error_at_its_line() {
     assert!(e.contains("bad.h:3:1"), "{e}");
     assert!(e.contains("cycle 200 is not in the subset"), "{e}");
 }
+
+#[test]
+fn cl_data_with_a_tool_table() {
+    let tools = "post/tests/fixtures/tools.toml";
+    let job = "post/tests/fixtures/pocket.cl";
+    let o = cnc402(&[
+        "post", "--target", "fanuc32", "--tools", tools, job, "-o", "-",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("S4775 M3"), "{text}");
+    // Without the table the cutting speed cannot be turned into rpm: exit 2 at its line.
+    let o = cnc402(&["post", "--target", "fanuc32", job, "-o", "-"]);
+    assert_eq!(o.status.code(), Some(exit::PROGRAM.into()));
+    assert!(stderr(&o).contains("pocket.cl:7"), "{}", stderr(&o));
+    // A wrong table is a usage error naming the file.
+    let bad = tmp("tools.toml");
+    std::fs::write(&bad, "[tool.1]\ndiameter = -1.0\nteeth = 2\n").unwrap();
+    let o = cnc402(&[
+        "post",
+        "--target",
+        "fanuc32",
+        "--tools",
+        bad.to_str().unwrap(),
+        job,
+        "-o",
+        "-",
+    ]);
+    assert_eq!(o.status.code(), Some(exit::USAGE.into()));
+    assert!(
+        stderr(&o).contains("tool.1: diameter must be > 0"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -57,7 +57,12 @@ impl std::fmt::Display for PostError {
                         write!(f, "block N{n}: ")?;
                     }
                 }
-                write!(f, "{message} (target {target})")
+                // "any": the job's own input (CL data) is wrong, whatever the target.
+                if *target == "any" {
+                    write!(f, "{message}")
+                } else {
+                    write!(f, "{message} (target {target})")
+                }
             }
         }
     }
@@ -73,9 +78,26 @@ pub fn post(
     text: &str,
     target: Target,
 ) -> Result<String, PostError> {
+    post_with(cfg, name, text, target, &input::tools::ToolTable::default())
+}
+
+/// [`post`] with a tool table (cutting data of CL jobs: `SPINDL/… SMM`, `FEDRAT/… MMPT`).
+pub fn post_with(
+    cfg: &MachineConfig,
+    name: &str,
+    text: &str,
+    target: Target,
+    tools: &input::tools::ToolTable,
+) -> Result<String, PostError> {
     let rules = target.rules();
-    let posted = post_unproven(cfg, name, text, target)?;
-    verify::same_motion(cfg, &rules, name, text, &posted)?;
+    let job = input::job(cfg, name, text, tools)?;
+    let posted = post_ops(cfg, &job.ops, target)?;
+    let job_segments = if job.cl {
+        verify::lowered(cfg, &job.ops)
+    } else {
+        verify::segments(cfg, name, text, None)?
+    };
+    verify::same_as(cfg, &rules, job_segments, name, &posted)?;
     Ok(posted)
 }
 
@@ -86,12 +108,21 @@ pub fn post_unproven(
     text: &str,
     target: Target,
 ) -> Result<String, PostError> {
+    let job = input::job(cfg, name, text, &input::tools::ToolTable::default())?;
+    post_ops(cfg, &job.ops, target)
+}
+
+/// The program of a job's operations for `target`, assembled.
+fn post_ops(
+    cfg: &MachineConfig,
+    job: &[cnc402_interp::canon::CanonOp],
+    target: Target,
+) -> Result<String, PostError> {
     let rules = target.rules();
-    let job = input::read_job(cfg, name, text)?;
     if target == Target::Itnc530 {
-        let (program, inch) = emit::heidenhain::emit_itnc(cfg, &rules, &job)?;
+        let (program, inch) = emit::heidenhain::emit_itnc(cfg, &rules, job)?;
         return emit::heidenhain::assemble_itnc(&program, inch, &rules);
     }
-    let program = emit::emit(cfg, &rules, &job)?;
+    let program = emit::emit(cfg, &rules, job)?;
     assemble::assemble_iso(&program, &rules)
 }

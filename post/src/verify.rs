@@ -84,7 +84,28 @@ pub fn same_motion(
     text: &str,
     posted: &str,
 ) -> Result<(), PostError> {
-    let job = steps(segments(cfg, name, text, None)?);
+    same_as(cfg, rules, segments(cfg, name, text, None)?, name, posted)
+}
+
+/// The segments `ops` lower to (a CL job's: it has no program text to run).
+pub fn lowered(cfg: &MachineConfig, ops: &[cnc402_interp::canon::CanonOp]) -> Vec<Segment> {
+    let xyz = cnc402_interp::lower::xyz_indices(cfg);
+    let mut out = Vec::new();
+    for op in ops {
+        cnc402_interp::lower::lower(op, xyz, &mut out);
+    }
+    out
+}
+
+/// Checks that `posted` moves as the job's segments `job` do.
+pub fn same_as(
+    cfg: &MachineConfig,
+    rules: &Rules,
+    job: Vec<Segment>,
+    name: &str,
+    posted: &str,
+) -> Result<(), PostError> {
+    let job = steps(job);
     let posted_name = format!("{name}.{}", rules.name);
     let back = read_back(cfg, &posted_name, posted).map_err(|e| {
         PostError::target(

@@ -315,3 +315,51 @@ fn an_inch_job_posts_in_inches() {
     assert!(text.contains("G1 Z-0.1 F5.9055\n"), "{text}");
     assert!(text.contains("G2 X2. Y0.5 I0.5 J0.\n"), "{text}");
 }
+
+fn post_cl(target: Target, tools: &str) -> Result<String, PostError> {
+    let job = fixture("pocket.cl");
+    let text = std::fs::read_to_string(&job).unwrap();
+    let tools = cnc402_post::input::tools::ToolTable::parse(tools).unwrap();
+    let cfg = config("config/machine.toml");
+    cnc402_post::post_with(&cfg, &job.display().to_string(), &text, target, &tools)
+}
+
+const TOOLS: &str = "[tool.1]\ndiameter = 10.0\nteeth = 4\n";
+
+#[test]
+fn cl_data_posts_with_cutting_data_from_the_tool_table() {
+    let text = post_cl(Target::Fanuc18, TOOLS).unwrap();
+    // Vc 150 m/min on D10: n = 1000·150/(π·10) = 4774.6 → S4775; fz 0.05 × 4 × 4775 = F955.
+    assert!(text.contains("S4775 M3\n"), "{text}");
+    assert!(text.contains("G1 Z-3. F955.\n"), "{text}");
+    assert!(text.contains("G3 X40. Y10. I0. J10.\n"), "{text}");
+    assert!(
+        text.contains("G98 G83 X60. Y0. Z-12. R2. Q4. F150.\n"),
+        "{text}"
+    );
+    let golden_path = fixture("pocket.arumatik.nc");
+    let text = post_cl(Target::Arumatik, TOOLS).unwrap();
+    if std::env::var_os("CNC402_BLESS").is_some() {
+        std::fs::write(&golden_path, &text).unwrap();
+    }
+    assert_eq!(text, std::fs::read_to_string(&golden_path).unwrap());
+}
+
+#[test]
+fn cl_data_without_its_tool_or_with_an_unknown_statement_is_refused_at_its_line() {
+    let e = post_cl(Target::Fanuc16, "").unwrap_err().to_string();
+    assert!(
+        e.contains("pocket.cl:7: tool 1 is not in the tool table"),
+        "{e}"
+    );
+    let e = post_cl(Target::Itnc530, TOOLS).unwrap_err().to_string();
+    assert!(e.contains("pocket.cl:24: canned cycle G83"), "{e}");
+    let cfg = config("config/machine.toml");
+    let e = cnc402_post::post(&cfg, "j.cl", "LOADTL/1\nTHREAD/1\n", Target::Fanuc16)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("j.cl:2: THREAD is not an APT/CL statement"),
+        "{e}"
+    );
+}

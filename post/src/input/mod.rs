@@ -10,6 +10,36 @@ use cnc402_lang::SourceFile;
 
 use crate::PostError;
 
+pub mod apt;
+pub mod tools;
+
+/// A job's operations, and whether it was CL data (its segments are then the operations'
+/// lowering, there being no program text to run again).
+pub struct Job {
+    pub ops: Vec<CanonOp>,
+    pub cl: bool,
+}
+
+/// The job in `text`: CL data ([`apt::is_cl`]) or a program cnc402 runs.
+pub fn job(
+    cfg: &MachineConfig,
+    name: &str,
+    text: &str,
+    tools: &tools::ToolTable,
+) -> Result<Job, PostError> {
+    if apt::is_cl(name, text) {
+        Ok(Job {
+            ops: apt::read_cl(cfg, name, text, tools)?,
+            cl: true,
+        })
+    } else {
+        Ok(Job {
+            ops: read_job(cfg, name, text)?,
+            cl: false,
+        })
+    }
+}
+
 /// The most operations one job may have: a program looping forever with motion (M99 in a
 /// main program is one pass here) ends in an error instead of filling memory.
 pub const MAX_OPERATIONS: usize = 2_000_000;
