@@ -101,7 +101,7 @@ enum Command {
     /// (docs/post.md).
     ///
     /// Example: cnc402 post --target fanuc0 examples/fanuc-milling.nc -o O1000.nc
-    Post(post::PostArgs),
+    Post(Box<post::PostArgs>),
 }
 
 #[derive(clap::Args, Debug)]
@@ -233,7 +233,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let cfg = load_config(&cli.config)?;
             pages::pages(&cfg, args)
         }
-        Command::Post(args) => post::post(&load_config(&cli.config)?, args),
+        Command::Post(args) => post::post(&load_config(&cli.config)?, *args),
     }
 }
 

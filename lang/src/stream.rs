@@ -47,7 +47,8 @@ pub struct LineReader {
     next: LinePos,
     buf: Vec<u8>,
     /// A Heidenhain program (issue 16): its lines are translated as they are read.
-    heidenhain: Option<crate::heidenhain::Translator>,
+    /// (Boxed: most readers have none, and the reader is moved around whole.)
+    heidenhain: Option<Box<crate::heidenhain::Translator>>,
 }
 
 impl LineReader {
@@ -152,8 +153,8 @@ impl LineReader {
         line_no: u32,
     ) -> Result<Arc<str>, NcError> {
         if index == 0 {
-            self.heidenhain = crate::heidenhain::is_heidenhain(&self.name, &text)
-                .then(crate::heidenhain::Translator::default);
+            self.heidenhain =
+                crate::heidenhain::is_heidenhain(&self.name, &text).then(Box::default);
         }
         let Some(t) = &mut self.heidenhain else {
             return Ok(text);

@@ -3,6 +3,9 @@
 //! motion (the post checks it; these tests check again from the text) or is refused with an
 //! error that names the target — never a program that moves differently.
 
+// PostError carries lang's large NcError; the tests only unwrap it.
+#![allow(clippy::result_large_err)]
+
 use std::path::{Path, PathBuf};
 
 use cnc402_config::MachineConfig;
