@@ -36,16 +36,34 @@ pub fn segments(
 ) -> Result<Vec<Segment>, PostError> {
     let src = SourceFile::new(name, text);
     let program = cnc402_interp::parse_program(cfg, &src, dialect).map_err(PostError::Job)?;
-    let mut it = cnc402_interp::host_fs::interpreter(
+    let mut it = interpreter(cfg);
+    it.load(src, program);
+    drain(it)
+}
+
+/// An interpreter with the file system, variables read-only (a proof writes nothing).
+fn interpreter(cfg: &MachineConfig) -> cnc402_interp::Interpreter {
+    cnc402_interp::host_fs::interpreter(
         cfg,
         cnc402_interp::Options::default(),
         cnc402_interp::host_fs::VarsAccess::ReadOnly,
-    );
-    it.load(src, program);
+    )
+}
+
+/// Every segment `it` gives, or an error past [`MAX_OPERATIONS`] × 4 (a program that would
+/// not end: the proof does not compare a part).
+fn drain(mut it: cnc402_interp::Interpreter) -> Result<Vec<Segment>, PostError> {
     let mut out = Vec::new();
     while let Some(s) = it.next_segment().map_err(PostError::Job)? {
         if out.len() == 4 * MAX_OPERATIONS {
-            break;
+            return Err(PostError::Target {
+                target: "any",
+                source: Some(s.source),
+                message: format!(
+                    "more than {} segments: too long to prove",
+                    4 * MAX_OPERATIONS
+                ),
+            });
         }
         out.push(s);
     }
@@ -55,25 +73,14 @@ pub fn segments(
 /// The segments of a posted program, read line by line as `cnc402 segments` reads a file
 /// (so a Heidenhain program goes through its reader; an ISO one is read as Fanuc).
 pub fn read_back(cfg: &MachineConfig, name: &str, posted: &str) -> Result<Vec<Segment>, PostError> {
-    let mut it = cnc402_interp::host_fs::interpreter(
-        cfg,
-        cnc402_interp::Options::default(),
-        cnc402_interp::host_fs::VarsAccess::ReadOnly,
-    );
+    let mut it = interpreter(cfg);
     let input = std::io::Cursor::new(posted.as_bytes().to_vec());
     let heidenhain =
         cnc402_lang::heidenhain::is_heidenhain(name, posted.lines().next().unwrap_or(""));
     let dialect = (!heidenhain).then_some(Dialect::Fanuc);
     it.load_stream(name, Box::new(input), dialect)
         .map_err(PostError::Job)?;
-    let mut out = Vec::new();
-    while let Some(s) = it.next_segment().map_err(PostError::Job)? {
-        if out.len() == 4 * MAX_OPERATIONS {
-            break;
-        }
-        out.push(s);
-    }
-    Ok(out)
+    drain(it)
 }
 
 /// Checks that `posted` moves as the job `text` does.

@@ -11,14 +11,7 @@ use std::path::{Path, PathBuf};
 use cnc402_config::MachineConfig;
 use cnc402_post::{PostError, Target, verify};
 
-const ALL_TARGETS: [Target; 6] = [
-    Target::Fanuc0,
-    Target::Fanuc16,
-    Target::Fanuc18,
-    Target::Fanuc32,
-    Target::Arumatik,
-    Target::Itnc530,
-];
+const ALL_TARGETS: [Target; 6] = Target::ALL;
 
 const ISO_TARGETS: [Target; 5] = [
     Target::Fanuc0,

@@ -6,7 +6,7 @@
 //! written yet: docs/post.md).
 
 use cnc402_interp::canon::{CanonKind, CanonOp, CompSide};
-use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, SpindleDir, StopKind};
+use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, SpindleDir};
 
 use super::Emitter;
 use super::format::decimal;
@@ -134,13 +134,7 @@ impl Itnc<'_> {
                     .e
                     .refuse(op, "a reference return of the spindle axis".into()));
             }
-            SegmentKind::Stop { kind } => match kind {
-                StopKind::Program => "M0",
-                StopKind::Optional => "M1",
-                StopKind::End => "M2",
-                StopKind::EndRewind => "M30",
-            }
-            .into(),
+            SegmentKind::Stop { kind } => super::ops::stop_code(*kind).into(),
             SegmentKind::Message { text } => {
                 let clean: String = text.chars().filter(|c| *c != ';').collect();
                 format!("; {clean}")

@@ -14,6 +14,16 @@ use crate::assemble::{Block, Word};
 
 const SAME: f64 = 1e-9;
 
+/// The M code of a program stop (the same on every target).
+pub(crate) fn stop_code(kind: StopKind) -> &'static str {
+    match kind {
+        StopKind::Program => "M0",
+        StopKind::Optional => "M1",
+        StopKind::End => "M2",
+        StopKind::EndRewind => "M30",
+    }
+}
+
 /// A canned cycle as the control holds it between blocks.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CycleModal {
@@ -65,15 +75,7 @@ impl Emitter<'_> {
                 vec![format!("T{tool}"), "M6".into()]
             }
             SegmentKind::Coolant { mist, flood } => return self.coolant(op, *mist, *flood),
-            SegmentKind::Stop { kind } => vec![
-                match kind {
-                    StopKind::Program => "M0",
-                    StopKind::Optional => "M1",
-                    StopKind::End => "M2",
-                    StopKind::EndRewind => "M30",
-                }
-                .into(),
-            ],
+            SegmentKind::Stop { kind } => vec![stop_code(*kind).into()],
             SegmentKind::Message { text } => {
                 self.program.main.push(Block {
                     words: Vec::new(),
