@@ -124,12 +124,17 @@ impl<'r> Lines<'r> {
     }
 
     fn raw(&mut self, line: String) -> Result<(), PostError> {
+        self.push_line(line, None)
+    }
+
+    /// Appends `line`, or refuses it when it is longer than the control takes.
+    fn push_line(&mut self, line: String, source: Option<&Source>) -> Result<(), PostError> {
         if line.len() > self.rules.max_line {
             return Err(PostError::target(
                 self.rules,
-                None,
+                source,
                 format!(
-                    "a block of {} characters is longer than the control's {}: {line}",
+                    "the block is {} characters, longer than the control's {}: {line}",
                     line.len(),
                     self.rules.max_line
                 ),
@@ -167,20 +172,7 @@ impl<'r> Lines<'r> {
                 });
             }
         }
-        if line.len() > self.rules.max_line {
-            return Err(PostError::target(
-                self.rules,
-                b.source.as_ref(),
-                format!(
-                    "the block is {} characters, longer than the control's {}: {line}",
-                    line.len(),
-                    self.rules.max_line
-                ),
-            ));
-        }
-        self.text.push_str(&line);
-        self.text.push('\n');
-        Ok(())
+        self.push_line(line, b.source.as_ref())
     }
 }
 
