@@ -18,6 +18,7 @@ use clap::{Parser, Subcommand};
 mod cli_error;
 mod inspect;
 mod pages;
+mod post;
 mod run;
 mod vars;
 use cli_error::{CliError, exit};
@@ -94,6 +95,13 @@ enum Command {
     ///
     /// Example: cnc402 pages examples/mlt980/pages.toml --set pattern=circle --check
     Pages(pages::PagesArgs),
+    /// Post a job for a target control (fanuc0, fanuc16, fanuc18, fanuc32, arumatik,
+    /// itnc530): the program is built whole, assembled, then read back and compared with the
+    /// job segment by segment; a job the target cannot express is an error naming the block
+    /// (docs/post.md).
+    ///
+    /// Example: cnc402 post --target fanuc0 examples/fanuc-milling.nc -o O1000.nc
+    Post(Box<post::PostArgs>),
 }
 
 #[derive(clap::Args, Debug)]
@@ -225,6 +233,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let cfg = load_config(&cli.config)?;
             pages::pages(&cfg, args)
         }
+        Command::Post(args) => post::post(&load_config(&cli.config)?, *args),
     }
 }
 

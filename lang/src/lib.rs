@@ -5,6 +5,7 @@
 pub mod ast;
 pub mod diag;
 pub mod dialect;
+pub mod heidenhain;
 mod parse;
 pub mod stream;
 

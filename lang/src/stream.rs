@@ -46,6 +46,9 @@ pub struct LineReader {
     /// The next line to be read.
     next: LinePos,
     buf: Vec<u8>,
+    /// A Heidenhain program (issue 16): its lines are translated as they are read.
+    /// (Boxed: most readers have none, and the reader is moved around whole.)
+    heidenhain: Option<Box<crate::heidenhain::Translator>>,
 }
 
 impl LineReader {
@@ -56,6 +59,7 @@ impl LineReader {
             input,
             next: LinePos::default(),
             buf: Vec::new(),
+            heidenhain: None,
         }
     }
 
@@ -133,10 +137,32 @@ impl LineReader {
                 .into(),
         };
         let line_no = u32::try_from(at.index + 1).unwrap_or(u32::MAX);
+        let text = self.heidenhain_line(at.index, text, line_no)?;
         Ok(ReadLine::Text(
             SourceFile::window(self.name.clone(), text, line_no),
             at,
         ))
+    }
+
+    /// A Heidenhain program's line as the ISO block it translates to (the first line decides
+    /// whether the program is one: [`crate::heidenhain::is_heidenhain`]).
+    fn heidenhain_line(
+        &mut self,
+        index: usize,
+        text: Arc<str>,
+        line_no: u32,
+    ) -> Result<Arc<str>, NcError> {
+        if index == 0 {
+            self.heidenhain =
+                crate::heidenhain::is_heidenhain(&self.name, &text).then(Box::default);
+        }
+        let Some(t) = &mut self.heidenhain else {
+            return Ok(text);
+        };
+        t.line(index, &text).map(Arc::from).map_err(|m| {
+            let window = SourceFile::window(self.name.clone(), text.clone(), line_no);
+            NcError::new(&window, crate::ast::Span::new(0, text.len()), m)
+        })
     }
 
     /// The head of the program (its first [`crate::HEADER_LINES`] lines) as one text, for the

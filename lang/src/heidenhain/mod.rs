@@ -1,0 +1,300 @@
+//! The Heidenhain conversational (Klartext) subset cnc402 reads: each line of a program that
+//! starts with `BEGIN PGM` (or is named `*.h`) is translated, as it is read, into the ISO
+//! block the interpreter already executes, line for line (errors keep the line number):
+//! `L`, `CC` + `C`, `TOOL CALL`, `CYCL DEF 9` (dwell), M functions, comments, `BLK FORM`.
+//! What is outside the subset is an error at its line, never a block read another way.
+
+mod words;
+
+use words::{Word, split_words};
+
+/// Whether a program is Heidenhain conversational: named `*.h`, or its first line (after
+/// the block number) is `BEGIN PGM`.
+pub fn is_heidenhain(name: &str, first_line: &str) -> bool {
+    let lower = name.to_ascii_lowercase();
+    lower.ends_with(".h") || body(first_line).starts_with("BEGIN PGM")
+}
+
+/// A line without its block number.
+fn body(line: &str) -> &str {
+    let t = line.trim_start();
+    let digits = t.len() - t.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+    if digits > 0 && t[digits..].starts_with([' ', '\t']) {
+        t[digits..].trim()
+    } else {
+        t.trim()
+    }
+}
+
+/// The translation state: what one line leaves for the next (the circle centre `CC`, the
+/// tool called, the tool length still to be switched on, the units of `BEGIN PGM`).
+#[derive(Clone, Debug, Default)]
+pub struct Translator {
+    centre: Option<(f64, f64)>,
+    tool: Option<u32>,
+    /// `TOOL CALL` switched the tool's length on: the next move along the tool axis takes it
+    /// (G43 H, as the iTNC applies it from that move).
+    length_pending: bool,
+    /// Modal words for the first block after `BEGIN PGM` (units, absolute centres).
+    preamble: Option<String>,
+}
+
+impl Translator {
+    /// The ISO text of one line (`index` 0 is the first: it starts the program afresh), or
+    /// what is wrong with it.
+    pub fn line(&mut self, index: usize, line: &str) -> Result<String, String> {
+        if index == 0 {
+            *self = Translator::default();
+        }
+        let text = body(line);
+        let out = self.translate(text)?;
+        if out.is_empty() || out.starts_with('(') {
+            return Ok(out);
+        }
+        Ok(match self.preamble.take() {
+            Some(p) => format!("{p} {out}"),
+            None => out,
+        })
+    }
+
+    fn translate(&mut self, text: &str) -> Result<String, String> {
+        if text.is_empty() {
+            return Ok(String::new());
+        }
+        if let Some(c) = text.strip_prefix(';').or_else(|| text.strip_prefix('*')) {
+            return Ok(comment(c));
+        }
+        // A comment after the block.
+        let (text, tail) = match text.split_once(';') {
+            Some((t, c)) => (t.trim(), comment(c)),
+            None => (text, String::new()),
+        };
+        let mut out = self.block(text)?;
+        if !tail.is_empty() {
+            out = if out.is_empty() {
+                tail
+            } else {
+                format!("{out} {tail}")
+            };
+        }
+        Ok(out)
+    }
+
+    fn block(&mut self, text: &str) -> Result<String, String> {
+        let (head, rest) = text.split_once(' ').unwrap_or((text, ""));
+        match head {
+            "BEGIN" => self.begin(rest),
+            "END" if rest.starts_with("PGM") => Ok(String::new()),
+            "BLK" if rest.starts_with("FORM") => Ok(String::new()),
+            "TOOL" if rest.starts_with("CALL") => self.tool_call(&rest[4..]),
+            "L" => self.line_move(rest),
+            "CC" => self.centre(rest),
+            "C" => self.arc(rest),
+            "CYCL" => cycle(rest),
+            "STOP" => {
+                let m = if rest.trim().is_empty() {
+                    "M0"
+                } else {
+                    rest.trim()
+                };
+                Ok(m.to_string())
+            }
+            _ if head.starts_with('M') => Ok(m_words(&split_words(text)?)?.join(" ")),
+            _ => Err(format!(
+                "{head} is not in the Heidenhain subset cnc402 reads (expected L, CC, C, TOOL \
+                 CALL, CYCL DEF 9, M, STOP, BLK FORM, a comment)"
+            )),
+        }
+    }
+
+    fn begin(&mut self, rest: &str) -> Result<String, String> {
+        let mut parts = rest.split_whitespace();
+        if parts.next() != Some("PGM") {
+            return Err("expected BEGIN PGM NAME MM|INCH".into());
+        }
+        let name = parts.next().unwrap_or("");
+        let units = match parts.next() {
+            Some("MM") => "G21",
+            Some("INCH") => "G20",
+            _ => return Err("expected BEGIN PGM NAME MM|INCH".into()),
+        };
+        self.preamble = Some(format!("{units} G90 G90.1 G17"));
+        Ok(format!("(dialect: fanuc) (BEGIN PGM {name})"))
+    }
+
+    /// `TOOL CALL n Z S.. F..`: a tool change (with `n`), a speed; the length follows.
+    fn tool_call(&mut self, rest: &str) -> Result<String, String> {
+        let mut out = Vec::new();
+        let mut parts = rest.split_whitespace().peekable();
+        if let Some(n) = parts.peek().and_then(|p| p.parse::<u32>().ok()) {
+            parts.next();
+            out.push(format!("T{n} M6"));
+            self.tool = Some(n);
+            self.length_pending = n != 0;
+        }
+        if parts.next() != Some("Z") {
+            return Err("TOOL CALL needs the tool axis Z (the only one cnc402 reads)".into());
+        }
+        for p in parts {
+            if let Some(s) = p.strip_prefix('S') {
+                out.push(format!("S{}", number(s)?));
+            } else if p.starts_with("DL") || p.starts_with("DR") {
+                return Err(format!("{p}: tool deltas are not in the subset"));
+            } else if !p.starts_with('F') {
+                return Err(format!("{p} is not a TOOL CALL word cnc402 reads"));
+            }
+        }
+        Ok(out.join(" "))
+    }
+
+    /// `L X.. Y.. Z.. R0|RL|RR F..|FMAX M..`.
+    fn line_move(&mut self, rest: &str) -> Result<String, String> {
+        let words = split_words(rest)?;
+        let rapid = words.iter().any(|w| matches!(w, Word::Fmax));
+        let mut out = vec![if rapid { "G0" } else { "G1" }.to_string()];
+        out.extend(self.compensation(&words)?);
+        let axes = axis_words(&words)?;
+        if self.length_pending && axes.iter().any(|a| a.starts_with('Z')) {
+            out.push(format!("G43 H{}", self.tool.unwrap_or(0)));
+            self.length_pending = false;
+        }
+        out.extend(axes);
+        out.extend(feed_words(&words));
+        out.extend(m_words(&words)?);
+        Ok(out.join(" "))
+    }
+
+    fn compensation(&self, words: &[Word]) -> Result<Option<String>, String> {
+        let d = || self.tool.unwrap_or(0);
+        Ok(words.iter().find_map(|w| match w {
+            Word::R0 => Some("G40".to_string()),
+            Word::Rl => Some(format!("G41 D{}", d())),
+            Word::Rr => Some(format!("G42 D{}", d())),
+            _ => None,
+        }))
+    }
+
+    /// `CC X.. Y..`: the centre of the next `C`.
+    fn centre(&mut self, rest: &str) -> Result<String, String> {
+        let words = split_words(rest)?;
+        let get = |l: char| {
+            words.iter().find_map(|w| match w {
+                Word::Axis(a, v) if *a == l => Some(*v),
+                _ => None,
+            })
+        };
+        match (get('X'), get('Y')) {
+            (Some(x), Some(y)) if words.len() == 2 => {
+                self.centre = Some((x, y));
+                Ok(String::new())
+            }
+            _ => Err("CC needs X and Y (absolute), nothing else".into()),
+        }
+    }
+
+    /// `C X.. Y.. DR+|DR- R0 F.. M..`: an arc about the last `CC`, to an absolute end.
+    fn arc(&mut self, rest: &str) -> Result<String, String> {
+        let words = split_words(rest)?;
+        let Some((cx, cy)) = self.centre else {
+            return Err("C without a CC before it".into());
+        };
+        let dir = words.iter().find_map(|w| match w {
+            Word::Dr(ccw) => Some(if *ccw { "G3" } else { "G2" }),
+            _ => None,
+        });
+        let Some(dir) = dir else {
+            return Err("C needs DR+ or DR-".into());
+        };
+        let mut out = vec![dir.to_string()];
+        out.extend(self.compensation(&words)?);
+        let axes = axis_words(&words)?;
+        if axes.iter().any(|a| !a.starts_with(['X', 'Y'])) {
+            return Err("C moves X and Y only in the subset (no helix)".into());
+        }
+        out.extend(axes);
+        out.push(format!("I{} J{}", fmt(cx), fmt(cy)));
+        out.extend(feed_words(&words));
+        out.extend(m_words(&words)?);
+        Ok(out.join(" "))
+    }
+}
+
+/// `CYCL DEF 9.0 DWELL TIME` (nothing yet) and `CYCL DEF 9.1 DWELL t` (the dwell).
+fn cycle(rest: &str) -> Result<String, String> {
+    let mut parts = rest.split_whitespace();
+    if parts.next() != Some("DEF") {
+        return Err("expected CYCL DEF".into());
+    }
+    match parts.next() {
+        Some("9.0") => Ok(String::new()),
+        Some("9.1") => {
+            let t = parts.last().ok_or("CYCL DEF 9.1 needs the dwell time")?;
+            Ok(format!("G4 X{}", number(t)?))
+        }
+        Some(n) => Err(format!(
+            "cycle {n} is not in the subset cnc402 reads (cycle 9, dwell, is)"
+        )),
+        None => Err("expected the cycle number".into()),
+    }
+}
+
+fn comment(text: &str) -> String {
+    let clean: String = text.chars().filter(|c| !matches!(c, '(' | ')')).collect();
+    let clean = clean.trim();
+    if clean.is_empty() {
+        String::new()
+    } else {
+        format!("({clean})")
+    }
+}
+
+fn axis_words(words: &[Word]) -> Result<Vec<String>, String> {
+    Ok(words
+        .iter()
+        .filter_map(|w| match w {
+            Word::Axis(l, v) => Some(format!("{l}{}", fmt(*v))),
+            _ => None,
+        })
+        .collect())
+}
+
+fn feed_words(words: &[Word]) -> Vec<String> {
+    words
+        .iter()
+        .filter_map(|w| match w {
+            Word::Feed(f) => Some(format!("F{}", fmt(*f))),
+            _ => None,
+        })
+        .collect()
+}
+
+fn m_words(words: &[Word]) -> Result<Vec<String>, String> {
+    Ok(words
+        .iter()
+        .filter_map(|w| match w {
+            Word::M(m) => Some(format!("M{m}")),
+            _ => None,
+        })
+        .collect())
+}
+
+fn number(s: &str) -> Result<f64, String> {
+    s.replace(',', ".")
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("{s:?} is not a number"))
+}
+
+/// A number as an ISO word takes it (decimal point always, so it reads as mm).
+fn fmt(v: f64) -> String {
+    let s = format!("{v}");
+    if s.contains('.') || s.contains('e') {
+        s
+    } else {
+        format!("{s}.")
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,386 @@
+//! iTNC 530 conversational output: `L … R0 FMAX|F`, `CC` + `C … DR±`, `TOOL CALL n Z S`,
+//! `CYCL DEF 9` dwells, M functions. What the iTNC does implicitly is checked against the
+//! job instead of written: the called tool's length switches on at the next Z move (the job
+//! must have `G43 H` of that tool there), the radius of `RL/RR` is the called tool's, the
+//! datum is the config's G54. Canned cycles, taps, helices, G61/G64 changes: refused (not
+//! written yet: docs/post.md).
+
+use cnc402_interp::canon::{CanonKind, CanonOp, CompSide};
+use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, SpindleDir};
+
+use super::Emitter;
+use super::format::decimal;
+use crate::PostError;
+use crate::assemble::{Block, Program};
+
+const SAME: f64 = 1e-9;
+
+/// Where the called tool's length stands on the control.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Length {
+    Off,
+    /// Called; on from the next move along Z.
+    Pending,
+    On,
+}
+
+/// The iTNC program of `ops`.
+pub fn emit_itnc(
+    cfg: &cnc402_config::MachineConfig,
+    rules: &crate::Rules,
+    ops: &[CanonOp],
+) -> Result<(Program, bool), PostError> {
+    let mut e = Itnc {
+        e: Emitter::new(cfg, rules),
+        length: Length::Off,
+        tool: None,
+        comp: None,
+        feed: None,
+    };
+    let inch = ops
+        .first()
+        .is_some_and(|o| o.state.units == cnc402_interp::canon::ProgramUnits::Inch);
+    for op in ops {
+        if (op.state.units == cnc402_interp::canon::ProgramUnits::Inch) != inch {
+            return Err(e
+                .e
+                .refuse(op, "a change of units inside an iTNC program".into()));
+        }
+        e.op(op)?;
+        e.e.advance(op);
+    }
+    Ok((e.e.program, inch))
+}
+
+struct Itnc<'a> {
+    e: Emitter<'a>,
+    length: Length,
+    tool: Option<u32>,
+    comp: Option<Option<CompSide>>,
+    feed: Option<String>,
+}
+
+impl Itnc<'_> {
+    fn push(&mut self, text: String, op: &CanonOp) {
+        self.e
+            .program
+            .main
+            .push(Block::new(vec![text], Some(op.source.clone())));
+    }
+
+    fn op(&mut self, op: &CanonOp) -> Result<(), PostError> {
+        let kind = match &op.kind {
+            CanonKind::CannedCycle(cc) => {
+                return Err(self.e.refuse(
+                    op,
+                    format!(
+                        "canned cycle G{}: iTNC cycles (CYCL DEF 200…) are not written yet",
+                        cc.code
+                    ),
+                ));
+            }
+            CanonKind::Single(k) => k,
+        };
+        let text = match kind {
+            SegmentKind::Rapid { .. } | SegmentKind::Linear { .. } | SegmentKind::Arc { .. } => {
+                return self.path(op, kind);
+            }
+            SegmentKind::Tap(_) => {
+                return Err(self
+                    .e
+                    .refuse(op, "a rigid tap (CYCL DEF 207 is not written yet)".into()));
+            }
+            SegmentKind::Dwell { seconds } => {
+                self.push("CYCL DEF 9.0 DWELL TIME".into(), op);
+                format!(
+                    "CYCL DEF 9.1 DWELL {}",
+                    decimal(*seconds, 3).trim_end_matches('.')
+                )
+            }
+            SegmentKind::Spindle { rpm, dir } => {
+                let s = super::format::speed(self.e.rules, *rpm, &op.source)?;
+                if *dir != SpindleDir::Stop && self.e.modal.spindle.as_deref() != Some(&s) {
+                    self.push(format!("TOOL CALL Z {s}"), op);
+                    self.e.modal.spindle = Some(s);
+                }
+                match dir {
+                    SpindleDir::Cw => "M3",
+                    SpindleDir::Ccw => "M4",
+                    SpindleDir::Stop => "M5",
+                }
+                .into()
+            }
+            SegmentKind::ToolChange { tool } => {
+                if *tool > self.e.rules.max_tool {
+                    return Err(self.e.refuse(
+                        op,
+                        format!("T{tool} is past the control's T{}", self.e.rules.max_tool),
+                    ));
+                }
+                self.tool = Some(*tool);
+                self.length = if *tool == 0 {
+                    Length::Off
+                } else {
+                    Length::Pending
+                };
+                format!("TOOL CALL {tool} Z")
+            }
+            SegmentKind::Coolant { .. } | SegmentKind::SpindleOrient { program: None, .. } => {
+                // The ISO emitter's M7/M8/M9/M19 blocks are the iTNC's too.
+                return self.e.single(op, kind);
+            }
+            SegmentKind::SpindleOrient { .. } => {
+                return Err(self
+                    .e
+                    .refuse(op, "a reference return of the spindle axis".into()));
+            }
+            SegmentKind::Stop { kind } => super::ops::stop_code(*kind).into(),
+            SegmentKind::Message { text } => {
+                let clean: String = text.chars().filter(|c| *c != ';').collect();
+                format!("; {clean}")
+            }
+        };
+        self.push(text, op);
+        Ok(())
+    }
+
+    /// `L` or `CC` + `C`.
+    fn path(&mut self, op: &CanonOp, kind: &SegmentKind) -> Result<(), PostError> {
+        self.check_state(op)?;
+        let (end, feed) = match kind {
+            SegmentKind::Rapid { end } => (end, None),
+            SegmentKind::Linear { end, feed } | SegmentKind::Arc { end, feed, .. } => {
+                (end, Some(*feed))
+            }
+            _ => return Ok(()),
+        };
+        let z = op.state.tool_axis;
+        let mut axes = Vec::new();
+        let machine = op.state.to_machine(end);
+        for i in self.e.axes() {
+            let moves = (machine[i] - self.e.pos[i]).abs() > SAME;
+            let arc_axis = matches!(kind, SegmentKind::Arc { .. })
+                && self.e.letter(i) != 'Z'
+                && self.e.letter(i) != 'C';
+            if moves
+                || arc_axis
+                || (self.length == Length::Pending && Some(i) == z && self.length_wanted(op))
+            {
+                axes.push(format!(
+                    "{}{}",
+                    self.e.letter(i),
+                    signed(end[i], self.e.rules.position_decimals)
+                ));
+            }
+        }
+        if axes.is_empty() {
+            axes.push(format!(
+                "{}{}",
+                self.e.letter(0),
+                signed(end[0], self.e.rules.position_decimals)
+            ));
+        }
+        if self.length == Length::Pending
+            && z.is_some_and(|z| axes.iter().any(|a| a.starts_with(self.e.letter(z))))
+        {
+            self.length = Length::On;
+        }
+        let mut words = Vec::new();
+        if let SegmentKind::Arc {
+            center,
+            dir,
+            plane,
+            turns,
+            ..
+        } = kind
+        {
+            self.arc_checks(op, end, *plane, *turns)?;
+            let d = self.e.rules.position_decimals;
+            self.push(
+                format!("CC X{} Y{}", signed(center[0], d), signed(center[1], d)),
+                op,
+            );
+            words.push("C".to_string());
+            words.extend(axes);
+            words.push(if *dir == ArcDir::Ccw { "DR+" } else { "DR-" }.into());
+        } else {
+            words.push("L".into());
+            words.extend(axes);
+        }
+        let comp = op.state.comp.map(|c| c.side);
+        if self.comp != Some(comp) {
+            words.push(
+                match comp {
+                    None => "R0",
+                    Some(CompSide::Left) => "RL",
+                    Some(CompSide::Right) => "RR",
+                }
+                .into(),
+            );
+            self.comp = Some(comp);
+        }
+        match feed {
+            None => words.push("FMAX".into()),
+            Some(f) => {
+                let f =
+                    super::format::feed(self.e.rules, f, self.e.length_unit_of(op), &op.source)?;
+                let f = f.trim_end_matches('.').to_string();
+                if self.feed.as_deref() != Some(&f) {
+                    words.push(f.clone());
+                    self.feed = Some(f);
+                }
+            }
+        }
+        self.push(words.join(" "), op);
+        Ok(())
+    }
+
+    fn arc_checks(
+        &self,
+        op: &CanonOp,
+        end: &AxisPos,
+        plane: Plane,
+        turns: u32,
+    ) -> Result<(), PostError> {
+        if plane != Plane::XY {
+            return Err(self.e.refuse(
+                op,
+                "an arc outside G17 (the iTNC output writes XY arcs only)".into(),
+            ));
+        }
+        let start = op.state.to_work(&self.e.pos);
+        let xy = [self.e.cfg.axis_index('X'), self.e.cfg.axis_index('Y')];
+        let closed = xy
+            .iter()
+            .flatten()
+            .all(|&i| (start[i] - end[i]).abs() <= SAME);
+        if turns > 1 || (turns == 1 && !closed) {
+            return Err(self
+                .e
+                .refuse(op, "an arc of more than one full turn".into()));
+        }
+        let helix = self.e.axes().any(|i| {
+            !xy.contains(&Some(i)) && (op.state.to_machine(end)[i] - self.e.pos[i]).abs() > SAME
+        });
+        if helix {
+            return Err(self.e.refuse(
+                op,
+                "a helix (CP with IZ is not written yet for the iTNC)".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The job runs with the tool's length (G43 H of the called tool).
+    fn length_wanted(&self, op: &CanonOp) -> bool {
+        self.e.effective_length(op) != 0.0
+    }
+
+    /// Refuses a state the iTNC program cannot reproduce: another datum than G54's, a tool
+    /// length other than the called tool's, a radius other than its, a path mode other than
+    /// the machine's default.
+    fn check_state(&self, op: &CanonOp) -> Result<(), PostError> {
+        let st = &op.state;
+        let refuse = |m: &str| Err(self.e.refuse(op, m.to_string()));
+        let length = self.e.effective_length(op);
+        let mut zero = st.offset;
+        if let Some(t) = st.tool_axis {
+            zero[t] -= length;
+        }
+        if st.work_offset != 0
+            || self
+                .e
+                .axes()
+                .any(|i| (zero[i] - self.e.cfg.work_offsets[0][i]).abs() > SAME)
+        {
+            return refuse(
+                "a datum other than the machine's G54 (datum shifts are not written for the iTNC)",
+            );
+        }
+        let tool = self.tool.unwrap_or(0);
+        if length != 0.0 {
+            let table = self.e.cfg.tool_offsets.get((tool as usize).wrapping_sub(1));
+            let own = table.map(|t| t.length + t.length_wear);
+            if st.tool_length_mode != 43
+                || st.h != tool
+                || own.is_none_or(|l| (l - length).abs() > SAME)
+            {
+                return refuse(
+                    "a tool length other than the called tool's (the iTNC takes the length of the tool it calls)",
+                );
+            }
+            if self.length == Length::Off {
+                return refuse("a tool length with no tool called");
+            }
+        } else if self.length == Length::On {
+            return refuse(
+                "a move without the called tool's length (G49) after the iTNC switched it on",
+            );
+        }
+        if let Some(c) = st.comp {
+            let table = self.e.cfg.tool_offsets.get((tool as usize).wrapping_sub(1));
+            let own = table.map(|t| t.radius + t.radius_wear);
+            if c.d != tool || own.is_none_or(|r| (r - c.radius).abs() > SAME) {
+                return refuse(
+                    "a cutter radius other than the called tool's (RL/RR take the called tool's)",
+                );
+            }
+        }
+        if st.path_mode.code() != default_path_code(self.e.cfg) {
+            return refuse("a path mode (G61/G64) other than the machine's default");
+        }
+        Ok(())
+    }
+}
+
+fn default_path_code(cfg: &cnc402_config::MachineConfig) -> u32 {
+    match cfg.interp.path_mode {
+        cnc402_config::PathModeDefault::ExactStop => 61,
+        _ => 64,
+    }
+}
+
+/// `+10.5`, `-2`: Heidenhain's signed numbers.
+pub fn signed(v: f64, decimals: u32) -> String {
+    let d = decimal(v, decimals);
+    let d = d.trim_end_matches('.');
+    if d.starts_with('-') {
+        d.to_string()
+    } else {
+        format!("+{d}")
+    }
+}
+
+/// The text: `0 BEGIN PGM NAME MM`, the blocks numbered from 1, `n END PGM NAME MM`.
+pub fn assemble_itnc(
+    program: &Program,
+    inch: bool,
+    rules: &crate::Rules,
+) -> Result<String, PostError> {
+    let units = if inch { "INCH" } else { "MM" };
+    let mut text = format!("0 BEGIN PGM CNC402 {units}\n");
+    let mut n = 1usize;
+    for b in &program.main {
+        let body: Vec<String> = b
+            .words
+            .iter()
+            .map(|w| match w {
+                crate::assemble::Word::Text(t) => t.clone(),
+                crate::assemble::Word::Sub(_) => String::new(),
+            })
+            .collect();
+        let line = format!("{n} {}", body.join(" "));
+        if line.len() > rules.max_line {
+            return Err(PostError::target(
+                rules,
+                b.source.as_ref(),
+                format!("a block longer than {} characters", rules.max_line),
+            ));
+        }
+        text.push_str(&line);
+        text.push('\n');
+        n += 1;
+    }
+    text.push_str(&format!("{n} END PGM CNC402 {units}\n"));
+    Ok(text)
+}

@@ -1,0 +1,72 @@
+//! The job: any program cnc402 reads (ISO, Macro B, the C-like language) run by the
+//! interpreter as far as the canonical layer ([`CanonOp`]: cycles, taps, tool calls, offsets
+//! and compensation kept as operations, macros and loops already evaluated).
+
+use cnc402_config::MachineConfig;
+use cnc402_interp::canon::CanonOp;
+use cnc402_interp::host_fs::{VarsAccess, interpreter};
+use cnc402_interp::{Interpreter, Options};
+use cnc402_lang::SourceFile;
+
+use crate::PostError;
+
+pub mod apt;
+pub mod tools;
+
+/// A job's operations, and whether it was CL data (its segments are then the operations'
+/// lowering, there being no program text to run again).
+pub struct Job {
+    pub ops: Vec<CanonOp>,
+    pub cl: bool,
+}
+
+/// The job in `text`: CL data ([`apt::is_cl`]) or a program cnc402 runs.
+pub fn job(
+    cfg: &MachineConfig,
+    name: &str,
+    text: &str,
+    tools: &tools::ToolTable,
+) -> Result<Job, PostError> {
+    if apt::is_cl(name, text) {
+        Ok(Job {
+            ops: apt::read_cl(cfg, name, text, tools)?,
+            cl: true,
+        })
+    } else {
+        Ok(Job {
+            ops: read_job(cfg, name, text)?,
+            cl: false,
+        })
+    }
+}
+
+/// The most operations one job may have: a program looping forever with motion (M99 in a
+/// main program is one pass here) ends in an error instead of filling memory.
+pub const MAX_OPERATIONS: usize = 2_000_000;
+
+/// An interpreter with the file system (sub-programs, `#use` files, variables read-only),
+/// loaded with `text`.
+pub fn load(cfg: &MachineConfig, name: &str, text: &str) -> Result<Interpreter, PostError> {
+    let src = SourceFile::new(name, text);
+    let program = cnc402_interp::parse_program(cfg, &src, None).map_err(PostError::Job)?;
+    let mut it = interpreter(cfg, Options::default(), VarsAccess::ReadOnly);
+    it.load(src, program);
+    Ok(it)
+}
+
+/// The job's canonical operations, in order.
+pub fn read_job(cfg: &MachineConfig, name: &str, text: &str) -> Result<Vec<CanonOp>, PostError> {
+    let mut it = load(cfg, name, text)?;
+    let mut ops = Vec::new();
+    while let Some(op) = it.next_canon().map_err(PostError::Job)? {
+        if ops.len() == MAX_OPERATIONS {
+            return Err(PostError::Target {
+                target: "any",
+                source: Some(op.source),
+                message: format!("the job has more than {MAX_OPERATIONS} operations"),
+            });
+        }
+        ops.push(op);
+    }
+    Ok(ops)
+}

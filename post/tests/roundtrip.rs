@@ -1,0 +1,361 @@
+//! The round-trip proof over whole programs: every example program and every program of
+//! the real-program corpus, posted for every ISO target, either reads back with the job's
+//! motion (the post checks it; these tests check again from the text) or is refused with an
+//! error that names the target — never a program that moves differently.
+
+// PostError carries lang's large NcError; the tests only unwrap it.
+#![allow(clippy::result_large_err)]
+
+use std::path::{Path, PathBuf};
+
+use cnc402_config::MachineConfig;
+use cnc402_post::{PostError, Target, verify};
+
+const ALL_TARGETS: [Target; 6] = Target::ALL;
+
+const ISO_TARGETS: [Target; 5] = [
+    Target::Fanuc0,
+    Target::Fanuc16,
+    Target::Fanuc18,
+    Target::Fanuc32,
+    Target::Arumatik,
+];
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn config(rel: &str) -> MachineConfig {
+    MachineConfig::load(repo().join(rel)).expect("config loads")
+}
+
+/// Posts `job` and, when it posts, reads the text back and compares it again.
+fn post_and_prove(cfg: &MachineConfig, job: &Path, target: Target) -> Result<String, PostError> {
+    let name = job.display().to_string();
+    let text = std::fs::read_to_string(job).expect("job reads");
+    let posted = cnc402_post::post(cfg, &name, &text, target)?;
+    verify::same_motion(cfg, &target.rules(), &name, &text, &posted)
+        .expect("a posted program reads back the same");
+    if target == Target::Itnc530 {
+        assert!(posted.starts_with("0 BEGIN PGM CNC402 "), "{posted}");
+    } else {
+        assert!(posted.starts_with("%\nO"), "{posted}");
+    }
+    Ok(posted)
+}
+
+/// (target, job file, what the refusal says): the examples a target cannot take.
+const REFUSED: &[(&str, &str, &str)] = &[
+    (
+        "arumatik",
+        "contour-arcs.nc",
+        "contour-arcs.nc:25: block N190: a helix (G2/G3 with a move along Z) on a control \
+         without helical interpolation (target arumatik)",
+    ),
+    (
+        "arumatik",
+        "fanuc-milling.nc",
+        "block N70: the job sets a tool length the machine's tables do not hold, and the \
+         control has no G10 to set it (target arumatik)",
+    ),
+    (
+        "itnc530",
+        "bolt-circle-drilling.nc",
+        "block N50: canned cycle G81: iTNC cycles",
+    ),
+    (
+        "itnc530",
+        "contour-arcs.nc",
+        "block N190: a helix (CP with IZ",
+    ),
+    (
+        "itnc530",
+        "fanuc-milling.nc",
+        "block N70: a tool length other than the called tool's",
+    ),
+    (
+        "itnc530",
+        "m10x1.5-rigid-tap.nc",
+        "block N40: canned cycle G84",
+    ),
+    ("itnc530", "peck-tap.nc", "block N40: canned cycle G84"),
+    (
+        "itnc530",
+        "plate-cutter-comp.nc",
+        "block N230: a cutter radius other than the called",
+    ),
+    ("itnc530", "multipass_tap.nc", "(target itnc530)"),
+    ("itnc530", "source_000_main.nc", "(target itnc530)"),
+    (
+        "itnc530",
+        "contour.nc",
+        "block N4: a datum other than the machine's G54",
+    ),
+];
+
+#[test]
+fn every_example_posts_for_every_target_or_is_refused_by_name() {
+    let mut jobs: Vec<(PathBuf, &str)> = std::fs::read_dir(repo().join("examples"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "nc"))
+        .map(|p| (p, "config/machine.toml"))
+        .collect();
+    for f in ["multipass_tap.nc", "source_000_main.nc", "metch_cycles.c"] {
+        jobs.push((
+            repo().join("examples/axioma").join(f),
+            "examples/axioma/machine.toml",
+        ));
+    }
+    jobs.push((
+        repo().join("examples/lab-contour/contour.nc"),
+        "config/machine.toml",
+    ));
+    jobs.sort();
+    let mut posted = 0;
+    for (job, cfg) in &jobs {
+        let cfg = config(cfg);
+        let file = job.file_name().unwrap().to_str().unwrap();
+        for target in ALL_TARGETS {
+            let expected = REFUSED
+                .iter()
+                .find(|(t, f, _)| *t == target.name() && *f == file);
+            match (post_and_prove(&cfg, job, target), expected) {
+                (Ok(_), None) => posted += 1,
+                (Err(e), Some((_, _, why))) => {
+                    assert!(e.to_string().contains(why), "{file} {target:?}: {e}")
+                }
+                (Ok(_), Some(_)) => panic!("{file} posted for {target:?}, expected a refusal"),
+                (Err(e), None) => panic!("{file} for {target:?}: {e}"),
+            }
+        }
+    }
+    assert_eq!(posted, jobs.len() * ALL_TARGETS.len() - REFUSED.len());
+}
+
+#[test]
+fn the_real_program_corpus_posts_or_is_refused_never_moved_differently() {
+    let dir = repo().join("tests/real-programs");
+    let cfg = config("tests/real-programs/machine.toml");
+    let mut files = Vec::new();
+    for sub in std::fs::read_dir(&dir).unwrap() {
+        let sub = sub.unwrap().path();
+        if sub.is_dir() {
+            files.extend(std::fs::read_dir(sub).unwrap().map(|e| e.unwrap().path()));
+        }
+    }
+    files.sort();
+    let (mut ok, mut refused) = (0, 0);
+    for f in files
+        .iter()
+        .filter(|f| !f.to_string_lossy().ends_with(".py"))
+    {
+        for target in [
+            Target::Fanuc16,
+            Target::Fanuc0,
+            Target::Arumatik,
+            Target::Itnc530,
+        ] {
+            match post_and_prove(&cfg, f, target) {
+                Ok(_) => ok += 1,
+                // A job that does not run in cnc402 cannot be posted; that is its own error.
+                Err(PostError::Job(_)) => {}
+                Err(e @ PostError::Target { .. }) => {
+                    let text = e.to_string();
+                    assert!(
+                        text.ends_with(&format!("(target {})", target.name())),
+                        "{text}"
+                    );
+                    refused += 1;
+                }
+            }
+        }
+    }
+    // Most of the corpus posts; the figures move only when the post learns or refuses more.
+    assert!(ok >= 120, "{ok} posted, {refused} refused");
+}
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+/// A fixture posted for `target` is the text of `<job>.<target>.nc` beside it (set
+/// `CNC402_BLESS=1` to rewrite it, then read the diff).
+fn golden(job: &str, target: Target) {
+    let cfg = config("config/machine.toml");
+    let text = post_and_prove(&cfg, &fixture(job), target).expect("posts");
+    let stem = job.trim_end_matches(".nc");
+    let path = fixture(&format!("{stem}.{}.nc", target.name()));
+    if std::env::var_os("CNC402_BLESS").is_some() {
+        std::fs::write(&path, &text).unwrap();
+    }
+    let want = std::fs::read_to_string(&path).expect("golden file");
+    assert_eq!(text, want, "{}", path.display());
+}
+
+#[test]
+fn boring_cycles_native_on_fanuc0() {
+    golden("boring.nc", Target::Fanuc0);
+}
+
+#[test]
+fn boring_cycles_as_plain_blocks_on_arumatik_which_lacks_g76() {
+    golden("boring.nc", Target::Arumatik);
+}
+
+#[test]
+fn a_contour_on_the_itnc530_reads_back_through_the_heidenhain_reader() {
+    golden("contour.nc", Target::Itnc530);
+}
+
+#[test]
+fn the_contour_on_every_iso_target() {
+    for t in ISO_TARGETS {
+        post_and_prove(&config("config/machine.toml"), &fixture("contour.nc"), t).unwrap();
+    }
+}
+
+#[test]
+fn fanuc_milling_offsets_on_fanuc32() {
+    let cfg = config("config/machine.toml");
+    let text = post_and_prove(
+        &cfg,
+        &repo().join("examples/fanuc-milling.nc"),
+        Target::Fanuc32,
+    )
+    .unwrap();
+    // The G10 of the job's second vise, the wear it measured, G28's cancelled length.
+    assert!(text.contains("G10 L2 P2 X120. Y40.\n"), "{text}");
+    assert!(text.contains("G10 L10 P1 R-180.05\n"), "{text}");
+    assert!(text.contains("G49 Z0.\n"), "{text}");
+}
+
+#[test]
+fn a_helix_is_refused_on_arumatik_naming_block_and_target() {
+    let cfg = config("config/machine.toml");
+    let e = post_and_prove(&cfg, &fixture("helix.nc"), Target::Arumatik).unwrap_err();
+    assert!(
+        e.to_string().ends_with(
+            "helix.nc:8: block N60: a helix (G2/G3 with a move along Z) on a control without \
+             helical interpolation (target arumatik)"
+        ),
+        "{e}"
+    );
+    // Fanuc 16 interpolates helices; the full circle after it is one G3 with I/J.
+    let text = post_and_prove(&cfg, &fixture("helix.nc"), Target::Fanuc16).unwrap();
+    assert!(
+        text.contains("G3 X10. Y0. Z-2. I-10. J0. F400.\n"),
+        "{text}"
+    );
+    assert!(text.contains(" X10. Y0. I-10. J0.\n"), "{text}");
+}
+
+fn post_text(text: &str, target: Target) -> Result<String, PostError> {
+    cnc402_post::post(&config("config/machine.toml"), "job.nc", text, target)
+}
+
+#[test]
+fn a_speed_or_tool_beyond_the_control_is_refused() {
+    let e = post_text("T1 M6\nS5000.5 M3\nM30\n", Target::Fanuc16)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("job.nc:2: spindle speed S5000.5 is not a whole number"),
+        "{e}"
+    );
+    let e = post_text("T100 M6\nM30\n", Target::Arumatik)
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "job.nc:1: T100 is past the control's T99 (target arumatik)"
+    );
+}
+
+#[test]
+fn a_changed_posted_program_is_caught_by_the_read_back() {
+    let cfg = config("config/machine.toml");
+    let job = fixture("boring.nc");
+    let text = std::fs::read_to_string(&job).unwrap();
+    let posted = post_and_prove(&cfg, &job, Target::Fanuc16).unwrap();
+    let rules = Target::Fanuc16.rules();
+    let name = job.display().to_string();
+    for (from, to) in [
+        ("X40.", "X40.002"),
+        ("F80.", "F81."),
+        ("S800", "S801"),
+        ("M8", "M7"),
+    ] {
+        let wrong = posted.replacen(from, to, 1);
+        assert_ne!(wrong, posted);
+        let e = verify::same_motion(&cfg, &rules, &name, &text, &wrong).unwrap_err();
+        assert!(e.to_string().contains("moves differently"), "{from}: {e}");
+    }
+    let shorter: String = posted
+        .lines()
+        .filter(|l| !l.ends_with(" M30"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_ne!(shorter, posted);
+    let e = verify::same_motion(&cfg, &rules, &name, &text, &shorter).unwrap_err();
+    assert!(e.to_string().contains("the job goes on with"), "{e}");
+}
+
+#[test]
+fn an_inch_job_posts_in_inches() {
+    let job = "G20 G90\nG0 X1. Y0.5\nG1 Z-0.1 F5.9055\nG2 X2. Y0.5 I0.5 J0\nM30\n";
+    let text = post_text(job, Target::Fanuc0).unwrap();
+    assert!(text.contains("G20\n"), "{text}");
+    assert!(text.contains("G1 Z-0.1 F5.9055\n"), "{text}");
+    assert!(text.contains("G2 X2. Y0.5 I0.5 J0.\n"), "{text}");
+}
+
+fn post_cl(target: Target, tools: &str) -> Result<String, PostError> {
+    let job = fixture("pocket.cl");
+    let text = std::fs::read_to_string(&job).unwrap();
+    let tools = cnc402_post::input::tools::ToolTable::parse(tools).unwrap();
+    let cfg = config("config/machine.toml");
+    cnc402_post::post_with(&cfg, &job.display().to_string(), &text, target, &tools)
+}
+
+const TOOLS: &str = "[tool.1]\ndiameter = 10.0\nteeth = 4\n";
+
+#[test]
+fn cl_data_posts_with_cutting_data_from_the_tool_table() {
+    let text = post_cl(Target::Fanuc18, TOOLS).unwrap();
+    // Vc 150 m/min on D10: n = 1000·150/(π·10) = 4774.6 → S4775; fz 0.05 × 4 × 4775 = F955.
+    assert!(text.contains("S4775 M3\n"), "{text}");
+    assert!(text.contains("G1 Z-3. F955.\n"), "{text}");
+    assert!(text.contains("G3 X40. Y10. I0. J10.\n"), "{text}");
+    assert!(
+        text.contains("G98 G83 X60. Y0. Z-12. R2. Q4. F150.\n"),
+        "{text}"
+    );
+    let golden_path = fixture("pocket.arumatik.nc");
+    let text = post_cl(Target::Arumatik, TOOLS).unwrap();
+    if std::env::var_os("CNC402_BLESS").is_some() {
+        std::fs::write(&golden_path, &text).unwrap();
+    }
+    assert_eq!(text, std::fs::read_to_string(&golden_path).unwrap());
+}
+
+#[test]
+fn cl_data_without_its_tool_or_with_an_unknown_statement_is_refused_at_its_line() {
+    let e = post_cl(Target::Fanuc16, "").unwrap_err().to_string();
+    assert!(
+        e.contains("pocket.cl:7: tool 1 is not in the tool table"),
+        "{e}"
+    );
+    let e = post_cl(Target::Itnc530, TOOLS).unwrap_err().to_string();
+    assert!(e.contains("pocket.cl:24: canned cycle G83"), "{e}");
+    let cfg = config("config/machine.toml");
+    let e = cnc402_post::post(&cfg, "j.cl", "LOADTL/1\nTHREAD/1\n", Target::Fanuc16)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("j.cl:2: THREAD is not an APT/CL statement"),
+        "{e}"
+    );
+}
