@@ -7,6 +7,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use crate::check::{Invalid, Table, int_in, positive, positive_at_most, sp, table};
+use crate::homing::{self, AxisScale, Homing, RawHoming, RawSimMachine, SimMachine};
 use crate::{BusConfig, MAX_AXES};
 
 /// Largest |position| the drive's INT32 position objects (0x607A, 0x6064, 0x60F4) hold.
@@ -81,6 +82,17 @@ pub struct AxisConfig {
     /// What the master believes of the drive's dynamics (`dynamics = { delay_cycles = …,
     /// bandwidth_hz = … }`), for matching coupled axes; `None` when not given.
     pub dynamics: Option<DriveModel>,
+    /// How the axis gets its machine reference (`homing = { … }`); `None`: machine position
+    /// is whatever the drive reports at power-on.
+    pub homing: Option<Homing>,
+    /// `polarity = "inverted"`: the master writes 0x607E = 0xC0 at boot (position and
+    /// velocity inverted in the drive; the master's scaling is unchanged).
+    pub polarity_inverted: bool,
+    /// `gear_ratio = [motor revolutions, shaft revolutions]`, written to 0x6091 at boot.
+    pub gear_ratio: Option<(u32, u32)>,
+    /// `feed_constant = [feed, shaft revolutions]`, written to 0x6092 at boot (the drive's
+    /// position unit is then the feed's; `counts_per_unit` is in that unit).
+    pub feed_constant: Option<(u32, u32)>,
     pub sim: SimDynamics,
 }
 
@@ -128,6 +140,8 @@ pub struct SimDynamics {
     /// Encoder resolution, axis units: 0x6064 and the position loop see the position
     /// truncated to a multiple of it; 0 = one count.
     pub encoder_resolution: f64,
+    /// The machine around the motor: switches, index pulses, power-on position.
+    pub machine: SimMachine,
 }
 
 impl Default for SimDynamics {
@@ -140,6 +154,10 @@ impl Default for SimDynamics {
             max_velocity: 0.0,
             max_acceleration: 0.0,
             encoder_resolution: 0.0,
+            machine: SimMachine {
+                home_switch_above: true,
+                ..SimMachine::default()
+            },
         }
     }
 }
@@ -197,6 +215,10 @@ pub(crate) struct RawAxis {
     fourth_reference: Option<Spanned<f64>>,
     identity: Option<Spanned<RawIdentity>>,
     dynamics: Option<Spanned<RawModel>>,
+    homing: Option<Spanned<RawHoming>>,
+    polarity: Option<Spanned<String>>,
+    gear_ratio: Option<Spanned<[i64; 2]>>,
+    feed_constant: Option<Spanned<[i64; 2]>>,
     #[serde(default, deserialize_with = "table")]
     sim: RawSim,
 }
@@ -235,6 +257,11 @@ pub(crate) struct RawSim {
     max_velocity: Option<Spanned<f64>>,
     max_acceleration: Option<Spanned<f64>>,
     encoder_resolution: Option<Spanned<f64>>,
+    power_on_position: Option<Spanned<f64>>,
+    home_switch: Option<Spanned<f64>>,
+    home_switch_active: Option<Spanned<String>>,
+    limit_switches: Option<Spanned<[f64; 2]>>,
+    index_pulse_counts: Option<Spanned<i64>>,
 }
 
 /// Checks the `[[axis]]` list in order against the bus (no axis may use
@@ -369,6 +396,14 @@ impl RawSim {
                 0.0,
             )?,
             encoder_resolution,
+            machine: RawSimMachine {
+                power_on_position: self.power_on_position.clone(),
+                home_switch: self.home_switch.clone(),
+                home_switch_active: self.home_switch_active.clone(),
+                limit_switches: self.limit_switches.clone(),
+                index_pulse_counts: self.index_pulse_counts.clone(),
+            }
+            .validate(k, counts_per_unit)?,
         })
     }
 }
@@ -396,6 +431,18 @@ impl RawAxis {
         let identity = a.identity(k, node)?;
         let dynamics = a.model(k)?;
         let sim = a.sim.validate(k, counts_per_unit)?;
+        let homing = match &a.homing {
+            Some(h) => Some(h.get_ref().validate(
+                h.span(),
+                &AxisScale {
+                    k,
+                    counts_per_unit,
+                    max_velocity,
+                    has_drive: node.is_some(),
+                },
+            )?),
+            None => None,
+        };
         Ok(AxisConfig {
             name,
             kind,
@@ -422,6 +469,10 @@ impl RawAxis {
             references,
             identity,
             dynamics,
+            homing,
+            polarity_inverted: homing::polarity(&a.polarity, key("polarity"))?,
+            gear_ratio: homing::ratio(&a.gear_ratio, key("gear_ratio"))?,
+            feed_constant: homing::ratio(&a.feed_constant, key("feed_constant"))?,
             sim,
         })
     }

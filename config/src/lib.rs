@@ -13,6 +13,7 @@ mod check;
 mod cutter_comp;
 mod error;
 pub mod exit;
+mod homing;
 mod interp;
 mod mcodes;
 mod planner;
@@ -30,6 +31,7 @@ pub use axes::{
 pub use bus::BusConfig;
 pub use cutter_comp::{CompCorner, CompGouge, CompStartup, CutterComp};
 pub use error::ConfigError;
+pub use homing::{DEFAULT_TIMEOUT_S, DriveHoming, Homing, SimMachine};
 pub use interp::{InterpDefaults, PathModeDefault, PlaneDefault, ReturnPlane, Units};
 pub use mcodes::{BUILT_IN_M_CODES, MAction, PROGRAM_EXTENSIONS, program_file};
 pub use planner::{MAX_LOOKAHEAD, PlannerConfig};
@@ -59,6 +61,44 @@ pub struct MachineConfig {
     pub tool_offsets: Vec<ToolOffset>,
     /// `[mcodes]`: the machine's own M codes by number (none is a built-in one).
     pub mcodes: std::collections::BTreeMap<u32, MAction>,
+    /// `[machine]`: machine-wide behaviour.
+    pub machine: MachineOptions,
+}
+
+/// `[machine]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MachineOptions {
+    /// `require_homing = true`: `cnc402 run` homes every axis with a `homing` key before the
+    /// program (an absolute axis is referenced at boot), so soft limits and G28 hold.
+    pub require_homing: bool,
+}
+
+/// `[machine]` as written.
+#[derive(Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMachine {
+    require_homing: Option<toml::Spanned<bool>>,
+}
+
+impl RawMachine {
+    /// `require_homing` needs an axis that can be homed.
+    fn validate(&self, axes: &[AxisConfig]) -> Result<MachineOptions, Invalid> {
+        let Some(r) = &self.require_homing else {
+            return Ok(MachineOptions::default());
+        };
+        if *r.get_ref() && axes.iter().all(|a| a.homing.is_none()) {
+            return Err((
+                r.span(),
+                "machine.require_homing".into(),
+                "no axis has a `homing` key: give the axes their homing method (or \
+                 absolute = true) first"
+                    .into(),
+            ));
+        }
+        Ok(MachineOptions {
+            require_homing: *r.get_ref(),
+        })
+    }
 }
 
 impl MachineConfig {
@@ -155,6 +195,8 @@ struct RawConfig {
     tool_offsets: tool_offsets::RawToolOffsets,
     #[serde(default)]
     mcodes: mcodes::RawMCodes,
+    #[serde(default, deserialize_with = "check::table")]
+    machine: RawMachine,
     axis: Vec<check::Table<axes::RawAxis>>,
 }
 
@@ -172,6 +214,7 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
     let work_offsets = work_offsets::validate(&raw.work_offsets, &axes)?;
     let tool_offsets = tool_offsets::validate(&raw.tool_offsets)?;
     let mcodes = mcodes::validate(&raw.mcodes)?;
+    let machine = raw.machine.validate(&axes)?;
     let config = MachineConfig {
         path: path.to_path_buf(),
         axes,
@@ -181,6 +224,7 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
         work_offsets,
         tool_offsets,
         mcodes,
+        machine,
     };
     raw.interp.check_paths(&config)?;
     mcodes::check_targets(&raw.mcodes, &config.mcodes, &config.program_dir())?;
