@@ -290,7 +290,11 @@ mod tests {
             ((1 << 13) | (1 << 12), HomingStatus::Error),
         ];
         for (bits, status) in cases {
-            assert_eq!(HomingStatus::of(Statusword(enabled | bits)), status, "{bits:#x}");
+            assert_eq!(
+                HomingStatus::of(Statusword(enabled | bits)),
+                status,
+                "{bits:#x}"
+            );
         }
         for s in [
             HomingStatus::InProgress,

@@ -767,7 +767,7 @@ impl Master {
 
     /// Runs `transfer` with a blocking SDO client on `bus`; the other frames that arrive
     /// meanwhile are taken in afterwards, whether it succeeded or not.
-    fn with_sdo<B: TimedBus + ?Sized, T, E>(
+    pub(crate) fn with_sdo<B: TimedBus + ?Sized, T, E>(
         &mut self,
         bus: &mut B,
         transfer: impl FnOnce(&mut BlockingSdo<'_, B>) -> Result<T, E>,
@@ -821,6 +821,10 @@ impl Master {
             self.check_single_boot_up(i)?;
         }
         let mut ident = configured?;
+        let reference = self.axes[i].reference;
+        self.with_sdo(bus, |sdo| {
+            super::homing::write_at_boot(sdo, node, &reference)
+        })?;
         bus.send(
             &NmtRepr {
                 command: NmtCommand::Start,
@@ -953,7 +957,7 @@ impl Master {
     }
 
     /// Waits until `deadline`, taking in every frame that arrives.
-    fn wait_until<B: TimedBus + ?Sized>(
+    pub(crate) fn wait_until<B: TimedBus + ?Sized>(
         &mut self,
         bus: &mut B,
         deadline: Instant,

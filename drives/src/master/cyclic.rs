@@ -23,7 +23,6 @@
 
 use cia402::{Controlword, Goal, Progress, State, Statusword};
 use cnc402_config::MAX_AXES;
-use cnc402_motion::to_counts_wrapping;
 
 use super::boot::{
     COMPACT_RPDO1_LAYOUT, COMPACT_RPDO2_LAYOUT, COMPACT_TPDO1_LAYOUT, COMPACT_TPDO2_LAYOUT,
@@ -275,7 +274,10 @@ impl super::AxisSlot {
                 self.progress = step.progress;
                 (step.controlword, self.target)
             }
-            Phase::Running => (Controlword::ENABLE_OPERATION_CMD, command),
+            Phase::Running => (
+                Controlword(Controlword::ENABLE_OPERATION_CMD.0 | self.mode_bits),
+                command,
+            ),
             Phase::Stopping => (
                 if self.quick_stop {
                     Controlword::QUICK_STOP_CMD
@@ -435,6 +437,7 @@ impl Master {
             });
         }
         if a.tpdo_this_cycle
+            && !a.homing_active
             && a.fe_comparable
             && a.window > 0.0
             && a.following_error.abs() > a.window
@@ -572,7 +575,7 @@ impl Master {
             a.actual = cmd;
             a.following_error = 0.0;
         }
-        fb.target[i] = to_counts_wrapping(cmd, a.counts_per_unit);
+        fb.target[i] = a.to_counts(cmd);
         fb.actual_counts[i] = if a.node.is_some() {
             a.actual_counts
         } else {
@@ -729,7 +732,7 @@ impl Master {
         for a in self.axes[..self.n_axes].iter_mut() {
             a.sequencer.set_goal(Goal::SwitchOnDisabled);
             a.disabled = a.node.is_none();
-            a.target = to_counts_wrapping(a.last_command, a.counts_per_unit);
+            a.target = a.to_counts(a.last_command);
         }
     }
 

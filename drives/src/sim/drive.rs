@@ -7,8 +7,8 @@ use core::fmt;
 use core::str::FromStr;
 use core::time::Duration;
 
-use cia402::objects as o;
 use cia402::homing::{HOMING_ATTAINED, HOMING_ERROR, HOMING_START};
+use cia402::objects as o;
 use cia402::{
     Controlword, DeviceStateMachine, HomingMethod, HomingStatus, OperationMode, QuickStopOption,
     State, Statusword, Transition,
@@ -653,12 +653,15 @@ impl SimDrive {
 
     /// A motor count as the drive reports it (0x607E, then the homing shift).
     fn to_drive(&self, motor: i32) -> i32 {
-        self.direction().wrapping_mul(motor).wrapping_add(self.shift)
+        self.direction()
+            .wrapping_mul(motor)
+            .wrapping_add(self.shift)
     }
 
     /// A drive position (a target) in motor counts.
     fn to_motor(&self, drive: i32) -> i32 {
-        self.direction().wrapping_mul(drive.wrapping_sub(self.shift))
+        self.direction()
+            .wrapping_mul(drive.wrapping_sub(self.shift))
     }
 
     /// The machine in the drive's direction (before the homing shift).
@@ -690,8 +693,7 @@ impl SimDrive {
         let start = cw.has(HOMING_START);
         let rising = start && !self.homing_start;
         self.homing_start = start;
-        if self.mode() != Some(OperationMode::Homing)
-            || self.cia.state() != State::OperationEnabled
+        if self.mode() != Some(OperationMode::Homing) || self.cia.state() != State::OperationEnabled
         {
             return;
         }
@@ -1310,9 +1312,7 @@ impl ObjectAccess for SimDrive {
                     return Err(AbortCode::InvalidValue);
                 }
             }
-            o::HOMING_METHOD
-                if HomingMethod::new(value.as_i64().unwrap_or(0) as i8).is_none() =>
-            {
+            o::HOMING_METHOD if HomingMethod::new(value.as_i64().unwrap_or(0) as i8).is_none() => {
                 return Err(AbortCode::InvalidValue);
             }
             o::QUICK_STOP_OPTION => {

@@ -139,10 +139,17 @@ enum Stage {
         seek: Seek,
     },
     /// Braking after finding `seek` at `at`; `home` once the home point is known.
-    Braking { found: Seek, at: f64 },
+    Braking {
+        found: Seek,
+        at: f64,
+    },
     /// Moving back to the home point at the zero speed.
-    Return { home: f64 },
-    Done { home: f64 },
+    Return {
+        home: f64,
+    },
+    Done {
+        home: f64,
+    },
     Failed,
 }
 

@@ -368,18 +368,33 @@ fn insert_homing_and_scaling(od: &mut ObjectDictionary) {
         Entry::new("digital inputs", ReadOnly, Value::U32(0)).mappable(),
     );
     for (index, name, subs) in [
-        (o::GEAR_RATIO, "gear ratio", ["motor revolutions", "shaft revolutions"]),
-        (o::FEED_CONSTANT, "feed constant", ["feed", "shaft revolutions"]),
+        (
+            o::GEAR_RATIO,
+            "gear ratio",
+            ["motor revolutions", "shaft revolutions"],
+        ),
+        (
+            o::FEED_CONSTANT,
+            "feed constant",
+            ["feed", "shaft revolutions"],
+        ),
         (
             o::HOMING_SPEEDS,
             "homing speeds",
-            ["speed during search for switch", "speed during search for zero"],
+            [
+                "speed during search for switch",
+                "speed during search for zero",
+            ],
         ),
     ] {
         od.insert(index, 0, Entry::new(name, Const, Value::U8(2)));
         let default = if index == o::HOMING_SPEEDS { 0 } else { 1 };
         for (sub, sub_name) in (1u8..).zip(subs) {
-            od.insert(index, sub, Entry::new(sub_name, ReadWrite, Value::U32(default)));
+            od.insert(
+                index,
+                sub,
+                Entry::new(sub_name, ReadWrite, Value::U32(default)),
+            );
         }
     }
 }
