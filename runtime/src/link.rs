@@ -147,6 +147,11 @@ pub trait DriveLink {
     /// After the cyclic phase: take the drives to a safe rest (power stage off). Blocking,
     /// not real-time.
     fn shutdown(&mut self) -> Result<(), String>;
+    /// Per axis, whether it has its machine reference (homed, or an absolute encoder); a
+    /// link without drives has none.
+    fn homed(&self) -> [bool; MAX_AXES] {
+        [false; MAX_AXES]
+    }
 }
 
 /// A boxed link is a link (a run picks its link, simulated or on a socket, at run time).
@@ -173,6 +178,9 @@ impl<L: DriveLink + ?Sized> DriveLink for Box<L> {
     }
     fn shutdown(&mut self) -> Result<(), String> {
         (**self).shutdown()
+    }
+    fn homed(&self) -> [bool; MAX_AXES] {
+        (**self).homed()
     }
 }
 
