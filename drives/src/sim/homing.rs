@@ -61,6 +61,14 @@ impl MachineIo {
         }
     }
 
+    /// The limit switch's position on `side`.
+    fn limit(&self, side: Direction) -> Option<f64> {
+        match side {
+            Direction::Negative => self.negative_limit,
+            Direction::Positive => self.positive_limit,
+        }
+    }
+
     fn limit_active(&self, side: Direction, p: f64) -> bool {
         match side {
             Direction::Negative => self.negative_limit.is_some_and(|l| p <= l),
@@ -264,18 +272,9 @@ impl HomingRun {
     /// Where `seek` happens between `a` and `b` (moving from `a` to `b`), if it does.
     fn found(seek: Seek, io: &MachineIo, a: f64, b: f64) -> Option<f64> {
         match seek {
-            Seek::LimitOn(side) => io
-                .limit_active(side, b)
-                .then(|| match side {
-                    Direction::Negative => io.negative_limit,
-                    Direction::Positive => io.positive_limit,
-                })
-                .flatten(),
+            Seek::LimitOn(side) => io.limit_active(side, b).then_some(io.limit(side)).flatten(),
             Seek::LimitOff(side) => (!io.limit_active(side, b))
-                .then(|| match side {
-                    Direction::Negative => io.negative_limit,
-                    Direction::Positive => io.positive_limit,
-                })
+                .then_some(io.limit(side))
                 .flatten(),
             Seek::HomeOn => io.home_active(b).then_some(io.home_edge).flatten(),
             Seek::HomeOff => (!io.home_active(b)).then_some(io.home_edge).flatten(),
@@ -446,7 +445,7 @@ mod tests {
             p += h.step(p, 0.001, &no_home);
         }
         assert_eq!(h.status(), HomingStatus::Error);
-        assert!(p >= 100_000.0 && p < 110_000.0, "{p}");
+        assert!((100_000.0..110_000.0).contains(&p), "{p}");
         // No switches at all: gives up after the search limit.
         let bare = MachineIo {
             search_limit: 50_000.0,
