@@ -10,8 +10,7 @@ use crate::check::{Invalid, Table, int_in, positive, positive_at_most, sp, table
 use crate::homing::{self, AxisScale, Homing, RawHoming, RawSimMachine, SimMachine};
 use crate::{BusConfig, MAX_AXES};
 
-/// Largest |position| the drive's INT32 position objects (0x607A, 0x6064, 0x60F4) hold.
-pub(crate) const MAX_COUNTS: f64 = i32::MAX as f64;
+pub(crate) use crate::check::MAX_COUNTS;
 /// Ceilings of the dynamic limits (units/s, /s², /s³): far beyond any machine (10 km/s,
 /// 10⁵ g), low enough that the planner's products (a², v·j ≤ 10¹⁹) stay exact enough.
 const MAX_VELOCITY: f64 = 1e7;
@@ -438,11 +437,13 @@ impl RawAxis {
                     k,
                     counts_per_unit,
                     max_velocity,
-                    has_drive: node.is_some(),
                 },
             )?),
             None => None,
-        };
+        }
+        // Checked on a virtual axis too (a config switched to virtual keeps its keys), unused
+        // there: an axis without a drive has nothing to home.
+        .filter(|_| node.is_some());
         Ok(AxisConfig {
             name,
             kind,

@@ -8,8 +8,7 @@ use toml::Spanned;
 
 use cia402::HomingMethod;
 
-use crate::axes::MAX_COUNTS;
-use crate::check::{Invalid, int_in};
+use crate::check::{Invalid, MAX_COUNTS, int_in};
 
 /// How an axis gets its machine reference.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,7 +101,6 @@ pub(crate) struct AxisScale {
     pub k: usize,
     pub counts_per_unit: f64,
     pub max_velocity: f64,
-    pub has_drive: bool,
 }
 
 fn finite(v: &Spanned<f64>, key: String) -> Result<f64, Invalid> {
@@ -151,9 +149,6 @@ impl RawHoming {
         a: &AxisScale,
     ) -> Result<Homing, Invalid> {
         let key = |f: &str| format!("axis[{}].homing{f}", a.k);
-        if !a.has_drive {
-            return Err((span, key(""), "a virtual axis has no drive to home".into()));
-        }
         let cpu = a.counts_per_unit;
         let offset = match &self.offset {
             Some(v) => position(v, key(".offset"), cpu)?,

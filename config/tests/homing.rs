@@ -7,23 +7,30 @@ use std::path::Path;
 use cnc402_config::{ConfigError, Homing, MachineConfig};
 
 const SHIPPED: &str = include_str!("../machine.toml");
-/// The first axis's `sim` line, where the tests put their keys.
-const X_SIM: &str = "sim = { delay_cycles = 1, bandwidth_hz = 150.0 }";
+/// The first axis's `homing` line, which the tests replace with their keys.
+const X_HOMING: &str = "homing = { method = 19, speed_switch = 20.0, speed_zero = 2.0, acceleration = 200.0, offset = 0.0 }";
+/// The first axis's `sim` line.
+const X_SIM: &str = "sim = { delay_cycles = 1, bandwidth_hz = 150.0, home_switch = 0.0, limit_switches = [-305.0, 305.0] }";
 
 fn parse(text: &str) -> Result<MachineConfig, ConfigError> {
     MachineConfig::parse(text, Path::new("m.toml"))
 }
 
-/// The shipped config with `extra` added to the first axis (before its `sim` line).
+/// The shipped config with the first axis's `homing` line replaced by `extra`.
 fn x_with(extra: &str) -> String {
-    assert!(SHIPPED.contains(X_SIM));
-    SHIPPED.replacen(X_SIM, &format!("{extra}\n{X_SIM}"), 1)
+    assert!(SHIPPED.contains(X_HOMING));
+    SHIPPED.replacen(X_HOMING, extra, 1)
 }
 
 fn refused(text: &str, key: &str, line_text: &str) -> ConfigError {
     let e = parse(text).unwrap_err();
     assert_eq!(e.key, key, "{e}");
-    let line = text.lines().position(|l| l.contains(line_text)).unwrap() + 1;
+    // The first line that holds `line_text` outside a comment.
+    let line = text
+        .lines()
+        .position(|l| !l.starts_with('#') && l.contains(line_text))
+        .unwrap()
+        + 1;
     assert_eq!(e.line, line, "{e}");
     e
 }
@@ -52,7 +59,7 @@ fn a_drive_homing_method_is_read_in_axis_units() {
 fn an_unsupported_method_names_the_supported_ones() {
     for bad in [0, 3, 36, 38, -1, 300] {
         let text = x_with(&GOOD.replace("method = 19", &format!("method = {bad}")));
-        let e = refused(&text, "axis[0].homing.method", "homing =");
+        let e = refused(&text, "axis[0].homing.method", "homing = {");
         assert!(
             e.message
                 .contains("supported: 1, 2, 17, 18, 19, 20, 21, 22, 33, 34, 35, 37"),
@@ -88,28 +95,35 @@ fn homing_values_out_of_range_are_refused_with_their_key() {
         let e = parse(&text).unwrap_err();
         assert!(e.key.ends_with(key), "{to}: {e}");
         assert!(e.key.starts_with("axis[0].homing") || key.is_empty(), "{e}");
-        let line = text.lines().position(|l| l.contains("homing =")).unwrap() + 1;
+        let line = text
+            .lines()
+            .position(|l| l.starts_with("homing = {"))
+            .unwrap()
+            + 1;
         assert_eq!(e.line, line, "{e}");
     }
     let e = refused(
         &x_with("homing = { method = 19, speed_zero = 2.0, acceleration = 200.0 }"),
         "axis[0].homing.speed_switch",
-        "homing =",
+        "homing = {",
     );
     assert!(e.message.contains("missing"), "{e}");
     refused(
         &x_with("homing = { absolute = true, method = 19 }"),
         "axis[0].homing.method",
-        "homing =",
+        "homing = {",
     );
     refused(
         &x_with("homing = { offset = 1.0 }"),
         "axis[0].homing.method",
-        "homing =",
+        "homing = {",
     );
+    // On a virtual axis the key is checked and unused (no drive to home).
     let virtual_x =
         x_with("homing = { method = 35 }").replacen("node = 1\n", "virtual = true\n", 1);
-    refused(&virtual_x, "axis[0].homing", "homing =");
+    assert_eq!(parse(&virtual_x).unwrap().axes[0].homing, None);
+    let bad = virtual_x.replacen("method = 35", "method = 36", 1);
+    refused(&bad, "axis[0].homing.method", "homing = {");
 }
 
 #[test]
@@ -177,7 +191,7 @@ fn require_homing_needs_an_axis_with_homing() {
     let text = format!("{SHIPPED}\n[machine]\nrequire_homing = true\n");
     let stripped = text
         .lines()
-        .filter(|l| !l.starts_with("homing ="))
+        .filter(|l| !l.starts_with("homing = {"))
         .collect::<Vec<_>>()
         .join("\n");
     let e = refused(&stripped, "machine.require_homing", "require_homing");

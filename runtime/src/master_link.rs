@@ -181,7 +181,17 @@ impl<B: CycleBus> MasterLink<B> {
             return Ok(());
         }
         let axes = self.master.homing_axes();
-        let r = self.home(&axes).map_err(|e| format!("{e}"))?;
+        let r = match self.home(&axes) {
+            Ok(r) => r,
+            Err(e) => {
+                // No run follows: the drives go to rest rather than wait for the master's
+                // heartbeat to stop.
+                if let Err(d) = self.master.disable(&mut self.bus) {
+                    log::warn!("after the failed homing: {d}");
+                }
+                return Err(format!("{e}"));
+            }
+        };
         for a in &r.axes {
             log::info!(
                 "axis {} homed at {} in {:.3} s",

@@ -322,11 +322,11 @@ impl HomingRun {
             }
             Stage::Return { home } => {
                 let max = self.params.speed_zero * dt;
-                let step = (home - p).clamp(-max, max);
-                if (home - (p + step)).abs() < 1e-9 {
+                // The last step lands on the home point whatever rounding the position has.
+                if (home - p).abs() <= max {
                     self.stage = Stage::Done { home };
                 }
-                step
+                (home - p).clamp(-max, max)
             }
             Stage::Failed => {
                 self.accelerate(0.0, dt);
