@@ -95,7 +95,7 @@ fn info_decodes_identity_modes_state_and_pdos() {
     check(
         &o,
         0,
-        "supported modes   0x00000080: cyclic synchronous position (8)",
+        "supported modes   0x000000a0: homing (6), cyclic synchronous position (8)",
     );
     assert!(o.stdout.contains("SWITCH ON DISABLED"), "{}", o.stdout);
     assert!(

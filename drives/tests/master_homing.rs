@@ -30,6 +30,9 @@ fn homing(method: i8, offset: f64) -> Homing {
 fn machine(h: Homing, machine: impl FnOnce(&mut cnc402_config::SimMachine)) -> MachineConfig {
     let mut c = MachineConfig::default_machine();
     c.axes[X].homing = Some(h);
+    // A bare machine (the shipped X has a home switch and limit switches) that each test
+    // furnishes.
+    c.axes[X].sim.machine = cnc402_config::SimDynamics::default().machine;
     machine(&mut c.axes[X].sim.machine);
     c
 }
@@ -128,7 +131,10 @@ fn inverted_polarity_homes_in_the_drives_direction_and_moves_the_right_way() {
 #[test]
 fn a_home_switch_never_found_is_a_homing_error_naming_axis_and_node() {
     // No home switch: the search runs into the positive limit switch.
-    let c = machine(homing(19, 0.0), |m| m.limit_switches = Some((-3.0, 3.0)));
+    let c = machine(homing(19, 0.0), |m| {
+        m.home_switch = None;
+        m.limit_switches = Some((-3.0, 3.0));
+    });
     let mut rig = Rig::booted_for(c);
     let e = rig.master.home(&mut rig.bus, &[X]).unwrap_err();
     assert!(
@@ -158,7 +164,7 @@ fn a_search_that_outlasts_the_timeout_names_the_state() {
         d.timeout_s = 0.5;
     }
     // No index pulse anywhere and no switch: the drive searches on.
-    let c = machine(h, |_| {});
+    let c = machine(h, |m| m.index_pulse_counts = None);
     let mut rig = Rig::booted_for(c);
     let e = rig.master.home(&mut rig.bus, &[X]).unwrap_err();
     let HomingError::Timeout {
@@ -199,6 +205,7 @@ fn an_absolute_encoder_takes_its_stored_offset_at_boot() {
 #[test]
 fn an_axis_without_homing_is_refused() {
     let mut rig = Rig::booted();
-    let e = rig.master.home(&mut rig.bus, &[1]).unwrap_err();
-    assert_eq!(e, HomingError::NotConfigured { axis: 'Y' });
+    // The spindle (C) has no `homing` key in the shipped config.
+    let e = rig.master.home(&mut rig.bus, &[3]).unwrap_err();
+    assert_eq!(e, HomingError::NotConfigured { axis: 'C' });
 }

@@ -1,7 +1,7 @@
 //! Machine reference: what boot writes for it (0x607E polarity, 0x6091 gear ratio, 0x6092
-//! feed constant, and each homing axis's 0x6098/0x6099/0x609A/0x607C), and
-//! [`Master::home`], which runs CiA 402 homing mode on drives that are enabled and cycling:
-//! per axis, 0x6060 = 6 (confirmed by 0x6061), controlword bit 4 until statusword bits 12
+//! feed constant), and [`Master::home`], which runs CiA 402 homing mode on drives that are
+//! enabled and cycling: per axis, 0x6098/0x6099/0x609A/0x607C from the config, 0x6060 = 6
+//! (confirmed by 0x6061), controlword bit 4 until statusword bits 12
 //! and 10 say "homing completed" (bit 13: error; a time-out names the state), then 0x6060 = 8
 //! and the axis's position is taken afresh. The other axes hold their positions meanwhile,
 //! and every safety monitor but the following error of the homing axis keeps running.
@@ -38,7 +38,7 @@ fn unsigned_counts(units: f64, counts_per_unit: f64) -> u32 {
         .clamp(1.0, u32::MAX as f64) as u32
 }
 
-/// Writes the reference objects of one drive (boot, before NMT start): only what the config
+/// Writes the scaling objects of one drive (boot, before NMT start): only what the config
 /// gives, so a drive without these objects is not touched unless it must be.
 pub(crate) fn write_at_boot<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
@@ -57,32 +57,30 @@ pub(crate) fn write_at_boot<B: TimedBus + ?Sized>(
             sdo.write_u32(node, index, 2, b)?;
         }
     }
-    if let Some(Homing::Drive(h)) = r.homing {
-        let cpu = r.counts_per_unit;
-        let offset = (h.offset * cpu)
-            .round()
-            .clamp(i32::MIN as f64, i32::MAX as f64) as i32;
-        sdo.write_i8(node, obj::HOMING_METHOD, 0, h.method.number())?;
-        sdo.write_i32(node, obj::HOME_OFFSET, 0, offset)?;
-        if h.method.moves() {
-            sdo.write_u32(
-                node,
-                obj::HOMING_SPEEDS,
-                1,
-                unsigned_counts(h.speed_switch, cpu),
-            )?;
-            sdo.write_u32(
-                node,
-                obj::HOMING_SPEEDS,
-                2,
-                unsigned_counts(h.speed_zero, cpu),
-            )?;
-            sdo.write_u32(
-                node,
-                obj::HOMING_ACCELERATION,
-                0,
-                unsigned_counts(h.acceleration, cpu),
-            )?;
+    Ok(())
+}
+
+/// Writes axis homing's parameters (0x6098 method, 0x607C home offset, 0x6099 speeds, 0x609A
+/// acceleration) in counts: when homing starts, so boot touches no homing object.
+fn write_homing_parameters<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    node: NodeId,
+    h: &DriveHoming,
+    cpu: f64,
+) -> Result<(), SdoError> {
+    let offset = (h.offset * cpu)
+        .round()
+        .clamp(i32::MIN as f64, i32::MAX as f64) as i32;
+    sdo.write_i8(node, obj::HOMING_METHOD, 0, h.method.number())?;
+    sdo.write_i32(node, obj::HOME_OFFSET, 0, offset)?;
+    if h.method.moves() {
+        let speeds = [
+            (obj::HOMING_SPEEDS, 1, h.speed_switch),
+            (obj::HOMING_SPEEDS, 2, h.speed_zero),
+            (obj::HOMING_ACCELERATION, 0, h.acceleration),
+        ];
+        for (index, sub, v) in speeds {
+            sdo.write_u32(node, index, sub, unsigned_counts(v, cpu))?;
         }
     }
     Ok(())
@@ -408,6 +406,13 @@ impl Master {
         h: &DriveHoming,
         t: Instant,
     ) -> Result<Instant, HomingError> {
+        let (axis, cpu) = (self.axes[i].name, self.axes[i].counts_per_unit);
+        let node = self.axes[i]
+            .node
+            .ok_or(HomingError::NotConfigured { axis })?;
+        // Between two cycles, as the mode changes (see `switch_mode`).
+        self.with_sdo(bus, |sdo| write_homing_parameters(sdo, node, h, cpu))
+            .map_err(|error| HomingError::Sdo { axis, error })?;
         let mut t = self.switch_mode(bus, i, OperationMode::Homing, t)?;
         self.axes[i].emcy = None;
         self.axes[i].mode_bits = HOMING_START;
