@@ -105,7 +105,7 @@ fn info_decodes_identity_modes_state_and_pdos() {
     );
     let j = sim(&["--json", "info", "3"]).json();
     assert_eq!(j["device_type"], 0x0002_0192);
-    assert_eq!(j["supported_modes"]["raw"], 0x80);
+    assert_eq!(j["supported_modes"]["raw"], 0xA0); // CSP and homing (issue 17)
     assert_eq!(j["statusword"]["state"], "SWITCH ON DISABLED");
     assert_eq!(j["pdos"][4]["mapping"][0]["index"], 0x6041);
     assert_eq!(j["nmt"], "PRE-OPERATIONAL (boot-up seen)");
