@@ -79,6 +79,7 @@ pub fn home(cfg: &MachineConfig, args: HomeArgs) -> Result<(), CliError> {
     let cfg = MachineConfig {
         machine: cnc402_config::MachineOptions {
             require_homing: false,
+            ..cfg.machine
         },
         ..cfg.clone()
     };

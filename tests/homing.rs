@@ -223,3 +223,55 @@ fn a_run_whose_homing_fails_does_not_start() {
     assert!(err.contains("homing axis Y (node 2, method 34"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Machine inputs (0x60FD): a run does not start while the E-stop chain is open, and a
+/// limit switch stops it naming node, axis and line.
+#[test]
+fn an_open_estop_refuses_the_run_and_a_limit_switch_stops_it() {
+    let dir = temp("inputs");
+    let program = dir.join("p.nc");
+    std::fs::write(&program, "G1 X10 F1000\nG0 X0\nM30\n").unwrap();
+    let estop = |closed: bool| {
+        move |t: String| {
+            let t = with(
+                t,
+                "[bus]",
+                "[machine]\nestop_input = { axis = \"Z\", bit = 16 }\n\n[bus]",
+            );
+            if closed {
+                with(
+                    t,
+                    "limit_switches = [-255.0, 52.0] }",
+                    "limit_switches = [-255.0, 52.0], inputs = 0x10000 }",
+                )
+            } else {
+                t
+            }
+        }
+    };
+    let cfg = config(&dir, estop(false));
+    let o = cnc402(&cfg, &["run", program.to_str().unwrap()]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("E-stop open: axis Z (node 3) 0x60FD = 0x00000000, bit 16 is 0"),
+        "{err}"
+    );
+    let cfg = config(&dir, estop(true));
+    let o = cnc402(&cfg, &["run", program.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+
+    let cfg = config(&dir, |t| {
+        with(
+            t,
+            "home_switch = 0.0, limit_switches = [-305.0, 305.0] }",
+            "limit_switches = [-5.0, 5.0] }\nlimit_switch_inputs = true",
+        )
+    });
+    let o = cnc402(&cfg, &["run", program.to_str().unwrap()]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("limit switch on node 1 (axis X)"), "{err}");
+    assert!(err.contains("p.nc:1: G1 X10 F1000"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -92,6 +92,9 @@ pub struct AxisConfig {
     /// `feed_constant = [feed, shaft revolutions]`, written to 0x6092 at boot (the drive's
     /// position unit is then the feed's; `counts_per_unit` is in that unit).
     pub feed_constant: Option<(u32, u32)>,
+    /// `limit_switch_inputs = true`: the drive's 0x60FD goes to the master in an event TPDO,
+    /// and a limit switch (bit 0 or 1) stops the machine (not while the axis homes).
+    pub limit_switch_inputs: bool,
     pub sim: SimDynamics,
 }
 
@@ -218,6 +221,7 @@ pub(crate) struct RawAxis {
     polarity: Option<Spanned<String>>,
     gear_ratio: Option<Spanned<[i64; 2]>>,
     feed_constant: Option<Spanned<[i64; 2]>>,
+    limit_switch_inputs: Option<Spanned<bool>>,
     #[serde(default, deserialize_with = "table")]
     sim: RawSim,
 }
@@ -261,6 +265,7 @@ pub(crate) struct RawSim {
     home_switch_active: Option<Spanned<String>>,
     limit_switches: Option<Spanned<[f64; 2]>>,
     index_pulse_counts: Option<Spanned<i64>>,
+    inputs: Option<Spanned<i64>>,
 }
 
 /// Checks the `[[axis]]` list in order against the bus (no axis may use
@@ -401,6 +406,7 @@ impl RawSim {
                 home_switch_active: self.home_switch_active.clone(),
                 limit_switches: self.limit_switches.clone(),
                 index_pulse_counts: self.index_pulse_counts.clone(),
+                inputs: self.inputs.clone(),
             }
             .validate(k, counts_per_unit)?,
         })
@@ -474,6 +480,10 @@ impl RawAxis {
             polarity_inverted: homing::polarity(&a.polarity, key("polarity"))?,
             gear_ratio: homing::ratio(&a.gear_ratio, key("gear_ratio"))?,
             feed_constant: homing::ratio(&a.feed_constant, key("feed_constant"))?,
+            limit_switch_inputs: a
+                .limit_switch_inputs
+                .as_ref()
+                .is_some_and(|v| *v.get_ref() && node.is_some()),
             sim,
         })
     }

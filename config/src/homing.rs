@@ -61,11 +61,13 @@ pub struct SimMachine {
     pub home_switch: Option<f64>,
     /// `sim.home_switch_active = "above"` (default) or `"below"`.
     pub home_switch_above: bool,
-    /// `sim.limit_switches = [negative, positive]`: active at and beyond each.
+    /// `sim.limit_switches = [negative, positive]`: active beyond each.
     pub limit_switches: Option<(f64, f64)>,
     /// `sim.index_pulse_counts`: one encoder index pulse every this many counts (at count 0
     /// and its multiples in the motor's frame).
     pub index_pulse_counts: Option<u32>,
+    /// `sim.inputs`: further 0x60FD bits that are always on (e.g. a closed E-stop chain).
+    pub inputs: u32,
 }
 
 /// Largest homing time-out the master accepts (s): a search longer than an hour is a typo.
@@ -94,6 +96,7 @@ pub(crate) struct RawSimMachine {
     pub home_switch_active: Option<Spanned<String>>,
     pub limit_switches: Option<Spanned<[f64; 2]>>,
     pub index_pulse_counts: Option<Spanned<i64>>,
+    pub inputs: Option<Spanned<i64>>,
 }
 
 /// What the homing checks need to know of the axis.
@@ -293,6 +296,12 @@ impl RawSimMachine {
             home_switch: pos(&self.home_switch, "home_switch")?,
             home_switch_above,
             limit_switches,
+            inputs: self
+                .inputs
+                .as_ref()
+                .map(|v| int_in(v, &key("inputs"), 0, u32::MAX as i64).map(|n| n as u32))
+                .transpose()?
+                .unwrap_or(0),
             index_pulse_counts: self
                 .index_pulse_counts
                 .as_ref()

@@ -71,6 +71,10 @@ pub struct MachineOptions {
     /// `require_homing = true`: `cnc402 run` homes every axis with a `homing` key before the
     /// program (an absolute axis is referenced at boot), so soft limits and G28 hold.
     pub require_homing: bool,
+    /// `estop_input = { axis = "X", bit = 16 }`: the E-stop chain on a drive's 0x60FD bit
+    /// (axis index, bit), closed when the bit is 1: no run starts while it reads 0, and a
+    /// run stops when it opens.
+    pub estop_input: Option<(usize, u8)>,
 }
 
 /// `[machine]` as written.
@@ -78,13 +82,49 @@ pub struct MachineOptions {
 #[serde(deny_unknown_fields)]
 struct RawMachine {
     require_homing: Option<toml::Spanned<bool>>,
+    estop_input: Option<toml::Spanned<RawEstop>>,
+}
+
+/// `estop_input = { axis = "X", bit = 16 }` as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEstop {
+    axis: toml::Spanned<String>,
+    bit: toml::Spanned<i64>,
+}
+
+impl RawEstop {
+    /// An axis with a drive and a bit 0..=31.
+    fn validate(&self, axes: &[AxisConfig]) -> Result<(usize, u8), Invalid> {
+        let key = |f: &str| format!("machine.estop_input.{f}");
+        let name = self.axis.get_ref().to_ascii_uppercase();
+        let axis = axes
+            .iter()
+            .position(|a| a.name.to_string() == name && a.node.is_some())
+            .ok_or_else(|| {
+                (
+                    self.axis.span(),
+                    key("axis"),
+                    format!("{name:?} is not an axis with a drive"),
+                )
+            })?;
+        let bit = check::int_in(&self.bit, &key("bit"), 0, 31)? as u8;
+        Ok((axis, bit))
+    }
 }
 
 impl RawMachine {
     /// `require_homing` needs an axis that can be homed.
     fn validate(&self, axes: &[AxisConfig]) -> Result<MachineOptions, Invalid> {
+        let estop_input = match &self.estop_input {
+            Some(e) => Some(e.get_ref().validate(axes)?),
+            None => None,
+        };
         let Some(r) = &self.require_homing else {
-            return Ok(MachineOptions::default());
+            return Ok(MachineOptions {
+                require_homing: false,
+                estop_input,
+            });
         };
         if *r.get_ref() && axes.iter().all(|a| a.homing.is_none()) {
             return Err((
@@ -97,6 +137,7 @@ impl RawMachine {
         }
         Ok(MachineOptions {
             require_homing: *r.get_ref(),
+            estop_input,
         })
     }
 }

@@ -201,3 +201,38 @@ fn require_homing_needs_an_axis_with_homing() {
     assert!(c.machine.require_homing);
     assert!(!parse(SHIPPED).unwrap().machine.require_homing);
 }
+
+#[test]
+fn machine_inputs_estop_and_limit_switches() {
+    let text = SHIPPED
+        .replacen(
+            "[bus]",
+            "[machine]\nestop_input = { axis = \"z\", bit = 16 }\n\n[bus]",
+            1,
+        )
+        .replacen(X_HOMING, "limit_switch_inputs = true", 1)
+        .replacen(
+            X_SIM,
+            "sim = { delay_cycles = 1, bandwidth_hz = 150.0, inputs = 0x10000 }",
+            1,
+        );
+    let c = parse(&text).unwrap();
+    assert_eq!(c.machine.estop_input, Some((2, 16)));
+    assert!(c.axes[0].limit_switch_inputs);
+    assert!(!c.axes[1].limit_switch_inputs);
+    assert_eq!(c.axes[0].sim.machine.inputs, 0x10000);
+    for (from, to, key) in [
+        ("axis = \"z\"", "axis = \"q\"", "machine.estop_input.axis"),
+        ("bit = 16", "bit = 32", "machine.estop_input.bit"),
+        ("inputs = 0x10000", "inputs = -1", "axis[0].sim.inputs"),
+    ] {
+        let e = parse(&text.replacen(from, to, 1)).unwrap_err();
+        assert_eq!(e.key, key, "{e}");
+    }
+    // A virtual axis has no drive to carry the E-stop input.
+    let virtual_z = text.replacen("node = 3\n", "virtual = true\n", 1);
+    assert_eq!(
+        parse(&virtual_z).unwrap_err().key,
+        "machine.estop_input.axis"
+    );
+}

@@ -53,6 +53,10 @@ pub enum StopCause {
     Operator,
     /// A move could not be started (an interpreter/planner inconsistency).
     Motion,
+    /// A drive's 0x60FD reports a limit switch (`limit_switch_inputs`).
+    LimitSwitch,
+    /// The E-stop chain opened (`[machine] estop_input`).
+    EstopOpen,
 }
 
 impl StopCause {
@@ -70,6 +74,8 @@ impl StopCause {
             StopCause::BadSetpoint => "commanded position not finite",
             StopCause::Operator => "operator stop (SIGINT)",
             StopCause::Motion => "motion error",
+            StopCause::LimitSwitch => "limit switch",
+            StopCause::EstopOpen => "E-stop open",
         }
     }
 }

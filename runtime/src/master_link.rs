@@ -264,6 +264,8 @@ pub fn drive_stop(s: &SafetyStop) -> DriveStop {
         StopReason::FollowingError { .. } => StopCause::FollowingError,
         StopReason::BadSetpoint => StopCause::BadSetpoint,
         StopReason::Bus(_) => StopCause::Bus,
+        StopReason::LimitSwitch { .. } => StopCause::LimitSwitch,
+        StopReason::EstopOpen { .. } => StopCause::EstopOpen,
     };
     DriveStop {
         cause,
@@ -295,6 +297,10 @@ impl<B: CycleBus> DriveLink for MasterLink<B> {
                 // The first cyclic SYNC follows the last enable cycle by one period.
                 self.bus_base = report.enabled_at + self.master.period();
                 self.last = self.master.positions();
+                if let Some(e) = self.master.estop_open(&mut self.bus) {
+                    let _ = self.master.disable(&mut self.bus);
+                    return Startup::Failed(e);
+                }
                 if let Err(e) = self.home_required() {
                     return Startup::Failed(e);
                 }

@@ -331,6 +331,15 @@ impl Master {
                     None => self.unexpected_frames += 1,
                 }
             }
+            Function::Tpdo(super::inputs::INPUTS_TPDO, node) => {
+                match (
+                    self.slot_of(node),
+                    super::inputs::parse_inputs(frame.data()),
+                ) {
+                    (Some(i), Some(v)) => self.axes[i].inputs = Some(v),
+                    _ => self.unexpected_frames += 1,
+                }
+            }
             Function::Emcy(node) => match (self.slot_of(node), EmcyRepr::parse(frame)) {
                 (Some(i), Ok(e)) => {
                     // The first EMCY since the last clear is the cause; the ones after it (a
@@ -414,6 +423,9 @@ impl Master {
         }
         if a.emcy.is_some() {
             return Some(StopReason::Emergency);
+        }
+        if let Some(r) = self.inputs_stop(i) {
+            return Some(r);
         }
         if a.tpdo_this_cycle && state != Some(State::OperationEnabled) {
             return Some(StopReason::NotEnabled);

@@ -29,6 +29,10 @@ pub(crate) struct ReferenceSetup {
     pub feed_constant: Option<(u32, u32)>,
     pub homing: Option<Homing>,
     pub counts_per_unit: f64,
+    /// Map 0x60FD into TPDO3 (limit switches or the E-stop input are on this drive).
+    pub inputs_pdo: bool,
+    /// The inputs TPDO's event timer (ms).
+    pub refresh_ms: u16,
 }
 
 /// A value in axis units as counts for a UNSIGNED32 object (speeds, acceleration).
@@ -56,6 +60,9 @@ pub(crate) fn write_at_boot<B: TimedBus + ?Sized>(
             sdo.write_u32(node, index, 1, a)?;
             sdo.write_u32(node, index, 2, b)?;
         }
+    }
+    if r.inputs_pdo {
+        super::inputs::map_inputs_tpdo(sdo, node, r.refresh_ms)?;
     }
     Ok(())
 }

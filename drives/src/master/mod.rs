@@ -29,6 +29,7 @@
 pub mod boot;
 pub mod cyclic;
 pub mod homing;
+pub mod inputs;
 pub mod sdo;
 pub mod service;
 pub mod stop;
@@ -248,6 +249,10 @@ pub(crate) struct AxisSlot {
     pub homing_active: bool,
     /// Mode-specific controlword bits (4..=6) sent with enable operation while running.
     pub mode_bits: u16,
+    /// The drive's 0x60FD as last received in TPDO3 (`None`: not mapped, or none yet).
+    pub inputs: Option<u32>,
+    /// `limit_switch_inputs`: a limit switch in `inputs` stops the machine.
+    pub watch_limit_switches: bool,
 }
 
 impl AxisSlot {
@@ -305,6 +310,8 @@ impl AxisSlot {
             homed: false,
             homing_active: false,
             mode_bits: 0,
+            inputs: None,
+            watch_limit_switches: false,
         }
     }
 
@@ -378,6 +385,8 @@ pub struct Master {
     /// in cycles).
     pub(crate) event_refresh_ms: u16,
     pub(crate) event_refresh_cycles: u32,
+    /// `[machine] estop_input`: (axis index, 0x60FD bit), the chain closed when the bit is 1.
+    pub(crate) estop_input: Option<(usize, u8)>,
 }
 
 impl Master {
@@ -454,7 +463,11 @@ impl Master {
                 feed_constant: a.feed_constant,
                 homing: a.homing,
                 counts_per_unit: s.counts_per_unit,
+                inputs_pdo: a.limit_switch_inputs
+                    || config.machine.estop_input.is_some_and(|(k, _)| k == i),
+                refresh_ms: busload::event_refresh_ms(&config.bus),
             };
+            s.watch_limit_switches = a.limit_switch_inputs;
             // An absolute encoder is referenced from the start: its stored offset applies.
             if let Some(cnc402_config::Homing::Absolute { offset }) = a.homing {
                 s.origin = offset;
@@ -510,6 +523,7 @@ impl Master {
             event_refresh_cycles: (u32::from(event_refresh_ms) * 1000
                 / config.bus.period_us.max(1))
             .max(1),
+            estop_input: config.machine.estop_input,
         })
     }
 

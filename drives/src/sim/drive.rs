@@ -98,6 +98,9 @@ pub enum FaultKind {
         product: u32,
         revision: Option<u32>,
     },
+    /// The machine's further 0x60FD bits read this from now on (`inputs:0x0`: an E-stop
+    /// chain that opens), instead of `sim.inputs`.
+    Inputs(u32),
 }
 
 /// A `FaultKind` that did not parse.
@@ -110,7 +113,7 @@ impl fmt::Display for FaultKindError {
             f,
             "unknown fault kind `{}` (expected fault[:CODE], fault-persistent[:CODE], heartbeat, \
              sdo, tpdo, reboot, emcy-storm[:CODE], stop-sync, device-type:VALUE, \
-             identity:VENDOR:PRODUCT[:REVISION])",
+             identity:VENDOR:PRODUCT[:REVISION], inputs:VALUE)",
             self.0
         )
     }
@@ -161,6 +164,7 @@ impl FromStr for FaultKind {
             ("fault-persistent", c) => FaultKind::PersistentFault(code16(c)?),
             ("emcy-storm", c) => FaultKind::EmcyStorm(code16(c)?),
             ("device-type", Some(v)) => FaultKind::DeviceType(v),
+            ("inputs", Some(v)) => FaultKind::Inputs(v),
             ("heartbeat", None) => FaultKind::HeartbeatSilence,
             ("sdo", None) => FaultKind::SdoSilence,
             ("tpdo", None) => FaultKind::DropTpdos,
@@ -555,6 +559,10 @@ impl SimDrive {
             }
             FaultKind::EmcyStorm(code) => self.emcy_storm = Some(code),
             FaultKind::StopSync => self.sync_deaf = true,
+            FaultKind::Inputs(v) => {
+                self.io.static_inputs = v;
+                self.publish();
+            }
             FaultKind::DeviceType(v) => {
                 let _ = self.defaults.set_raw(o::DEVICE_TYPE, 0, v as u64);
                 let _ = self.od.set_raw(o::DEVICE_TYPE, 0, v as u64);

@@ -11,9 +11,10 @@ use cnc402_config::AxisConfig;
 /// Where the switches and index pulses are, in counts.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MachineIo {
-    /// The negative limit switch is active at and below this.
+    /// The negative limit switch is active below this (its edge: where a homing run that
+    /// leaves the switch stops is off it).
     pub negative_limit: Option<f64>,
-    /// The positive limit switch is active at and above this.
+    /// The positive limit switch is active above this.
     pub positive_limit: Option<f64>,
     /// The home switch's edge.
     pub home_edge: Option<f64>,
@@ -23,6 +24,8 @@ pub struct MachineIo {
     pub index_every: Option<f64>,
     /// How far a homing search may travel before it is given up (counts).
     pub search_limit: f64,
+    /// 0x60FD bits that are always on (`sim.inputs`: e.g. a closed E-stop chain).
+    pub static_inputs: u32,
 }
 
 impl MachineIo {
@@ -43,6 +46,7 @@ impl MachineIo {
             home_above: m.home_switch_above,
             index_every: m.index_pulse_counts.map(f64::from),
             search_limit: (1.5 * span * cpu).max(1.0),
+            static_inputs: m.inputs,
         }
     }
 
@@ -71,8 +75,8 @@ impl MachineIo {
 
     fn limit_active(&self, side: Direction, p: f64) -> bool {
         match side {
-            Direction::Negative => self.negative_limit.is_some_and(|l| p <= l),
-            Direction::Positive => self.positive_limit.is_some_and(|l| p >= l),
+            Direction::Negative => self.negative_limit.is_some_and(|l| p < l),
+            Direction::Positive => self.positive_limit.is_some_and(|l| p > l),
         }
     }
 
@@ -83,7 +87,7 @@ impl MachineIo {
 
     /// 0x60FD at position `p`: bit 0 negative limit, bit 1 positive limit, bit 2 home switch.
     pub fn inputs(&self, p: f64) -> u32 {
-        let mut bits = 0;
+        let mut bits = self.static_inputs;
         if self.limit_active(Direction::Negative, p) {
             bits |= o::INPUT_NEGATIVE_LIMIT;
         }
@@ -360,6 +364,7 @@ mod tests {
             home_above: true,
             index_every: Some(4096.0),
             search_limit: 300_000.0,
+            static_inputs: 0,
         }
     }
 
@@ -461,7 +466,8 @@ mod tests {
         let io = io();
         assert_eq!(io.inputs(0.0), 0);
         assert_eq!(io.inputs(20_000.0), o::INPUT_HOME_SWITCH);
-        assert_eq!(io.inputs(-100_000.0), o::INPUT_NEGATIVE_LIMIT);
+        assert_eq!(io.inputs(-100_000.0), 0, "on the edge: off");
+        assert_eq!(io.inputs(-100_000.5), o::INPUT_NEGATIVE_LIMIT);
         assert_eq!(
             io.inputs(100_001.0),
             o::INPUT_POSITIVE_LIMIT | o::INPUT_HOME_SWITCH
