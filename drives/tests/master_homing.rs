@@ -209,3 +209,16 @@ fn an_axis_without_homing_is_refused() {
     let e = rig.master.home(&mut rig.bus, &[3]).unwrap_err();
     assert_eq!(e, HomingError::NotConfigured { axis: 'C' });
 }
+
+/// With the compact layout the controlword (bit 4) goes in the event RPDO2 and the
+/// statusword (bits 10, 12, 13) comes in the event TPDO2: homing works the same.
+#[test]
+fn homing_works_with_the_compact_pdo_layout() {
+    let mut c = machine(homing(19, 5.0), |m| {
+        m.home_switch = Some(12.345);
+        m.power_on_position = 30.0;
+    });
+    c.bus.pdo_layout = cnc402_config::busload::PdoLayout::Compact;
+    let mut rig = homes_to(c, 5.0, 123_450);
+    moves_after_homing(&mut rig);
+}
