@@ -222,3 +222,23 @@ fn homing_works_with_the_compact_pdo_layout() {
     let mut rig = homes_to(c, 5.0, 123_450);
     moves_after_homing(&mut rig);
 }
+
+/// Boot writes 0x607E, 0x6091 and 0x6092 when the axis gives them, and leaves them at the
+/// drive's values otherwise; the master's own scaling does not change with them.
+#[test]
+fn boot_writes_polarity_gear_ratio_and_feed_constant_when_given() {
+    let mut c = MachineConfig::default_machine();
+    c.axes[X].polarity_inverted = true;
+    c.axes[X].gear_ratio = Some((3, 1));
+    c.axes[X].feed_constant = Some((5000, 2));
+    let rig = Rig::booted_for(c);
+    let od = |axis: usize, index: u16, sub: u8| rig.drive(axis).od().get_u64(index, sub);
+    assert_eq!(od(X, 0x607E, 0), Some(0xC0));
+    assert_eq!((od(X, 0x6091, 1), od(X, 0x6091, 2)), (Some(3), Some(1)));
+    assert_eq!((od(X, 0x6092, 1), od(X, 0x6092, 2)), (Some(5000), Some(2)));
+    // Y gives none: the drive's defaults stay (polarity normal, ratios 1:1).
+    assert_eq!(od(1, 0x607E, 0), Some(0));
+    assert_eq!((od(1, 0x6091, 1), od(1, 0x6092, 1)), (Some(1), Some(1)));
+    // Boot writes no homing object: those go to the drive when homing starts.
+    assert_eq!(od(X, 0x6098, 0), Some(0));
+}
