@@ -238,6 +238,8 @@ fn an_open_estop_refuses_the_run_and_a_limit_switch_stops_it() {
                 "[bus]",
                 "[machine]\nestop_input = { axis = \"Z\", bit = 16 }\n\n[bus]",
             );
+            // The inputs PDO needs room: 4 standard axes at 1 ms leave none.
+            let t = with(t, "pdo_layout = \"standard\"", "pdo_layout = \"compact\"");
             if closed {
                 with(
                     t,
@@ -262,6 +264,7 @@ fn an_open_estop_refuses_the_run_and_a_limit_switch_stops_it() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
 
     let cfg = config(&dir, |t| {
+        let t = with(t, "pdo_layout = \"standard\"", "pdo_layout = \"compact\"");
         with(
             t,
             "home_switch = 0.0, limit_switches = [-305.0, 305.0] }",

@@ -95,6 +95,9 @@ pub struct AxisConfig {
     /// `limit_switch_inputs = true`: the drive's 0x60FD goes to the master in an event TPDO,
     /// and a limit switch (bit 0 or 1) stops the machine (not while the axis homes).
     pub limit_switch_inputs: bool,
+    /// The drive sends its 0x60FD in TPDO3 (`limit_switch_inputs`, or `[machine]
+    /// estop_input` is on it): set once the whole config is read; the load plan counts it.
+    pub inputs_pdo: bool,
     pub sim: SimDynamics,
 }
 
@@ -481,6 +484,10 @@ impl RawAxis {
             gear_ratio: homing::ratio(&a.gear_ratio, key("gear_ratio"))?,
             feed_constant: homing::ratio(&a.feed_constant, key("feed_constant"))?,
             limit_switch_inputs: a
+                .limit_switch_inputs
+                .as_ref()
+                .is_some_and(|v| *v.get_ref() && node.is_some()),
+            inputs_pdo: a
                 .limit_switch_inputs
                 .as_ref()
                 .is_some_and(|v| *v.get_ref() && node.is_some()),

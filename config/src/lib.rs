@@ -248,14 +248,18 @@ fn validate(raw: RawConfig, path: &Path) -> Result<MachineConfig, Invalid> {
     let bus = raw.bus.validate()?;
     let interp = raw.interp.validate()?;
     let mut planner = raw.planner.validate()?;
-    let axes = axes::validate(&raw.axis, &bus)?;
+    let mut axes = axes::validate(&raw.axis, &bus)?;
+    // Before the load plan: the E-stop input's drive sends its inputs PDO too.
+    let machine = raw.machine.validate(&axes)?;
+    if let Some((k, _)) = machine.estop_input {
+        axes[k].inputs_pdo = true;
+    }
     busload::check(&bus, &axes)
         .map_err(|m| (raw.bus.period_span(), "bus.period_us".to_string(), m))?;
     planner.match_axes = raw.planner.match_axes(&axes)?;
     let work_offsets = work_offsets::validate(&raw.work_offsets, &axes)?;
     let tool_offsets = tool_offsets::validate(&raw.tool_offsets)?;
     let mcodes = mcodes::validate(&raw.mcodes)?;
-    let machine = raw.machine.validate(&axes)?;
     let config = MachineConfig {
         path: path.to_path_buf(),
         axes,

@@ -216,8 +216,15 @@ fn machine_inputs_estop_and_limit_switches() {
             "sim = { delay_cycles = 1, bandwidth_hz = 150.0, inputs = 0x10000 }",
             1,
         );
+    // Two inputs TPDO3s (X's limit switches, Z's E-stop) on top of 4 standard axes at 1 ms
+    // overload 1 Mbit/s: the load plan counts them.
+    let e = parse(&text).unwrap_err();
+    assert_eq!(e.key, "bus.period_us", "{e}");
+    assert!(e.message.contains("inputs TPDO3 2×9.5"), "{e}");
+    let text = text.replacen("pdo_layout = \"standard\"", "pdo_layout = \"compact\"", 1);
     let c = parse(&text).unwrap();
     assert_eq!(c.machine.estop_input, Some((2, 16)));
+    assert!(c.axes[0].inputs_pdo && c.axes[2].inputs_pdo && !c.axes[1].inputs_pdo);
     assert!(c.axes[0].limit_switch_inputs);
     assert!(!c.axes[1].limit_switch_inputs);
     assert_eq!(c.axes[0].sim.machine.inputs, 0x10000);

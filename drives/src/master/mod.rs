@@ -463,8 +463,7 @@ impl Master {
                 feed_constant: a.feed_constant,
                 homing: a.homing,
                 counts_per_unit: s.counts_per_unit,
-                inputs_pdo: a.limit_switch_inputs
-                    || config.machine.estop_input.is_some_and(|(k, _)| k == i),
+                inputs_pdo: a.inputs_pdo,
                 refresh_ms: busload::event_refresh_ms(&config.bus),
             };
             s.watch_limit_switches = a.limit_switch_inputs;
