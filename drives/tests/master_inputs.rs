@@ -20,6 +20,8 @@ fn watched_limits() -> MachineConfig {
     let mut c = MachineConfig::default_machine();
     c.axes[X].sim.machine.limit_switches = Some((-5.0, 5.0));
     c.axes[X].limit_switch_inputs = true;
+    // What config load decides from the keys (the test builds the config in code).
+    c.axes[X].inputs_pdo = true;
     c
 }
 
@@ -86,6 +88,7 @@ fn homing_on_a_limit_switch_is_not_stopped_by_it() {
 fn with_estop(closed: bool) -> MachineConfig {
     let mut c = MachineConfig::default_machine();
     c.machine.estop_input = Some((Z, ESTOP_BIT));
+    c.axes[Z].inputs_pdo = true;
     if closed {
         c.axes[Z].sim.machine.inputs = 1 << ESTOP_BIT;
     }
