@@ -16,6 +16,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cli_error;
+mod home;
 mod inspect;
 mod pages;
 mod post;
@@ -68,6 +69,11 @@ enum Command {
     ///
     /// Example: cnc402 run examples/m10x1.5-rigid-tap.nc --report run.json
     Run(Box<RunArgs>),
+    /// Home the machine: boot the drives, run each axis's homing (CiA 402 homing mode, or
+    /// an absolute encoder's stored offset), print where each ended, disable the drives.
+    ///
+    /// Example: cnc402 home Z X Y
+    Home(home::HomeArgs),
     /// Point → block: the blocks whose path passes nearest a point (work coordinates of each
     /// block's offsets), nearest first, with file, line, N and distance.
     ///
@@ -223,6 +229,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let cfg = load_config(&cli.config)?;
             run::run(&cfg, &args)
         }
+        Command::Home(args) => home::home(&load_config(&cli.config)?, args),
         Command::Which(args) => inspect::which(&load_config(&cli.config)?, args),
         Command::View(args) => inspect::view(&load_config(&cli.config)?, args),
         Command::Vars { file, command } => {

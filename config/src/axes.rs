@@ -7,10 +7,10 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use crate::check::{Invalid, Table, int_in, positive, positive_at_most, sp, table};
+use crate::homing::{self, AxisScale, Homing, RawHoming, RawSimMachine, SimMachine};
 use crate::{BusConfig, MAX_AXES};
 
-/// Largest |position| the drive's INT32 position objects (0x607A, 0x6064, 0x60F4) hold.
-pub(crate) const MAX_COUNTS: f64 = i32::MAX as f64;
+pub(crate) use crate::check::MAX_COUNTS;
 /// Ceilings of the dynamic limits (units/s, /s², /s³): far beyond any machine (10 km/s,
 /// 10⁵ g), low enough that the planner's products (a², v·j ≤ 10¹⁹) stay exact enough.
 const MAX_VELOCITY: f64 = 1e7;
@@ -81,6 +81,23 @@ pub struct AxisConfig {
     /// What the master believes of the drive's dynamics (`dynamics = { delay_cycles = …,
     /// bandwidth_hz = … }`), for matching coupled axes; `None` when not given.
     pub dynamics: Option<DriveModel>,
+    /// How the axis gets its machine reference (`homing = { … }`); `None`: machine position
+    /// is whatever the drive reports at power-on.
+    pub homing: Option<Homing>,
+    /// `polarity = "inverted"`: the master writes 0x607E = 0xC0 at boot (position and
+    /// velocity inverted in the drive; the master's scaling is unchanged).
+    pub polarity_inverted: bool,
+    /// `gear_ratio = [motor revolutions, shaft revolutions]`, written to 0x6091 at boot.
+    pub gear_ratio: Option<(u32, u32)>,
+    /// `feed_constant = [feed, shaft revolutions]`, written to 0x6092 at boot (the drive's
+    /// position unit is then the feed's; `counts_per_unit` is in that unit).
+    pub feed_constant: Option<(u32, u32)>,
+    /// `limit_switch_inputs = true`: the drive's 0x60FD goes to the master in an event TPDO,
+    /// and a limit switch (bit 0 or 1) stops the machine (not while the axis homes).
+    pub limit_switch_inputs: bool,
+    /// The drive sends its 0x60FD in TPDO3 (`limit_switch_inputs`, or `[machine]
+    /// estop_input` is on it): set once the whole config is read; the load plan counts it.
+    pub inputs_pdo: bool,
     pub sim: SimDynamics,
     /// The DCF/EDS and SDO writes boot applies after its own set-up (`dcf`, `sdo`; see
     /// `commissioning`).
@@ -131,6 +148,8 @@ pub struct SimDynamics {
     /// Encoder resolution, axis units: 0x6064 and the position loop see the position
     /// truncated to a multiple of it; 0 = one count.
     pub encoder_resolution: f64,
+    /// The machine around the motor: switches, index pulses, power-on position.
+    pub machine: SimMachine,
 }
 
 impl Default for SimDynamics {
@@ -143,6 +162,10 @@ impl Default for SimDynamics {
             max_velocity: 0.0,
             max_acceleration: 0.0,
             encoder_resolution: 0.0,
+            machine: SimMachine {
+                home_switch_above: true,
+                ..SimMachine::default()
+            },
         }
     }
 }
@@ -200,6 +223,11 @@ pub(crate) struct RawAxis {
     fourth_reference: Option<Spanned<f64>>,
     identity: Option<Spanned<RawIdentity>>,
     dynamics: Option<Spanned<RawModel>>,
+    homing: Option<Spanned<RawHoming>>,
+    polarity: Option<Spanned<String>>,
+    gear_ratio: Option<Spanned<[i64; 2]>>,
+    feed_constant: Option<Spanned<[i64; 2]>>,
+    limit_switch_inputs: Option<Spanned<bool>>,
     #[serde(default, deserialize_with = "table")]
     sim: RawSim,
     dcf: Option<Spanned<String>>,
@@ -241,6 +269,12 @@ pub(crate) struct RawSim {
     max_velocity: Option<Spanned<f64>>,
     max_acceleration: Option<Spanned<f64>>,
     encoder_resolution: Option<Spanned<f64>>,
+    power_on_position: Option<Spanned<f64>>,
+    home_switch: Option<Spanned<f64>>,
+    home_switch_active: Option<Spanned<String>>,
+    limit_switches: Option<Spanned<[f64; 2]>>,
+    index_pulse_counts: Option<Spanned<i64>>,
+    inputs: Option<Spanned<i64>>,
 }
 
 /// Checks the `[[axis]]` list in order against the bus (no axis may use
@@ -375,6 +409,15 @@ impl RawSim {
                 0.0,
             )?,
             encoder_resolution,
+            machine: RawSimMachine {
+                power_on_position: self.power_on_position.clone(),
+                home_switch: self.home_switch.clone(),
+                home_switch_active: self.home_switch_active.clone(),
+                limit_switches: self.limit_switches.clone(),
+                index_pulse_counts: self.index_pulse_counts.clone(),
+                inputs: self.inputs.clone(),
+            }
+            .validate(k, counts_per_unit)?,
         })
     }
 }
@@ -402,6 +445,20 @@ impl RawAxis {
         let identity = a.identity(k, node)?;
         let dynamics = a.model(k)?;
         let sim = a.sim.validate(k, counts_per_unit)?;
+        let homing = match &a.homing {
+            Some(h) => Some(h.get_ref().validate(
+                h.span(),
+                &AxisScale {
+                    k,
+                    counts_per_unit,
+                    max_velocity,
+                },
+            )?),
+            None => None,
+        }
+        // Checked on a virtual axis too (a config switched to virtual keeps its keys), unused
+        // there: an axis without a drive has nothing to home.
+        .filter(|_| node.is_some());
         Ok(AxisConfig {
             name,
             kind,
@@ -428,6 +485,18 @@ impl RawAxis {
             references,
             identity,
             dynamics,
+            homing,
+            polarity_inverted: homing::polarity(&a.polarity, key("polarity"))?,
+            gear_ratio: homing::ratio(&a.gear_ratio, key("gear_ratio"))?,
+            feed_constant: homing::ratio(&a.feed_constant, key("feed_constant"))?,
+            limit_switch_inputs: a
+                .limit_switch_inputs
+                .as_ref()
+                .is_some_and(|v| *v.get_ref() && node.is_some()),
+            inputs_pdo: a
+                .limit_switch_inputs
+                .as_ref()
+                .is_some_and(|v| *v.get_ref() && node.is_some()),
             sim,
             // Resolved with the config's path (crate::commissioning::validate).
             commissioning: Default::default(),

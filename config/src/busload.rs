@@ -62,6 +62,11 @@ pub struct BusLoad {
     pub tpdo_bits: f64,
     /// The compact layout's event-driven controlword and statusword PDOs (0 for standard).
     pub event_bits: f64,
+    /// The inputs TPDO3s (0x60FD, event-driven, at most one per
+    /// [`COMPACT_EVENT_INHIBIT_MS`]) of the drives that send one.
+    pub inputs_bits: f64,
+    /// Drives that send an inputs TPDO3.
+    pub input_drives: usize,
     /// Every drive's heartbeat and the master's.
     pub heartbeat_bits: f64,
     pub sdo_reserve_bits: f64,
@@ -100,15 +105,30 @@ impl BusLoad {
             rpdo_bits: n * frame_bits(pdo_bytes) as f64,
             tpdo_bits: n * frame_bits(pdo_bytes) as f64,
             event_bits,
+            inputs_bits: 0.0,
+            input_drives: 0,
             heartbeat_bits,
             sdo_reserve_bits: SDO_EXCHANGE_BITS * period_us as f64 / (sdo_every_ms as f64 * 1000.0),
         }
     }
 
+    /// This plan with `k` drives sending the 4-byte inputs TPDO3 (0x60FD), each at most once
+    /// per [`COMPACT_EVENT_INHIBIT_MS`] (its inhibit time).
+    pub fn with_input_drives(mut self, k: usize) -> BusLoad {
+        self.input_drives = k;
+        self.inputs_bits = k as f64 * frame_bits(4) as f64 * self.period_us as f64
+            / (COMPACT_EVENT_INHIBIT_MS as f64 * 1000.0);
+        self
+    }
+
     /// The plan of the drives of `axes` with `layout` at `bus.period_us`.
     pub fn of_config(bus: &BusConfig, axes: &[AxisConfig], layout: PdoLayout) -> BusLoad {
         let drives = axes.iter().filter(|a| a.node.is_some()).count();
-        BusLoad::plan(bus, drives, layout, bus.period_us)
+        let inputs = axes
+            .iter()
+            .filter(|a| a.node.is_some() && a.inputs_pdo)
+            .count();
+        BusLoad::plan(bus, drives, layout, bus.period_us).with_input_drives(inputs)
     }
 
     /// The plan of the configured machine (its `bus.pdo_layout`).
@@ -124,7 +144,12 @@ impl BusLoad {
     /// Bits of the traffic that is always there: SYNC, PDOs, event PDOs, heartbeats (what the
     /// master leaves the SDO credit after).
     pub fn traffic_bits(&self) -> f64 {
-        self.sync_bits + self.rpdo_bits + self.tpdo_bits + self.event_bits + self.heartbeat_bits
+        self.sync_bits
+            + self.rpdo_bits
+            + self.tpdo_bits
+            + self.event_bits
+            + self.inputs_bits
+            + self.heartbeat_bits
     }
 
     /// The planned worst case: the traffic and the SDO reserve.
@@ -159,11 +184,23 @@ impl BusLoad {
         if self.event_bits > 0.0 {
             s += &format!(" + event PDOs {:.1}", self.event_bits);
         }
+        if self.inputs_bits > 0.0 {
+            s += &format!(
+                " + inputs TPDO3 {}×{:.1}",
+                self.input_drives,
+                self.inputs_bits / self.input_drives.max(1) as f64
+            );
+        }
         s += &format!(
             " + heartbeats {:.1} + SDO reserve {:.1}",
             self.heartbeat_bits, self.sdo_reserve_bits
         );
         s
+    }
+
+    /// The same traffic at another period.
+    pub fn at_period(&self, bus: &BusConfig, period_us: u32) -> BusLoad {
+        BusLoad::plan(bus, self.drives, self.layout, period_us).with_input_drives(self.input_drives)
     }
 
     /// The smallest period, a multiple of [`PERIOD_STEP_US`] the drives accept in 0x60C2,
@@ -172,7 +209,7 @@ impl BusLoad {
         (1..=100_000 / PERIOD_STEP_US)
             .map(|k| k * PERIOD_STEP_US)
             .filter(|&us| crate::bus::is_interpolation_period(us))
-            .find(|&us| BusLoad::plan(bus, self.drives, self.layout, us).fits())
+            .find(|&us| self.at_period(bus, us).fits())
     }
 }
 
@@ -194,7 +231,7 @@ pub(crate) fn check(bus: &BusConfig, axes: &[AxisConfig]) -> Result<(), String> 
     let smallest = match plan.smallest_period_us(bus) {
         Some(us) => format!(
             "the smallest period that fits is {us} µs ({:.1} %)",
-            BusLoad::plan(bus, plan.drives, plan.layout, us).percent()
+            plan.at_period(bus, us).percent()
         ),
         None => "no period up to 100000 µs fits: use fewer drives or a faster bitrate".into(),
     };

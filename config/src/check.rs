@@ -13,6 +13,9 @@ use toml::Spanned;
 pub(crate) type Invalid = (std::ops::Range<usize>, String, String);
 
 /// A default value: spans nothing (an error about it is reported at no position).
+/// Largest |position| the drive's INT32 position objects (0x607A, 0x6064, 0x60F4) hold.
+pub(crate) const MAX_COUNTS: f64 = i32::MAX as f64;
+
 pub(crate) fn sp<T>(v: T) -> Spanned<T> {
     Spanned::new(0..0, v)
 }

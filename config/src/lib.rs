@@ -15,6 +15,7 @@ mod cutter_comp;
 pub mod eds;
 mod error;
 pub mod exit;
+mod homing;
 mod interp;
 mod mcodes;
 mod planner;
@@ -33,6 +34,7 @@ pub use bus::BusConfig;
 pub use commissioning::{Commissioning, SdoWrite, SkippedParameter};
 pub use cutter_comp::{CompCorner, CompGouge, CompStartup, CutterComp};
 pub use error::ConfigError;
+pub use homing::{DEFAULT_TIMEOUT_S, DriveHoming, Homing, SimMachine};
 pub use interp::{InterpDefaults, PathModeDefault, PlaneDefault, ReturnPlane, Units};
 pub use mcodes::{BUILT_IN_M_CODES, MAction, PROGRAM_EXTENSIONS, program_file};
 pub use planner::{MAX_LOOKAHEAD, PlannerConfig};
@@ -62,6 +64,85 @@ pub struct MachineConfig {
     pub tool_offsets: Vec<ToolOffset>,
     /// `[mcodes]`: the machine's own M codes by number (none is a built-in one).
     pub mcodes: std::collections::BTreeMap<u32, MAction>,
+    /// `[machine]`: machine-wide behaviour.
+    pub machine: MachineOptions,
+}
+
+/// `[machine]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MachineOptions {
+    /// `require_homing = true`: `cnc402 run` homes every axis with a `homing` key before the
+    /// program (an absolute axis is referenced at boot), so soft limits and G28 hold.
+    pub require_homing: bool,
+    /// `estop_input = { axis = "X", bit = 16 }`: the E-stop chain on a drive's 0x60FD bit
+    /// (axis index, bit), closed when the bit is 1: no run starts while it reads 0, and a
+    /// run stops when it opens.
+    pub estop_input: Option<(usize, u8)>,
+}
+
+/// `[machine]` as written.
+#[derive(Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMachine {
+    require_homing: Option<toml::Spanned<bool>>,
+    estop_input: Option<toml::Spanned<RawEstop>>,
+}
+
+/// `estop_input = { axis = "X", bit = 16 }` as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEstop {
+    axis: toml::Spanned<String>,
+    bit: toml::Spanned<i64>,
+}
+
+impl RawEstop {
+    /// An axis with a drive and a bit 0..=31.
+    fn validate(&self, axes: &[AxisConfig]) -> Result<(usize, u8), Invalid> {
+        let key = |f: &str| format!("machine.estop_input.{f}");
+        let name = self.axis.get_ref().to_ascii_uppercase();
+        let axis = axes
+            .iter()
+            .position(|a| a.name.to_string() == name && a.node.is_some())
+            .ok_or_else(|| {
+                (
+                    self.axis.span(),
+                    key("axis"),
+                    format!("{name:?} is not an axis with a drive"),
+                )
+            })?;
+        let bit = check::int_in(&self.bit, &key("bit"), 0, 31)? as u8;
+        Ok((axis, bit))
+    }
+}
+
+impl RawMachine {
+    /// `require_homing` needs an axis that can be homed.
+    fn validate(&self, axes: &[AxisConfig]) -> Result<MachineOptions, Invalid> {
+        let estop_input = match &self.estop_input {
+            Some(e) => Some(e.get_ref().validate(axes)?),
+            None => None,
+        };
+        let Some(r) = &self.require_homing else {
+            return Ok(MachineOptions {
+                require_homing: false,
+                estop_input,
+            });
+        };
+        if *r.get_ref() && axes.iter().all(|a| a.homing.is_none()) {
+            return Err((
+                r.span(),
+                "machine.require_homing".into(),
+                "no axis has a `homing` key: give the axes their homing method (or \
+                 absolute = true) first"
+                    .into(),
+            ));
+        }
+        Ok(MachineOptions {
+            require_homing: *r.get_ref(),
+            estop_input,
+        })
+    }
 }
 
 impl MachineConfig {
@@ -158,6 +239,8 @@ struct RawConfig {
     tool_offsets: tool_offsets::RawToolOffsets,
     #[serde(default)]
     mcodes: mcodes::RawMCodes,
+    #[serde(default, deserialize_with = "check::table")]
+    machine: RawMachine,
     axis: Vec<check::Table<axes::RawAxis>>,
 }
 
@@ -177,6 +260,11 @@ fn validate(raw: RawConfig, path: &Path, text: &str) -> Result<MachineConfig, In
     {
         a.commissioning = c;
     }
+    // Before the load plan: the E-stop input's drive sends its inputs PDO too.
+    let machine = raw.machine.validate(&axes)?;
+    if let Some((k, _)) = machine.estop_input {
+        axes[k].inputs_pdo = true;
+    }
     busload::check(&bus, &axes)
         .map_err(|m| (raw.bus.period_span(), "bus.period_us".to_string(), m))?;
     planner.match_axes = raw.planner.match_axes(&axes)?;
@@ -192,6 +280,7 @@ fn validate(raw: RawConfig, path: &Path, text: &str) -> Result<MachineConfig, In
         work_offsets,
         tool_offsets,
         mcodes,
+        machine,
     };
     raw.interp.check_paths(&config)?;
     mcodes::check_targets(&raw.mcodes, &config.mcodes, &config.program_dir())?;

@@ -6,6 +6,8 @@ use std::path::Path;
 use cnc402_config::{ConfigError, MachineConfig};
 
 const SHIPPED: &str = include_str!("../machine.toml");
+/// The first axis's `sim` line (since issue 17 it also places the simulated switches).
+const X_SIM: &str = "sim = { delay_cycles = 1, bandwidth_hz = 150.0, home_switch = 0.0, limit_switches = [-305.0, 305.0] }";
 
 fn parse(text: &str) -> Result<MachineConfig, ConfigError> {
     MachineConfig::parse(text, Path::new("m.toml"))
@@ -237,24 +239,15 @@ fn tool_offset_1e300_is_refused() {
 
 #[test]
 fn sim_as_an_empty_array_is_not_a_table_of_defaults() {
-    let text = with(
-        "sim = { delay_cycles = 1, bandwidth_hz = 150.0 }",
-        "sim = []",
-    );
+    let text = with(X_SIM, "sim = []");
     let e = refused(&text, "axis[0].sim", "sim = []");
     assert!(e.message.contains("expected a table"), "{e}");
     // An array filled the fields by position.
-    let text = with(
-        "sim = { delay_cycles = 1, bandwidth_hz = 150.0 }",
-        "sim = [5, 10.0]",
-    );
+    let text = with(X_SIM, "sim = [5, 10.0]");
     refused(&text, "axis[0].sim", "sim = [5, 10.0]");
     let text = with("1 = { length = -180.0, radius = 5.0 }", "1 = [-180.0]");
     refused(&text, "tool_offsets.1", "1 = [-180.0]");
-    let text = with(
-        "sim = { delay_cycles = 1, bandwidth_hz = 150.0 }",
-        "sim = { bandwidth_hz = 1e7 }",
-    );
+    let text = with(X_SIM, "sim = { bandwidth_hz = 1e7 }");
     refused(
         &text,
         "axis[0].sim.bandwidth_hz",
@@ -428,7 +421,7 @@ fn identity_on_a_virtual_axis_is_refused() {
 
 #[test]
 fn the_richer_sim_keys_are_read_and_checked_at_their_key() {
-    let x = "sim = { delay_cycles = 1, bandwidth_hz = 150.0 }";
+    let x = X_SIM;
     let text = with(
         x,
         "sim = { delay_cycles = 2, kv = 150.0, velocity_feedforward = 0.5, max_velocity = 300.0, \
@@ -446,8 +439,9 @@ fn the_richer_sim_keys_are_read_and_checked_at_their_key() {
     let m = s.equivalent_model();
     assert_eq!(m.delay_cycles, 2);
     assert!((m.bandwidth_hz - 2.0 * 150.0 / (2.0 * std::f64::consts::PI)).abs() < 1e-9);
-    // Absent keys: the first-order model of old.
-    let plain = parse(SHIPPED).unwrap().axes[0].sim;
+    // Absent keys: the first-order model of old (C's `sim` line has no others; X's places
+    // the simulated switches since issue 17).
+    let plain = parse(SHIPPED).unwrap().axes[3].sim;
     assert_eq!(plain, cnc402_config::SimDynamics::default());
     for (bad, key) in [
         (

@@ -95,7 +95,7 @@ fn info_decodes_identity_modes_state_and_pdos() {
     check(
         &o,
         0,
-        "supported modes   0x00000080: cyclic synchronous position (8)",
+        "supported modes   0x000000a0: homing (6), cyclic synchronous position (8)",
     );
     assert!(o.stdout.contains("SWITCH ON DISABLED"), "{}", o.stdout);
     assert!(
@@ -105,7 +105,7 @@ fn info_decodes_identity_modes_state_and_pdos() {
     );
     let j = sim(&["--json", "info", "3"]).json();
     assert_eq!(j["device_type"], 0x0002_0192);
-    assert_eq!(j["supported_modes"]["raw"], 0x80);
+    assert_eq!(j["supported_modes"]["raw"], 0xA0); // CSP and homing (issue 17)
     assert_eq!(j["statusword"]["state"], "SWITCH ON DISABLED");
     assert_eq!(j["pdos"][4]["mapping"][0]["index"], 0x6041);
     assert_eq!(j["nmt"], "PRE-OPERATIONAL (boot-up seen)");
@@ -295,11 +295,12 @@ fn a_mode_the_drive_refuses() {
     check(
         &o,
         1,
-        "does not support profile position (1): 0x6502 = 0x00000080",
+        "does not support profile position (1): 0x6502 = 0x000000a0",
     );
-    // Written anyway: the drive itself refuses with an abort.
-    let o = sim(&["mode", "2", "homing", "--force"]);
-    check(&o, 6, "refused homing (6)");
+    // Written anyway: the drive itself refuses with an abort. (The simulated drive supports
+    // homing since issue 17, so the refused mode is profile velocity.)
+    let o = sim(&["mode", "2", "pv", "--force"]);
+    check(&o, 6, "refused profile velocity (3)");
     assert!(o.stderr.contains("0x06090030"), "{}", o.stderr);
     let j = sim(&["--json", "mode", "2", "csp"]).json();
     assert_eq!(j["mode"], 8);

@@ -416,7 +416,8 @@ fn identity_name_and_sdo_abort_codes() {
         b"cnc402 simdrive X".to_vec(),
         "segmented upload"
     );
-    assert_eq!(r.read_u32(0x6502, 0), 0x80);
+    // CSP (bit 7) and homing (bit 5): the simulated drive homes (issue 17).
+    assert_eq!(r.read_u32(0x6502, 0), 0xA0);
     assert_eq!(r.read_u32(0x60C2, 1), 1);
     assert_eq!(r.read(0x60C2, 2).unwrap(), vec![(-3i8) as u8]);
     assert_eq!(r.read(0x2345, 0), Err(AbortCode::NoObject));

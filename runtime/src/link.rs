@@ -53,6 +53,10 @@ pub enum StopCause {
     Operator,
     /// A move could not be started (an interpreter/planner inconsistency).
     Motion,
+    /// A drive's 0x60FD reports a limit switch (`limit_switch_inputs`).
+    LimitSwitch,
+    /// The E-stop chain opened (`[machine] estop_input`).
+    EstopOpen,
 }
 
 impl StopCause {
@@ -70,6 +74,8 @@ impl StopCause {
             StopCause::BadSetpoint => "commanded position not finite",
             StopCause::Operator => "operator stop (SIGINT)",
             StopCause::Motion => "motion error",
+            StopCause::LimitSwitch => "limit switch",
+            StopCause::EstopOpen => "E-stop open",
         }
     }
 }
@@ -147,6 +153,11 @@ pub trait DriveLink {
     /// After the cyclic phase: take the drives to a safe rest (power stage off). Blocking,
     /// not real-time.
     fn shutdown(&mut self) -> Result<(), String>;
+    /// Per axis, whether it has its machine reference (homed, or an absolute encoder); a
+    /// link without drives has none.
+    fn homed(&self) -> [bool; MAX_AXES] {
+        [false; MAX_AXES]
+    }
 }
 
 /// A boxed link is a link (a run picks its link, simulated or on a socket, at run time).
@@ -173,6 +184,9 @@ impl<L: DriveLink + ?Sized> DriveLink for Box<L> {
     }
     fn shutdown(&mut self) -> Result<(), String> {
         (**self).shutdown()
+    }
+    fn homed(&self) -> [bool; MAX_AXES] {
+        (**self).homed()
     }
 }
 

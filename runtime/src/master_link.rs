@@ -8,7 +8,8 @@ use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_drives::bus::BusCounters;
 use cnc402_drives::master::{
-    Master, MasterConfigError, MasterOptions, Phase, SafetyStop, StopMode, StopReason, TimedBus,
+    HomingError, HomingReport, Master, MasterConfigError, MasterOptions, Phase, SafetyStop,
+    StopMode, StopReason, TimedBus,
 };
 use cnc402_drives::wire::NmtState;
 
@@ -121,6 +122,8 @@ pub struct MasterLink<B: CycleBus> {
     quick_stop_sent: bool,
     /// Actual counts at the previous quick-stop cycle (`None` before the first).
     prev_counts: [Option<i64>; MAX_AXES],
+    /// `[machine] require_homing`: start-up homes every axis with a `homing` key after boot.
+    home_at_startup: bool,
 }
 
 impl<B: CycleBus> MasterLink<B> {
@@ -154,7 +157,50 @@ impl<B: CycleBus> MasterLink<B> {
             last: [0.0; MAX_AXES],
             quick_stop_sent: false,
             prev_counts: [None; MAX_AXES],
+            home_at_startup: cfg.machine.require_homing,
         })
+    }
+
+    /// Homes `axes` (config indices) after start-up, blocking on the bus's clock (see
+    /// [`Master::home`]); the cyclic phase then starts where homing left the drives.
+    pub fn home(&mut self, axes: &[usize]) -> Result<HomingReport, HomingError> {
+        let r = self.master.home(&mut self.bus, axes)?;
+        self.bus_base = r.last_cycle + self.master.period();
+        self.last = self.master.positions();
+        Ok(r)
+    }
+
+    /// Whether each axis has its machine reference (homed since boot, or absolute).
+    pub fn homed(&self) -> [bool; MAX_AXES] {
+        core::array::from_fn(|i| self.master.is_homed(i))
+    }
+
+    /// Start-up homing when the config requires it: every axis with a `homing` key.
+    fn home_required(&mut self) -> Result<(), String> {
+        if !self.home_at_startup {
+            return Ok(());
+        }
+        let axes = self.master.homing_axes();
+        let r = match self.home(&axes) {
+            Ok(r) => r,
+            Err(e) => {
+                // No run follows: the drives go to rest rather than wait for the master's
+                // heartbeat to stop.
+                if let Err(d) = self.master.disable(&mut self.bus) {
+                    log::warn!("after the failed homing: {d}");
+                }
+                return Err(format!("{e}"));
+            }
+        };
+        for a in &r.axes {
+            log::info!(
+                "axis {} homed at {} in {:.3} s",
+                a.axis,
+                a.position,
+                a.took.as_secs_f64()
+            );
+        }
+        Ok(())
     }
 
     /// The master.
@@ -220,6 +266,8 @@ pub fn drive_stop(s: &SafetyStop) -> DriveStop {
         StopReason::FollowingError { .. } => StopCause::FollowingError,
         StopReason::BadSetpoint => StopCause::BadSetpoint,
         StopReason::Bus(_) => StopCause::Bus,
+        StopReason::LimitSwitch { .. } => StopCause::LimitSwitch,
+        StopReason::EstopOpen { .. } => StopCause::EstopOpen,
     };
     DriveStop {
         cause,
@@ -265,6 +313,13 @@ impl<B: CycleBus> DriveLink for MasterLink<B> {
                 // The first cyclic SYNC follows the last enable cycle by one period.
                 self.bus_base = report.enabled_at + self.master.period();
                 self.last = self.master.positions();
+                if let Some(e) = self.master.estop_open(&mut self.bus) {
+                    let _ = self.master.disable(&mut self.bus);
+                    return Startup::Failed(e);
+                }
+                if let Err(e) = self.home_required() {
+                    return Startup::Failed(e);
+                }
                 self.bus.set_cyclic(true);
                 Startup::Ready(self.last)
             }
@@ -312,6 +367,10 @@ impl<B: CycleBus> DriveLink for MasterLink<B> {
 
     fn bitrate(&self) -> u32 {
         self.bus.bitrate()
+    }
+
+    fn homed(&self) -> [bool; MAX_AXES] {
+        MasterLink::homed(self)
     }
 
     fn shutdown(&mut self) -> Result<(), String> {

@@ -17,6 +17,9 @@ pub struct AxisReport {
     pub max_following_error: f64,
     /// Actual position at the end (mm / degrees).
     pub final_position: f64,
+    /// Whether the axis had its machine reference (homed, or an absolute encoder); `None`
+    /// when the config gives it no `homing` key (its positions count from power-on).
+    pub homed: Option<bool>,
 }
 
 /// The safety reaction that ended a run, located in the program.
@@ -114,6 +117,7 @@ impl RunReport {
                     name,
                     max_following_error: 0.0,
                     final_position: 0.0,
+                    homed: None,
                 })
                 .collect(),
             tapping: Vec::new(),
@@ -138,13 +142,14 @@ impl RunReport {
     pub fn to_json(&self) -> Value {
         let mut axes = serde_json::Map::new();
         for a in &self.axes {
-            axes.insert(
-                a.name.to_string(),
-                json!({
-                    "max_following_error": a.max_following_error,
-                    "final_position": a.final_position,
-                }),
-            );
+            let mut axis = json!({
+                "max_following_error": a.max_following_error,
+                "final_position": a.final_position,
+            });
+            if let Some(h) = a.homed {
+                axis["homed"] = json!(h);
+            }
+            axes.insert(a.name.to_string(), axis);
         }
         let tapping: Vec<Value> = self
             .tapping
@@ -226,6 +231,33 @@ impl RunReport {
         v
     }
 
+    /// "machine reference: homed X Y; NOT homed Z (…)" for the axes with a `homing` key.
+    fn reference_line(&self) -> Option<String> {
+        let list = |want: bool| -> String {
+            self.axes
+                .iter()
+                .filter(|a| a.homed == Some(want))
+                .map(|a| a.name.to_string())
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        let (homed, not) = (list(true), list(false));
+        match (homed.is_empty(), not.is_empty()) {
+            (true, true) => None,
+            (false, true) => Some(format!("  machine reference: homed {homed}")),
+            (h, false) => Some(format!(
+                "  machine reference: {}NOT homed {not} (positions count from power-on: soft \
+                 limits and G28 are not the machine's; `cnc402 home` or \
+                 [machine] require_homing)",
+                if h {
+                    String::new()
+                } else {
+                    format!("homed {homed}; ")
+                }
+            )),
+        }
+    }
+
     /// The summary for a person, several lines.
     pub fn summary(&self) -> String {
         let mut s = String::new();
@@ -259,6 +291,9 @@ impl RunReport {
                 "  axis {}: max following error {:.4}, final position {:.4}",
                 a.name, a.max_following_error, a.final_position
             );
+        }
+        if let Some(line) = self.reference_line() {
+            let _ = writeln!(s, "{line}");
         }
         for r in &self.stops {
             let _ = match (r.action, r.waited_s) {

@@ -6,6 +6,7 @@
 #![forbid(unsafe_code)]
 
 pub(crate) mod device;
+pub mod homing;
 mod mode;
 pub mod objects;
 mod sequencer;
@@ -13,6 +14,7 @@ mod state;
 mod words;
 
 pub use device::{DeviceStateMachine, Transition};
+pub use homing::{Direction, HomingMethod, HomingStatus, HomingTarget};
 pub use mode::{OperationMode, QuickStopOption};
 pub use sequencer::{EnableSequencer, Goal, Progress, Step, Stuck, StuckReason};
 pub use state::{Command, State};

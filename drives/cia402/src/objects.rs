@@ -47,6 +47,32 @@ pub const VELOCITY_OFFSET: u16 = 0x60B1;
 pub const TORQUE_OFFSET: u16 = 0x60B2;
 /// Following error actual value (INT32).
 pub const FOLLOWING_ERROR_ACTUAL: u16 = 0x60F4;
+/// Home offset (INT32, position units): the position the home point reads after homing.
+pub const HOME_OFFSET: u16 = 0x607C;
+/// Polarity (UINT8): bit 7 inverts positions, bit 6 velocities.
+pub const POLARITY: u16 = 0x607E;
+/// 0x607E value inverting both position and velocity.
+pub const POLARITY_INVERTED: u8 = 0xC0;
+/// Gear ratio (record: sub 1 motor revolutions, sub 2 shaft revolutions, UINT32).
+pub const GEAR_RATIO: u16 = 0x6091;
+/// Feed constant (record: sub 1 feed in position units, sub 2 shaft revolutions, UINT32).
+pub const FEED_CONSTANT: u16 = 0x6092;
+/// Homing method (INT8).
+pub const HOMING_METHOD: u16 = 0x6098;
+/// Homing speeds (record: sub 1 during search for switch, sub 2 during search for zero,
+/// UINT32, velocity units = position units/s).
+pub const HOMING_SPEEDS: u16 = 0x6099;
+/// Homing acceleration (UINT32, position units/s²).
+pub const HOMING_ACCELERATION: u16 = 0x609A;
+/// Digital inputs (UINT32): bit 0 negative limit switch, bit 1 positive limit switch, bit 2
+/// home switch, bit 3 interlock; 16..=31 manufacturer specific.
+pub const DIGITAL_INPUTS: u16 = 0x60FD;
+/// 0x60FD bit 0.
+pub const INPUT_NEGATIVE_LIMIT: u32 = 1 << 0;
+/// 0x60FD bit 1.
+pub const INPUT_POSITIVE_LIMIT: u32 = 1 << 1;
+/// 0x60FD bit 2.
+pub const INPUT_HOME_SWITCH: u32 = 1 << 2;
 /// Supported drive modes (UINT32, bit `mode - 1`).
 pub const SUPPORTED_DRIVE_MODES: u16 = 0x6502;
 

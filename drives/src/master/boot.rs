@@ -1016,7 +1016,7 @@ impl Master {
 
     /// Runs `transfer` with a blocking SDO client on `bus`; the other frames that arrive
     /// meanwhile are taken in afterwards, whether it succeeded or not.
-    fn with_sdo<B: TimedBus + ?Sized, T, E>(
+    pub(crate) fn with_sdo<B: TimedBus + ?Sized, T, E>(
         &mut self,
         bus: &mut B,
         transfer: impl FnOnce(&mut BlockingSdo<'_, B>) -> Result<T, E>,
@@ -1071,6 +1071,10 @@ impl Master {
         }
         let (mut ident, pdos) = configured?;
         self.axes[i].pdos = pdos;
+        let reference = self.axes[i].reference;
+        self.with_sdo(bus, |sdo| {
+            super::homing::write_at_boot(sdo, node, &reference)
+        })?;
         bus.send(
             &NmtRepr {
                 command: NmtCommand::Start,
@@ -1203,7 +1207,7 @@ impl Master {
     }
 
     /// Waits until `deadline`, taking in every frame that arrives.
-    fn wait_until<B: TimedBus + ?Sized>(
+    pub(crate) fn wait_until<B: TimedBus + ?Sized>(
         &mut self,
         bus: &mut B,
         deadline: Instant,

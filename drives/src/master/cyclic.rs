@@ -23,7 +23,6 @@
 
 use cia402::{Controlword, Goal, Progress, State, Statusword};
 use cnc402_config::MAX_AXES;
-use cnc402_motion::to_counts_wrapping;
 
 use super::boot::MappedPdos;
 #[cfg(test)]
@@ -276,7 +275,10 @@ impl super::AxisSlot {
                 self.progress = step.progress;
                 (step.controlword, self.target)
             }
-            Phase::Running => (Controlword::ENABLE_OPERATION_CMD, command),
+            Phase::Running => (
+                Controlword(Controlword::ENABLE_OPERATION_CMD.0 | self.mode_bits),
+                command,
+            ),
             Phase::Stopping => (
                 if self.quick_stop {
                     Controlword::QUICK_STOP_CMD
@@ -329,6 +331,15 @@ impl Master {
                         }
                     }
                     None => self.unexpected_frames += 1,
+                }
+            }
+            Function::Tpdo(super::inputs::INPUTS_TPDO, node) => {
+                match (
+                    self.slot_of(node),
+                    super::inputs::parse_inputs(frame.data()),
+                ) {
+                    (Some(i), Some(v)) => self.axes[i].inputs = Some(v),
+                    _ => self.unexpected_frames += 1,
                 }
             }
             Function::Emcy(node) => match (self.slot_of(node), EmcyRepr::parse(frame)) {
@@ -415,6 +426,9 @@ impl Master {
         if a.emcy.is_some() {
             return Some(StopReason::Emergency);
         }
+        if let Some(r) = self.inputs_stop(i) {
+            return Some(r);
+        }
         if a.tpdo_this_cycle && state != Some(State::OperationEnabled) {
             return Some(StopReason::NotEnabled);
         }
@@ -445,6 +459,7 @@ impl Master {
             });
         }
         if a.tpdo_this_cycle
+            && !a.homing_active
             && a.fe_comparable
             && a.window > 0.0
             && a.following_error.abs() > a.window
@@ -582,7 +597,7 @@ impl Master {
             a.actual = cmd;
             a.following_error = 0.0;
         }
-        fb.target[i] = to_counts_wrapping(cmd, a.counts_per_unit);
+        fb.target[i] = a.to_counts(cmd);
         fb.actual_counts[i] = if a.node.is_some() {
             a.actual_counts
         } else {
@@ -740,7 +755,7 @@ impl Master {
         for a in self.axes[..self.n_axes].iter_mut() {
             a.sequencer.set_goal(Goal::SwitchOnDisabled);
             a.disabled = a.node.is_none();
-            a.target = to_counts_wrapping(a.last_command, a.counts_per_unit);
+            a.target = a.to_counts(a.last_command);
         }
     }
 

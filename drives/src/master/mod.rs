@@ -28,6 +28,8 @@
 
 pub mod boot;
 pub mod cyclic;
+pub mod homing;
+pub mod inputs;
 pub mod sdo;
 pub mod service;
 pub mod stop;
@@ -42,9 +44,11 @@ use cnc402_config::{ExpectedIdentity, MAX_AXES, MachineConfig};
 use crate::time::Instant;
 use crate::wire::{NmtState, NodeId};
 use cnc402_config::busload::{self, BusLoad, PdoLayout};
+use cnc402_motion::to_counts_wrapping;
 
 pub use boot::{BootError, BootReport, DriveIdentity, InterpolationPeriod};
 pub use cyclic::Feedback;
+pub use homing::{AxisHomed, HomingError, HomingReport};
 pub use sdo::{BlockingSdo, ProtocolViolation, SdoClient, SdoError, SdoErrorKind, SdoEvent};
 pub use service::{SequenceError, send_nmt, sequence_over_sdo};
 pub use stop::{Emcy, SafetyStop, StopReason, emcy_text};
@@ -238,6 +242,21 @@ pub(crate) struct AxisSlot {
     pub pdos: boot::MappedPdos,
     /// When a statusword last arrived (the compact layout's staleness monitor).
     pub statusword_at: Option<Instant>,
+    /// Scaling and machine reference from the config (written at boot).
+    pub reference: homing::ReferenceSetup,
+    /// Axis units added to the drive's position (an absolute encoder's stored offset).
+    pub origin: f64,
+    /// Homed since boot, or an absolute encoder.
+    pub homed: bool,
+    /// The drive is homing: its position moves on its own (no following error check, the
+    /// command follows the actual position).
+    pub homing_active: bool,
+    /// Mode-specific controlword bits (4..=6) sent with enable operation while running.
+    pub mode_bits: u16,
+    /// The drive's 0x60FD as last received in TPDO3 (`None`: not mapped, or none yet).
+    pub inputs: Option<u32>,
+    /// `limit_switch_inputs`: a limit switch in `inputs` stops the machine.
+    pub watch_limit_switches: bool,
 }
 
 impl AxisSlot {
@@ -292,7 +311,19 @@ impl AxisSlot {
             progress: cia402::Progress::Moving(None),
             pdos: boot::MappedPdos::of(PdoLayout::Standard),
             statusword_at: None,
+            reference: homing::ReferenceSetup::default(),
+            origin: 0.0,
+            homed: false,
+            homing_active: false,
+            mode_bits: 0,
+            inputs: None,
+            watch_limit_switches: false,
         }
+    }
+
+    /// A position in axis units as the drive's count (wrapping), the origin taken off.
+    pub(crate) fn to_counts(&self, units: f64) -> i32 {
+        to_counts_wrapping(units - self.origin, self.counts_per_unit)
     }
 
     /// Takes in a new raw 0x6064 value: the unwrapped count moves by the wrapping difference,
@@ -301,14 +332,14 @@ impl AxisSlot {
         let delta = raw.wrapping_sub(self.actual_raw) as i64;
         self.actual_raw = raw;
         self.actual_counts = self.actual_counts.wrapping_add(delta);
-        self.actual = self.actual_counts as f64 / self.counts_per_unit;
+        self.actual = self.actual_counts as f64 / self.counts_per_unit + self.origin;
     }
 
     /// Sets the position from a fresh read (boot): the unwrapped count starts at `raw`.
     pub(crate) fn reset_actual(&mut self, raw: i32) {
         self.actual_raw = raw;
         self.actual_counts = raw as i64;
-        self.actual = raw as f64 / self.counts_per_unit;
+        self.actual = raw as f64 / self.counts_per_unit + self.origin;
     }
 }
 
@@ -364,6 +395,8 @@ pub struct Master {
     pub(crate) statusword_timeout: Duration,
     /// Per axis, what boot writes after its own set-up (`dcf`, `sdo` in the config).
     pub(crate) commissioning: Vec<cnc402_config::Commissioning>,
+    /// `[machine] estop_input`: (axis index, 0x60FD bit), the chain closed when the bit is 1.
+    pub(crate) estop_input: Option<(usize, u8)>,
 }
 
 impl Master {
@@ -435,6 +468,21 @@ impl Master {
                 ),
                 None => (a.feedback_delay_cycles, 1.0),
             };
+            s.reference = homing::ReferenceSetup {
+                polarity_inverted: a.polarity_inverted,
+                gear_ratio: a.gear_ratio,
+                feed_constant: a.feed_constant,
+                homing: a.homing,
+                counts_per_unit: s.counts_per_unit,
+                inputs_pdo: a.inputs_pdo,
+                refresh_ms: busload::event_refresh_ms(&config.bus),
+            };
+            s.watch_limit_switches = a.limit_switch_inputs;
+            // An absolute encoder is referenced from the start: its stored offset applies.
+            if let Some(cnc402_config::Homing::Absolute { offset }) = a.homing {
+                s.origin = offset;
+                s.homed = true;
+            }
             s.fe_lag = (1 + delay as usize).min(COMMAND_HISTORY - 1);
             s.model_alpha = alpha;
             if let Some(n) = node {
@@ -498,6 +546,7 @@ impl Master {
                         * u64::from(config.bus.period_us),
                 ),
             ),
+            estop_input: config.machine.estop_input,
         })
     }
 

@@ -118,6 +118,16 @@ pub enum StopReason {
     BadSetpoint,
     /// The CAN transport failed.
     Bus(BusError),
+    /// The drive's 0x60FD reports a limit switch (bit 0 negative, bit 1 positive).
+    LimitSwitch {
+        /// The positive one.
+        positive: bool,
+    },
+    /// The E-stop input (`[machine] estop_input`, a 0x60FD bit) opened.
+    EstopOpen {
+        /// The 0x60FD bit.
+        bit: u8,
+    },
 }
 
 impl fmt::Display for StopReason {
@@ -149,6 +159,13 @@ impl fmt::Display for StopReason {
             }
             StopReason::BadSetpoint => write!(f, "commanded position not finite"),
             StopReason::Bus(e) => write!(f, "CAN bus: {e}"),
+            StopReason::LimitSwitch { positive } => write!(
+                f,
+                "{} limit switch (0x60FD bit {})",
+                if *positive { "positive" } else { "negative" },
+                u8::from(*positive)
+            ),
+            StopReason::EstopOpen { bit } => write!(f, "E-stop open (0x60FD bit {bit} is 0)"),
         }
     }
 }

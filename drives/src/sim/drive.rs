@@ -9,12 +9,15 @@ use core::fmt;
 use core::str::FromStr;
 use core::time::Duration;
 
+use cia402::homing::{HOMING_ATTAINED, HOMING_ERROR, HOMING_START};
 use cia402::objects as o;
 use cia402::{
-    Controlword, DeviceStateMachine, OperationMode, QuickStopOption, State, Statusword, Transition,
+    Controlword, DeviceStateMachine, HomingMethod, HomingStatus, OperationMode, QuickStopOption,
+    State, Statusword, Transition,
 };
 use cnc402_config::AxisConfig;
 
+use super::homing::{HomingParams, HomingRun, MachineIo};
 use super::motion::{AxisModel, DriveDynamics};
 use super::objects::{self, DriveParams};
 use super::pdo::{self, RpdoSlot, TpdoSlot};
@@ -97,6 +100,9 @@ pub enum FaultKind {
         product: u32,
         revision: Option<u32>,
     },
+    /// The machine's further 0x60FD bits read this from now on (`inputs:0x0`: an E-stop
+    /// chain that opens), instead of `sim.inputs`.
+    Inputs(u32),
 }
 
 /// A `FaultKind` that did not parse.
@@ -109,7 +115,7 @@ impl fmt::Display for FaultKindError {
             f,
             "unknown fault kind `{}` (expected fault[:CODE], fault-persistent[:CODE], heartbeat, \
              sdo, tpdo, reboot, emcy-storm[:CODE], stop-sync, device-type:VALUE, \
-             identity:VENDOR:PRODUCT[:REVISION])",
+             identity:VENDOR:PRODUCT[:REVISION], inputs:VALUE)",
             self.0
         )
     }
@@ -160,6 +166,7 @@ impl FromStr for FaultKind {
             ("fault-persistent", c) => FaultKind::PersistentFault(code16(c)?),
             ("emcy-storm", c) => FaultKind::EmcyStorm(code16(c)?),
             ("device-type", Some(v)) => FaultKind::DeviceType(v),
+            ("inputs", Some(v)) => FaultKind::Inputs(v),
             ("heartbeat", None) => FaultKind::HeartbeatSilence,
             ("sdo", None) => FaultKind::SdoSilence,
             ("tpdo", None) => FaultKind::DropTpdos,
@@ -239,7 +246,10 @@ struct Hot {
     decel_per_cycle: f64,
     window: u32,
     timeout: Duration,
+    /// 0x607E bit 7: positions inverted.
+    inverted: bool,
     statusword: Option<Slot>,
+    digital_inputs: Option<Slot>,
     target: Option<Slot>,
     mode_display: Option<Slot>,
     position_actual: Option<Slot>,
@@ -261,7 +271,9 @@ impl Hot {
             decel_per_cycle: decel * period_s * period_s,
             window: od.get_u64(o::FOLLOWING_ERROR_WINDOW, 0).unwrap_or(0) as u32,
             timeout: Duration::from_millis(od.get_u64(o::FOLLOWING_ERROR_TIMEOUT, 0).unwrap_or(0)),
+            inverted: od.get_u64(o::POLARITY, 0).unwrap_or(0) & 0x80 != 0,
             statusword: od.slot(o::STATUSWORD, 0),
+            digital_inputs: od.slot(o::DIGITAL_INPUTS, 0),
             target: od.slot(o::TARGET_POSITION, 0),
             mode_display: od.slot(o::MODES_OF_OPERATION_DISPLAY, 0),
             position_actual: od.slot(o::POSITION_ACTUAL, 0),
@@ -320,6 +332,16 @@ pub struct SimDrive {
     /// (`commissioning`).
     stores: u64,
     fixed: Vec<(u16, Vec<crate::wire::MappingEntry>)>,
+    /// The machine around the motor (motor counts).
+    io: MachineIo,
+    /// The homing run since the last start edge, and what the statusword says of homing.
+    homing: Option<HomingRun>,
+    homing_status: HomingStatus,
+    /// Controlword bit 4 as last applied (homing starts on its rising edge).
+    homing_start: bool,
+    /// Drive position = direction · motor position + `shift` (wrapping counts): set by
+    /// homing so that the home point reads the home offset (0x607C).
+    shift: i32,
 }
 
 impl fmt::Debug for SimDrive {
@@ -331,6 +353,12 @@ impl fmt::Debug for SimDrive {
             .field("position", &self.axis.actual())
             .finish()
     }
+}
+
+/// `sim.power_on_position` of `axis` in motor counts.
+fn power_on_counts(axis: &AxisConfig) -> i32 {
+    let c = (axis.sim.machine.power_on_position * axis.counts_per_unit.abs()).round();
+    c.clamp(i32::MIN as f64, i32::MAX as f64) as i32
 }
 
 fn error_register_for(code: u16) -> u8 {
@@ -394,7 +422,10 @@ impl SimDrive {
             powered_at: None,
             now: Instant::ZERO,
             cia: DeviceStateMachine::new(),
-            axis: AxisModel::new(DriveDynamics::of_axis(axis), options.initial_position),
+            axis: AxisModel::new(
+                DriveDynamics::of_axis(axis),
+                options.initial_position.wrapping_add(power_on_counts(axis)),
+            ),
             sdo: SdoServer::new(),
             rpdo: [RpdoSlot::default(); 4],
             tpdo: [TpdoSlot::default(); 4],
@@ -419,6 +450,11 @@ impl SimDrive {
             hot: Hot::load(&ObjectDictionary::new(), period),
             stores: 0,
             fixed: Vec::new(),
+            io: MachineIo::of_axis(axis),
+            homing: None,
+            homing_status: HomingStatus::Idle,
+            homing_start: false,
+            shift: 0,
         };
         d.hot = Hot::load(&d.od, period);
         d.reload_pdos();
@@ -448,13 +484,26 @@ impl SimDrive {
     pub fn statusword(&self) -> Statusword {
         Statusword(self.od.get_u64(o::STATUSWORD, 0).unwrap_or(0) as u16)
     }
-    /// Position actual value 0x6064 (counts).
+    /// Position actual value 0x6064 (counts; after 0x607E and homing).
     pub fn position_actual(&self) -> i32 {
+        self.to_drive(self.axis.actual())
+    }
+    /// The motor's own position (counts, before 0x607E and homing): where the simulated
+    /// machine's switches are.
+    pub fn motor_position(&self) -> i32 {
         self.axis.actual()
+    }
+    /// What the statusword says of homing (meaningful in homing mode).
+    pub fn homing_status(&self) -> HomingStatus {
+        self.homing_status
+    }
+    /// Digital inputs 0x60FD (limit and home switches at the motor's position).
+    pub fn digital_inputs(&self) -> u32 {
+        self.directed_io().inputs(self.directed_position())
     }
     /// Position demand 0x6062: the setpoint the loop tracks (after the pure delay).
     pub fn position_demand(&self) -> i32 {
-        self.axis.demand()
+        self.to_drive(self.axis.demand())
     }
     /// Target position 0x607A as last received.
     pub fn target_position(&self) -> i32 {
@@ -465,7 +514,7 @@ impl SimDrive {
     }
     /// Following error 0x60F4 (counts).
     pub fn following_error(&self) -> i32 {
-        self.axis.following_error()
+        self.direction().wrapping_mul(self.axis.following_error())
     }
     /// The active fault's EMCY code, if in FAULT / FAULT REACTION ACTIVE.
     pub fn fault_code(&self) -> Option<u16> {
@@ -519,6 +568,10 @@ impl SimDrive {
             }
             FaultKind::EmcyStorm(code) => self.emcy_storm = Some(code),
             FaultKind::StopSync => self.sync_deaf = true,
+            FaultKind::Inputs(v) => {
+                self.io.static_inputs = v;
+                self.publish();
+            }
             FaultKind::DeviceType(v) => {
                 let _ = self.defaults.set_raw(o::DEVICE_TYPE, 0, v as u64);
                 let _ = self.od.set_raw(o::DEVICE_TYPE, 0, v as u64);
@@ -580,24 +633,125 @@ impl SimDrive {
             sw = sw.with(Statusword::FOLLOWS_COMMAND, true);
         }
         sw = sw.with(Statusword::FOLLOWING_ERROR, self.fe_exceeded);
+        if self.mode() == Some(OperationMode::Homing) {
+            // Bits 10, 12 and 13 mean homing status in homing mode.
+            let mask = Statusword::TARGET_REACHED | HOMING_ATTAINED | HOMING_ERROR;
+            sw = Statusword((sw.0 & !mask) | self.homing_status.bits());
+        }
         let h = self.hot;
         let v = self.axis.velocity() / h.period_s.max(1e-9);
-        let v = v.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32;
+        let v = (v * self.direction() as f64)
+            .round()
+            .clamp(i32::MIN as f64, i32::MAX as f64) as i32;
+        let (actual, demand, fe) = (
+            self.position_actual(),
+            self.position_demand(),
+            self.following_error(),
+        );
+        let inputs = self.digital_inputs();
         let od = &mut self.od;
         set_at(od, h.statusword, sw.0 as u64);
         set_at(od, h.mode_display, h.mode as u8 as u64);
-        set_at(od, h.position_actual, self.axis.actual() as u32 as u64);
-        set_at(od, h.position_demand, self.axis.demand() as u32 as u64);
-        set_at(
-            od,
-            h.following_error,
-            self.axis.following_error() as u32 as u64,
-        );
+        set_at(od, h.position_actual, actual as u32 as u64);
+        set_at(od, h.position_demand, demand as u32 as u64);
+        set_at(od, h.following_error, fe as u32 as u64);
         set_at(od, h.velocity, v as u32 as u64);
+        set_at(od, h.digital_inputs, inputs as u64);
     }
 
     fn period_s(&self) -> f64 {
         self.hot.period_s
+    }
+
+    /// −1 when 0x607E inverts positions, else 1.
+    fn direction(&self) -> i32 {
+        if self.hot.inverted { -1 } else { 1 }
+    }
+
+    /// A motor count as the drive reports it (0x607E, then the homing shift).
+    fn to_drive(&self, motor: i32) -> i32 {
+        self.direction()
+            .wrapping_mul(motor)
+            .wrapping_add(self.shift)
+    }
+
+    /// A drive position (a target) in motor counts.
+    fn to_motor(&self, drive: i32) -> i32 {
+        self.direction()
+            .wrapping_mul(drive.wrapping_sub(self.shift))
+    }
+
+    /// The machine in the drive's direction (before the homing shift).
+    fn directed_io(&self) -> MachineIo {
+        self.io.inverted(self.hot.inverted)
+    }
+
+    /// The motor's true position in the drive's direction (before the homing shift).
+    fn directed_position(&self) -> f64 {
+        self.direction() as f64 * self.axis.true_position()
+    }
+
+    /// The homing parameters in the dictionary.
+    fn homing_params(&self) -> Option<HomingParams> {
+        let method = self.od.get_i64(o::HOMING_METHOD, 0).unwrap_or(0) as i8;
+        let u = |i, s| self.od.get_u64(i, s).unwrap_or(0) as f64;
+        Some(HomingParams {
+            method: HomingMethod::new(method)?,
+            // A speed of 0 would search forever; the slowest is a count per second.
+            speed_switch: u(o::HOMING_SPEEDS, 1).max(1.0),
+            speed_zero: u(o::HOMING_SPEEDS, 2).max(1.0),
+            acceleration: u(o::HOMING_ACCELERATION, 0).max(1.0),
+        })
+    }
+
+    /// Controlword bit 4 in homing mode: a rising edge starts homing (with an unsupported
+    /// method: homing error at once); falling while homing interrupts it.
+    fn on_homing_bit(&mut self, cw: Controlword) {
+        let start = cw.has(HOMING_START);
+        let rising = start && !self.homing_start;
+        self.homing_start = start;
+        if self.mode() != Some(OperationMode::Homing) || self.cia.state() != State::OperationEnabled
+        {
+            return;
+        }
+        if rising {
+            let run = self
+                .homing_params()
+                .map(|p| HomingRun::start(p, self.directed_position(), &self.directed_io()));
+            self.homing_status = run.map_or(HomingStatus::Error, |r| r.status());
+            self.homing = run;
+            if let Some(home) = run.and_then(|r| r.home()) {
+                self.homed_at(home);
+            }
+        } else if !start && self.homing.is_some_and(|r| !r.finished()) {
+            self.homing = None;
+            self.homing_status = HomingStatus::Idle;
+        }
+    }
+
+    /// One homing cycle (operation enabled in homing mode).
+    fn homing_step(&mut self, dt: f64) {
+        let Some(mut run) = self.homing else {
+            self.axis.hold();
+            return;
+        };
+        let step = run.step(self.directed_position(), dt, &self.directed_io());
+        self.axis.drive_by(self.direction() as f64 * step);
+        self.homing = Some(run);
+        self.homing_status = run.status();
+        if let Some(home) = run.home() {
+            self.homed_at(home);
+            self.homing = None;
+        }
+    }
+
+    /// Homing attained at `home` (directed counts): the home point now reads 0x607C.
+    fn homed_at(&mut self, home: f64) {
+        let offset = self.od.get_i64(o::HOME_OFFSET, 0).unwrap_or(0) as i32;
+        let home = home.clamp(i32::MIN as f64, i32::MAX as f64) as i32;
+        self.shift = offset.wrapping_sub(home);
+        self.homing_status = HomingStatus::Completed;
+        self.axis.hold();
     }
 
     /// Re-reads the cached parameters after the dictionary changed.
@@ -704,6 +858,7 @@ impl SimDrive {
             }
         }
         let after = self.cia.state();
+        self.on_homing_bit(cw);
         if after == State::OperationEnabled && before != State::OperationEnabled {
             // Enabling: the loop starts from where the motor is.
             self.axis.hold();
@@ -771,6 +926,11 @@ impl SimDrive {
         self.od = self.defaults.clone();
         self.cia = DeviceStateMachine::new();
         self.axis = AxisModel::new(self.axis.dynamics(), position);
+        // An incremental drive forgets its reference when it resets.
+        self.shift = 0;
+        self.homing = None;
+        self.homing_status = HomingStatus::Idle;
+        self.homing_start = false;
         self.sdo.reset();
         self.fe_since = None;
         self.fe_exceeded = false;
@@ -907,7 +1067,10 @@ impl SimDrive {
         let decel = self.hot.decel_per_cycle;
         match self.cia.state() {
             State::OperationEnabled if self.mode() == Some(OperationMode::CyclicSyncPosition) => {
-                self.axis.follow(self.target_position(), dt);
+                self.axis.follow(self.to_motor(self.target_position()), dt);
+            }
+            State::OperationEnabled if self.mode() == Some(OperationMode::Homing) => {
+                self.homing_step(dt);
             }
             State::QuickStopActive => {
                 if self.axis.brake(decel) {
@@ -1169,6 +1332,9 @@ impl ObjectAccess for SimDrive {
                     return Err(AbortCode::InvalidValue);
                 }
             }
+            o::HOMING_METHOD if HomingMethod::new(value.as_i64().unwrap_or(0) as i8).is_none() => {
+                return Err(AbortCode::InvalidValue);
+            }
             o::QUICK_STOP_OPTION => {
                 let opt = QuickStopOption::from_i16(value.as_i64().unwrap_or(-1) as i16)
                     .ok_or(AbortCode::InvalidValue)?;
@@ -1186,10 +1352,17 @@ impl ObjectAccess for SimDrive {
             }
             _ => {}
         }
+        let mode_before = self.hot.mode;
         self.od
             .write(index, sub, data)
             .map_err(OdError::abort_code)?;
         self.refresh();
+        if self.hot.mode != mode_before {
+            // A new mode starts from where the motor is; a homing run does not survive it.
+            self.axis.hold();
+            self.homing = None;
+            self.homing_status = HomingStatus::Idle;
+        }
         match index {
             o::CONTROLWORD => {
                 let cw = Controlword(value.as_u64().unwrap_or(0) as u16);

@@ -35,6 +35,7 @@
 //! ```
 
 mod drive;
+mod homing;
 mod machine;
 mod motion;
 mod objects;
@@ -42,6 +43,7 @@ mod pdo;
 mod sdo_server;
 
 pub use drive::{FaultKind, FaultKindError, NmtStatus, SimDrive, SimDriveOptions, SimDriveStats};
+pub use homing::{HomingParams, HomingRun, MachineIo};
 pub use machine::{device_of, simulated_machine, simulated_machine_with};
 pub use motion::{AxisModel, DriveDynamics};
 pub use objects::{PRODUCT_CODE, REVISION, VENDOR_ID, interpolation_period, interpolation_seconds};

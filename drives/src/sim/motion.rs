@@ -188,6 +188,19 @@ impl AxisModel {
         step
     }
 
+    /// The true (unquantised) position, counts: where the switches and index pulses are
+    /// looked for.
+    pub fn true_position(&self) -> f64 {
+        self.position as f64 + self.frac
+    }
+
+    /// Moves by `step` counts this cycle, the drive's own motion (homing): no setpoint, no
+    /// following error (the demand follows the actual position).
+    pub fn drive_by(&mut self, step: f64) {
+        self.advance(step);
+        self.rest_demand();
+    }
+
     /// One cycle of braking at `decel` counts/cycle²; returns true once stopped. The demand
     /// follows the actual position (no following error while braking).
     pub fn brake(&mut self, decel: f64) -> bool {

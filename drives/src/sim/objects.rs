@@ -328,9 +328,75 @@ fn insert_device_profile(od: &mut ObjectDictionary, p: &DriveParams) {
         Entry::new(
             "supported drive modes",
             Const,
-            Value::U32(OperationMode::CyclicSyncPosition.supported_bit()),
+            Value::U32(
+                OperationMode::CyclicSyncPosition.supported_bit()
+                    | OperationMode::Homing.supported_bit(),
+            ),
         ),
     );
+    insert_homing_and_scaling(od);
+}
+
+/// Homing (0x607C, 0x6098, 0x6099, 0x609A), polarity (0x607E), the factor group's gear ratio
+/// and feed constant (0x6091, 0x6092: stored, the simulated motor counts in position units
+/// whatever they say) and the digital inputs (0x60FD).
+fn insert_homing_and_scaling(od: &mut ObjectDictionary) {
+    use Access::*;
+    var(
+        od,
+        o::HOME_OFFSET,
+        Entry::new("home offset", ReadWrite, Value::I32(0)),
+    );
+    var(
+        od,
+        o::POLARITY,
+        Entry::new("polarity", ReadWrite, Value::U8(0)),
+    );
+    var(
+        od,
+        o::HOMING_METHOD,
+        Entry::new("homing method", ReadWrite, Value::I8(0)),
+    );
+    var(
+        od,
+        o::HOMING_ACCELERATION,
+        Entry::new("homing acceleration", ReadWrite, Value::U32(0)),
+    );
+    var(
+        od,
+        o::DIGITAL_INPUTS,
+        Entry::new("digital inputs", ReadOnly, Value::U32(0)).mappable(),
+    );
+    for (index, name, subs) in [
+        (
+            o::GEAR_RATIO,
+            "gear ratio",
+            ["motor revolutions", "shaft revolutions"],
+        ),
+        (
+            o::FEED_CONSTANT,
+            "feed constant",
+            ["feed", "shaft revolutions"],
+        ),
+        (
+            o::HOMING_SPEEDS,
+            "homing speeds",
+            [
+                "speed during search for switch",
+                "speed during search for zero",
+            ],
+        ),
+    ] {
+        od.insert(index, 0, Entry::new(name, Const, Value::U8(2)));
+        let default = if index == o::HOMING_SPEEDS { 0 } else { 1 };
+        for (sub, sub_name) in (1u8..).zip(subs) {
+            od.insert(
+                index,
+                sub,
+                Entry::new(sub_name, ReadWrite, Value::U32(default)),
+            );
+        }
+    }
 }
 
 /// 0x60C2, the interpolation time period as (value, exponent) (CiA 402).

@@ -282,11 +282,13 @@ pub enum PdoObject {
     FollowingErrorActual,
     /// 0x603F, UNSIGNED16, drive → master.
     ErrorCode,
+    /// 0x60FD digital inputs, UNSIGNED32, drive → master (limit and home switches, E-stop).
+    DigitalInputs,
 }
 
 impl PdoObject {
     /// Every known object, in the order of [`PdoValues`]' slots.
-    pub const ALL: [PdoObject; 9] = [
+    pub const ALL: [PdoObject; 10] = [
         PdoObject::Controlword,
         PdoObject::ModesOfOperation,
         PdoObject::TargetPosition,
@@ -296,6 +298,7 @@ impl PdoObject {
         PdoObject::VelocityActual,
         PdoObject::FollowingErrorActual,
         PdoObject::ErrorCode,
+        PdoObject::DigitalInputs,
     ];
 
     /// The mapping entry of the object (index, sub-index, bit length).
@@ -314,6 +317,7 @@ impl PdoObject {
                 MappingEntry::new(obj::FOLLOWING_ERROR_ACTUAL, 0, 32)
             }
             PdoObject::ErrorCode => MappingEntry::new(obj::ERROR_CODE, 0, 16),
+            PdoObject::DigitalInputs => MappingEntry::new(obj::DIGITAL_INPUTS, 0, 32),
         }
     }
 

@@ -92,6 +92,8 @@ pub(super) struct LoopEnd {
     pub(super) wall: Duration,
     /// The drives could not be taken to rest after the run.
     pub(super) shutdown_error: Option<String>,
+    /// Per axis, whether it had its machine reference.
+    pub(super) homed: [bool; MAX_AXES],
 }
 
 /// The loop's ends of the rings and its shared flags.
@@ -199,6 +201,7 @@ fn cyclic_end(
         path: ctrl.path_figures(),
         counters,
         bitrate: ctrl.link().bitrate(),
+        homed: ctrl.link().homed(),
         elapsed,
         latency: None,
         grant: None,
@@ -224,6 +227,7 @@ fn failed_end(
         path: Default::default(),
         counters: link.counters(),
         bitrate: link.bitrate(),
+        homed: link.homed(),
         elapsed: Duration::from_nanos(now.nanos()),
         latency: None,
         grant: None,

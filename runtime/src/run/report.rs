@@ -31,6 +31,7 @@ pub(super) fn build_report(
             name: a.name,
             max_following_error: end.max_following_error[i],
             final_position: rec.last.map_or(0.0, |s| s.act[i]),
+            homed: a.homing.is_some().then_some(end.homed[i]),
         })
         .collect();
     let (ok, error, stop) = match end.outcome.clone() {
