@@ -416,7 +416,7 @@ pub struct PdoSpec<'a> {
 
 impl PdoSpec<'_> {
     /// `RPDO1` … `TPDO4`, for messages.
-    fn name(&self) -> String {
+    pub(crate) fn name(&self) -> String {
         match self.comm {
             c @ 0x1400..=0x15FF => format!("RPDO{}", c - 0x1400 + 1),
             c => format!("TPDO{}", c.wrapping_sub(0x1800) + 1),
@@ -439,6 +439,26 @@ pub enum MapPdoError {
         /// What is missing or in the way.
         problem: String,
     },
+}
+
+impl MapPdoError {
+    /// The boot error of axis `axis` on `node`.
+    pub(crate) fn into_boot_error(self, axis: char, node: NodeId) -> BootError {
+        match self {
+            MapPdoError::Sdo(e) => BootError::Sdo(e),
+            MapPdoError::Fixed {
+                pdo,
+                found,
+                problem,
+            } => BootError::FixedMapping {
+                axis,
+                node: node.get(),
+                pdo,
+                found,
+                problem,
+            },
+        }
+    }
 }
 
 impl From<SdoError> for MapPdoError {
@@ -805,20 +825,8 @@ fn configure<B: TimedBus + ?Sized>(
     let serial = optional(sdo.read_u32(n, obj::IDENTITY, 4))?;
     let name = optional(sdo.read_string(n, obj::DEVICE_NAME, 0))?;
 
-    let pdos = map_cyclic_pdos(sdo, n, d.pdo_layout, d.refresh_ms).map_err(|e| match e {
-        MapPdoError::Sdo(e) => BootError::Sdo(e),
-        MapPdoError::Fixed {
-            pdo,
-            found,
-            problem,
-        } => BootError::FixedMapping {
-            axis: d.axis,
-            node: n.get(),
-            pdo,
-            found,
-            problem,
-        },
-    })?;
+    let pdos = map_cyclic_pdos(sdo, n, d.pdo_layout, d.refresh_ms)
+        .map_err(|e| e.into_boot_error(d.axis, n))?;
     write_cyclic_parameters(sdo, d)?;
     let (supervises_master, abort_connection_quick_stop) = supervise_master(sdo, d)?;
     commission(sdo, d)?;
@@ -1074,7 +1082,8 @@ impl Master {
         let reference = self.axes[i].reference;
         self.with_sdo(bus, |sdo| {
             super::homing::write_at_boot(sdo, node, &reference)
-        })?;
+        })
+        .map_err(|e| e.into_boot_error(setup.axis, node))?;
         bus.send(
             &NmtRepr {
                 command: NmtCommand::Start,

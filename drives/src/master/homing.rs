@@ -48,7 +48,7 @@ pub(crate) fn write_at_boot<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
     node: NodeId,
     r: &ReferenceSetup,
-) -> Result<(), SdoError> {
+) -> Result<(), super::boot::MapPdoError> {
     if r.polarity_inverted {
         sdo.write_u8(node, obj::POLARITY, 0, obj::POLARITY_INVERTED)?;
     }

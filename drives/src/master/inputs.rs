@@ -7,8 +7,8 @@
 
 use cia402::objects as obj;
 
-use super::boot::{EVENT_DRIVEN, PdoSpec, map_pdo};
-use super::sdo::{BlockingSdo, SdoError};
+use super::boot::{EVENT_DRIVEN, MapPdoError, PdoSpec, map_pdo};
+use super::sdo::BlockingSdo;
 use super::stop::StopReason;
 use super::{Master, TimedBus};
 use crate::wire::{MappingEntry, NodeId, PdoDirection, PdoLayout, PdoObject};
@@ -28,25 +28,31 @@ pub const INPUTS_LAYOUT: PdoLayout = match PdoLayout::new(PdoDirection::Tpdo, &I
 const INPUTS_INHIBIT_100US: u16 = 100;
 
 /// Maps TPDO3 = 0x60FD, event-driven, with the inhibit time above and `refresh_ms` as its
-/// event timer (boot, before NMT start).
+/// event timer (boot, before NMT start). A drive whose TPDO3 mapping is fixed is accepted
+/// only when it carries 0x60FD alone: the monitor reads the frame by this layout.
 pub(crate) fn map_inputs_tpdo<B: TimedBus + ?Sized>(
     sdo: &mut BlockingSdo<'_, B>,
     node: NodeId,
     refresh_ms: u16,
-) -> Result<(), SdoError> {
+) -> Result<(), MapPdoError> {
     let p = u16::from(INPUTS_TPDO - 1);
-    map_pdo(
-        sdo,
-        node,
-        &PdoSpec {
-            comm: obj::TPDO_COMMUNICATION + p,
-            mapping: obj::TPDO_MAPPING + p,
-            cob_id: 0x180 + 0x100 * p + u16::from(node.get()),
-            layout: &INPUTS_LAYOUT,
-            transmission_type: EVENT_DRIVEN,
-            event_timing: Some((INPUTS_INHIBIT_100US, refresh_ms.max(1))),
-        },
-    )
+    let spec = PdoSpec {
+        comm: obj::TPDO_COMMUNICATION + p,
+        mapping: obj::TPDO_MAPPING + p,
+        cob_id: 0x180 + 0x100 * p + u16::from(node.get()),
+        layout: &INPUTS_LAYOUT,
+        transmission_type: EVENT_DRIVEN,
+        event_timing: Some((INPUTS_INHIBIT_100US, refresh_ms.max(1))),
+    };
+    let layout = map_pdo(sdo, node, &spec)?;
+    if layout != INPUTS_LAYOUT {
+        return Err(MapPdoError::Fixed {
+            pdo: spec.name(),
+            found: layout.entries().collect(),
+            problem: "the inputs PDO must carry 0x60FD alone (its mapping is fixed)".into(),
+        });
+    }
+    Ok(())
 }
 
 /// 0x60FD from a TPDO3, if its length is the layout's.
