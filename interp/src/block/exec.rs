@@ -56,7 +56,7 @@ pub(crate) struct Exec<'a> {
     /// The dialect the program is read in (where controls differ).
     pub dialect: Dialect,
     pub st: &'a mut ModalState,
-    pub w: Words,
+    pub w: &'a mut Words,
     pub source: Source,
     pub line_span: Span,
     /// The canonical operations the block makes, in order.
@@ -162,7 +162,7 @@ impl Exec<'_> {
         opts: &Options,
         (src, dialect): (&SourceFile, Dialect),
         (st, canon): (&mut ModalState, &mut Option<Arc<CanonState>>),
-        w: Words,
+        w: &mut Words,
         line: &Line,
     ) -> Result<(Vec<CanonOp>, bool), NcError> {
         let mut ex = Exec {

@@ -518,7 +518,7 @@ impl Interpreter {
         }
         let from = self.m.state.pos;
         let sets_g92 = linuxcnc && words.g.iter().any(|g| g.0 == 92);
-        let (out, end) = self.m.execute(&unit.src, words, line)?;
+        let (out, end) = self.m.execute(&unit.src, &mut words, line)?;
         if sets_g92 {
             self.flow.g92_kept = self.m.state.shift;
         }
