@@ -305,8 +305,12 @@ fn dump(
     let io = |e: std::io::Error| CliError::Io(e.to_string());
     // An endless program with motion never ends: print what `run`'s dry run checks.
     let mut printed = 0;
+    // Lines are gathered in one buffer and written in large pieces.
+    let mut text = String::with_capacity(1 << 16);
+    let mut writer = cnc402_interp::dump::SegmentWriter::default();
     loop {
         if printed == cnc402_runtime::feeder::DRY_RUN_MOVES {
+            out.write_all(text.as_bytes()).map_err(io)?;
             out.flush().map_err(io)?;
             eprintln!(
                 "note: printed the first {printed} lines, as many as `cnc402 run` checks before \
@@ -315,18 +319,32 @@ fn dump(
             return Ok(());
         }
         printed += 1;
-        let line = match what {
+        let next = match what {
             Dump::Segments => interp
                 .next_segment()
-                .map_err(CliError::Program)?
-                .map(|s| cnc402_interp::dump::segment_to_json(&s, cfg)),
-            Dump::Canon => interp
-                .next_canon()
-                .map_err(CliError::Program)?
-                .map(|op| cnc402_interp::dump::canon::canon_to_json(&op, cfg)),
+                .map(|s| s.map(|s| writer.write_line(&mut text, &s, cfg))),
+            Dump::Canon => interp.next_canon().map(|op| {
+                op.map(|op| {
+                    text.push_str(&cnc402_interp::dump::canon::canon_to_json(&op, cfg));
+                    text.push('\n');
+                })
+            }),
         };
-        let Some(line) = line else { break };
-        writeln!(out, "{line}").map_err(io)?;
+        let more = match next {
+            Ok(more) => more,
+            Err(e) => {
+                // What came before the error is printed, as it always was.
+                out.write_all(text.as_bytes()).map_err(io)?;
+                return Err(CliError::Program(e));
+            }
+        };
+        if more.is_none() || text.len() >= (1 << 16) - 1024 {
+            out.write_all(text.as_bytes()).map_err(io)?;
+            text.clear();
+        }
+        if more.is_none() {
+            break;
+        }
     }
     out.flush().map_err(io)?;
     if let Some(line) = interp.main_m99_line() {

@@ -23,7 +23,8 @@ use crate::ast::Span;
 pub struct SourceFile {
     pub name: Arc<str>,
     pub text: Arc<str>,
-    /// Byte offset of the start of every line; `line_starts[0] == 0`.
+    /// Byte offset of the start of every line; `line_starts[0] == 0`. Empty for a text of
+    /// one line (read through [`Self::line_starts`]).
     line_starts: Vec<u32>,
     /// The program's line number of the text's first line: 1 for a whole program, more for
     /// a window of a program read line by line ([`SourceFile::window`]).
@@ -35,14 +36,18 @@ impl SourceFile {
     pub fn new(name: impl Into<Arc<str>>, text: impl Into<Arc<str>>) -> Self {
         let name = name.into();
         let text: Arc<str> = text.into();
-        let mut line_starts = Vec::with_capacity(text.len() / 16 + 1);
-        line_starts.push(0);
-        line_starts.extend(
-            text.bytes()
-                .enumerate()
-                .filter(|&(_, b)| b == b'\n')
-                .map(|(i, _)| (i + 1) as u32),
-        );
+        // One line (a window of a program read line by line): no table, see `line_starts`.
+        let mut line_starts = Vec::new();
+        if text.contains('\n') {
+            line_starts.reserve(text.len() / 16 + 1);
+            line_starts.push(0);
+            line_starts.extend(
+                text.bytes()
+                    .enumerate()
+                    .filter(|&(_, b)| b == b'\n')
+                    .map(|(i, _)| (i + 1) as u32),
+            );
+        }
         SourceFile {
             name,
             text,
@@ -101,14 +106,18 @@ impl SourceFile {
 
     /// Byte offsets of line starts (crate-internal, for the parser's line numbers).
     pub(crate) fn line_starts(&self) -> &[u32] {
+        // A text without a line break starts one line, at 0 (no table is kept for it).
+        if self.line_starts.is_empty() {
+            return &[0];
+        }
         &self.line_starts
     }
 
     /// Number of lines (a final line without a terminator counts; a trailing `\n` does not
     /// start a new one).
     pub fn line_count(&self) -> u32 {
-        let n = self.line_starts.len();
-        if n > 1 && self.line_starts[n - 1] as usize == self.text.len() {
+        let n = self.line_starts().len();
+        if n > 1 && self.line_starts()[n - 1] as usize == self.text.len() {
             (n - 1) as u32
         } else {
             n as u32
@@ -120,11 +129,11 @@ impl SourceFile {
     /// counts as that character.
     pub fn line_col(&self, byte_offset: usize) -> (u32, u32) {
         let off = byte_offset.min(self.text.len());
-        let idx = match self.line_starts.binary_search(&(off as u32)) {
+        let idx = match self.line_starts().binary_search(&(off as u32)) {
             Ok(i) => i,
             Err(i) => i - 1, // i >= 1 because line_starts[0] == 0 <= off
         };
-        let start = self.line_starts[idx] as usize;
+        let start = self.line_starts()[idx] as usize;
         let mut end = off;
         while !self.text.is_char_boundary(end) {
             end -= 1;
@@ -139,12 +148,12 @@ impl SourceFile {
         let Some(i) = (line as usize).checked_sub(self.first_line as usize) else {
             return "";
         };
-        let Some(&start) = self.line_starts.get(i) else {
+        let Some(&start) = self.line_starts().get(i) else {
             return "";
         };
         let start = start as usize;
         let end = self
-            .line_starts
+            .line_starts()
             .get(i + 1)
             .map_or(self.text.len(), |&e| e as usize - 1);
         let s = &self.text[start..end];
@@ -156,7 +165,7 @@ impl SourceFile {
         let Some(i) = (line as usize).checked_sub(self.first_line as usize) else {
             return Span::new(0, 0);
         };
-        match self.line_starts.get(i) {
+        match self.line_starts().get(i) {
             Some(&start) => {
                 let start = start as usize;
                 Span::new(start, start + self.line_text(line).len())

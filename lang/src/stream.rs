@@ -86,10 +86,30 @@ impl LineReader {
     fn fill(&mut self) -> Result<bool, NcError> {
         self.buf.clear();
         let line_no = self.next.index.saturating_add(1);
-        let input: &mut dyn ProgramRead = &mut *self.input;
-        let n = io::Read::take(input, MAX_LINE_BYTES as u64 + 1)
-            .read_until(b'\n', &mut self.buf)
-            .map_err(|e| self.io_error(line_no, &e))?;
+        // Most lines lie whole in the reader's buffer: take them from there in one piece.
+        let whole_line = match self.input.fill_buf() {
+            Ok(avail) => {
+                // As the general path reads: at most MAX_LINE_BYTES and the `\n`.
+                let head = &avail[..avail.len().min(MAX_LINE_BYTES + 1)];
+                head.iter().position(|&b| b == b'\n').map(|p| {
+                    self.buf.extend_from_slice(&head[..=p]);
+                    p + 1
+                })
+            }
+            Err(_) => None,
+        };
+        let n = match whole_line {
+            Some(n) => {
+                self.input.consume(n);
+                n
+            }
+            None => {
+                let input: &mut dyn ProgramRead = &mut *self.input;
+                io::Read::take(input, MAX_LINE_BYTES as u64 + 1)
+                    .read_until(b'\n', &mut self.buf)
+                    .map_err(|e| self.io_error(line_no, &e))?
+            }
+        };
         if n == 0 {
             return Ok(false);
         }
@@ -119,50 +139,67 @@ impl LineReader {
         self.fill()
     }
 
-    /// The next line, as a window of the program.
+    /// The next line, as a window of the program (a Heidenhain program's line as the ISO
+    /// block it translates to).
     pub fn read(&mut self) -> Result<ReadLine, NcError> {
-        let at = self.next;
-        if !self.fill()? {
+        let Some(at) = self.read_raw()? else {
             return Ok(ReadLine::End);
-        }
-        let mut body: &[u8] = &self.buf;
-        body = body.strip_suffix(b"\n").unwrap_or(body);
-        body = body.strip_suffix(b"\r").unwrap_or(body);
-        let text: Arc<str> = match std::str::from_utf8(body) {
-            Ok(t) => t.into(),
-            Err(_) => body
-                .iter()
-                .map(|&b| char::from(b))
-                .collect::<String>()
-                .into(),
         };
-        let line_no = u32::try_from(at.index + 1).unwrap_or(u32::MAX);
-        let text = self.heidenhain_line(at.index, text, line_no)?;
-        Ok(ReadLine::Text(
-            SourceFile::window(self.name.clone(), text, line_no),
-            at,
-        ))
+        Ok(ReadLine::Text(self.current_window(at)?, at))
     }
 
-    /// A Heidenhain program's line as the ISO block it translates to (the first line decides
-    /// whether the program is one: [`crate::heidenhain::is_heidenhain`]).
-    fn heidenhain_line(
-        &mut self,
-        index: usize,
-        text: Arc<str>,
-        line_no: u32,
-    ) -> Result<Arc<str>, NcError> {
-        if index == 0 {
-            self.heidenhain =
-                crate::heidenhain::is_heidenhain(&self.name, &text).then(Box::default);
+    /// Reads the next line without making a window of it (its bytes are [`Self::body`]);
+    /// `None` at the end of the file. For passes that look at most lines only briefly; they
+    /// must take [`Self::current_window`] instead of the bytes when [`Self::translates`].
+    pub fn read_raw(&mut self) -> Result<Option<LinePos>, NcError> {
+        let at = self.next;
+        if !self.fill()? {
+            return Ok(None);
         }
+        if at.index == 0 {
+            // The first line decides whether the program is a Heidenhain one.
+            let first = String::from_utf8_lossy(self.body());
+            self.heidenhain =
+                crate::heidenhain::is_heidenhain(&self.name, &first).then(Box::default);
+        }
+        Ok(Some(at))
+    }
+
+    /// Whether the lines read are translated (a Heidenhain program): their bytes are not
+    /// what the interpreter reads.
+    pub fn translates(&self) -> bool {
+        self.heidenhain.is_some()
+    }
+
+    /// The bytes of the line last read, without its `\n` (or `\r\n`).
+    pub fn body(&self) -> &[u8] {
+        let body: &[u8] = &self.buf;
+        let body = body.strip_suffix(b"\n").unwrap_or(body);
+        body.strip_suffix(b"\r").unwrap_or(body)
+    }
+
+    /// The line last read (it started at `at`) as a window of the program, untranslated.
+    pub fn window(&self, at: LinePos) -> SourceFile {
+        line_window(self.name.clone(), self.body(), at)
+    }
+
+    /// The line last read (it started at `at`) as the interpreter reads it: translated to
+    /// ISO in a Heidenhain program ([`crate::heidenhain::is_heidenhain`]), else its window.
+    pub fn current_window(&mut self, at: LinePos) -> Result<SourceFile, NcError> {
+        let window = line_window(self.name.clone(), self.body(), at);
         let Some(t) = &mut self.heidenhain else {
-            return Ok(text);
+            return Ok(window);
         };
-        t.line(index, &text).map(Arc::from).map_err(|m| {
-            let window = SourceFile::window(self.name.clone(), text.clone(), line_no);
-            NcError::new(&window, crate::ast::Span::new(0, text.len()), m)
-        })
+        let line_no = window.first_line();
+        let text = window.line_text(line_no);
+        match t.line(at.index, text) {
+            Ok(iso) => Ok(SourceFile::window(self.name.clone(), iso, line_no)),
+            Err(m) => Err(NcError::new(
+                &window,
+                crate::ast::Span::new(0, text.len()),
+                m,
+            )),
+        }
     }
 
     /// The head of the program (its first [`crate::HEADER_LINES`] lines) as one text, for the
@@ -217,6 +254,38 @@ impl LineReader {
     }
 }
 
+/// The window of a line read from `name` (its bytes without the terminator, starting at
+/// `at`): UTF-8 where valid, else Latin-1 (see [`LineReader`]).
+pub fn line_window(name: Arc<str>, body: &[u8], at: LinePos) -> SourceFile {
+    let text: Arc<str> = match std::str::from_utf8(body) {
+        Ok(t) => t.into(),
+        Err(_) => body
+            .iter()
+            .map(|&b| char::from(b))
+            .collect::<String>()
+            .into(),
+    };
+    let line_no = u32::try_from(at.index + 1).unwrap_or(u32::MAX);
+    SourceFile::window(name, text, line_no)
+}
+
+/// Whether `text` (one line as read) is a plain block — an optional `N` number and words
+/// of an address letter and a literal number, nothing else — and so no flow line, no
+/// statement and no error; `Some(true)` when it holds a word or an `N` number, `Some(false)`
+/// when it is empty. `None`: it may be anything, [`parse_line`] tells.
+///
+/// ```
+/// use cnc402_lang::stream::plain_block;
+/// assert_eq!(plain_block("N10 G1 X1.5 Y-2"), Some(true));
+/// assert_eq!(plain_block("  "), Some(false));
+/// assert_eq!(plain_block("G1 X1 (cut)"), None);
+/// assert_eq!(plain_block("WHILE[#1LT3]DO1"), None);
+/// ```
+pub fn plain_block(text: &str) -> Option<bool> {
+    let (n, words) = crate::parse::simple::scan(text, |_| {})?;
+    Some(n.is_some() || words > 0)
+}
+
 /// Whether a line (as read) is a statement of the C-like language: a program with one is
 /// parsed whole ([`crate::parse_in`] decides how it reads), never line by line.
 pub fn is_statement_line(text: &str) -> bool {
@@ -234,6 +303,13 @@ pub fn is_statement_line(text: &str) -> bool {
 /// assert_eq!((e.line, e.col), (9, 4));
 /// ```
 pub fn parse_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcError> {
+    // Most lines of a long program are plain blocks: read those without the general parser.
+    let text: &str = &window.text;
+    if !text.contains('\n')
+        && let Some(line) = crate::parse::simple::line(text, window.first_line())
+    {
+        return Ok(line);
+    }
     let Program { mut lines, .. } = crate::parse::parse_gcode(window, dialect)?;
     match lines.pop() {
         Some(l) if lines.is_empty() => Ok(l),

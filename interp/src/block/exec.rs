@@ -56,7 +56,7 @@ pub(crate) struct Exec<'a> {
     /// The dialect the program is read in (where controls differ).
     pub dialect: Dialect,
     pub st: &'a mut ModalState,
-    pub w: Words,
+    pub w: &'a mut Words,
     pub source: Source,
     pub line_span: Span,
     /// The canonical operations the block makes, in order.
@@ -162,7 +162,7 @@ impl Exec<'_> {
         opts: &Options,
         (src, dialect): (&SourceFile, Dialect),
         (st, canon): (&mut ModalState, &mut Option<Arc<CanonState>>),
-        w: Words,
+        w: &mut Words,
         line: &Line,
     ) -> Result<(Vec<CanonOp>, bool), NcError> {
         let mut ex = Exec {
@@ -253,11 +253,12 @@ impl Exec<'_> {
     /// The words to blame and what overflowed, for the first non-finite number of the
     /// block's operations or of the modal state it leaves.
     fn first_non_finite(&self) -> Option<(Vec<char>, String)> {
-        let names: Vec<char> = self.cfg.axes.iter().map(|a| a.name).collect();
+        // Looked up by index, not gathered: this runs for every block.
+        let axes = &self.cfg.axes;
         let bad_axis = |p: &AxisPos| {
-            (0..names.len())
+            (0..axes.len())
                 .find(|&i| !p.0[i].is_finite())
-                .map(|i| (vec![names[i]], names[i].to_string()))
+                .map(|i| (vec![axes[i].name], axes[i].name.to_string()))
         };
         let bad = |ok: bool, letters: &[char], what: &str| {
             (!ok).then(|| (letters.to_vec(), what.to_string()))
@@ -296,7 +297,7 @@ impl Exec<'_> {
                     _ => None,
                 },
                 CanonKind::CannedCycle(cc) => {
-                    let [ia, ib, id] = cc.axes.map(|i| names.get(i).copied().unwrap_or('Z'));
+                    let [ia, ib, id] = cc.axes.map(|i| axes.get(i).map_or('Z', |a| a.name));
                     let levels = [cc.initial_level, cc.r_level, cc.bottom, cc.return_level];
                     bad_axis(&cc.start)
                         .or_else(|| {

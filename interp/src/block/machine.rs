@@ -70,7 +70,7 @@ impl Machine {
     pub(crate) fn execute(
         &mut self,
         src: &SourceFile,
-        words: Words,
+        words: &mut Words,
         line: &Line,
     ) -> Result<(Vec<CanonOp>, bool), NcError> {
         Exec::execute(

@@ -81,25 +81,55 @@ pub fn write_num(o: &mut String, v: f64) {
         o.push('0');
         return;
     }
-    // |k| < 1e15 < 2^63: exact as an integer.
-    let k = k as i64;
-    if k < 0 {
-        o.push('-');
-    }
-    let k = k.unsigned_abs();
+    // |k| < 1e15 < 2^63: exact as an integer. The text is built right to left in one buffer
+    // (fraction without its trailing zeros, point, whole part, sign) and pushed once.
+    let neg = k < 0.0;
+    let k = (k as i64).unsigned_abs();
     let (whole, frac) = (k / 1_000_000, k % 1_000_000);
-    push_u64(o, whole);
+    let mut buf = [0u8; 32];
+    let mut at = buf.len();
     if frac != 0 {
-        let mut digits = [b'0'; 6];
         let mut f = frac;
-        for d in digits.iter_mut().rev() {
-            *d = b'0' + (f % 10) as u8;
+        let mut zeros = true;
+        for _ in 0..6 {
+            let d = (f % 10) as u8;
             f /= 10;
+            if zeros && d == 0 {
+                continue;
+            }
+            zeros = false;
+            at -= 1;
+            buf[at] = b'0' + d;
         }
-        let len = 6 - digits.iter().rev().take_while(|&&d| d == b'0').count();
-        o.push('.');
-        // ASCII digits only.
-        o.push_str(std::str::from_utf8(&digits[..len]).unwrap_or("0"));
+        at -= 1;
+        buf[at] = b'.';
+    }
+    at = digits_before(&mut buf, at, whole);
+    if neg {
+        at -= 1;
+        buf[at] = b'-';
+    }
+    push_ascii(o, &buf[at..]);
+}
+
+/// Writes `v`'s decimal digits into `buf` ending before `at`; returns where they start.
+fn digits_before(buf: &mut [u8; 32], mut at: usize, mut v: u64) -> usize {
+    loop {
+        at -= 1;
+        buf[at] = b'0' + (v % 10) as u8;
+        v /= 10;
+        if v == 0 {
+            return at;
+        }
+    }
+}
+
+/// Appends ASCII bytes (digits, sign, point) to `o`.
+fn push_ascii(o: &mut String, bytes: &[u8]) {
+    // A few bytes, each a char: cheaper than validating them as UTF-8 for `push_str`.
+    o.reserve(bytes.len());
+    for &b in bytes {
+        o.push(char::from(b));
     }
 }
 
@@ -112,19 +142,10 @@ pub fn json_str(s: &str) -> String {
 }
 
 /// `v`'s decimal digits written onto `o` (what `{v}` prints, without the formatter).
-fn push_u64(o: &mut String, mut v: u64) {
-    let mut digits = [0u8; 20];
-    let mut at = digits.len();
-    loop {
-        at -= 1;
-        digits[at] = b'0' + (v % 10) as u8;
-        v /= 10;
-        if v == 0 {
-            break;
-        }
-    }
-    // ASCII digits only.
-    o.push_str(std::str::from_utf8(&digits[at..]).unwrap_or("0"));
+fn push_u64(o: &mut String, v: u64) {
+    let mut buf = [0u8; 32];
+    let at = digits_before(&mut buf, 32, v);
+    push_ascii(o, &buf[at..]);
 }
 
 /// [`json_str`] written onto `o`.
@@ -182,12 +203,26 @@ pub fn kind_name(kind: &SegmentKind) -> &'static str {
 
 /// `{"<key>":"<name>","file":…,"line":…,"n":…` (the object stays open).
 pub(crate) fn source_keys(o: &mut String, key: &str, name: &str, source: &Source) {
+    source_keys_with(o, key, name, source, None);
+}
+
+/// [`source_keys`] with the file name already escaped (`file_json`, when known).
+fn source_keys_with(
+    o: &mut String,
+    key: &str,
+    name: &str,
+    source: &Source,
+    file_json: Option<&str>,
+) {
     o.push_str("{\"");
     o.push_str(key);
     o.push_str("\":\"");
     o.push_str(name);
     o.push_str("\",\"file\":");
-    write_json_str(o, &source.file);
+    match file_json {
+        Some(f) => o.push_str(f),
+        None => write_json_str(o, &source.file),
+    }
     o.push_str(",\"line\":");
     push_u64(o, u64::from(source.line));
     o.push_str(",\"n\":");
@@ -308,8 +343,14 @@ pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig)
 /// ```
 pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
     let mut o = String::with_capacity(160);
-    source_keys(&mut o, "kind", kind_name(&seg.kind), &seg.source);
-    kind_keys(&mut o, &seg.kind, cfg);
+    write_segment(&mut o, seg, cfg, None);
+    o
+}
+
+/// [`segment_to_json`] appended to `o`; `file_json`: the source file's name already escaped.
+fn write_segment(o: &mut String, seg: &Segment, cfg: &MachineConfig, file_json: Option<&str>) {
+    source_keys_with(o, "kind", kind_name(&seg.kind), &seg.source, file_json);
+    kind_keys(o, &seg.kind, cfg);
     match seg.ends {
         SegmentEnd::ExactStop => o.push_str(",\"ends\":\"exact_stop\""),
         SegmentEnd::Continuous {
@@ -317,15 +358,58 @@ pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
             collinear,
         } => {
             o.push_str(",\"ends\":\"continuous\",\"tolerance\":");
-            write_num(&mut o, tolerance);
+            write_num(o, tolerance);
             if collinear > 0.0 {
                 o.push_str(",\"collinear\":");
-                write_num(&mut o, collinear);
+                write_num(o, collinear);
             }
         }
     }
     o.push('}');
-    o
+}
+
+/// Writes segments as JSON Lines, as [`segment_to_json`] does, for a long dump: it remembers
+/// the last source file's escaped name (a program's segments share it), so each line costs
+/// no allocation and no second pass over the name.
+///
+/// ```
+/// use cnc402_config::MachineConfig;
+/// use cnc402_interp::dump::{SegmentWriter, segment_to_json};
+/// use cnc402_motion::segment::{Segment, SegmentEnd, SegmentKind, Source};
+/// let cfg = MachineConfig::default_machine();
+/// let seg = Segment {
+///     kind: SegmentKind::Dwell { seconds: 0.5 },
+///     source: Source { file: "a \"b\".nc".into(), line: 3, n: None },
+///     ends: SegmentEnd::ExactStop,
+/// };
+/// let mut o = String::new();
+/// let mut w = SegmentWriter::default();
+/// w.write_line(&mut o, &seg, &cfg);
+/// w.write_line(&mut o, &seg, &cfg);
+/// let one = segment_to_json(&seg, &cfg) + "\n";
+/// assert_eq!(o, one.repeat(2));
+/// ```
+#[derive(Default)]
+pub struct SegmentWriter {
+    /// The last source file and its name as a JSON string literal.
+    file: Option<(std::sync::Arc<str>, String)>,
+}
+
+impl SegmentWriter {
+    /// Appends `seg` as one JSON line (with its `\n`) to `o`.
+    pub fn write_line(&mut self, o: &mut String, seg: &Segment, cfg: &MachineConfig) {
+        let file = &seg.source.file;
+        let cached = self
+            .file
+            .as_ref()
+            .is_some_and(|(f, _)| std::sync::Arc::ptr_eq(f, file) || **f == **file);
+        if !cached {
+            self.file = Some((file.clone(), json_str(file)));
+        }
+        let file_json = self.file.as_ref().map(|(_, j)| j.as_str());
+        write_segment(o, seg, cfg, file_json);
+        o.push('\n');
+    }
 }
 
 /// Every segment as JSON Lines (each line ends in `\n`).

@@ -85,6 +85,8 @@ struct Flow {
     /// Segments of the last operation not given out yet, each with the state of the
     /// operation it was lowered from (its work → machine offset).
     lowered: VecDeque<(Segment, Arc<CanonState>)>,
+    /// Where one compensated operation is lowered into (kept: no allocation per block).
+    lower_buf: Vec<Segment>,
     /// Cutter radius compensation between the canonical operations and lowering.
     comp: comp::Stage,
     /// The machine indices of X, Y and Z (arc centres), for lowering.
@@ -147,6 +149,7 @@ impl Interpreter {
                 last_n: None,
                 queue: VecDeque::new(),
                 lowered: VecDeque::new(),
+                lower_buf: Vec::new(),
                 comp: comp::Stage::new(cfg.interp.cutter_comp, xyz_indices(cfg)),
                 xyz: xyz_indices(cfg),
                 done: true,
@@ -372,7 +375,7 @@ impl Interpreter {
             return Err(self.comp_error(e));
         }
         let before = self.flow.lowered.len();
-        let mut segments = Vec::new();
+        let mut segments = std::mem::take(&mut self.flow.lower_buf);
         while let Some(c) = self.flow.comp.pop() {
             lower::lower(&c, self.flow.xyz, &mut segments);
             let state = &c.state;
@@ -380,6 +383,7 @@ impl Interpreter {
                 .lowered
                 .extend(segments.drain(..).map(|s| (s, state.clone())));
         }
+        self.flow.lower_buf = segments;
         for (s, _) in self.flow.lowered.range(before..) {
             self.m.account(s);
         }
@@ -514,7 +518,7 @@ impl Interpreter {
         }
         let from = self.m.state.pos;
         let sets_g92 = linuxcnc && words.g.iter().any(|g| g.0 == 92);
-        let (out, end) = self.m.execute(&unit.src, words, line)?;
+        let (out, end) = self.m.execute(&unit.src, &mut words, line)?;
         if sets_g92 {
             self.flow.g92_kept = self.m.state.shift;
         }

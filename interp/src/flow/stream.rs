@@ -11,7 +11,9 @@ use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 
 use cnc402_lang::ast::{LineKind, Program};
-use cnc402_lang::stream::{LinePos, LineReader, ReadLine, is_statement_line, parse_line};
+use cnc402_lang::stream::{
+    LinePos, LineReader, ReadLine, is_statement_line, line_window, parse_line, plain_block,
+};
 use cnc402_lang::{Dialect, NcError, SourceFile};
 
 use super::units::{Unit, UnitScan};
@@ -32,6 +34,8 @@ pub(crate) struct Stream {
     found: BTreeMap<usize, u64>,
     /// The window of the last line read for the flow (errors at the program's end).
     pub(crate) last: Arc<SourceFile>,
+    /// The last view given out, reused for the next line once nothing else holds it.
+    spare: Option<Arc<Unit>>,
 }
 
 /// What the load pass made of a file.
@@ -61,19 +65,43 @@ pub(crate) fn load(
     let mut seen_o = false;
     let mut prefix_has_code = false;
     let name = reader.name().clone();
-    let mut last = SourceFile::window(name.clone(), "", 1);
-    while let ReadLine::Text(window, at) = reader.read()? {
-        let text = window.line_text(window.first_line());
-        if !linuxcnc && is_statement_line(text) {
-            return Ok(Loaded::CLike(reader.whole()?));
-        }
+    // The last line read (its bytes and where it started): its window is made once, at the
+    // end, as most lines are read without one.
+    let mut last: (Vec<u8>, LinePos) = (Vec::new(), LinePos::default());
+    while let Some(at) = reader.read_raw()? {
         let i = at.index;
-        // Once the prefix question is settled, a checked line with none of the letters of
-        // `O`, `WHILE`, `END`, an O-word, `:` or `%` is a plain block: nothing to index.
-        if checked && (seen_o || prefix_has_code) && !may_be_flow(text) {
+        last.0.clear();
+        last.0.extend_from_slice(reader.body());
+        last.1 = at;
+        let raw = if reader.translates() {
+            Err(())
+        } else {
+            std::str::from_utf8(reader.body()).map_err(|_| ())
+        };
+        let plain = match raw {
+            Ok(text) => {
+                if !linuxcnc && is_statement_line(text) {
+                    return Ok(Loaded::CLike(reader.whole()?));
+                }
+                // Once the prefix question is settled, a checked line with none of the
+                // letters of `O`, `WHILE`, `END`, an O-word, `:` or `%` is a plain block.
+                if checked && (seen_o || prefix_has_code) && !may_be_flow(text) {
+                    Some(true)
+                } else {
+                    plain_block(text)
+                }
+            }
+            Err(_) => None,
+        };
+        if let Some(has_code) = plain {
+            // What `scan.line` and the match below make of a plain block, without its Line.
+            prefix_has_code |= has_code && !seen_o;
             scan.plain_line(i);
-            last = window;
             continue;
+        }
+        let window = reader.current_window(at)?;
+        if !linuxcnc && is_statement_line(window.line_text(window.first_line())) {
+            return Ok(Loaded::CLike(reader.whole()?));
         }
         let line = parse_line(&window, dialect)?;
         match line.kind {
@@ -93,7 +121,6 @@ pub(crate) fn load(
             _ => prefix_has_code |= !seen_o,
         }
         scan.line(i, &line);
-        last = window;
     }
     let n = reader.position().index;
     units.push((scan_start, scan));
@@ -125,7 +152,8 @@ pub(crate) fn load(
         anchors,
         labels: HashMap::new(),
         found: BTreeMap::new(),
-        last: Arc::new(last),
+        last: Arc::new(line_window(name, &last.0, last.1)),
+        spare: None,
     };
     Ok(Loaded::Streamed(stream, units))
 }
@@ -138,9 +166,17 @@ impl Stream {
             return Ok(None);
         };
         let line = parse_line(&window, self.dialect)?;
-        let view = unit.view(window, line, i);
-        self.last = view.src.clone();
-        Ok(Some(Arc::new(view)))
+        let window = Arc::new(window);
+        self.last = window.clone();
+        // The last view, once the interpreter has let go of it, takes this line in place.
+        let line = match self.spare.as_mut().and_then(Arc::get_mut) {
+            Some(v) => v.reuse_view(unit, &window, line, i).err(),
+            None => Some(line),
+        };
+        if let Some(line) = line {
+            self.spare = Some(Arc::new(unit.view_of(window, line, i)));
+        }
+        Ok(self.spare.clone())
     }
 
     /// Puts the reader at line `i`: from where it is when that is on the way, else from the

@@ -215,8 +215,13 @@ impl Unit {
 
     /// A view of this (streamed) unit holding line `i`, read into `src` as `line`.
     pub fn view(&self, src: SourceFile, line: Line, i: usize) -> Unit {
+        self.view_of(Arc::new(src), line, i)
+    }
+
+    /// [`Self::view`] of a window already shared.
+    pub(crate) fn view_of(&self, src: Arc<SourceFile>, line: Line, i: usize) -> Unit {
         Unit {
-            src: Arc::new(src),
+            src,
             program: Arc::new(Program {
                 lines: vec![line],
                 dialect: self.program.dialect,
@@ -228,6 +233,29 @@ impl Unit {
             ix: self.ix.clone(),
             streamed: self.streamed,
         }
+    }
+
+    /// Makes this view (of a streamed unit, held nowhere else) a view of `unit`'s line `i`
+    /// in place, so a long program's blocks do not each allocate one; `false` when it
+    /// cannot (another unit's view, or its program is still held elsewhere): the line back.
+    pub(crate) fn reuse_view(
+        &mut self,
+        unit: &Unit,
+        src: &Arc<SourceFile>,
+        line: Line,
+        i: usize,
+    ) -> Result<(), Line> {
+        if !Arc::ptr_eq(&self.ix, &unit.ix) || (self.start, self.end) != (unit.start, unit.end) {
+            return Err(line);
+        }
+        let Some(program) = Arc::get_mut(&mut self.program) else {
+            return Err(line);
+        };
+        program.lines.clear();
+        program.lines.push(line);
+        self.src = src.clone();
+        self.base = i;
+        Ok(())
     }
 
     /// The same unit whatever view of it is at hand (for the runaway guard).

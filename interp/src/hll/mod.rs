@@ -345,7 +345,7 @@ impl Running {
         let LineKind::Block(b) = &line.kind else {
             return Ok(());
         };
-        let w = Words::collect(&src, b)?;
+        let mut w = Words::collect(&src, b)?;
         if let Some(g) = w.g.iter().find(|g| g.1 == GGroup::MacroCall) {
             return Err(NcError::new(
                 &src,
@@ -367,7 +367,7 @@ impl Running {
             ));
         }
         let from = it.state.pos;
-        let (out, end) = it.execute(&src, w, line)?;
+        let (out, end) = it.execute(&src, &mut w, line)?;
         self.count_idle(it, &out, &from, file, line.span)?;
         self.queue.extend(out);
         if end {

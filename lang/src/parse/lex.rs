@@ -54,6 +54,59 @@ fn close_paren(body: &str) -> Option<usize> {
     None
 }
 
+/// An unsigned literal's scan (see [`Cx::unsigned`]): shared with the plain-block fast
+/// path (`super::simple`) so that both read every number to the same bits.
+pub(crate) struct Unsigned {
+    /// Bytes taken: digits and at most one point.
+    pub len: usize,
+    /// Digits before and after the point (0: not a number).
+    pub digits: usize,
+    pub has_point: bool,
+    /// The value; `None` when there are no digits or the std parser refuses the text.
+    pub value: Option<f64>,
+}
+
+/// Scans `digits [. digits]` or `. digits` at the start of `i`.
+#[inline]
+pub(crate) fn scan_unsigned(i: &str) -> Unsigned {
+    let b = i.as_bytes();
+    let mut k = 0;
+    let mut int: u64 = 0;
+    while k < b.len() && b[k].is_ascii_digit() {
+        int = int.wrapping_mul(10).wrapping_add(u64::from(b[k] - b'0'));
+        k += 1;
+    }
+    let int_digits = k;
+    let mut has_point = false;
+    let mut frac_digits = 0;
+    if k < b.len() && b[k] == b'.' {
+        has_point = true;
+        k += 1;
+        while k < b.len() && b[k].is_ascii_digit() {
+            int = int.wrapping_mul(10).wrapping_add(u64::from(b[k] - b'0'));
+            k += 1;
+            frac_digits += 1;
+        }
+    }
+    let digits = int_digits + frac_digits;
+    // Up to 15 digits fit an f64 exactly, and so does 10^k for k <= 22: one IEEE division
+    // of two exact values is the correctly rounded result (Clinger's fast path). Longer
+    // numbers go through the std parser, also correctly rounded.
+    let value = if digits == 0 {
+        None
+    } else if digits <= 15 {
+        Some(int as f64 / POW10[frac_digits])
+    } else {
+        i[..k].parse::<f64>().ok()
+    };
+    Unsigned {
+        len: k,
+        digits,
+        has_point,
+        value,
+    }
+}
+
 impl<'a> Cx<'a> {
     /// Skips whitespace and comments, collecting the comments: `( … )` and `;` to the end of
     /// the line. Parentheses nest inside a comment (`(START(dòng) SPINDLE)` is one comment), as
@@ -145,27 +198,9 @@ impl<'a> Cx<'a> {
     /// An unsigned literal: `digits [. digits]` or `. digits`. Returns (rest, value,
     /// has_point). A recoverable error (nothing consumed) when `i` does not start a number.
     pub(crate) fn unsigned(&self, i: &'a str) -> PResult<'a, (f64, bool)> {
-        let b = i.as_bytes();
-        let mut k = 0;
-        let mut int: u64 = 0;
-        while k < b.len() && b[k].is_ascii_digit() {
-            int = int.wrapping_mul(10).wrapping_add(u64::from(b[k] - b'0'));
-            k += 1;
-        }
-        let int_digits = k;
-        let mut has_point = false;
-        let mut frac_digits = 0;
-        if k < b.len() && b[k] == b'.' {
-            has_point = true;
-            k += 1;
-            while k < b.len() && b[k].is_ascii_digit() {
-                int = int.wrapping_mul(10).wrapping_add(u64::from(b[k] - b'0'));
-                k += 1;
-                frac_digits += 1;
-            }
-        }
-        if int_digits + frac_digits == 0 {
-            if has_point {
+        let u = scan_unsigned(i);
+        if u.digits == 0 {
+            if u.has_point {
                 return fail_exp(i, 1, "a decimal point without digits", "a number");
             }
             return Err(nom::Err::Error(nom::error::ParseError::from_error_kind(
@@ -173,19 +208,10 @@ impl<'a> Cx<'a> {
                 nom::error::ErrorKind::Digit,
             )));
         }
-        let text = &i[..k];
-        // Up to 15 digits fit an f64 exactly, and so does 10^k for k <= 22: one IEEE division
-        // of two exact values is the correctly rounded result (Clinger's fast path). Longer
-        // numbers go through the std parser, also correctly rounded.
-        let value = if int_digits + frac_digits <= 15 {
-            int as f64 / POW10[frac_digits]
-        } else {
-            match text.parse::<f64>() {
-                Ok(v) => v,
-                Err(_) => return fail(i, k, "not a valid number"),
-            }
-        };
-        Ok((&i[k..], (value, has_point)))
+        match u.value {
+            Some(value) => Ok((&i[u.len..], (value, u.has_point))),
+            None => fail(i, u.len, "not a valid number"),
+        }
     }
 
     /// A whole number (for `N` and `O`): digits only, fitting a `u32`. `what` names it in

@@ -14,6 +14,7 @@ mod lcexpr;
 mod lex;
 mod line;
 mod oword;
+pub(crate) mod simple;
 
 use std::borrow::Cow;
 

@@ -1,0 +1,108 @@
+//! The fast path for the plain blocks CAM programs are made of (`N10 G1 X1.5 Y-2`): an
+//! optional `N` number, then address letters with literal numbers, separated by spaces or
+//! tabs. Such a line is read here without the general parser's machinery; anything else
+//! (comments, expressions, statements, flow, block delete, odd characters, errors) returns
+//! `None`, and the caller parses the line in full, which gives the same [`Line`] for lines
+//! read here (tests/fuzz compare the two).
+
+use super::lex::scan_unsigned;
+use crate::ast::{Block, Line, LineKind, Number, SeqNo, Span, Value, Word};
+
+/// Longest sequence number taken here (9 digits always fit a `u32`).
+const MAX_N_DIGITS: usize = 9;
+
+fn skip_ws(b: &[u8], mut k: usize) -> usize {
+    while k < b.len() && matches!(b[k], b' ' | b'\t') {
+        k += 1;
+    }
+    k
+}
+
+/// Reads `text` (one line, without its terminator) when it is a plain block, handing each
+/// word to `word` in order; returns the sequence number (if any) and the number of words.
+/// `None` when the line is anything else; then `word` may have seen some of its words.
+pub(crate) fn scan(text: &str, mut word: impl FnMut(Word)) -> Option<(Option<SeqNo>, usize)> {
+    let b = text.as_bytes();
+    let mut k = skip_ws(b, 0);
+    let mut n = None;
+    if matches!(b.get(k), Some(b'N' | b'n')) {
+        let start = k;
+        let d0 = skip_ws(b, k + 1);
+        let mut d = d0;
+        while d < b.len() && b[d].is_ascii_digit() {
+            d += 1;
+        }
+        if d == d0 || d - d0 > MAX_N_DIGITS || b.get(d) == Some(&b'.') {
+            return None;
+        }
+        let value = text[d0..d].parse::<u32>().ok()?;
+        n = Some(SeqNo {
+            value,
+            span: Span::new(start, d),
+        });
+        k = skip_ws(b, d);
+    }
+    let mut count = 0;
+    while k < b.len() {
+        let letter = b[k].to_ascii_uppercase();
+        // `N` and `O` inside a block, and two letters in a row (keywords: IF, WHILE, GOTO,
+        // END, DO), are the general parser's.
+        if !letter.is_ascii_uppercase() || matches!(letter, b'N' | b'O') {
+            return None;
+        }
+        let v = skip_ws(b, k + 1);
+        let (neg, digits_at) = match b.get(v) {
+            Some(b'-') => (true, v + 1),
+            Some(b'+') => (false, v + 1),
+            _ => (false, v),
+        };
+        if !matches!(b.get(digits_at), Some(b'0'..=b'9' | b'.')) {
+            return None;
+        }
+        let u = scan_unsigned(&text[digits_at..]);
+        let end = digits_at + u.len;
+        let value = u.value?;
+        // A second point, or a number running into anything but a space or the next
+        // letter, is an error (or an expression) for the general parser to describe.
+        match b.get(end) {
+            None | Some(b' ' | b'\t') => {}
+            Some(c) if c.is_ascii_alphabetic() => {}
+            _ => return None,
+        }
+        word(Word {
+            letter: char::from(letter),
+            value: Value::Number(Number {
+                value: if neg { -value } else { value },
+                has_point: u.has_point,
+                span: Span::new(v, end),
+            }),
+            span: Span::new(k, end),
+        });
+        count += 1;
+        k = skip_ws(b, end);
+    }
+    Some((n, count))
+}
+
+/// The [`Line`] of `text` (line `line_no`) when it is a plain block, as the general parser
+/// makes it.
+pub(crate) fn line(text: &str, line_no: u32) -> Option<Line> {
+    // One allocation, as the general parser makes: words are rarely shorter than 4 bytes.
+    let mut words = Vec::with_capacity((text.len() / 4 + 1).min(16));
+    let (n, count) = scan(text, |w| words.push(w))?;
+    Some(Line {
+        line_no,
+        span: Span::new(0, text.len()),
+        block_delete: false,
+        n,
+        kind: if count == 0 {
+            LineKind::Empty
+        } else {
+            LineKind::Block(Block {
+                words,
+                named_axes: Vec::new(),
+            })
+        },
+        comments: Vec::new(),
+    })
+}

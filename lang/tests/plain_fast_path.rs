@@ -1,0 +1,153 @@
+//! The plain-block fast path of [`parse_line`] (`parse::simple`) against the general parser:
+//! for every line the fast path takes, the same [`Line`] (words, values to the bit, spans,
+//! N number), in every dialect; and whatever it does not take is left to the general parser.
+
+use cnc402_lang::stream::{is_statement_line, parse_line, plain_block};
+use cnc402_lang::{Dialect, SourceFile, parse_in};
+use proptest::prelude::*;
+
+/// Parses `text` as line 7 both ways; panics when they differ.
+fn same(text: &str) {
+    if is_statement_line(text) {
+        return;
+    }
+    for dialect in [Dialect::Fanuc, Dialect::Haas, Dialect::LinuxCnc] {
+        let window = SourceFile::window("p.nc", text, 7);
+        let general = parse_in(&window, dialect).map(|mut p| p.lines.remove(0));
+        let fast = parse_line(&window, dialect);
+        match (&general, &fast) {
+            (Ok(g), Ok(f)) => assert_eq!(g, f, "{text:?} in {dialect:?}"),
+            (Err(g), Err(f)) => assert_eq!(g.to_string(), f.to_string(), "{text:?}"),
+            _ => panic!("{text:?} in {dialect:?}: {general:?} against {fast:?}"),
+        }
+        if plain_block(text).is_some() {
+            assert!(general.is_ok(), "{text:?}: taken as plain but {general:?}");
+        }
+    }
+}
+
+#[test]
+fn plain_blocks_read_as_the_general_parser_reads_them() {
+    for text in [
+        "",
+        "   ",
+        "G1 X10.0000 Y-0.0100",
+        "N10 G1 X1.5 Y-2",
+        "n 5 g0",
+        "N0010G90G54G0X1Y2",
+        "G01 X10 Y-2.5 Z.5 A+3 B1.",
+        "X-.5",
+        "x 10 y\t-2",
+        "X1E2",
+        "G38.2 Z-5",
+        "X1234567890.123456789",
+        "X0.1234567890123456",
+        "N4294967295 G0",
+        "N4294967296 G0",
+        "N123456789 G0",
+        "N1.5 G0",
+        "X1.2.3",
+        "X1 0",
+        "G1 X",
+        "X - 5",
+        "G1 N5",
+        "GOTO 5",
+        "GO10",
+        "EN1",
+        "END 1",
+        "IF[#1EQ1]GOTO5",
+        "WH[#1LT3]DO1",
+        "DO1",
+        "O100",
+        "o100 sub",
+        "X-#1",
+        "X[1+2]",
+        "F=100*2",
+        "G1 X1 (cut)",
+        "G1 X1 ;cut",
+        "/G1 X1",
+        "G1 X1\r",
+        "G1 Ä2",
+        "@5 ^90",
+        "G1X1Y2Z3",
+        "G1 X+.5",
+        "G1 X.",
+        "%",
+    ] {
+        same(text);
+    }
+}
+
+/// Pieces of near-plain lines, with the characters that end the fast path.
+fn piece() -> impl Strategy<Value = &'static str> {
+    prop::sample::select(vec![
+        "G",
+        "X",
+        "y",
+        "Z",
+        "F",
+        "N",
+        "n",
+        "O",
+        "M",
+        "E",
+        "I",
+        "W",
+        "H",
+        "D",
+        "T",
+        "1",
+        "0",
+        "25",
+        "9999999999",
+        ".",
+        "-",
+        "+",
+        " ",
+        "\t",
+        "(",
+        ")",
+        ";",
+        "#",
+        "[",
+        "]",
+        "=",
+        "\r",
+        "é",
+        "/",
+        "%",
+        ":",
+        "@",
+        "^",
+        ",",
+        "R",
+    ])
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    #[test]
+    fn any_line_reads_the_same_with_or_without_the_fast_path(
+        parts in prop::collection::vec(piece(), 0..14)
+    ) {
+        same(&parts.concat());
+    }
+
+    #[test]
+    fn generated_plain_blocks_take_the_fast_path_and_agree(
+        n in prop::option::of(0u32..100_000),
+        words in prop::collection::vec(
+            (prop::sample::select(vec!['G', 'X', 'Y', 'Z', 'F', 'S', 'M', 'a', 'b']),
+             -1.0e6f64..1.0e6, 0usize..7),
+            0..8,
+        ),
+    ) {
+        let mut text = n.map(|n| format!("N{n} ")).unwrap_or_default();
+        for (letter, v, decimals) in words {
+            text.push_str(&format!("{letter}{v:.decimals$} "));
+        }
+        prop_assert!(plain_block(&text).is_some(), "{text:?}");
+        same(&text);
+    }
+}
