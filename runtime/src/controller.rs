@@ -120,6 +120,14 @@ pub struct CycleController<L: DriveLink> {
     held: bool,
     /// Feed time, path deviation and exact stops (the report's path figures).
     path: crate::path_figures::PathTracker,
+    /// Feed hold and overrides: the operator's panel, its triggered commands, what the loop
+    /// applied last and the record of it (see `take_panel`).
+    panel: Option<Arc<crate::operator::Panel>>,
+    schedule: crate::operator::Schedule,
+    applied: crate::operator::PanelState,
+    panel_log: crate::operator::PanelLog,
+    period_us: u64,
+    last_n: Option<u32>,
 }
 
 /// One axis of a tap slaved to the other's actual position after that one's drive stopped
@@ -197,7 +205,39 @@ impl<L: DriveLink> CycleController<L> {
             gate: None,
             held: false,
             path: Default::default(),
+            panel: None,
+            schedule: Default::default(),
+            applied: Default::default(),
+            panel_log: Default::default(),
+            period_us: u64::from(cfg.bus.period_us),
+            last_n: None,
         }
+    }
+
+    /// Takes feed hold, resume and overrides from `panel` (set at once from the terminal)
+    /// and from `schedule` (a command file's triggered commands), each tick.
+    pub fn with_panel(
+        mut self,
+        panel: Arc<crate::operator::Panel>,
+        schedule: crate::operator::Schedule,
+    ) -> Self {
+        self.panel = Some(panel);
+        self.schedule = schedule;
+        self
+    }
+
+    /// The panel changes applied so far (hold, resume, overrides) with their tick and line.
+    pub fn panel_log(&self) -> &crate::operator::PanelLog {
+        &self.panel_log
+    }
+
+    /// In a feed hold with the path at rest and no triggered command left to end it: the
+    /// operator holds, as at a program stop (virtual time paces itself to the wall clock).
+    pub fn is_feed_held(&self) -> bool {
+        self.applied.hold
+            && self.interp.is_feed_held()
+            && self.schedule.pending() == 0
+            && self.phase == Phase::Running
     }
 
     /// Holds at program stops as `gate` says (M0, M1 with optional stop): with `Wait` the
@@ -252,6 +292,7 @@ impl<L: DriveLink> CycleController<L> {
         }
         self.phase != Phase::Running
             || self.held
+            || self.applied.hold
             || self.input_done
             || !self.interp.is_idle()
             || !self.moves.is_empty()
@@ -298,11 +339,17 @@ impl<L: DriveLink> CycleController<L> {
     /// Runs one period at `now`. Allocation-free.
     pub fn step(&mut self, now: Instant) -> Step {
         self.take_requests();
+        self.take_panel();
         if self.phase == Phase::Running && !self.held {
             // A blended move shorter than the rest of the period passes between two samples
-            // (the interpolator stays idle): start moves until one takes this tick.
+            // (the interpolator stays idle): start moves until one takes this tick (none from
+            // rest in a feed hold).
             let mut started = 0;
-            while self.interp.is_idle() && started < MOVES_PER_TICK && self.next_move() {
+            while self.interp.is_idle()
+                && started < MOVES_PER_TICK
+                && !self.feed_hold_keeps_back()
+                && self.next_move()
+            {
                 started += 1;
             }
         } else if self.phase == Phase::Stopping {
@@ -318,6 +365,7 @@ impl<L: DriveLink> CycleController<L> {
             self.program_stop(kind);
         }
         self.last_line = t.line;
+        self.last_n = t.n;
         self.commands = t.pos.0;
         if let Some(f) = &self.follow {
             let (i, v) = follow_actual(
@@ -390,6 +438,69 @@ impl<L: DriveLink> CycleController<L> {
             } else if g.released() {
                 self.held = false;
             }
+        }
+    }
+
+    /// The panel's triggered commands due now, then whatever changed on the panel, applied
+    /// to the interpolator and recorded (atomics and fixed-size tables only).
+    #[inline]
+    fn take_panel(&mut self) {
+        let Some(panel) = &self.panel else {
+            return;
+        };
+        if self.phase != Phase::Running {
+            return;
+        }
+        let micros = self.tick.saturating_mul(self.period_us);
+        self.schedule.take_due(micros, self.last_n, |s| {
+            panel.apply(s.command.action, s.input_line)
+        });
+        let now = panel.state();
+        if now == self.applied {
+            return;
+        }
+        use crate::operator::PanelAction;
+        let mut changes = [None; 3];
+        if now.hold != self.applied.hold {
+            self.interp.set_feed_hold(now.hold);
+            changes[0] = Some(if now.hold {
+                PanelAction::Hold
+            } else {
+                PanelAction::Resume
+            });
+        }
+        if now.feed != self.applied.feed {
+            self.interp.set_feed_override(f64::from(now.feed) / 100.0);
+            changes[1] = Some(PanelAction::Feed(now.feed));
+        }
+        if now.spindle != self.applied.spindle {
+            self.interp
+                .set_spindle_override(f64::from(now.spindle) / 100.0);
+            changes[2] = Some(PanelAction::Spindle(now.spindle));
+        }
+        let input_line = panel.input_line();
+        for action in changes.into_iter().flatten() {
+            self.panel_log.push(crate::operator::PanelEvent {
+                action,
+                tick: self.tick,
+                line: self.last_line,
+                n: self.last_n,
+                input_line,
+            });
+        }
+        self.applied = now;
+    }
+
+    /// A feed hold keeps the next move of the ring from starting (see
+    /// `Interpolator::holds_before`: the path is at rest, and it is not a tap's tap out).
+    #[inline]
+    fn feed_hold_keeps_back(&self) -> bool {
+        if !self.applied.hold {
+            return false;
+        }
+        match self.moves.iter().next() {
+            Some(LoopInput::Move(m)) => self.interp.holds_before(m),
+            _ => false,
         }
     }
 

@@ -107,6 +107,9 @@ impl<'a> Side<'a> {
         let mut feeder =
             Feeder::from_input(self.cfg, &feed.input, start, false).map_err(RunError::Program)?;
         self.lookahead = Some(feeder.lookahead());
+        // Feed override above 100 % is planned: the lookahead reads it per segment.
+        crate::feeder::lock(&feeder.lookahead())
+            .set_feed_override_source(self.prompt.panel.feed_source());
         let op = feed.operator;
         if op.watches() {
             feeder = feeder.with_watch(crate::operator::BlockWatch::new(
