@@ -152,10 +152,18 @@ impl CommandInput {
                 // Each turn reads one more line: it ends with the input.
                 loop {
                     let r = input.read_next();
-                    if let Read::Command(Command::Panel(p), line) = r {
-                        panel.apply(p.action, line);
-                        eprintln!("{}: {}", p.action.name(), describe(&panel));
-                        continue;
+                    match r {
+                        Read::Command(Command::Panel(p), line) => {
+                            panel.apply(p.action, line);
+                            eprintln!("{}: {}", p.action.name(), describe(&panel));
+                            continue;
+                        }
+                        // Said at once (a hold would say it only when reached).
+                        Read::Bad { message, .. } => {
+                            eprintln!("{message} (nothing changed)");
+                            continue;
+                        }
+                        _ => {}
                     }
                     let end = r == Read::Eof;
                     let (queue, ready) = &*heard;
