@@ -198,6 +198,11 @@ fn a_feed_hold_mid_move_stops_on_the_path_and_resume_ends_where_the_plain_run_do
             "resume null t=2.5 line=4 input=3"
         ]
     );
+    let text = std::fs::read_to_string(dir.join("trace.csv")).unwrap();
+    let marked: Vec<&str> = text.lines().filter(|l| !l.ends_with(',')).skip(1).collect();
+    assert_eq!(marked.len(), 2, "the trace marks the hold and the resume");
+    assert!(marked[0].starts_with("1.200000,4,") && marked[0].ends_with(",hold"));
+    assert!(marked[1].starts_with("2.500000,4,") && marked[1].ends_with(",resume"));
     let t_plain = plain.report["program_time_s"].as_f64().unwrap();
     let t_held = held.report["program_time_s"].as_f64().unwrap();
     assert!(t_held > t_plain + 0.9, "{t_plain} s → {t_held} s");
@@ -307,6 +312,11 @@ fn an_override_out_of_range_in_a_command_file_is_exit_64_at_its_line_and_nothing
         ("# c\nfeed -1\n", 2, "0–200"),
         ("at 2x hold\n", 1, "expected a time"),
         ("at 1s fly\n", 1, "panel command"),
+        (
+            "at 1s hold\nat 2s feed 0\nat 3s resume\nat 4s hold\n",
+            4,
+            "for ever",
+        ),
     ] {
         let r = run(&dir, &prog, cmds);
         assert_eq!(r.code, Some(64), "{cmds}: {}", r.stderr);

@@ -128,6 +128,8 @@ pub struct CycleController<L: DriveLink> {
     panel_log: crate::operator::PanelLog,
     period_us: u64,
     last_n: Option<u32>,
+    /// The panel change applied this tick, for the status (and so the trace).
+    panel_now: Option<crate::operator::PanelAction>,
 }
 
 /// One axis of a tap slaved to the other's actual position after that one's drive stopped
@@ -211,6 +213,7 @@ impl<L: DriveLink> CycleController<L> {
             panel_log: Default::default(),
             period_us: u64::from(cfg.bus.period_us),
             last_n: None,
+            panel_now: None,
         }
     }
 
@@ -480,6 +483,7 @@ impl<L: DriveLink> CycleController<L> {
         }
         let input_line = panel.input_line();
         for action in changes.into_iter().flatten() {
+            self.panel_now = Some(action);
             self.panel_log.push(crate::operator::PanelEvent {
                 action,
                 tick: self.tick,
@@ -564,6 +568,7 @@ impl<L: DriveLink> CycleController<L> {
             moves_started: self.moves_started,
             idle: self.interp.is_idle(),
             spindle_follow: self.follow.is_some(),
+            panel: self.panel_now.take(),
         };
         for i in 0..self.axes.n {
             let f = &self.feedback[i];

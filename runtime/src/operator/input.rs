@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Condvar, Mutex, OnceLock};
 
 use super::Command;
-use super::panel::{Panel, PanelCommand, Schedule, Scheduled};
+use super::panel::{Panel, PanelAction, PanelCommand, Schedule, Scheduled};
 
 /// Longest command line read (a longer one is a bad command, never a growing buffer).
 const MAX_LINE: u64 = 4096;
@@ -106,6 +106,8 @@ impl CommandInput {
         let f = std::fs::File::open(path).map_err(|e| format!("{name}: {e}"))?;
         let mut reader = BufReader::new(f);
         let mut answered = false;
+        // The last hold (or feed 0) not released later in the file: it would hold forever.
+        let mut unreleased = None;
         // Each turn reads one more line: bounded by the file.
         for line_no in 1u32.. {
             let mut buf = String::new();
@@ -116,6 +118,13 @@ impl CommandInput {
             }
             if buf.trim_start().starts_with('#') {
                 continue;
+            }
+            if let Ok(Command::Panel(p)) = Command::parse(&buf) {
+                match p.action {
+                    PanelAction::Hold | PanelAction::Feed(0) => unreleased = Some(line_no),
+                    PanelAction::Resume | PanelAction::Feed(_) => unreleased = None,
+                    PanelAction::Spindle(_) => {}
+                }
             }
             match Command::parse(&buf) {
                 Ok(Command::Panel(command)) if command.at.is_some() || !answered => {
@@ -133,6 +142,12 @@ impl CommandInput {
                 // Checked when a hold reads it, as before.
                 Err(_) => answered = true,
             }
+        }
+        if let Some(line) = unreleased {
+            return Err(format!(
+                "{name}:{line}: a feed hold (or feed 0) that no later line resumes: the run \
+                 would hold there for ever (add e.g. `at 5s resume`)"
+            ));
         }
         Ok(out)
     }
