@@ -360,7 +360,10 @@ fn panel_commands_on_stdin_act_at_once_and_bad_ones_are_refused() {
         err.contains("stdin:2: `at …` triggers belong in a command file"),
         "{err}"
     );
-    assert!(err.contains("feed: feed 80 %, spindle 100 %"), "{err}");
+    assert!(
+        err.contains("feed: feed 80 %, spindle 100 %, rapid 100 %"),
+        "{err}"
+    );
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     let p = panel(&v);
     assert_eq!(p.len(), 1, "{p:?}");
@@ -368,4 +371,23 @@ fn panel_commands_on_stdin_act_at_once_and_bad_ones_are_refused() {
         p[0].starts_with("feed 80 ") && p[0].ends_with("input=3"),
         "{p:?}"
     );
+}
+
+/// `rapid 25` runs rapids at a quarter of their speed (four times as long) and leaves feed
+/// moves alone; `feed 50` leaves rapids alone.
+#[test]
+fn rapid_override_scales_rapids_only() {
+    let dir = test_dir("rapid");
+    let prog = write(&dir, "lines.nc", LINES);
+    // The first move is the rapid to Z5: the ticks until Z first reaches 5.
+    let up = |r: &Run| r.cmd.iter().position(|c| c[2] >= 5.0 - 1e-9).unwrap();
+    let plain = run_ok(&dir, &prog, "");
+    let quarter = run_ok(&dir, &prog, "rapid 25\n");
+    check_limits(&quarter.cmd, true);
+    let (a, b) = (up(&plain), up(&quarter));
+    assert!((b as f64 - 4.0 * a as f64).abs() <= 4.0, "{a} ticks → {b}");
+    let half_feed = run_ok(&dir, &prog, "feed 50\n");
+    assert_eq!(up(&half_feed), a, "feed override leaves rapids alone");
+    assert_eq!(quarter.cmd.last(), plain.cmd.last());
+    assert_eq!(panel(&quarter.report), ["rapid 25 t=0.0 line=0 input=1"]);
 }

@@ -289,6 +289,16 @@ impl Interpolator {
         };
     }
 
+    /// Rapid override as a factor (0–1, clamped): rapids run their planned profile slowed
+    /// down by it (feed override does not act on them).
+    pub fn set_rapid_override(&mut self, factor: f64) {
+        self.rate.rapid = if factor.is_finite() {
+            factor.clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+    }
+
     /// Spindle override as a factor (0.5–1.2, clamped; never above the spindle axis's
     /// max velocity): a turning spindle ramps to the new speed within its limits.
     pub fn set_spindle_override(&mut self, factor: f64) {

@@ -17,6 +17,7 @@ enum Act {
     Hold(bool),
     Feed(f64),
     Spindle(f64),
+    Rapid(f64),
 }
 
 fn cont(kind: SegmentKind, line: u32) -> Segment {
@@ -61,6 +62,7 @@ fn run_with(
                 Act::Hold(h) => ip.set_feed_hold(h),
                 Act::Feed(f) => ip.set_feed_override(f),
                 Act::Spindle(f) => ip.set_spindle_override(f),
+                Act::Rapid(f) => ip.set_rapid_override(f),
             }
         }
         while ip.is_idle() {
@@ -315,4 +317,22 @@ fn spindle_override_ramps_the_speed() {
         "clamped to 50 %: {}",
         rps(4000)
     );
+}
+
+/// Rapids ignore the feed override and follow the rapid override (25 %: a quarter of the
+/// speed), within every limit and to the same end.
+#[test]
+fn rapids_follow_the_rapid_override_not_the_feed_override() {
+    let cfg = MachineConfig::default_machine();
+    let start = xyzc(0.0, 0.0, 0.0, 0.0);
+    let segs = vec![rapid(xyzc(150.0, 60.0, -20.0, 0.0), 1)];
+    let plain = run_with(&cfg, start, &segs, 1.0, &[]);
+    let feed = run_with(&cfg, start, &segs, 1.0, &[(1, Act::Feed(0.3))]);
+    assert_eq!(feed.len(), plain.len(), "feed override leaves rapids alone");
+    let slow = run_with(&cfg, start, &segs, 1.0, &[(1, Act::Rapid(0.25))]);
+    check_limits(&cfg, &slow);
+    assert_eq!(slow.last().unwrap().pos, plain.last().unwrap().pos);
+    let top = |t: &[Tick]| speeds(t).into_iter().fold(0.0, f64::max);
+    let ratio = top(&slow) / top(&plain);
+    assert!((ratio - 0.25).abs() < 1e-9, "{ratio}");
 }

@@ -463,7 +463,7 @@ impl<L: DriveLink> CycleController<L> {
             return;
         }
         use crate::operator::PanelAction;
-        let mut changes = [None; 3];
+        let mut changes = [None; 4];
         if now.hold != self.applied.hold {
             self.interp.set_feed_hold(now.hold);
             changes[0] = Some(if now.hold {
@@ -480,6 +480,10 @@ impl<L: DriveLink> CycleController<L> {
             self.interp
                 .set_spindle_override(f64::from(now.spindle) / 100.0);
             changes[2] = Some(PanelAction::Spindle(now.spindle));
+        }
+        if now.rapid != self.applied.rapid {
+            self.interp.set_rapid_override(f64::from(now.rapid) / 100.0);
+            changes[3] = Some(PanelAction::Rapid(now.rapid));
         }
         let input_line = panel.input_line();
         for action in changes.into_iter().flatten() {

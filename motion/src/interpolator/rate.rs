@@ -25,6 +25,8 @@ pub(super) struct RateClock {
     pub(super) hold: bool,
     /// Feed override as a factor (0–2).
     pub(super) feed: f64,
+    /// Rapid override as a factor (0–1).
+    pub(super) rapid: f64,
 }
 
 /// The path's motion at the current profile time: state, and the largest |jerk| the
@@ -42,20 +44,21 @@ impl RateClock {
             rd: 0.0,
             hold: false,
             feed: 1.0,
+            rapid: 1.0,
         }
     }
 
     /// The rate `mv` should run at: 0 in a feed hold, else the feed override over the one it
     /// was planned with (at most 1); a rigid tap always runs at 1 (Fanuc: feed hold and
     /// override do not act during G84/G74 — the hold takes effect after the return to R),
-    /// a rapid at 1 unless held (rapids have their own override).
+    /// a rapid at the rapid override (its own, as on Fanuc's panel).
     pub(super) fn target(&self, mv: &PathMove) -> f64 {
         if mv.tap.is_some() {
             1.0
         } else if self.hold {
             0.0
         } else if mv.rapid {
-            1.0
+            self.rapid
         } else {
             (self.feed / mv.feed_scale).clamp(0.0, 1.0)
         }
@@ -250,6 +253,8 @@ mod tests {
         assert!((c.target(&mv) - 0.8).abs() < 1e-12);
         mv.rapid = true;
         assert_eq!(c.target(&mv), 1.0);
+        c.rapid = 0.25;
+        assert_eq!(c.target(&mv), 0.25, "rapids have their own override");
         c.hold = true;
         assert_eq!(c.target(&mv), 0.0);
         mv.tap = Some(crate::segment::TapCoupling {

@@ -123,7 +123,7 @@ impl CommandInput {
                 match p.action {
                     PanelAction::Hold | PanelAction::Feed(0) => unreleased = Some(line_no),
                     PanelAction::Resume | PanelAction::Feed(_) => unreleased = None,
-                    PanelAction::Spindle(_) => {}
+                    PanelAction::Spindle(_) | PanelAction::Rapid(_) => {}
                 }
             }
             match Command::parse(&buf) {
@@ -274,10 +274,11 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 pub fn describe(panel: &Panel) -> String {
     let st = panel.state();
     format!(
-        "feed {}{} %, spindle {} %",
+        "feed {}{} %, spindle {} %, rapid {} %",
         if st.hold { "HOLD, override " } else { "" },
         st.feed,
-        st.spindle
+        st.spindle,
+        st.rapid
     )
 }
 

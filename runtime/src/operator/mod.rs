@@ -62,8 +62,8 @@ pub enum Command {
 }
 
 /// The commands, for messages and `--help`.
-pub const COMMANDS: &str =
-    "continue (or Enter), step, next, skip, stop, hold, resume, feed 0–200, spindle 50–120";
+pub const COMMANDS: &str = "continue (or Enter), step, next, skip, stop, hold, resume, feed 0–200, spindle 50–120, \
+     rapid 25|50|100";
 
 impl Command {
     /// Parses one command line: the word, or its first letter; an empty line is `continue`

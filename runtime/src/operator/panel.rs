@@ -11,6 +11,9 @@ use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 pub const FEED_RANGE: (u32, u32) = (0, 200);
 /// Spindle override range (%).
 pub const SPINDLE_RANGE: (u32, u32) = (50, 120);
+/// Rapid override settings (%), Fanuc's panel steps (its F0, a configured slow rapid, is not
+/// offered).
+pub const RAPID_STEPS: [u32; 3] = [25, 50, 100];
 /// Most triggered commands a command file may hold.
 pub const MAX_SCHEDULED: usize = 64;
 /// Most panel events a run's report keeps (later ones are counted, not kept).
@@ -27,6 +30,8 @@ pub enum PanelAction {
     Feed(u32),
     /// Spindle override in %.
     Spindle(u32),
+    /// Rapid override in % (25, 50 or 100).
+    Rapid(u32),
 }
 
 /// When a command from a command file acts.
@@ -46,8 +51,8 @@ pub struct PanelCommand {
 }
 
 /// The panel commands, for messages and `--help`.
-pub const PANEL_COMMANDS: &str = "hold, resume (or start), feed 0–200, spindle 50–120; in a command file also \
-     `at 1.5s <command>` or `at N40 <command>`";
+pub const PANEL_COMMANDS: &str = "hold, resume (or start), feed 0–200, spindle 50–120, \
+     rapid 25|50|100; in a command file also `at 1.5s <command>` or `at N40 <command>`";
 
 impl PanelAction {
     /// The action's name in the report and on the terminal.
@@ -57,13 +62,14 @@ impl PanelAction {
             PanelAction::Resume => "resume",
             PanelAction::Feed(_) => "feed",
             PanelAction::Spindle(_) => "spindle",
+            PanelAction::Rapid(_) => "rapid",
         }
     }
 
     /// The override in %, for `feed` and `spindle`.
     pub fn percent(self) -> Option<u32> {
         match self {
-            PanelAction::Feed(p) | PanelAction::Spindle(p) => Some(p),
+            PanelAction::Feed(p) | PanelAction::Spindle(p) | PanelAction::Rapid(p) => Some(p),
             _ => None,
         }
     }
@@ -135,6 +141,11 @@ impl PanelAction {
             "resume" | "start" | "cycle-start" => no_args(PanelAction::Resume),
             "feed" => pct("feed", FEED_RANGE).map(PanelAction::Feed),
             "spindle" => pct("spindle", SPINDLE_RANGE).map(PanelAction::Spindle),
+            "rapid" => match pct("rapid", (0, 100)) {
+                Ok(p) if RAPID_STEPS.contains(&p) => Ok(PanelAction::Rapid(p)),
+                Ok(p) => Err(format!("rapid override {p} %: one of 25, 50, 100")),
+                Err(e) => Err(e),
+            },
             _ => return None,
         })
     }
@@ -189,6 +200,7 @@ pub struct Panel {
     /// Shared with the lookahead, which plans feed override above 100 %.
     feed: Arc<AtomicU32>,
     spindle: AtomicU32,
+    rapid: AtomicU32,
     /// Line of the command input that set the panel last (0: the run's start).
     input_line: AtomicU32,
 }
@@ -199,6 +211,7 @@ impl Default for Panel {
             hold: AtomicBool::new(false),
             feed: Arc::new(AtomicU32::new(100)),
             spindle: AtomicU32::new(100),
+            rapid: AtomicU32::new(100),
             input_line: AtomicU32::new(0),
         }
     }
@@ -210,6 +223,7 @@ pub struct PanelState {
     pub hold: bool,
     pub feed: u32,
     pub spindle: u32,
+    pub rapid: u32,
 }
 
 impl Default for PanelState {
@@ -218,6 +232,7 @@ impl Default for PanelState {
             hold: false,
             feed: 100,
             spindle: 100,
+            rapid: 100,
         }
     }
 }
@@ -231,6 +246,7 @@ impl Panel {
             PanelAction::Resume => self.hold.store(false, Ordering::Release),
             PanelAction::Feed(p) => self.feed.store(p, Ordering::Release),
             PanelAction::Spindle(p) => self.spindle.store(p, Ordering::Release),
+            PanelAction::Rapid(p) => self.rapid.store(p, Ordering::Release),
         }
     }
 
@@ -240,6 +256,7 @@ impl Panel {
             hold: self.hold.load(Ordering::Acquire),
             feed: self.feed.load(Ordering::Acquire),
             spindle: self.spindle.load(Ordering::Acquire),
+            rapid: self.rapid.load(Ordering::Acquire),
         }
     }
 
@@ -390,6 +407,7 @@ mod tests {
         assert_eq!(parse("feed 150"), cmd(PanelAction::Feed(150), None));
         assert_eq!(parse("feed 0%"), cmd(PanelAction::Feed(0), None));
         assert_eq!(parse("spindle 110"), cmd(PanelAction::Spindle(110), None));
+        assert_eq!(parse("rapid 25"), cmd(PanelAction::Rapid(25), None));
         let at = |micros| Some(Trigger::Time { micros });
         assert_eq!(parse("at 1.5s hold"), cmd(PanelAction::Hold, at(1_500_000)));
         assert_eq!(
@@ -408,6 +426,8 @@ mod tests {
             ("feed -1", "0–200"),
             ("spindle 40", "50–120"),
             ("spindle 121", "50–120"),
+            ("rapid 30", "one of 25, 50, 100"),
+            ("rapid 150", "0–100"),
             ("feed", "one value"),
             ("feed 12.5", "whole percent"),
             ("hold 3", "no value"),
