@@ -207,8 +207,20 @@ impl<'a> Side<'a> {
         parts.join(" ")
     }
 
-    /// The program's event in status record `s`, if any.
+    /// The program's event in status record `s`, if any (and the operator's panel change).
     fn event(&mut self, s: &Status) {
+        if let Some(a) = s.panel {
+            // Where the loop applied it, for the operator (the report keeps it too).
+            let pct = a.percent().map(|p| format!(" {p} %")).unwrap_or_default();
+            eprintln!(
+                "{}{pct} at {:.3} s, {}:{} | {}",
+                a.name(),
+                s.tick as f64 * self.cfg.bus.period_s(),
+                self.file_of(s),
+                s.line,
+                self.position(s)
+            );
+        }
         match s.event {
             Some(MoveEvent::Message) => {
                 if let Some(text) = self.shared.take_message() {
