@@ -391,3 +391,27 @@ fn rapid_override_scales_rapids_only() {
     assert_eq!(quarter.cmd.last(), plain.cmd.last());
     assert_eq!(panel(&quarter.report), ["rapid 25 t=0.0 line=0 input=1"]);
 }
+
+/// A feed hold typed on stdin whose input then ends: nobody can resume, so the program ends
+/// there with a controlled stop (exit 1, the machine stopped) instead of holding for ever.
+#[test]
+fn end_of_input_in_a_feed_hold_ends_the_program_there() {
+    use std::io::Write;
+    let dir = test_dir("eof");
+    let prog = write(&dir, "lines.nc", LINES);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args(["run", &prog, "--commands", "-"])
+        .env_remove("RUST_LOG")
+        .stdin(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    stdin.write_all(b"hold\n").unwrap();
+    drop(stdin);
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("end of input) in a feed hold"), "{err}");
+}

@@ -423,13 +423,7 @@ impl<L: DriveLink> CycleController<L> {
     #[inline]
     fn take_requests(&mut self) {
         if self.phase == Phase::Running && self.stop_request.load(Ordering::Relaxed) {
-            self.begin_stop(DriveStop {
-                cause: StopCause::Operator,
-                node: 0,
-                statusword: 0,
-                emcy: None,
-                bus: None,
-            });
+            self.begin_stop(stop_without_drive(StopCause::Operator));
         }
         // Held at a program stop: released by the operator's resume, or ended there.
         if self.held
@@ -460,6 +454,11 @@ impl<L: DriveLink> CycleController<L> {
         });
         let now = panel.state();
         if now == self.applied {
+            if self.is_feed_held() && panel.is_closed() {
+                // End of the operator's input in a feed hold: nobody can resume; the
+                // program ends here (a controlled stop, already at rest).
+                self.begin_stop(stop_without_drive(StopCause::Operator));
+            }
             return;
         }
         use crate::operator::PanelAction;
@@ -753,13 +752,7 @@ impl<L: DriveLink> CycleController<L> {
                 if let Err(e) = self.interp.start(mv) {
                     self.motion_error = Some(e);
                     self.last_line = e.line;
-                    self.begin_stop(DriveStop {
-                        cause: StopCause::Motion,
-                        node: 0,
-                        statusword: 0,
-                        emcy: None,
-                        bus: None,
-                    });
+                    self.begin_stop(stop_without_drive(StopCause::Motion));
                 }
             }
             Some(LoopInput::End) => {
@@ -820,6 +813,17 @@ fn follow_actual(
         (si, f.anchor.1 + (p - f.anchor.0) / f.c.ratio)
     } else {
         (si, fb[si].actual)
+    }
+}
+
+/// A stop that no drive raised (the operator's, a motion error).
+fn stop_without_drive(cause: StopCause) -> DriveStop {
+    DriveStop {
+        cause,
+        node: 0,
+        statusword: 0,
+        emcy: None,
+        bus: None,
     }
 }
 

@@ -181,6 +181,15 @@ impl CommandInput {
                         _ => {}
                     }
                     let end = r == Read::Eof;
+                    if end {
+                        panel.close();
+                        if panel.state().hold {
+                            eprintln!(
+                                "no operator input (end of input) in a feed hold: the program \
+                                 ends there (controlled stop)"
+                            );
+                        }
+                    }
                     let (queue, ready) = &*heard;
                     lock(queue).push_back(r);
                     ready.notify_all();

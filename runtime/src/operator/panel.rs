@@ -203,6 +203,9 @@ pub struct Panel {
     rapid: AtomicU32,
     /// Line of the command input that set the panel last (0: the run's start).
     input_line: AtomicU32,
+    /// No command will come any more (the listener met the end of stdin): a feed hold at
+    /// rest with nothing scheduled to end it ends the program instead of waiting for ever.
+    closed: AtomicBool,
 }
 
 impl Default for Panel {
@@ -213,6 +216,7 @@ impl Default for Panel {
             spindle: AtomicU32::new(100),
             rapid: AtomicU32::new(100),
             input_line: AtomicU32::new(0),
+            closed: AtomicBool::new(false),
         }
     }
 }
@@ -264,6 +268,16 @@ impl Panel {
     /// (`Lookahead::set_feed_override_source`).
     pub fn feed_source(&self) -> Arc<AtomicU32> {
         self.feed.clone()
+    }
+
+    /// No command will come any more (see the field).
+    pub fn close(&self) {
+        self.closed.store(true, Ordering::Release);
+    }
+
+    /// Whether [`close`](Self::close) was called.
+    pub fn is_closed(&self) -> bool {
+        self.closed.load(Ordering::Acquire)
     }
 
     /// The input line of the last command applied.
