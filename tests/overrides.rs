@@ -44,6 +44,11 @@ struct Run {
 
 /// Runs `program` with the command file `commands` (none when empty).
 fn run(dir: &Path, program: &str, commands: &str) -> Run {
+    run_with(dir, program, commands, &[])
+}
+
+/// [`run`] with further arguments.
+fn run_with(dir: &Path, program: &str, commands: &str, extra: &[&str]) -> Run {
     let report = dir.join("report.json");
     let trace = dir.join("trace.csv");
     let _ = std::fs::remove_file(&report);
@@ -56,6 +61,7 @@ fn run(dir: &Path, program: &str, commands: &str) -> Run {
         "--trace".into(),
         trace.to_str().unwrap().into(),
     ];
+    args.extend(extra.iter().map(|a| a.to_string()));
     if !commands.is_empty() {
         args.push("--commands".into());
         args.push(write(dir, "commands.txt", commands));
@@ -414,4 +420,27 @@ fn end_of_input_in_a_feed_hold_ends_the_program_there() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("end of input) in a feed hold"), "{err}");
+}
+
+/// In a feed hold the drives stay enabled and monitored: a drive fault still stops the run
+/// (and names the drive), the held setpoints unchanged up to it.
+#[test]
+fn a_fault_during_a_feed_hold_still_stops_the_machine() {
+    let dir = test_dir("fault");
+    let prog = write(&dir, "lines.nc", LINES);
+    let r = run_with(
+        &dir,
+        &prog,
+        "at 1.2s hold\nat 4s resume\n",
+        &["--inject-fault", "1:8611@2.0"],
+    );
+    assert_eq!(r.code, Some(1), "{}", r.stderr);
+    assert_eq!(r.report["ok"], false);
+    let err = r.report["error"].as_str().unwrap_or("");
+    assert!(err.contains("0x8611") || err.contains("8611"), "{err}");
+    let held = &r.cmd[1700..1990];
+    assert!(
+        held.iter().all(|c| c == &held[0]),
+        "held still until the fault"
+    );
 }
