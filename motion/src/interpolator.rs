@@ -773,15 +773,11 @@ impl Interpolator {
                 *k += 1;
                 let mv = *mv;
                 if stop.is_none() {
-                    let target = self.rate.target(&mv);
-                    if !(self.rate.is_unit() && target == 1.0) {
-                        let t_now = *t_base + (*k - 1) as f64 * p + *lag;
-                        *lag += self.rate.advance(target, &mv.profile, t_now, mv.limits, p) - p;
-                    }
+                    let t_now = *t_base + (*k - 1) as f64 * p + *lag;
+                    *lag += self.rate.lag_step(&mv, t_now, p);
                 }
                 let t = *t_base + *k as f64 * p + *lag;
-                let rate = self.rate;
-                match path_along(&mv, t, stop, *k, p, &rate) {
+                match path_along(&mv, t, stop, *k, p, &self.rate) {
                     PathAlong::On(st) => {
                         self.prog = mv.point(st.s);
                         out.path_velocity = st.v;

@@ -76,6 +76,17 @@ impl RateClock {
         self.r == 1.0 && self.rd == 0.0
     }
 
+    /// One period of `mv` sampled last at profile time `t_now`: how much profile time falls
+    /// behind the period (0, exactly, at rate 1).
+    #[inline]
+    pub(super) fn lag_step(&mut self, mv: &PathMove, t_now: f64, period: f64) -> f64 {
+        let target = self.target(mv);
+        if self.is_unit() && target == 1.0 {
+            return 0.0;
+        }
+        self.advance(target, &mv.profile, t_now, mv.limits, period) - period
+    }
+
     /// Advances one period of `period` s toward `target` and returns the profile time to
     /// advance by. `profile` is the move's planned profile, `t_now` the profile time of the
     /// last sample, `lim` the move's path limits.
