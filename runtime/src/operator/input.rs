@@ -328,6 +328,36 @@ mod tests {
         assert_eq!(piped.next(), Read::Command(Command::Step, 2));
     }
 
+    /// A command file: `at` lines and the panel commands before the first answer are
+    /// scheduled before the run and passed over at the holds; later plain panel commands
+    /// come to the hold that reads them.
+    #[test]
+    fn a_command_files_triggered_panel_commands_are_scheduled_and_passed_over() {
+        use crate::operator::{PanelAction, PanelCommand};
+        let dir = std::env::temp_dir().join(format!("cnc402-input-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("cmds.txt");
+        std::fs::write(
+            &path,
+            "feed 150\nat 1s hold\nstep\nat N40 resume\nspindle 110\nstop\n",
+        )
+        .unwrap();
+        let input = CommandInput::open(&path).unwrap();
+        let schedule = input.schedule().unwrap();
+        assert_eq!(schedule.pending(), 3, "feed 150, at 1s hold, at N40 resume");
+        assert_eq!(input.next(), Read::Command(Command::Step, 3));
+        let spindle = PanelCommand {
+            action: PanelAction::Spindle(110),
+            at: None,
+        };
+        assert_eq!(input.next(), Read::Command(Command::Panel(spindle), 5));
+        assert_eq!(input.next(), Read::Command(Command::Stop, 6));
+        std::fs::write(&path, "at 1s hold\n").unwrap();
+        let e = CommandInput::open(&path).unwrap().schedule().unwrap_err();
+        assert!(e.contains("cmds.txt:1: a feed hold"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
     impl CommandInput {
         fn next_after(&self, skip: usize) -> Read {
             for _ in 0..skip {
