@@ -121,7 +121,8 @@ struct RunArgs {
     /// Write the JSON report here.
     #[arg(long, value_name = "FILE.json")]
     report: Option<PathBuf>,
-    /// Write one CSV row per tick here (t, line, <AXIS>_cmd, <AXIS>_act, <AXIS>_sw).
+    /// Write one CSV row per tick here (t, line, <AXIS>_cmd, <AXIS>_act, <AXIS>_sw, and
+    /// panel: the feed hold, resume or override applied on that tick).
     #[arg(long, value_name = "FILE.csv")]
     trace: Option<PathBuf>,
     /// Draw Z and C against time and the coupling error into this SVG file.

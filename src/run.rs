@@ -158,11 +158,27 @@ fn operator_options(
         })?)),
         None => None,
     };
+    // A command file's triggered panel commands (`at 1.5s hold`), checked before anything
+    // moves: a bad one exits 64 naming its line.
+    let schedule = match &commands {
+        Some(c) => c
+            .schedule()
+            .map_err(|e| CliError::Usage(format!("--commands: {e}")))?,
+        None => Default::default(),
+    };
+    // Panel commands from the terminal (or `--commands -`) act during motion.
+    let from_stdin = args
+        .commands
+        .as_deref()
+        .is_none_or(|p| p.as_os_str() == "-");
+    let listen_stdin = from_stdin && (args.commands.is_some() || std::io::stdin().is_terminal());
     Ok(OperatorOptions {
         breaks,
         single_block: args.single_block,
         search,
         commands,
+        schedule,
+        listen_stdin,
     })
 }
 

@@ -266,14 +266,16 @@ fn trace_and_plot_are_well_formed() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "t,line,X_cmd,X_act,Y_cmd,Y_act,Z_cmd,Z_act,C_cmd,C_act,X_sw,Y_sw,Z_sw,C_sw"
+        "t,line,X_cmd,X_act,Y_cmd,Y_act,Z_cmd,Z_act,C_cmd,C_act,X_sw,Y_sw,Z_sw,C_sw,panel"
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len() as u64, ticks, "one row per tick");
     let mut t_prev = -1.0;
     let mut z_min = f64::INFINITY;
     for r in &rows {
-        assert_eq!(r.len(), 14);
+        // 14 columns and the operator's panel (empty: no hold or override in this run).
+        assert_eq!(r.len(), 15);
+        assert_eq!(r[14], "");
         let t: f64 = r[0].parse().unwrap();
         assert!(
             (t - t_prev - 0.001).abs() < 1e-9 || t_prev < 0.0,
@@ -286,7 +288,7 @@ fn trace_and_plot_are_well_formed() {
             assert!(x.is_finite());
         }
         z_min = z_min.min(r[6].parse().unwrap());
-        for sw in &r[10..] {
+        for sw in &r[10..14] {
             assert!(
                 sw.starts_with("0x") && u16::from_str_radix(&sw[2..], 16).is_ok(),
                 "{sw}"
@@ -390,7 +392,7 @@ fn drive_fault_mid_tap_stops_all_axes_and_names_node_emcy_and_line() {
             "axis column {k} still moving: {b} -> {a}"
         );
     }
-    for sw in &last[10..] {
+    for sw in &last[10..14] {
         let w = u16::from_str_radix(&sw[2..], 16).unwrap();
         assert_ne!(
             w & 0x6F,

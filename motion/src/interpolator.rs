@@ -1,8 +1,10 @@
 //! The fixed-period interpolator: samples one [`PlannedMove`] at a time, one period per
 //! [`Interpolator::tick`], into a commanded position for every configured axis. Time is the
 //! tick count times the period, so a late call never distorts the path. It also runs the
-//! spindle in speed mode alongside moves and performs controlled stops along the path.
-//! Nothing here allocates.
+//! spindle in speed mode alongside moves and performs controlled stops along the path,
+//! and the operator's feed hold and overrides ([`rate`]). Nothing here allocates.
+
+mod rate;
 
 use cnc402_config::MachineConfig;
 
@@ -10,6 +12,7 @@ use crate::error::{MotionError, MotionErrorKind};
 use crate::planner::{MoveKind, PathMove, PlannedMove, orient_program_agrees};
 use crate::profile::{JerkProfile, Limits, PathProfile, State, rest_to_rest, velocity_change};
 use crate::segment::{AxisPos, MAX_AXES, StopKind};
+use rate::RateClock;
 
 /// What one tick produced.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,6 +85,9 @@ enum Job {
         t_base: f64,
         /// The stop ramp, when a stop is under way (see [`PathStop`]).
         stop: Option<PathStop>,
+        /// Profile time lost to feed hold and override: sample k is at
+        /// `t_base + k·P + lag` (0 while the rate is 1).
+        lag: f64,
     },
     Dwell {
         left: u64,
@@ -191,6 +197,7 @@ struct SpindleAxis {
     index: usize,
     acceleration: f64,
     jerk: f64,
+    max_velocity: f64,
 }
 
 /// See the module doc. Built once per machine; every method is allocation-free.
@@ -215,6 +222,13 @@ pub struct Interpolator {
     /// Ticks that found no next move while the path was at speed (the feeder fell behind:
     /// the path paused on the spot).
     starved_at_speed: u64,
+    /// Feed hold and feed override (time scaling of path moves).
+    rate: RateClock,
+    /// Spindle override (0.5–1.2) and the speed the program commanded (deg/s, signed).
+    spindle_override: f64,
+    spindle_commanded: f64,
+    /// The last move started was a rigid tap's tap in (its tap out follows).
+    inside_tap: bool,
 }
 
 impl Interpolator {
@@ -233,6 +247,7 @@ impl Interpolator {
                 index: i,
                 acceleration: config.axes[i].max_acceleration,
                 jerk: config.axes[i].max_jerk,
+                max_velocity: config.axes[i].max_velocity,
             });
         Interpolator {
             period: config.bus.period_s(),
@@ -248,7 +263,97 @@ impl Interpolator {
             blend: None,
             stop_carry: None,
             starved_at_speed: 0,
+            rate: RateClock::new(),
+            spindle_override: 1.0,
+            spindle_commanded: 0.0,
+            inside_tap: false,
         }
+    }
+
+    /// Feed hold on or off. On, the path decelerates along itself to rest (every axis
+    /// together, within the move's limits) and stays there; off, it accelerates back and
+    /// runs on as planned. A rigid tap is not held (it finishes; see `rate`). The caller
+    /// starts no move from rest while holding.
+    pub fn set_feed_hold(&mut self, hold: bool) {
+        self.rate.hold = hold;
+    }
+
+    /// Feed override as a factor, 0–2 (clamped). Up to 1 it slows the planned profile
+    /// down; above 1 it takes effect through the planner (`Planner::set_feed_scale`): a move
+    /// runs at override / its `feed_scale`, at most as planned.
+    pub fn set_feed_override(&mut self, factor: f64) {
+        self.rate.feed = if factor.is_finite() {
+            factor.clamp(0.0, 2.0)
+        } else {
+            1.0
+        };
+    }
+
+    /// Rapid override as a factor (0–1, clamped): rapids run their planned profile slowed
+    /// down by it (feed override does not act on them).
+    pub fn set_rapid_override(&mut self, factor: f64) {
+        self.rate.rapid = if factor.is_finite() {
+            factor.clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+    }
+
+    /// Spindle override as a factor (0.5–1.2, clamped; never above the spindle axis's
+    /// max velocity): a turning spindle ramps to the new speed within its limits.
+    pub fn set_spindle_override(&mut self, factor: f64) {
+        let f = if factor.is_finite() {
+            factor.clamp(0.5, 1.2)
+        } else {
+            1.0
+        };
+        if f == self.spindle_override {
+            return;
+        }
+        self.spindle_override = f;
+        if let (Some(sp), SpindleRun::Speed { .. }) = (self.spindle, self.spin)
+            && !self.stopping
+            && self.spindle_commanded != 0.0
+        {
+            let now = self.spindle_state(sp);
+            self.spin = SpindleRun::Speed {
+                profile: velocity_change(now, self.spindle_target(sp), sp.acceleration, sp.jerk),
+                k: 0,
+            };
+        }
+    }
+
+    /// The commanded spindle speed with the override, within the axis's max velocity.
+    fn spindle_target(&self, sp: SpindleAxis) -> f64 {
+        let v = self.spindle_commanded * self.spindle_override;
+        v.clamp(-sp.max_velocity, sp.max_velocity)
+    }
+
+    /// Whether a feed hold keeps `next` from starting now: the path is at rest (no blended
+    /// move wants a successor) and `next` is not the tap out of a rigid tap whose tap in ran
+    /// last (Fanuc: the hold takes effect after the return to R).
+    pub fn holds_before(&self, next: &PlannedMove) -> bool {
+        if !self.rate.hold || self.needs_next_move() || self.wants_next_move() {
+            return false;
+        }
+        let tap_out = matches!(&next.kind, MoveKind::Path(p) if p.tap.is_some());
+        !(tap_out && self.inside_tap)
+    }
+
+    /// The rate path moves run at (1: as planned; 0: held).
+    pub fn feed_rate(&self) -> f64 {
+        self.rate.r
+    }
+
+    /// True while a feed hold has the path at rest: a path move stopped on its path, or
+    /// none running.
+    pub fn is_feed_held(&self) -> bool {
+        self.rate.hold
+            && match &self.job {
+                Job::Path { mv, .. } => mv.tap.is_none() && self.rate.r == 0.0,
+                Job::Idle => self.blend.is_none(),
+                _ => false,
+            }
     }
 
     /// True while a stop ramp must continue along the next move of a blended chain: give it
@@ -376,7 +481,7 @@ impl Interpolator {
                     }
                 } else if let Some(b) = blend
                     && p.end_speed > 0.0
-                    && p.t_begin + carry + self.period > p.t_end
+                    && p.t_begin + carry + self.period * self.rate.r > p.t_end
                 {
                     // The whole move lies between two samples: on to the next one.
                     self.blend = Some(Blend {
@@ -394,11 +499,16 @@ impl Interpolator {
                     t0: c.t_next - self.period,
                     s_base: c.s_base,
                 });
+                if blend.is_none() {
+                    self.rate.start_at_rest(self.rate.target(&p));
+                }
+                self.inside_tap = p.tap.is_some() && !self.inside_tap;
                 Job::Path {
                     mv: p,
                     k: 0,
                     t_base: p.t_begin + carry,
                     stop,
+                    lag: 0.0,
                 }
             }
             MoveKind::Dwell { ticks, .. } => Job::Dwell { left: ticks.max(1) },
@@ -411,8 +521,10 @@ impl Interpolator {
                     return Err(err(MotionErrorKind::NoSpindle));
                 };
                 let now = self.spindle_state(sp);
+                self.spindle_commanded = velocity;
+                let target = self.spindle_target(sp);
                 self.spin = SpindleRun::Speed {
-                    profile: velocity_change(now, velocity, acceleration, jerk),
+                    profile: velocity_change(now, target, acceleration, jerk),
                     k: 0,
                 };
                 Job::SpindleRamp
@@ -489,8 +601,11 @@ impl Interpolator {
                 k,
                 t_base,
                 stop,
+                lag,
             } => {
-                let mut now = mv.profile.sample(*t_base + *k as f64 * self.period);
+                let sampled = mv.profile.sample(*t_base + *k as f64 * self.period + *lag);
+                // In real time: the feed hold or override may be scaling the profile.
+                let mut now = self.rate.scale(sampled);
                 now.s -= mv.s_offset;
                 // A blended move may hand the ramp on to the next move: no room needed here.
                 let room = if mv.end_speed > 0.0 {
@@ -653,11 +768,16 @@ impl Interpolator {
                 k,
                 t_base,
                 stop,
+                lag,
             } => {
                 *k += 1;
                 let mv = *mv;
-                let t = *t_base + *k as f64 * p;
-                match path_along(&mv, t, stop, *k, p) {
+                if stop.is_none() {
+                    let t_now = *t_base + (*k - 1) as f64 * p + *lag;
+                    *lag += self.rate.lag_step(&mv, t_now, p);
+                }
+                let t = *t_base + *k as f64 * p + *lag;
+                match path_along(&mv, t, stop, *k, p, &self.rate) {
                     PathAlong::On(st) => {
                         self.prog = mv.point(st.s);
                         out.path_velocity = st.v;
@@ -817,8 +937,16 @@ enum PathAlong {
 /// Where path move `mv` is at profile time `t` (tick `k`), on its stop ramp if one was begun.
 /// A move that ends at speed hands over one sample early: the next sample belongs to the next
 /// move, `t + P − t_end` into it.
+/// Profile samples are seen through `rate` (feed hold and override).
 #[inline]
-fn path_along(mv: &PathMove, t: f64, stop: &Option<PathStop>, k: u64, period: f64) -> PathAlong {
+fn path_along(
+    mv: &PathMove,
+    t: f64,
+    stop: &Option<PathStop>,
+    k: u64,
+    period: f64,
+    rate: &RateClock,
+) -> PathAlong {
     if let Some(st) = stop {
         let tr = st.t0 + (k - st.k0) as f64 * period;
         let mut now = st.ramp.sample(tr);
@@ -845,9 +973,11 @@ fn path_along(mv: &PathMove, t: f64, stop: &Option<PathStop>, k: u64, period: f6
         return PathAlong::On(now);
     }
     if mv.end_speed > 0.0 {
-        let mut st = mv.profile.sample(t);
+        let mut st = rate.scale(mv.profile.sample(t));
         st.s -= mv.s_offset;
-        if t + period > mv.t_end {
+        // The next sample is one period at this rate later (the rate changes little in a
+        // period; a sample that falls short of this move's end lands on its end).
+        if t + period * rate.r > mv.t_end {
             return PathAlong::Blend(clamp_s(st, mv.length), t - mv.t_end);
         }
         return PathAlong::On(clamp_s(st, mv.length));
@@ -855,7 +985,7 @@ fn path_along(mv: &PathMove, t: f64, stop: &Option<PathStop>, k: u64, period: f6
     if t >= mv.t_end {
         return PathAlong::End;
     }
-    let mut st = mv.profile.sample(t);
+    let mut st = rate.scale(mv.profile.sample(t));
     if mv.s_offset != 0.0 {
         st.s = (st.s - mv.s_offset).clamp(0.0, mv.length);
     }

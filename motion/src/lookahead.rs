@@ -117,6 +117,10 @@ pub struct Lookahead {
     lone_full: bool,
     /// Feed lines waiting to be merged under `G64 Q` (see [`crate::collinear`]).
     chain: CollinearChain,
+    /// The operator's feed override in % (0–200), read before each segment is planned:
+    /// above 100 % it raises the feed of the moves planned from then on
+    /// ([`Planner::set_feed_scale`]).
+    feed_override: Option<std::sync::Arc<std::sync::atomic::AtomicU32>>,
 }
 
 impl Lookahead {
@@ -148,6 +152,7 @@ impl Lookahead {
             refine_from: 0,
             lone_full,
             chain: CollinearChain::new(linear),
+            feed_override: None,
         }
     }
 
@@ -183,11 +188,23 @@ impl Lookahead {
         self.out.pop_front()
     }
 
+    /// Reads the operator's feed override (%) from `source` before planning each segment.
+    pub fn set_feed_override_source(
+        &mut self,
+        source: std::sync::Arc<std::sync::atomic::AtomicU32>,
+    ) {
+        self.feed_override = Some(source);
+    }
+
     /// Plans `seg` after the segments before it. A `Continuous` path segment waits in the
     /// window (a feed line under `G64 Q` first in the collinear chain, which may merge it with
     /// its neighbours); anything else first brings the window to rest. On error nothing
     /// changes, except that a merged line the error broke off has been planned.
     pub fn push(&mut self, seg: &Segment) -> Result<(), MotionError> {
+        if let Some(f) = &self.feed_override {
+            let pct = f.load(std::sync::atomic::Ordering::Acquire);
+            self.planner.set_feed_scale(f64::from(pct.max(100)) / 100.0);
+        }
         let at = self.chain.end().unwrap_or_else(|| self.planner.position());
         if let Some(q) = self.chain.mergeable(seg, &at) {
             if !self.chain.is_empty() && !self.chain.extend(seg, q) {

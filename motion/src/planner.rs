@@ -92,6 +92,10 @@ pub struct PathMove {
     /// Path speed at the move's end: 0 for an exact stop; > 0 when the lookahead blends it
     /// into the next move (the interpolator then carries the fractional period over).
     pub end_speed: f64,
+    /// The feed override (≥ 1) the move was planned with: feed override above 100 % raises
+    /// the feed where moves are planned (so every limit holds), and the interpolator runs
+    /// the move at rate override / `feed_scale` (≤ 1). 1 for rapids and taps.
+    pub feed_scale: f64,
 }
 
 /// The shape of a path.
@@ -182,6 +186,9 @@ pub struct Planner {
     /// The share of every axis's acceleration a path profile may use (1 for exact stops; the
     /// lookahead keeps the rest for the velocity jumps at blended junctions).
     accel_share: f64,
+    /// Feed override above 100 % (1 ≤ scale ≤ 2) applied to the feed of the next feed moves
+    /// (not rapids, not taps); see [`Planner::set_feed_scale`].
+    feed_scale: f64,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -222,6 +229,7 @@ impl Planner {
             pos: AxisPos::default(),
             spindle_running: false,
             accel_share: 1.0,
+            feed_scale: 1.0,
         }
     }
 
@@ -238,6 +246,18 @@ impl Planner {
             *d = ax.a;
         }
         (a, self.n_axes, self.period)
+    }
+
+    /// Feed override above 100 %: the next feed moves (G1, G2/G3; not rapids, whose override
+    /// is their own, nor rigid taps, which Fanuc runs at 100 %) are planned at `scale` × F
+    /// (clamped to 1–2), still within every axis's limits. Below 100 % the interpolator
+    /// slows the planned profile down instead (see `Interpolator::set_feed_override`).
+    pub fn set_feed_scale(&mut self, scale: f64) {
+        self.feed_scale = if scale.is_finite() {
+            scale.clamp(1.0, 2.0)
+        } else {
+            1.0
+        };
     }
 
     /// Sets where the next segment starts (machine coordinates; C in program coordinates).
@@ -292,7 +312,9 @@ impl Planner {
             SegmentKind::Linear { end, feed } => {
                 check_feed(*feed)?;
                 let end = self.check_end(end)?;
-                MoveKind::Path(self.line_move(end, feed / 60.0, false)?)
+                let mut m = self.line_move(end, feed / 60.0 * self.feed_scale, false)?;
+                m.feed_scale = self.feed_scale;
+                MoveKind::Path(m)
             }
             SegmentKind::Tap(tap) => {
                 check_feed(tap.feed)?;
@@ -315,7 +337,10 @@ impl Planner {
                 if center.iter().any(|c| !c.is_finite()) {
                     return Err(MotionErrorKind::NonFinite { axis: '?' });
                 }
-                MoveKind::Path(self.arc_move(end, *center, *plane, *dir, *turns, feed / 60.0)?)
+                let feed = feed / 60.0 * self.feed_scale;
+                let mut m = self.arc_move(end, *center, *plane, *dir, *turns, feed)?;
+                m.feed_scale = self.feed_scale;
+                MoveKind::Path(m)
             }
             SegmentKind::Dwell { seconds } => {
                 if !(seconds.is_finite() && *seconds >= 0.0) {
@@ -530,6 +555,7 @@ impl Planner {
             t_begin: 0.0,
             t_end: ticks as f64 * self.period,
             end_speed: 0.0,
+            feed_scale: 1.0,
         })
     }
 

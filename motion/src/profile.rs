@@ -140,6 +140,27 @@ impl JerkProfile {
     pub fn pieces(&self) -> usize {
         self.len as usize
     }
+
+    /// The largest |jerk| and |acceleration| over the times [t0, t1] (the profile holds
+    /// still before its start and cruises past its end).
+    pub fn extremes_within(&self, t0: f64, t1: f64) -> (f64, f64) {
+        let (mut jerk, mut acc) = (0.0f64, 0.0f64);
+        let n = self.len as usize;
+        for (i, p) in self.pieces[..n].iter().enumerate() {
+            let end = if i + 1 < n {
+                self.pieces[i + 1].t0
+            } else {
+                self.duration
+            };
+            let (a, b) = (t0.max(p.t0), t1.min(end));
+            if a <= b {
+                jerk = jerk.max(p.j.abs());
+                // Acceleration is linear in a piece: its extremes are at the ends.
+                acc = acc.max(p.at(a).a.abs()).max(p.at(b).a.abs());
+            }
+        }
+        (jerk, acc)
+    }
 }
 
 impl PathProfile for JerkProfile {

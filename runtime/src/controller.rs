@@ -120,6 +120,16 @@ pub struct CycleController<L: DriveLink> {
     held: bool,
     /// Feed time, path deviation and exact stops (the report's path figures).
     path: crate::path_figures::PathTracker,
+    /// Feed hold and overrides: the operator's panel, its triggered commands, what the loop
+    /// applied last and the record of it (see `take_panel`).
+    panel: Option<Arc<crate::operator::Panel>>,
+    schedule: crate::operator::Schedule,
+    applied: crate::operator::PanelState,
+    panel_log: crate::operator::PanelLog,
+    period_us: u64,
+    last_n: Option<u32>,
+    /// The panel change applied this tick, for the status (and so the trace).
+    panel_now: Option<crate::operator::PanelAction>,
 }
 
 /// One axis of a tap slaved to the other's actual position after that one's drive stopped
@@ -197,7 +207,40 @@ impl<L: DriveLink> CycleController<L> {
             gate: None,
             held: false,
             path: Default::default(),
+            panel: None,
+            schedule: Default::default(),
+            applied: Default::default(),
+            panel_log: Default::default(),
+            period_us: u64::from(cfg.bus.period_us),
+            last_n: None,
+            panel_now: None,
         }
+    }
+
+    /// Takes feed hold, resume and overrides from `panel` (set at once from the terminal)
+    /// and from `schedule` (a command file's triggered commands), each tick.
+    pub fn with_panel(
+        mut self,
+        panel: Arc<crate::operator::Panel>,
+        schedule: crate::operator::Schedule,
+    ) -> Self {
+        self.panel = Some(panel);
+        self.schedule = schedule;
+        self
+    }
+
+    /// The panel changes applied so far (hold, resume, overrides) with their tick and line.
+    pub fn panel_log(&self) -> &crate::operator::PanelLog {
+        &self.panel_log
+    }
+
+    /// In a feed hold with the path at rest and no triggered command left to end it: the
+    /// operator holds, as at a program stop (virtual time paces itself to the wall clock).
+    pub fn is_feed_held(&self) -> bool {
+        self.applied.hold
+            && self.interp.is_feed_held()
+            && self.schedule.pending() == 0
+            && self.phase == Phase::Running
     }
 
     /// Holds at program stops as `gate` says (M0, M1 with optional stop): with `Wait` the
@@ -252,6 +295,7 @@ impl<L: DriveLink> CycleController<L> {
         }
         self.phase != Phase::Running
             || self.held
+            || self.applied.hold
             || self.input_done
             || !self.interp.is_idle()
             || !self.moves.is_empty()
@@ -298,11 +342,17 @@ impl<L: DriveLink> CycleController<L> {
     /// Runs one period at `now`. Allocation-free.
     pub fn step(&mut self, now: Instant) -> Step {
         self.take_requests();
+        self.take_panel();
         if self.phase == Phase::Running && !self.held {
             // A blended move shorter than the rest of the period passes between two samples
-            // (the interpolator stays idle): start moves until one takes this tick.
+            // (the interpolator stays idle): start moves until one takes this tick (none from
+            // rest in a feed hold).
             let mut started = 0;
-            while self.interp.is_idle() && started < MOVES_PER_TICK && self.next_move() {
+            while self.interp.is_idle()
+                && started < MOVES_PER_TICK
+                && !self.feed_hold_keeps_back()
+                && self.next_move()
+            {
                 started += 1;
             }
         } else if self.phase == Phase::Stopping {
@@ -318,6 +368,7 @@ impl<L: DriveLink> CycleController<L> {
             self.program_stop(kind);
         }
         self.last_line = t.line;
+        self.last_n = t.n;
         self.commands = t.pos.0;
         if let Some(f) = &self.follow {
             let (i, v) = follow_actual(
@@ -372,13 +423,7 @@ impl<L: DriveLink> CycleController<L> {
     #[inline]
     fn take_requests(&mut self) {
         if self.phase == Phase::Running && self.stop_request.load(Ordering::Relaxed) {
-            self.begin_stop(DriveStop {
-                cause: StopCause::Operator,
-                node: 0,
-                statusword: 0,
-                emcy: None,
-                bus: None,
-            });
+            self.begin_stop(stop_without_drive(StopCause::Operator));
         }
         // Held at a program stop: released by the operator's resume, or ended there.
         if self.held
@@ -390,6 +435,79 @@ impl<L: DriveLink> CycleController<L> {
             } else if g.released() {
                 self.held = false;
             }
+        }
+    }
+
+    /// The panel's triggered commands due now, then whatever changed on the panel, applied
+    /// to the interpolator and recorded (atomics and fixed-size tables only).
+    #[inline]
+    fn take_panel(&mut self) {
+        let Some(panel) = &self.panel else {
+            return;
+        };
+        if self.phase != Phase::Running {
+            return;
+        }
+        let micros = self.tick.saturating_mul(self.period_us);
+        self.schedule.take_due(micros, self.last_n, |s| {
+            panel.apply(s.command.action, s.input_line)
+        });
+        let now = panel.state();
+        if now == self.applied {
+            if self.is_feed_held() && panel.is_closed() {
+                // End of the operator's input in a feed hold: nobody can resume; the
+                // program ends here (a controlled stop, already at rest).
+                self.begin_stop(stop_without_drive(StopCause::Operator));
+            }
+            return;
+        }
+        use crate::operator::PanelAction;
+        let mut changes = [None; 4];
+        if now.hold != self.applied.hold {
+            self.interp.set_feed_hold(now.hold);
+            changes[0] = Some(if now.hold {
+                PanelAction::Hold
+            } else {
+                PanelAction::Resume
+            });
+        }
+        if now.feed != self.applied.feed {
+            self.interp.set_feed_override(f64::from(now.feed) / 100.0);
+            changes[1] = Some(PanelAction::Feed(now.feed));
+        }
+        if now.spindle != self.applied.spindle {
+            self.interp
+                .set_spindle_override(f64::from(now.spindle) / 100.0);
+            changes[2] = Some(PanelAction::Spindle(now.spindle));
+        }
+        if now.rapid != self.applied.rapid {
+            self.interp.set_rapid_override(f64::from(now.rapid) / 100.0);
+            changes[3] = Some(PanelAction::Rapid(now.rapid));
+        }
+        let input_line = panel.input_line();
+        for action in changes.into_iter().flatten() {
+            self.panel_now = Some(action);
+            self.panel_log.push(crate::operator::PanelEvent {
+                action,
+                tick: self.tick,
+                line: self.last_line,
+                n: self.last_n,
+                input_line,
+            });
+        }
+        self.applied = now;
+    }
+
+    /// A feed hold keeps the next move of the ring from starting (see
+    /// `Interpolator::holds_before`: the path is at rest, and it is not a tap's tap out).
+    #[inline]
+    fn feed_hold_keeps_back(&self) -> bool {
+        if !self.applied.hold {
+            return false;
+        }
+        match self.moves.iter().next() {
+            Some(LoopInput::Move(m)) => self.interp.holds_before(m),
+            _ => false,
         }
     }
 
@@ -453,6 +571,7 @@ impl<L: DriveLink> CycleController<L> {
             moves_started: self.moves_started,
             idle: self.interp.is_idle(),
             spindle_follow: self.follow.is_some(),
+            panel: self.panel_now.take(),
         };
         for i in 0..self.axes.n {
             let f = &self.feedback[i];
@@ -633,13 +752,7 @@ impl<L: DriveLink> CycleController<L> {
                 if let Err(e) = self.interp.start(mv) {
                     self.motion_error = Some(e);
                     self.last_line = e.line;
-                    self.begin_stop(DriveStop {
-                        cause: StopCause::Motion,
-                        node: 0,
-                        statusword: 0,
-                        emcy: None,
-                        bus: None,
-                    });
+                    self.begin_stop(stop_without_drive(StopCause::Motion));
                 }
             }
             Some(LoopInput::End) => {
@@ -700,6 +813,17 @@ fn follow_actual(
         (si, f.anchor.1 + (p - f.anchor.0) / f.c.ratio)
     } else {
         (si, fb[si].actual)
+    }
+}
+
+/// A stop that no drive raised (the operator's, a motion error).
+fn stop_without_drive(cause: StopCause) -> DriveStop {
+    DriveStop {
+        cause,
+        node: 0,
+        statusword: 0,
+        emcy: None,
+        bus: None,
     }
 }
 

@@ -147,7 +147,9 @@ impl Recorder {
         }
     }
 
-    /// Writes a CSV trace (`t,line,<A>_cmd,<A>_act…,<A>_sw…`) to `out`, header first.
+    /// Writes a CSV trace (`t,line,<A>_cmd,<A>_act…,<A>_sw…,panel`) to `out`, header first;
+    /// `panel` names the operator's feed hold, resume or override applied on that tick
+    /// (`hold`, `resume`, `feed 50`, `spindle 110`; empty on the others).
     pub fn with_trace(mut self, mut out: Box<dyn Write>) -> Recorder {
         let mut h = String::from("t,line");
         for a in &self.names {
@@ -158,7 +160,7 @@ impl Recorder {
                 h.push_str(&format!(",{a}_sw"));
             }
         }
-        h.push('\n');
+        h.push_str(",panel\n");
         if let Err(e) = out.write_all(h.as_bytes()) {
             self.trace_error = Some(e);
         }
@@ -344,6 +346,13 @@ impl Recorder {
         for i in 0..self.n {
             if self.has_drive[i] {
                 line.push_str(&format!(",0x{:04x}", s.statusword[i]));
+            }
+        }
+        line.push(',');
+        if let Some(a) = s.panel {
+            line.push_str(a.name());
+            if let Some(p) = a.percent() {
+                line.push_str(&format!(" {p}"));
             }
         }
         line.push('\n');

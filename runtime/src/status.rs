@@ -56,6 +56,8 @@ pub struct Status {
     /// The spindle (or tool axis) drive stopped following its setpoints during a tap and the
     /// other axis follows its actual position instead (the path setpoints mean nothing).
     pub spindle_follow: bool,
+    /// The operator's panel change (feed hold, resume, an override) applied on this tick.
+    pub panel: Option<crate::operator::PanelAction>,
 }
 
 /// Whether two wrapping INT32 positions are within one count of each other. The difference

@@ -162,6 +162,72 @@ fn full_tick_path_allocates_nothing_with_matched_contouring_axes() {
     }
 }
 
+/// Feed hold, resume, feed override 50 % and 0 %, spindle override, from the panel's
+/// atomics (as the terminal sets them) and from triggered commands (a command file), over a
+/// blended run and the tap: the loop still allocates nothing.
+#[test]
+fn full_tick_path_allocates_nothing_with_feed_hold_and_overrides() {
+    use cnc402_runtime::operator::{
+        Panel, PanelAction, PanelCommand, Schedule, Scheduled, Trigger,
+    };
+    let cfg = machine();
+    for program in [blended(), TAP.to_string()] {
+        let mut link = SimLink::simulated(&cfg, None).expect("sim link");
+        let start = common::started(&mut link);
+        let (_mp, mc) = common::planned(&cfg, "p.nc", &program, &start, 8192);
+        let (sp, mut sc) = status_ring(1 << 16);
+        let panel = Arc::new(Panel::default());
+        let mut schedule = Schedule::default();
+        let at = |ms: u64, action, line| Scheduled {
+            command: PanelCommand {
+                action,
+                at: Some(Trigger::Time { micros: ms * 1000 }),
+            },
+            input_line: line,
+        };
+        for s in [
+            at(300, PanelAction::Feed(50), 1),
+            at(600, PanelAction::Spindle(120), 2),
+            at(900, PanelAction::Feed(0), 3),
+            at(1300, PanelAction::Feed(100), 4),
+            at(1900, PanelAction::Resume, 5),
+        ] {
+            schedule.push(s).unwrap();
+        }
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut ctrl = CycleController::new(&cfg, start, link, mc, sp, stop)
+            .with_panel(panel.clone(), schedule);
+        let period = Duration::from_micros(cfg.bus.period_us as u64);
+        let mut now = Instant::ZERO;
+        for _ in 0..20 {
+            now += period;
+            assert_eq!(ctrl.step(now), Step::Continue);
+        }
+        let before = allocs();
+        arm(true);
+        let mut outcome = None;
+        for k in 0..120_000 {
+            if k == 1500 {
+                // The terminal's hold (the listener thread stores it).
+                panel.apply(PanelAction::Hold, 7);
+            }
+            now += period;
+            if let Step::Done(o) = ctrl.step(now) {
+                outcome = Some(o);
+                break;
+            }
+            if sc.occupied_len() > 30_000 {
+                while sc.try_pop().is_some() {}
+            }
+        }
+        arm(false);
+        let n = allocs() - before;
+        assert_eq!(outcome, Some(Outcome::Finished));
+        assert_eq!(ctrl.panel_log().events().count(), 6);
+        assert_eq!(n, 0, "allocations in {} ticks", ctrl.ticks());
+    }
+}
+
 #[test]
 fn the_counter_counts() {
     arm(true);

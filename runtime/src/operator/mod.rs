@@ -5,13 +5,18 @@
 //! the loop only sees the program stops it inserts (the M0 machinery of `program_stop`).
 
 mod input;
+mod panel;
 mod search;
 mod spec;
 mod watch;
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
-pub use input::{CommandInput, Read};
+pub use input::{CommandInput, Read, describe};
+pub use panel::{
+    FEED_RANGE, PANEL_COMMANDS, Panel, PanelAction, PanelCommand, PanelEvent, PanelLog, PanelState,
+    SPINDLE_RANGE, Schedule, Scheduled, Trigger, apply_at_start,
+};
 pub use search::SearchSpec;
 pub use spec::{BlockSpec, SearchError, check_breaks, file_matches, resolve_search};
 pub use watch::{Admit, BlockWatch};
@@ -25,6 +30,11 @@ pub struct OperatorOptions {
     pub search: Option<SearchSpec>,
     /// Where commands come from (`None`: stdin).
     pub commands: Option<Arc<CommandInput>>,
+    /// The command file's triggered panel commands ([`CommandInput::schedule`]).
+    pub schedule: Schedule,
+    /// Read stdin throughout the run so that panel commands act at once (the terminal, or
+    /// `--commands -`); off, stdin is read only at holds.
+    pub listen_stdin: bool,
 }
 
 impl OperatorOptions {
@@ -47,16 +57,22 @@ pub enum Command {
     Skip,
     /// End the program here (a controlled stop: the machine settles and disables).
     Stop,
+    /// Feed hold, resume, an override (see [`panel`]): acts on the panel, answers no hold.
+    Panel(PanelCommand),
 }
 
 /// The commands, for messages and `--help`.
-pub const COMMANDS: &str = "continue (or Enter), step, next, skip, stop";
+pub const COMMANDS: &str = "continue (or Enter), step, next, skip, stop, hold, resume, feed 0–200, spindle 50–120, \
+     rapid 25|50|100";
 
 impl Command {
     /// Parses one command line: the word, or its first letter; an empty line is `continue`
     /// (Enter, as at M0).
     pub fn parse(line: &str) -> Result<Command, String> {
         let w = line.trim().to_ascii_lowercase();
+        if let Some(p) = PanelCommand::parse(&w) {
+            return p.map(Command::Panel);
+        }
         Ok(match w.as_str() {
             "" | "c" | "continue" => Command::Continue,
             "s" | "step" => Command::Step,
@@ -80,6 +96,7 @@ impl Command {
             Command::Next => "next",
             Command::Skip => "skip",
             Command::Stop => "stop",
+            Command::Panel(p) => p.action.name(),
         }
     }
 }
@@ -134,6 +151,11 @@ pub struct OperatorLog {
     pub stopped_by_operator: bool,
     /// Block search: the range run (`--from`/`--to` as resolved, `file:line`).
     pub search: Option<String>,
+    /// Feed holds, resumes and overrides as the loop applied them, and the period that
+    /// turns their ticks into seconds.
+    pub panel: Vec<PanelEvent>,
+    pub panel_lost: u64,
+    pub period_s: f64,
 }
 
 impl OperatorLog {
@@ -161,7 +183,18 @@ impl OperatorLog {
             .iter()
             .map(|m| json!({"file": m.file, "line": m.line, "text": m.text}))
             .collect();
+        let panel: Vec<_> = self
+            .panel
+            .iter()
+            .map(|e| {
+                json!({"action": e.action.name(), "percent": e.action.percent(),
+                       "at_s": e.tick as f64 * self.period_s, "at_tick": e.tick,
+                       "line": e.line, "n": e.n, "input_line": e.input_line})
+            })
+            .collect();
         json!({
+            "panel": panel,
+            "panel_lost": self.panel_lost,
             "breaks": breaks,
             "commands": commands,
             "messages": messages,
@@ -201,7 +234,7 @@ impl OperatorShared {
     pub fn order(&self, command: Command, hit: Option<&BreakHit>) {
         let mut o = Self::lock(&self.orders);
         match command {
-            Command::Continue | Command::Stop => {}
+            Command::Continue | Command::Stop | Command::Panel(_) => {}
             Command::Step => o.step = true,
             Command::Next => o.to_next_break = true,
             Command::Skip => o.skip = hit.map(|h| (h.file.clone(), h.line)),

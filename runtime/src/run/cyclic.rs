@@ -37,7 +37,7 @@ impl LoopState {
     fn of(ctrl: &CycleController<Box<dyn DriveLink>>) -> LoopState {
         LoopState {
             has_work: ctrl.has_work(),
-            held: ctrl.is_held(),
+            held: ctrl.is_held() || ctrl.is_feed_held(),
         }
     }
 }
@@ -94,6 +94,8 @@ pub(super) struct LoopEnd {
     pub(super) shutdown_error: Option<String>,
     /// Per axis, whether it had its machine reference.
     pub(super) homed: [bool; MAX_AXES],
+    /// Feed holds, resumes and overrides the loop applied.
+    pub(super) panel: crate::operator::PanelLog,
 }
 
 /// The loop's ends of the rings and its shared flags.
@@ -103,6 +105,8 @@ pub(super) struct LoopIo {
     /// Raised to stop the machine the way a fault does (SIGINT, a feeder gone).
     pub(super) stop_request: Arc<AtomicBool>,
     pub(super) gate: Arc<StopGate>,
+    /// The operator's panel and a command file's triggered commands.
+    pub(super) panel: Option<(Arc<crate::operator::Panel>, crate::operator::Schedule)>,
 }
 
 /// Starts `link` up and runs the cycle on it to the end, on `clock`. `ready` is called once
@@ -144,6 +148,9 @@ pub(super) fn run_cyclic<C: CycleClock>(
     let mut ctrl =
         CycleController::new(cfg, start, link, io.moves, io.status, stop_request.clone())
             .with_stop_gate(io.gate);
+    if let Some((panel, schedule)) = io.panel {
+        ctrl = ctrl.with_panel(panel, schedule);
+    }
     let outcome = loop {
         let tick = match clock.next_tick(LoopState::of(&ctrl)) {
             Ok(t) => t,
@@ -207,6 +214,7 @@ fn cyclic_end(
         grant: None,
         wall,
         shutdown_error,
+        panel: *ctrl.panel_log(),
     }
 }
 
@@ -233,6 +241,7 @@ fn failed_end(
         grant: None,
         wall: wall0.elapsed(),
         shutdown_error: None,
+        panel: Default::default(),
     }
 }
 
@@ -309,6 +318,7 @@ mod tests {
             status,
             stop_request: Arc::new(AtomicBool::new(false)),
             gate: Arc::new(StopGate::default()),
+            panel: None,
         };
         let link = Box::new(crate::testing::model_link(&cfg, None));
         let mut ready = false;

@@ -283,7 +283,15 @@ pub fn run_input(
         .commands
         .clone()
         .unwrap_or_else(|| Arc::new(CommandInput::stdin()));
-    let mut prompt = OperatorPrompt::new(gate, no_operator_terminal, commands, shared);
+    let panel = Arc::new(crate::operator::Panel::default());
+    let mut schedule = operator.schedule;
+    crate::operator::apply_at_start(&mut schedule, &panel);
+    if operator.listen_stdin
+        && let Err(e) = commands.listen(panel.clone())
+    {
+        log::warn!("cannot read commands during motion ({e}): only at holds");
+    }
+    let mut prompt = OperatorPrompt::new(gate, no_operator_terminal, commands, shared, panel);
     if let Some(search) = &operator.search {
         prompt.set_search(search.to_string());
     }
@@ -306,6 +314,7 @@ pub fn run_input(
         status: status_tx,
         stop_request,
         gate: side.prompt.gate().clone(),
+        panel: Some((side.prompt.panel.clone(), schedule)),
     };
     let end = match timing {
         Timing::Virtual => run_virtual(cfg, spec, feed, io, status_rx, &mut side),

@@ -13,7 +13,7 @@ use cnc402_motion::StopKind;
 
 use crate::operator::{
     BreakHit, BreakRecord, COMMANDS, Command, CommandInput, CommandRecord, MessageRecord,
-    OperatorLog, OperatorShared, Read,
+    OperatorLog, OperatorShared, Panel, Read,
 };
 use crate::program_stop::{StopDecision, StopGate, StopRecord, kind_name};
 
@@ -31,6 +31,8 @@ pub(super) struct OperatorPrompt {
     log: Arc<Mutex<OperatorLog>>,
     /// Every hold asked for, in order: true for a break (the gate's waits are in this order).
     holds: Vec<bool>,
+    /// Feed hold and overrides: panel commands read at a hold act on it at once.
+    pub(super) panel: Arc<Panel>,
 }
 
 fn lock(log: &Mutex<OperatorLog>) -> MutexGuard<'_, OperatorLog> {
@@ -43,6 +45,7 @@ impl OperatorPrompt {
         no_operator_terminal: bool,
         input: Arc<CommandInput>,
         shared: Arc<OperatorShared>,
+        panel: Arc<Panel>,
     ) -> OperatorPrompt {
         OperatorPrompt {
             gate,
@@ -52,6 +55,7 @@ impl OperatorPrompt {
             shared,
             log: Arc::default(),
             holds: Vec::new(),
+            panel,
         }
     }
 
@@ -165,11 +169,12 @@ impl OperatorPrompt {
     /// exits 64).
     fn ask_operator(&mut self, hit: Option<BreakHit>, tick: u64) {
         self.holds.push(hit.is_some());
-        let (gate, input, shared, log) = (
+        let (gate, input, shared, log, panel) = (
             self.gate.clone(),
             self.input.clone(),
             self.shared.clone(),
             self.log.clone(),
+            self.panel.clone(),
         );
         let t0 = std::time::Instant::now();
         let spawned = std::thread::Builder::new()
@@ -178,6 +183,11 @@ impl OperatorPrompt {
                 // Each turn reads one more line of the input: it ends with the input.
                 loop {
                     match input.next() {
+                        Read::Command(Command::Panel(p), input_line) => {
+                            // Acts on the panel and answers no hold: read on.
+                            panel.apply(p.action, input_line);
+                            eprintln!("{}: {}", p.action.name(), crate::operator::describe(&panel));
+                        }
                         Read::Command(c, input_line) => {
                             let mut l = lock(&log);
                             l.commands.push(CommandRecord {

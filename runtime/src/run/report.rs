@@ -115,7 +115,12 @@ pub(super) fn build_report(
         coupling_bound_um: coupling_bound_um(&axes_t, &rec.taps),
         plot: rec.plot_points().to_vec(),
         stops: side.prompt.records(),
-        operator: side.prompt.operator_log(),
+        operator: crate::operator::OperatorLog {
+            panel: end.panel.events().copied().collect(),
+            panel_lost: end.panel.lost,
+            period_s: cfg.bus.period_s(),
+            ..side.prompt.operator_log()
+        },
     }
 }
 

@@ -107,6 +107,9 @@ impl<'a> Side<'a> {
         let mut feeder =
             Feeder::from_input(self.cfg, &feed.input, start, false).map_err(RunError::Program)?;
         self.lookahead = Some(feeder.lookahead());
+        // Feed override above 100 % is planned: the lookahead reads it per segment.
+        crate::feeder::lock(&feeder.lookahead())
+            .set_feed_override_source(self.prompt.panel.feed_source());
         let op = feed.operator;
         if op.watches() {
             feeder = feeder.with_watch(crate::operator::BlockWatch::new(
@@ -204,8 +207,20 @@ impl<'a> Side<'a> {
         parts.join(" ")
     }
 
-    /// The program's event in status record `s`, if any.
+    /// The program's event in status record `s`, if any (and the operator's panel change).
     fn event(&mut self, s: &Status) {
+        if let Some(a) = s.panel {
+            // Where the loop applied it, for the operator (the report keeps it too).
+            let pct = a.percent().map(|p| format!(" {p} %")).unwrap_or_default();
+            eprintln!(
+                "{}{pct} at {:.3} s, {}:{} | {}",
+                a.name(),
+                s.tick as f64 * self.cfg.bus.period_s(),
+                self.file_of(s),
+                s.line,
+                self.position(s)
+            );
+        }
         match s.event {
             Some(MoveEvent::Message) => {
                 if let Some(text) = self.shared.take_message() {
