@@ -34,6 +34,52 @@ fn a_bare_program_name_finds_the_subprogram_next_to_it() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Regression (percent_wrapped_subprogram_file_did_nothing): a sub-program file written as
+/// Fanuc punches them, `%`, `O1000`, blocks, `M99`, `%`, called by `M98 P1000` after the main
+/// program had run a block, took its opening `%` for the end of the file: nothing ran and no
+/// error was raised. Its block runs now, and a `%` after its blocks still ends it.
+#[test]
+fn percent_wrapped_subprogram_file_runs() {
+    let dir = temp("percent");
+    std::fs::write(
+        dir.join("m.nc"),
+        "O0001\nG0 X0 Y0 Z5\nM98 P1000\nM98 P1001\nG0 X5\nM30\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("O1000.nc"), "%\nO1000\nG1 X10 Y10 F500\nM99\n%\n").unwrap();
+    // No M99: the closing `%` returns.
+    std::fs::write(
+        dir.join("O1001.nc"),
+        "\n%\n(a comment)\nO1001\nG1 Y20 F500\n%\nG1 Y99\n",
+    )
+    .unwrap();
+    let cfg = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("config/machine.toml");
+    let o = Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args(["segments", "m.nc", "--config", cfg.to_str().unwrap()])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    let out = String::from_utf8_lossy(&o.stdout);
+    let ends: Vec<&str> = out
+        .lines()
+        .filter_map(|l| l.split("\"end\":").nth(1))
+        .map(|e| e.split('}').next().unwrap_or(""))
+        .collect();
+    assert_eq!(
+        ends,
+        [
+            "{\"X\":0,\"Y\":0,\"Z\":5,\"C\":0",
+            "{\"X\":10,\"Y\":10,\"Z\":5,\"C\":0",
+            "{\"X\":10,\"Y\":20,\"Z\":5,\"C\":0",
+            "{\"X\":5,\"Y\":20,\"Z\":5,\"C\":0",
+        ],
+        "{out}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A config outside the repository keeps its variables next to itself, whatever the working
 /// directory (it used to put them in the parent of its folder).
 #[test]

@@ -103,6 +103,11 @@ impl Interpreter {
         let err = |span: Span, m: String| NcError::new(&unit.src, span, m);
         match &line.kind {
             LineKind::Percent => {
+                // A called file's opening `%` (nothing but `%` and empty lines before it in
+                // the unit) opens it; the main program's blocks must not make it an end.
+                if self.flow.frames.len() > 1 && opens_unit(&unit, pc) {
+                    return Ok(());
+                }
                 if self.flow.seen_block {
                     return self.end_of_unit(&unit);
                 }
@@ -875,5 +880,16 @@ fn h_operator(code: u32, q: f64, r: f64) -> Option<Result<f64, String>> {
             bin(op)
         }
         _ => return None,
+    })
+}
+
+/// Whether the `%` at line `pc` of `unit` is its opening one: only `%` and empty lines come
+/// before it in the unit (a streamed view, which holds one line, never says so).
+fn opens_unit(unit: &Unit, pc: usize) -> bool {
+    (unit.start..pc).all(|i| {
+        matches!(
+            unit.line(i).map(|l| &l.kind),
+            Some(LineKind::Empty | LineKind::Percent)
+        )
     })
 }
