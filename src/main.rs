@@ -100,7 +100,7 @@ enum Command {
     /// non-volatile variables, a preview of the holes, and start (docs/pages.md).
     ///
     /// Example: cnc402 pages examples/mlt980/pages.toml --set pattern=circle --check
-    Pages(pages::PagesArgs),
+    Pages(Box<pages::PagesArgs>),
     /// Post a job for a target control (fanuc0, fanuc16, fanuc18, fanuc32, arumatik,
     /// itnc530): the program is built whole, assembled, then read back and compared with the
     /// job segment by segment; a job the target cannot express is an error naming the block
@@ -239,7 +239,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
         }
         Command::Pages(args) => {
             let cfg = load_config(&cli.config)?;
-            pages::pages(&cfg, args)
+            pages::pages(&cfg, *args)
         }
         Command::Post(args) => post::post(&load_config(&cli.config)?, *args),
     }
