@@ -196,8 +196,57 @@ fn golden(job: &str, target: Target) {
 }
 
 #[test]
-fn boring_cycles_native_on_fanuc0() {
+fn boring_cycles_as_macro_b_on_fanuc0_which_lacks_g76() {
     golden("boring.nc", Target::Fanuc0);
+}
+
+#[test]
+fn boring_cycles_native_on_fanuc16() {
+    let text = post_and_prove(
+        &config("config/machine.toml"),
+        &fixture("boring.nc"),
+        Target::Fanuc16,
+    )
+    .unwrap();
+    assert!(
+        text.contains(" G98 G76 X10. Y10. Z-12. R2. Q0.2 P500 F80.\n"),
+        "{text}"
+    );
+    assert!(!text.contains("G65"), "{text}");
+}
+
+/// G76 and G87 with holes where the tool already is, R at the initial level, no shift, no
+/// dwell, and the spindle stopped: one body per variant, each written once, every call
+/// proven.
+#[test]
+fn macro_b_bodies_cover_every_variant_of_the_boring_cycles() {
+    let job = "%\nO1\nG21 G90 G17 G94 G54\nT3 M6\nG0 X10. Y10. S800 M3\nG43 H1 Z2.\n\
+               G98 G76 X10. Y10. Z-12. R2. Q0 F80.\nX30. Q0.3 P200\nG80\nG0 Z20.\n\
+               G87 X50. Y10. Z-5. R-15. Q0.25 P100 F50.\nX60. Y20.\nG80\nM5\n\
+               G76 X70. Y10. Z-12. R2. Q0.2 P300 F80.\nG80\nM30\n%\n";
+    let text = post_text(job, Target::Fanuc0).unwrap();
+    let calls = text.matches(" G65 P").count();
+    let bodies = text.matches("\nO8").count();
+    assert_eq!((calls, bodies), (5, 4), "{text}");
+    assert!(
+        text.contains("G65 P8001 X30. Y10. Z-12. R2. Q0.3 T0.2 W2. F80. S800\n"),
+        "{text}"
+    );
+    // The stopped spindle stays stopped: that body has no M3.
+    let last = text.rsplit("\nO8003").next().unwrap();
+    assert!(!last.contains("M3"), "{text}");
+    // Fanuc 16 has the cycles: no macro at all.
+    assert!(!post_text(job, Target::Fanuc16).unwrap().contains("G65"));
+}
+
+#[test]
+fn a_cycle_a_macro_body_does_not_cover_falls_back_to_plain_blocks() {
+    // G18: the drilling axis is Y; the bodies are written for G17.
+    let job = "G21 G90 G18 G94 G54\nT3 M6\nG0 X10. Z10. S800 M3\nY20.\n\
+               G98 G76 X10. Z10. Y-12. R2. Q0.2 F80.\nG80\nM30\n";
+    let text = post_text(job, Target::Fanuc0).unwrap();
+    assert!(!text.contains("G65"), "{text}");
+    assert!(text.contains("M19"), "{text}");
 }
 
 #[test]

@@ -5,6 +5,7 @@
 
 pub mod format;
 pub mod heidenhain;
+pub mod macro_b;
 mod modal;
 mod ops;
 
@@ -46,6 +47,8 @@ pub struct Emitter<'a> {
     pub(crate) xyz: [Option<usize>; 3],
     /// The block being built sets or cancels the tool length (G43/G44/G49).
     pub(crate) length_written: bool,
+    /// The Macro B bodies written so far, and their sub-program indices.
+    pub(crate) macro_subs: Vec<(macro_b::MacroKey, usize)>,
 }
 
 impl<'a> Emitter<'a> {
@@ -58,6 +61,7 @@ impl<'a> Emitter<'a> {
             pos: AxisPos::default(),
             xyz: cnc402_interp::lower::xyz_indices(cfg),
             length_written: false,
+            macro_subs: Vec::new(),
         }
     }
 

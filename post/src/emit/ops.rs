@@ -272,9 +272,13 @@ impl Emitter<'_> {
         }
     }
 
-    /// A canned cycle block: native when the control has the cycle, else plain blocks.
+    /// A canned cycle block: native when the control has the cycle, else a Custom Macro B
+    /// call where the control has macros and a body covers the cycle, else plain blocks.
     pub(crate) fn cycle(&mut self, op: &CanonOp, cc: &CannedCycle) -> Result<(), PostError> {
         if !self.rules.has_cycle(cc.code) {
+            if self.rules.macros && self.cycle_as_macro(op, cc)? {
+                return Ok(());
+            }
             return self.cycle_as_blocks(op, cc);
         }
         let drill = cc.axes[2];
