@@ -408,3 +408,30 @@ fn cl_data_without_its_tool_or_with_an_unknown_statement_is_refused_at_its_line(
         "{e}"
     );
 }
+
+/// Source 003's slot-milling cycle (examples/slot-milling.nc): the job's own Macro B program
+/// carried once to a Fanuc with each call a `G65`, as plain moves where macros are not.
+#[test]
+fn the_slot_milling_cycle_is_carried_as_macro_b_or_expanded() {
+    let cfg = config("config/machine.toml");
+    let job = repo().join("examples/slot-milling.nc");
+    for t in [Target::Fanuc0, Target::Fanuc16, Target::Fanuc32] {
+        let text = post_and_prove(&cfg, &job, t).unwrap();
+        assert_eq!(text.matches("G65 P8000 ").count(), 2, "{text}");
+        assert_eq!(
+            text.matches("\nO8000 (O9253 SLOT MILLING").count(),
+            1,
+            "{text}"
+        );
+        assert!(text.contains(" WHILE [#32 GT #27] DO1\n"), "{text}");
+        assert!(
+            text.contains(
+                " G65 P8000 X30. Y20. A40. B12. D10. W0 Z-6. Q2. R2. K50. C0.2 I0.1 F600. E150.\n"
+            ),
+            "{text}"
+        );
+    }
+    let plain = post_and_prove(&cfg, &job, Target::Arumatik).unwrap();
+    assert!(!plain.contains("G65") && !plain.contains('#'), "{plain}");
+    assert!(plain.contains(" G3 "), "{plain}");
+}
