@@ -78,15 +78,8 @@ impl Emitter<'_> {
     /// The `G65` of `call` before `op`, its first operation, if the control can take it there.
     fn write_call(&mut self, op: &CanonOp, call: &CycleCall) -> Result<bool, PostError> {
         self.end_cycle(op);
-        let (modal, blocks) = (self.modal.clone(), self.program.main.len());
-        let words = self.modal_words(op)?;
-        if self.length_written || words.iter().any(|w| w.starts_with("G4")) {
-            self.modal = modal;
-            self.program.main.truncate(blocks);
+        if !self.state_before_call(op)? {
             return Ok(false);
-        }
-        if !words.is_empty() {
-            self.push(words, Some(op));
         }
         let sub = self.carried_sub(call.program);
         let mut block = Block::new(Vec::new(), Some(op.source.clone()));

@@ -50,17 +50,8 @@ impl Emitter<'_> {
                 ..(*op.state).clone()
             }),
         };
-        let (modal, blocks) = (self.modal.clone(), self.program.main.len());
-        let words = self.modal_words(&exact)?;
-        // G65 takes no other words, and a block of its own that sets the tool length or
-        // the compensation (G40–G49) would move where the job's cycle does not.
-        if self.length_written || words.iter().any(|w| w.starts_with("G4")) {
-            self.modal = modal;
-            self.program.main.truncate(blocks);
+        if !self.state_before_call(&exact)? {
             return Ok(false);
-        }
-        if !words.is_empty() {
-            self.push(words, Some(op));
         }
         let sub = self.macro_sub(key);
         let data = self.macro_data(op, cc, key)?;
@@ -83,6 +74,23 @@ impl Emitter<'_> {
         self.modal.feed = None;
         self.modal.spindle = None;
         self.modal.offset = op.state.offset;
+        Ok(true)
+    }
+
+    /// Brings the control to the state `op` runs under in a block of its own before a `G65`
+    /// (which takes no other words): `false`, with nothing written, where that block would
+    /// set the tool length or the compensation (G40–G49) and so move where the job does not.
+    pub(crate) fn state_before_call(&mut self, op: &CanonOp) -> Result<bool, PostError> {
+        let (modal, blocks) = (self.modal.clone(), self.program.main.len());
+        let words = self.modal_words(op)?;
+        if self.length_written || words.iter().any(|w| w.starts_with("G4")) {
+            self.modal = modal;
+            self.program.main.truncate(blocks);
+            return Ok(false);
+        }
+        if !words.is_empty() {
+            self.push(words, Some(op));
+        }
         Ok(true)
     }
 
@@ -172,18 +180,22 @@ pub fn macro_body(key: MacroKey) -> Vec<String> {
         SpindleDir::Stop => "M5",
     });
     let dwell = key.dwell.then_some("G4 X#20");
-    let lines: Vec<Option<&str>> = match key.code {
+    // Out of the hole: oriented, shifted off the wall, up, back, spindle on.
+    let out = [
+        Some(stop),
+        Some("G0 X[#24+#17]"),
+        Some("Z#23"),
+        Some("X#24"),
+        on,
+    ];
+    let into: Vec<Option<&str>> = match key.code {
         76 => vec![
             Some("G0 X#24 Y#25"),
             Some("Z#18"),
             Some("G1 Z#26 F#9"),
             dwell,
-            Some(stop),
-            Some("G0 X[#24+#17]"),
-            Some("Z#23"),
-            Some("X#24"),
-            on,
         ],
+        // G87 goes down shifted, beside the bore, and cuts upwards.
         _ => vec![
             Some("G0 X#24 Y#25"),
             Some(stop),
@@ -193,13 +205,9 @@ pub fn macro_body(key: MacroKey) -> Vec<String> {
             on,
             Some("G1 Z#26 F#9"),
             dwell,
-            Some(stop),
-            Some("G0 X[#24+#17]"),
-            Some("Z#23"),
-            Some("X#24"),
-            on,
         ],
     };
+    let lines = into.into_iter().chain(out);
     lines.into_iter().flatten().map(String::from).collect()
 }
 
