@@ -61,7 +61,7 @@ const REFUSED: &[(&str, &str, &str)] = &[
     (
         "itnc530",
         "bolt-circle-drilling.nc",
-        "block N50: canned cycle G81: iTNC cycles",
+        "block N50: a move without the called tool's length (G49)",
     ),
     (
         "itnc530",
@@ -257,6 +257,11 @@ fn boring_cycles_as_plain_blocks_on_arumatik_which_lacks_g76() {
 #[test]
 fn a_contour_on_the_itnc530_reads_back_through_the_heidenhain_reader() {
     golden("contour.nc", Target::Itnc530);
+}
+
+#[test]
+fn g81_and_g82_on_the_itnc530_as_cycl_def_200_read_back_through_the_reader() {
+    golden("drilling.nc", Target::Itnc530);
 }
 
 #[test]
