@@ -207,14 +207,14 @@ fn a_heidenhain_block_outside_the_subset_is_an_error_at_its_line() {
     let bad = tmp("bad.h");
     std::fs::write(
         &bad,
-        "0 BEGIN PGM BAD MM\n1 TOOL CALL 1 Z S100\n2 CYCL DEF 200 DRILLING\n",
+        "0 BEGIN PGM BAD MM\n1 TOOL CALL 1 Z S100\n2 CYCL DEF 203 UNIVERSAL DRILLING\n",
     )
     .unwrap();
     let o = cnc402(&["segments", bad.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(exit::PROGRAM.into()));
     let e = stderr(&o);
     assert!(e.contains("bad.h:3:1"), "{e}");
-    assert!(e.contains("cycle 200 is not in the subset"), "{e}");
+    assert!(e.contains("cycle 203 is not in the subset"), "{e}");
 }
 
 #[test]

@@ -239,6 +239,21 @@ fn macro_b_bodies_cover_every_variant_of_the_boring_cycles() {
     assert!(!post_text(job, Target::Fanuc16).unwrap().contains("G65"));
 }
 
+/// Regression: a G76 without P right after a G87 with P (same initial level) was posted as a
+/// continuation, and the control kept the G87's P: a dwell the job does not have.
+#[test]
+fn a_dwell_of_the_previous_cycle_was_carried_into_the_next() {
+    let job = "G21 G90 G17 G94 G54\nT3 M6\nG0 X0 Y0 S800 M3\nG43 H1 Z20.\n\
+               G98 G87 X50. Y10. Z-5. R-15. Q0.25 P100 F50.\nG80\n\
+               G76 X70. Y10. Z-12. R2. Q0.2 F80.\nG80\nM30\n";
+    let text = post_text(job, Target::Fanuc16).unwrap();
+    assert!(text.contains(" G80\n"), "{text}");
+    assert!(
+        text.contains(" G76 X70. Y10. Z-12. R2. Q0.2 F80.\n"),
+        "{text}"
+    );
+}
+
 #[test]
 fn a_cycle_a_macro_body_does_not_cover_falls_back_to_plain_blocks() {
     // G18: the drilling axis is Y; the bodies are written for G17.
