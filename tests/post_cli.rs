@@ -70,6 +70,27 @@ fn a_posted_program_is_written_and_segments_as_the_job() {
     assert_same_segments(out.to_str().unwrap(), job);
 }
 
+/// Source 003's slot-milling cycle, the job's own Macro B program: posted for a Fanuc as
+/// two `G65` calls and the program once, it segments as the job.
+#[test]
+fn the_slot_milling_cycle_posts_as_a_macro_call_and_segments_as_the_job() {
+    let out = tmp("slot.fanuc16.nc");
+    let job = "examples/slot-milling.nc";
+    let o = cnc402(&[
+        "post",
+        "--target",
+        "fanuc16",
+        job,
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(text.matches(" G65 P8000 ").count(), 2, "{text}");
+    assert_eq!(text.matches("\nO8000 ").count(), 1, "{text}");
+    assert_same_segments(out.to_str().unwrap(), job);
+}
+
 /// `cnc402 segments` of the posted program and of the job agree within 1 µm.
 fn assert_same_segments(posted: &str, job: &str) {
     let (back, want) = (segments(posted), segments(job));
@@ -186,14 +207,14 @@ fn a_heidenhain_block_outside_the_subset_is_an_error_at_its_line() {
     let bad = tmp("bad.h");
     std::fs::write(
         &bad,
-        "0 BEGIN PGM BAD MM\n1 TOOL CALL 1 Z S100\n2 CYCL DEF 200 DRILLING\n",
+        "0 BEGIN PGM BAD MM\n1 TOOL CALL 1 Z S100\n2 CYCL DEF 203 UNIVERSAL DRILLING\n",
     )
     .unwrap();
     let o = cnc402(&["segments", bad.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(exit::PROGRAM.into()));
     let e = stderr(&o);
     assert!(e.contains("bad.h:3:1"), "{e}");
-    assert!(e.contains("cycle 200 is not in the subset"), "{e}");
+    assert!(e.contains("cycle 203 is not in the subset"), "{e}");
 }
 
 #[test]

@@ -91,7 +91,7 @@ pub fn post_with(
 ) -> Result<String, PostError> {
     let rules = target.rules();
     let job = input::job(cfg, name, text, tools)?;
-    let posted = post_ops(cfg, &job.ops, target)?;
+    let posted = post_ops(cfg, &job, target)?;
     let job_segments = if job.cl {
         verify::lowered(cfg, &job.ops)
     } else {
@@ -109,20 +109,17 @@ pub fn post_unproven(
     target: Target,
 ) -> Result<String, PostError> {
     let job = input::job(cfg, name, text, &input::tools::ToolTable::default())?;
-    post_ops(cfg, &job.ops, target)
+    post_ops(cfg, &job, target)
 }
 
 /// The program of a job's operations for `target`, assembled.
-fn post_ops(
-    cfg: &MachineConfig,
-    job: &[cnc402_interp::canon::CanonOp],
-    target: Target,
-) -> Result<String, PostError> {
+fn post_ops(cfg: &MachineConfig, job: &input::Job, target: Target) -> Result<String, PostError> {
     let rules = target.rules();
     if target == Target::Itnc530 {
-        let (program, inch) = emit::heidenhain::emit_itnc(cfg, &rules, job)?;
+        let ops = input::calls::without_markers(&job.ops);
+        let (program, inch) = emit::heidenhain::emit_itnc(cfg, &rules, &ops)?;
         return emit::heidenhain::assemble_itnc(&program, inch, &rules);
     }
-    let program = emit::emit(cfg, &rules, job)?;
+    let program = emit::emit(cfg, &rules, &job.ops, job.cycles.as_ref())?;
     assemble::assemble_iso(&program, &rules)
 }

@@ -169,11 +169,19 @@ fn differs(rules: &Rules, a: &Step, b: &Step, i: usize) -> PostError {
 /// Segments without messages and coolant events, each with the coolant it runs under.
 fn steps(segments: Vec<Segment>) -> Vec<Step> {
     let mut coolant = (false, false);
+    let mut at: Option<AxisPos> = None;
     let mut out = Vec::with_capacity(segments.len());
     for s in segments {
+        let before = at;
+        if let Some(end) = segment_end(&s.kind) {
+            at = Some(end);
+        }
         match s.kind {
             SegmentKind::Coolant { mist, flood } => coolant = (mist, flood),
             SegmentKind::Message { .. } => {}
+            // A rapid to where the tool is moves nothing: a Macro B body's positioning
+            // writes one where the job's cycle leaves it out (either side: not compared).
+            SegmentKind::Rapid { end } if before.is_some_and(|b| same_point(&b, &end)) => {}
             kind => out.push(Step {
                 kind,
                 exact_stop: s.ends == SegmentEnd::ExactStop,
@@ -184,6 +192,18 @@ fn steps(segments: Vec<Segment>) -> Vec<Step> {
         }
     }
     out
+}
+
+/// Where a segment leaves the tool, if it moves it.
+fn segment_end(kind: &SegmentKind) -> Option<AxisPos> {
+    match kind {
+        SegmentKind::Arc { end, .. } => Some(*end),
+        k => k.line_end().copied(),
+    }
+}
+
+fn same_point(a: &AxisPos, b: &AxisPos) -> bool {
+    (0..MAX_AXES).all(|i| (a[i] - b[i]).abs() <= 1e-9)
 }
 
 fn near(a: f64, b: f64, tol: f64) -> bool {

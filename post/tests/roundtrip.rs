@@ -61,7 +61,7 @@ const REFUSED: &[(&str, &str, &str)] = &[
     (
         "itnc530",
         "bolt-circle-drilling.nc",
-        "block N50: canned cycle G81: iTNC cycles",
+        "block N50: a move without the called tool's length (G49)",
     ),
     (
         "itnc530",
@@ -196,8 +196,72 @@ fn golden(job: &str, target: Target) {
 }
 
 #[test]
-fn boring_cycles_native_on_fanuc0() {
+fn boring_cycles_as_macro_b_on_fanuc0_which_lacks_g76() {
     golden("boring.nc", Target::Fanuc0);
+}
+
+#[test]
+fn boring_cycles_native_on_fanuc16() {
+    let text = post_and_prove(
+        &config("config/machine.toml"),
+        &fixture("boring.nc"),
+        Target::Fanuc16,
+    )
+    .unwrap();
+    assert!(
+        text.contains(" G98 G76 X10. Y10. Z-12. R2. Q0.2 P500 F80.\n"),
+        "{text}"
+    );
+    assert!(!text.contains("G65"), "{text}");
+}
+
+/// G76 and G87 with holes where the tool already is, R at the initial level, no shift, no
+/// dwell, and the spindle stopped: one body per variant, each written once, every call
+/// proven.
+#[test]
+fn macro_b_bodies_cover_every_variant_of_the_boring_cycles() {
+    let job = "%\nO1\nG21 G90 G17 G94 G54\nT3 M6\nG0 X10. Y10. S800 M3\nG43 H1 Z2.\n\
+               G98 G76 X10. Y10. Z-12. R2. Q0 F80.\nX30. Q0.3 P200\nG80\nG0 Z20.\n\
+               G87 X50. Y10. Z-5. R-15. Q0.25 P100 F50.\nX60. Y20.\nG80\nM5\n\
+               G76 X70. Y10. Z-12. R2. Q0.2 P300 F80.\nG80\nM30\n%\n";
+    let text = post_text(job, Target::Fanuc0).unwrap();
+    let calls = text.matches(" G65 P").count();
+    let bodies = text.matches("\nO8").count();
+    assert_eq!((calls, bodies), (5, 4), "{text}");
+    assert!(
+        text.contains("G65 P8001 X30. Y10. Z-12. R2. Q0.3 T0.2 W2. F80. S800\n"),
+        "{text}"
+    );
+    // The stopped spindle stays stopped: that body has no M3.
+    let last = text.rsplit("\nO8003").next().unwrap();
+    assert!(!last.contains("M3"), "{text}");
+    // Fanuc 16 has the cycles: no macro at all.
+    assert!(!post_text(job, Target::Fanuc16).unwrap().contains("G65"));
+}
+
+/// Regression: a G76 without P right after a G87 with P (same initial level) was posted as a
+/// continuation, and the control kept the G87's P: a dwell the job does not have.
+#[test]
+fn a_dwell_of_the_previous_cycle_was_carried_into_the_next() {
+    let job = "G21 G90 G17 G94 G54\nT3 M6\nG0 X0 Y0 S800 M3\nG43 H1 Z20.\n\
+               G98 G87 X50. Y10. Z-5. R-15. Q0.25 P100 F50.\nG80\n\
+               G76 X70. Y10. Z-12. R2. Q0.2 F80.\nG80\nM30\n";
+    let text = post_text(job, Target::Fanuc16).unwrap();
+    assert!(text.contains(" G80\n"), "{text}");
+    assert!(
+        text.contains(" G76 X70. Y10. Z-12. R2. Q0.2 F80.\n"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_cycle_a_macro_body_does_not_cover_falls_back_to_plain_blocks() {
+    // G18: the drilling axis is Y; the bodies are written for G17.
+    let job = "G21 G90 G18 G94 G54\nT3 M6\nG0 X10. Z10. S800 M3\nY20.\n\
+               G98 G76 X10. Z10. Y-12. R2. Q0.2 F80.\nG80\nM30\n";
+    let text = post_text(job, Target::Fanuc0).unwrap();
+    assert!(!text.contains("G65"), "{text}");
+    assert!(text.contains("M19"), "{text}");
 }
 
 #[test]
@@ -208,6 +272,11 @@ fn boring_cycles_as_plain_blocks_on_arumatik_which_lacks_g76() {
 #[test]
 fn a_contour_on_the_itnc530_reads_back_through_the_heidenhain_reader() {
     golden("contour.nc", Target::Itnc530);
+}
+
+#[test]
+fn g81_and_g82_on_the_itnc530_as_cycl_def_200_read_back_through_the_reader() {
+    golden("drilling.nc", Target::Itnc530);
 }
 
 #[test]
@@ -358,4 +427,31 @@ fn cl_data_without_its_tool_or_with_an_unknown_statement_is_refused_at_its_line(
         e.starts_with("j.cl:2: THREAD is not an APT/CL statement"),
         "{e}"
     );
+}
+
+/// Source 003's slot-milling cycle (examples/slot-milling.nc): the job's own Macro B program
+/// carried once to a Fanuc with each call a `G65`, as plain moves where macros are not.
+#[test]
+fn the_slot_milling_cycle_is_carried_as_macro_b_or_expanded() {
+    let cfg = config("config/machine.toml");
+    let job = repo().join("examples/slot-milling.nc");
+    for t in [Target::Fanuc0, Target::Fanuc16, Target::Fanuc32] {
+        let text = post_and_prove(&cfg, &job, t).unwrap();
+        assert_eq!(text.matches("G65 P8000 ").count(), 2, "{text}");
+        assert_eq!(
+            text.matches("\nO8000 (O9253 SLOT MILLING").count(),
+            1,
+            "{text}"
+        );
+        assert!(text.contains(" WHILE [#32 GT #27] DO1\n"), "{text}");
+        assert!(
+            text.contains(
+                " G65 P8000 X30. Y20. A40. B12. D10. W0 Z-6. Q2. R2. K50. C0.2 I0.1 F600. E150.\n"
+            ),
+            "{text}"
+        );
+    }
+    let plain = post_and_prove(&cfg, &job, Target::Arumatik).unwrap();
+    assert!(!plain.contains("G65") && !plain.contains('#'), "{plain}");
+    assert!(plain.contains(" G3 "), "{plain}");
 }

@@ -1,7 +1,9 @@
 //! The Heidenhain conversational (Klartext) subset cnc402 reads: each line of a program that
 //! starts with `BEGIN PGM` (or is named `*.h`) is translated, as it is read, into the ISO
 //! block the interpreter already executes, line for line (errors keep the line number):
-//! `L`, `CC` + `C`, `TOOL CALL`, `CYCL DEF 9` (dwell), M functions, comments, `BLK FORM`.
+//! `L`, `CC` + `C`, `TOOL CALL`, `CYCL DEF 9` (dwell), `CYCL DEF 200` (drilling, its Q
+//! parameters, called by `CYCL CALL` or `L … M99`: a G81/G82 block), M functions, comments,
+//! `BLK FORM`.
 //! What is outside the subset is an error at its line, never a block read another way.
 
 mod words;
@@ -37,6 +39,16 @@ pub struct Translator {
     length_pending: bool,
     /// Modal words for the first block after `BEGIN PGM` (units, absolute centres).
     preamble: Option<String>,
+    /// Where the tool is as far as the program has said (absolute X, Y, Z words).
+    at: [Option<f64>; 3],
+    /// The last F of a path block, and whether the next must write it again (a cycle's
+    /// feed took the ISO F over).
+    feed: Option<f64>,
+    refeed: bool,
+    /// `CYCL DEF 200` and its Q parameters so far; whether a G81/G82 is active in the ISO
+    /// translation (the next block cancels it).
+    drilling: Option<Vec<(u32, f64)>>,
+    cycle_active: bool,
 }
 
 impl Translator {
@@ -47,9 +59,14 @@ impl Translator {
             *self = Translator::default();
         }
         let text = body(line);
-        let out = self.translate(text)?;
+        let was_active = self.cycle_active;
+        let mut out = self.translate(text)?;
         if out.is_empty() || out.starts_with('(') {
             return Ok(out);
+        }
+        if was_active && self.cycle_active && !out.contains(" G8") {
+            out = format!("G80 {out}");
+            self.cycle_active = false;
         }
         Ok(match self.preamble.take() {
             Some(p) => format!("{p} {out}"),
@@ -90,7 +107,21 @@ impl Translator {
             "L" => self.line_move(rest),
             "CC" => self.centre(rest),
             "C" => self.arc(rest),
+            "CYCL" if rest.starts_with("DEF 200") => {
+                self.drilling = Some(Vec::new());
+                Ok(String::new())
+            }
+            "CYCL" if rest.trim() == "CALL" => {
+                let [x, y, _] = self.at;
+                match (x, y) {
+                    (Some(x), Some(y)) => {
+                        self.drill(&[format!("X{}", fmt(x)), format!("Y{}", fmt(y))])
+                    }
+                    _ => Err("CYCL CALL before X and Y are known".into()),
+                }
+            }
             "CYCL" => cycle(rest),
+            _ if head.starts_with('Q') => self.q_parameter(text),
             "STOP" => {
                 let m = if rest.trim().is_empty() {
                     "M0"
@@ -147,9 +178,124 @@ impl Translator {
         Ok(out.join(" "))
     }
 
+    /// `Qnnn=value` of the cycle being defined.
+    fn q_parameter(&mut self, text: &str) -> Result<String, String> {
+        let Some(params) = self.drilling.as_mut() else {
+            return Err("Q parameters are read only in a CYCL DEF 200".into());
+        };
+        let (q, v) = text
+            .split_once('=')
+            .ok_or_else(|| format!("{text}: expected Qnnn=value"))?;
+        let n: u32 = q[1..]
+            .trim()
+            .parse()
+            .map_err(|_| format!("{q} is not a Q parameter"))?;
+        if params.len() >= 16 {
+            return Err("more Q parameters than CYCL DEF 200 has".into());
+        }
+        params.push((n, number(v.trim())?));
+        Ok(String::new())
+    }
+
+    /// A call of `CYCL DEF 200` at `xy` (the `X Y` words): the G81/G82 block that drills as
+    /// the iTNC does. Read: one plunge (Q202 at least the depth), no dwell at the top; it
+    /// returns to the 2nd set-up clearance (G98: the tool must be there at the call, the
+    /// initial level) or, with Q204 not above Q200, to the set-up clearance (G99).
+    fn drill(&mut self, xy: &[String]) -> Result<String, String> {
+        let Some(params) = self.drilling.as_ref() else {
+            return Err("a cycle call without a CYCL DEF 200 before it".into());
+        };
+        let q = |n: u32| {
+            params
+                .iter()
+                .rev()
+                .find(|(k, _)| *k == n)
+                .map(|(_, v)| *v)
+                .ok_or_else(|| format!("CYCL DEF 200 without Q{n}"))
+        };
+        let (clear, depth, feed, plunge) = (q(200)?, q(201)?, q(206)?, q(202)?);
+        let (top_dwell, surface, clear2, dwell) = (q(210)?, q(203)?, q(204)?, q(211)?);
+        if depth >= 0.0 || plunge < -depth - 1e-9 || top_dwell != 0.0 {
+            return Err(
+                "CYCL DEF 200 is read with a negative depth in one plunge (Q202 ≥ |Q201|) \
+                        and no dwell at the top (Q210=0)"
+                    .into(),
+            );
+        }
+        let r = surface + clear;
+        let mode = if clear2 > clear {
+            let level = surface + clear2;
+            if self.at[2].is_none_or(|z| (z - level).abs() > 1e-6) {
+                return Err(format!(
+                    "the tool is not at the 2nd set-up clearance (Z{}) at the cycle call",
+                    fmt(level)
+                ));
+            }
+            "G98"
+        } else {
+            self.at[2] = Some(r);
+            "G99"
+        };
+        let mut out = vec![
+            mode.to_string(),
+            if dwell > 0.0 { "G82" } else { "G81" }.into(),
+        ];
+        out.extend(xy.iter().cloned());
+        out.push(format!("Z{} R{}", fmt(surface + depth), fmt(r)));
+        if dwell > 0.0 {
+            out.push(format!("P{}", (dwell * 1000.0).round()));
+        }
+        out.push(format!("F{}", fmt(feed)));
+        self.cycle_active = true;
+        self.refeed = true;
+        Ok(out.join(" "))
+    }
+
+    /// Keeps where the tool is and the feed from a path block's words.
+    fn follow(&mut self, words: &[Word]) {
+        for w in words {
+            match w {
+                Word::Axis(l, v) => {
+                    if let Some(i) = "XYZ".find(*l) {
+                        self.at[i] = Some(*v);
+                    }
+                }
+                Word::Feed(f) => {
+                    self.feed = Some(*f);
+                    self.refeed = false;
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// The F a feed block must write again after a cycle took the ISO F over.
+    fn feed_again(&mut self, words: &[Word], rapid: bool) -> Option<String> {
+        if rapid || !self.refeed || words.iter().any(|w| matches!(w, Word::Feed(_))) {
+            return None;
+        }
+        self.refeed = false;
+        self.feed.map(|f| format!("F{}", fmt(f)))
+    }
+
     /// `L X.. Y.. Z.. R0|RL|RR F..|FMAX M..`.
     fn line_move(&mut self, rest: &str) -> Result<String, String> {
         let words = split_words(rest)?;
+        if words.contains(&Word::M(99)) {
+            let axes = axis_words(&words)?;
+            if axes.iter().any(|a| !a.starts_with(['X', 'Y']))
+                || words
+                    .iter()
+                    .any(|w| !matches!(w, Word::Axis(..) | Word::Fmax | Word::R0 | Word::M(99)))
+            {
+                return Err("a cycle call L … M99 is read with X, Y, R0 and FMAX only".into());
+            }
+            self.follow(&words);
+            let out = self.drill(&axes)?;
+            return Ok(out);
+        }
+        let refeed = self.feed_again(&words, words.contains(&Word::Fmax));
+        self.follow(&words);
         let rapid = words.iter().any(|w| matches!(w, Word::Fmax));
         let mut out = vec![if rapid { "G0" } else { "G1" }.to_string()];
         out.extend(self.compensation(&words)?);
@@ -160,6 +306,7 @@ impl Translator {
         }
         out.extend(axes);
         out.extend(feed_words(&words));
+        out.extend(refeed);
         out.extend(m_words(&words)?);
         Ok(out.join(" "))
     }
@@ -211,9 +358,12 @@ impl Translator {
         if axes.iter().any(|a| !a.starts_with(['X', 'Y'])) {
             return Err("C moves X and Y only in the subset (no helix)".into());
         }
+        let refeed = self.feed_again(&words, false);
+        self.follow(&words);
         out.extend(axes);
         out.push(format!("I{} J{}", fmt(cx), fmt(cy)));
         out.extend(feed_words(&words));
+        out.extend(refeed);
         out.extend(m_words(&words)?);
         Ok(out.join(" "))
     }
@@ -232,7 +382,7 @@ fn cycle(rest: &str) -> Result<String, String> {
             Ok(format!("G4 X{}", number(t)?))
         }
         Some(n) => Err(format!(
-            "cycle {n} is not in the subset cnc402 reads (cycle 9, dwell, is)"
+            "cycle {n} is not in the subset cnc402 reads (cycles 9, dwell, and 200, drilling, are)"
         )),
         None => Err("expected the cycle number".into()),
     }

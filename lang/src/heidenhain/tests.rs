@@ -56,7 +56,10 @@ fn what_is_outside_the_subset_is_an_error() {
     for (line, why) in [
         ("L IX+10 F100", "IX+10 is not a word"),
         ("C X+1 Y+1 DR+", "C without a CC"),
-        ("CYCL DEF 200 DRILLING", "cycle 200 is not in the subset"),
+        (
+            "CYCL DEF 203 UNIVERSAL DRILLING",
+            "cycle 203 is not in the subset",
+        ),
         ("CALL LBL 1", "CALL is not in the Heidenhain subset"),
         ("TOOL CALL 1 X S100", "tool axis Z"),
         ("L X+Q1", "not a number"),
@@ -71,4 +74,65 @@ fn heidenhain_by_first_line_or_extension() {
     assert!(is_heidenhain("a.nc", "0 BEGIN PGM A MM"));
     assert!(is_heidenhain("A.H", "L X+1"));
     assert!(!is_heidenhain("a.nc", "G0 X1"));
+}
+
+const DRILLING: [&str; 10] = [
+    "0 BEGIN PGM JOB MM",
+    "1 L X+0 Y+0 Z+20 R0 FMAX",
+    "2 CYCL DEF 200 DRILLING",
+    "  Q200=+0 ;SET-UP CLEARANCE",
+    "  Q201=-7 ;DEPTH",
+    "  Q206=+100 ;FEED RATE FOR PLNGNG",
+    "  Q202=+7 ;PLUNGING DEPTH",
+    "  Q210=+0 ;DWELL TIME AT TOP",
+    "  Q203=+2 ;SURFACE COORDINATE",
+    "  Q204=+18 ;2ND SET-UP CLEARANCE",
+];
+
+#[test]
+fn cycle_200_calls_read_as_g81_then_g80_and_the_contour_feed_again() {
+    let mut lines = DRILLING.to_vec();
+    lines.extend([
+        "  Q211=+0.3 ;DWELL TIME AT DEPTH",
+        "3 L X+10 Y+10 FMAX M99",
+        "4 CYCL CALL",
+        "5 L X+5 F300",
+        "6 L X+6",
+        "7 L X+10 Y+10 FMAX M99",
+        "8 L Y+20",
+    ]);
+    let out = translate(&lines).unwrap();
+    assert_eq!(out[11], "G98 G82 X10. Y10. Z-5. R2. P300 F100.");
+    assert_eq!(out[12], "G98 G82 X10. Y10. Z-5. R2. P300 F100.");
+    assert_eq!(out[13], "G80 G1 X5. F300.");
+    assert_eq!(out[14], "G1 X6.");
+    // The contour's F300 again after the cycle's F100.
+    assert_eq!(out[16], "G80 G1 Y20. F300.");
+}
+
+#[test]
+fn cycle_200_outside_what_is_read_is_an_error_at_its_line() {
+    let call = |extra: &[&str], at: &str| {
+        let mut lines = DRILLING.to_vec();
+        lines.extend(extra);
+        lines.push("  Q211=+0 ;DWELL TIME AT DEPTH");
+        lines.push(at);
+        translate(&lines).unwrap_err()
+    };
+    // Pecking (Q202 less than the depth).
+    let e = call(&["  Q202=+2"], "3 L X+1 Y+1 FMAX M99");
+    assert!(e.contains("one plunge"), "{e}");
+    // G98 semantics need the tool at the 2nd set-up clearance.
+    let e = call(&["3 L Z+5 FMAX"], "4 L X+1 Y+1 FMAX M99");
+    assert!(e.contains("not at the 2nd set-up clearance (Z20.)"), "{e}");
+    assert!(
+        translate(&["0 BEGIN PGM JOB MM", "1 Q1=+5"])
+            .unwrap_err()
+            .contains("only in a CYCL DEF 200")
+    );
+    assert!(
+        translate(&["0 BEGIN PGM JOB MM", "1 L X+1 Y+1 FMAX M99"])
+            .unwrap_err()
+            .contains("without a CYCL DEF 200")
+    );
 }

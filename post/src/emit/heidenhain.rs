@@ -2,10 +2,11 @@
 //! `CYCL DEF 9` dwells, M functions. What the iTNC does implicitly is checked against the
 //! job instead of written: the called tool's length switches on at the next Z move (the job
 //! must have `G43 H` of that tool there), the radius of `RL/RR` is the called tool's, the
-//! datum is the config's G54. Canned cycles, taps, helices, G61/G64 changes: refused (not
-//! written yet: docs/post.md).
+//! datum is the config's G54. G81/G82 become `CYCL DEF 200 DRILLING` + `L X Y FMAX M99`;
+//! other canned cycles, taps, helices, G61/G64 changes: refused (not written yet:
+//! docs/post.md).
 
-use cnc402_interp::canon::{CanonKind, CanonOp, CompSide};
+use cnc402_interp::canon::{CannedCycle, CanonKind, CanonOp, CompSide};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, SpindleDir};
 
 use super::Emitter;
@@ -36,6 +37,7 @@ pub fn emit_itnc(
         tool: None,
         comp: None,
         feed: None,
+        drilling: None,
     };
     let inch = ops
         .first()
@@ -58,6 +60,8 @@ struct Itnc<'a> {
     tool: Option<u32>,
     comp: Option<Option<CompSide>>,
     feed: Option<String>,
+    /// The Q lines of the active `CYCL DEF 200`.
+    drilling: Option<Vec<String>>,
 }
 
 impl Itnc<'_> {
@@ -70,15 +74,7 @@ impl Itnc<'_> {
 
     fn op(&mut self, op: &CanonOp) -> Result<(), PostError> {
         let kind = match &op.kind {
-            CanonKind::CannedCycle(cc) => {
-                return Err(self.e.refuse(
-                    op,
-                    format!(
-                        "canned cycle G{}: iTNC cycles (CYCL DEF 200…) are not written yet",
-                        cc.code
-                    ),
-                ));
-            }
+            CanonKind::CannedCycle(cc) => return self.drilling(op, cc),
             CanonKind::Single(k) => k,
         };
         let text = match kind {
@@ -141,6 +137,86 @@ impl Itnc<'_> {
             }
         };
         self.push(text, op);
+        Ok(())
+    }
+
+    /// G81/G82 as `CYCL DEF 200 DRILLING` (one plunge to the depth, the set-up clearance 0
+    /// so that Q203 is the R level, Q204 the return level above it: 0 for G99) and an
+    /// `L X Y FMAX M99` at each hole. Other cycles are refused, naming the block.
+    fn drilling(&mut self, op: &CanonOp, cc: &CannedCycle) -> Result<(), PostError> {
+        let refuse = |why: &str| {
+            self.e.refuse(
+                op,
+                format!(
+                    "canned cycle G{}: {why} (the iTNC output writes G81/G82 as CYCL DEF 200 only)",
+                    cc.code
+                ),
+            )
+        };
+        self.check_state(op)?;
+        let xyz = ['X', 'Y', 'Z'].map(|l| self.e.cfg.axis_index(l));
+        if !matches!(cc.code, 81 | 82)
+            || cc.plan.linuxcnc.is_some()
+            || xyz.map(Some) != cc.axes.map(|i| Some(Some(i)))
+        {
+            return Err(refuse("not this cycle, plane or dialect"));
+        }
+        if self.length == Length::Pending || op.state.comp.is_some() {
+            return Err(refuse("the tool length not yet on, or compensation on"));
+        }
+        let here = op.state.to_work(&self.e.pos)[cc.axes[2]];
+        let above = cc.return_level - cc.r_level;
+        let depth = cc.bottom - cc.r_level;
+        // G98 returns to the initial level, the iTNC to Q204: the same only from there.
+        let off_initial = above > SAME && (here - cc.initial_level).abs() > SAME;
+        if off_initial || above < -SAME || depth >= -SAME {
+            return Err(refuse(
+                "a return level below R, a depth above R, or a start off the initial level",
+            ));
+        }
+        let d = self.e.rules.position_decimals;
+        let unit = self.e.length_unit_of(op);
+        let f = super::format::feed(self.e.rules, cc.feed, unit, &op.source)?;
+        let dwell = cc.words.p.unwrap_or(0.0);
+        let q = [
+            ("Q200", "+0".to_string(), "SET-UP CLEARANCE"),
+            ("Q201", signed(depth, d), "DEPTH"),
+            (
+                "Q206",
+                format!("+{}", f.trim_start_matches('F').trim_end_matches('.')),
+                "FEED RATE FOR PLNGNG",
+            ),
+            ("Q202", signed(-depth, d), "PLUNGING DEPTH"),
+            ("Q210", "+0".to_string(), "DWELL TIME AT TOP"),
+            ("Q203", signed(cc.r_level, d), "SURFACE COORDINATE"),
+            ("Q204", signed(above.max(0.0), d), "2ND SET-UP CLEARANCE"),
+            (
+                "Q211",
+                format!("+{}", decimal(dwell, 3).trim_end_matches('.')),
+                "DWELL TIME AT DEPTH",
+            ),
+        ];
+        // Unnumbered lines of the definition, as the iTNC writes them; a definition stays
+        // active until the next, so the same one is not written twice.
+        let def: Vec<String> = q
+            .iter()
+            .map(|(name, value, what)| format!("  {name}={value} ;{what}"))
+            .collect();
+        if self.drilling.as_ref() != Some(&def) {
+            self.push("CYCL DEF 200 DRILLING".into(), op);
+            for line in &def {
+                self.push(line.clone(), op);
+            }
+            self.drilling = Some(def);
+        }
+        for &[x, y] in &cc.holes {
+            self.push(
+                format!("L X{} Y{} FMAX M99", signed(x, d), signed(y, d)),
+                op,
+            );
+        }
+        // The cycle's feed is not the contour's: the next feed block writes its F.
+        self.feed = None;
         Ok(())
     }
 
@@ -369,7 +445,14 @@ pub fn assemble_itnc(
                 crate::assemble::Word::Sub(_) => String::new(),
             })
             .collect();
-        let line = format!("{n} {}", body.join(" "));
+        let body = body.join(" ");
+        // A cycle's Q lines carry no number of their own.
+        let numbered = !body.starts_with(' ');
+        let line = if numbered {
+            format!("{n} {body}")
+        } else {
+            body
+        };
         if line.len() > rules.max_line {
             return Err(PostError::target(
                 rules,
@@ -379,7 +462,7 @@ pub fn assemble_itnc(
         }
         text.push_str(&line);
         text.push('\n');
-        n += 1;
+        n += usize::from(numbered);
     }
     text.push_str(&format!("{n} END PGM CNC402 {units}\n"));
     Ok(text)

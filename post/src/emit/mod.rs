@@ -3,8 +3,10 @@
 //! (modal suppression), and so that offsets and cycles the control keeps between blocks
 //! match the job's at every block.
 
+mod carried;
 pub mod format;
 pub mod heidenhain;
+pub mod macro_b;
 mod modal;
 mod ops;
 
@@ -14,13 +16,20 @@ use cnc402_motion::segment::{AxisPos, MAX_AXES, SegmentKind};
 
 use crate::PostError;
 use crate::assemble::{Block, Program};
+use crate::input::calls::Marked;
 use crate::rules::Rules;
 
 pub use modal::Modal;
 
 /// The posted program of `ops` (not yet assembled).
-pub fn emit(cfg: &MachineConfig, rules: &Rules, ops: &[CanonOp]) -> Result<Program, PostError> {
+pub fn emit(
+    cfg: &MachineConfig,
+    rules: &Rules,
+    ops: &[CanonOp],
+    cycles: Option<&Marked>,
+) -> Result<Program, PostError> {
     let mut e = Emitter::new(cfg, rules);
+    e.cycles = cycles;
     e.program.title = format!("cnc402 post {}", rules.name);
     e.push(
         ["G17", "G40", "G49", "G80", "G90", "G94"]
@@ -29,7 +38,9 @@ pub fn emit(cfg: &MachineConfig, rules: &Rules, ops: &[CanonOp]) -> Result<Progr
         None,
     );
     for op in ops {
-        e.op(op)?;
+        if !e.carried_op(op)? {
+            e.op(op)?;
+        }
     }
     Ok(e.program)
 }
@@ -46,6 +57,13 @@ pub struct Emitter<'a> {
     pub(crate) xyz: [Option<usize>; 3],
     /// The block being built sets or cancels the tool length (G43/G44/G49).
     pub(crate) length_written: bool,
+    /// The Macro B bodies written so far, and their sub-program indices.
+    pub(crate) macro_subs: Vec<(macro_b::MacroKey, usize)>,
+    /// The job's own cycle programs ([`crate::input::calls`]), the call being carried, and
+    /// the sub-program index of each program carried so far.
+    pub(crate) cycles: Option<&'a Marked>,
+    pub(crate) call: Option<carried::OpenCall>,
+    pub(crate) carried: Vec<(usize, usize)>,
 }
 
 impl<'a> Emitter<'a> {
@@ -58,6 +76,10 @@ impl<'a> Emitter<'a> {
             pos: AxisPos::default(),
             xyz: cnc402_interp::lower::xyz_indices(cfg),
             length_written: false,
+            macro_subs: Vec::new(),
+            cycles: None,
+            call: None,
+            carried: Vec::new(),
         }
     }
 

@@ -272,19 +272,30 @@ impl Emitter<'_> {
         }
     }
 
-    /// A canned cycle block: native when the control has the cycle, else plain blocks.
+    /// A canned cycle block: native when the control has the cycle, else a Custom Macro B
+    /// call where the control has macros and a body covers the cycle, else plain blocks.
     pub(crate) fn cycle(&mut self, op: &CanonOp, cc: &CannedCycle) -> Result<(), PostError> {
         if !self.rules.has_cycle(cc.code) {
+            if self.rules.macros && self.cycle_as_macro(op, cc)? {
+                return Ok(());
+            }
             return self.cycle_as_blocks(op, cc);
         }
         let drill = cc.axes[2];
         let initial = cc.initial_level + op.state.offset[drill];
-        let continues = self
-            .modal
-            .cycle
-            .as_ref()
-            .is_some_and(|c| c.axis == drill && (c.initial - initial).abs() <= SAME)
-            && self.modal.offset == op.state.offset;
+        let data = self.cycle_data(op, cc)?;
+        // A word the control holds from the cycle before (P, Q) that this one has not would
+        // stay set: such a cycle starts afresh after G80.
+        let letters = |w: &[String]| {
+            w.iter()
+                .filter_map(|d| d.chars().next())
+                .collect::<Vec<_>>()
+        };
+        let continues = self.modal.cycle.as_ref().is_some_and(|c| {
+            c.axis == drill
+                && (c.initial - initial).abs() <= SAME
+                && letters(&c.words).iter().all(|l| letters(&data).contains(l))
+        }) && self.modal.offset == op.state.offset;
         if !continues {
             self.end_cycle(op);
             if (self.pos[drill] - initial).abs() > SAME {
@@ -305,7 +316,6 @@ impl Emitter<'_> {
             words.push(ret.into());
         }
         let code = format!("G{}", cc.code);
-        let data = self.cycle_data(op, cc)?;
         let mut first = true;
         for hole in &cc.holes {
             let mut w = std::mem::take(&mut words);

@@ -11,6 +11,7 @@ use cnc402_lang::SourceFile;
 use crate::PostError;
 
 pub mod apt;
+pub mod calls;
 pub mod tools;
 
 /// A job's operations, and whether it was CL data (its segments are then the operations'
@@ -18,6 +19,8 @@ pub mod tools;
 pub struct Job {
     pub ops: Vec<CanonOp>,
     pub cl: bool,
+    /// The job's own cycle programs and their calls (marked in `ops` by messages).
+    pub cycles: Option<calls::Marked>,
 }
 
 /// The job in `text`: CL data ([`apt::is_cl`]) or a program cnc402 runs.
@@ -31,11 +34,37 @@ pub fn job(
         Ok(Job {
             ops: apt::read_cl(cfg, name, text, tools)?,
             cl: true,
+            cycles: None,
+        })
+    } else if let Some(marked) = calls::mark(text) {
+        let Ok(mut ops) = read_job(cfg, name, &marked.text) else {
+            // The error at the job's own lines, from the job as written.
+            return Ok(Job {
+                ops: read_job(cfg, name, text)?,
+                cl: false,
+                cycles: None,
+            });
+        };
+        // Back to the job's line numbers (the markers are lines of their own).
+        for op in &mut ops {
+            if op.source.file.as_ref() == name
+                && let Some(&line) = (op.source.line as usize)
+                    .checked_sub(1)
+                    .and_then(|i| marked.line_of.get(i))
+            {
+                op.source.line = line;
+            }
+        }
+        Ok(Job {
+            ops,
+            cl: false,
+            cycles: Some(marked),
         })
     } else {
         Ok(Job {
             ops: read_job(cfg, name, text)?,
             cl: false,
+            cycles: None,
         })
     }
 }

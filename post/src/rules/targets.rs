@@ -1,6 +1,7 @@
 //! The rule sets. Differences between the Fanuc models are the ones that change the text:
 //! word lengths (0: 4-digit O and N numbers, S4; 16/18: N5, S5; 32i: 8-digit O numbers) and
-//! the options assumed present. Arumatik is modelled as an ISO (Fanuc-like) milling control
+//! the options assumed present (the 0 without the orienting boring cycles G76/G87, which it
+//! gets as Custom Macro B programs). Arumatik is modelled as an ISO (Fanuc-like) milling control
 //! without Custom Macro B, G10 or helical interpolation, and without the orienting boring
 //! cycles G76/G87 (docs/post.md says why: the source names it and nothing more).
 
@@ -19,6 +20,8 @@ pub enum Target {
 
 /// Every Fanuc M-series canned cycle.
 const FANUC_CYCLES: &[u32] = &[73, 74, 76, 81, 82, 83, 84, 85, 86, 87, 88, 89];
+/// Series 0-MC: no orienting boring cycles (G76/G87; see docs/post.md): Macro B bodies instead.
+const FANUC0_CYCLES: &[u32] = &[73, 74, 81, 82, 83, 84, 85, 86, 88, 89];
 /// Arumatik: the drilling, tapping and boring cycles without spindle orientation.
 const ARUMATIK_CYCLES: &[u32] = &[73, 74, 81, 82, 83, 84, 85, 86, 88, 89];
 
@@ -98,6 +101,7 @@ impl Target {
                     max: 9999,
                 }),
                 max_line: 128,
+                cycles: FANUC0_CYCLES,
                 ..fanuc16
             },
             Target::Arumatik => Rules {
@@ -150,5 +154,6 @@ mod tests {
         assert!(!Target::Arumatik.rules().macros);
         assert!(!Target::Arumatik.rules().has_cycle(76));
         assert!(Target::Fanuc18.rules().has_cycle(87));
+        assert!(!Target::Fanuc0.rules().has_cycle(76) && Target::Fanuc0.rules().macros);
     }
 }
