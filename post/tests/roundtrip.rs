@@ -75,10 +75,9 @@ const REFUSED: &[(&str, &str, &str)] = &[
     ),
     (
         "itnc530",
-        "m10x1.5-rigid-tap.nc",
-        "block N40: canned cycle G84",
+        "peck-tap.nc",
+        "block N40: canned cycle G84: not this cycle, plane or dialect (a peck tap",
     ),
-    ("itnc530", "peck-tap.nc", "block N40: canned cycle G84"),
     (
         "itnc530",
         "plate-cutter-comp.nc",
@@ -277,6 +276,24 @@ fn a_contour_on_the_itnc530_reads_back_through_the_heidenhain_reader() {
 #[test]
 fn g81_and_g82_on_the_itnc530_as_cycl_def_200_read_back_through_the_reader() {
     golden("drilling.nc", Target::Itnc530);
+}
+
+#[test]
+fn rigid_taps_on_the_itnc530_as_cycl_def_207_read_back_coupled() {
+    golden("tapping.nc", Target::Itnc530);
+    let text = std::fs::read_to_string(fixture("tapping.itnc530.nc")).unwrap();
+    // Read back, each hole is a coupled tap (Z with the spindle axis), not a plain feed.
+    let cfg = config("config/machine.toml");
+    let taps = verify::read_back(&cfg, "tapping.itnc530.nc", &text)
+        .unwrap()
+        .iter()
+        .filter(|s| matches!(s.kind, cnc402_motion::segment::SegmentKind::Tap(_)))
+        .count();
+    assert_eq!(taps, 10, "{text}");
+    assert!(
+        text.contains("  Q239=-1 ;PITCH"),
+        "G74: a negative pitch\n{text}"
+    );
 }
 
 #[test]

@@ -45,9 +45,12 @@ pub struct Translator {
     /// feed took the ISO F over).
     feed: Option<f64>,
     refeed: bool,
-    /// `CYCL DEF 200` and its Q parameters so far; whether a G81/G82 is active in the ISO
-    /// translation (the next block cancels it).
+    /// The cycle defined (200 or 207) and its Q parameters so far; whether a G81/G82/G84/G74
+    /// is active in the ISO translation (the next block cancels it).
+    defined: u32,
     drilling: Option<Vec<(u32, f64)>>,
+    /// The S of the last `TOOL CALL` (cycle 207 taps at it).
+    speed: Option<f64>,
     cycle_active: bool,
 }
 
@@ -64,7 +67,7 @@ impl Translator {
         if out.is_empty() || out.starts_with('(') {
             return Ok(out);
         }
-        if was_active && self.cycle_active && !out.contains(" G8") {
+        if was_active && self.cycle_active && !(out.contains(" G8") || out.contains(" G74")) {
             out = format!("G80 {out}");
             self.cycle_active = false;
         }
@@ -107,7 +110,12 @@ impl Translator {
             "L" => self.line_move(rest),
             "CC" => self.centre(rest),
             "C" => self.arc(rest),
-            "CYCL" if rest.starts_with("DEF 200") => {
+            "CYCL" if rest.starts_with("DEF 200") || rest.starts_with("DEF 207") => {
+                self.defined = if rest.starts_with("DEF 200") {
+                    200
+                } else {
+                    207
+                };
                 self.drilling = Some(Vec::new());
                 Ok(String::new())
             }
@@ -168,7 +176,9 @@ impl Translator {
         }
         for p in parts {
             if let Some(s) = p.strip_prefix('S') {
-                out.push(format!("S{}", number(s)?));
+                let s = number(s)?;
+                self.speed = Some(s);
+                out.push(format!("S{s}"));
             } else if p.starts_with("DL") || p.starts_with("DR") {
                 return Err(format!("{p}: tool deltas are not in the subset"));
             } else if !p.starts_with('F') {
@@ -181,7 +191,7 @@ impl Translator {
     /// `Qnnn=value` of the cycle being defined.
     fn q_parameter(&mut self, text: &str) -> Result<String, String> {
         let Some(params) = self.drilling.as_mut() else {
-            return Err("Q parameters are read only in a CYCL DEF 200".into());
+            return Err("Q parameters are read only in a CYCL DEF 200 or 207".into());
         };
         let (q, v) = text
             .split_once('=')
@@ -191,37 +201,41 @@ impl Translator {
             .parse()
             .map_err(|_| format!("{q} is not a Q parameter"))?;
         if params.len() >= 16 {
-            return Err("more Q parameters than CYCL DEF 200 has".into());
+            return Err("more Q parameters than CYCL DEF 200 or 207 has".into());
         }
         params.push((n, number(v.trim())?));
         Ok(String::new())
     }
 
-    /// A call of `CYCL DEF 200` at `xy` (the `X Y` words): the G81/G82 block that drills as
-    /// the iTNC does. Read: one plunge (Q202 at least the depth), no dwell at the top; it
-    /// returns to the 2nd set-up clearance (G98: the tool must be there at the call, the
-    /// initial level) or, with Q204 not above Q200, to the set-up clearance (G99).
+    /// A call of `CYCL DEF 200` or `207` at `xy` (the `X Y` words): the G81/G82 (200) or
+    /// G84/G74 with M29 (207) block that does what the iTNC does. Read: a negative depth in
+    /// one plunge (200: Q202 at least the depth, no dwell at the top); it returns to the 2nd
+    /// set-up clearance (G98: the tool must be there at the call, the initial level) or,
+    /// with Q204 not above Q200, to the set-up clearance (G99).
     fn drill(&mut self, xy: &[String]) -> Result<String, String> {
         let Some(params) = self.drilling.as_ref() else {
-            return Err("a cycle call without a CYCL DEF 200 before it".into());
+            return Err("a cycle call without a CYCL DEF 200 or 207 before it".into());
         };
+        let cycle = self.defined;
         let q = |n: u32| {
             params
                 .iter()
                 .rev()
                 .find(|(k, _)| *k == n)
                 .map(|(_, v)| *v)
-                .ok_or_else(|| format!("CYCL DEF 200 without Q{n}"))
+                .ok_or_else(|| format!("CYCL DEF {cycle} without Q{n}"))
         };
-        let (clear, depth, feed, plunge) = (q(200)?, q(201)?, q(206)?, q(202)?);
-        let (top_dwell, surface, clear2, dwell) = (q(210)?, q(203)?, q(204)?, q(211)?);
-        if depth >= 0.0 || plunge < -depth - 1e-9 || top_dwell != 0.0 {
-            return Err(
-                "CYCL DEF 200 is read with a negative depth in one plunge (Q202 ≥ |Q201|) \
-                        and no dwell at the top (Q210=0)"
-                    .into(),
-            );
+        let (clear, depth, surface, clear2) = (q(200)?, q(201)?, q(203)?, q(204)?);
+        if depth >= 0.0 {
+            return Err(format!(
+                "CYCL DEF {cycle} is read with a negative depth (Q201)"
+            ));
         }
+        let (code, tail) = if cycle == 207 {
+            rigid_tap(q(239)?, self.speed)?
+        } else {
+            drilling(q(206)?, q(202)?, q(210)?, q(211)?, depth)?
+        };
         let r = surface + clear;
         let mode = if clear2 > clear {
             let level = surface + clear2;
@@ -236,16 +250,10 @@ impl Translator {
             self.at[2] = Some(r);
             "G99"
         };
-        let mut out = vec![
-            mode.to_string(),
-            if dwell > 0.0 { "G82" } else { "G81" }.into(),
-        ];
+        let mut out = vec![mode.to_string(), code];
         out.extend(xy.iter().cloned());
         out.push(format!("Z{} R{}", fmt(surface + depth), fmt(r)));
-        if dwell > 0.0 {
-            out.push(format!("P{}", (dwell * 1000.0).round()));
-        }
-        out.push(format!("F{}", fmt(feed)));
+        out.extend(tail);
         self.cycle_active = true;
         self.refeed = true;
         Ok(out.join(" "))
@@ -369,6 +377,48 @@ impl Translator {
     }
 }
 
+/// Cycle 200's ISO code and words after Z R: one plunge (Q202 ≥ |Q201|), no dwell at the
+/// top; G82 P with a dwell at the depth.
+fn drilling(
+    feed: f64,
+    plunge: f64,
+    top_dwell: f64,
+    dwell: f64,
+    depth: f64,
+) -> Result<(String, Vec<String>), String> {
+    if plunge < -depth - 1e-9 || top_dwell != 0.0 {
+        return Err(
+            "CYCL DEF 200 is read in one plunge (Q202 ≥ |Q201|) and with no dwell \
+                    at the top (Q210=0)"
+                .into(),
+        );
+    }
+    let mut tail = Vec::new();
+    if dwell > 0.0 {
+        tail.push(format!("P{}", (dwell * 1000.0).round()));
+    }
+    tail.push(format!("F{}", fmt(feed)));
+    let code = if dwell > 0.0 { "G82" } else { "G81" };
+    Ok((code.into(), tail))
+}
+
+/// Cycle 207's ISO code and words: a rigid tap (`M29`, so it runs coupled from a stopped
+/// spindle as from a turning one) at the `TOOL CALL`'s S, the feed S × |pitch| (G94),
+/// right-hand G84 for a positive pitch, left-hand G74 for a negative one.
+fn rigid_tap(pitch: f64, speed: Option<f64>) -> Result<(String, Vec<String>), String> {
+    let Some(s) = speed.filter(|s| *s > 0.0) else {
+        return Err("CYCL DEF 207 called without a spindle speed (TOOL CALL … S)".into());
+    };
+    if pitch == 0.0 {
+        return Err("CYCL DEF 207 with a pitch Q239 of 0".into());
+    }
+    let code = if pitch > 0.0 { "G84" } else { "G74" };
+    Ok((
+        format!("M29 {code}"),
+        vec![format!("F{}", fmt(s * pitch.abs()))],
+    ))
+}
+
 /// `CYCL DEF 9.0 DWELL TIME` (nothing yet) and `CYCL DEF 9.1 DWELL t` (the dwell).
 fn cycle(rest: &str) -> Result<String, String> {
     let mut parts = rest.split_whitespace();
@@ -382,7 +432,7 @@ fn cycle(rest: &str) -> Result<String, String> {
             Ok(format!("G4 X{}", number(t)?))
         }
         Some(n) => Err(format!(
-            "cycle {n} is not in the subset cnc402 reads (cycles 9, dwell, and 200, drilling, are)"
+            "cycle {n} is not in the subset cnc402 reads (cycles 9, dwell, 200, drilling, and 207, rigid tapping, are)"
         )),
         None => Err("expected the cycle number".into()),
     }

@@ -136,3 +136,50 @@ fn cycle_200_outside_what_is_read_is_an_error_at_its_line() {
             .contains("without a CYCL DEF 200")
     );
 }
+
+#[test]
+fn cycl_def_207_reads_as_a_rigid_tap_at_the_tool_call_speed() {
+    let out = translate(&[
+        "0 BEGIN PGM TAP MM",
+        "1 TOOL CALL Z S500",
+        "2 L X+0 Y+0 Z+10 R0 FMAX",
+        "3 CYCL DEF 207 RIGID TAPPING NEW",
+        "  Q200=+0 ;SET-UP CLEARANCE",
+        "  Q201=-19 ;DEPTH",
+        "  Q239=+1.5 ;PITCH",
+        "  Q203=+3 ;SURFACE COORDINATE",
+        "  Q204=+7 ;2ND SET-UP CLEARANCE",
+        "4 L X+20 Y+20 FMAX M99",
+        "5 L X+60 Y+20 FMAX M99",
+        "6 CYCL DEF 207 RIGID TAPPING NEW",
+        "  Q200=+0 ;SET-UP CLEARANCE",
+        "  Q201=-19 ;DEPTH",
+        "  Q239=-1.5 ;PITCH",
+        "  Q203=+3 ;SURFACE COORDINATE",
+        "  Q204=+0 ;2ND SET-UP CLEARANCE",
+        "7 L X+20 Y+60 FMAX M99",
+        "8 L Z+50 FMAX",
+    ])
+    .unwrap();
+    assert_eq!(out[9], "G98 M29 G84 X20. Y20. Z-16. R3. F750.");
+    assert_eq!(out[10], "G98 M29 G84 X60. Y20. Z-16. R3. F750.");
+    assert_eq!(out[17], "G99 M29 G74 X20. Y60. Z-16. R3. F750.");
+    assert_eq!(out[18], "G80 G0 Z50.");
+}
+
+#[test]
+fn cycl_def_207_without_a_speed_is_an_error() {
+    let e = translate(&[
+        "0 BEGIN PGM TAP MM",
+        "1 L X+0 Y+0 Z+3 R0 FMAX",
+        "2 CYCL DEF 207 RIGID TAPPING NEW",
+        "  Q200=+0",
+        "  Q201=-19",
+        "  Q239=+1.5",
+        "  Q203=+3",
+        "  Q204=+0",
+        "3 L X+20 Y+20 FMAX M99",
+    ])
+    .unwrap_err();
+    assert!(e.contains("without a spindle speed"), "{e}");
+}

@@ -2,9 +2,9 @@
 //! `CYCL DEF 9` dwells, M functions. What the iTNC does implicitly is checked against the
 //! job instead of written: the called tool's length switches on at the next Z move (the job
 //! must have `G43 H` of that tool there), the radius of `RL/RR` is the called tool's, the
-//! datum is the config's G54. G81/G82 become `CYCL DEF 200 DRILLING` + `L X Y FMAX M99`;
-//! other canned cycles, taps, helices, G61/G64 changes: refused (not written yet:
-//! docs/post.md).
+//! datum is the config's G54. G81/G82 become `CYCL DEF 200 DRILLING`, rigid taps G84/G74
+//! `CYCL DEF 207 RIGID TAPPING NEW`, each hole `L X Y FMAX M99`; other canned cycles,
+//! helices, G61/G64 changes: refused (not written yet: docs/post.md).
 
 use cnc402_interp::canon::{CannedCycle, CanonKind, CanonOp, CompSide};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, SpindleDir};
@@ -60,7 +60,7 @@ struct Itnc<'a> {
     tool: Option<u32>,
     comp: Option<Option<CompSide>>,
     feed: Option<String>,
-    /// The Q lines of the active `CYCL DEF 200`.
+    /// The lines of the active `CYCL DEF 200` or `207` (the head and its Q lines).
     drilling: Option<Vec<String>>,
 }
 
@@ -84,7 +84,7 @@ impl Itnc<'_> {
             SegmentKind::Tap(_) => {
                 return Err(self
                     .e
-                    .refuse(op, "a rigid tap (CYCL DEF 207 is not written yet)".into()));
+                    .refuse(op, "a programmed rigid tap (a feed move with the spindle axis: the iTNC has no such block; G84/G74 are written as CYCL DEF 207)".into()));
             }
             SegmentKind::Dwell { seconds } => {
                 self.push("CYCL DEF 9.0 DWELL TIME".into(), op);
@@ -140,26 +140,33 @@ impl Itnc<'_> {
         Ok(())
     }
 
-    /// G81/G82 as `CYCL DEF 200 DRILLING` (one plunge to the depth, the set-up clearance 0
-    /// so that Q203 is the R level, Q204 the return level above it: 0 for G99) and an
+    /// G81/G82 as `CYCL DEF 200 DRILLING`, rigid taps G84/G74 (no peck, no dwell) as
+    /// `CYCL DEF 207 RIGID TAPPING NEW` (one plunge to the depth, the set-up clearance 0 so
+    /// that Q203 is the R level, Q204 the return level above it: 0 for G99) and an
     /// `L X Y FMAX M99` at each hole. Other cycles are refused, naming the block.
     fn drilling(&mut self, op: &CanonOp, cc: &CannedCycle) -> Result<(), PostError> {
         let refuse = |why: &str| {
             self.e.refuse(
                 op,
                 format!(
-                    "canned cycle G{}: {why} (the iTNC output writes G81/G82 as CYCL DEF 200 only)",
+                    "canned cycle G{}: {why} (the iTNC output writes G81/G82 as CYCL DEF 200 \
+                     and rigid taps G84/G74 as CYCL DEF 207 only)",
                     cc.code
                 ),
             )
         };
         self.check_state(op)?;
         let xyz = ['X', 'Y', 'Z'].map(|l| self.e.cfg.axis_index(l));
-        if !matches!(cc.code, 81 | 82)
+        let tap = matches!(cc.code, 74 | 84)
+            && cc.tap.is_some_and(|t| t.peck.is_none())
+            && cc.words.p.unwrap_or(0.0) == 0.0;
+        if !(matches!(cc.code, 81 | 82) || tap)
             || cc.plan.linuxcnc.is_some()
             || xyz.map(Some) != cc.axes.map(|i| Some(Some(i)))
         {
-            return Err(refuse("not this cycle, plane or dialect"));
+            return Err(refuse(
+                "not this cycle, plane or dialect (a peck tap or a tap with a dwell neither)",
+            ));
         }
         if self.length == Length::Pending || op.state.comp.is_some() {
             return Err(refuse("the tool length not yet on, or compensation on"));
@@ -175,10 +182,53 @@ impl Itnc<'_> {
             ));
         }
         let d = self.e.rules.position_decimals;
+        let (head, q) = match cc.tap {
+            Some(t) => (
+                "CYCL DEF 207 RIGID TAPPING NEW",
+                self.tapping_q(op, cc, t, depth, above)?,
+            ),
+            None => (
+                "CYCL DEF 200 DRILLING",
+                self.drilling_q(op, cc, depth, above)?,
+            ),
+        };
+        // Unnumbered lines of the definition, as the iTNC writes them; a definition stays
+        // active until the next, so the same one is not written twice.
+        let mut def = vec![head.to_string()];
+        def.extend(
+            q.iter()
+                .map(|(name, value, what)| format!("  {name}={value} ;{what}")),
+        );
+        if self.drilling.as_ref() != Some(&def) {
+            for line in &def {
+                self.push(line.clone(), op);
+            }
+            self.drilling = Some(def);
+        }
+        for &[x, y] in &cc.holes {
+            self.push(
+                format!("L X{} Y{} FMAX M99", signed(x, d), signed(y, d)),
+                op,
+            );
+        }
+        // The cycle's feed is not the contour's: the next feed block writes its F.
+        self.feed = None;
+        Ok(())
+    }
+
+    /// The Q parameters of `CYCL DEF 200` for a G81/G82.
+    fn drilling_q(
+        &self,
+        op: &CanonOp,
+        cc: &CannedCycle,
+        depth: f64,
+        above: f64,
+    ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
+        let d = self.e.rules.position_decimals;
         let unit = self.e.length_unit_of(op);
         let f = super::format::feed(self.e.rules, cc.feed, unit, &op.source)?;
         let dwell = cc.words.p.unwrap_or(0.0);
-        let q = [
+        Ok(vec![
             ("Q200", "+0".to_string(), "SET-UP CLEARANCE"),
             ("Q201", signed(depth, d), "DEPTH"),
             (
@@ -195,29 +245,41 @@ impl Itnc<'_> {
                 format!("+{}", decimal(dwell, 3).trim_end_matches('.')),
                 "DWELL TIME AT DEPTH",
             ),
-        ];
-        // Unnumbered lines of the definition, as the iTNC writes them; a definition stays
-        // active until the next, so the same one is not written twice.
-        let def: Vec<String> = q
-            .iter()
-            .map(|(name, value, what)| format!("  {name}={value} ;{what}"))
-            .collect();
-        if self.drilling.as_ref() != Some(&def) {
-            self.push("CYCL DEF 200 DRILLING".into(), op);
-            for line in &def {
-                self.push(line.clone(), op);
-            }
-            self.drilling = Some(def);
+        ])
+    }
+
+    /// The Q parameters of `CYCL DEF 207` for a rigid tap: the pitch signed by the hand
+    /// (G74: negative), the speed the iTNC taps at is the `TOOL CALL`'s S, so the job's is
+    /// written first when the control holds another (the iTNC's feed is S × pitch, the
+    /// job's F by construction).
+    fn tapping_q(
+        &mut self,
+        op: &CanonOp,
+        cc: &CannedCycle,
+        tap: cnc402_interp::canon::TapPlan,
+        depth: f64,
+        above: f64,
+    ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
+        let d = self.e.rules.position_decimals;
+        let s = super::format::speed(self.e.rules, cc.plan.speed, &op.source)?;
+        if self.e.modal.spindle.as_deref() != Some(&s) {
+            self.push(format!("TOOL CALL Z {s}"), op);
+            self.e.modal.spindle = Some(s);
         }
-        for &[x, y] in &cc.holes {
-            self.push(
-                format!("L X{} Y{} FMAX M99", signed(x, d), signed(y, d)),
-                op,
-            );
-        }
-        // The cycle's feed is not the contour's: the next feed block writes its F.
-        self.feed = None;
-        Ok(())
+        let hand = if tap.dir == SpindleDir::Ccw {
+            -1.0
+        } else {
+            1.0
+        };
+        // The pitch in the program's length unit, with the decimals a pitch needs.
+        let pitch = signed(hand * tap.pitch, d + 1);
+        Ok(vec![
+            ("Q200", "+0".to_string(), "SET-UP CLEARANCE"),
+            ("Q201", signed(depth, d), "DEPTH"),
+            ("Q239", pitch, "PITCH"),
+            ("Q203", signed(cc.r_level, d), "SURFACE COORDINATE"),
+            ("Q204", signed(above.max(0.0), d), "2ND SET-UP CLEARANCE"),
+        ])
     }
 
     /// `L` or `CC` + `C`.
