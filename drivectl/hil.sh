@@ -117,7 +117,7 @@ emcy_seen() { grep '"code":29440' "$out/emcy.log" 2>/dev/null | grep -q '"node":
 expect no-such-iface 4 'cannot open CAN interface nosuch0: no such interface' -- "$dc" --iface nosuch0 scan
 expect scan 0 'node 4 \(C\).*CiA 402' -- "${D[@]}" scan --listen-ms 100
 expect scan-json 0 '"nodes":\[\{"axis":"X"' -- "${D[@]}" --json scan --listen-ms 50
-expect info 0 'supported modes +0x00000080' -- "${D[@]}" info 3
+expect info 0 'supported modes +0x000000a0: homing \(6\), cyclic synchronous position' -- "${D[@]}" info 3
 expect sdo-read-segmented 0 '"cnc402 simdrive Z"' -- "${D[@]}" sdo read 3 1008
 expect sdo-write 0 'expedited' -- "${D[@]}" sdo write 3 0x1017 u16 100
 expect sdo-readback 0 '= 100 ' -- "${D[@]}" sdo read 3 0x1017
