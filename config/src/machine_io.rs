@@ -88,7 +88,6 @@ struct RawOutputBit {
     bit: Spanned<i64>,
 }
 
-
 /// The axis named `name` if it has a drive.
 pub(crate) fn drive_axis(
     axes: &[AxisConfig],

@@ -117,7 +117,10 @@ fn open_estop(rig: &mut Rig) -> Vec<State> {
 fn estop_category_0_disables_voltage_at_once() {
     let mut rig = estop_rig(StopCategory::Zero);
     let states = open_estop(&mut rig);
-    assert!(states.iter().all(|s| *s == State::SwitchOnDisabled), "{states:?}");
+    assert!(
+        states.iter().all(|s| *s == State::SwitchOnDisabled),
+        "{states:?}"
+    );
     assert!(rig.master.is_disabled());
 }
 
@@ -129,7 +132,10 @@ fn estop_category_1_quick_stops_then_disables() {
         Some(2)
     );
     let states = open_estop(&mut rig);
-    assert!(states.iter().all(|s| *s == State::SwitchOnDisabled), "{states:?}");
+    assert!(
+        states.iter().all(|s| *s == State::SwitchOnDisabled),
+        "{states:?}"
+    );
 }
 
 #[test]
@@ -140,5 +146,8 @@ fn estop_category_2_quick_stops_and_the_drives_stay_powered() {
         Some(6)
     );
     let states = open_estop(&mut rig);
-    assert!(states.iter().all(|s| *s == State::QuickStopActive), "{states:?}");
+    assert!(
+        states.iter().all(|s| *s == State::QuickStopActive),
+        "{states:?}"
+    );
 }

@@ -5,8 +5,8 @@
 //! (not on an axis that is homing: it may be looking for that switch) or an open E-stop, and
 //! start-up reads the E-stop bit by SDO before anything moves.
 
-use cia402::objects as obj;
 use cia402::QuickStopOption;
+use cia402::objects as obj;
 use cnc402_config::StopCategory;
 
 use super::boot::{EVENT_DRIVEN, MapPdoError, PdoSpec, map_pdo};
