@@ -386,4 +386,19 @@ mod tests {
         let p = BusLoad::plan(&b, 127, PdoLayout::Standard, 1000);
         assert_eq!(p.smallest_period_us(&b), None);
     }
+
+    #[test]
+    fn the_outputs_rpdo3_is_counted_once_per_10_ms_per_drive_and_kept_at_other_periods() {
+        let b = bus(1_000_000, 1000, 50);
+        let plain = BusLoad::plan(&b, 4, PdoLayout::Standard, 1000);
+        let with = plain.with_output_drives(2);
+        // 95 bits (4 data bytes) per 10 ms per drive: 19 bits per 1 ms period for two.
+        assert!((with.traffic_bits() - plain.traffic_bits() - 19.0).abs() < 1e-9);
+        assert!(
+            with.breakdown().contains("outputs RPDO3 2×9.5"),
+            "{}",
+            with.breakdown()
+        );
+        assert_eq!(with.at_period(&b, 2000).output_drives, 2);
+    }
 }
