@@ -98,6 +98,9 @@ pub struct AxisConfig {
     /// The drive sends its 0x60FD in TPDO3 (`limit_switch_inputs`, or `[machine]
     /// estop_input` is on it): set once the whole config is read; the load plan counts it.
     pub inputs_pdo: bool,
+    /// The master sends this drive its 0x60FE:1 in RPDO3 (`[machine] outputs` has a bit on
+    /// it): set once the whole config is read; the load plan counts it.
+    pub outputs_pdo: bool,
     pub sim: SimDynamics,
     /// The DCF/EDS and SDO writes boot applies after its own set-up (`dcf`, `sdo`; see
     /// `commissioning`).
@@ -493,6 +496,7 @@ impl RawAxis {
                 .limit_switch_inputs
                 .as_ref()
                 .is_some_and(|v| *v.get_ref() && node.is_some()),
+            outputs_pdo: false,
             inputs_pdo: a
                 .limit_switch_inputs
                 .as_ref()

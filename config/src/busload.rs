@@ -67,6 +67,11 @@ pub struct BusLoad {
     pub inputs_bits: f64,
     /// Drives that send an inputs TPDO3.
     pub input_drives: usize,
+    /// The outputs RPDO3s (0x60FE:1, sent on a change and as a refresh, at most one per
+    /// [`COMPACT_EVENT_INHIBIT_MS`]) of the drives with outputs.
+    pub outputs_bits: f64,
+    /// Drives that receive an outputs RPDO3.
+    pub output_drives: usize,
     /// Every drive's heartbeat and the master's.
     pub heartbeat_bits: f64,
     pub sdo_reserve_bits: f64,
@@ -107,6 +112,8 @@ impl BusLoad {
             event_bits,
             inputs_bits: 0.0,
             input_drives: 0,
+            outputs_bits: 0.0,
+            output_drives: 0,
             heartbeat_bits,
             sdo_reserve_bits: SDO_EXCHANGE_BITS * period_us as f64 / (sdo_every_ms as f64 * 1000.0),
         }
@@ -121,6 +128,15 @@ impl BusLoad {
         self
     }
 
+    /// This plan with `k` drives receiving the 4-byte outputs RPDO3 (0x60FE:1), each at most
+    /// once per [`COMPACT_EVENT_INHIBIT_MS`] (the master's own inhibit time).
+    pub fn with_output_drives(mut self, k: usize) -> BusLoad {
+        self.output_drives = k;
+        self.outputs_bits = k as f64 * frame_bits(4) as f64 * self.period_us as f64
+            / (COMPACT_EVENT_INHIBIT_MS as f64 * 1000.0);
+        self
+    }
+
     /// The plan of the drives of `axes` with `layout` at `bus.period_us`.
     pub fn of_config(bus: &BusConfig, axes: &[AxisConfig], layout: PdoLayout) -> BusLoad {
         let drives = axes.iter().filter(|a| a.node.is_some()).count();
@@ -128,7 +144,13 @@ impl BusLoad {
             .iter()
             .filter(|a| a.node.is_some() && a.inputs_pdo)
             .count();
-        BusLoad::plan(bus, drives, layout, bus.period_us).with_input_drives(inputs)
+        let outputs = axes
+            .iter()
+            .filter(|a| a.node.is_some() && a.outputs_pdo)
+            .count();
+        BusLoad::plan(bus, drives, layout, bus.period_us)
+            .with_input_drives(inputs)
+            .with_output_drives(outputs)
     }
 
     /// The plan of the configured machine (its `bus.pdo_layout`).
@@ -149,6 +171,7 @@ impl BusLoad {
             + self.tpdo_bits
             + self.event_bits
             + self.inputs_bits
+            + self.outputs_bits
             + self.heartbeat_bits
     }
 
@@ -191,6 +214,13 @@ impl BusLoad {
                 self.inputs_bits / self.input_drives.max(1) as f64
             );
         }
+        if self.outputs_bits > 0.0 {
+            s += &format!(
+                " + outputs RPDO3 {}×{:.1}",
+                self.output_drives,
+                self.outputs_bits / self.output_drives.max(1) as f64
+            );
+        }
         s += &format!(
             " + heartbeats {:.1} + SDO reserve {:.1}",
             self.heartbeat_bits, self.sdo_reserve_bits
@@ -200,7 +230,9 @@ impl BusLoad {
 
     /// The same traffic at another period.
     pub fn at_period(&self, bus: &BusConfig, period_us: u32) -> BusLoad {
-        BusLoad::plan(bus, self.drives, self.layout, period_us).with_input_drives(self.input_drives)
+        BusLoad::plan(bus, self.drives, self.layout, period_us)
+            .with_input_drives(self.input_drives)
+            .with_output_drives(self.output_drives)
     }
 
     /// The smallest period, a multiple of [`PERIOD_STEP_US`] the drives accept in 0x60C2,
@@ -353,5 +385,20 @@ mod tests {
         let b = bus(10_000, 1000, 50);
         let p = BusLoad::plan(&b, 127, PdoLayout::Standard, 1000);
         assert_eq!(p.smallest_period_us(&b), None);
+    }
+
+    #[test]
+    fn the_outputs_rpdo3_is_counted_once_per_10_ms_per_drive_and_kept_at_other_periods() {
+        let b = bus(1_000_000, 1000, 50);
+        let plain = BusLoad::plan(&b, 4, PdoLayout::Standard, 1000);
+        let with = plain.with_output_drives(2);
+        // 95 bits (4 data bytes) per 10 ms per drive: 19 bits per 1 ms period for two.
+        assert!((with.traffic_bits() - plain.traffic_bits() - 19.0).abs() < 1e-9);
+        assert!(
+            with.breakdown().contains("outputs RPDO3 2×9.5"),
+            "{}",
+            with.breakdown()
+        );
+        assert_eq!(with.at_period(&b, 2000).output_drives, 2);
     }
 }

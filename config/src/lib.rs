@@ -17,6 +17,7 @@ mod error;
 pub mod exit;
 mod homing;
 mod interp;
+mod machine_io;
 mod mcodes;
 mod planner;
 mod tool_offsets;
@@ -36,6 +37,7 @@ pub use cutter_comp::{CompCorner, CompGouge, CompStartup, CutterComp};
 pub use error::ConfigError;
 pub use homing::{DEFAULT_TIMEOUT_S, DriveHoming, Homing, SimMachine};
 pub use interp::{InterpDefaults, PathModeDefault, PlaneDefault, ReturnPlane, Units};
+pub use machine_io::{MachineOutputs, OUTPUT_NAMES, OutputBit, StopCategory, ToolChange};
 pub use mcodes::{BUILT_IN_M_CODES, MAction, PROGRAM_EXTENSIONS, program_file};
 pub use planner::{MAX_LOOKAHEAD, PlannerConfig};
 pub use tool_offsets::{TOOL_OFFSETS, ToolOffset};
@@ -78,6 +80,12 @@ pub struct MachineOptions {
     /// (axis index, bit), closed when the bit is 1: no run starts while it reads 0, and a
     /// run stops when it opens.
     pub estop_input: Option<(usize, u8)>,
+    /// `estop_input = { …, category = 0|1|2 }`: what the master does when it opens.
+    pub estop_category: StopCategory,
+    /// `outputs = { coolant_flood = { axis = "Z", bit = 16 }, … }`: 0x60FE:1 bits.
+    pub outputs: MachineOutputs,
+    /// `tool_change = "manual"`: M6 holds for the operator.
+    pub tool_change: ToolChange,
 }
 
 /// `[machine]` as written.
@@ -86,6 +94,9 @@ pub struct MachineOptions {
 struct RawMachine {
     require_homing: Option<toml::Spanned<bool>>,
     estop_input: Option<toml::Spanned<RawEstop>>,
+    #[serde(default)]
+    outputs: machine_io::RawOutputs,
+    tool_change: Option<toml::Spanned<String>>,
 }
 
 /// `estop_input = { axis = "X", bit = 16 }` as written.
@@ -94,23 +105,14 @@ struct RawMachine {
 struct RawEstop {
     axis: toml::Spanned<String>,
     bit: toml::Spanned<i64>,
+    category: Option<toml::Spanned<i64>>,
 }
 
 impl RawEstop {
     /// An axis with a drive and a bit 0..=31.
     fn validate(&self, axes: &[AxisConfig]) -> Result<(usize, u8), Invalid> {
         let key = |f: &str| format!("machine.estop_input.{f}");
-        let name = self.axis.get_ref().to_ascii_uppercase();
-        let axis = axes
-            .iter()
-            .position(|a| a.name.to_string() == name && a.node.is_some())
-            .ok_or_else(|| {
-                (
-                    self.axis.span(),
-                    key("axis"),
-                    format!("{name:?} is not an axis with a drive"),
-                )
-            })?;
+        let axis = machine_io::drive_axis(axes, &self.axis, &key("axis"))?;
         let bit = check::int_in(&self.bit, &key("bit"), 0, 31)? as u8;
         Ok((axis, bit))
     }
@@ -123,11 +125,16 @@ impl RawMachine {
             Some(e) => Some(e.get_ref().validate(axes)?),
             None => None,
         };
+        let estop = self.estop_input.as_ref().map(|e| e.get_ref());
+        let options = MachineOptions {
+            require_homing: false,
+            estop_input,
+            estop_category: machine_io::stop_category(estop.and_then(|e| e.category.as_ref()))?,
+            outputs: self.outputs.validate(axes)?,
+            tool_change: machine_io::tool_change(self.tool_change.as_ref())?,
+        };
         let Some(r) = &self.require_homing else {
-            return Ok(MachineOptions {
-                require_homing: false,
-                estop_input,
-            });
+            return Ok(options);
         };
         if *r.get_ref() && axes.iter().all(|a| a.homing.is_none()) {
             return Err((
@@ -140,7 +147,7 @@ impl RawMachine {
         }
         Ok(MachineOptions {
             require_homing: *r.get_ref(),
-            estop_input,
+            ..options
         })
     }
 }
@@ -264,6 +271,11 @@ fn validate(raw: RawConfig, path: &Path, text: &str) -> Result<MachineConfig, In
     let machine = raw.machine.validate(&axes)?;
     if let Some((k, _)) = machine.estop_input {
         axes[k].inputs_pdo = true;
+    }
+    for (_, b) in machine.outputs.all() {
+        if let Some(b) = b {
+            axes[b.axis].outputs_pdo = true;
+        }
     }
     busload::check(&bus, &axes)
         .map_err(|m| (raw.bus.period_span(), "bus.period_us".to_string(), m))?;

@@ -1,5 +1,5 @@
 //! The master's per-cycle path (`Master::cycle`: taking in TPDOs/EMCY/heartbeats/SDO
-//! responses, the monitors, RPDOs + SYNC, an in-cycle SDO transfer, the tripping cycle of a
+//! responses, the monitors, RPDOs + SYNC, an in-cycle SDO transfer, a machine output's RPDO3, the tripping cycle of a
 //! safety stop and the stop reaction) allocates nothing: a counting global allocator counts
 //! allocations made on this thread while `cycle` runs.
 
@@ -24,7 +24,9 @@ fn counted_cycle(rig: &mut Rig, cmd: &[f64]) -> (u64, bool) {
 #[test]
 fn the_cycle_allocates_nothing_in_any_phase() {
     // 2 ms so that an SDO transfer fits next to the PDOs.
-    let mut rig = Rig::booted_for(master_common::machine_at_period_us(2000));
+    let mut config = master_common::machine_at_period_us(2000);
+    config.machine.outputs.coolant_flood = Some(cnc402_config::OutputBit { axis: 2, bit: 16 });
+    let mut rig = Rig::booted_for(config);
     let start = rig.master.positions();
     let mut allocs = 0;
     let mut cmd = [0.0; 4];
@@ -51,6 +53,13 @@ fn the_cycle_allocates_nothing_in_any_phase() {
     }
     assert_eq!(rig.master.take_sdo_outcome(3), Some(Ok(())));
     assert_eq!(rig.master.sdo_data(3), b"cnc402 simdrive C");
+    // A machine output switched: its RPDO3 goes out from a cycle.
+    rig.master
+        .set_output(cnc402_drives::master::Output::CoolantFlood, true);
+    for _ in 0..20 {
+        allocs += step(&mut rig, &mut k).0;
+    }
+    assert!(rig.master.outputs_settled());
     // A fault: the tripping cycle and the stop reaction.
     rig.inject(1, FaultKind::Fault(0x8611));
     let mut tripped = false;

@@ -130,6 +130,8 @@ pub struct CycleController<L: DriveLink> {
     last_n: Option<u32>,
     /// The panel change applied this tick, for the status (and so the trace).
     panel_now: Option<crate::operator::PanelAction>,
+    /// Coolant, spindle enable and tool clamp as the program sets them.
+    outputs: crate::machine_io::LoopOutputs,
 }
 
 /// One axis of a tap slaved to the other's actual position after that one's drive stopped
@@ -214,6 +216,7 @@ impl<L: DriveLink> CycleController<L> {
             period_us: u64::from(cfg.bus.period_us),
             last_n: None,
             panel_now: None,
+            outputs: crate::machine_io::LoopOutputs::new(cfg),
         }
     }
 
@@ -367,6 +370,16 @@ impl<L: DriveLink> CycleController<L> {
         if let Some(cnc402_motion::MoveEvent::ProgramStop { kind }) = t.event {
             self.program_stop(kind);
         }
+        if self.outputs.event(t.event, &mut self.link) {
+            // A manual tool change holds as M0 does (unless the gate passes it).
+            self.program_stop(cnc402_motion::StopKind::Program);
+            if !self.held {
+                self.outputs.hold_ended(&mut self.link);
+            }
+        }
+        if self.input_done && self.interp.is_idle() {
+            self.outputs.program_done(&mut self.link);
+        }
         self.last_line = t.line;
         self.last_n = t.n;
         self.commands = t.pos.0;
@@ -434,6 +447,9 @@ impl<L: DriveLink> CycleController<L> {
                 self.input_done = true;
             } else if g.released() {
                 self.held = false;
+            }
+            if !self.held {
+                self.outputs.hold_ended(&mut self.link);
             }
         }
     }
@@ -572,6 +588,7 @@ impl<L: DriveLink> CycleController<L> {
             idle: self.interp.is_idle(),
             spindle_follow: self.follow.is_some(),
             panel: self.panel_now.take(),
+            outputs: self.outputs.state,
         };
         for i in 0..self.axes.n {
             let f = &self.feedback[i];
@@ -733,6 +750,7 @@ impl<L: DriveLink> CycleController<L> {
         match self.moves.try_pop() {
             Some(LoopInput::Move(mv)) => {
                 self.moves_started += 1;
+                self.outputs.move_started(&mv.kind, &mut self.link);
                 self.tap = match &mv.kind {
                     MoveKind::Path(p) => p.tap,
                     _ => None,

@@ -10,6 +10,7 @@
 pub mod controller;
 pub mod feeder;
 pub mod link;
+pub mod machine_io;
 pub mod master_link;
 pub mod matching;
 pub mod operator;

@@ -158,6 +158,11 @@ pub trait DriveLink {
     fn homed(&self) -> [bool; MAX_AXES] {
         [false; MAX_AXES]
     }
+    /// Switches machine output `which` (`[machine] outputs`) from the next cycle on; a link
+    /// without it does nothing. Must not allocate, log or block (the loop calls it).
+    fn set_output(&mut self, which: cnc402_drives::master::Output, on: bool) {
+        let _ = (which, on);
+    }
 }
 
 /// A boxed link is a link (a run picks its link, simulated or on a socket, at run time).
@@ -187,6 +192,9 @@ impl<L: DriveLink + ?Sized> DriveLink for Box<L> {
     }
     fn homed(&self) -> [bool; MAX_AXES] {
         (**self).homed()
+    }
+    fn set_output(&mut self, which: cnc402_drives::master::Output, on: bool) {
+        (**self).set_output(which, on)
     }
 }
 

@@ -373,11 +373,18 @@ impl<B: CycleBus> DriveLink for MasterLink<B> {
         MasterLink::homed(self)
     }
 
+    fn set_output(&mut self, which: cnc402_drives::master::Output, on: bool) {
+        self.master.set_output(which, on);
+    }
+
     fn shutdown(&mut self) -> Result<(), String> {
         self.bus.set_cyclic(false);
+        // Coolant and spindle enable off before the power stage (the clamp holds the tool).
+        let rest = self.master.outputs_to_rest(&mut self.bus);
         self.master
             .disable(&mut self.bus)
-            .map_err(|e| e.to_string())
+            .map_err(|e| e.to_string())?;
+        rest.map_err(|e| format!("machine outputs not switched off: {e}"))
     }
 }
 

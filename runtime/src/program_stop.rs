@@ -117,9 +117,23 @@ pub struct StopGate {
     /// single block, 0 for none: it holds whatever the policy. One at a time: the feeder
     /// interprets nothing past it until it is released.
     break_at: AtomicU64,
+    /// `tool_change = "manual"`: M6 is a program stop too (the feeder interprets nothing
+    /// past it until the operator has changed the tool and resumed).
+    manual_tool_change: bool,
 }
 
 impl StopGate {
+    /// This gate with M6 a program stop (`[machine] tool_change = "manual"`).
+    pub fn with_manual_tool_change(mut self, manual: bool) -> StopGate {
+        self.manual_tool_change = manual;
+        self
+    }
+
+    /// Whether M6 is a program stop.
+    pub fn manual_tool_change(&self) -> bool {
+        self.manual_tool_change
+    }
+
     /// A gate for `policy`; `optional_stop` makes M1 act like M0 (otherwise M1 passes).
     pub fn new(at_stop: AtStop, optional_stop: bool) -> StopGate {
         StopGate {

@@ -93,6 +93,26 @@ pub struct RunReport {
     /// Breaks hit, operator commands, program messages, block search
     /// ([`crate::operator::OperatorLog`]; its keys are merged into the JSON).
     pub operator: crate::operator::OperatorLog,
+    /// Machine output changes (`[machine] outputs`: coolant, spindle enable, tool clamp) as
+    /// the loop made them, at most [`MAX_OUTPUT_CHANGES`]; `outputs_lost` counts the rest.
+    pub outputs: Vec<OutputChange>,
+    pub outputs_lost: u64,
+}
+
+/// The report keeps at most this many output changes (a main program repeated by M99
+/// switches the coolant without end).
+pub const MAX_OUTPUT_CHANGES: usize = 10_000;
+
+/// One machine output switched by the program.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutputChange {
+    /// `coolant_flood`, `coolant_mist`, `spindle_enable` or `tool_clamp`.
+    pub output: &'static str,
+    pub on: bool,
+    /// Program time, s.
+    pub t_s: f64,
+    pub file: String,
+    pub line: u32,
 }
 
 impl RunReport {
@@ -135,6 +155,8 @@ impl RunReport {
             plot: Vec::new(),
             stops: Vec::new(),
             operator: Default::default(),
+            outputs: Vec::new(),
+            outputs_lost: 0,
         }
     }
 
@@ -213,6 +235,18 @@ impl RunReport {
                 })
                 .collect(),
         );
+        if !self.outputs.is_empty() {
+            v["outputs"] = Value::Array(
+                self.outputs
+                    .iter()
+                    .map(|o| {
+                        json!({"output": o.output, "on": o.on, "t_s": o.t_s,
+                               "file": o.file, "line": o.line})
+                    })
+                    .collect(),
+            );
+            v["outputs_lost"] = json!(self.outputs_lost);
+        }
         if let Value::Object(op) = self.operator.to_json() {
             for (k, val) in op {
                 v[k] = val;

@@ -58,6 +58,8 @@ pub struct Status {
     pub spindle_follow: bool,
     /// The operator's panel change (feed hold, resume, an override) applied on this tick.
     pub panel: Option<crate::operator::PanelAction>,
+    /// The machine outputs as the program set them (`crate::machine_io::OUTPUTS` bits).
+    pub outputs: u8,
 }
 
 /// Whether two wrapping INT32 positions are within one count of each other. The difference

@@ -212,13 +212,22 @@ enum AfterStop {
     EndHere,
 }
 
+fn after_stop_of(d: StopDecision) -> AfterStop {
+    match d {
+        StopDecision::Hold => AfterStop::Hold,
+        StopDecision::End => AfterStop::EndHere,
+        StopDecision::Pass | StopDecision::Continue => AfterStop::GoOn,
+    }
+}
+
+/// What the feeder does after pushing `mv`: a program stop (or a manual M6) the gate holds
+/// or ends at is a buffer stop.
 fn after_stop(mv: &cnc402_motion::PlannedMove, gate: Option<&StopGate>) -> AfterStop {
     match (mv.kind, gate) {
-        (cnc402_motion::MoveKind::ProgramStop { kind }, Some(g)) => match g.decide(kind) {
-            StopDecision::Hold => AfterStop::Hold,
-            StopDecision::End => AfterStop::EndHere,
-            StopDecision::Pass | StopDecision::Continue => AfterStop::GoOn,
-        },
+        (cnc402_motion::MoveKind::ProgramStop { kind }, Some(g)) => after_stop_of(g.decide(kind)),
+        (cnc402_motion::MoveKind::ToolChange { .. }, Some(g)) if g.manual_tool_change() => {
+            after_stop_of(g.decide(cnc402_motion::StopKind::Program))
+        }
         _ => AfterStop::GoOn,
     }
 }

@@ -67,6 +67,9 @@ pub const HOMING_ACCELERATION: u16 = 0x609A;
 /// Digital inputs (UINT32): bit 0 negative limit switch, bit 1 positive limit switch, bit 2
 /// home switch, bit 3 interlock; 16..=31 manufacturer specific.
 pub const DIGITAL_INPUTS: u16 = 0x60FD;
+/// Digital outputs (ARRAY): sub 1 physical outputs, sub 2 bit mask (an output follows sub 1
+/// only where its mask bit is 1). Bits 16..31 are manufacturer-specific outputs.
+pub const DIGITAL_OUTPUTS: u16 = 0x60FE;
 /// 0x60FD bit 0.
 pub const INPUT_NEGATIVE_LIMIT: u32 = 1 << 0;
 /// 0x60FD bit 1.

@@ -1084,6 +1084,8 @@ impl Master {
             super::homing::write_at_boot(sdo, node, &reference)
         })
         .map_err(|e| e.into_boot_error(setup.axis, node))?;
+        self.set_up_outputs(bus, i, node)?;
+        self.write_estop_option(bus, node)?;
         bus.send(
             &NmtRepr {
                 command: NmtCommand::Start,

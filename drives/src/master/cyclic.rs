@@ -480,6 +480,10 @@ impl Master {
     fn trip(&mut self, stop: SafetyStop) {
         self.stop = Some(stop);
         self.phase = Phase::Stopping;
+        if matches!(stop.reason, StopReason::EstopOpen { .. }) {
+            self.estop_reaction();
+            return;
+        }
         let still_follows = stop.reason == StopReason::Emergency;
         for (i, a) in self.axes[..self.n_axes].iter_mut().enumerate() {
             if self.options.stop_mode == StopMode::QuickStop
@@ -542,8 +546,17 @@ impl Master {
         let rpdo_err = self.send_rpdos(bus, &fb.target);
         let sync_err = self.send_sync(bus);
         let heartbeat_err = self.send_master_heartbeat(bus, now);
+        let outputs_err = if matches!(self.phase, Phase::Running | Phase::Stopping) {
+            self.send_outputs(bus, now)
+        } else {
+            None
+        };
         let sdo_err = self.send_sdo_frames(bus, now);
-        if let Some(e) = rpdo_err.or(sync_err).or(heartbeat_err).or(sdo_err)
+        if let Some(e) = rpdo_err
+            .or(sync_err)
+            .or(heartbeat_err)
+            .or(outputs_err)
+            .or(sdo_err)
             && self.stop.is_none()
             && running
         {

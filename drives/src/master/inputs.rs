@@ -5,7 +5,9 @@
 //! (not on an axis that is homing: it may be looking for that switch) or an open E-stop, and
 //! start-up reads the E-stop bit by SDO before anything moves.
 
+use cia402::QuickStopOption;
 use cia402::objects as obj;
+use cnc402_config::StopCategory;
 
 use super::boot::{EVENT_DRIVEN, MapPdoError, PdoSpec, map_pdo};
 use super::sdo::BlockingSdo;
@@ -61,7 +63,51 @@ pub(crate) fn parse_inputs(data: &[u8]) -> Option<u32> {
     v.get(PdoObject::DigitalInputs).map(|raw| raw as u32)
 }
 
+/// The drives' quick stop option (0x605A) an E-stop category needs: category 1 ramps down
+/// and disables (2), category 2 ramps down and stays in QUICK STOP ACTIVE, powered (6);
+/// category 0 disables voltage without a quick stop (nothing to write).
+pub fn quick_stop_option_for(category: StopCategory) -> Option<QuickStopOption> {
+    match category {
+        StopCategory::Zero => None,
+        StopCategory::One => QuickStopOption::from_i16(2),
+        StopCategory::Two => QuickStopOption::from_i16(6),
+    }
+}
+
 impl Master {
+    /// The stop reaction of an open E-stop, by its category (see
+    /// [`StopCategory`]): 0 takes every drive to SWITCH ON DISABLED at once (controlword
+    /// "disable voltage"), 1 and 2 send every drive quick stop at once whatever the stop mode
+    /// (an E-stop is no path stop); 0x605A, written at boot, then decides whether the drive
+    /// disables itself at standstill (1) or holds there powered (2).
+    pub(crate) fn estop_reaction(&mut self) {
+        if self.estop_category == StopCategory::Zero {
+            self.request_disable();
+            return;
+        }
+        for a in self.axes[..self.n_axes].iter_mut() {
+            a.quick_stop = true;
+        }
+    }
+
+    /// Boot: the quick stop option the E-stop category needs, on every drive (when an
+    /// E-stop input is configured).
+    pub(crate) fn write_estop_option<B: TimedBus + ?Sized>(
+        &mut self,
+        bus: &mut B,
+        node: crate::wire::NodeId,
+    ) -> Result<(), super::sdo::SdoError> {
+        if self.estop_input.is_none() {
+            return Ok(());
+        }
+        let Some(option) = quick_stop_option_for(self.estop_category) else {
+            return Ok(());
+        };
+        self.with_sdo(bus, |sdo| {
+            sdo.write_i16(node, obj::QUICK_STOP_OPTION, 0, option.to_i16())
+        })
+    }
+
     /// The inputs monitor of drive axis `i` (its last 0x60FD): a limit switch, or the E-stop
     /// chain open.
     pub(crate) fn inputs_stop(&self, i: usize) -> Option<StopReason> {

@@ -30,6 +30,7 @@ pub mod boot;
 pub mod cyclic;
 pub mod homing;
 pub mod inputs;
+pub mod outputs;
 pub mod sdo;
 pub mod service;
 pub mod stop;
@@ -49,6 +50,7 @@ use cnc402_motion::to_counts_wrapping;
 pub use boot::{BootError, BootReport, DriveIdentity, InterpolationPeriod};
 pub use cyclic::Feedback;
 pub use homing::{AxisHomed, HomingError, HomingReport};
+pub use outputs::Output;
 pub use sdo::{BlockingSdo, ProtocolViolation, SdoClient, SdoError, SdoErrorKind, SdoEvent};
 pub use service::{SequenceError, send_nmt, sequence_over_sdo};
 pub use stop::{Emcy, SafetyStop, StopReason, emcy_text};
@@ -397,6 +399,10 @@ pub struct Master {
     pub(crate) commissioning: Vec<cnc402_config::Commissioning>,
     /// `[machine] estop_input`: (axis index, 0x60FD bit), the chain closed when the bit is 1.
     pub(crate) estop_input: Option<(usize, u8)>,
+    /// `estop_input`'s category: the stop reaction when it opens.
+    pub(crate) estop_category: cnc402_config::StopCategory,
+    /// `[machine] outputs`: wanted and acknowledged 0x60FE:1 per drive.
+    pub(crate) outputs: outputs::OutputState,
 }
 
 impl Master {
@@ -547,6 +553,8 @@ impl Master {
                 ),
             ),
             estop_input: config.machine.estop_input,
+            estop_category: config.machine.estop_category,
+            outputs: outputs::OutputState::new(config.machine.outputs),
         })
     }
 

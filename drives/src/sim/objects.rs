@@ -339,7 +339,7 @@ fn insert_device_profile(od: &mut ObjectDictionary, p: &DriveParams) {
 
 /// Homing (0x607C, 0x6098, 0x6099, 0x609A), polarity (0x607E), the factor group's gear ratio
 /// and feed constant (0x6091, 0x6092: stored, the simulated motor counts in position units
-/// whatever they say) and the digital inputs (0x60FD).
+/// whatever they say), the digital inputs (0x60FD) and outputs (0x60FE, read back as written).
 fn insert_homing_and_scaling(od: &mut ObjectDictionary) {
     use Access::*;
     var(
@@ -367,6 +367,18 @@ fn insert_homing_and_scaling(od: &mut ObjectDictionary) {
         o::DIGITAL_INPUTS,
         Entry::new("digital inputs", ReadOnly, Value::U32(0)).mappable(),
     );
+    od.insert(
+        o::DIGITAL_OUTPUTS,
+        0,
+        Entry::new("digital outputs", Const, Value::U8(2)),
+    );
+    for (sub, name) in [(1, "physical outputs"), (2, "bit mask")] {
+        od.insert(
+            o::DIGITAL_OUTPUTS,
+            sub,
+            Entry::new(name, ReadWrite, Value::U32(0)).mappable(),
+        );
+    }
     for (index, name, subs) in [
         (
             o::GEAR_RATIO,

@@ -204,7 +204,10 @@ pub fn run_input(
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<RunReport, RunError> {
     let src = input.source();
-    let gate = Arc::new(StopGate::new(opts.at_stop, opts.optional_stop));
+    let gate = Arc::new(
+        StopGate::new(opts.at_stop, opts.optional_stop)
+            .with_manual_tool_change(cfg.machine.tool_change == cnc402_config::ToolChange::Manual),
+    );
     let shared = Arc::new(OperatorShared::default());
     // The dry run searches as the run will (its range only), and never holds.
     let dry_watch = opts.operator.search.clone().map(|search| {

@@ -121,7 +121,26 @@ impl OperatorPrompt {
         file: impl FnOnce() -> String,
         tick: u64,
     ) {
-        let name = kind_name(kind);
+        self.hold_at(line, kind, kind_name(kind), None, file, tick);
+    }
+
+    /// A manual tool change (M6 with `tool_change = "manual"`) reached: held as M0 is
+    /// (the loop released the tool clamp), "insert tool T… (file:line), then continue".
+    pub(super) fn tool_change(&mut self, line: u32, tool: u32, file: String, tick: u64) {
+        self.hold_at(line, StopKind::Program, "M6", Some(tool), || file, tick);
+    }
+
+    /// A stop named `name` (M0, M1, a manual M6 for `tool`) as the gate decides a stop of
+    /// `kind`.
+    fn hold_at(
+        &mut self,
+        line: u32,
+        kind: StopKind,
+        name: &'static str,
+        tool: Option<u32>,
+        file: impl FnOnce() -> String,
+        tick: u64,
+    ) {
         let decision = self.gate.decide(kind);
         let waited_s = match decision {
             StopDecision::Pass => {
@@ -147,10 +166,17 @@ impl OperatorPrompt {
                 None
             }
             StopDecision::Hold => {
-                eprintln!(
-                    "{name} at {}:{line} — press Enter to continue, Ctrl-C to stop",
-                    file()
-                );
+                match tool {
+                    Some(t) => eprintln!(
+                        "insert tool T{t} ({}:{line}), then continue — press Enter or give \
+                         `continue`, Ctrl-C to stop",
+                        file()
+                    ),
+                    None => eprintln!(
+                        "{name} at {}:{line} — press Enter to continue, Ctrl-C to stop",
+                        file()
+                    ),
+                }
                 self.ask_operator(None, tick);
                 None
             }

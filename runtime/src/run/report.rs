@@ -121,6 +121,8 @@ pub(super) fn build_report(
             period_s: cfg.bus.period_s(),
             ..side.prompt.operator_log()
         },
+        outputs: side.outputs.clone(),
+        outputs_lost: side.outputs_lost,
     }
 }
 

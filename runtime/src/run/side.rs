@@ -64,6 +64,10 @@ pub(super) struct Side<'a> {
     /// The main program (block texts at a break: a file read line by line is an empty
     /// window, and the block's line is read again).
     pub(super) main: Option<SourceFile>,
+    /// The machine outputs of the last status record, and their changes so far.
+    last_outputs: Option<u8>,
+    pub(super) outputs: Vec<crate::report::OutputChange>,
+    pub(super) outputs_lost: u64,
 }
 
 impl<'a> Side<'a> {
@@ -93,6 +97,9 @@ impl<'a> Side<'a> {
             coolant_on: false,
             stats: None,
             main: None,
+            last_outputs: None,
+            outputs: Vec::new(),
+            outputs_lost: 0,
         }
     }
 
@@ -207,8 +214,42 @@ impl<'a> Side<'a> {
         parts.join(" ")
     }
 
+    /// The machine outputs that changed at `s`: on stderr and in the report.
+    fn output_changes(&mut self, s: &Status) {
+        let before = self
+            .last_outputs
+            .replace(s.outputs)
+            .unwrap_or(crate::machine_io::initial_outputs(self.cfg));
+        let changed = before ^ s.outputs;
+        if changed == 0 {
+            return;
+        }
+        let t_s = s.tick as f64 * self.cfg.bus.period_s();
+        let file = self.file_of(s);
+        for (_, bit) in crate::machine_io::OUTPUTS {
+            if changed & bit == 0 {
+                continue;
+            }
+            let (output, on) = (crate::machine_io::output_name(bit), s.outputs & bit != 0);
+            let state = if on { "on" } else { "off" };
+            log::info!("{file}:{}: {output} {state} at {t_s:.3} s", s.line);
+            if self.outputs.len() >= crate::report::MAX_OUTPUT_CHANGES {
+                self.outputs_lost += 1;
+                continue;
+            }
+            self.outputs.push(crate::report::OutputChange {
+                output,
+                on,
+                t_s,
+                file: file.clone(),
+                line: s.line,
+            });
+        }
+    }
+
     /// The program's event in status record `s`, if any (and the operator's panel change).
     fn event(&mut self, s: &Status) {
+        self.output_changes(s);
         if let Some(a) = s.panel {
             // Where the loop applied it, for the operator (the report keeps it too).
             let pct = a.percent().map(|p| format!(" {p} %")).unwrap_or_default();
@@ -246,7 +287,12 @@ impl<'a> Side<'a> {
                 );
             }
             Some(MoveEvent::ToolChange { tool }) => {
-                log::info!("line {}: tool change to T{tool}", s.line);
+                if self.cfg.machine.tool_change == cnc402_config::ToolChange::Manual {
+                    let file = self.file_of(s);
+                    self.prompt.tool_change(s.line, tool, file, s.tick);
+                } else {
+                    log::info!("line {}: tool change to T{tool}", s.line);
+                }
             }
             Some(MoveEvent::Coolant { mist, flood }) => {
                 let state = match (mist, flood) {
