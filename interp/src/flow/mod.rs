@@ -87,6 +87,10 @@ struct Flow {
     lowered: VecDeque<(Segment, Arc<CanonState>)>,
     /// Where one compensated operation is lowered into (kept: no allocation per block).
     lower_buf: Vec<Segment>,
+    /// The last block's words and operations (emptied), reused by the next block so that a
+    /// long program does not allocate them per block (boxed: moved in and out per block).
+    spare_words: Option<Box<Words>>,
+    spare_ops: Vec<CanonOp>,
     /// Cutter radius compensation between the canonical operations and lowering.
     comp: comp::Stage,
     /// The machine indices of X, Y and Z (arc centres), for lowering.
@@ -150,6 +154,8 @@ impl Interpreter {
                 queue: VecDeque::new(),
                 lowered: VecDeque::new(),
                 lower_buf: Vec::new(),
+                spare_words: None,
+                spare_ops: Vec::new(),
                 comp: comp::Stage::new(cfg.interp.cutter_comp, xyz_indices(cfg)),
                 xyz: xyz_indices(cfg),
                 done: true,
@@ -507,7 +513,13 @@ impl Interpreter {
         } else {
             block
         };
-        let mut words = Words::collect_with(&unit.src, block, self)?;
+        let mut words = match self.flow.spare_words.take() {
+            Some(mut w) => {
+                w.collect_again(&unit.src, block, self)?;
+                w
+            }
+            None => Box::new(Words::collect_with(&unit.src, block, self)?),
+        };
         crate::block::mcodes::macro_calls(&self.m.cfg, &unit.src, &mut words)?;
         let Some(call) = self.take_calls(unit, &mut words, &ijk)? else {
             return Ok(());
@@ -518,14 +530,17 @@ impl Interpreter {
         }
         let from = self.m.state.pos;
         let sets_g92 = linuxcnc && words.g.iter().any(|g| g.0 == 92);
-        let (out, end) = self.m.execute(&unit.src, &mut words, line)?;
+        let spare = std::mem::take(&mut self.flow.spare_ops);
+        let (mut out, end) = self.m.execute(&unit.src, &mut words, line, spare)?;
+        self.flow.spare_words = Some(words);
         if sets_g92 {
             self.flow.g92_kept = self.m.state.shift;
         }
         if canon::makes_motion(&out, &from) {
             self.flow.runaway.reset();
         }
-        self.flow.queue.extend(out);
+        self.flow.queue.extend(out.drain(..));
+        self.flow.spare_ops = out;
         if end {
             self.flow.done = true;
             return Ok(());
