@@ -347,7 +347,7 @@ impl Interpreter {
             if let Some(s) = self.flow.lowered.pop_front() {
                 return Ok(Some(s));
             }
-            if self.next_op(true)?.is_none() {
+            if matches!(self.next_op(true)?, Pulled::End) {
                 return Ok(self.flow.lowered.pop_front());
             }
         }
@@ -356,7 +356,10 @@ impl Interpreter {
     /// The next canonical operation (work coordinates, canned cycles whole, with the state
     /// each ran under), `Ok(None)` at the end of the program, or the error that ends it.
     pub fn next_canon(&mut self) -> Result<Option<CanonOp>, NcError> {
-        self.next_op(false)
+        Ok(match self.next_op(false)? {
+            Pulled::Op(op) => Some(op),
+            Pulled::Kept | Pulled::End => None,
+        })
     }
 
     /// The next operation, lowered: its segments count into the path length here (what
@@ -364,15 +367,16 @@ impl Interpreter {
     /// are kept for [`next_segment`](Self::next_segment) when `keep`.
     /// The programmed operation goes through cutter compensation ([`comp::Stage`]), which may
     /// hold it back until the next element shows how the two meet; what it gives out is
-    /// lowered.
-    fn next_op(&mut self, keep: bool) -> Result<Option<CanonOp>, NcError> {
+    /// lowered. With `keep` the operation itself is not given back (no copy of it is made).
+    fn next_op(&mut self, keep: bool) -> Result<Pulled, NcError> {
         let op = self.pull_op().inspect_err(|_| {
             // The error is the last item: what compensation holds back is dropped.
             self.flow.comp.reset(self.m.state.pos);
         })?;
-        let fed = match &op {
-            Some(op) => self.flow.comp.push(op.clone()),
-            None => self.flow.comp.finish(),
+        let (fed, pulled) = match op {
+            Some(op) if keep => (self.flow.comp.push(op), Pulled::Kept),
+            Some(op) => (self.flow.comp.push(op.clone()), Pulled::Op(op)),
+            None => (self.flow.comp.finish(), Pulled::End),
         };
         if let Err(e) = fed {
             self.flow.done = true;
@@ -396,7 +400,7 @@ impl Interpreter {
         if !keep {
             self.flow.lowered.truncate(before);
         }
-        Ok(op)
+        Ok(pulled)
     }
 
     /// A compensation error at the line of the block it names.
@@ -547,6 +551,17 @@ impl Interpreter {
         }
         self.after_block(unit, call, has_axis)
     }
+}
+
+/// What [`Interpreter::next_op`] did.
+#[derive(Debug)]
+enum Pulled {
+    /// The next operation (not kept).
+    Op(CanonOp),
+    /// The next operation went through, its segments kept for `next_segment`.
+    Kept,
+    /// The program has ended.
+    End,
 }
 
 /// A compensation error `e` at its line of `src` (the whole file or the line's window).
