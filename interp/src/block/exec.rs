@@ -162,9 +162,11 @@ impl Exec<'_> {
         opts: &Options,
         (src, dialect): (&SourceFile, Dialect),
         (st, canon): (&mut ModalState, &mut Option<Arc<CanonState>>),
-        w: &mut Words,
-        line: &Line,
+        (w, line): (&mut Words, &Line),
+        mut out: Vec<CanonOp>,
     ) -> Result<(Vec<CanonOp>, bool), NcError> {
+        // `out` is a spare vector (kept for its capacity): emptied here whatever it holds.
+        out.clear();
         let mut ex = Exec {
             cfg,
             opts,
@@ -179,7 +181,7 @@ impl Exec<'_> {
                 n: line.n.map(|n| n.value),
             },
             line_span: line.span,
-            out: Vec::new(),
+            out,
             end: false,
             tlo_commanded: false,
             tlo_cancel_after: false,

@@ -65,21 +65,23 @@ impl Machine {
         super::exec::single_op(&self.cfg, &self.state, &mut self.canon, kind, source)
     }
 
-    /// Runs one block of `line` with its words collected: its segments, and whether it ended
+    /// Runs one block of `line` with its words collected (its operations gathered in `out`, a
+    /// spare vector emptied first): its operations, and whether it ended
     /// the program (M2/M30).
     pub(crate) fn execute(
         &mut self,
         src: &SourceFile,
         words: &mut Words,
         line: &Line,
+        out: Vec<CanonOp>,
     ) -> Result<(Vec<CanonOp>, bool), NcError> {
         Exec::execute(
             &self.cfg,
             &self.opts,
             (src, self.dialect),
             (&mut self.state, &mut self.canon),
-            words,
-            line,
+            (words, line),
+            out,
         )
     }
 

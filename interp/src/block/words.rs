@@ -151,6 +151,9 @@ pub struct Words {
     /// M codes in source order.
     pub m: Vec<(u32, Span)>,
     args: [Option<Arg>; 26],
+    /// Bit `i`: letter `A + i` has a value in `args` (so that a block whose words were all
+    /// used is known without looking at the 26 slots).
+    given: u32,
     used: u32,
     /// The span of the whole block (all its words), for errors not at one word.
     pub span: Span,
@@ -175,14 +178,35 @@ impl Words {
             corner: None,
             m: Vec::new(),
             args: [None; 26],
+            given: 0,
             used: 0,
-            span: block
-                .words
-                .iter()
-                .map(|w| w.span)
-                .reduce(Span::join)
-                .unwrap_or_default(),
+            span: Span::default(),
         };
+        w.collect_again(src, block, vars)?;
+        Ok(w)
+    }
+
+    /// [`collect_with`](Self::collect_with) into these words, which are emptied first: a long
+    /// program reuses one `Words` (and its vectors) for all its blocks.
+    pub(crate) fn collect_again(
+        &mut self,
+        src: &SourceFile,
+        block: &Block,
+        vars: &mut dyn eval::VarSource,
+    ) -> Result<(), NcError> {
+        let w = self;
+        w.g.clear();
+        w.corner = None;
+        w.m.clear();
+        w.args = [None; 26];
+        w.given = 0;
+        w.used = 0;
+        w.span = block
+            .words
+            .iter()
+            .map(|w| w.span)
+            .reduce(Span::join)
+            .unwrap_or_default();
         for word in &block.words {
             let Some(v) = eval::value_in(src, &word.value, vars)? else {
                 continue;
@@ -253,11 +277,12 @@ impl Words {
                         span: word.span,
                         has_point,
                     });
+                    w.given |= 1 << i;
                 }
                 c => return Err(here(format!("address {c:?} is not an address letter"))),
             }
         }
-        Ok(w)
+        Ok(())
     }
 
     /// The value of `letter`, marking it used.
@@ -292,6 +317,7 @@ impl Words {
         match self.args.get_mut(i) {
             Some(slot @ None) => {
                 *slot = Some(a);
+                self.given |= 1 << i;
                 true
             }
             _ => false,
@@ -300,8 +326,13 @@ impl Words {
 
     /// The first (in source order) address that was given but not used.
     pub fn first_unused(&self) -> Option<(char, Arg)> {
+        let unused = self.given & !self.used;
+        if unused == 0 {
+            // Every block that runs ends here: most have used all their words.
+            return None;
+        }
         (0..26)
-            .filter(|i| self.used & (1 << i) == 0)
+            .filter(|i| unused & (1 << i) != 0)
             .filter_map(|i| self.args[i].map(|a| ((b'A' + i as u8) as char, a)))
             .min_by_key(|(_, a)| a.span.start)
     }
@@ -379,6 +410,16 @@ mod tests {
         assert_eq!(w.first_unused().unwrap().0, 'X');
         w.consume('X');
         w.consume('S');
+        assert!(w.first_unused().is_none());
+        // A word the interpreter adds counts as given until it is used.
+        let p = Arg {
+            v: 1.0,
+            span: Span::default(),
+            has_point: false,
+        };
+        assert!(w.put('P', p));
+        assert_eq!(w.first_unused().map(|(c, _)| c), Some('P'));
+        w.consume('P');
         assert!(w.first_unused().is_none());
     }
 

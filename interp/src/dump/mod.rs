@@ -76,41 +76,57 @@ pub fn write_num(o: &mut String, v: f64) {
         o.push_str(&fmt_num(v));
         return;
     }
-    let k = (v * 1e6).round();
-    if k == 0.0 {
+    // `(v * 1e6).round()` as an integer, without the call `round` is on x86-64: below 1e15
+    // (< 2^52) the truncation and the rest `x - t` are exact, so rounding half away from zero
+    // comes out the same.
+    let x = v * 1e6;
+    let t = x as i64;
+    let rest = x - t as f64;
+    let k = t + i64::from(rest >= 0.5) - i64::from(rest <= -0.5);
+    if k == 0 {
         o.push('0');
         return;
     }
-    // |k| < 1e15 < 2^63: exact as an integer. The text is built right to left in one buffer
-    // (fraction without its trailing zeros, point, whole part, sign) and pushed once.
-    let neg = k < 0.0;
-    let k = (k as i64).unsigned_abs();
+    // The text is built in one buffer (fraction without its trailing zeros, point, whole
+    // part, sign) and pushed once.
+    let neg = k < 0;
+    let k = k.unsigned_abs();
     let (whole, frac) = (k / 1_000_000, k % 1_000_000);
+    // The six fraction digits go last in three pairs; the text ends after the last one that
+    // is not 0 (or before the point, for a whole number).
     let mut buf = [0u8; 32];
-    let mut at = buf.len();
+    let mut at = buf.len() - 7;
+    let mut end = at;
     if frac != 0 {
-        let mut f = frac;
-        let mut zeros = true;
-        for _ in 0..6 {
-            let d = (f % 10) as u8;
-            f /= 10;
-            if zeros && d == 0 {
-                continue;
-            }
-            zeros = false;
-            at -= 1;
-            buf[at] = b'0' + d;
-        }
-        at -= 1;
         buf[at] = b'.';
+        for (i, v) in [frac / 10_000, frac / 100 % 100, frac % 100]
+            .into_iter()
+            .enumerate()
+        {
+            let v = v as usize;
+            buf[at + 1 + 2 * i] = PAIRS[2 * v];
+            buf[at + 2 + 2 * i] = PAIRS[2 * v + 1];
+        }
+        end = buf.len();
+        while buf[end - 1] == b'0' {
+            end -= 1;
+        }
     }
     at = digits_before(&mut buf, at, whole);
     if neg {
         at -= 1;
         buf[at] = b'-';
     }
-    push_ascii(o, &buf[at..]);
+    push_ascii(o, &buf[at..end]);
 }
+
+/// "00" to "99": two decimal digits at a time.
+const PAIRS: &[u8; 200] = b"\
+0001020304050607080910111213141516171819\
+2021222324252627282930313233343536373839\
+4041424344454647484950515253545556575859\
+6061626364656667686970717273747576777879\
+8081828384858687888990919293949596979899";
 
 /// Writes `v`'s decimal digits into `buf` ending before `at`; returns where they start.
 fn digits_before(buf: &mut [u8; 32], mut at: usize, mut v: u64) -> usize {
@@ -126,11 +142,15 @@ fn digits_before(buf: &mut [u8; 32], mut at: usize, mut v: u64) -> usize {
 
 /// Appends ASCII bytes (digits, sign, point) to `o`.
 fn push_ascii(o: &mut String, bytes: &[u8]) {
-    // A few bytes, each a char: cheaper than validating them as UTF-8 for `push_str`.
-    o.reserve(bytes.len());
-    for &b in bytes {
-        o.push(char::from(b));
+    // Checking a few digits as UTF-8 (`push_str(from_utf8(..))`) or pushing them one `char`
+    // at a time costs as much as making them; every caller passes ASCII only.
+    debug_assert!(bytes.is_ascii());
+    if !bytes.is_ascii() {
+        return;
     }
+    // SAFETY: ASCII bytes (checked just above) are valid UTF-8 on their own, so `o` stays
+    // valid UTF-8.
+    unsafe { o.as_mut_vec() }.extend_from_slice(bytes);
 }
 
 /// `s` as a JSON string literal: `"` `\` and control characters (U+0000 to U+001F) escaped,
@@ -605,6 +625,25 @@ mod num_tests {
             x ^= x << 17;
             x
         };
+        // Halves of the last digit, which round away from zero, and the ends of the range.
+        let halves = [
+            0.5e-6,
+            -0.5e-6,
+            1.5e-6,
+            -2.5e-6,
+            0.1234565,
+            -7.0000005,
+            999_999_999.999_999_5,
+            -999_999_999.999_999_5,
+            999_999_999.999_999,
+            1e9,
+            -1e9,
+        ];
+        for v in halves {
+            let mut o = String::new();
+            write_num(&mut o, v);
+            assert_eq!(o, fmt_num(v), "{v:e}");
+        }
         for _ in 0..200_000 {
             let r = next();
             let mag = 10f64.powi((r % 20) as i32 - 8);

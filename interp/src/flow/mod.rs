@@ -87,6 +87,10 @@ struct Flow {
     lowered: VecDeque<(Segment, Arc<CanonState>)>,
     /// Where one compensated operation is lowered into (kept: no allocation per block).
     lower_buf: Vec<Segment>,
+    /// The last block's words and operations (emptied), reused by the next block so that a
+    /// long program does not allocate them per block (boxed: moved in and out per block).
+    spare_words: Option<Box<Words>>,
+    spare_ops: Vec<CanonOp>,
     /// Cutter radius compensation between the canonical operations and lowering.
     comp: comp::Stage,
     /// The machine indices of X, Y and Z (arc centres), for lowering.
@@ -150,6 +154,8 @@ impl Interpreter {
                 queue: VecDeque::new(),
                 lowered: VecDeque::new(),
                 lower_buf: Vec::new(),
+                spare_words: None,
+                spare_ops: Vec::new(),
                 comp: comp::Stage::new(cfg.interp.cutter_comp, xyz_indices(cfg)),
                 xyz: xyz_indices(cfg),
                 done: true,
@@ -341,7 +347,7 @@ impl Interpreter {
             if let Some(s) = self.flow.lowered.pop_front() {
                 return Ok(Some(s));
             }
-            if self.next_op(true)?.is_none() {
+            if matches!(self.next_op(true)?, Pulled::End) {
                 return Ok(self.flow.lowered.pop_front());
             }
         }
@@ -350,7 +356,10 @@ impl Interpreter {
     /// The next canonical operation (work coordinates, canned cycles whole, with the state
     /// each ran under), `Ok(None)` at the end of the program, or the error that ends it.
     pub fn next_canon(&mut self) -> Result<Option<CanonOp>, NcError> {
-        self.next_op(false)
+        Ok(match self.next_op(false)? {
+            Pulled::Op(op) => Some(op),
+            Pulled::Kept | Pulled::End => None,
+        })
     }
 
     /// The next operation, lowered: its segments count into the path length here (what
@@ -358,15 +367,16 @@ impl Interpreter {
     /// are kept for [`next_segment`](Self::next_segment) when `keep`.
     /// The programmed operation goes through cutter compensation ([`comp::Stage`]), which may
     /// hold it back until the next element shows how the two meet; what it gives out is
-    /// lowered.
-    fn next_op(&mut self, keep: bool) -> Result<Option<CanonOp>, NcError> {
+    /// lowered. With `keep` the operation itself is not given back (no copy of it is made).
+    fn next_op(&mut self, keep: bool) -> Result<Pulled, NcError> {
         let op = self.pull_op().inspect_err(|_| {
             // The error is the last item: what compensation holds back is dropped.
             self.flow.comp.reset(self.m.state.pos);
         })?;
-        let fed = match &op {
-            Some(op) => self.flow.comp.push(op.clone()),
-            None => self.flow.comp.finish(),
+        let (fed, pulled) = match op {
+            Some(op) if keep => (self.flow.comp.push(op), Pulled::Kept),
+            Some(op) => (self.flow.comp.push(op.clone()), Pulled::Op(op)),
+            None => (self.flow.comp.finish(), Pulled::End),
         };
         if let Err(e) = fed {
             self.flow.done = true;
@@ -390,7 +400,7 @@ impl Interpreter {
         if !keep {
             self.flow.lowered.truncate(before);
         }
-        Ok(op)
+        Ok(pulled)
     }
 
     /// A compensation error at the line of the block it names.
@@ -507,7 +517,13 @@ impl Interpreter {
         } else {
             block
         };
-        let mut words = Words::collect_with(&unit.src, block, self)?;
+        let mut words = match self.flow.spare_words.take() {
+            Some(mut w) => {
+                w.collect_again(&unit.src, block, self)?;
+                w
+            }
+            None => Box::new(Words::collect_with(&unit.src, block, self)?),
+        };
         crate::block::mcodes::macro_calls(&self.m.cfg, &unit.src, &mut words)?;
         let Some(call) = self.take_calls(unit, &mut words, &ijk)? else {
             return Ok(());
@@ -518,20 +534,34 @@ impl Interpreter {
         }
         let from = self.m.state.pos;
         let sets_g92 = linuxcnc && words.g.iter().any(|g| g.0 == 92);
-        let (out, end) = self.m.execute(&unit.src, &mut words, line)?;
+        let spare = std::mem::take(&mut self.flow.spare_ops);
+        let (mut out, end) = self.m.execute(&unit.src, &mut words, line, spare)?;
+        self.flow.spare_words = Some(words);
         if sets_g92 {
             self.flow.g92_kept = self.m.state.shift;
         }
         if canon::makes_motion(&out, &from) {
             self.flow.runaway.reset();
         }
-        self.flow.queue.extend(out);
+        self.flow.queue.extend(out.drain(..));
+        self.flow.spare_ops = out;
         if end {
             self.flow.done = true;
             return Ok(());
         }
         self.after_block(unit, call, has_axis)
     }
+}
+
+/// What [`Interpreter::next_op`] did.
+#[derive(Debug)]
+enum Pulled {
+    /// The next operation (not kept).
+    Op(CanonOp),
+    /// The next operation went through, its segments kept for `next_segment`.
+    Kept,
+    /// The program has ended.
+    End,
 }
 
 /// A compensation error `e` at its line of `src` (the whole file or the line's window).

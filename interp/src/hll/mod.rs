@@ -367,7 +367,7 @@ impl Running {
             ));
         }
         let from = it.state.pos;
-        let (out, end) = it.execute(&src, &mut w, line)?;
+        let (out, end) = it.execute(&src, &mut w, line, Vec::new())?;
         self.count_idle(it, &out, &from, file, line.span)?;
         self.queue.extend(out);
         if end {
