@@ -121,8 +121,10 @@ fn a_manual_tool_change_holds_unclamped_until_continue_then_clamps() {
     assert_eq!(code, Some(0), "{err}");
     assert!(err.contains("insert tool T7 ("), "{err}");
     assert!(err.contains("p.nc:2), then continue"), "{err}");
-    // Clamped as the run goes on: on the tick the next block starts.
-    assert_eq!(changes(&v), ["2 tool_clamp off", "3 tool_clamp on"]);
+    // Clamped when the operator continues, at the M6's line, before the next block starts.
+    // Regression (manual_m6_clamp_line_raced_the_feeder): it was named line 3 or line 2
+    // depending on whether the next block was queued when the answer came.
+    assert_eq!(changes(&v), ["2 tool_clamp off", "2 tool_clamp on"]);
     let stops = v["stops"].as_array().unwrap();
     assert_eq!(stops.len(), 1, "{v}");
     assert_eq!(stops[0]["kind"], "M6");

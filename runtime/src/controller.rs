@@ -118,6 +118,10 @@ pub struct CycleController<L: DriveLink> {
     gate: Option<Arc<crate::program_stop::StopGate>>,
     /// Holding at a program stop until the gate releases it.
     held: bool,
+    /// A manual tool change's hold ended this tick and the tool was clamped: the next block
+    /// starts on the next tick (clamp first, and the report names the M6's line for it
+    /// whenever the operator's answer came).
+    clamped_now: bool,
     /// Feed time, path deviation and exact stops (the report's path figures).
     path: crate::path_figures::PathTracker,
     /// Feed hold and overrides: the operator's panel, its triggered commands, what the loop
@@ -208,6 +212,7 @@ impl<L: DriveLink> CycleController<L> {
             tool_track: SpindleTrack::default(),
             gate: None,
             held: false,
+            clamped_now: false,
             path: Default::default(),
             panel: None,
             schedule: Default::default(),
@@ -346,7 +351,7 @@ impl<L: DriveLink> CycleController<L> {
     pub fn step(&mut self, now: Instant) -> Step {
         self.take_requests();
         self.take_panel();
-        if self.phase == Phase::Running && !self.held {
+        if self.phase == Phase::Running && !self.held && !std::mem::take(&mut self.clamped_now) {
             // A blended move shorter than the rest of the period passes between two samples
             // (the interpolator stays idle): start moves until one takes this tick (none from
             // rest in a feed hold).
@@ -449,7 +454,7 @@ impl<L: DriveLink> CycleController<L> {
                 self.held = false;
             }
             if !self.held {
-                self.outputs.hold_ended(&mut self.link);
+                self.clamped_now = self.outputs.hold_ended(&mut self.link);
             }
         }
     }

@@ -109,11 +109,13 @@ impl LoopOutputs {
         }
     }
 
-    /// The loop is not held any more: a manual tool change clamps the new tool.
-    pub(crate) fn hold_ended<L: DriveLink>(&mut self, link: &mut L) {
-        if std::mem::take(&mut self.clamp_after_hold) {
+    /// The loop is not held any more: a manual tool change clamps the new tool (`true`).
+    pub(crate) fn hold_ended<L: DriveLink>(&mut self, link: &mut L) -> bool {
+        let clamp = std::mem::take(&mut self.clamp_after_hold);
+        if clamp {
             self.set(link, CLAMP, true);
         }
+        clamp
     }
 
     /// The program's input has ended and the last move is done: an M5 ramp's enable off.
