@@ -187,3 +187,34 @@ fn store_survives_a_reboot_and_restore_brings_the_defaults_back() {
         .inject(FaultKind::Reboot, now);
     assert_eq!(rig.drive(0).od().get_u64(0x6065, 0), Some(window_default));
 }
+
+/// The machine outputs' RPDO3 on a drive whose RPDO3 mapping is fixed: used when it is
+/// 0x60FE:1 alone (boot had refused every fixed RPDO3 before), refused naming RPDO3 when not.
+#[test]
+fn a_fixed_outputs_rpdo3_is_used_when_it_is_0x60fe_alone() {
+    const OUTPUTS: MappingEntry = MappingEntry::new(0x60FE, 1, 32);
+    let mut config = MachineConfig::default_machine();
+    config.machine.outputs.coolant_flood = Some(cnc402_config::OutputBit { axis: 0, bit: 16 });
+    let mut rig = rig_with_fixed(config.clone(), &[(0x1602, &[OUTPUTS])]);
+    rig.boot();
+    assert!(
+        rig.master
+            .set_output(cnc402_drives::master::Output::CoolantFlood, true)
+    );
+    let hold = rig.master.positions();
+    for _ in 0..20 {
+        rig.cycle(&hold[..rig.axes()]).unwrap();
+    }
+    assert!(rig.master.outputs_settled());
+    assert_eq!(
+        rig.drive(0).od().get_u64(0x60FE, 1),
+        Some(1 << 16),
+        "coolant on through the drive's own RPDO3"
+    );
+    let mut rig = rig_with_fixed(config, &[(0x1602, &[OUTPUTS, CW])]);
+    let e = rig.master.boot(&mut rig.bus).unwrap_err();
+    assert!(
+        matches!(&e, BootError::FixedMapping { pdo, node: 1, .. } if pdo == "RPDO3"),
+        "{e}"
+    );
+}

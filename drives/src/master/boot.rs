@@ -467,6 +467,26 @@ impl From<SdoError> for MapPdoError {
     }
 }
 
+/// Maps `pdo` as [`map_pdo`] does, for a PDO whose frames the master reads or writes by
+/// `pdo.layout` alone (the machine inputs and outputs): a fixed mapping is accepted only when
+/// it is that layout; `what` names the PDO's content in the refusal.
+pub(crate) fn map_pdo_exactly<B: TimedBus + ?Sized>(
+    sdo: &mut BlockingSdo<'_, B>,
+    node: NodeId,
+    pdo: &PdoSpec<'_>,
+    what: &str,
+) -> Result<(), MapPdoError> {
+    let layout = map_pdo(sdo, node, pdo)?;
+    if layout != *pdo.layout {
+        return Err(MapPdoError::Fixed {
+            pdo: pdo.name(),
+            found: layout.entries().collect(),
+            problem: format!("the {what} PDO must carry {what} alone (its mapping is fixed)"),
+        });
+    }
+    Ok(())
+}
+
 /// The abort codes by which a drive says a PDO's mapping cannot be changed (a read-only
 /// mapping object, or one that takes no other objects).
 fn refuses_remap(e: &SdoError) -> bool {
@@ -1084,7 +1104,8 @@ impl Master {
             super::homing::write_at_boot(sdo, node, &reference)
         })
         .map_err(|e| e.into_boot_error(setup.axis, node))?;
-        self.set_up_outputs(bus, i, node)?;
+        self.set_up_outputs(bus, i, node)
+            .map_err(|e| e.into_boot_error(setup.axis, node))?;
         self.write_estop_option(bus, node)?;
         bus.send(
             &NmtRepr {

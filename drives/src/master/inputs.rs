@@ -9,7 +9,7 @@ use cia402::QuickStopOption;
 use cia402::objects as obj;
 use cnc402_config::StopCategory;
 
-use super::boot::{EVENT_DRIVEN, MapPdoError, PdoSpec, map_pdo};
+use super::boot::{EVENT_DRIVEN, MapPdoError, PdoSpec, map_pdo_exactly};
 use super::sdo::BlockingSdo;
 use super::stop::StopReason;
 use super::{Master, TimedBus};
@@ -46,15 +46,7 @@ pub(crate) fn map_inputs_tpdo<B: TimedBus + ?Sized>(
         transmission_type: EVENT_DRIVEN,
         event_timing: Some((INPUTS_INHIBIT_100US, refresh_ms.max(1))),
     };
-    let layout = map_pdo(sdo, node, &spec)?;
-    if layout != INPUTS_LAYOUT {
-        return Err(MapPdoError::Fixed {
-            pdo: spec.name(),
-            found: layout.entries().collect(),
-            problem: "the inputs PDO must carry 0x60FD alone (its mapping is fixed)".into(),
-        });
-    }
-    Ok(())
+    map_pdo_exactly(sdo, node, &spec, "0x60FD")
 }
 
 /// 0x60FD from a TPDO3, if its length is the layout's.

@@ -11,17 +11,20 @@ use cnc402_config::{MAX_AXES, MachineOutputs, OutputBit};
 
 use core::time::Duration;
 
-use super::boot::EVENT_DRIVEN;
+use super::boot::{EVENT_DRIVEN, MapPdoError, PdoSpec, map_pdo_exactly};
 use super::sdo::{BlockingSdo, SdoError};
 use super::{Master, TimedBus};
 use crate::bus::{BusError, CanBus};
 use crate::time::Instant;
-use crate::wire::{CanFrame, MappingEntry, NodeId};
+use crate::wire::{CanFrame, MappingEntry, NodeId, PdoDirection, PdoLayout, PdoObject};
 
-/// The mapping entry of 0x60FE:1 (32 bits).
-const OUTPUTS_ENTRY: u32 = MappingEntry::new(obj::DIGITAL_OUTPUTS, 1, 32).to_u32();
-/// COB-ID bit 31: the PDO does not exist (while it is being mapped).
-const COB_INVALID: u32 = 0x8000_0000;
+const OUTPUTS_MAPPING: [MappingEntry; 1] = [PdoObject::DigitalOutputs.entry()];
+
+/// RPDO3: 0x60FE:1 alone (the frame is its 4 bytes, little-endian).
+pub const OUTPUTS_LAYOUT: PdoLayout = match PdoLayout::new(PdoDirection::Rpdo, &OUTPUTS_MAPPING) {
+    Ok(l) => l,
+    Err(_) => panic!("the outputs RPDO mapping must be valid"),
+};
 
 /// A named machine output.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -63,6 +66,8 @@ const OUTPUTS_INHIBIT_MS: u64 = cnc402_config::busload::COMPACT_EVENT_INHIBIT_MS
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct OutputState {
     pub(crate) config: MachineOutputs,
+    /// Per drive, its configured output bits (its 0x60FE:2 mask).
+    mask: [u32; MAX_AXES],
     wanted: [u32; MAX_AXES],
     sent: [u32; MAX_AXES],
     /// When each drive's outputs RPDO last went out.
@@ -76,20 +81,13 @@ impl OutputState {
             config,
             ..OutputState::default()
         };
+        for b in config.all().iter().filter_map(|(_, b)| *b) {
+            s.mask[b.axis] |= 1 << b.bit;
+        }
         if let Some(b) = config.tool_clamp {
             s.wanted[b.axis] |= 1 << b.bit;
         }
         s
-    }
-
-    /// The 0x60FE:2 mask of axis `i`: its configured output bits.
-    fn mask(&self, i: usize) -> u32 {
-        self.config
-            .all()
-            .iter()
-            .filter_map(|(_, b)| *b)
-            .filter(|b| b.axis == i)
-            .fold(0, |m, b| m | 1 << b.bit)
     }
 }
 
@@ -128,25 +126,24 @@ impl Master {
         bus: &mut B,
         i: usize,
         node: NodeId,
-    ) -> Result<(), SdoError> {
-        let mask = self.outputs.mask(i);
+    ) -> Result<(), MapPdoError> {
+        let (mask, value) = (self.outputs.mask[i], self.outputs.wanted[i]);
         if mask == 0 {
             return Ok(());
         }
-        let value = self.outputs.wanted[i];
         let p = u16::from(OUTPUTS_RPDO - 1);
-        let (comm, mapping) = (obj::RPDO_COMMUNICATION + p, obj::RPDO_MAPPING + p);
-        let cob_id = 0x200 + 0x100 * u32::from(p) + u32::from(node.get());
+        let spec = PdoSpec {
+            comm: obj::RPDO_COMMUNICATION + p,
+            mapping: obj::RPDO_MAPPING + p,
+            cob_id: 0x200 + 0x100 * p + u16::from(node.get()),
+            layout: &OUTPUTS_LAYOUT,
+            transmission_type: EVENT_DRIVEN,
+            event_timing: None,
+        };
         self.with_sdo(bus, |sdo: &mut BlockingSdo<'_, B>| {
             sdo.write_u32(node, obj::DIGITAL_OUTPUTS, 2, mask)?;
             sdo.write_u32(node, obj::DIGITAL_OUTPUTS, 1, value)?;
-            // CiA 301 order: invalid, mapping cleared, entry, count, type, valid.
-            sdo.write_u32(node, comm, 1, cob_id | COB_INVALID)?;
-            sdo.write_u8(node, mapping, 0, 0)?;
-            sdo.write_u32(node, mapping, 1, OUTPUTS_ENTRY)?;
-            sdo.write_u8(node, mapping, 0, 1)?;
-            sdo.write_u8(node, comm, 2, EVENT_DRIVEN)?;
-            sdo.write_u32(node, comm, 1, cob_id)
+            map_pdo_exactly(sdo, node, &spec, "0x60FE:1")
         })?;
         self.outputs.sent[i] = value;
         Ok(())
@@ -168,7 +165,7 @@ impl Master {
                 continue;
             };
             let o = &mut self.outputs;
-            if o.mask(i) == 0 {
+            if o.mask[i] == 0 {
                 continue;
             }
             let since = o.last_sent[i].map(|t| now.saturating_since(t));
@@ -199,11 +196,11 @@ impl Master {
             let Some(node) = self.axes[i].node else {
                 continue;
             };
-            let keep = clamp.filter(|b| b.axis == i).map_or(0, |b| 1 << b.bit);
-            let rest = self.outputs.wanted[i] & keep;
-            if self.outputs.mask(i) == 0 {
+            if self.outputs.mask[i] == 0 {
                 continue;
             }
+            let keep = clamp.filter(|b| b.axis == i).map_or(0, |b| 1 << b.bit);
+            let rest = self.outputs.wanted[i] & keep;
             self.outputs.wanted[i] = rest;
             self.with_sdo(bus, |sdo: &mut BlockingSdo<'_, B>| {
                 sdo.write_u32(node, obj::DIGITAL_OUTPUTS, 1, rest)

@@ -284,11 +284,13 @@ pub enum PdoObject {
     ErrorCode,
     /// 0x60FD digital inputs, UNSIGNED32, drive → master (limit and home switches, E-stop).
     DigitalInputs,
+    /// 0x60FE:1 digital outputs, UNSIGNED32, master → drive (coolant, spindle enable, clamp).
+    DigitalOutputs,
 }
 
 impl PdoObject {
     /// Every known object, in the order of [`PdoValues`]' slots.
-    pub const ALL: [PdoObject; 10] = [
+    pub const ALL: [PdoObject; 11] = [
         PdoObject::Controlword,
         PdoObject::ModesOfOperation,
         PdoObject::TargetPosition,
@@ -299,6 +301,7 @@ impl PdoObject {
         PdoObject::FollowingErrorActual,
         PdoObject::ErrorCode,
         PdoObject::DigitalInputs,
+        PdoObject::DigitalOutputs,
     ];
 
     /// The mapping entry of the object (index, sub-index, bit length).
@@ -318,6 +321,7 @@ impl PdoObject {
             }
             PdoObject::ErrorCode => MappingEntry::new(obj::ERROR_CODE, 0, 16),
             PdoObject::DigitalInputs => MappingEntry::new(obj::DIGITAL_INPUTS, 0, 32),
+            PdoObject::DigitalOutputs => MappingEntry::new(obj::DIGITAL_OUTPUTS, 1, 32),
         }
     }
 
@@ -325,9 +329,10 @@ impl PdoObject {
     /// for what the drive reports.
     pub const fn direction(self) -> PdoDirection {
         match self {
-            PdoObject::Controlword | PdoObject::ModesOfOperation | PdoObject::TargetPosition => {
-                PdoDirection::Rpdo
-            }
+            PdoObject::Controlword
+            | PdoObject::ModesOfOperation
+            | PdoObject::TargetPosition
+            | PdoObject::DigitalOutputs => PdoDirection::Rpdo,
             _ => PdoDirection::Tpdo,
         }
     }
