@@ -133,6 +133,7 @@ pub mod host_fs;
 
 pub use dump::segment_to_json;
 pub use flow::{Interpreter, MainM99, Options, parse_program, run_program, run_program_with};
+pub use host::channels::{ChannelMode, ChannelState, Channels, SharedGlobals, SingleChannel};
 pub use host::{ExactStop, MotionSync, PersistentVars, ProgramLibrary, UsedFile};
 pub use nvfile::{NvTable, VarFileError};
 pub use state::ModalState;

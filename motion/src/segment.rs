@@ -278,6 +278,11 @@ pub enum StopKind {
     End,
     /// M30
     EndRewind,
+    /// A wait for other channels (Fanuc multi-path `M100…` with `P`, the C-like `wait_mark`):
+    /// the channel comes to rest here and goes on once every channel in `channels` (a bit
+    /// per channel; 0 = all channels) has reached a `WaitMark` with the same `mark`. A
+    /// one-channel machine passes it at once.
+    WaitMark { mark: u16, channels: u16 },
 }
 
 /// How a segment ends: whether the machine must come to rest exactly on its end point before

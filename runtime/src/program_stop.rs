@@ -76,7 +76,8 @@ impl StopPolicy {
         let stops = match kind {
             StopKind::Program => true,
             StopKind::Optional => self.optional_stop,
-            StopKind::End | StopKind::EndRewind => false,
+            // A channel wait is released by the other channels, never by the operator.
+            StopKind::End | StopKind::EndRewind | StopKind::WaitMark { .. } => false,
         };
         match (stops, self.at_stop) {
             (false, _) => StopDecision::Pass,
@@ -240,6 +241,7 @@ pub fn kind_name(kind: StopKind) -> &'static str {
         StopKind::Optional => "M1",
         StopKind::End => "M2",
         StopKind::EndRewind => "M30",
+        StopKind::WaitMark { .. } => "channel wait",
     }
 }
 

@@ -335,6 +335,13 @@ pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig)
                 StopKind::Optional => "optional",
                 StopKind::End => "end",
                 StopKind::EndRewind => "end_rewind",
+                StopKind::WaitMark { mark, channels } => {
+                    let _ = write!(
+                        o,
+                        ",\"stop\":\"wait_mark\",\"mark\":{mark},\"channels\":{channels}"
+                    );
+                    return;
+                }
             };
             let _ = write!(o, ",\"stop\":\"{k}\"");
         }

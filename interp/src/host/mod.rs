@@ -3,6 +3,8 @@
 //! non-volatile variables ([`PersistentVars`]). The interpreter's defaults do no I/O: exact
 //! stop, no library, variables in memory. File-system implementations: [`crate::host_fs`].
 
+pub mod channels;
+
 use cnc402_lang::SourceFile;
 use cnc402_motion::segment::AxisPos;
 

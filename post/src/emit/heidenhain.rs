@@ -130,7 +130,12 @@ impl Itnc<'_> {
                     .e
                     .refuse(op, "a reference return of the spindle axis".into()));
             }
-            SegmentKind::Stop { kind } => super::ops::stop_code(*kind).into(),
+            SegmentKind::Stop { kind } => match super::ops::stop_code(*kind) {
+                Some(m) => m.into(),
+                None => {
+                    return Err(self.e.refuse(op, super::ops::WAIT_MARK_REFUSED.into()));
+                }
+            },
             SegmentKind::Message { text } => {
                 let clean: String = text.chars().filter(|c| *c != ';').collect();
                 format!("; {clean}")

@@ -14,15 +14,21 @@ use crate::assemble::{Block, Word};
 
 const SAME: f64 = 1e-9;
 
-/// The M code of a program stop (the same on every target).
-pub(crate) fn stop_code(kind: StopKind) -> &'static str {
+/// The M code of a program stop (the same on every target); `None` for a wait for other
+/// channels, which a one-path program cannot express.
+pub(crate) fn stop_code(kind: StopKind) -> Option<&'static str> {
     match kind {
-        StopKind::Program => "M0",
-        StopKind::Optional => "M1",
-        StopKind::End => "M2",
-        StopKind::EndRewind => "M30",
+        StopKind::Program => Some("M0"),
+        StopKind::Optional => Some("M1"),
+        StopKind::End => Some("M2"),
+        StopKind::EndRewind => Some("M30"),
+        StopKind::WaitMark { .. } => None,
     }
 }
+
+/// Why a channel wait is refused: the targets are one-path controls.
+pub(crate) const WAIT_MARK_REFUSED: &str =
+    "a wait for other channels (multi-path M100… / wait_mark): the target is a one-path control";
 
 /// A canned cycle as the control holds it between blocks.
 #[derive(Clone, Debug, PartialEq)]
@@ -75,7 +81,10 @@ impl Emitter<'_> {
                 vec![format!("T{tool}"), "M6".into()]
             }
             SegmentKind::Coolant { mist, flood } => return self.coolant(op, *mist, *flood),
-            SegmentKind::Stop { kind } => vec![stop_code(*kind).into()],
+            SegmentKind::Stop { kind } => match stop_code(*kind) {
+                Some(m) => vec![m.into()],
+                None => return Err(self.refuse(op, WAIT_MARK_REFUSED.into())),
+            },
             SegmentKind::Message { text } => {
                 self.program.main.push(Block {
                     words: Vec::new(),
