@@ -21,6 +21,7 @@ mod inspect;
 mod pages;
 mod post;
 mod run;
+mod test_cmd;
 mod vars;
 use cli_error::{CliError, exit};
 
@@ -108,6 +109,12 @@ enum Command {
     ///
     /// Example: cnc402 post --target fanuc0 examples/fanuc-milling.nc -o O1000.nc
     Post(Box<post::PostArgs>),
+    /// Test NC programs: run each as `run` would (the embedded simulator unless the config
+    /// names a CAN bus), print PASS or FAIL with the error and its line, and exit 0 only when
+    /// all pass (1 otherwise); `--junit FILE` writes JUnit XML for a CI.
+    ///
+    /// Example: cnc402 test examples/*.nc --junit results.xml
+    Test(test_cmd::TestArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -242,6 +249,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             pages::pages(&cfg, *args)
         }
         Command::Post(args) => post::post(&load_config(&cli.config)?, *args),
+        Command::Test(args) => test_cmd::test(&load_config(&cli.config)?, args),
     }
 }
 
