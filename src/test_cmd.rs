@@ -226,7 +226,8 @@ impl Summary {
                 self.not_run
             ));
         }
-        s.push_str(&format!("; {all} programs in {wall_s:.2} s"));
+        let programs = if all == 1 { "program" } else { "programs" };
+        s.push_str(&format!("; {all} {programs} in {wall_s:.2} s"));
         s
     }
 }
