@@ -2,7 +2,8 @@
 //! turned into a validated plan (config loaded, program parsed) before anything runs.
 //!
 //! Exit codes (documented in README.md):
-//! 0 success · 1 the machine stopped on a fault or safety reaction during `run` ·
+//! 0 success · 1 the machine stopped on a fault or safety reaction during `run`, or a program
+//! did not pass `test` ·
 //! 2 the program is wrong (parse, interpreter or planning error) · 3 the machine config is wrong ·
 //! 4 an I/O error (file unreadable, CAN interface missing) · 5 `which`: no path near the
 //! point · 64 bad command-line usage.

@@ -459,16 +459,14 @@ impl Stopped {
                 m99_line,
             } => {
                 let why = match m99_line {
-                    Some(l) => format!(
-                        " (the main program's M99 at line {l} starts it over endlessly)"
-                    ),
+                    Some(l) => {
+                        format!(" (the main program's M99 at line {l} starts it over endlessly)")
+                    }
                     None => String::new(),
                 };
                 (
                     "time-limit",
-                    format!(
-                        "still running after {max_time_s} s of program time (--max-time){why}"
-                    ),
+                    format!("still running after {max_time_s} s of program time (--max-time){why}"),
                 )
             }
             Stopped::Interrupted => ("interrupted", "interrupted by Ctrl-C".to_string()),

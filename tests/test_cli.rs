@@ -96,7 +96,8 @@ fn passing_programs_print_pass_with_the_program_time_run_reports_and_exit_0() {
         format!("PASS examples/m10x1.5-rigid-tap.nc (program time {t} s, 11 blocks)")
     );
     assert!(
-        lines[2].starts_with("test result: ok. 2 passed; 0 failed; 0 could not run; 2 programs in "),
+        lines[2]
+            .starts_with("test result: ok. 2 passed; 0 failed; 0 could not run; 2 programs in "),
         "{out}"
     );
 }
@@ -138,13 +139,21 @@ fn failures_name_file_line_col_and_the_rest_still_run() {
         )),
         "{out}"
     );
-    assert!(lines[4].starts_with(&format!("PASS {good} (program time ")), "{out}");
-    assert!(lines[4].ends_with(", 3 blocks)"), "{out}");
     assert!(
-        lines[5].starts_with("test result: FAILED. 1 passed; 3 failed; 1 could not run; 5 programs"),
+        lines[4].starts_with(&format!("PASS {good} (program time ")),
         "{out}"
     );
-    assert!(stderr(&o).contains("4 of 5 programs did not pass"), "{}", stderr(&o));
+    assert!(lines[4].ends_with(", 3 blocks)"), "{out}");
+    assert!(
+        lines[5]
+            .starts_with("test result: FAILED. 1 passed; 3 failed; 1 could not run; 5 programs"),
+        "{out}"
+    );
+    assert!(
+        stderr(&o).contains("4 of 5 programs did not pass"),
+        "{}",
+        stderr(&o)
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -160,7 +169,10 @@ fn a_drive_fault_fails_the_program_naming_node_emcy_and_line() {
     let first = out.lines().next().unwrap();
     assert!(first.starts_with("FAIL examples/m10x1.5-rigid-tap.nc: drive fault on node 3"));
     assert!(first.contains("EMCY 0x8611"), "{first}");
-    assert!(first.contains("examples/m10x1.5-rigid-tap.nc:11:"), "{first}");
+    assert!(
+        first.contains("examples/m10x1.5-rigid-tap.nc:11:"),
+        "{first}"
+    );
 }
 
 /// The JUnit document of a run, parsed by a strict XML parser (a malformed document, an
@@ -201,7 +213,10 @@ fn junit_names_messages_and_counts_read_back_exactly_whatever_they_hold() {
         ["3", "1", "1", "0"]
     );
     assert!(attr(suite, "time").parse::<f64>().unwrap() >= 0.0);
-    let cases: Vec<_> = suite.children().filter(|n| n.has_tag_name("testcase")).collect();
+    let cases: Vec<_> = suite
+        .children()
+        .filter(|n| n.has_tag_name("testcase"))
+        .collect();
     assert_eq!(cases.len(), 3);
     let folder = dir.to_str().unwrap();
     assert_eq!(attr(cases[0], "classname"), folder);
@@ -230,7 +245,11 @@ fn junit_names_messages_and_counts_read_back_exactly_whatever_they_hold() {
         .children()
         .find(|n| n.has_tag_name("system-out"))
         .unwrap();
-    assert!(out.text().unwrap().starts_with(&format!("PASS {good} (program time ")));
+    assert!(
+        out.text()
+            .unwrap()
+            .starts_with(&format!("PASS {good} (program time "))
+    );
     let error = cases[2]
         .children()
         .find(|n| n.has_tag_name("error"))
@@ -265,7 +284,10 @@ fn an_endless_m99_main_program_fails_on_the_program_time_limit_and_the_next_runs
     let out = stdout(&o);
     assert_eq!(o.status.code(), Some(1), "{out}{}", stderr(&o));
     let first = out.lines().next().unwrap();
-    assert!(first.starts_with(&format!("FAIL {endless}: {endless}:")), "{first}");
+    assert!(
+        first.starts_with(&format!("FAIL {endless}: {endless}:")),
+        "{first}"
+    );
     assert!(
         first.ends_with(
             "still running after 3 s of program time (--max-time) (the main program's M99 at \
@@ -273,7 +295,13 @@ fn an_endless_m99_main_program_fails_on_the_program_time_limit_and_the_next_runs
         ),
         "{first}"
     );
-    assert!(out.lines().nth(1).unwrap().starts_with(&format!("PASS {good}")), "{out}");
+    assert!(
+        out.lines()
+            .nth(1)
+            .unwrap()
+            .starts_with(&format!("PASS {good}")),
+        "{out}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -318,7 +346,15 @@ fn ctrl_c_ends_the_whole_run_and_reports_what_was_done() {
     let endless = program(&dir, "endless.nc", "G91 G1 X1 F6000\nG1 X-1\nM99\n");
     let junit = dir.join("results.xml");
     let mut child = cnc402()
-        .args(["test", &quick, &endless, &quick, "--max-time", "604800", "--junit"])
+        .args([
+            "test",
+            &quick,
+            &endless,
+            &quick,
+            "--max-time",
+            "604800",
+            "--junit",
+        ])
         .arg(&junit)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -342,10 +378,14 @@ fn ctrl_c_ends_the_whole_run_and_reports_what_was_done() {
     let status = child.wait().unwrap();
     assert_eq!(status.code(), Some(1), "{rest:?}");
     assert!(
-        rest[0].starts_with(&format!("FAIL {endless}: ")) && rest[0].ends_with("interrupted by Ctrl-C"),
+        rest[0].starts_with(&format!("FAIL {endless}: "))
+            && rest[0].ends_with("interrupted by Ctrl-C"),
         "{rest:?}"
     );
-    assert_eq!(rest[1], format!("SKIP {quick}: not run (interrupted by Ctrl-C)"));
+    assert_eq!(
+        rest[1],
+        format!("SKIP {quick}: not run (interrupted by Ctrl-C)")
+    );
     assert!(
         rest[2].starts_with(
             "test result: FAILED. 1 passed; 1 failed; 0 could not run; 1 not run (interrupted \

@@ -133,7 +133,10 @@ mod tests {
             "a&lt;b&gt;&amp;&quot;c&apos;&#10;&#9;d&#13;"
         );
         assert_eq!(text("x]]>y\n\tz"), "x]]&gt;y\n\tz");
-        assert_eq!(text("bell\u{7}nul\u{0}\u{FFFF}"), "bell\u{FFFD}nul\u{FFFD}\u{FFFD}");
+        assert_eq!(
+            text("bell\u{7}nul\u{0}\u{FFFF}"),
+            "bell\u{FFFD}nul\u{FFFD}\u{FFFD}"
+        );
         assert_eq!(text("Größe ø 10 µm — 工件"), "Größe ø 10 µm — 工件");
     }
 
