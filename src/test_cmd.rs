@@ -302,6 +302,23 @@ struct OnePass {
     m99_line: Option<u32>,
 }
 
+impl OnePass {
+    /// Why the program may run forever: a main program's M99, or more moves than the dry run
+    /// checks (an endless loop with motion, or a very long program).
+    fn endless_why(&self) -> Option<String> {
+        match (self.m99_line, self.blocks) {
+            (Some(l), _) => Some(format!(
+                "the main program's M99 at line {l} starts it over endlessly"
+            )),
+            (None, Some(BlockCount::AtLeast(_))) => Some(format!(
+                "it runs on past the first {} moves, as an endless loop would",
+                cnc402_runtime::feeder::DRY_RUN_MOVES
+            )),
+            _ => None,
+        }
+    }
+}
+
 /// Counts the blocks of one pass of the program with the interpreter alone (the variables file
 /// read, never written), at most as many moves as the run's dry run checks. A program error
 /// here is left to the run to report.
@@ -407,7 +424,7 @@ fn run_verdict(
             let why = if over_time {
                 Stopped::OverTime {
                     max_time_s: args.max_time,
-                    m99_line: pass.m99_line,
+                    endless: pass.endless_why(),
                 }
             } else if cnc402_runtime::rt::sigint_seen() {
                 Stopped::Interrupted
@@ -439,7 +456,8 @@ enum Stopped {
     /// The test's program time limit stopped it.
     OverTime {
         max_time_s: f64,
-        m99_line: Option<u32>,
+        /// Why the program may never end, when one pass of the interpreter told.
+        endless: Option<String>,
     },
     /// Ctrl-C.
     Interrupted,
@@ -456,14 +474,11 @@ impl Stopped {
         let (kind, what) = match self {
             Stopped::OverTime {
                 max_time_s,
-                m99_line,
+                endless,
             } => {
-                let why = match m99_line {
-                    Some(l) => {
-                        format!(" (the main program's M99 at line {l} starts it over endlessly)")
-                    }
-                    None => String::new(),
-                };
+                let why = endless
+                    .as_ref()
+                    .map_or_else(String::new, |e| format!(" ({e})"));
                 (
                     "time-limit",
                     format!("still running after {max_time_s} s of program time (--max-time){why}"),
@@ -523,5 +538,100 @@ impl Verdict {
                 message: m,
             }),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn result(verdict: Verdict) -> TestResult {
+        TestResult {
+            name: "part.nc".into(),
+            verdict,
+            program_time_s: 12.3456,
+            wall_s: 0.5,
+        }
+    }
+
+    #[test]
+    fn lines_say_pass_fail_or_skip_with_what_a_person_needs() {
+        let pass = result(Verdict::Pass {
+            blocks: Some(BlockCount::Exact(40)),
+            notes: vec!["M0 at line 7 passed (no operator terminal)".into()],
+        });
+        assert_eq!(
+            pass.line(),
+            "PASS part.nc (program time 12.346 s, 40 blocks); M0 at line 7 passed (no operator \
+             terminal)"
+        );
+        let long = result(Verdict::Pass {
+            blocks: Some(BlockCount::AtLeast(1_000_000)),
+            notes: vec![],
+        });
+        assert_eq!(
+            long.line(),
+            "PASS part.nc (program time 12.346 s, at least 1000000 blocks)"
+        );
+        let failure = Failure {
+            kind: "program",
+            message: "part.nc:3:5: zero feed in a motion block".into(),
+            detail: String::new(),
+        };
+        assert_eq!(
+            result(Verdict::Fail(failure.clone())).line(),
+            "FAIL part.nc: part.nc:3:5: zero feed in a motion block"
+        );
+        assert_eq!(
+            result(Verdict::Error(failure)).line(),
+            "FAIL part.nc: part.nc:3:5: zero feed in a motion block"
+        );
+        assert_eq!(
+            result(Verdict::NotRun).line(),
+            "SKIP part.nc: not run (interrupted by Ctrl-C)"
+        );
+    }
+
+    #[test]
+    fn the_summary_counts_each_kind_and_says_ok_only_when_all_passed() {
+        let pass = result(Verdict::Pass {
+            blocks: None,
+            notes: vec![],
+        });
+        let s = Summary::of(std::slice::from_ref(&pass));
+        assert_eq!(
+            s.line(1.0),
+            "test result: ok. 1 passed; 0 failed; 0 could not run; 1 program in 1.00 s"
+        );
+        let s = Summary::of(&[pass, result(Verdict::NotRun)]);
+        assert_eq!(
+            s,
+            Summary {
+                passed: 1,
+                failed: 0,
+                errors: 0,
+                not_run: 1
+            }
+        );
+        assert_eq!(
+            s.line(2.5),
+            "test result: FAILED. 1 passed; 0 failed; 0 could not run; 1 not run (interrupted \
+             by Ctrl-C); 2 programs in 2.50 s"
+        );
+    }
+
+    #[test]
+    fn an_endless_program_is_explained_by_its_m99_or_its_length() {
+        let pass = |blocks, m99_line| OnePass { blocks, m99_line };
+        assert_eq!(
+            pass(Some(BlockCount::Exact(3)), Some(3)).endless_why(),
+            Some("the main program's M99 at line 3 starts it over endlessly".into())
+        );
+        assert_eq!(
+            pass(Some(BlockCount::AtLeast(2_000_000)), None).endless_why(),
+            Some("it runs on past the first 1000000 moves, as an endless loop would".into())
+        );
+        assert_eq!(pass(Some(BlockCount::Exact(3)), None).endless_why(), None);
+        assert_eq!(pass(None, None).endless_why(), None);
     }
 }
