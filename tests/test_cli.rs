@@ -410,7 +410,7 @@ fn ctrl_c_ends_the_whole_run_and_reports_what_was_done() {
 }
 
 #[test]
-fn bad_usage_config_and_junit_path_exit_with_their_codes_before_anything_runs() {
+fn bad_usage_config_junit_path_and_can_interface_exit_with_their_codes_before_anything_runs() {
     // No program: usage.
     assert_eq!(test(&[]).status.code(), Some(64));
     for bad in ["0", "-1", "nan", "inf", "1e9"] {
@@ -428,6 +428,18 @@ fn bad_usage_config_and_junit_path_exit_with_their_codes_before_anything_runs() 
     let o = test(&["examples/peck-tap.nc", "--junit", junit.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     assert!(stderr(&o).contains("--junit"), "{}", stderr(&o));
+    assert!(stdout(&o).is_empty(), "{}", stdout(&o));
+    // A CAN interface that cannot be opened: 4 at once, not a FAIL for every program.
+    let cfg = config(&dir, "");
+    let text = std::fs::read_to_string(&cfg).unwrap();
+    std::fs::write(
+        &cfg,
+        text.replacen("interface = \"sim\"", "interface = \"nosuchcan7\"", 1),
+    )
+    .unwrap();
+    let o = test(&["--config", &cfg, "examples/peck-tap.nc"]);
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert!(stderr(&o).contains("nosuchcan7"), "{}", stderr(&o));
     assert!(stdout(&o).is_empty(), "{}", stdout(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
