@@ -158,22 +158,11 @@ pub fn test(cfg: &MachineConfig, args: TestArgs) -> Result<(), CliError> {
         say(&result.line());
         results.push(result);
     }
+    let wall_s = started.elapsed().as_secs_f64();
     let summary = Summary::of(&results);
-    say(&summary.line(started.elapsed().as_secs_f64()));
+    say(&summary.line(wall_s));
     if let Some(p) = &args.junit {
-        let xml = junit::document(&results, started.elapsed().as_secs_f64());
-        let io = |e: std::io::Error| CliError::Io(format!("--junit {}: {e}", p.display()));
-        match junit_file {
-            Some(mut f) => {
-                f.write_all(xml.as_bytes()).map_err(io)?;
-                f.commit().map_err(io)?;
-            }
-            None => {
-                let mut out = std::io::stdout().lock();
-                out.write_all(xml.as_bytes()).map_err(io)?;
-                out.flush().map_err(io)?;
-            }
-        }
+        write_junit(p, junit_file, &junit::document(&results, wall_s))?;
     }
     if summary.passed == results.len() {
         Ok(())
@@ -184,6 +173,27 @@ pub fn test(cfg: &MachineConfig, args: TestArgs) -> Result<(), CliError> {
             results.len() - summary.passed,
             results.len()
         )))
+    }
+}
+
+/// Writes the JUnit document into the file opened before the run (put in place whole), or
+/// to stdout for `--junit -`.
+fn write_junit(
+    path: &Path,
+    file: Option<cnc402_durable::AtomicFile>,
+    xml: &str,
+) -> Result<(), CliError> {
+    let io = |e: std::io::Error| CliError::Io(format!("--junit {}: {e}", path.display()));
+    match file {
+        Some(mut f) => {
+            f.write_all(xml.as_bytes()).map_err(io)?;
+            f.commit().map_err(io)
+        }
+        None => {
+            let mut out = std::io::stdout().lock();
+            out.write_all(xml.as_bytes()).map_err(io)?;
+            out.flush().map_err(io)
+        }
     }
 }
 
