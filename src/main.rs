@@ -2,7 +2,8 @@
 //! turned into a validated plan (config loaded, program parsed) before anything runs.
 //!
 //! Exit codes (documented in README.md):
-//! 0 success · 1 the machine stopped on a fault or safety reaction during `run` ·
+//! 0 success · 1 the machine stopped on a fault or safety reaction during `run`, or a program
+//! did not pass `test` ·
 //! 2 the program is wrong (parse, interpreter or planning error) · 3 the machine config is wrong ·
 //! 4 an I/O error (file unreadable, CAN interface missing) · 5 `which`: no path near the
 //! point · 64 bad command-line usage.
@@ -21,6 +22,7 @@ mod inspect;
 mod pages;
 mod post;
 mod run;
+mod test_cmd;
 mod vars;
 use cli_error::{CliError, exit};
 
@@ -108,6 +110,12 @@ enum Command {
     ///
     /// Example: cnc402 post --target fanuc0 examples/fanuc-milling.nc -o O1000.nc
     Post(Box<post::PostArgs>),
+    /// Test NC programs: run each as `run` would (the embedded simulator unless the config
+    /// names a CAN bus), print PASS or FAIL with the error and its line, and exit 0 only when
+    /// all pass (1 otherwise); `--junit FILE` writes JUnit XML for a CI.
+    ///
+    /// Example: cnc402 test examples/*.nc --junit results.xml
+    Test(test_cmd::TestArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -242,6 +250,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             pages::pages(&cfg, *args)
         }
         Command::Post(args) => post::post(&load_config(&cli.config)?, *args),
+        Command::Test(args) => test_cmd::test(&load_config(&cli.config)?, args),
     }
 }
 

@@ -18,7 +18,7 @@ use crate::RunArgs;
 use crate::cli_error::CliError;
 
 /// Parses `NODE:CODE@SECONDS` (CODE in hex, with or without 0x), e.g. `3:8611@0.5`.
-fn parse_fault(s: &str) -> Result<FaultPlan, String> {
+pub(crate) fn parse_fault(s: &str) -> Result<FaultPlan, String> {
     let bad = || format!("--inject-fault {s:?}: expected NODE:CODE@SECONDS, e.g. 3:8611@0.5");
     let (node, rest) = s.split_once(':').ok_or_else(bad)?;
     let (code, secs) = rest.split_once('@').ok_or_else(bad)?;
