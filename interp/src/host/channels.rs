@@ -3,8 +3,8 @@
 //! all channels of one run share. The runtime implements [`Channels`]; a one-channel machine
 //! (and every pure use of the interpreter) gets [`SingleChannel`].
 
-use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::collections::{BTreeMap, HashMap};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 /// `@CH[n].MODE`: the seed's 1 = Auto. A channel in manual mode refuses programs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -123,41 +123,156 @@ impl Channels for SingleChannel {
     }
 }
 
+/// Where a program runs: the machine's number of channels and the channel running it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Seat {
+    pub count: usize,
+    pub this: usize,
+}
+
+/// A wait's channel mask (a bit per channel, 0 = all) checked against the machine: the
+/// bits name channels it has, the calling channel among them. The message on an error.
+pub(crate) fn check_mask(mask: i64, seat: Seat) -> Result<u16, String> {
+    if mask == 0 {
+        return Ok(0);
+    }
+    let bits = u16::try_from(mask).map_err(|_| format!("channel mask {mask} is not 0..65535"))?;
+    if let Some(c) = (seat.count..16).find(|c| bits & (1 << c) != 0) {
+        let why = no_such_channel(c, seat.count);
+        let why = why.split_once(": ").map_or("", |(_, w)| w);
+        return Err(format!("channel mask {mask} names channel {c}; {why}"));
+    }
+    if !mask_has(bits, seat.this) {
+        return Err(format!(
+            "channel mask {mask} leaves out channel {}, the one waiting",
+            seat.this
+        ));
+    }
+    Ok(bits)
+}
+
+/// Whether the mask `bits` holds channel `ch`.
+pub(crate) fn mask_has(bits: u16, ch: usize) -> bool {
+    ch < 16 && bits & (1 << ch) != 0
+}
+
 /// A value of a shared `$` global.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SharedValue {
     Int(i64),
     Double(f64),
     Str(String),
+    /// A comparison's result stored in a global (`$bDone = nA > 2;`).
+    Bool(bool),
 }
 
 /// The `$` globals every channel of one run reads and writes (a flag set by one channel is
 /// seen by the others). Cloning shares the table. Keyed by name and element index (0 for a
 /// scalar). The interpreter threads of the channels use it; the 1 ms loop never does.
+/// [`Interpreter::set_shared_globals`](crate::Interpreter::set_shared_globals) makes an
+/// interpreter's C-like programs use it for every `$name` and `$name[i]`.
 #[derive(Clone, Debug, Default)]
 pub struct SharedGlobals {
-    table: Arc<Mutex<HashMap<(String, usize), SharedValue>>>,
+    pub(crate) table: Globals,
 }
 
-/// The most elements all shared globals may hold together (a runaway writer ends in an
-/// error, not in memory exhaustion).
+/// The most values (scalars and array elements) all `$` globals may hold together (a
+/// runaway writer ends in an error, not in memory exhaustion).
 pub const SHARED_GLOBALS_LIMIT: usize = 1 << 20;
 
 impl SharedGlobals {
+    /// `$name` (`index` 0, when `$name` is a scalar) or `$name[index]`.
     pub fn get(&self, name: &str, index: usize) -> Option<SharedValue> {
-        let t = self.table.lock().unwrap_or_else(|p| p.into_inner());
-        t.get(&(name.to_string(), index)).cloned()
+        let t = lock(&self.table);
+        match t.get(name)? {
+            Global::Scalar(v) if index == 0 => Some(v.clone()),
+            Global::Scalar(_) => None,
+            Global::Array(a) => a.get(&i64::try_from(index).ok()?).cloned(),
+        }
     }
 
+    /// Sets `$name[index]`, or the scalar `$name` when `index` is 0 and `$name` is not an
+    /// array.
     pub fn set(&self, name: &str, index: usize, value: SharedValue) -> Result<(), String> {
-        let mut t = self.table.lock().unwrap_or_else(|p| p.into_inner());
-        let key = (name.to_string(), index);
-        if t.len() >= SHARED_GLOBALS_LIMIT && !t.contains_key(&key) {
-            return Err(format!(
-                "${name}[{index}]: the shared globals hold {SHARED_GLOBALS_LIMIT} elements already"
-            ));
+        let mut t = lock(&self.table);
+        let i = i64::try_from(index).map_err(|_| format!("${name}[{index}]: index too large"))?;
+        match t.get(name) {
+            Some(Global::Array(_)) => t.set_elem(name, i, value),
+            _ if index == 0 => t.set_scalar(name, value),
+            _ => t.set_elem(name, i, value),
         }
-        t.insert(key, value);
+    }
+}
+
+/// A `$` global: a scalar or a sparse array (`$dPerm[1]`).
+#[derive(Clone, Debug)]
+pub(crate) enum Global {
+    Scalar(SharedValue),
+    Array(BTreeMap<i64, SharedValue>),
+}
+
+/// Every `$` global by name, and how many values (scalars and array elements) they hold.
+#[derive(Debug, Default)]
+pub(crate) struct GlobalTable {
+    vars: HashMap<String, Global>,
+    values: usize,
+}
+
+/// The `$` globals as the executors (of one interpreter, or of every channel) share them.
+pub(crate) type Globals = Arc<Mutex<GlobalTable>>;
+
+/// The table, even if a thread panicked while holding it (its values are still whole).
+pub(crate) fn lock(g: &Globals) -> MutexGuard<'_, GlobalTable> {
+    g.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn full(what: String) -> String {
+    format!("{what}: the $ globals hold {SHARED_GLOBALS_LIMIT} values already")
+}
+
+impl GlobalTable {
+    pub(crate) fn get(&self, name: &str) -> Option<&Global> {
+        self.vars.get(name)
+    }
+
+    /// `$name = v`; an error (the message) if `$name` is an array or the table is full.
+    pub(crate) fn set_scalar(&mut self, name: &str, v: SharedValue) -> Result<(), String> {
+        match self.vars.get_mut(name) {
+            Some(Global::Array(_)) => Err(format!("${name} is an array: assign an element")),
+            Some(Global::Scalar(s)) => {
+                *s = v;
+                Ok(())
+            }
+            None if self.values >= SHARED_GLOBALS_LIMIT => Err(full(format!("${name}"))),
+            None => {
+                self.values += 1;
+                self.vars.insert(name.to_string(), Global::Scalar(v));
+                Ok(())
+            }
+        }
+    }
+
+    /// `$name[i] = v` (creating the array at its first element); `i` ≥ 0.
+    pub(crate) fn set_elem(&mut self, name: &str, i: i64, v: SharedValue) -> Result<(), String> {
+        if i < 0 {
+            return Err(format!("index {i} of ${name} is negative"));
+        }
+        let at_limit = self.values >= SHARED_GLOBALS_LIMIT;
+        let entry = self
+            .vars
+            .entry(name.to_string())
+            .or_insert_with(|| Global::Array(BTreeMap::new()));
+        let Global::Array(a) = entry else {
+            return Err(format!("${name} is not an array"));
+        };
+        match a.get_mut(&i) {
+            Some(e) => *e = v,
+            None if at_limit => return Err(full(format!("${name}[{i}]"))),
+            None => {
+                a.insert(i, v);
+                self.values += 1;
+            }
+        }
         Ok(())
     }
 }
