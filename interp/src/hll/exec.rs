@@ -859,17 +859,13 @@ impl Executor {
 
     /// `wait_mark(m)`, `wait_mark(m, mask)`: a `WaitMark` stop of this channel until the
     /// channels of `mask` (a bit per channel, 0 = all) reach mark `m`.
-    fn wait_mark(&mut self, f: &Frame, vs: &[Val], args: &[Ex], span: Span) -> R<Val> {
-        let m = self.int(f, &vs[0], span_of(&args[0]), "a wait mark")?;
+    fn wait_mark(&mut self, f: &Frame, vs: &[Val], span: Span) -> R<Val> {
+        let m = self.int(f, &vs[0], span, "a wait mark")?;
         let mark = u16::try_from(m).map_err(|_| {
-            self.err(
-                f,
-                span_of(&args[0]),
-                format!("wait_mark({m}): a mark is 0..{}", u16::MAX),
-            )
+            self.err(f, span, format!("wait_mark({m}): a mark is 0..{}", u16::MAX))
         })?;
         let mask = match vs.get(1) {
-            Some(v) => self.int(f, v, span_of(&args[1]), "a channel mask")?,
+            Some(v) => self.int(f, v, span, "a channel mask")?,
             None => 0,
         };
         let channels = check_mask(mask, self.seat)
@@ -953,7 +949,7 @@ impl Executor {
             ChannelLoad | ChannelRun | ChannelStart | ChannelWait | ChannelReset => {
                 self.channel_builtin(f, b, &vs, span)
             }
-            WaitMark => self.wait_mark(f, &vs, args, span),
+            WaitMark => self.wait_mark(f, &vs, span),
             Min | Max => {
                 let is_min = b == Min;
                 match (&vs[0], &vs[1]) {
