@@ -514,7 +514,10 @@ mod wait_mcodes_key {
         assert_eq!(c.interp.wait_mcodes, Some((100, 199)));
         let c = with_key("wait_mcodes = [300, 310]").unwrap();
         assert_eq!(c.interp.wait_mcodes, Some((300, 310)));
-        assert_eq!(with_key("wait_mcodes = []").unwrap().interp.wait_mcodes, None);
+        assert_eq!(
+            with_key("wait_mcodes = []").unwrap().interp.wait_mcodes,
+            None
+        );
     }
 
     #[test]
@@ -527,7 +530,11 @@ mod wait_mcodes_key {
             ("[-1, 5]", "0 <= first"),
         ] {
             let e = with_key(&format!("wait_mcodes = {v}")).unwrap_err();
-            assert_eq!((e.key.as_str(), e.line), ("interp.wait_mcodes", line), "{e}");
+            assert_eq!(
+                (e.key.as_str(), e.line),
+                ("interp.wait_mcodes", line),
+                "{e}"
+            );
             assert!(e.to_string().contains(says), "{v}: {e}");
         }
     }

@@ -4,6 +4,8 @@
 //! order with the motion, wait marks (`wait_mark`, Fanuc `M100 P12`) as segments, and `$`
 //! globals shared between the interpreters of two channels.
 
+#![allow(clippy::result_large_err)]
+
 mod chan_common;
 
 use std::sync::{Arc, Mutex};
@@ -101,7 +103,13 @@ fn a_failed_load_is_retried_once_after_a_reset_and_a_10_ms_sleep() {
     let segs = r.unwrap();
     assert_eq!(
         calls[2..7],
-        ["load 1 01.nc", "reset 1", "load 1 01.nc", "wait 1", "start 1 01.nc"]
+        [
+            "load 1 01.nc",
+            "reset 1",
+            "load 1 01.nc",
+            "wait 1",
+            "start 1 01.nc"
+        ]
     );
     let sleep_line = line_of("regression_test.nc", "    sleep(10 *msSleep);");
     let dwell = segs
@@ -122,7 +130,11 @@ fn a_load_that_fails_twice_terminates_5556() {
     let (r, _) = run_example("regression_test.nc", script);
     let e = r.unwrap_err();
     assert_eq!(e.line, line_of("regression_test.nc", "terminate(5556"));
-    assert!(e.message.contains("terminate 5556: Ne udalos zagruzit kanal"), "{e}");
+    assert!(
+        e.message
+            .contains("terminate 5556: Ne udalos zagruzit kanal"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -134,10 +146,20 @@ fn a_run_that_fails_twice_terminates_5558_at_its_line() {
     let (r, calls) = run_example("regression_test.nc", script);
     let e = r.unwrap_err();
     assert_eq!(e.line, line_of("regression_test.nc", "terminate(5558"));
-    assert_eq!((e.col, e.message.as_str()), (13, "terminate 5558: Ne udalos zapustit"));
+    assert_eq!(
+        (e.col, e.message.as_str()),
+        (13, "terminate 5558: Ne udalos zapustit")
+    );
     assert_eq!(
         calls[2..],
-        ["load 1 01.nc", "start 1 01.nc", "wait 1", "reset 1", "start 1 01.nc", "wait 1"]
+        [
+            "load 1 01.nc",
+            "start 1 01.nc",
+            "wait 1",
+            "reset 1",
+            "start 1 01.nc",
+            "wait 1"
+        ]
     );
 }
 
@@ -156,12 +178,18 @@ fn a_run_that_fails_once_passes_on_the_retry() {
 fn the_part_program_with_zero_feed_fails_for_real_and_ends_the_test_with_5558() {
     let (r, calls) = run_example("regression_test_fails.nc", Script::default());
     let e = r.unwrap_err();
-    assert_eq!(e.line, line_of("regression_test_fails.nc", "terminate(5558"));
+    assert_eq!(
+        e.line,
+        line_of("regression_test_fails.nc", "terminate(5558")
+    );
     assert!(e.message.contains("terminate 5558"), "{e}");
     // 01.nc and 02.nc passed; 03_zero_feed.nc failed twice at its G1 without F (line 5).
     let errors: Vec<_> = calls.iter().filter(|c| c.starts_with("error")).collect();
     assert_eq!(errors.len(), 2, "{calls:?}");
-    assert!(errors[0].starts_with("error 5:zero feed in a motion block"), "{calls:?}");
+    assert!(
+        errors[0].starts_with("error 5:zero feed in a motion block"),
+        "{calls:?}"
+    );
     assert_eq!(calls.iter().filter(|c| *c == "wait 1").count(), 4);
 }
 
@@ -220,18 +248,22 @@ fn mode_and_state_read_the_numbers_of_the_contract() {
 #[test]
 fn a_channel_past_the_machines_channels_is_an_error_at_its_column() {
     let cases = [
-        ("int n = @CH[9].MODE;\n", 9, "@CH[9]: this machine has 2 channels (0..=1)"),
-        ("int n = 2;\nint m = @CH[n - 3].STATE;\n", 9, "@CH[-1]: channels are numbered from 0"),
+        (
+            "int n = @CH[9].MODE;\n",
+            9,
+            "@CH[9]: this machine has 2 channels (0..=1)",
+        ),
+        (
+            "int n = 2;\nint m = @CH[n - 3].STATE;\n",
+            9,
+            "@CH[-1]: channels are numbered from 0",
+        ),
         (
             "bool b = channel_run(2, \"01.nc\");\n",
             10,
             "channel_run(2): this machine has 2 channels (0..=1)",
         ),
-        (
-            "channel_reset(0);\n",
-            1,
-            "channel 0 is the calling channel",
-        ),
+        ("channel_reset(0);\n", 1, "channel 0 is the calling channel"),
     ];
     for (text, col, want) in cases {
         let (r, calls) = run_on("t.nc", text, Script::default());
@@ -263,7 +295,8 @@ fn a_channel_call_waits_for_the_motion_before_it_and_runs_in_program_order() {
     it.set_channels(Box::new(fake));
     it.set_motion_sync(Box::new(LoggingSync(log.clone())));
     let main = format!("{ROOT}/examples/axioma/t.nc");
-    let text = "G90 G1 X10 F1000\nbool b = channel_start(1, \"01.nc\");\nG1 X20\nchannel_wait(1);\n";
+    let text =
+        "G90 G1 X10 F1000\nbool b = channel_start(1, \"01.nc\");\nG1 X20\nchannel_wait(1);\n";
     let src = SourceFile::new(main, text);
     let program = cnc402_interp::parse_program(&cfg(), &src, None).unwrap();
     it.load(src, program);
@@ -279,10 +312,7 @@ fn a_channel_call_waits_for_the_motion_before_it_and_runs_in_program_order() {
         ["motion done at X10", "start 1 01.nc"]
     );
     assert_eq!(it.next_segment().unwrap(), None);
-    assert_eq!(
-        log.lock().unwrap()[2..],
-        ["motion done at X20", "wait 1"]
-    );
+    assert_eq!(log.lock().unwrap()[2..], ["motion done at X20", "wait 1"]);
 }
 
 /// The `WaitMark` stops of `segs` as (mark, channels, line).
@@ -299,7 +329,8 @@ fn waits(segs: &[Segment]) -> Vec<(u16, u16, u32)> {
 
 #[test]
 fn wait_marks_are_stops_in_the_segment_dump() {
-    let text = "G90 G1 X5 F500\nwait_mark(7);\nwait_mark(8, 3);\nG1 X6\nM100 P12\nN40 G1 X7 M101\nM199\n";
+    let text =
+        "G90 G1 X5 F500\nwait_mark(7);\nwait_mark(8, 3);\nG1 X6\nM100 P12\nN40 G1 X7 M101\nM199\n";
     let (r, _) = run_on("t.nc", text, Script::default());
     let segs = r.unwrap();
     assert_eq!(
@@ -329,23 +360,55 @@ fn a_one_channel_machine_passes_wait_marks_to_the_runtime_and_refuses_other_chan
     let e = cnc402_interp::run_program(&cfg(), &SourceFile::new("t.nc", "G0 X1\nM100 P12\n"))
         .unwrap_err();
     assert_eq!((e.line, e.col), (2, 6), "{e}");
-    assert!(e.message.contains("path 2 is not one of this machine's paths"), "{e}");
+    assert!(
+        e.message
+            .contains("path 2 is not one of this machine's paths"),
+        "{e}"
+    );
 }
 
 #[test]
 fn bad_waits_are_errors_at_file_line_col() {
     let cases = [
-        ("G0 X1\nM100 P13\n", (2, 6), "M100 P13: path 3 is not one of this machine's paths (1..=2"),
-        ("M120 P2\n", (1, 6), "M120 P2: leaves out path 1 (channel 0), the one waiting"),
+        (
+            "G0 X1\nM100 P13\n",
+            (2, 6),
+            "M100 P13: path 3 is not one of this machine's paths (1..=2",
+        ),
+        (
+            "M120 P2\n",
+            (1, 6),
+            "M120 P2: leaves out path 1 (channel 0), the one waiting",
+        ),
         ("M100 P1.5\n", (1, 6), "P lists the waiting paths"),
         ("M100 P102\n", (1, 6), "path 0 is not one of"),
         ("M100 M101\n", (1, 6), "M100 and M101 are both waits"),
         ("M100 M30\n", (1, 6), "M30 ends the program"),
-        ("wait_mark(1, 2);\n", (1, 1), "channel mask 2 leaves out channel 0, the one waiting"),
-        ("wait_mark(1, 4);\n", (1, 1), "channel mask 4 names channel 2; this machine has 2 channels"),
-        ("wait_mark(70000);\n", (1, 1), "wait_mark(70000): a mark is 0..65535"),
-        ("wait_mark(1, 2, 3);\n", (1, 1), "takes 1 argument(s), not 3"),
-        ("G1 X1 F100\nM100 P12\nwait_mark(\"a\");\n", (3, 11), "must be a number"),
+        (
+            "wait_mark(1, 2);\n",
+            (1, 1),
+            "channel mask 2 leaves out channel 0, the one waiting",
+        ),
+        (
+            "wait_mark(1, 4);\n",
+            (1, 1),
+            "channel mask 4 names channel 2; this machine has 2 channels",
+        ),
+        (
+            "wait_mark(70000);\n",
+            (1, 1),
+            "wait_mark(70000): a mark is 0..65535",
+        ),
+        (
+            "wait_mark(1, 2, 3);\n",
+            (1, 1),
+            "takes 1 argument(s), not 3",
+        ),
+        (
+            "G1 X1 F100\nM100 P12\nwait_mark(\"a\");\n",
+            (3, 11),
+            "must be a number",
+        ),
     ];
     for (text, (l, c), want) in cases {
         let (r, _) = run_on("t.nc", text, Script::default());
@@ -367,7 +430,10 @@ fn an_m_code_mapped_in_mcodes_or_outside_the_range_is_not_a_wait() {
         );
     let c = MachineConfig::parse(&text, std::path::Path::new("m.toml")).unwrap();
     let run = |p: &str| cnc402_interp::run_program(&c, &SourceFile::new("t.nc", p));
-    assert_eq!(waits(&run("M200 P1\nM209\n").unwrap()), [(200, 1, 1), (209, 0, 2)]);
+    assert_eq!(
+        waits(&run("M200 P1\nM209\n").unwrap()),
+        [(200, 1, 1), (209, 0, 2)]
+    );
     let segs = run("M205\n").unwrap();
     assert!(waits(&segs).is_empty() && msgs(&segs)[0].contains("not a wait here"));
     let e = run("M100\n").unwrap_err();
@@ -393,8 +459,11 @@ fn two_interpreters_sharing_the_globals_see_each_others_flags() {
     let mut ch1 = Interpreter::new(&cfg());
     ch0.set_shared_globals(shared.clone());
     ch1.set_shared_globals(shared.clone());
-    run_in(&mut ch0, "$nFlag = 1;\n$dPerm[3] = 2.5;\n$sName = \"01.nc\";\n$bDone = 2 > 1;\n")
-        .unwrap();
+    run_in(
+        &mut ch0,
+        "$nFlag = 1;\n$dPerm[3] = 2.5;\n$sName = \"01.nc\";\n$bDone = 2 > 1;\n",
+    )
+    .unwrap();
     let segs = run_in(
         &mut ch1,
         "MSG(\"\" + $nFlag + \" \" + $dPerm[3] + \" \" + $sName + \" \" + $bDone);\n$nFlag += 1;\n",
@@ -405,10 +474,17 @@ fn two_interpreters_sharing_the_globals_see_each_others_flags() {
         shared.get("nFlag", 0),
         Some(cnc402_interp::host::channels::SharedValue::Int(2))
     );
-    assert_eq!(cnc402_interp::hll::global_number(&ch0, "dPerm", Some(3)), Some(2.5));
+    assert_eq!(
+        cnc402_interp::hll::global_number(&ch0, "dPerm", Some(3)),
+        Some(2.5)
+    );
     // Set from outside (the runtime), read by a program.
     shared
-        .set("dLimit", 0, cnc402_interp::host::channels::SharedValue::Double(4.0))
+        .set(
+            "dLimit",
+            0,
+            cnc402_interp::host::channels::SharedValue::Double(4.0),
+        )
         .unwrap();
     let segs = run_in(&mut ch0, "MSG(\"\" + $dLimit);\n").unwrap();
     assert_eq!(msgs(&segs), ["4"]);
@@ -429,13 +505,20 @@ fn the_shared_globals_are_bounded() {
     // Changing a value still works; a new one does not, from the API or from a program.
     shared.set("nA", 5, SharedValue::Int(2)).unwrap();
     let e = shared.set("nB", 0, SharedValue::Int(1)).unwrap_err();
-    assert!(e.contains("the $ globals hold 1048576 values already"), "{e}");
+    assert!(
+        e.contains("the $ globals hold 1048576 values already"),
+        "{e}"
+    );
     let mut it = Interpreter::new(&cfg());
     it.set_shared_globals(shared);
-    let e = run_in(&mut it, "$nA[5] += 1;
+    let e = run_in(
+        &mut it,
+        "$nA[5] += 1;
 MSG(\"\" + $nA[5]);
 $nA[-1] = 0;
-").unwrap_err();
+",
+    )
+    .unwrap_err();
     assert_eq!((e.line, e.col), (3, 1), "{e}");
     let e = run_in(&mut it, "$nNew = 1;\n").unwrap_err();
     assert!(e.message.contains("$nNew: the $ globals hold"), "{e}");

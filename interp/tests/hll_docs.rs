@@ -4,6 +4,8 @@
 //! channel 0 of the scripted two-channel machine of `chan_common` (named as if they stood in
 //! `examples/axioma/`, where its part programs are).
 
+#![allow(clippy::result_large_err)]
+
 mod chan_common;
 
 use cnc402_config::MachineConfig;

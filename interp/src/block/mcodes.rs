@@ -11,9 +11,9 @@ use cnc402_motion::segment::{SegmentKind, Source, StopKind};
 
 use super::Machine;
 use super::exec::Exec;
+use super::words::{Arg, GGroup, Words, fmt_num};
 use crate::canon::CanonOp;
 use crate::host::channels::{Seat, mask_has};
-use super::words::{Arg, GGroup, Words, fmt_num};
 
 /// Turns a block's macro M code (`action = "macro"`) into the call it stands for, before the
 /// block's calls are taken: `M98 P<program>` (Fanuc's sub-program call by M code), or with
@@ -235,7 +235,10 @@ pub(crate) fn wait_mcode(
     };
     let err = |at: Span, m: String| Err(NcError::new(src, at, m));
     if let Some(&(second, s2)) = waits.next() {
-        return err(s2, format!("M{code} and M{second} are both waits: one a block"));
+        return err(
+            s2,
+            format!("M{code} and M{second} are both waits: one a block"),
+        );
     }
     if let Some(&(end, s2)) = w.m.iter().find(|m| matches!(m.0, 2 | 30)) {
         return err(

@@ -554,7 +554,12 @@ impl Interpreter {
         let spare = std::mem::take(&mut self.flow.spare_ops);
         let (mut out, end) = self.m.execute(&unit.src, &mut words, line, spare)?;
         if let Some(kind) = wait {
-            out.push(crate::block::mcodes::wait_op(&mut self.m, kind, &unit.src, line));
+            out.push(crate::block::mcodes::wait_op(
+                &mut self.m,
+                kind,
+                &unit.src,
+                line,
+            ));
         }
         self.flow.spare_words = Some(words);
         if sets_g92 {

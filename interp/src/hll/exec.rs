@@ -510,7 +510,7 @@ impl Executor {
                 .ok_or_else(|| self.err(f, span, "not an array")),
             ArrArg::Global(name) => {
                 let g = lock(&self.globals);
-                if let Some(Global::Scalar(_)) = g.get(&**name) {
+                if let Some(Global::Scalar(_)) = g.get(name) {
                     drop(g);
                     return Err(self.err(f, span, format!("${name} is not an array")));
                 }
@@ -531,7 +531,7 @@ impl Executor {
             },
             Val::ArrRef(ArrPlace::Global(name)) => {
                 let g = lock(&self.globals);
-                match g.get(&**name) {
+                match g.get(name) {
                     Some(Global::Array(a)) => {
                         Ok(a.last_key_value().map_or(0, |(k, _)| k.saturating_add(1)))
                     }
@@ -852,7 +852,7 @@ impl Executor {
             Builtin::ChannelWait => ChannelCall::Wait(ch),
             _ => ChannelCall::Reset(ch),
         };
-        self.steps = 0;
+        // Not motion: a loop of channel calls alone still ends as runaway (`tick`).
         let v = self.ask(f, Req::Channel(call), span)?;
         Ok(Val::Bool(v != 0.0))
     }
@@ -862,7 +862,11 @@ impl Executor {
     fn wait_mark(&mut self, f: &Frame, vs: &[Val], span: Span) -> R<Val> {
         let m = self.int(f, &vs[0], span, "a wait mark")?;
         let mark = u16::try_from(m).map_err(|_| {
-            self.err(f, span, format!("wait_mark({m}): a mark is 0..{}", u16::MAX))
+            self.err(
+                f,
+                span,
+                format!("wait_mark({m}): a mark is 0..{}", u16::MAX),
+            )
         })?;
         let mask = match vs.get(1) {
             Some(v) => self.int(f, v, span, "a channel mask")?,

@@ -4,8 +4,8 @@
 
 use std::sync::Arc;
 
-pub(crate) use crate::host::channels::{Global, Globals, lock};
 use crate::host::channels::SharedValue;
+pub(crate) use crate::host::channels::{Global, Globals, lock};
 
 use super::ir::Val;
 

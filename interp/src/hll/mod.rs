@@ -24,8 +24,8 @@ use crate::block::Machine;
 use crate::block::words::{GGroup, Words};
 use crate::canon::{self, CanonOp};
 
-pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
 use crate::host::channels::{Channels, Seat, SharedGlobals, SharedValue, SingleChannel};
+pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
 use req::{ChannelCall, Read, Req};
 
 /// The executor thread's stack. The deepest program the parser and the checker allow
