@@ -438,6 +438,13 @@ fn an_m_code_mapped_in_mcodes_or_outside_the_range_is_not_a_wait() {
     assert!(waits(&segs).is_empty() && msgs(&segs)[0].contains("not a wait here"));
     let e = run("M100\n").unwrap_err();
     assert!(e.message.contains("unknown M code M100"), "{e}");
+    // LinuxCNC's M100-M199 are user programs, not waits.
+    let e = cnc402_interp::run_program(
+        &cfg(),
+        &SourceFile::new("l.ngc", "(dialect: linuxcnc)\nM100\n"),
+    )
+    .unwrap_err();
+    assert!(e.message.contains("unknown M code M100"), "{e}");
     let off = base.replacen("[interp]\n", "[interp]\nwait_mcodes = []\n", 1);
     let c = MachineConfig::parse(&off, std::path::Path::new("m.toml")).unwrap();
     let e = cnc402_interp::run_program(&c, &SourceFile::new("t.nc", "M150\n")).unwrap_err();

@@ -215,16 +215,20 @@ impl Exec<'_> {
 /// block: the `WaitMark` stop it stands for, made after the block's motion. `P` names the
 /// paths as Fanuc does, a digit per path (`P12` = paths 1 and 2 = channels 0 and 1); without
 /// `P` every channel waits. A path the machine lacks, or `P` without the calling channel's
-/// path, is an error at the word.
+/// path, is an error at the word. Not in the linuxcnc dialect, whose `M100`…`M199` are user
+/// programs.
 pub(crate) fn wait_mcode(
     cfg: &MachineConfig,
-    src: &SourceFile,
+    (src, dialect): (&SourceFile, Dialect),
     w: &mut Words,
     seat: Seat,
 ) -> Result<Option<StopKind>, NcError> {
     let Some((first, last)) = cfg.interp.wait_mcodes else {
         return Ok(None);
     };
+    if dialect == Dialect::LinuxCnc {
+        return Ok(None);
+    }
     if w.g.iter().any(|g| g.1 == GGroup::MacroCall) {
         return Ok(None);
     }

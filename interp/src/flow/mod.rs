@@ -541,7 +541,8 @@ impl Interpreter {
         };
         crate::block::mcodes::macro_calls(&self.m.cfg, &unit.src, &mut words)?;
         let seat = self.hll.seat();
-        let wait = crate::block::mcodes::wait_mcode(&self.m.cfg, &unit.src, &mut words, seat)?;
+        let at = (&*unit.src, self.m.dialect);
+        let wait = crate::block::mcodes::wait_mcode(&self.m.cfg, at, &mut words, seat)?;
         let Some(call) = self.take_calls(unit, &mut words, &ijk)? else {
             return Ok(());
         };

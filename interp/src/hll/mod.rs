@@ -412,7 +412,7 @@ impl Running {
                 ),
             ));
         }
-        let wait = crate::block::mcodes::wait_mcode(&it.cfg, &src, &mut w, seat)?;
+        let wait = crate::block::mcodes::wait_mcode(&it.cfg, (&src, it.dialect), &mut w, seat)?;
         let from = it.state.pos;
         let (mut out, end) = it.execute(&src, &mut w, line, Vec::new())?;
         if let Some(kind) = wait {
