@@ -270,7 +270,8 @@ fn path_mask(code: u32, p: &Arg, seat: Seat) -> Result<u16, String> {
         ));
     }
     let mut bits = 0u16;
-    for d in text.bytes().map(|b| usize::from(b - b'0')) {
+    let digits = (p.v as u64).to_string();
+    for d in digits.bytes().map(|b| usize::from(b.wrapping_sub(b'0'))) {
         if d == 0 || d > seat.count {
             return Err(format!(
                 "M{code} P{text}: path {d} is not one of this machine's paths (1..={}, \
