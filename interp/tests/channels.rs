@@ -530,3 +530,35 @@ $nA[-1] = 0;
     let e = run_in(&mut it, "$nNew = 1;\n").unwrap_err();
     assert!(e.message.contains("$nNew: the $ globals hold"), "{e}");
 }
+
+#[test]
+fn a_dry_run_follows_the_success_path_and_finds_bad_channels() {
+    use cnc402_interp::host::channels::DryChannels;
+    let (path, text) = example("regression_test.nc");
+    let mut it = Interpreter::new(&cfg());
+    it.set_channels(Box::new(DryChannels { count: 2, this: 0 }));
+    let src = SourceFile::new(path, text);
+    let program = cnc402_interp::parse_program(&cfg(), &src, None).unwrap();
+    it.load(src, program);
+    let segs: Vec<_> = it.by_ref().collect::<Result<_, _>>().unwrap();
+    assert_eq!(msgs(&segs).len(), 6);
+    let mut dry = DryChannels { count: 2, this: 1 };
+    let e = run_in_with(&mut dry, "bool b = channel_load(1, \"01.nc\");\n").unwrap_err();
+    assert!(e.message.contains("channel 1 is the channel running this program"), "{e}");
+    let e = run_in_with(&mut dry, "int n = @CH[2].STATE;\n").unwrap_err();
+    assert!(e.message.contains("@CH[2]: this machine has 2 channels"), "{e}");
+    assert_eq!(
+        msgs(&run_in_with(&mut dry, "MSG(\"\" + @CH[0].STATE + @CH[1].STATE);\n").unwrap()),
+        ["23"]
+    );
+}
+
+/// Runs `text` on an interpreter whose channels are a copy of `dry`.
+fn run_in_with(
+    dry: &mut cnc402_interp::host::channels::DryChannels,
+    text: &str,
+) -> Result<Vec<Segment>, NcError> {
+    let mut it = Interpreter::new(&cfg());
+    it.set_channels(Box::new(*dry));
+    run_in(&mut it, text)
+}

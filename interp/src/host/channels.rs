@@ -123,6 +123,69 @@ impl Channels for SingleChannel {
     }
 }
 
+/// The channels as a dry run (a check of a program without motion) sees them: `count`
+/// channels, every other one in Auto and ready, every load, run, wait and reset succeeding
+/// at once without doing anything; the caller's own channel is running. The calls are
+/// checked as the real ones are (a channel the machine lacks, a program driving its own
+/// channel), so a dry run finds those errors and follows the program's success path.
+#[derive(Clone, Copy, Debug)]
+pub struct DryChannels {
+    pub count: usize,
+    pub this: usize,
+}
+
+impl DryChannels {
+    fn check(&self, ch: usize) -> Result<(), String> {
+        if ch >= self.count {
+            Err(no_such_channel(ch, self.count))
+        } else if ch == self.this {
+            Err(format!(
+                "channel {ch} is the channel running this program: a program cannot load, \
+                 run, wait for or reset its own channel"
+            ))
+        } else {
+            Ok(())
+        }
+    }
+}
+
+impl Channels for DryChannels {
+    fn count(&self) -> usize {
+        self.count.max(1)
+    }
+    fn this(&self) -> usize {
+        self.this
+    }
+    fn mode(&mut self, ch: usize) -> Result<ChannelMode, String> {
+        if ch >= self.count {
+            return Err(no_such_channel(ch, self.count));
+        }
+        Ok(ChannelMode::Auto)
+    }
+    fn state(&mut self, ch: usize) -> Result<ChannelState, String> {
+        if ch >= self.count {
+            return Err(no_such_channel(ch, self.count));
+        }
+        Ok(if ch == self.this {
+            ChannelState::Running
+        } else {
+            ChannelState::Ready
+        })
+    }
+    fn load(&mut self, ch: usize, _: &str, _: &str) -> Result<bool, String> {
+        self.check(ch).map(|_| true)
+    }
+    fn start(&mut self, ch: usize, _: &str, _: &str) -> Result<bool, String> {
+        self.check(ch).map(|_| true)
+    }
+    fn wait(&mut self, ch: usize) -> Result<bool, String> {
+        self.check(ch).map(|_| true)
+    }
+    fn reset(&mut self, ch: usize) -> Result<bool, String> {
+        self.check(ch).map(|_| true)
+    }
+}
+
 /// Where a program runs: the machine's number of channels and the channel running it.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Seat {
