@@ -544,9 +544,16 @@ fn a_dry_run_follows_the_success_path_and_finds_bad_channels() {
     assert_eq!(msgs(&segs).len(), 6);
     let mut dry = DryChannels { count: 2, this: 1 };
     let e = run_in_with(&mut dry, "bool b = channel_load(1, \"01.nc\");\n").unwrap_err();
-    assert!(e.message.contains("channel 1 is the channel running this program"), "{e}");
+    assert!(
+        e.message
+            .contains("channel 1 is the channel running this program"),
+        "{e}"
+    );
     let e = run_in_with(&mut dry, "int n = @CH[2].STATE;\n").unwrap_err();
-    assert!(e.message.contains("@CH[2]: this machine has 2 channels"), "{e}");
+    assert!(
+        e.message.contains("@CH[2]: this machine has 2 channels"),
+        "{e}"
+    );
     assert_eq!(
         msgs(&run_in_with(&mut dry, "MSG(\"\" + @CH[0].STATE + @CH[1].STATE);\n").unwrap()),
         ["23"]
@@ -561,4 +568,32 @@ fn run_in_with(
     let mut it = Interpreter::new(&cfg());
     it.set_channels(Box::new(*dry));
     run_in(&mut it, text)
+}
+
+#[test]
+fn wait_marks_are_in_the_canonical_dump_with_their_line() {
+    let (fake, _) = FakeChannels::new(Script::default());
+    let mut it = Interpreter::new(&cfg());
+    it.set_channels(Box::new(fake));
+    let src = SourceFile::new("c.nc", "G90 G1 X5 F500\nN20 M130 P21\nwait_mark(9, 1);\n");
+    let program = cnc402_interp::parse_program(&cfg(), &src, None).unwrap();
+    it.load(src, program);
+    let mut ops = Vec::new();
+    while let Some(op) = it.next_canon().unwrap() {
+        ops.push(op);
+    }
+    let dump = cnc402_interp::dump::canon::canon_to_jsonl(&ops, &cfg());
+    let waits: Vec<&str> = dump.lines().filter(|l| l.contains("wait_mark")).collect();
+    assert_eq!(waits.len(), 2, "{dump}");
+    assert!(
+        waits[0].contains("\"mark\":130,\"channels\":3"),
+        "{}",
+        waits[0]
+    );
+    assert!(waits[0].contains("\"line\":2"), "{}", waits[0]);
+    assert!(
+        waits[1].contains("\"mark\":9,\"channels\":1"),
+        "{}",
+        waits[1]
+    );
 }
