@@ -208,11 +208,6 @@ fn errors_found_before_running_point_at_file_line_col() {
             "undefined function `undefinedFn`",
         ),
         (
-            "channel_reset(1);\n",
-            (1, 1),
-            "channel_reset(1): this machine has one channel (0)",
-        ),
-        (
             "string s = \"a\";\nif (s) MSG(\"x\");\n",
             (2, 5),
             "a condition cannot be string",
@@ -304,6 +299,11 @@ fn run_time_errors_stop_at_the_expression() {
             "int F(int n) { if (n > 0) return 1; }\nint x = F(0);\n",
             (2, 9),
             "function `F` ended without returning a int",
+        ),
+        (
+            "channel_reset(1);\n",
+            (1, 1),
+            "channel_reset(1): this machine has one channel (0)",
         ),
         (
             "double d = @CH[1].MODE;\n",
