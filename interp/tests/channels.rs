@@ -385,6 +385,11 @@ fn bad_waits_are_errors_at_file_line_col() {
         ("M100 M101\n", (1, 6), "M100 and M101 are both waits"),
         ("M100 M30\n", (1, 6), "M30 ends the program"),
         (
+            "M98 M100 P12\n",
+            (1, 1),
+            "M98 takes a P word too: the wait M100",
+        ),
+        (
             "wait_mark(1, 2);\n",
             (1, 1),
             "channel mask 2 leaves out channel 0, the one waiting",

@@ -113,12 +113,9 @@ impl Hll {
         self.globals = shared.table;
     }
 
-    /// (the number of channels, the channel running this interpreter's programs).
+    /// The number of channels and the channel running this interpreter's programs.
     pub(crate) fn seat(&self) -> Seat {
-        Seat {
-            count: self.channels.count(),
-            this: self.channels.this(),
-        }
+        Seat::of(self.channels.as_ref())
     }
 
     /// Statements of the C-like program that acted on the machine (a segment or a G-code
@@ -363,11 +360,7 @@ impl Running {
                     }
                 }
                 Req::Block { file, line } => {
-                    let seat = Seat {
-                        count: channels.count(),
-                        this: channels.this(),
-                    };
-                    if let Err(e) = self.block(it, file, &line, seat) {
+                    if let Err(e) = self.block(it, file, &line, Seat::of(channels)) {
                         self.stop();
                         return Err(e);
                     }

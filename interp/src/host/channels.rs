@@ -193,6 +193,15 @@ pub(crate) struct Seat {
     pub this: usize,
 }
 
+impl Seat {
+    pub(crate) fn of(channels: &dyn Channels) -> Seat {
+        Seat {
+            count: channels.count(),
+            this: channels.this(),
+        }
+    }
+}
+
 /// A wait's channel mask (a bit per channel, 0 = all) checked against the machine: the
 /// bits name channels it has, the calling channel among them. The message on an error.
 pub(crate) fn check_mask(mask: i64, seat: Seat) -> Result<u16, String> {
