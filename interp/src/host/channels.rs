@@ -1,7 +1,7 @@
 //! The channels of a multi-channel machine as one channel's program sees them: the C-like
 //! built-ins `channel_load/run/start/wait/reset`, `@CH[n].MODE/.STATE`, and the `$` globals
 //! all channels of one run share. The runtime implements [`Channels`]; a one-channel machine
-//! (and every pure use of the interpreter) gets [`SingleChannel`].
+//! (and every pure use of the interpreter) gets [`SingleChannel`], a dry run [`DryChannels`].
 
 use std::collections::{BTreeMap, HashMap};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -346,5 +346,52 @@ impl GlobalTable {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mask_names_channels_the_machine_has_and_the_waiting_one() {
+        let seat = Seat { count: 3, this: 1 };
+        assert_eq!(check_mask(0, seat), Ok(0));
+        assert_eq!(check_mask(0b110, seat), Ok(0b110));
+        let past = check_mask(0b1010, seat).unwrap_err();
+        assert_eq!(
+            past,
+            "channel mask 10 names channel 3; this machine has 3 channels (0..=2)"
+        );
+        let without = check_mask(0b101, seat).unwrap_err();
+        assert_eq!(
+            without,
+            "channel mask 5 leaves out channel 1, the one waiting"
+        );
+        assert!(check_mask(-1, seat).unwrap_err().contains("not 0..65535"));
+        assert!(
+            check_mask(1 << 16, seat)
+                .unwrap_err()
+                .contains("not 0..65535")
+        );
+        assert!(!mask_has(u16::MAX, 16));
+    }
+
+    #[test]
+    fn shared_globals_index_0_is_the_scalar_unless_the_name_is_an_array() {
+        let g = SharedGlobals::default();
+        g.set("nFlag", 0, SharedValue::Int(1)).unwrap();
+        assert_eq!(g.get("nFlag", 0), Some(SharedValue::Int(1)));
+        assert_eq!(g.get("nFlag", 1), None);
+        assert!(g.set("nFlag", 2, SharedValue::Int(1)).is_err());
+        g.set("dPerm", 1, SharedValue::Double(2.5)).unwrap();
+        g.set("dPerm", 0, SharedValue::Double(0.5)).unwrap();
+        assert_eq!(g.get("dPerm", 0), Some(SharedValue::Double(0.5)));
+        assert_eq!(g.get("dPerm", 1), Some(SharedValue::Double(2.5)));
+        assert_eq!(g.get("nNever", 0), None);
+        // Clones share the table.
+        let h = g.clone();
+        h.set("sName", 0, SharedValue::Str("01.nc".into())).unwrap();
+        assert_eq!(g.get("sName", 0), Some(SharedValue::Str("01.nc".into())));
     }
 }
