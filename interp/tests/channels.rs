@@ -263,6 +263,16 @@ fn a_channel_past_the_machines_channels_is_an_error_at_its_column() {
             10,
             "channel_run(2): this machine has 2 channels (0..=1)",
         ),
+        (
+            "$gProg = 5;\nbool b = channel_load(1, $gProg);\n",
+            10,
+            "channel_load: the program must be a file name, not a int",
+        ),
+        (
+            "bool b = channel_start(1, \" \");\n",
+            10,
+            "channel_start: the program must be a file name, not an empty string",
+        ),
         ("channel_reset(0);\n", 1, "channel 0 is the calling channel"),
     ];
     for (text, col, want) in cases {

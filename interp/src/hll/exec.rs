@@ -844,11 +844,23 @@ impl Executor {
             _ => "channel_reset",
         };
         let ch = self.channel_no(f, &vs[0], span, name)?;
-        let prog = || vs.get(1).map(Val::text).unwrap_or_default();
+        // A `$` global passes the checker as any type: its value is checked here.
+        let prog = match vs.get(1) {
+            None => String::new(),
+            Some(Val::Str(p)) if !p.trim().is_empty() => p.to_string(),
+            Some(v) => {
+                let got = match v {
+                    Val::Str(_) => "an empty string".to_string(),
+                    v => format!("a {}", v.ty().name()),
+                };
+                let what = format!("{name}: the program must be a file name, not {got}");
+                return Err(self.err(f, span, what));
+            }
+        };
         let call = match b {
-            Builtin::ChannelLoad => ChannelCall::Load(ch, prog()),
-            Builtin::ChannelRun => ChannelCall::Run(ch, prog()),
-            Builtin::ChannelStart => ChannelCall::Start(ch, prog()),
+            Builtin::ChannelLoad => ChannelCall::Load(ch, prog),
+            Builtin::ChannelRun => ChannelCall::Run(ch, prog),
+            Builtin::ChannelStart => ChannelCall::Start(ch, prog),
             Builtin::ChannelWait => ChannelCall::Wait(ch),
             _ => ChannelCall::Reset(ch),
         };
