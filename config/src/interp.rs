@@ -101,6 +101,10 @@ pub struct InterpDefaults {
     pub library_dir: Option<PathBuf>,
     /// Cutter radius compensation (`cutter_comp_*` keys).
     pub cutter_comp: CutterComp,
+    /// The Fanuc multi-path waiting M codes (`M100`…`M199` by default, `[100, 199]`): `M<n>
+    /// P12` waits until paths (channels) 1 and 2 reach `M<n>`. `None` (`wait_mcodes = []`):
+    /// none. An M code in `[mcodes]` is that action, not a wait.
+    pub wait_mcodes: Option<(u32, u32)>,
 }
 
 /// `[interp]` as written, with spans; every key has a default.
@@ -155,6 +159,8 @@ pub(crate) struct RawInterp {
     cutter_comp_lookahead: Option<Spanned<i64>>,
     #[serde(default)]
     cutter_comp_chamfer_angle: Option<Spanned<f64>>,
+    #[serde(default)]
+    wait_mcodes: Option<Spanned<Vec<i64>>>,
 }
 
 impl Default for RawInterp {
@@ -184,6 +190,7 @@ impl Default for RawInterp {
             cutter_comp_gouge: None,
             cutter_comp_lookahead: None,
             cutter_comp_chamfer_angle: None,
+            wait_mcodes: None,
         }
     }
 }
@@ -383,8 +390,38 @@ impl RawInterp {
                 chamfer_angle: &i.cutter_comp_chamfer_angle,
             }
             .validate()?,
+            wait_mcodes: wait_mcodes(&i.wait_mcodes)?,
         })
     }
+}
+
+/// `wait_mcodes`: `[first, last]` M numbers (default `[100, 199]`), none of them built in;
+/// `[]` for none.
+fn wait_mcodes(v: &Option<Spanned<Vec<i64>>>) -> Result<Option<(u32, u32)>, Invalid> {
+    let Some(v) = v else {
+        return Ok(Some((100, 199)));
+    };
+    let bad = |m: String| Err((v.span(), "interp.wait_mcodes".to_string(), m));
+    let (first, last) = match v.get_ref()[..] {
+        [] => return Ok(None),
+        [a, b] => (a, b),
+        _ => return bad("expected [first, last] M numbers, e.g. [100, 199], or []".into()),
+    };
+    if !(0..=9999).contains(&first) || !(first..=9999).contains(&last) {
+        return bad(format!(
+            "expected M numbers 0 <= first <= last <= 9999, got [{first}, {last}]"
+        ));
+    }
+    let (first, last) = (first as u32, last as u32);
+    if let Some(b) = crate::BUILT_IN_M_CODES
+        .iter()
+        .find(|c| (first..=last).contains(c))
+    {
+        return bad(format!(
+            "[{first}, {last}] holds M{b}, which the interpreter defines"
+        ));
+    }
+    Ok(Some((first, last)))
 }
 
 /// A finite fraction 0 ≤ x ≤ 1.
@@ -455,5 +492,50 @@ impl RawInterp {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod wait_mcodes_key {
+    use std::path::Path;
+
+    use crate::MachineConfig;
+
+    const SHIPPED: &str = include_str!("../machine.toml");
+
+    fn with_key(line: &str) -> Result<MachineConfig, crate::ConfigError> {
+        let text = SHIPPED.replacen("[interp]\n", &format!("[interp]\n{line}\n"), 1);
+        MachineConfig::parse(&text, Path::new("m.toml"))
+    }
+
+    #[test]
+    fn default_is_fanuc_m100_to_m199_and_empty_turns_it_off() {
+        let c = MachineConfig::parse(SHIPPED, Path::new("m.toml")).unwrap();
+        assert_eq!(c.interp.wait_mcodes, Some((100, 199)));
+        let c = with_key("wait_mcodes = [300, 310]").unwrap();
+        assert_eq!(c.interp.wait_mcodes, Some((300, 310)));
+        assert_eq!(
+            with_key("wait_mcodes = []").unwrap().interp.wait_mcodes,
+            None
+        );
+    }
+
+    #[test]
+    fn a_bad_range_names_the_key_and_its_line() {
+        let line = SHIPPED.lines().position(|l| l == "[interp]").unwrap() + 2;
+        for (v, says) in [
+            ("[100]", "expected [first, last]"),
+            ("[199, 100]", "0 <= first <= last <= 9999"),
+            ("[90, 120]", "holds M98"),
+            ("[-1, 5]", "0 <= first"),
+        ] {
+            let e = with_key(&format!("wait_mcodes = {v}")).unwrap_err();
+            assert_eq!(
+                (e.key.as_str(), e.line),
+                ("interp.wait_mcodes", line),
+                "{e}"
+            );
+            assert!(e.to_string().contains(says), "{v}: {e}");
+        }
     }
 }

@@ -1,6 +1,12 @@
 //! Runs every example of `docs/language.md` on the shipped machine: `nc` blocks must run to
 //! their end and show each `// prints:` text as a message, in order; `nc-error` blocks must
-//! stop with an error containing their `// error:` text.
+//! stop with an error containing their `// error:` text. Blocks marked `two-channel` run on
+//! channel 0 of the scripted two-channel machine of `chan_common` (named as if they stood in
+//! `examples/axioma/`, where its part programs are).
+
+#![allow(clippy::result_large_err)]
+
+mod chan_common;
 
 use cnc402_config::MachineConfig;
 use cnc402_lang::SourceFile;
@@ -32,12 +38,30 @@ fn every_example_in_the_language_reference_runs_as_documented() {
     let cfg = MachineConfig::load(format!("{ROOT}/config/machine.toml")).unwrap();
     let mut ran = 0;
     for (line, info, body) in blocks(&doc) {
+        let (info, two_channel) = match info.strip_suffix(" two-channel") {
+            Some(i) => (i.to_string(), true),
+            None => (info, false),
+        };
         if info != "nc" && info != "nc-error" {
             continue;
         }
-        // Named as if it stood in docs/ (so `#use` looks there, then in the library folder).
-        let src = SourceFile::new(format!("{ROOT}/docs/example-{line}.nc"), body.clone());
-        let r = cnc402_interp::host_fs::run_program(&cfg, &src);
+        let r = if two_channel {
+            let src = SourceFile::new(
+                format!("{ROOT}/examples/axioma/example-{line}.nc"),
+                body.clone(),
+            );
+            let (fake, _) = chan_common::FakeChannels::new(chan_common::Script::default());
+            let mut it = cnc402_interp::Interpreter::new(&cfg);
+            it.set_channels(Box::new(fake));
+            cnc402_interp::parse_program(&cfg, &src, None).and_then(|p| {
+                it.load(src, p);
+                it.collect()
+            })
+        } else {
+            // Named as if it stood in docs/ (so `#use` looks there, then in the library folder).
+            let src = SourceFile::new(format!("{ROOT}/docs/example-{line}.nc"), body.clone());
+            cnc402_interp::host_fs::run_program(&cfg, &src)
+        };
         let want = |tag: &str| -> Vec<String> {
             body.lines()
                 .filter_map(|l| l.trim().strip_prefix(tag).map(|t| t.trim().to_string()))

@@ -208,11 +208,6 @@ fn errors_found_before_running_point_at_file_line_col() {
             "undefined function `undefinedFn`",
         ),
         (
-            "channel_reset(1);\n",
-            (1, 1),
-            "not supported yet: multi-channel operation",
-        ),
-        (
             "string s = \"a\";\nif (s) MSG(\"x\");\n",
             (2, 5),
             "a condition cannot be string",
@@ -306,9 +301,14 @@ fn run_time_errors_stop_at_the_expression() {
             "function `F` ended without returning a int",
         ),
         (
+            "channel_reset(1);\n",
+            (1, 1),
+            "channel_reset(1): this machine has one channel (0)",
+        ),
+        (
             "double d = @CH[1].MODE;\n",
             (1, 12),
-            "multi-channel operation",
+            "@CH[1]: this machine has one channel (0)",
         ),
         ("sleep(-5);\n", (1, 1), "sleep(-5)"),
         (
@@ -421,13 +421,14 @@ fn source_000_channel_program_stops_where_it_leaves_the_language_implemented_her
         (e.line, e.message.as_str()),
         (16, "undefined name `Iterator`")
     );
-    // Declared, it stops at the first channel function, before running anything.
+    // Declared, on a one-channel machine it reads channel 0, the channel running it: in Auto
+    // (1) but running (3), not ready (2), so its own check stops it (line 13, + 2 added).
     let fixed = format!("int Iterator;\nint msSleep = 1;\n{text}");
     let e = cnc402_interp::run_program(&cfg(), &SourceFile::new("ch.nc", fixed)).unwrap_err();
-    assert_eq!(e.line, 20);
+    assert_eq!(e.line, 15);
     assert!(
         e.message
-            .contains("channel_load: not supported yet: multi-channel operation"),
+            .contains("terminate 5555: Neverное состояние канала"),
         "{e}"
     );
 }

@@ -4,6 +4,7 @@
 
 use cnc402_config::MachineConfig;
 use cnc402_interp::Interpreter;
+use cnc402_interp::host::channels::DryChannels;
 use cnc402_lang::SourceFile;
 use proptest::prelude::*;
 
@@ -16,6 +17,8 @@ fn check(text: &str) {
         return;
     };
     let mut it = Interpreter::new(&cfg);
+    // Three channels that answer at once: the channel built-ins run their whole path.
+    it.set_channels(Box::new(DryChannels { count: 3, this: 0 }));
     it.load(src.clone(), program);
     for _ in 0..100_000 {
         match it.next_segment() {
@@ -52,6 +55,10 @@ fn operand() -> impl Strategy<Value = String> {
             "@X",
             "@POS[sT]",
             "@CH[nA].MODE",
+            "@CH[nB - 2].STATE",
+            "channel_wait(nA)",
+            "channel_load(nB, sT)",
+            "channel_run(nA, \"01.nc\")",
             "true",
             "\"Z\"",
             "Fn(nA)",
@@ -105,6 +112,10 @@ fn stmt() -> impl Strategy<Value = String> {
         expr().prop_map(|e| format!("Fa(aV, {e});")),
         expr().prop_map(|e| format!("Fa($gA, {e});")),
         Just("M30".to_string()),
+        expr().prop_map(|e| format!("wait_mark({e});")),
+        expr().prop_map(|e| format!("wait_mark(nA, {e});")),
+        expr().prop_map(|e| format!("M100 P={e}")),
+        expr().prop_map(|e| format!("bF = channel_start({e}, sT);")),
     ]
 }
 

@@ -1,15 +1,19 @@
 //! The machine's own M codes (`[mcodes]` in the config): a block's M words that are not the
 //! interpreter's own become what the config maps them to — built-in codes (M13 = M3 M8), a
-//! dwell, an output or wait event, a note, or a program call (Fanuc's M-code macro call).
+//! dwell, an output or wait event, a note, or a program call (Fanuc's M-code macro call);
+//! and Fanuc's multi-path waiting M codes (`M100 P12`), a channel wait.
 //! In the linuxcnc dialect LinuxCNC's own I/O codes M62-M68 are built in.
 
 use cnc402_config::{BUILT_IN_M_CODES, MAction, MachineConfig};
-use cnc402_lang::ast::Span;
+use cnc402_lang::ast::{Line, Span};
 use cnc402_lang::{Dialect, NcError, SourceFile};
-use cnc402_motion::segment::SegmentKind;
+use cnc402_motion::segment::{SegmentKind, Source, StopKind};
 
+use super::Machine;
 use super::exec::Exec;
 use super::words::{Arg, GGroup, Words, fmt_num};
+use crate::canon::CanonOp;
+use crate::host::channels::{Seat, mask_has};
 
 /// Turns a block's macro M code (`action = "macro"`) into the call it stands for, before the
 /// block's calls are taken: `M98 P<program>` (Fanuc's sub-program call by M code), or with
@@ -204,4 +208,100 @@ impl Exec<'_> {
         self.push(SegmentKind::Message { text });
         Ok(())
     }
+}
+
+/// Takes the block's Fanuc multi-path waiting M code (`[interp] wait_mcodes`, `M100`…`M199`
+/// by default; a code mapped in `[mcodes]` is that action instead) and its `P` out of the
+/// block: the `WaitMark` stop it stands for, made after the block's motion. `P` names the
+/// paths as Fanuc does, a digit per path (`P12` = paths 1 and 2 = channels 0 and 1); without
+/// `P` every channel waits. A path the machine lacks, or `P` without the calling channel's
+/// path, is an error at the word. Not in the linuxcnc dialect, whose `M100`…`M199` are user
+/// programs.
+pub(crate) fn wait_mcode(
+    cfg: &MachineConfig,
+    (src, dialect): (&SourceFile, Dialect),
+    w: &mut Words,
+    seat: Seat,
+) -> Result<Option<StopKind>, NcError> {
+    let Some((first, last)) = cfg.interp.wait_mcodes else {
+        return Ok(None);
+    };
+    if dialect == Dialect::LinuxCnc {
+        return Ok(None);
+    }
+    if w.g.iter().any(|g| g.1 == GGroup::MacroCall) {
+        return Ok(None);
+    }
+    let is_wait = |c: u32| (first..=last).contains(&c) && !cfg.mcodes.contains_key(&c);
+    let mut waits = w.m.iter().filter(|m| is_wait(m.0));
+    let Some(&(code, _)) = waits.next() else {
+        return Ok(None);
+    };
+    let err = |at: Span, m: String| Err(NcError::new(src, at, m));
+    if let Some(&(second, s2)) = waits.next() {
+        return err(
+            s2,
+            format!("M{code} and M{second} are both waits: one a block"),
+        );
+    }
+    if let Some(&(other, s2)) = w.m.iter().find(|m| matches!(m.0, 2 | 30 | 98 | 99)) {
+        let m = match other {
+            2 | 30 => {
+                format!("M{other} ends the program: the wait M{code} goes in a block before it")
+            }
+            _ => {
+                format!("M{other} takes a P word too: the wait M{code} goes in a block of its own")
+            }
+        };
+        return err(s2, m);
+    }
+    w.m.retain(|m| m.0 != code);
+    let channels = match w.take('P') {
+        None => 0,
+        Some(p) => path_mask(code, &p, seat).map_err(|m| NcError::new(src, p.span, m))?,
+    };
+    Ok(Some(StopKind::WaitMark {
+        mark: code as u16,
+        channels,
+    }))
+}
+
+/// `P` of a waiting M code: a digit 1…9 per path (channel = path - 1), as a channel mask.
+fn path_mask(code: u32, p: &Arg, seat: Seat) -> Result<u16, String> {
+    let text = fmt_num(p.v);
+    if p.v.fract() != 0.0 || !(1.0..=999_999_999.0).contains(&p.v) {
+        return Err(format!(
+            "M{code} P{text}: P lists the waiting paths, a digit 1-9 each (P12 = paths 1 and 2)"
+        ));
+    }
+    let mut bits = 0u16;
+    let digits = (p.v as u64).to_string();
+    for d in digits.bytes().map(|b| usize::from(b.wrapping_sub(b'0'))) {
+        if d == 0 || d > seat.count {
+            return Err(format!(
+                "M{code} P{text}: path {d} is not one of this machine's paths (1..={}, \
+                 channel n is path n + 1)",
+                seat.count
+            ));
+        }
+        bits |= 1 << (d - 1);
+    }
+    if !mask_has(bits, seat.this) {
+        return Err(format!(
+            "M{code} P{text}: leaves out path {} (channel {}), the one waiting",
+            seat.this + 1,
+            seat.this
+        ));
+    }
+    Ok(bits)
+}
+
+/// The channel wait of a wait M code of `line` (after the block's operations).
+pub(crate) fn wait_op(m: &mut Machine, kind: StopKind, src: &SourceFile, line: &Line) -> CanonOp {
+    let source = Source {
+        file: src.name.clone(),
+        line: line.line_no,
+        n: line.n.map(|n| n.value),
+    };
+    m.single_op(SegmentKind::Stop { kind }, source)
 }

@@ -176,6 +176,21 @@ impl Interpreter {
         self.m.sync = sync;
     }
 
+    /// Sets the machine's channels as this interpreter's programs see them (default: one
+    /// channel, [`SingleChannel`](crate::host::channels::SingleChannel)): the C-like `channel_*` built-ins and
+    /// `@CH[n]` call them, and wait marks (`wait_mark`, the wait M codes' `P`) are checked
+    /// against their number. Takes effect at the next `load`.
+    pub fn set_channels(&mut self, channels: Box<dyn crate::host::channels::Channels>) {
+        self.hll.set_channels(channels);
+    }
+
+    /// Makes the `$` globals of this interpreter's C-like programs the table `shared` (all
+    /// channels of one run share one: a flag one channel sets is what the others read).
+    /// Without it each interpreter keeps its own. Takes effect at the next `load`.
+    pub fn set_shared_globals(&mut self, shared: crate::host::channels::SharedGlobals) {
+        self.hll.set_shared_globals(shared);
+    }
+
     /// Sets where sub-programs not in the running file and `#use` files are looked up
     /// (default and `None`: nowhere, so such a call or `#use` is a not-found error).
     pub fn set_program_library(&mut self, lib: Option<Box<dyn ProgramLibrary>>) {
@@ -525,6 +540,9 @@ impl Interpreter {
             None => Box::new(Words::collect_with(&unit.src, block, self)?),
         };
         crate::block::mcodes::macro_calls(&self.m.cfg, &unit.src, &mut words)?;
+        let seat = self.hll.seat();
+        let at = (&*unit.src, self.m.dialect);
+        let wait = crate::block::mcodes::wait_mcode(&self.m.cfg, at, &mut words, seat)?;
         let Some(call) = self.take_calls(unit, &mut words, &ijk)? else {
             return Ok(());
         };
@@ -536,6 +554,14 @@ impl Interpreter {
         let sets_g92 = linuxcnc && words.g.iter().any(|g| g.0 == 92);
         let spare = std::mem::take(&mut self.flow.spare_ops);
         let (mut out, end) = self.m.execute(&unit.src, &mut words, line, spare)?;
+        if let Some(kind) = wait {
+            out.push(crate::block::mcodes::wait_op(
+                &mut self.m,
+                kind,
+                &unit.src,
+                line,
+            ));
+        }
         self.flow.spare_words = Some(words);
         if sets_g92 {
             self.flow.g92_kept = self.m.state.shift;

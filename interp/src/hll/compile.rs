@@ -15,14 +15,6 @@ use cnc402_lang::{NcError, SourceFile};
 use super::ir::*;
 use crate::host::{ProgramLibrary, UsedFile};
 
-/// Names of the source's multi-channel functions (a later issue).
-const CHANNEL_FUNCS: [&str; 4] = [
-    "channel_load",
-    "channel_run",
-    "channel_wait",
-    "channel_reset",
-];
-
 struct File {
     src: Arc<SourceFile>,
     prog: Program,
@@ -107,9 +99,7 @@ fn collect_functions(files: &[File]) -> Result<(HashMap<String, usize>, Vec<Def<
             for s in stmts {
                 if let StmtKind::Function(fun) = &s.kind {
                     let err = |m: String| Err(NcError::new(&f.src, fun.span, m));
-                    if Builtin::by_name(&fun.name).is_some()
-                        || CHANNEL_FUNCS.contains(&fun.name.as_str())
-                    {
+                    if Builtin::by_name(&fun.name).is_some() {
                         return err(format!("`{}` is a built-in function", fun.name));
                     }
                     if let Some(&k) = sigs.get(&fun.name) {
@@ -1060,12 +1050,6 @@ impl<'a> Cx<'a> {
             xs.push(x);
             ts.push(t);
         }
-        if CHANNEL_FUNCS.contains(&name) {
-            return Err(self.err(
-                sp,
-                format!("{name}: not supported yet: multi-channel operation"),
-            ));
-        }
         let Some(b) = Builtin::by_name(name) else {
             return Err(self.err(sp, format!("undefined function `{name}`")));
         };
@@ -1078,6 +1062,11 @@ impl<'a> Cx<'a> {
             Atan2 | Pow => (&[Ty::Double, Ty::Double], Ty::Double),
             // `len` is checked above, before its argument could be read as a value.
             Len => return Err(self.err(sp, "`len` takes an array's name")),
+            ChannelLoad | ChannelRun | ChannelStart => (&[Ty::Int, Ty::Str], Ty::Bool),
+            ChannelWait | ChannelReset => (&[Ty::Int], Ty::Bool),
+            // The mask is optional (0, every channel).
+            WaitMark if args.len() == 2 => (&[Ty::Int, Ty::Int], Ty::Void),
+            WaitMark => (&[Ty::Int], Ty::Void),
             Min | Max => {
                 let r = if ts.iter().all(|t| *t == Ty::Int) {
                     Ty::Int

@@ -2,18 +2,20 @@
 //! blocks, messages and dwells to the interpreter through a channel; a motion-dependent
 //! system variable is a request answered only after every earlier segment was handed out.
 
-use std::collections::{BTreeMap, HashMap};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
-use std::sync::{Arc, Mutex};
 
 use cnc402_config::MachineConfig;
 use cnc402_lang::NcError;
 use cnc402_lang::ast::{AssignOp, BinaryOp, Block, LineKind, Number, Span, Value, Word};
 
 use super::compile::{axis_of, op_text};
+use super::globals::{Global, Globals, from_shared, lock, to_shared};
 use super::ir::*;
-use super::req::{Read, Req};
+use super::req::{ChannelCall, Read, Req};
+use crate::host::channels::{Seat, check_mask, no_such_channel};
+use cnc402_motion::segment::{SegmentKind, StopKind};
 
 /// Deepest chain of user-function calls before the program is stopped.
 pub const MAX_CALL_DEPTH: u32 = 200;
@@ -30,16 +32,6 @@ pub const MAX_ARRAY_LEN: i64 = 1_000_000;
 pub const MAX_LIVE_ELEMENTS: usize = 4_000_000;
 /// Longest string a `+` may make (a doubling loop would otherwise exhaust the memory).
 pub const MAX_STRING_LEN: usize = 1 << 20;
-
-/// A `$` global: a scalar or a sparse array (`$dPerm[1]`).
-#[derive(Clone, Debug)]
-pub(crate) enum Global {
-    Scalar(Val),
-    Array(BTreeMap<i64, Val>),
-}
-
-/// The `$` globals of a run, shared by every program the interpreter runs.
-pub(crate) type Globals = Arc<Mutex<HashMap<String, Global>>>;
 
 /// Why execution stopped early.
 pub(crate) enum Stop {
@@ -67,6 +59,7 @@ pub(crate) struct Executor {
     pub prog: Arc<Prog>,
     pub cfg: MachineConfig,
     pub globals: Globals,
+    pub seat: Seat,
     pub tx: SyncSender<Req>,
     pub rx: Receiver<Result<f64, String>>,
     /// Set by the interpreter while it waits for requests: send what is pending now.
@@ -92,9 +85,8 @@ impl Executor {
     pub(crate) fn new(
         prog: Arc<Prog>,
         cfg: MachineConfig,
-        globals: Globals,
-        tx: SyncSender<Req>,
-        rx: Receiver<Result<f64, String>>,
+        (globals, seat): (Globals, Seat),
+        (tx, rx): (SyncSender<Req>, Receiver<Result<f64, String>>),
         waiting: Arc<AtomicBool>,
         halt: Arc<AtomicBool>,
     ) -> Self {
@@ -104,6 +96,7 @@ impl Executor {
             prog,
             cfg,
             globals,
+            seat,
             tx,
             rx,
             waiting,
@@ -178,7 +171,12 @@ impl Executor {
     }
 
     fn read(&mut self, f: &Frame, what: Read, span: Span) -> R<f64> {
-        self.pending.push(Req::Read(what));
+        self.ask(f, Req::Read(what), span)
+    }
+
+    /// Sends `req` with everything before it and waits for the interpreter's answer.
+    fn ask(&mut self, f: &Frame, req: Req, span: Span) -> R<f64> {
+        self.pending.push(req);
         self.flush()?;
         match self.rx.recv() {
             Ok(Ok(v)) => Ok(v),
@@ -462,16 +460,9 @@ impl Executor {
                     let cur = self.global(f, name, None, span)?;
                     combine(self, f, cur, v)?
                 };
-                let mut g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
-                if let Some(Global::Array(_)) = g.get(&**name) {
-                    drop(g);
-                    return Err(self.err(
-                        f,
-                        span,
-                        format!("${name} is an array: assign an element"),
-                    ));
-                }
-                g.insert(name.to_string(), Global::Scalar(nv));
+                let nv = to_shared(nv).map_err(|m| self.err(f, span, m))?;
+                let set = lock(&self.globals).set_scalar(name, nv);
+                set.map_err(|m| self.err(f, span, m))?;
             }
             Target::GlobalElem(name, ix) => {
                 let i = self.ev(f, ix)?;
@@ -493,23 +484,9 @@ impl Executor {
 
     /// `$name[i] = v` (creating the array at its first element).
     fn set_global_elem(&self, f: &Frame, name: &str, i: i64, v: Val, span: Span) -> R<()> {
-        if i < 0 {
-            return Err(self.err(f, span, format!("index {i} of ${name} is negative")));
-        }
-        let mut g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
-        let entry = g
-            .entry(name.to_string())
-            .or_insert_with(|| Global::Array(BTreeMap::new()));
-        match entry {
-            Global::Array(a) => {
-                a.insert(i, v);
-                Ok(())
-            }
-            Global::Scalar(_) => {
-                drop(g);
-                Err(self.err(f, span, format!("${name} is not an array")))
-            }
-        }
+        let v = to_shared(v).map_err(|m| self.err(f, span, m))?;
+        let set = lock(&self.globals).set_elem(name, i, v);
+        set.map_err(|m| self.err(f, span, m))
     }
 
     /// Where the array of `slot` is: that slot (a local array) or, for an array parameter,
@@ -532,8 +509,8 @@ impl Executor {
                 .map(Val::ArrRef)
                 .ok_or_else(|| self.err(f, span, "not an array")),
             ArrArg::Global(name) => {
-                let g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
-                if let Some(Global::Scalar(_)) = g.get(&**name) {
+                let g = lock(&self.globals);
+                if let Some(Global::Scalar(_)) = g.get(name) {
                     drop(g);
                     return Err(self.err(f, span, format!("${name} is not an array")));
                 }
@@ -553,8 +530,8 @@ impl Executor {
                 _ => Err(self.err(f, span, "not an array")),
             },
             Val::ArrRef(ArrPlace::Global(name)) => {
-                let g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
-                match g.get(&**name) {
+                let g = lock(&self.globals);
+                match g.get(name) {
                     Some(Global::Array(a)) => {
                         Ok(a.last_key_value().map_or(0, |(k, _)| k.saturating_add(1)))
                     }
@@ -603,10 +580,10 @@ impl Executor {
     }
 
     fn global(&self, f: &Frame, name: &str, i: Option<i64>, span: Span) -> R<Val> {
-        let g = self.globals.lock().unwrap_or_else(|p| p.into_inner());
+        let g = lock(&self.globals);
         let v = match (g.get(name), i) {
-            (Some(Global::Scalar(v)), None) => Some(v.clone()),
-            (Some(Global::Array(a)), Some(i)) => a.get(&i).cloned(),
+            (Some(Global::Scalar(v)), None) => Some(from_shared(v)),
+            (Some(Global::Array(a)), Some(i)) => a.get(&i).map(from_shared),
             (Some(Global::Array(_)), None) => {
                 drop(g);
                 return Err(self.err(f, span, format!("${name} is an array: use an element")));
@@ -824,21 +801,100 @@ impl Executor {
             }
             Sys::ChMode(n) | Sys::ChState(n) => {
                 let v = self.ev(f, n)?;
-                let ch = self.int(f, &v, span, "a channel number")?;
-                if ch != 0 {
-                    return Err(self.err(
-                        f,
-                        span,
-                        format!(
-                            "@CH[{ch}]: not supported yet: multi-channel operation (channel 0 is \
-                             the one running this program)"
-                        ),
-                    ));
-                }
-                // The running channel: in Auto (1) and ready (2), the source's values.
-                Val::Int(if matches!(s, Sys::ChMode(_)) { 1 } else { 2 })
+                let ch = self.channel_no(f, &v, span, "@CH")?;
+                let call = match s {
+                    Sys::ChMode(_) => ChannelCall::Mode(ch),
+                    _ => ChannelCall::State(ch),
+                };
+                Val::Int(self.ask(f, Req::Channel(call), span)? as i64)
             }
         })
+    }
+
+    /// A channel number `v` of this machine (0-based).
+    fn channel_no(&self, f: &Frame, v: &Val, span: Span, what: &str) -> R<usize> {
+        let ch = self.int(f, v, span, "a channel number")?;
+        let head = |ch: i64| match what {
+            "@CH" => format!("@CH[{ch}]"),
+            call => format!("{call}({ch})"),
+        };
+        match usize::try_from(ch) {
+            Ok(c) if c < self.seat.count => Ok(c),
+            Ok(c) => {
+                let why = no_such_channel(c, self.seat.count);
+                let why = why.split_once(": ").map_or("", |(_, w)| w);
+                Err(self.err(f, span, format!("{}: {why}", head(ch))))
+            }
+            Err(_) => Err(self.err(
+                f,
+                span,
+                format!("{}: channels are numbered from 0", head(ch)),
+            )),
+        }
+    }
+
+    /// `channel_load/run/start/wait/reset(ch, …)`: the call made when the interpreter
+    /// reaches it (after the motion before it), true or false.
+    fn channel_builtin(&mut self, f: &Frame, b: Builtin, vs: &[Val], span: Span) -> R<Val> {
+        let name = match b {
+            Builtin::ChannelLoad => "channel_load",
+            Builtin::ChannelRun => "channel_run",
+            Builtin::ChannelStart => "channel_start",
+            Builtin::ChannelWait => "channel_wait",
+            _ => "channel_reset",
+        };
+        let ch = self.channel_no(f, &vs[0], span, name)?;
+        // A `$` global passes the checker as any type: its value is checked here.
+        let prog = match vs.get(1) {
+            None => String::new(),
+            Some(Val::Str(p)) if !p.trim().is_empty() => p.to_string(),
+            Some(v) => {
+                let got = match v {
+                    Val::Str(_) => "an empty string".to_string(),
+                    v => format!("a {}", v.ty().name()),
+                };
+                let what = format!("{name}: the program must be a file name, not {got}");
+                return Err(self.err(f, span, what));
+            }
+        };
+        let call = match b {
+            Builtin::ChannelLoad => ChannelCall::Load(ch, prog),
+            Builtin::ChannelRun => ChannelCall::Run(ch, prog),
+            Builtin::ChannelStart => ChannelCall::Start(ch, prog),
+            Builtin::ChannelWait => ChannelCall::Wait(ch),
+            _ => ChannelCall::Reset(ch),
+        };
+        // Not motion: a loop of channel calls alone still ends as runaway (`tick`).
+        let v = self.ask(f, Req::Channel(call), span)?;
+        Ok(Val::Bool(v != 0.0))
+    }
+
+    /// `wait_mark(m)`, `wait_mark(m, mask)`: a `WaitMark` stop of this channel until the
+    /// channels of `mask` (a bit per channel, 0 = all) reach mark `m`.
+    fn wait_mark(&mut self, f: &Frame, vs: &[Val], span: Span) -> R<Val> {
+        let m = self.int(f, &vs[0], span, "a wait mark")?;
+        let mark = u16::try_from(m).map_err(|_| {
+            self.err(
+                f,
+                span,
+                format!("wait_mark({m}): a mark is 0..{}", u16::MAX),
+            )
+        })?;
+        let mask = match vs.get(1) {
+            Some(v) => self.int(f, v, span, "a channel mask")?,
+            None => 0,
+        };
+        let channels = check_mask(mask, self.seat)
+            .map_err(|m| self.err(f, span, format!("wait_mark: {m}")))?;
+        self.steps = 0;
+        self.send(Req::Seg {
+            file: f.file,
+            span,
+            kind: SegmentKind::Stop {
+                kind: StopKind::WaitMark { mark, channels },
+            },
+        })?;
+        Ok(Val::Int(0))
     }
 
     fn builtin(&mut self, f: &mut Frame, b: Builtin, args: &[Ex], span: Span) -> R<Val> {
@@ -906,6 +962,10 @@ impl Executor {
             Round => real(self, n(self, 0)?.round()),
             Pow => real(self, n(self, 0)?.powf(n(self, 1)?)),
             Len => Ok(Val::Int(self.len_of(f, &vs[0], span_of(&args[0]))?)),
+            ChannelLoad | ChannelRun | ChannelStart | ChannelWait | ChannelReset => {
+                self.channel_builtin(f, b, &vs, span)
+            }
+            WaitMark => self.wait_mark(f, &vs, span),
             Min | Max => {
                 let is_min = b == Min;
                 match (&vs[0], &vs[1]) {
@@ -1071,9 +1131,8 @@ mod tests {
         let mut ex = Executor::new(
             Arc::new(prog),
             cfg,
-            Globals::default(),
-            tx,
-            rrx,
+            (Globals::default(), Seat { count: 1, this: 0 }),
+            (tx, rrx),
             Arc::new(AtomicBool::new(false)),
             Arc::new(AtomicBool::new(false)),
         );
@@ -1119,7 +1178,7 @@ mod tests {
         );
         assert!(r.is_ok());
         assert_eq!(messages(&ex), vec!["4 3 7 6"]);
-        let g = ex.globals.lock().unwrap();
+        let g = lock(&ex.globals);
         assert!(matches!(g.get("gB"), Some(Global::Array(a)) if a.len() == 1));
     }
 }

@@ -121,6 +121,14 @@ pub(crate) enum Builtin {
     Max,
     /// `len(a)`: the number of elements of an array.
     Len,
+    /// `channel_load(ch, prog)` … `channel_reset(ch)`: see [`crate::host::channels`].
+    ChannelLoad,
+    ChannelRun,
+    ChannelStart,
+    ChannelWait,
+    ChannelReset,
+    /// `wait_mark(m)`, `wait_mark(m, mask)`: a wait for other channels.
+    WaitMark,
 }
 
 impl Builtin {
@@ -143,6 +151,12 @@ impl Builtin {
             "min" => Min,
             "max" => Max,
             "len" => Len,
+            "channel_load" => ChannelLoad,
+            "channel_run" => ChannelRun,
+            "channel_start" => ChannelStart,
+            "channel_wait" => ChannelWait,
+            "channel_reset" => ChannelReset,
+            "wait_mark" => WaitMark,
             _ => return None,
         })
     }

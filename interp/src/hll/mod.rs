@@ -6,6 +6,7 @@
 
 mod compile;
 mod exec;
+pub(crate) mod globals;
 mod ir;
 mod req;
 
@@ -23,8 +24,9 @@ use crate::block::Machine;
 use crate::block::words::{GGroup, Words};
 use crate::canon::{self, CanonOp};
 
+use crate::host::channels::{Channels, Seat, SharedGlobals, SharedValue, SingleChannel};
 pub use exec::{MAX_ARRAY_LEN, MAX_CALL_DEPTH};
-use req::{Read, Req};
+use req::{ChannelCall, Read, Req};
 
 /// The executor thread's stack. The deepest program the parser and the checker allow
 /// (`MAX_CALL_DEPTH` nested calls, each from 15 nested blocks and 31 nested parentheses, see
@@ -75,10 +77,21 @@ impl Drop for Running {
 /// The C-like language's part of an interpreter: the `$` globals (kept across the programs
 /// of one interpreter) and the program running now, if it is C-like. It runs its G-code blocks
 /// on the interpreter's `Machine` (the block layer); program flow holds it.
-#[derive(Default)]
 pub struct Hll {
-    globals: exec::Globals,
+    globals: globals::Globals,
     run: Option<Running>,
+    /// The machine's channels as this channel's programs see them.
+    channels: Box<dyn Channels>,
+}
+
+impl Default for Hll {
+    fn default() -> Self {
+        Hll {
+            globals: Default::default(),
+            run: None,
+            channels: Box::new(SingleChannel),
+        }
+    }
 }
 
 impl std::fmt::Debug for Hll {
@@ -90,6 +103,21 @@ impl std::fmt::Debug for Hll {
 }
 
 impl Hll {
+    /// The channels the built-ins and `@CH` act on (from the next `load` on).
+    pub(crate) fn set_channels(&mut self, channels: Box<dyn Channels>) {
+        self.channels = channels;
+    }
+
+    /// The `$` globals from the next `load` on: the table all channels of a run share.
+    pub(crate) fn set_shared_globals(&mut self, shared: SharedGlobals) {
+        self.globals = shared.table;
+    }
+
+    /// The number of channels and the channel running this interpreter's programs.
+    pub(crate) fn seat(&self) -> Seat {
+        Seat::of(self.channels.as_ref())
+    }
+
     /// Statements of the C-like program that acted on the machine (a segment or a G-code
     /// line) so far; 0 when no C-like program runs.
     pub fn requests(&self) -> u64 {
@@ -149,9 +177,8 @@ impl Hll {
                 let ex = exec::Executor::new(
                     prog.clone(),
                     cfg.clone(),
-                    self.globals.clone(),
-                    tx,
-                    rrx,
+                    (self.globals.clone(), self.seat()),
+                    (tx, rrx),
                     r.waiting.clone(),
                     r.halt.clone(),
                 );
@@ -183,19 +210,15 @@ impl Hll {
 /// The `$` global `name` (scalar, or element `index` of an array) as a number, for tests and
 /// tools: `None` if it has no value or is not a number. `it` is the `Interpreter`.
 pub fn global_number(it: &impl AsRef<Hll>, name: &str, index: Option<i64>) -> Option<f64> {
-    let g = it
-        .as_ref()
-        .globals
-        .lock()
-        .unwrap_or_else(|p| p.into_inner());
+    let g = globals::lock(&it.as_ref().globals);
     let v = match (g.get(name)?, index) {
-        (exec::Global::Scalar(v), None) => v,
-        (exec::Global::Array(a), Some(i)) => a.get(&i)?,
+        (globals::Global::Scalar(v), None) => v,
+        (globals::Global::Array(a), Some(i)) => a.get(&i)?,
         _ => return None,
     };
     match v {
-        ir::Val::Int(i) => Some(*i as f64),
-        ir::Val::Dbl(d) => Some(*d),
+        SharedValue::Int(i) => Some(*i as f64),
+        SharedValue::Double(d) => Some(*d),
         _ => None,
     }
 }
@@ -207,7 +230,7 @@ impl Hll {
         let Some(mut r) = self.run.take() else {
             return Ok(None);
         };
-        let out = r.next(it);
+        let out = r.next(it, self.channels.as_mut());
         self.run = Some(r);
         out
     }
@@ -255,7 +278,11 @@ impl Running {
         self.chan = None;
     }
 
-    fn next(&mut self, it: &mut Machine) -> Result<Option<CanonOp>, NcError> {
+    fn next(
+        &mut self,
+        it: &mut Machine,
+        channels: &mut dyn Channels,
+    ) -> Result<Option<CanonOp>, NcError> {
         loop {
             if let Some(op) = self.queue.pop_front() {
                 return Ok(Some(op));
@@ -326,8 +353,14 @@ impl Running {
                         let _ = reply.send(v);
                     }
                 }
+                Req::Channel(call) => {
+                    let v = channel_call(it, channels, call, &self.prog.files[0].name);
+                    if let Some((_, reply)) = &self.chan {
+                        let _ = reply.send(v);
+                    }
+                }
                 Req::Block { file, line } => {
-                    if let Err(e) = self.block(it, file, &line) {
+                    if let Err(e) = self.block(it, file, &line, Seat::of(channels)) {
                         self.stop();
                         return Err(e);
                     }
@@ -337,7 +370,13 @@ impl Running {
     }
 
     /// Runs one computed G-code block through the G-code core.
-    fn block(&mut self, it: &mut Machine, file: ir::FileId, line: &Line) -> Result<(), NcError> {
+    fn block(
+        &mut self,
+        it: &mut Machine,
+        file: ir::FileId,
+        line: &Line,
+        seat: Seat,
+    ) -> Result<(), NcError> {
         if line.block_delete && it.opts.block_delete {
             return Ok(());
         }
@@ -366,8 +405,12 @@ impl Running {
                 ),
             ));
         }
+        let wait = crate::block::mcodes::wait_mcode(&it.cfg, (&src, it.dialect), &mut w, seat)?;
         let from = it.state.pos;
-        let (out, end) = it.execute(&src, &mut w, line, Vec::new())?;
+        let (mut out, end) = it.execute(&src, &mut w, line, Vec::new())?;
+        if let Some(kind) = wait {
+            out.push(crate::block::mcodes::wait_op(it, kind, &src, line));
+        }
         self.count_idle(it, &out, &from, file, line.span)?;
         self.queue.extend(out);
         if end {
@@ -398,4 +441,28 @@ fn read(it: &mut Machine, what: Read) -> Result<f64, String> {
                 .ok_or_else(|| "the axis position is vacant".to_string())
         }
     }
+}
+
+/// Makes a channel call once the motion before it has been executed: another channel starts
+/// (or is reset, or is asked for its state) in program order with this channel's motion, as
+/// a control that starts channels at block execution does, not when the interpreter, running
+/// ahead, reads the call. `main` is the calling program's file (programs are found from it).
+fn channel_call(
+    it: &mut Machine,
+    channels: &mut dyn Channels,
+    call: ChannelCall,
+    main: &str,
+) -> Result<f64, String> {
+    let programmed = it.state.pos;
+    it.sync.wait_motion_done(&programmed)?;
+    let yes = |b: bool| if b { 1.0 } else { 0.0 };
+    Ok(match call {
+        ChannelCall::Mode(ch) => f64::from(channels.mode(ch)? as u8),
+        ChannelCall::State(ch) => f64::from(channels.state(ch)? as u8),
+        ChannelCall::Load(ch, p) => yes(channels.load(ch, &p, main)?),
+        ChannelCall::Start(ch, p) => yes(channels.start(ch, &p, main)?),
+        ChannelCall::Run(ch, p) => yes(channels.run(ch, &p, main)?),
+        ChannelCall::Wait(ch) => yes(channels.wait(ch)?),
+        ChannelCall::Reset(ch) => yes(channels.reset(ch)?),
+    })
 }

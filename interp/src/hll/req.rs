@@ -14,6 +14,20 @@ pub(crate) enum Read {
     Axis(usize),
 }
 
+/// A call on the machine's channels ([`crate::host::channels::Channels`]): made by the
+/// interpreter when it reaches the call, after the motion before it (answered 1/0 for
+/// true/false, or the mode or state number).
+#[derive(Clone, Debug)]
+pub(crate) enum ChannelCall {
+    Mode(usize),
+    State(usize),
+    Load(usize, String),
+    Start(usize, String),
+    Run(usize, String),
+    Wait(usize),
+    Reset(usize),
+}
+
 /// What the executor thread asks of the interpreter.
 pub(crate) enum Req {
     /// A G-code block with every value computed, for the G-code core.
@@ -28,6 +42,7 @@ pub(crate) enum Req {
         kind: SegmentKind,
     },
     Read(Read),
+    Channel(ChannelCall),
     Error(Box<NcError>),
     End,
     /// Several of the above, in order.

@@ -1,10 +1,10 @@
 //! The channels of a multi-channel machine as one channel's program sees them: the C-like
 //! built-ins `channel_load/run/start/wait/reset`, `@CH[n].MODE/.STATE`, and the `$` globals
 //! all channels of one run share. The runtime implements [`Channels`]; a one-channel machine
-//! (and every pure use of the interpreter) gets [`SingleChannel`].
+//! (and every pure use of the interpreter) gets [`SingleChannel`], a dry run [`DryChannels`].
 
-use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::collections::{BTreeMap, HashMap};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 /// `@CH[n].MODE`: the seed's 1 = Auto. A channel in manual mode refuses programs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -123,41 +123,275 @@ impl Channels for SingleChannel {
     }
 }
 
+/// The channels as a dry run (a check of a program without motion) sees them: `count`
+/// channels, every other one in Auto and ready, every load, run, wait and reset succeeding
+/// at once without doing anything; the caller's own channel is running. The calls are
+/// checked as the real ones are (a channel the machine lacks, a program driving its own
+/// channel), so a dry run finds those errors and follows the program's success path.
+#[derive(Clone, Copy, Debug)]
+pub struct DryChannels {
+    pub count: usize,
+    pub this: usize,
+}
+
+impl DryChannels {
+    fn check(&self, ch: usize) -> Result<(), String> {
+        if ch >= self.count {
+            Err(no_such_channel(ch, self.count))
+        } else if ch == self.this {
+            Err(format!(
+                "channel {ch} is the channel running this program: a program cannot load, \
+                 run, wait for or reset its own channel"
+            ))
+        } else {
+            Ok(())
+        }
+    }
+}
+
+impl Channels for DryChannels {
+    fn count(&self) -> usize {
+        self.count.max(1)
+    }
+    fn this(&self) -> usize {
+        self.this
+    }
+    fn mode(&mut self, ch: usize) -> Result<ChannelMode, String> {
+        if ch >= self.count {
+            return Err(no_such_channel(ch, self.count));
+        }
+        Ok(ChannelMode::Auto)
+    }
+    fn state(&mut self, ch: usize) -> Result<ChannelState, String> {
+        if ch >= self.count {
+            return Err(no_such_channel(ch, self.count));
+        }
+        Ok(if ch == self.this {
+            ChannelState::Running
+        } else {
+            ChannelState::Ready
+        })
+    }
+    fn load(&mut self, ch: usize, _: &str, _: &str) -> Result<bool, String> {
+        self.check(ch).map(|_| true)
+    }
+    fn start(&mut self, ch: usize, _: &str, _: &str) -> Result<bool, String> {
+        self.check(ch).map(|_| true)
+    }
+    fn wait(&mut self, ch: usize) -> Result<bool, String> {
+        self.check(ch).map(|_| true)
+    }
+    fn reset(&mut self, ch: usize) -> Result<bool, String> {
+        self.check(ch).map(|_| true)
+    }
+}
+
+/// Where a program runs: the machine's number of channels and the channel running it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Seat {
+    pub count: usize,
+    pub this: usize,
+}
+
+impl Seat {
+    pub(crate) fn of(channels: &dyn Channels) -> Seat {
+        Seat {
+            count: channels.count(),
+            this: channels.this(),
+        }
+    }
+}
+
+/// A wait's channel mask (a bit per channel, 0 = all) checked against the machine: the
+/// bits name channels it has, the calling channel among them. The message on an error.
+pub(crate) fn check_mask(mask: i64, seat: Seat) -> Result<u16, String> {
+    if mask == 0 {
+        return Ok(0);
+    }
+    let bits = u16::try_from(mask).map_err(|_| format!("channel mask {mask} is not 0..65535"))?;
+    if let Some(c) = (seat.count..16).find(|c| bits & (1 << c) != 0) {
+        let why = no_such_channel(c, seat.count);
+        let why = why.split_once(": ").map_or("", |(_, w)| w);
+        return Err(format!("channel mask {mask} names channel {c}; {why}"));
+    }
+    if !mask_has(bits, seat.this) {
+        return Err(format!(
+            "channel mask {mask} leaves out channel {}, the one waiting",
+            seat.this
+        ));
+    }
+    Ok(bits)
+}
+
+/// Whether the mask `bits` holds channel `ch`.
+pub(crate) fn mask_has(bits: u16, ch: usize) -> bool {
+    ch < 16 && bits & (1 << ch) != 0
+}
+
 /// A value of a shared `$` global.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SharedValue {
     Int(i64),
     Double(f64),
     Str(String),
+    /// A comparison's result stored in a global (`$bDone = nA > 2;`).
+    Bool(bool),
 }
 
 /// The `$` globals every channel of one run reads and writes (a flag set by one channel is
 /// seen by the others). Cloning shares the table. Keyed by name and element index (0 for a
 /// scalar). The interpreter threads of the channels use it; the 1 ms loop never does.
+/// [`Interpreter::set_shared_globals`](crate::Interpreter::set_shared_globals) makes an
+/// interpreter's C-like programs use it for every `$name` and `$name[i]`.
 #[derive(Clone, Debug, Default)]
 pub struct SharedGlobals {
-    table: Arc<Mutex<HashMap<(String, usize), SharedValue>>>,
+    pub(crate) table: Globals,
 }
 
-/// The most elements all shared globals may hold together (a runaway writer ends in an
-/// error, not in memory exhaustion).
+/// The most values (scalars and array elements) all `$` globals may hold together (a
+/// runaway writer ends in an error, not in memory exhaustion).
 pub const SHARED_GLOBALS_LIMIT: usize = 1 << 20;
 
 impl SharedGlobals {
+    /// `$name` (`index` 0, when `$name` is a scalar) or `$name[index]`.
     pub fn get(&self, name: &str, index: usize) -> Option<SharedValue> {
-        let t = self.table.lock().unwrap_or_else(|p| p.into_inner());
-        t.get(&(name.to_string(), index)).cloned()
+        let t = lock(&self.table);
+        match t.get(name)? {
+            Global::Scalar(v) if index == 0 => Some(v.clone()),
+            Global::Scalar(_) => None,
+            Global::Array(a) => a.get(&i64::try_from(index).ok()?).cloned(),
+        }
     }
 
+    /// Sets `$name[index]`, or the scalar `$name` when `index` is 0 and `$name` is not an
+    /// array.
     pub fn set(&self, name: &str, index: usize, value: SharedValue) -> Result<(), String> {
-        let mut t = self.table.lock().unwrap_or_else(|p| p.into_inner());
-        let key = (name.to_string(), index);
-        if t.len() >= SHARED_GLOBALS_LIMIT && !t.contains_key(&key) {
-            return Err(format!(
-                "${name}[{index}]: the shared globals hold {SHARED_GLOBALS_LIMIT} elements already"
-            ));
+        let mut t = lock(&self.table);
+        let i = i64::try_from(index).map_err(|_| format!("${name}[{index}]: index too large"))?;
+        match t.get(name) {
+            Some(Global::Array(_)) => t.set_elem(name, i, value),
+            _ if index == 0 => t.set_scalar(name, value),
+            _ => t.set_elem(name, i, value),
         }
-        t.insert(key, value);
+    }
+}
+
+/// A `$` global: a scalar or a sparse array (`$dPerm[1]`).
+#[derive(Clone, Debug)]
+pub(crate) enum Global {
+    Scalar(SharedValue),
+    Array(BTreeMap<i64, SharedValue>),
+}
+
+/// Every `$` global by name, and how many values (scalars and array elements) they hold.
+#[derive(Debug, Default)]
+pub(crate) struct GlobalTable {
+    vars: HashMap<String, Global>,
+    values: usize,
+}
+
+/// The `$` globals as the executors (of one interpreter, or of every channel) share them.
+pub(crate) type Globals = Arc<Mutex<GlobalTable>>;
+
+/// The table, even if a thread panicked while holding it (its values are still whole).
+pub(crate) fn lock(g: &Globals) -> MutexGuard<'_, GlobalTable> {
+    g.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn full(what: String) -> String {
+    format!("{what}: the $ globals hold {SHARED_GLOBALS_LIMIT} values already")
+}
+
+impl GlobalTable {
+    pub(crate) fn get(&self, name: &str) -> Option<&Global> {
+        self.vars.get(name)
+    }
+
+    /// `$name = v`; an error (the message) if `$name` is an array or the table is full.
+    pub(crate) fn set_scalar(&mut self, name: &str, v: SharedValue) -> Result<(), String> {
+        match self.vars.get_mut(name) {
+            Some(Global::Array(_)) => Err(format!("${name} is an array: assign an element")),
+            Some(Global::Scalar(s)) => {
+                *s = v;
+                Ok(())
+            }
+            None if self.values >= SHARED_GLOBALS_LIMIT => Err(full(format!("${name}"))),
+            None => {
+                self.values += 1;
+                self.vars.insert(name.to_string(), Global::Scalar(v));
+                Ok(())
+            }
+        }
+    }
+
+    /// `$name[i] = v` (creating the array at its first element); `i` ≥ 0.
+    pub(crate) fn set_elem(&mut self, name: &str, i: i64, v: SharedValue) -> Result<(), String> {
+        if i < 0 {
+            return Err(format!("index {i} of ${name} is negative"));
+        }
+        let at_limit = self.values >= SHARED_GLOBALS_LIMIT;
+        let entry = self
+            .vars
+            .entry(name.to_string())
+            .or_insert_with(|| Global::Array(BTreeMap::new()));
+        let Global::Array(a) = entry else {
+            return Err(format!("${name} is not an array"));
+        };
+        match a.get_mut(&i) {
+            Some(e) => *e = v,
+            None if at_limit => return Err(full(format!("${name}[{i}]"))),
+            None => {
+                a.insert(i, v);
+                self.values += 1;
+            }
+        }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mask_names_channels_the_machine_has_and_the_waiting_one() {
+        let seat = Seat { count: 3, this: 1 };
+        assert_eq!(check_mask(0, seat), Ok(0));
+        assert_eq!(check_mask(0b110, seat), Ok(0b110));
+        let past = check_mask(0b1010, seat).unwrap_err();
+        assert_eq!(
+            past,
+            "channel mask 10 names channel 3; this machine has 3 channels (0..=2)"
+        );
+        let without = check_mask(0b101, seat).unwrap_err();
+        assert_eq!(
+            without,
+            "channel mask 5 leaves out channel 1, the one waiting"
+        );
+        assert!(check_mask(-1, seat).unwrap_err().contains("not 0..65535"));
+        assert!(
+            check_mask(1 << 16, seat)
+                .unwrap_err()
+                .contains("not 0..65535")
+        );
+        assert!(!mask_has(u16::MAX, 16));
+    }
+
+    #[test]
+    fn shared_globals_index_0_is_the_scalar_unless_the_name_is_an_array() {
+        let g = SharedGlobals::default();
+        g.set("nFlag", 0, SharedValue::Int(1)).unwrap();
+        assert_eq!(g.get("nFlag", 0), Some(SharedValue::Int(1)));
+        assert_eq!(g.get("nFlag", 1), None);
+        assert!(g.set("nFlag", 2, SharedValue::Int(1)).is_err());
+        g.set("dPerm", 1, SharedValue::Double(2.5)).unwrap();
+        g.set("dPerm", 0, SharedValue::Double(0.5)).unwrap();
+        assert_eq!(g.get("dPerm", 0), Some(SharedValue::Double(0.5)));
+        assert_eq!(g.get("dPerm", 1), Some(SharedValue::Double(2.5)));
+        assert_eq!(g.get("nNever", 0), None);
+        // Clones share the table.
+        let h = g.clone();
+        h.set("sName", 0, SharedValue::Str("01.nc".into())).unwrap();
+        assert_eq!(g.get("sName", 0), Some(SharedValue::Str("01.nc".into())));
     }
 }
