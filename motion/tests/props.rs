@@ -201,7 +201,7 @@ fn build(specs: &[Spec], start: AxisPos) -> (Vec<Segment>, Vec<TapCheck>) {
                 if let Some(c) = program {
                     pos.0[3] = c;
                 }
-                segs.push(seg(SegmentKind::SpindleOrient { angle, program }, line));
+                segs.push(seg(SegmentKind::SpindleOrient { angle, program, spindle: 1 }, line));
             }
         }
     }
@@ -420,9 +420,10 @@ fn wild_segment() -> impl Strategy<Value = SegmentKind> {
         (wild(), 0u8..3).prop_map(|(rpm, d)| SegmentKind::Spindle {
             rpm,
             dir: [SpindleDir::Cw, SpindleDir::Ccw, SpindleDir::Stop][d as usize],
+            spindle: 1,
         }),
         (wild(), proptest::option::of(wild()))
-            .prop_map(|(angle, program)| SegmentKind::SpindleOrient { angle, program }),
+            .prop_map(|(angle, program)| SegmentKind::SpindleOrient { angle, program, spindle: 1 }),
     ]
 }
 

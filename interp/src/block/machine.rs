@@ -117,9 +117,11 @@ impl Machine {
             }
             // G28/G30 C: program C reads the reference from here (the turn is no path).
             SegmentKind::SpindleOrient {
-                program: Some(c), ..
+                program: Some(c),
+                spindle,
+                ..
             } => {
-                if let Some(i) = self.cfg.spindle_index() {
+                if let Some(i) = self.cfg.spindle_axis(*spindle) {
                     self.path_end[i] = *c;
                 }
             }

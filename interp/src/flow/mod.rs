@@ -706,7 +706,8 @@ mod tests {
             kinds[1],
             SegmentKind::Spindle {
                 rpm: 200.0,
-                dir: SpindleDir::Cw
+                dir: SpindleDir::Cw,
+                spindle: 1,
             }
         );
         assert!(matches!(kinds[2], SegmentKind::Linear { feed, .. } if feed == 100.0));
