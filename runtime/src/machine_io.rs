@@ -36,6 +36,9 @@ pub(crate) struct LoopOutputs {
     clamp_after_hold: bool,
     /// An M5 spindle move is running: the enable goes off when it has ended.
     spindle_off_after_move: bool,
+    /// The spindles commanded to turn (bit number − 1): the one enable stays on while any
+    /// does (an M5 of spindle 2 left spindle 1 turning without its enable).
+    spindles_on: u8,
 }
 
 impl LoopOutputs {
@@ -58,6 +61,7 @@ impl LoopOutputs {
             state: CLAMP & configured,
             clamp_after_hold: false,
             spindle_off_after_move: false,
+            spindles_on: 0,
         }
     }
 
@@ -100,11 +104,19 @@ impl LoopOutputs {
         if std::mem::take(&mut self.spindle_off_after_move) {
             self.set(link, SPINDLE, false);
         }
-        if let MoveKind::Spindle { velocity, .. } = kind {
+        if let MoveKind::Spindle {
+            velocity, spindle, ..
+        } = kind
+        {
+            let bit = 1u8 << (spindle.wrapping_sub(1) & 7);
             if *velocity != 0.0 {
+                self.spindles_on |= bit;
                 self.set(link, SPINDLE, true);
-            } else if self.state & SPINDLE != 0 {
-                self.spindle_off_after_move = true;
+            } else {
+                self.spindles_on &= !bit;
+                if self.spindles_on == 0 && self.state & SPINDLE != 0 {
+                    self.spindle_off_after_move = true;
+                }
             }
         }
     }
