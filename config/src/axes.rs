@@ -325,7 +325,11 @@ fn spindle_numbers_dense(raw: &[Table<RawAxis>], axes: &[AxisConfig]) -> Result<
         if let Some(n) = a.spindle
             && usize::from(n) > count
         {
-            let span = raw[k].0.spindle.as_ref().map_or(raw[k].0.kind.span(), |s| s.span());
+            let span = raw[k]
+                .0
+                .spindle
+                .as_ref()
+                .map_or(raw[k].0.kind.span(), |s| s.span());
             return Err((
                 span,
                 format!("axis[{k}].spindle"),
@@ -1031,20 +1035,27 @@ mod tests {
         let c = with(&spindle("A", 5, "")).unwrap();
         assert_eq!(c.spindle_axes(), [Some(3), Some(4)]);
         assert_eq!(c.spindle_index(), Some(3));
-        assert_eq!((c.spindle_number(3), c.spindle_number(4)), (Some(1), Some(2)));
+        assert_eq!(
+            (c.spindle_number(3), c.spindle_number(4)),
+            (Some(1), Some(2))
+        );
         assert_eq!(c.spindle_number(0), None);
     }
 
     #[test]
     fn spindle_numbers_may_swap_the_order() {
         let more = spindle("A", 5, "spindle = 1");
-        let text = SHIPPED.replace("period_us = 1000", "period_us = 2000").replace(
-            "max_rpm = 6000.0\n",
-            "max_rpm = 6000.0\nspindle = 2\n",
-        ) + &more;
+        let text = SHIPPED
+            .replace("period_us = 1000", "period_us = 2000")
+            .replace("max_rpm = 6000.0\n", "max_rpm = 6000.0\nspindle = 2\n")
+            + &more;
         let c = MachineConfig::parse(&text, Path::new("m.toml")).unwrap();
         assert_eq!(c.spindle_axes(), [Some(4), Some(3)]);
-        assert_eq!(c.spindle_index(), Some(4), "spindle 1 is the program's default");
+        assert_eq!(
+            c.spindle_index(),
+            Some(4),
+            "spindle 1 is the program's default"
+        );
     }
 
     #[test]

@@ -432,10 +432,18 @@ mod tests {
         let path = std::path::Path::new("m.toml");
         let e = crate::MachineConfig::parse(&at_1ms, path).unwrap_err();
         assert_eq!(e.key, "bus.period_us", "{e}");
-        let line = at_1ms.lines().position(|l| l.starts_with("period_us")).unwrap() + 1;
+        let line = at_1ms
+            .lines()
+            .position(|l| l.starts_with("period_us"))
+            .unwrap()
+            + 1;
         assert_eq!(e.line, line, "{e}");
         assert!(e.message.contains("7 drives"), "{e}");
-        assert!(e.message.contains("the smallest period that fits is 1750 µs"), "{e}");
+        assert!(
+            e.message
+                .contains("the smallest period that fits is 1750 µs"),
+            "{e}"
+        );
         let c = crate::MachineConfig::parse(text, path).unwrap();
         assert_eq!(c.spindle_axes(), [Some(5), Some(6)]);
     }

@@ -15,8 +15,11 @@ const U: usize = 6;
 
 fn machine() -> MachineConfig {
     let text = include_str!("../../examples/two-spindles/machine.toml");
-    MachineConfig::parse(text, std::path::Path::new("examples/two-spindles/machine.toml"))
-        .unwrap()
+    MachineConfig::parse(
+        text,
+        std::path::Path::new("examples/two-spindles/machine.toml"),
+    )
+    .unwrap()
 }
 
 fn run(text: &str) -> Vec<Segment> {
@@ -74,7 +77,11 @@ fn the_dump_names_the_spindle_only_when_it_is_not_the_first() {
         lines[1]
     );
     // M19 of spindle 2: stop, then orient, both on spindle 2.
-    assert!(lines[2].contains("\"dir\":\"stop\",\"spindle\":2,"), "{}", lines[2]);
+    assert!(
+        lines[2].contains("\"dir\":\"stop\",\"spindle\":2,"),
+        "{}",
+        lines[2]
+    );
     assert!(
         lines[3].contains("\"kind\":\"spindle_orient\"") && lines[3].contains("\"spindle\":2,"),
         "{}",
@@ -85,7 +92,11 @@ fn the_dump_names_the_spindle_only_when_it_is_not_the_first() {
 #[test]
 fn a_dwell_or_cycle_keeps_its_own_p() {
     let segs = run("M3 S1000 P2\nG4 P500 S800\nM30\n");
-    assert_eq!(spindles(&segs)[1], (800.0, SpindleDir::Cw, 2), "S on spindle 2");
+    assert_eq!(
+        spindles(&segs)[1],
+        (800.0, SpindleDir::Cw, 2),
+        "S on spindle 2"
+    );
     assert!(
         segs.iter()
             .any(|s| s.kind == SegmentKind::Dwell { seconds: 0.5 }),
@@ -146,7 +157,10 @@ fn each_spindle_is_checked_on_its_own_axis() {
     let cfg = machine();
     // Spindle 2's max_rpm is 4000, spindle 1's 6000.
     let e = err(&cfg, "M3 S5000 P2\nM30\n");
-    assert!(e.contains("S5000 is above the spindle's max_rpm 4000"), "{e}");
+    assert!(
+        e.contains("S5000 is above the spindle's max_rpm 4000"),
+        "{e}"
+    );
     run("M3 S5000 P1\nM30\n");
     // U cannot be positioned while spindle 2 turns; C can while only spindle 2 turns.
     let e = err(&cfg, "M3 S1000 P2\nG0 U90\nM30\n");

@@ -91,7 +91,10 @@ impl fmt::Display for MotionError {
                 write!(f, "spindle command but no spindle axis")
             }
             MotionErrorKind::NoSpindle { number } => {
-                write!(f, "command for spindle {number}, which the machine does not have")
+                write!(
+                    f,
+                    "command for spindle {number}, which the machine does not have"
+                )
             }
             MotionErrorKind::BadTap {
                 tool,

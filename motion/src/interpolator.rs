@@ -508,9 +508,8 @@ impl Interpolator {
                 if p.start != expected {
                     return Err(err(MotionErrorKind::NotAtStart));
                 }
-                let turns_running = |sp: &SpindleAxis| {
-                    !sp.at_rest() && p.end.0[sp.index] != p.start.0[sp.index]
-                };
+                let turns_running =
+                    |sp: &SpindleAxis| !sp.at_rest() && p.end.0[sp.index] != p.start.0[sp.index];
                 if self.spindles.iter().flatten().any(turns_running) {
                     return Err(err(MotionErrorKind::SpindleRunning));
                 }

@@ -257,7 +257,16 @@ fn spindle_ramps_to_speed_then_turns_through_moves_and_rebases_c() {
 #[test]
 fn spindle_reverses_under_its_limits_and_m5_completes_at_rest() {
     let c = cfg();
-    let sp = |rpm, dir, line| seg(SegmentKind::Spindle { rpm, dir, spindle: 1 }, line);
+    let sp = |rpm, dir, line| {
+        seg(
+            SegmentKind::Spindle {
+                rpm,
+                dir,
+                spindle: 1,
+            },
+            line,
+        )
+    };
     let ticks = run(
         &c,
         AxisPos::default(),

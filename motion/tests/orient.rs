@@ -32,7 +32,14 @@ fn orient(angle: f64, line: u32) -> Segment {
 }
 
 fn spindle(rpm: f64, dir: SpindleDir, line: u32) -> Segment {
-    seg(SegmentKind::Spindle { rpm, dir, spindle: 1 }, line)
+    seg(
+        SegmentKind::Spindle {
+            rpm,
+            dir,
+            spindle: 1,
+        },
+        line,
+    )
 }
 
 /// The segments an interpreted G76 makes at the bottom of a bore after an M3 run, followed by

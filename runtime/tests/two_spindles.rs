@@ -46,7 +46,11 @@ fn run(text: &str) -> (RunReport, Vec<String>, Vec<Vec<f64>>) {
     let mut lines = csv.lines();
     let head = lines.next().unwrap().split(',').map(String::from).collect();
     let rows = lines
-        .map(|l| l.split(',').map(|f| f.parse().unwrap_or(f64::NAN)).collect())
+        .map(|l| {
+            l.split(',')
+                .map(|f| f.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
         .collect();
     (r, head, rows)
 }
@@ -69,7 +73,13 @@ fn both_spindles_turn_at_once_each_at_its_own_speed_while_the_axes_move() {
          M5\nM5 P1\nM30\n%\n",
     );
     let col = |name: &str| head.iter().position(|h| h == name).unwrap();
-    let (t, line, c, u, x) = (col("t"), col("line"), col("C_cmd"), col("U_cmd"), col("X_cmd"));
+    let (t, line, c, u, x) = (
+        col("t"),
+        col("line"),
+        col("C_cmd"),
+        col("U_cmd"),
+        col("X_cmd"),
+    );
     // On the feed line (5) both spindle axes advance every cycle at their own speed.
     let feed: Vec<&Vec<f64>> = rows.iter().filter(|v| v[line] == 5.0).collect();
     assert!(feed.len() > 100, "{}", feed.len());
@@ -84,10 +94,17 @@ fn both_spindles_turn_at_once_each_at_its_own_speed_while_the_axes_move() {
     // M5 stops spindle 2 (selected by the last P) and leaves spindle 1 turning.
     let stop2: Vec<&Vec<f64>> = rows.iter().filter(|v| v[line] == 6.0).collect();
     let (first, last) = (stop2[0], stop2[stop2.len() - 1]);
-    assert!(last[c] - first[c] > 0.0, "spindle 1 still turns during M5 of spindle 2");
+    assert!(
+        last[c] - first[c] > 0.0,
+        "spindle 1 still turns during M5 of spindle 2"
+    );
     let end = rows.last().unwrap();
     let before = &rows[rows.len() - 2];
-    assert_eq!((end[c], end[u]), (before[c], before[u]), "both at rest at the end");
+    assert_eq!(
+        (end[c], end[u]),
+        (before[c], before[u]),
+        "both at rest at the end"
+    );
     let cax = &r.axes[5];
     assert!(cax.max_following_error < 90.0, "{cax:?}");
 }

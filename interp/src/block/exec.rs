@@ -910,8 +910,7 @@ impl Exec<'_> {
     pub(crate) fn check_spindle_still(&self, end: &AxisPos) -> Result<(), NcError> {
         for (k, axis) in self.cfg.spindle_axes().into_iter().enumerate() {
             let Some(c) = axis else { continue };
-            if (end[c] - self.st.pos[c]).abs() > 1e-9 && self.st.spindle_turning_of(k as u8 + 1)
-            {
+            if (end[c] - self.st.pos[c]).abs() > 1e-9 && self.st.spindle_turning_of(k as u8 + 1) {
                 let name = self.cfg.axes[c].name;
                 return Err(self
                     .err(
