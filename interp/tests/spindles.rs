@@ -137,6 +137,9 @@ fn a_g1_with_the_second_spindles_letter_taps_with_it() {
     assert!((tap.pitch + 1.0).abs() < 1e-12, "{tap:?}");
 }
 
+/// As LinuxCNC's `rs274 -i` with `[TRAJ] SPINDLES = 2` runs this program:
+/// SET_SPINDLE_SPEED(1, 1000) START_SPINDLE_CLOCKWISE(1), SET_SPINDLE_SPEED(0, 1200),
+/// SET_SPINDLE_SPEED(0, 500) START_SPINDLE_COUNTERCLOCKWISE(0), STOP_SPINDLE_TURNING(1).
 #[test]
 fn linuxcnc_dollar_selects_the_spindle_of_its_block_only() {
     use SpindleDir::*;
