@@ -184,3 +184,41 @@ fn each_spindle_is_checked_on_its_own_axis() {
     let e = err(&one, "M3 S1000 P2\nM30\n");
     assert!(e.contains("spindle 2 is not configured"), "{e}");
 }
+
+#[test]
+fn the_canonical_dump_names_a_cycles_second_spindle() {
+    let cfg = machine();
+    let canon = |text: &str| {
+        let src = SourceFile::new("t.nc", text);
+        let p = cnc402_lang::parse(&src).unwrap();
+        let mut it = cnc402_interp::Interpreter::new(&cfg);
+        it.load(src, p);
+        let mut ops = Vec::new();
+        while let Some(op) = it.next_canon().unwrap() {
+            ops.push(op);
+        }
+        cnc402_interp::dump::canon::canon_to_jsonl(&ops, &cfg)
+    };
+    let cycle = |dump: String| {
+        dump.lines()
+            .find(|l| l.contains("\"op\":\"canned_cycle\""))
+            .unwrap()
+            .to_string()
+    };
+    let two = cycle(canon("G0 Z10\nM29 S600 P2\nG84 X0 Y0 Z-5 R2 F900\nM30\n"));
+    assert!(
+        two.contains("\"peck_retract\":0.5},\"spindle\":2,"),
+        "{two}"
+    );
+    let one = cycle(canon("G0 Z10\nM29 S600\nG84 X0 Y0 Z-5 R2 F900\nM30\n"));
+    assert!(!one.contains("\"spindle\""), "{one}");
+}
+
+/// Haas's `M19 P…` is an orientation angle: no spindle selection there.
+#[test]
+fn haas_m19_p_is_not_a_spindle_selection() {
+    let e = err(&machine(), "(dialect: haas)\nM19 P2\nM30\n");
+    assert!(!e.contains("spindle"), "{e}");
+    let segs = run("(dialect: haas)\nM3 S100 P2\nM30\n");
+    assert_eq!(spindles(&segs), vec![(100.0, SpindleDir::Cw, 2)]);
+}

@@ -601,7 +601,10 @@ impl Exec<'_> {
     /// G30 or canned cycle takes is theirs). LinuxCNC: `$` (spindles counted from 0) for
     /// this block only, spindle 1 without it.
     fn spindle_selection(&mut self) -> Result<(), NcError> {
-        let spindle_block = self.w.has('S') || self.w.m.iter().any(|m| matches!(m.0, 3..=5 | 19));
+        // Haas's `M19 P…` is the orientation angle, not a spindle.
+        let orient_p = self.dialect != Dialect::Haas;
+        let spindle_block = self.w.has('S')
+            || (self.w.m.iter()).any(|m| matches!(m.0, 3..=5) || (m.0 == 19 && orient_p));
         let (number, span) = if self.dialect == Dialect::LinuxCnc {
             match self.w.dollar.take() {
                 None => (1, None),

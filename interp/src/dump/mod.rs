@@ -254,7 +254,7 @@ fn source_keys_with(
 
 /// `,"spindle":N` for a spindle other than the first (dumps of one-spindle programs stay as
 /// they were).
-fn spindle_number(o: &mut String, spindle: u8) {
+pub(crate) fn spindle_number(o: &mut String, spindle: u8) {
     if spindle != 1 {
         let _ = write!(o, ",\"spindle\":{spindle}");
     }
