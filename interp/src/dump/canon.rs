@@ -7,7 +7,8 @@
 //! writes them (`end`, `feed`, `center`…; a `tap` has `tool`, `spindle`, `pitch`). A `canned_cycle` has `cycle` (`G81`…), `words` (`R` `Z` `Q` `P` as programmed in
 //! mm, `F`, `K`, `G91`, `G99`), `start`, `holes` (plane axes, one per repeat), `drill_axis`,
 //! `levels` (`initial` `R` `bottom` `return`), `feed` and `tap` (`pitch` `dir` `peck`
-//! `peck_retract`, or null), and `spindle` when it is not spindle 1. Last, `state`: `plane` (`G17`…), `units`, `feed_mode`,
+//! `peck_retract`, or null), and `spindle` when it is not spindle 1. Last, `state`:
+//! `plane` (`G17`…), `units`, `feed_mode`,
 //! `path_mode` (`G61` `G63` `G64`, with `tolerance`), `work_offset` (`G54`…), `offset` (work →
 //! machine per axis), `tool`, `tool_length_mode` (`G43` `G44` `G49`), `h`, `tool_length`.
 

@@ -178,8 +178,8 @@ fn incomplete_coupling(dropped: u64) -> String {
 }
 
 /// One count of the tool axis or the tool-axis equivalent of one spindle count (the coarser
-/// spindle's), whichever is larger, over all windows (µm). With no spindle or taps: one count of Z (or of the first
-/// linear axis).
+/// spindle's), whichever is larger, over all windows (µm). With no spindle or taps: one
+/// count of Z (or of the first linear axis).
 pub fn coupling_bound_um(axes: &AxisTable, taps: &[crate::recorder::TapWindow]) -> f64 {
     let tool_count = (0..axes.n)
         .filter(|&i| axes.linear[i])
