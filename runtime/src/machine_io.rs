@@ -150,3 +150,39 @@ pub fn output_name(bit: u8) -> &'static str {
         .find(|(_, b)| *b == bit)
         .map_or("?", |(o, _)| o.name())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::ModelLink;
+
+    /// Regression (m5_of_spindle_2_switched_spindle_1s_enable_off): the one enable output
+    /// went off after an M5 of either spindle, with the other still turning.
+    #[test]
+    fn the_spindle_enable_stays_on_while_either_spindle_turns() {
+        let text = include_str!("../../examples/two-spindles/machine.toml").replace(
+            "[interp]",
+            "[machine]\noutputs = { spindle_enable = { axis = \"Z\", bit = 16 } }\n\n[interp]",
+        );
+        let path = std::path::Path::new("../examples/two-spindles/machine.toml");
+        let cfg = MachineConfig::parse(&text, path).unwrap();
+        let mut link = ModelLink::new(&cfg, [0.0; cnc402_config::MAX_AXES], 1);
+        let mut o = LoopOutputs::new(&cfg);
+        let spin = |velocity, spindle| MoveKind::Spindle {
+            velocity,
+            acceleration: 1.0,
+            jerk: 1.0,
+            spindle,
+        };
+        let on = |o: &LoopOutputs| o.state & SPINDLE != 0;
+        o.move_started(&spin(6000.0, 1), &mut link);
+        o.move_started(&spin(-3000.0, 2), &mut link);
+        o.move_started(&spin(0.0, 2), &mut link);
+        o.move_started(&MoveKind::Message, &mut link);
+        assert!(on(&o), "spindle 1 still turns");
+        o.move_started(&spin(0.0, 1), &mut link);
+        assert!(on(&o), "off once the M5 ramp has ended");
+        o.move_started(&MoveKind::Message, &mut link);
+        assert!(!on(&o));
+    }
+}
