@@ -222,3 +222,28 @@ fn haas_m19_p_is_not_a_spindle_selection() {
     let segs = run("(dialect: haas)\nM3 S100 P2\nM30\n");
     assert_eq!(spindles(&segs), vec![(100.0, SpindleDir::Cw, 2)]);
 }
+
+/// A channel that owns spindle 2 starts its programs on it (`Options::default_spindle`);
+/// a number the machine lacks leaves spindle 1.
+#[test]
+fn a_program_may_start_on_spindle_2() {
+    let cfg = machine();
+    let on = |default_spindle: u8, text: &str| {
+        let opts = cnc402_interp::Options {
+            default_spindle,
+            ..Default::default()
+        };
+        let segs = cnc402_interp::run_program_with(&cfg, opts, &SourceFile::new("t.nc", text))
+            .unwrap_or_else(|e| panic!("{e}"));
+        spindles(&segs)
+    };
+    assert_eq!(on(2, "M3 S1000\nM30\n"), vec![(1000.0, SpindleDir::Cw, 2)]);
+    assert_eq!(
+        on(2, "M3 S1000 P1\nM30\n"),
+        vec![(1000.0, SpindleDir::Cw, 1)]
+    );
+    let lc = "(dialect: linuxcnc)\nM3 S1000\nM2\n";
+    assert_eq!(on(2, lc), vec![(1000.0, SpindleDir::Cw, 2)]);
+    assert_eq!(on(7, "M3 S1000\nM30\n"), vec![(1000.0, SpindleDir::Cw, 1)]);
+    assert_eq!(on(0, "M3 S1000\nM30\n"), vec![(1000.0, SpindleDir::Cw, 1)]);
+}

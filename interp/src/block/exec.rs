@@ -599,15 +599,18 @@ impl Exec<'_> {
     /// The spindle this block's S, M3/M4/M5 and M19 act on. Fanuc's multi-spindle control:
     /// `P` in the block (1 or 2), kept until the next `P` (a `P` that the block's dwell, G10,
     /// G30 or canned cycle takes is theirs). LinuxCNC: `$` (spindles counted from 0) for
-    /// this block only, spindle 1 without it.
+    /// this block only, the program's default spindle (`Options::default_spindle`) without.
     fn spindle_selection(&mut self) -> Result<(), NcError> {
         // Haas's `M19 P…` is the orientation angle, not a spindle.
         let orient_p = self.dialect != Dialect::Haas;
         let spindle_block = self.w.has('S')
             || (self.w.m.iter()).any(|m| matches!(m.0, 3..=5) || (m.0 == 19 && orient_p));
         let (number, span) = if self.dialect == Dialect::LinuxCnc {
+            let default = Some(self.opts.default_spindle)
+                .filter(|&n| self.cfg.spindle_axis(n).is_some())
+                .unwrap_or(1);
             match self.w.dollar.take() {
-                None => (1, None),
+                None => (default, None),
                 Some(a) if a.v.fract() == 0.0 && (0.0..MAX_SPINDLES as f64).contains(&a.v) => {
                     (a.v as u8 + 1, Some(a.span))
                 }

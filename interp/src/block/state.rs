@@ -396,10 +396,13 @@ impl ModalState {
             .is_some_and(|&(speed, dir)| dir != SpindleDir::Stop && speed > 0.0)
     }
 
-    /// Makes spindle `number` (1..=[`MAX_SPINDLES`], checked by the caller) the selected
-    /// one: the selected spindle's S and direction are parked, `number`'s taken up.
+    /// Makes spindle `number` (1..=[`MAX_SPINDLES`]; another number changes nothing) the
+    /// selected one: the selected spindle's S and direction are parked, `number`'s taken up.
     pub fn select_spindle(&mut self, number: u8) {
-        let (old, new) = (usize::from(self.spindle_sel) - 1, usize::from(number) - 1);
+        let old = usize::from(self.spindle_sel) - 1;
+        let Some(new) = usize::from(number).checked_sub(1) else {
+            return;
+        };
         if old == new || new >= MAX_SPINDLES {
             return;
         }
