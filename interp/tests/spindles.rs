@@ -247,3 +247,34 @@ fn a_program_may_start_on_spindle_2() {
     assert_eq!(on(7, "M3 S1000\nM30\n"), vec![(1000.0, SpindleDir::Cw, 1)]);
     assert_eq!(on(0, "M3 S1000\nM30\n"), vec![(1000.0, SpindleDir::Cw, 1)]);
 }
+
+/// Source 000's `Tapping(strToolAx, strSpindleAx, …)` names the spindle by its axis letter:
+/// with "U" every pass couples Z with spindle 2.
+#[test]
+fn the_c_like_tapping_cycle_taps_with_the_spindle_it_names() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/axioma");
+    let text = std::fs::read_to_string(format!("{dir}/multipass_tap.nc"))
+        .unwrap()
+        .replace("Tapping(\"Z\", \"C\",", "Tapping(\"Z\", \"U\",");
+    assert!(text.contains("\"U\""));
+    let cfg = machine();
+    let src = SourceFile::new(format!("{dir}/t.nc"), text.as_str());
+    let prog = cnc402_lang::parse(&src).unwrap_or_else(|e| panic!("{e}"));
+    let mut it = cnc402_interp::Interpreter::new(&cfg);
+    // `#use` files come from the file system, next to the program.
+    it.set_program_library(Some(Box::new(
+        cnc402_interp::host_fs::FsLibrary::from_config(&cfg),
+    )));
+    it.load(src, prog);
+    let mut taps = Vec::new();
+    while let Some(s) = it.next_segment().unwrap_or_else(|e| panic!("{e}")) {
+        if let SegmentKind::Tap(t) = s.kind {
+            taps.push(t);
+        }
+    }
+    assert!(taps.len() >= 8, "{}", taps.len());
+    for t in taps {
+        assert_eq!((t.tool as usize, t.spindle as usize), (Z, U));
+        assert_eq!(t.end[C], 0.0);
+    }
+}
