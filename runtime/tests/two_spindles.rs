@@ -130,3 +130,29 @@ fn a_rigid_tap_on_spindle_2_couples_z_with_u_within_a_count() {
         (14, 15, 18)
     );
 }
+
+#[test]
+fn spindle_2_taps_while_spindle_1_turns() {
+    let (r, head, rows) = run(
+        "%\nG21 G90 G94\nG0 X20. Y20. Z10.\nM3 S3000 P1\nM29 S800 P2\n\
+         G98 G84 X20. Y20. Z-16. R3. F1200.\nG80\nM5 P1\nM30\n%\n",
+    );
+    assert_eq!(r.tapping.len(), 1, "{:?}", r.tapping);
+    let tap = &r.tapping[0];
+    eprintln!(
+        "tap on spindle 2 with spindle 1 at 3000 rpm: {:.4} µm setpoints, {:.4} µm actual",
+        tap.max_coupling_error_um_cmd, tap.max_coupling_error_um_act
+    );
+    assert!(tap.max_coupling_error_um_cmd <= 0.1, "{tap:?}");
+    assert!(tap.max_coupling_error_um_act <= 0.1 + 1e-9, "{tap:?}");
+    // C turns at 3000 rpm through the whole tap (line 6).
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    let (line, c, u) = (col("line"), col("C_cmd"), col("U_cmd"));
+    let in_tap: Vec<&Vec<f64>> = rows.iter().filter(|v| v[line] == 6.0).collect();
+    let turned_u = in_tap.iter().map(|v| v[u]).fold(f64::MIN, f64::max);
+    assert!(turned_u > 4000.0, "U turns with Z: {turned_u}");
+    for w in in_tap.windows(2) {
+        let dc = w[1][c] - w[0][c];
+        assert!((dc - 3000.0 * 6.0 * 0.00175).abs() < 1e-6, "C step {dc}");
+    }
+}
