@@ -682,6 +682,7 @@ mod tests {
             optional_stop: false,
             start,
             main_m99: MainM99::End,
+            default_spindle: 1,
         };
         let segs: Vec<_> = load("/G0 X5\nM1\nG91 G0 Z-5\n", opts)
             .collect::<Result<_, _>>()
