@@ -151,6 +151,23 @@ fn linuxcnc_dollar_selects_the_spindle_of_its_block_only() {
     );
     let e = err(&machine(), "(dialect: linuxcnc)\nM3 S1000 $2\nM2\n");
     assert!(e.contains("$2 is not a spindle"), "{e}");
+    // `$-1`: every spindle (rs274: SET_SPINDLE_SPEED(0 and 1, 1000), START_SPINDLE_CLOCKWISE
+    // (0 and 1), SET_SPINDLE_SPEED(0 and 1, 500), STOP_SPINDLE_TURNING(0 and 1)); not M19.
+    let segs = run("(dialect: linuxcnc)\nM3 S1000 $-1\nS500 $-1\nM5 $-1\nM3\nM2\n");
+    assert_eq!(
+        spindles(&segs),
+        vec![
+            (1000.0, Cw, 1),
+            (1000.0, Cw, 2),
+            (500.0, Cw, 1),
+            (500.0, Cw, 2),
+            (0.0, Stop, 1),
+            (0.0, Stop, 2),
+            (500.0, Cw, 1), // the next block is spindle 1 again
+        ]
+    );
+    let e = err(&machine(), "(dialect: linuxcnc)\nM19 R30 $-1\nM2\n");
+    assert!(e.contains("M19 orients one spindle"), "{e}");
     let e = err(&machine(), "(dialect: linuxcnc)\nG0 X1 $1\nM2\n");
     assert!(e.contains("spindle selection without S"), "{e}");
 }

@@ -72,6 +72,8 @@ pub(crate) struct Exec<'a> {
     pub tlo_cancel_after: bool,
     /// The block's move finished a held corner move or was held itself.
     pub corner_done: bool,
+    /// LinuxCNC's `$-1`: the block's S and M3/M4/M5 act on every spindle.
+    pub all_spindles: bool,
 }
 
 /// `(MSG, text)` → `text`.
@@ -186,6 +188,7 @@ impl Exec<'_> {
             tlo_commanded: false,
             tlo_cancel_after: false,
             corner_done: false,
+            all_spindles: false,
         };
         ex.run(line)?;
         Ok((ex.out, ex.end))
@@ -204,7 +207,7 @@ impl Exec<'_> {
         self.feed_word()?;
         let spindle_m = self.w.m.iter().any(|m| matches!(m.0, 3..=5));
         self.spindle_selection()?;
-        self.speed_word(spindle_m)?;
+        self.for_block_spindles(|ex| ex.speed_word(spindle_m))?;
         if let Some(t) = self.w.take('T') {
             self.st.tool_selected = self.whole(t, "T (tool number)")?;
         }
@@ -611,13 +614,17 @@ impl Exec<'_> {
                 .unwrap_or(1);
             match self.w.dollar.take() {
                 None => (default, None),
+                Some(a) if a.v == -1.0 => {
+                    self.all_spindles = true;
+                    (default, Some(a.span))
+                }
                 Some(a) if a.v.fract() == 0.0 && (0.0..MAX_SPINDLES as f64).contains(&a.v) => {
                     (a.v as u8 + 1, Some(a.span))
                 }
                 Some(a) => {
                     return Err(self
                         .err(a.span, format!("${} is not a spindle", fmt_num(a.v)))
-                        .with_expected(format!("$0..${}", MAX_SPINDLES - 1)));
+                        .with_expected(format!("$0..${} or $-1 (all)", MAX_SPINDLES - 1)));
                 }
             }
         } else {
@@ -648,6 +655,48 @@ impl Exec<'_> {
             }
         }
         self.st.select_spindle(number);
+        Ok(())
+    }
+
+    /// Runs `f` for the selected spindle, or (LinuxCNC's `$-1`) for every configured
+    /// spindle in turn, the selection left as it was.
+    fn for_block_spindles(
+        &mut self,
+        mut f: impl FnMut(&mut Self) -> Result<(), NcError>,
+    ) -> Result<(), NcError> {
+        if !self.all_spindles {
+            return f(self);
+        }
+        let selected = self.st.spindle_sel;
+        for number in 1..=MAX_SPINDLES as u8 {
+            if self.cfg.spindle_axis(number).is_some() {
+                self.st.select_spindle(number);
+                f(self)?;
+            }
+        }
+        self.st.select_spindle(selected);
+        Ok(())
+    }
+
+    /// M3/M4/M5 of the selected spindle.
+    fn spindle_m(&mut self, code: u32, span: Span) -> Result<(), NcError> {
+        self.check_spindle_configured(span)?;
+        let dir = match code {
+            3 => SpindleDir::Cw,
+            4 => SpindleDir::Ccw,
+            _ => SpindleDir::Stop,
+        };
+        self.st.spindle = dir;
+        let rpm = if dir == SpindleDir::Stop {
+            0.0
+        } else {
+            self.st.speed
+        };
+        self.push(SegmentKind::Spindle {
+            rpm,
+            dir,
+            spindle: self.st.spindle_sel,
+        });
         Ok(())
     }
 
@@ -715,26 +764,11 @@ impl Exec<'_> {
                     });
                 }
                 29 => self.st.rigid = true,
-                3..=5 => {
-                    self.check_spindle_configured(span)?;
-                    let dir = match code {
-                        3 => SpindleDir::Cw,
-                        4 => SpindleDir::Ccw,
-                        _ => SpindleDir::Stop,
-                    };
-                    self.st.spindle = dir;
-                    let rpm = if dir == SpindleDir::Stop {
-                        0.0
-                    } else {
-                        self.st.speed
-                    };
-                    self.push(SegmentKind::Spindle {
-                        rpm,
-                        dir,
-                        spindle: self.st.spindle_sel,
-                    });
-                }
+                3..=5 => self.for_block_spindles(|ex| ex.spindle_m(code, span))?,
                 19 => {
+                    if self.all_spindles {
+                        return Err(self.err(span, "M19 orients one spindle, not $-1 (all)"));
+                    }
                     self.check_spindle_configured(span)?;
                     self.st.spindle = SpindleDir::Stop;
                     self.orient()?;
