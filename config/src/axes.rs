@@ -1,7 +1,7 @@
 //! `[[axis]]`: each axis's name, kind, drive node, scaling, dynamic limits, soft limits,
 //! following error supervision, reference positions and simulated dynamics. An axis is
-//! checked against the bus (the master's node id) and the axes before it (names, nodes, one
-//! spindle).
+//! checked against the bus (the master's node id) and the axes before it (names, nodes, at
+//! most [`MAX_SPINDLES`] spindles, each with its own number).
 
 use serde::Deserialize;
 use toml::Spanned;
@@ -29,6 +29,9 @@ pub const MAX_MODEL_DELAY_CYCLES: u32 = 16;
 /// slower loop lags by more than 0.16 s, which matching would copy onto every coupled axis
 /// (a tap would crawl behind its path) — no drive that can tap is that slow.
 pub const MIN_MODEL_BANDWIDTH_HZ: f64 = 1.0;
+/// Most spindle axes a machine may have (source 001's machine: five feed axes and two
+/// spindles); programs select one by number (Fanuc `P`, LinuxCNC `$`).
+pub const MAX_SPINDLES: usize = 2;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AxisKind {
@@ -68,6 +71,9 @@ pub struct AxisConfig {
     pub following_error_timeout_ms: u32,
     /// Spindle only.
     pub max_rpm: Option<f64>,
+    /// Spindle only: its number 1..=[`MAX_SPINDLES`] (key `spindle`, default: 1 for the
+    /// first spindle axis, 2 for the second), what a program's `P` (or `$`) selects.
+    pub spindle: Option<u8>,
     /// The drive's dead time (cycles) between taking a setpoint and its position loop acting
     /// on it; the master's following error rule does not count it as error. Default 1.
     pub feedback_delay_cycles: u32,
@@ -218,6 +224,7 @@ pub(crate) struct RawAxis {
     #[serde(default = "default_fe_timeout")]
     following_error_timeout_ms: Spanned<i64>,
     max_rpm: Option<Spanned<f64>>,
+    spindle: Option<Spanned<i64>>,
     #[serde(default = "default_feedback_delay")]
     feedback_delay_cycles: Spanned<i64>,
     reference: Option<Spanned<f64>>,
@@ -305,8 +312,52 @@ pub(crate) fn validate(
         let axis = a.0.validate(k, &axes, bus)?;
         axes.push(axis);
     }
+    spindle_numbers_dense(raw, &axes)?;
     models_complete(raw, &axes)?;
     Ok(axes)
+}
+
+/// The spindles are numbered 1..=their count (each number once, checked per axis): a lone
+/// spindle numbered 2 would leave a program's default spindle 1 with no axis.
+fn spindle_numbers_dense(raw: &[Table<RawAxis>], axes: &[AxisConfig]) -> Result<(), Invalid> {
+    let count = axes.iter().filter(|a| a.spindle.is_some()).count();
+    for (k, a) in axes.iter().enumerate() {
+        if let Some(n) = a.spindle
+            && usize::from(n) > count
+        {
+            let span = raw[k]
+                .0
+                .spindle
+                .as_ref()
+                .map_or(raw[k].0.kind.span(), |s| s.span());
+            return Err((
+                span,
+                format!("axis[{k}].spindle"),
+                format!(
+                    "spindle {n} on a machine with {count} spindle axis: number the spindles \
+                     1..={count}"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl crate::MachineConfig {
+    /// The axis of spindle `number` (1..=[`MAX_SPINDLES`]), if configured.
+    pub fn spindle_axis(&self, number: u8) -> Option<usize> {
+        self.axes.iter().position(|a| a.spindle == Some(number))
+    }
+
+    /// The spindle axes by number: `[0]` is spindle 1's axis, `[1]` spindle 2's.
+    pub fn spindle_axes(&self) -> [Option<usize>; MAX_SPINDLES] {
+        std::array::from_fn(|k| self.spindle_axis(k as u8 + 1))
+    }
+
+    /// The number of the spindle on `axis`, if it is a spindle axis.
+    pub fn spindle_number(&self, axis: usize) -> Option<u8> {
+        self.axes.get(axis).and_then(|a| a.spindle)
+    }
 }
 
 /// A tap couples the spindle with any linear axis that has a drive: matching needs a model
@@ -444,6 +495,7 @@ impl RawAxis {
         a.counts_fit(k, counts_per_unit, soft_limits)?;
         let (max_velocity, max_acceleration, max_jerk) = a.dynamics(k, counts_per_unit, bus)?;
         let max_rpm = a.max_rpm(k, kind, max_velocity)?;
+        let spindle = a.spindle_number(k, kind, earlier)?;
         let references = a.references(k, soft_limits, counts_per_unit)?;
         let identity = a.identity(k, node)?;
         let dynamics = a.model(k)?;
@@ -479,6 +531,7 @@ impl RawAxis {
                 65535,
             )? as u32,
             max_rpm,
+            spindle,
             feedback_delay_cycles: int_in(
                 &a.feedback_delay_cycles,
                 &key("feedback_delay_cycles"),
@@ -599,7 +652,7 @@ impl RawAxis {
         }))
     }
 
-    /// The kind; at most one spindle.
+    /// The kind; at most [`MAX_SPINDLES`] spindles.
     fn kind(&self, k: usize, earlier: &[AxisConfig]) -> Result<AxisKind, Invalid> {
         let kind = match self.kind.get_ref().as_str() {
             "linear" => AxisKind::Linear,
@@ -613,14 +666,49 @@ impl RawAxis {
                 ));
             }
         };
-        if kind == AxisKind::Spindle && earlier.iter().any(|p| p.kind == AxisKind::Spindle) {
+        let spindles = earlier.iter().filter(|p| p.kind == AxisKind::Spindle);
+        if kind == AxisKind::Spindle && spindles.count() >= MAX_SPINDLES {
             return Err((
                 self.kind.span(),
                 format!("axis[{k}].kind"),
-                "only one spindle axis is supported".into(),
+                format!("at most {MAX_SPINDLES} spindle axes are supported"),
             ));
         }
         Ok(kind)
+    }
+
+    /// `spindle`: the number of a spindle axis, 1..=[`MAX_SPINDLES`], not an earlier
+    /// spindle's; by default the spindle axes are numbered in config order.
+    fn spindle_number(
+        &self,
+        k: usize,
+        kind: AxisKind,
+        earlier: &[AxisConfig],
+    ) -> Result<Option<u8>, Invalid> {
+        let key = format!("axis[{k}].spindle");
+        let number = match (&self.spindle, kind) {
+            (Some(n), AxisKind::Spindle) => int_in(n, &key, 1, MAX_SPINDLES as i64)? as u8,
+            (None, AxisKind::Spindle) => {
+                earlier.iter().filter(|p| p.spindle.is_some()).count() as u8 + 1
+            }
+            (Some(n), _) => {
+                return Err((n.span(), key, "only a spindle axis has a number".into()));
+            }
+            (None, _) => return Ok(None),
+        };
+        if let Some(p) = earlier.iter().find(|p| p.spindle == Some(number)) {
+            let span = self.spindle.as_ref().map_or(self.kind.span(), |s| s.span());
+            return Err((
+                span,
+                key,
+                format!(
+                    "spindle {number} is already axis {} (numbers default to the spindles' \
+                     order: give each spindle axis its own `spindle = 1` or `2`)",
+                    p.name
+                ),
+            ));
+        }
+        Ok(Some(number))
     }
 
     /// The drive's node id (`None` for a virtual axis): in range, not the master's, not an
@@ -910,5 +998,103 @@ impl RawAxis {
                  and max_jerk {j}; at most {MAX_RAMP_S} s"
             ),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{ConfigError, MachineConfig};
+    use std::path::Path;
+
+    const SHIPPED: &str = include_str!("../machine.toml");
+
+    /// A spindle axis `name` on `node` with `extra` keys (e.g. `spindle = 2`).
+    fn spindle(name: &str, node: u8, extra: &str) -> String {
+        format!(
+            "\n[[axis]]\nname = \"{name}\"\nkind = \"spindle\"\nnode = {node}\n\
+             counts_per_rev = 131072\nmax_velocity = 36000.0\nmax_acceleration = 36000.0\n\
+             max_jerk = 720000.0\nmax_rpm = 6000.0\nfollowing_error_window = 90.0\n\
+             dynamics = {{ delay_cycles = 1, bandwidth_hz = 150.0 }}\n{extra}\n"
+        )
+    }
+
+    /// The shipped machine (spindle C, node 4) at 2 ms (room on the bus) plus `more`.
+    fn with(more: &str) -> Result<MachineConfig, ConfigError> {
+        let text = SHIPPED.replace("period_us = 1000", "period_us = 2000") + more;
+        MachineConfig::parse(&text, Path::new("m.toml"))
+    }
+
+    fn line_of(text: &str, needle: &str, nth: usize) -> usize {
+        let text = SHIPPED.replace("period_us = 1000", "period_us = 2000") + text;
+        let at = text.match_indices(needle).nth(nth).expect("needle").0;
+        text[..at].lines().count() + 1
+    }
+
+    #[test]
+    fn two_spindles_are_numbered_in_order_by_default() {
+        let c = with(&spindle("A", 5, "")).unwrap();
+        assert_eq!(c.spindle_axes(), [Some(3), Some(4)]);
+        assert_eq!(c.spindle_index(), Some(3));
+        assert_eq!(
+            (c.spindle_number(3), c.spindle_number(4)),
+            (Some(1), Some(2))
+        );
+        assert_eq!(c.spindle_number(0), None);
+    }
+
+    #[test]
+    fn spindle_numbers_may_swap_the_order() {
+        let more = spindle("A", 5, "spindle = 1");
+        let text = SHIPPED
+            .replace("period_us = 1000", "period_us = 2000")
+            .replace("max_rpm = 6000.0\n", "max_rpm = 6000.0\nspindle = 2\n")
+            + &more;
+        let c = MachineConfig::parse(&text, Path::new("m.toml")).unwrap();
+        assert_eq!(c.spindle_axes(), [Some(4), Some(3)]);
+        assert_eq!(
+            c.spindle_index(),
+            Some(4),
+            "spindle 1 is the program's default"
+        );
+    }
+
+    #[test]
+    fn a_third_spindle_is_refused_with_its_key_and_line() {
+        let more = spindle("A", 5, "") + &spindle("B", 6, "");
+        let e = with(&more).unwrap_err();
+        assert_eq!(e.key, "axis[5].kind", "{e}");
+        assert_eq!(e.line, line_of(&more, "kind = \"spindle\"", 2), "{e}");
+        assert!(e.message.contains("at most 2 spindle axes"), "{e}");
+    }
+
+    #[test]
+    fn a_duplicate_spindle_number_is_refused_with_its_key_and_line() {
+        let more = spindle("A", 5, "spindle = 1");
+        let e = with(&more).unwrap_err();
+        assert_eq!(e.key, "axis[4].spindle", "{e}");
+        assert_eq!(e.line, line_of(&more, "spindle = 1", 0), "{e}");
+        assert!(e.message.contains("spindle 1 is already axis C"), "{e}");
+    }
+
+    #[test]
+    fn bad_spindle_numbers_are_refused() {
+        for (extra, key, says) in [
+            ("spindle = 3", "axis[4].spindle", "1..=2"),
+            ("spindle = 0", "axis[4].spindle", "1..=2"),
+        ] {
+            let e = with(&spindle("A", 5, extra)).unwrap_err();
+            assert_eq!(e.key, key, "{extra}: {e}");
+            assert!(e.message.contains(says), "{extra}: {e}");
+        }
+        // A lone spindle numbered 2: a program's default spindle 1 would have no axis.
+        let text = SHIPPED.replace("max_rpm = 6000.0\n", "max_rpm = 6000.0\nspindle = 2\n");
+        let e = MachineConfig::parse(&text, Path::new("m.toml")).unwrap_err();
+        assert_eq!(e.key, "axis[3].spindle", "{e}");
+        assert!(e.message.contains("number the spindles 1..=1"), "{e}");
+        // A number on a feed axis.
+        let text = SHIPPED.replacen("max = 300.0\n", "max = 300.0\nspindle = 1\n", 1);
+        let e = MachineConfig::parse(&text, Path::new("m.toml")).unwrap_err();
+        assert_eq!(e.key, "axis[0].spindle", "{e}");
+        assert!(e.message.contains("only a spindle axis"), "{e}");
     }
 }

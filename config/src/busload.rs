@@ -401,4 +401,50 @@ mod tests {
         );
         assert_eq!(with.at_period(&b, 2000).output_drives, 2);
     }
+
+    /// Source 001's machine, five feed axes and two spindles: seven drives. Standard at
+    /// 1 ms: 55 + 14 × 115 = 1665 + heartbeats 8 × 65 / 50 = 10.4 + SDO 5.4 = 1680.8 bits
+    /// (168.1 %); the smallest period is 1750 µs: 1665 + 18.2 + 9.45 = 1692.65 of 1750
+    /// (96.72 %). Compact at 1750 µs: 55 + 14 × 95 = 1385 + events 2 × 7 × 75 × 0.175 =
+    /// 183.75 + 18.2 + 9.45 = 1596.4 (91.22 %); at 1500 µs neither fits.
+    #[test]
+    fn five_feed_axes_and_two_spindles_need_1750us() {
+        let b = bus(1_000_000, 1000, 50);
+        let p = BusLoad::plan(&b, 7, PdoLayout::Standard, 1000);
+        assert!((p.total_bits() - 1680.8).abs() < 1e-9, "{p:?}");
+        assert_eq!(p.smallest_period_us(&b), Some(1750));
+        let at = p.at_period(&b, 1750);
+        assert!((at.percent() - 96.722_857).abs() < 1e-5, "{}", at.percent());
+        let c = BusLoad::plan(&b, 7, PdoLayout::Compact, 1750);
+        assert!((c.total_bits() - 1596.4).abs() < 1e-9, "{c:?}");
+        assert_eq!(c.smallest_period_us(&b), Some(1750));
+        for layout in [PdoLayout::Standard, PdoLayout::Compact] {
+            assert!(!BusLoad::plan(&b, 7, layout, 1500).fits(), "{layout:?}");
+        }
+    }
+
+    /// The shipped two-spindle example at 1000 µs is refused at `bus.period_us` with the
+    /// period that fits.
+    #[test]
+    fn the_two_spindle_example_at_1ms_names_the_period_that_fits() {
+        let text = include_str!("../../examples/two-spindles/machine.toml");
+        let at_1ms = text.replace("period_us = 1750", "period_us = 1000");
+        let path = std::path::Path::new("m.toml");
+        let e = crate::MachineConfig::parse(&at_1ms, path).unwrap_err();
+        assert_eq!(e.key, "bus.period_us", "{e}");
+        let line = at_1ms
+            .lines()
+            .position(|l| l.starts_with("period_us"))
+            .unwrap()
+            + 1;
+        assert_eq!(e.line, line, "{e}");
+        assert!(e.message.contains("7 drives"), "{e}");
+        assert!(
+            e.message
+                .contains("the smallest period that fits is 1750 µs"),
+            "{e}"
+        );
+        let c = crate::MachineConfig::parse(text, path).unwrap();
+        assert_eq!(c.spindle_axes(), [Some(5), Some(6)]);
+    }
 }

@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 pub use axes::{
-    AxisConfig, AxisKind, DriveModel, ExpectedIdentity, MAX_MODEL_DELAY_CYCLES,
+    AxisConfig, AxisKind, DriveModel, ExpectedIdentity, MAX_MODEL_DELAY_CYCLES, MAX_SPINDLES,
     MIN_MODEL_BANDWIDTH_HZ, SimDynamics,
 };
 pub use bus::BusConfig;
@@ -189,9 +189,9 @@ impl MachineConfig {
         self.axes.iter().position(|a| a.name == letter)
     }
 
-    /// The spindle axis, if one is configured.
+    /// The axis of spindle 1 (a program's default spindle), if one is configured.
     pub fn spindle_index(&self) -> Option<usize> {
-        self.axes.iter().position(|a| a.kind == AxisKind::Spindle)
+        self.spindle_axis(1)
     }
 
     /// `program_dir` resolved against the config's base folder (see [`Self::resolve`]).

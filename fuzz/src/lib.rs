@@ -143,7 +143,7 @@ pub fn finite(s: &Segment) -> Result<(), Finding> {
         }
         SegmentKind::Dwell { seconds } => nums.push(*seconds),
         SegmentKind::Spindle { rpm, .. } => nums.push(*rpm),
-        SegmentKind::SpindleOrient { angle, program } => {
+        SegmentKind::SpindleOrient { angle, program, .. } => {
             nums.push(*angle);
             nums.extend(*program);
         }

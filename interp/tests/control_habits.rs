@@ -214,7 +214,7 @@ fn run_with(cfg: &MachineConfig, text: &str) -> Result<Vec<Segment>, cnc402_lang
 fn kinds(segs: &[Segment]) -> Vec<String> {
     segs.iter()
         .map(|s| match &s.kind {
-            SegmentKind::Spindle { rpm, dir } => format!("spindle {rpm} {dir:?}"),
+            SegmentKind::Spindle { rpm, dir, .. } => format!("spindle {rpm} {dir:?}"),
             SegmentKind::Coolant { mist, flood } => format!("coolant {mist} {flood}"),
             SegmentKind::Message { text } => format!("msg {text}"),
             SegmentKind::Dwell { seconds } => format!("dwell {seconds}"),

@@ -234,14 +234,16 @@ fn tap_stops_and_restarts_a_turning_spindle_only() {
         line3.first(),
         Some(&&SegmentKind::Spindle {
             rpm: 0.0,
-            dir: SpindleDir::Stop
+            dir: SpindleDir::Stop,
+            spindle: 1,
         })
     );
     assert_eq!(
         line3.last(),
         Some(&&SegmentKind::Spindle {
             rpm: 600.0,
-            dir: SpindleDir::Cw
+            dir: SpindleDir::Cw,
+            spindle: 1,
         })
     );
     let rigid = run("G0 Z10\nM29 S600\nG84 X0 Y0 Z-5 R2 F600\nM30\n");
@@ -367,6 +369,7 @@ fn g76_orients_and_shifts_by_q() {
                     == SegmentKind::Spindle {
                         rpm: 0.0,
                         dir: SpindleDir::Stop,
+                        spindle: 1,
                     }
             })
             .unwrap();
@@ -374,7 +377,8 @@ fn g76_orients_and_shifts_by_q() {
             l3[stop + 1].kind,
             SegmentKind::SpindleOrient {
                 angle,
-                program: None
+                program: None,
+                spindle: 1,
             },
             "{plane}"
         );
@@ -394,7 +398,8 @@ fn g76_orients_and_shifts_by_q() {
             l3.last().unwrap().kind,
             SegmentKind::Spindle {
                 rpm: 500.0,
-                dir: SpindleDir::Cw
+                dir: SpindleDir::Cw,
+                spindle: 1,
             }
         );
     }
@@ -481,7 +486,8 @@ fn g88_stops_at_the_bottom() {
         *kinds[4],
         SegmentKind::Spindle {
             rpm: 0.0,
-            dir: SpindleDir::Stop
+            dir: SpindleDir::Stop,
+            spindle: 1,
         }
     );
     assert_eq!(
@@ -600,7 +606,7 @@ fn every_cycle_in_every_plane_mode_and_return() {
                     let last_spindle = segs
                         .iter()
                         .filter_map(|s| match s.kind {
-                            SegmentKind::Spindle { rpm, dir } => Some((rpm, dir)),
+                            SegmentKind::Spindle { rpm, dir, .. } => Some((rpm, dir)),
                             _ => None,
                         })
                         .next_back()
@@ -625,14 +631,16 @@ fn m19_stops_and_orients_the_spindle() {
         l3[0].kind,
         SegmentKind::Spindle {
             rpm: 0.0,
-            dir: SpindleDir::Stop
+            dir: SpindleDir::Stop,
+            spindle: 1,
         }
     );
     assert_eq!(
         l3[1].kind,
         SegmentKind::SpindleOrient {
             angle: 123.25,
-            program: None
+            program: None,
+            spindle: 1,
         }
     );
     let after = segs.iter().find(|s| s.source.line == 4).unwrap();

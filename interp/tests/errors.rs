@@ -568,7 +568,11 @@ const CASES: &[(&str, u32, u32, &str)] = &[
         "address I is not used in this block",
     ),
     ("G0 X1 R5\n", 1, 7, "address R is not used in this block"),
-    ("M3 S100 P5\n", 1, 9, "address P is not used in this block"),
+    // P on a spindle block selects the spindle (Fanuc multi-spindle): 5 is none.
+    ("M3 S100 P5\n", 1, 9, "P5 is not a spindle"),
+    ("M3 S100 P2\n", 1, 9, "spindle 2 is not configured"),
+    ("M5 P1.5\n", 1, 4, "P1.5 is not a spindle"),
+    ("G0 X1 P2\n", 1, 7, "address P is not used in this block"),
     ("G4 X1 Y1\n", 1, 7, "address Y is not used in this block"),
     ("G0 A10\n", 1, 4, "address A is not used in this block"),
     (

@@ -312,7 +312,7 @@ fn check(
     let spindle: Vec<_> = segs
         .iter()
         .filter_map(|s| match s.kind {
-            SegmentKind::Spindle { rpm, dir } => Some((rpm, dir)),
+            SegmentKind::Spindle { rpm, dir, .. } => Some((rpm, dir)),
             _ => None,
         })
         .collect();

@@ -225,7 +225,7 @@ fn spindle_events(segs: &[Segment]) -> Vec<String> {
     segs.iter()
         .filter_map(|s| match &s.kind {
             SegmentKind::Rapid { end } => Some(format!("{} C{}", s.source.line, end[3])),
-            SegmentKind::SpindleOrient { angle, program } => Some(match program {
+            SegmentKind::SpindleOrient { angle, program, .. } => Some(match program {
                 Some(c) => format!("{} O{angle}=C{c}", s.source.line),
                 None => format!("{} O{angle}", s.source.line),
             }),

@@ -104,6 +104,7 @@ fn ticks(c: &mut Criterion) {
         &[seg(SegmentKind::Spindle {
             rpm: 3000.0,
             dir: SpindleDir::Cw,
+            spindle: 1,
         })],
         seg(SegmentKind::Linear {
             end: p(100.0, 50.0, -10.0, 0.0),

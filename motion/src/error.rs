@@ -29,10 +29,10 @@ pub enum MotionErrorKind {
     BadOrientProgram { angle: f64, program: f64 },
     /// A spindle speed above the axis' `max_rpm` / `max_velocity`.
     SpindleTooFast { rpm: f64, max_rpm: f64 },
-    /// A spindle command on a machine without a spindle axis.
-    NoSpindle,
+    /// A spindle command for spindle `number` on a machine without that spindle axis.
+    NoSpindle { number: u8 },
     /// A rigid tap whose tool axis is not a configured linear axis, whose spindle axis is not
-    /// the configured spindle, or whose pitch is zero or not finite (axis indices).
+    /// a configured spindle's, or whose pitch is zero or not finite (axis indices).
     BadTap { tool: u8, spindle: u8, pitch: f64 },
     /// A position move of the spindle axis while it runs in speed mode (M3/M4 active).
     SpindleRunning,
@@ -87,7 +87,15 @@ impl fmt::Display for MotionError {
             MotionErrorKind::SpindleTooFast { rpm, max_rpm } => {
                 write!(f, "spindle speed {rpm} rpm above the maximum {max_rpm} rpm")
             }
-            MotionErrorKind::NoSpindle => write!(f, "spindle command but no spindle axis"),
+            MotionErrorKind::NoSpindle { number: 1 } => {
+                write!(f, "spindle command but no spindle axis")
+            }
+            MotionErrorKind::NoSpindle { number } => {
+                write!(
+                    f,
+                    "command for spindle {number}, which the machine does not have"
+                )
+            }
             MotionErrorKind::BadTap {
                 tool,
                 spindle,

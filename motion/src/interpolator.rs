@@ -6,7 +6,7 @@
 
 mod rate;
 
-use cnc402_config::MachineConfig;
+use cnc402_config::{MAX_SPINDLES, MachineConfig};
 
 use crate::error::{MotionError, MotionErrorKind};
 use crate::planner::{MoveKind, PathMove, PlannedMove, orient_program_agrees};
@@ -31,8 +31,9 @@ pub struct Tick {
     /// Path speed (path units/s) of this sample; during a spindle orientation, its speed
     /// (deg/s, unsigned).
     pub path_velocity: f64,
-    /// Spindle speed in deg/s (0 in position mode, which includes orientation).
-    pub spindle_velocity: f64,
+    /// Each spindle's speed in deg/s, by number (`[0]`: spindle 1; 0 in position mode, which
+    /// includes orientation, and for a spindle the machine does not have).
+    pub spindle_velocity: [f64; MAX_SPINDLES],
 }
 
 /// What the interpolator was doing during a tick.
@@ -92,8 +93,13 @@ enum Job {
     Dwell {
         left: u64,
     },
-    SpindleRamp,
+    /// Waiting for the spindle in this slot (number − 1) to reach its speed.
+    SpindleRamp {
+        slot: usize,
+    },
     Orient {
+        /// The oriented spindle's slot (number − 1).
+        slot: usize,
         orient: OrientMove,
         k: u64,
         /// Stop profile (in the orient move's own distance) and the tick it starts at.
@@ -192,24 +198,42 @@ enum SpindleRun {
     Speed { profile: JerkProfile, k: u64 },
 }
 
+/// One spindle: its axis and limits, and the state of its speed mode. Each spindle has its
+/// own offset, speed, override and orientation; they act on its axis alone.
 #[derive(Clone, Copy, Debug)]
 struct SpindleAxis {
     index: usize,
     acceleration: f64,
     jerk: f64,
     max_velocity: f64,
+    /// Machine C − program C in position mode (the turn of speed-mode runs), C its axis.
+    offset: f64,
+    spin: SpindleRun,
+    /// Spindle override (0.5–1.2) and the speed the program commanded (deg/s, signed).
+    override_factor: f64,
+    commanded: f64,
+}
+
+impl SpindleAxis {
+    fn at_rest(&self) -> bool {
+        matches!(self.spin, SpindleRun::Position)
+    }
+
+    /// The commanded speed with the override, within the axis's max velocity.
+    fn target(&self) -> f64 {
+        let v = self.commanded * self.override_factor;
+        v.clamp(-self.max_velocity, self.max_velocity)
+    }
 }
 
 /// See the module doc. Built once per machine; every method is allocation-free.
 #[derive(Clone, Debug)]
 pub struct Interpolator {
     period: f64,
-    spindle: Option<SpindleAxis>,
+    /// The spindles by number (`[0]`: spindle 1).
+    spindles: [Option<SpindleAxis>; MAX_SPINDLES],
     /// Program-coordinate position of the last sample.
     prog: AxisPos,
-    /// Machine C − program C in position mode (spindle turned in speed mode).
-    offset: f64,
-    spin: SpindleRun,
     job: Job,
     stopping: bool,
     line: u32,
@@ -224,9 +248,6 @@ pub struct Interpolator {
     starved_at_speed: u64,
     /// Feed hold and feed override (time scaling of path moves).
     rate: RateClock,
-    /// Spindle override (0.5–1.2) and the speed the program commanded (deg/s, signed).
-    spindle_override: f64,
-    spindle_commanded: f64,
     /// The last move started was a rigid tap's tap in (its tap out follows).
     inside_tap: bool,
 }
@@ -240,21 +261,22 @@ impl Interpolator {
         for i in n_axes..MAX_AXES {
             prog.0[i] = 0.0;
         }
-        let spindle = config
-            .spindle_index()
-            .filter(|&i| i < MAX_AXES)
-            .map(|i| SpindleAxis {
+        let spindles = config.spindle_axes().map(|axis| {
+            axis.filter(|&i| i < MAX_AXES).map(|i| SpindleAxis {
                 index: i,
                 acceleration: config.axes[i].max_acceleration,
                 jerk: config.axes[i].max_jerk,
                 max_velocity: config.axes[i].max_velocity,
-            });
+                offset: 0.0,
+                spin: SpindleRun::Position,
+                override_factor: 1.0,
+                commanded: 0.0,
+            })
+        });
         Interpolator {
             period: config.bus.period_s(),
-            spindle,
+            spindles,
             prog,
-            offset: 0.0,
-            spin: SpindleRun::Position,
             job: Job::Idle,
             stopping: false,
             line: 0,
@@ -264,8 +286,6 @@ impl Interpolator {
             stop_carry: None,
             starved_at_speed: 0,
             rate: RateClock::new(),
-            spindle_override: 1.0,
-            spindle_commanded: 0.0,
             inside_tap: false,
         }
     }
@@ -299,34 +319,43 @@ impl Interpolator {
         };
     }
 
-    /// Spindle override as a factor (0.5–1.2, clamped; never above the spindle axis's
-    /// max velocity): a turning spindle ramps to the new speed within its limits.
+    /// Spindle override of every spindle as a factor (see
+    /// [`set_spindle_override_of`](Self::set_spindle_override_of)).
     pub fn set_spindle_override(&mut self, factor: f64) {
+        for number in 1..=MAX_SPINDLES as u8 {
+            self.set_spindle_override_of(number, factor);
+        }
+    }
+
+    /// Spindle override of spindle `number` as a factor (0.5–1.2, clamped; never above its
+    /// axis's max velocity): a turning spindle ramps to the new speed within its limits.
+    pub fn set_spindle_override_of(&mut self, number: u8, factor: f64) {
         let f = if factor.is_finite() {
             factor.clamp(0.5, 1.2)
         } else {
             1.0
         };
-        if f == self.spindle_override {
+        let (prog, period, stopping) = (self.prog, self.period, self.stopping);
+        let Some(sp) = self.spindle_mut(number) else {
+            return;
+        };
+        if f == sp.override_factor {
             return;
         }
-        self.spindle_override = f;
-        if let (Some(sp), SpindleRun::Speed { .. }) = (self.spindle, self.spin)
-            && !self.stopping
-            && self.spindle_commanded != 0.0
-        {
-            let now = self.spindle_state(sp);
-            self.spin = SpindleRun::Speed {
-                profile: velocity_change(now, self.spindle_target(sp), sp.acceleration, sp.jerk),
+        sp.override_factor = f;
+        if !sp.at_rest() && !stopping && sp.commanded != 0.0 {
+            let now = spindle_state(sp, &prog, period);
+            sp.spin = SpindleRun::Speed {
+                profile: velocity_change(now, sp.target(), sp.acceleration, sp.jerk),
                 k: 0,
             };
         }
     }
 
-    /// The commanded spindle speed with the override, within the axis's max velocity.
-    fn spindle_target(&self, sp: SpindleAxis) -> f64 {
-        let v = self.spindle_commanded * self.spindle_override;
-        v.clamp(-sp.max_velocity, sp.max_velocity)
+    /// Spindle `number` (1-based), if the machine has it.
+    fn spindle_mut(&mut self, number: u8) -> Option<&mut SpindleAxis> {
+        let slot = usize::from(number).checked_sub(1)?;
+        self.spindles.get_mut(slot)?.as_mut()
     }
 
     /// Whether a feed hold keeps `next` from starting now: the path is at rest (no blended
@@ -390,7 +419,7 @@ impl Interpolator {
         self.stopping
             && (matches!(self.job, Job::Held)
                 || (matches!(self.job, Job::Idle) && self.stop_carry.is_none()))
-            && self.spindle_at_rest()
+            && !self.spindle_running()
     }
 
     /// True while a stop has been requested and not cleared.
@@ -409,32 +438,47 @@ impl Interpolator {
         self.prog
     }
 
-    /// Machine C − program C (the angle the spindle turned in speed mode).
+    /// Machine C − program C of spindle 1 (the angle it turned in speed mode).
     pub fn spindle_offset(&self) -> f64 {
-        self.offset
+        self.spindle_offset_of(1)
     }
 
-    /// Sets machine C − program C, e.g. at start-up so that the first setpoint equals the
-    /// drive's actual position (`actual C − program C`) whatever angle the spindle was left
-    /// at. Only while idle with the spindle at rest (else returns false and changes nothing).
+    /// Machine − program position of spindle `number`'s axis (0 without that spindle).
+    pub fn spindle_offset_of(&self, number: u8) -> f64 {
+        let slot = usize::from(number).wrapping_sub(1);
+        self.spindles
+            .get(slot)
+            .and_then(|s| s.as_ref())
+            .map_or(0.0, |s| s.offset)
+    }
+
+    /// Sets spindle 1's machine C − program C (see
+    /// [`set_spindle_offset_of`](Self::set_spindle_offset_of)).
     pub fn set_spindle_offset(&mut self, offset: f64) -> bool {
-        if !self.is_idle() || !self.spindle_at_rest() || !offset.is_finite() {
+        self.set_spindle_offset_of(1, offset)
+    }
+
+    /// Sets machine − program position of spindle `number`'s axis, e.g. at start-up so that
+    /// the first setpoint equals the drive's actual position (`actual − program`) whatever
+    /// angle the spindle was left at. Only while idle with the spindle at rest (else returns
+    /// false and changes nothing).
+    pub fn set_spindle_offset_of(&mut self, number: u8, offset: f64) -> bool {
+        if !self.is_idle() || !offset.is_finite() {
             return false;
         }
-        self.offset = offset;
-        if let Some(sp) = self.spindle {
-            self.last.0[sp.index] = self.prog.0[sp.index] + offset;
-        }
+        let prog = self.prog;
+        let Some(sp) = self.spindle_mut(number).filter(|s| s.at_rest()) else {
+            return false;
+        };
+        sp.offset = offset;
+        let i = sp.index;
+        self.last.0[i] = prog.0[i] + offset;
         true
     }
 
-    /// True while the spindle axis is in speed mode (turning or ramping).
+    /// True while any spindle axis is in speed mode (turning or ramping).
     pub fn spindle_running(&self) -> bool {
-        !self.spindle_at_rest()
-    }
-
-    fn spindle_at_rest(&self) -> bool {
-        matches!(self.spin, SpindleRun::Position)
+        self.spindles.iter().flatten().any(|s| !s.at_rest())
     }
 
     /// Starts the next move. It must start where the last one ended (program coordinates,
@@ -464,10 +508,9 @@ impl Interpolator {
                 if p.start != expected {
                     return Err(err(MotionErrorKind::NotAtStart));
                 }
-                if let Some(sp) = self.spindle
-                    && !self.spindle_at_rest()
-                    && p.end.0[sp.index] != p.start.0[sp.index]
-                {
+                let turns_running =
+                    |sp: &SpindleAxis| !sp.at_rest() && p.end.0[sp.index] != p.start.0[sp.index];
+                if self.spindles.iter().flatten().any(turns_running) {
                     return Err(err(MotionErrorKind::SpindleRunning));
                 }
                 let blend = self.blend.take();
@@ -516,28 +559,33 @@ impl Interpolator {
                 velocity,
                 acceleration,
                 jerk,
+                spindle: number,
             } => {
-                let Some(sp) = self.spindle else {
-                    return Err(err(MotionErrorKind::NoSpindle));
+                let (prog, period) = (self.prog, self.period);
+                let Some(sp) = self.spindle_mut(number) else {
+                    return Err(err(MotionErrorKind::NoSpindle { number }));
                 };
-                let now = self.spindle_state(sp);
-                self.spindle_commanded = velocity;
-                let target = self.spindle_target(sp);
-                self.spin = SpindleRun::Speed {
-                    profile: velocity_change(now, target, acceleration, jerk),
+                let now = spindle_state(sp, &prog, period);
+                sp.commanded = velocity;
+                sp.spin = SpindleRun::Speed {
+                    profile: velocity_change(now, sp.target(), acceleration, jerk),
                     k: 0,
                 };
-                Job::SpindleRamp
+                Job::SpindleRamp {
+                    slot: usize::from(number) - 1,
+                }
             }
             MoveKind::SpindleOrient {
                 angle,
                 limits,
                 program,
+                spindle: number,
             } => {
-                let Some(sp) = self.spindle else {
-                    return Err(err(MotionErrorKind::NoSpindle));
+                let (prog, period) = (self.prog, self.period);
+                let Some(sp) = self.spindle_mut(number) else {
+                    return Err(err(MotionErrorKind::NoSpindle { number }));
                 };
-                if !self.spindle_at_rest() {
+                if !sp.at_rest() {
                     return Err(err(MotionErrorKind::SpindleRunning));
                 }
                 if !(angle.is_finite() && (0.0..360.0).contains(&angle)) {
@@ -548,17 +596,19 @@ impl Interpolator {
                 {
                     return Err(err(MotionErrorKind::BadOrientProgram { angle, program: c }));
                 }
-                let from = self.prog.0[sp.index] + self.offset;
-                let Some(orient) = OrientMove::new(from, angle, limits, self.period) else {
+                let from = prog.0[sp.index] + sp.offset;
+                let Some(orient) = OrientMove::new(from, angle, limits, period) else {
                     return Err(err(MotionErrorKind::BadLimits));
                 };
                 if let Some(c) = program {
                     // Program C reads `c` from here on (G28/G30 C); machine C does not jump:
                     // the offset takes the difference, and the turn goes into it at the end.
-                    self.prog.0[sp.index] = c;
-                    self.offset = from - c;
+                    sp.offset = from - c;
+                    let i = sp.index;
+                    self.prog.0[i] = c;
                 }
                 Job::Orient {
+                    slot: usize::from(number) - 1,
                     orient,
                     k: 0,
                     stop: None,
@@ -572,18 +622,6 @@ impl Interpolator {
         self.line = mv.line;
         self.n = mv.n;
         Ok(())
-    }
-
-    /// The spindle's machine position, velocity and acceleration at the last tick.
-    fn spindle_state(&self, sp: SpindleAxis) -> State {
-        match &self.spin {
-            SpindleRun::Position => State {
-                s: self.prog.0[sp.index] + self.offset,
-                v: 0.0,
-                a: 0.0,
-            },
-            SpindleRun::Speed { profile, k } => profile.sample(*k as f64 * self.period),
-        }
     }
 
     /// Decelerates the current move along its own path (jerk-limited, within the move's
@@ -623,7 +661,9 @@ impl Interpolator {
                 }
             }
             Job::Idle if self.blend.is_some() => self.stop_from_blend(),
-            Job::Orient { orient, k, stop } => {
+            Job::Orient {
+                orient, k, stop, ..
+            } => {
                 let now = orient.profile.sample(*k as f64 * self.period);
                 if let Some(sp) = stop_ramp(now, orient.limits, orient.profile.end().s) {
                     *stop = Some((sp, *k));
@@ -631,14 +671,15 @@ impl Interpolator {
             }
             _ => self.job = Job::Held,
         }
-        if let Some(ax) = self.spindle
-            && let SpindleRun::Speed { .. } = self.spin
-        {
-            let now = self.spindle_state(ax);
-            self.spin = SpindleRun::Speed {
-                profile: velocity_change(now, 0.0, ax.acceleration, ax.jerk),
-                k: 0,
-            };
+        let (prog, period) = (self.prog, self.period);
+        for ax in self.spindles.iter_mut().flatten() {
+            if !ax.at_rest() {
+                let now = spindle_state(ax, &prog, period);
+                ax.spin = SpindleRun::Speed {
+                    profile: velocity_change(now, 0.0, ax.acceleration, ax.jerk),
+                    k: 0,
+                };
+            }
         }
     }
 
@@ -671,9 +712,16 @@ impl Interpolator {
 
     /// Advances one period and returns the setpoints for it.
     pub fn tick(&mut self) -> Tick {
-        // The spindle first: a ramp move completes when it is at speed.
-        let spin = self.advance_spindle();
-        let job = self.advance_job(spin.ramp_done);
+        // The spindles first: a ramp move completes when its spindle is at speed.
+        let mut spin = [SpindleTick::AT_REST; MAX_SPINDLES];
+        for (slot, t) in spin.iter_mut().enumerate() {
+            *t = self.advance_spindle(slot);
+        }
+        let ramp_done = match self.job {
+            Job::SpindleRamp { slot } => spin[slot].ramp_done,
+            _ => true,
+        };
+        let job = self.advance_job(ramp_done);
         let state = if !self.stopping {
             job.state
         } else if self.is_held() {
@@ -682,12 +730,13 @@ impl Interpolator {
             TickState::Stopping
         };
         let mut pos = self.prog;
-        if let Some(sp) = self.spindle {
+        for (slot, sp) in self.spindles.iter().enumerate() {
+            let Some(sp) = sp else { continue };
             // An orientation commands the spindle axis itself, over a speed run.
-            pos.0[sp.index] = job
-                .spindle_pos
-                .or(spin.pos)
-                .unwrap_or(self.prog.0[sp.index] + self.offset);
+            let oriented = job.spindle_pos.filter(|o| o.0 == slot).map(|o| o.1);
+            pos.0[sp.index] = oriented
+                .or(spin[slot].pos)
+                .unwrap_or(self.prog.0[sp.index] + sp.offset);
         }
         self.last = pos;
         Tick {
@@ -698,20 +747,20 @@ impl Interpolator {
             finished: job.finished,
             event: job.event,
             path_velocity: job.path_velocity,
-            spindle_velocity: spin.velocity,
+            spindle_velocity: spin.map(|s| s.velocity),
         }
     }
 
-    /// One period of a speed run (none: no spindle position of its own, and no ramp to wait
-    /// for). A ramp that ends at rest returns the spindle to position mode.
+    /// One period of spindle `slot`'s speed run (none: no spindle position of its own, and
+    /// no ramp to wait for). A ramp that ends at rest returns the spindle to position mode.
     #[inline]
-    fn advance_spindle(&mut self) -> SpindleTick {
-        let (Some(sp), SpindleRun::Speed { profile, k }) = (self.spindle, &mut self.spin) else {
-            return SpindleTick {
-                pos: None,
-                velocity: 0.0,
-                ramp_done: true,
-            };
+    fn advance_spindle(&mut self, slot: usize) -> SpindleTick {
+        let prog = self.prog;
+        let Some(sp) = self.spindles[slot].as_mut() else {
+            return SpindleTick::AT_REST;
+        };
+        let SpindleRun::Speed { profile, k } = &mut sp.spin else {
+            return SpindleTick::AT_REST;
         };
         *k += 1;
         let t = *k as f64 * self.period;
@@ -721,8 +770,8 @@ impl Interpolator {
             // At rest: position mode again, re-based so that program C continues from
             // where the spindle stopped.
             let c = profile.end().s;
-            self.offset = c - self.prog.0[sp.index];
-            self.spin = SpindleRun::Position;
+            sp.offset = c - prog.0[sp.index];
+            sp.spin = SpindleRun::Position;
             SpindleTick {
                 pos: Some(c),
                 velocity: 0.0,
@@ -824,8 +873,14 @@ impl Interpolator {
                     }
                 }
             }
-            Job::Orient { orient, k, stop } => {
+            Job::Orient {
+                slot,
+                orient,
+                k,
+                stop,
+            } => {
                 *k += 1;
+                let slot = *slot;
                 let o = *orient;
                 let (c, done) = match along(&o.profile, o.ticks, stop, *k, p) {
                     Along::On(st) => {
@@ -838,12 +893,12 @@ impl Interpolator {
                     }
                     Along::End => (o.target, true),
                 };
-                out.spindle_pos = Some(c);
+                out.spindle_pos = Some((slot, c));
                 if done {
                     // Program C stays (or was set when the move started); the turn goes into
                     // the offset (as after a speed run).
-                    if let Some(sp) = self.spindle {
-                        self.offset = c - self.prog.0[sp.index];
+                    if let Some(sp) = self.spindles[slot].as_mut() {
+                        sp.offset = c - self.prog.0[sp.index];
                     }
                     out.finished = self.end_job();
                 }
@@ -856,7 +911,7 @@ impl Interpolator {
                     self.job = Job::Idle;
                 }
             }
-            Job::SpindleRamp => {
+            Job::SpindleRamp { .. } => {
                 out.state = TickState::SpindleRamp;
                 if ramp_done {
                     out.finished = true;
@@ -888,12 +943,35 @@ impl Interpolator {
 }
 
 /// What one period of a speed run gave [`Interpolator::tick`].
+#[derive(Clone, Copy)]
 struct SpindleTick {
     /// Machine C, when the speed run commands it.
     pos: Option<f64>,
     velocity: f64,
     /// The ramp has reached its speed (true without a speed run).
     ramp_done: bool,
+}
+
+impl SpindleTick {
+    /// A spindle in position mode (or none): nothing of its own, no ramp to wait for.
+    const AT_REST: SpindleTick = SpindleTick {
+        pos: None,
+        velocity: 0.0,
+        ramp_done: true,
+    };
+}
+
+/// A spindle's machine position, velocity and acceleration at the last tick (`prog`: the
+/// program position, read in position mode).
+fn spindle_state(sp: &SpindleAxis, prog: &AxisPos, period: f64) -> State {
+    match &sp.spin {
+        SpindleRun::Position => State {
+            s: prog.0[sp.index] + sp.offset,
+            v: 0.0,
+            a: 0.0,
+        },
+        SpindleRun::Speed { profile, k } => profile.sample(*k as f64 * period),
+    }
 }
 
 /// What one period of the job gave [`Interpolator::tick`].
@@ -903,8 +981,8 @@ struct JobTick {
     finished: bool,
     event: Option<MoveEvent>,
     path_velocity: f64,
-    /// Machine C, when an orientation commands it.
-    spindle_pos: Option<f64>,
+    /// The oriented spindle's slot and machine position, when an orientation commands it.
+    spindle_pos: Option<(usize, f64)>,
 }
 
 /// The ramp from `now` to rest within `lim`, for a move of `length`: none when the

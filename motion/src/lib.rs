@@ -3,7 +3,12 @@
 //! no clock; time advances only by the period passed in.
 //!
 //! # The spindle
-//! `Spindle { rpm, dir }` puts the spindle axis in speed mode: its velocity ramps (jerk-limited,
+//! A machine has up to two spindles; `Spindle` and `SpindleOrient` name theirs by number
+//! (`spindle`, 1 or 2), and each has its own speed mode, offset, override and orientation on
+//! its own axis ("C" below is that axis). Both may turn at once; a position move may not
+//! turn an axis whose spindle runs.
+//!
+//! `Spindle { rpm, dir, .. }` puts the spindle axis in speed mode: its velocity ramps (jerk-limited,
 //! within its acceleration, jerk and `max_rpm`) to ±rpm·6 deg/s and the move completes when it
 //! is at speed ("spindle at speed"; rpm 0 / M5: when it is at rest). The spindle keeps turning
 //! during later moves and its position keeps counting, never wrapped (an f64 in degrees: after

@@ -5,7 +5,7 @@
 
 use std::f64::consts::{PI, TAU};
 
-use cnc402_config::{AxisKind, MachineConfig};
+use cnc402_config::{AxisKind, MAX_SPINDLES, MachineConfig};
 
 use crate::error::{MotionError, MotionErrorKind};
 use crate::profile::{JerkProfile, Limits, PathProfile, ProfileError, State, rest_to_rest};
@@ -37,13 +37,15 @@ pub enum MoveKind {
     Path(PathMove),
     /// Hold position for `ticks` periods (`seconds` rounded up to whole periods, at least 1).
     Dwell { seconds: f64, ticks: u64 },
-    /// Spindle speed mode: ramp the spindle axis to `velocity` (deg/s, signed: M3 > 0,
-    /// M4 < 0, M5 = 0) under `acceleration`/`jerk`; the move completes when the spindle is at
-    /// speed (at rest for 0), and the spindle keeps turning during later moves.
+    /// Spindle speed mode: ramp the axis of spindle number `spindle` to `velocity` (deg/s,
+    /// signed: M3 > 0, M4 < 0, M5 = 0) under `acceleration`/`jerk`; the move completes when
+    /// the spindle is at speed (at rest for 0), and the spindle keeps turning during later
+    /// moves.
     Spindle {
         velocity: f64,
         acceleration: f64,
         jerk: f64,
+        spindle: u8,
     },
     /// Spindle orientation: with the spindle at rest, turn it the shorter way to the nearest
     /// machine C ≡ `angle` (mod 360) within `limits` (deg/s, deg/s², deg/s³). The interpolator
@@ -54,6 +56,8 @@ pub enum MoveKind {
         angle: f64,
         limits: Limits,
         program: Option<f64>,
+        /// The spindle's number (its axis is the one oriented).
+        spindle: u8,
     },
     /// T with M6: reported to the caller in one tick.
     ToolChange { tool: u32 },
@@ -177,12 +181,14 @@ impl PathMove {
 pub struct Planner {
     axes: [AxisData; MAX_AXES],
     n_axes: usize,
-    spindle: Option<usize>,
+    /// The axis of each spindle by number (`[0]`: spindle 1).
+    spindles: [Option<usize>; MAX_SPINDLES],
     period: f64,
     arc_tolerance: f64,
     path_axes: PathAxes,
     pos: AxisPos,
-    spindle_running: bool,
+    /// Per spindle (by number − 1): runs in speed mode.
+    spindle_running: [bool; MAX_SPINDLES],
     /// The share of every axis's acceleration a path profile may use (1 for exact stops; the
     /// lookahead keeps the rest for the velocity jumps at blended junctions).
     accel_share: f64,
@@ -222,12 +228,12 @@ impl Planner {
         Planner {
             axes,
             n_axes,
-            spindle: config.spindle_index().filter(|&i| i < MAX_AXES),
+            spindles: config.spindle_axes().map(|a| a.filter(|&i| i < MAX_AXES)),
             period: config.bus.period_s(),
             arc_tolerance: config.interp.arc_tolerance,
             path_axes: PathAxes::new(config),
             pos: AxisPos::default(),
-            spindle_running: false,
+            spindle_running: [false; MAX_SPINDLES],
             accel_share: 1.0,
             feed_scale: 1.0,
         }
@@ -273,15 +279,25 @@ impl Planner {
         self.pos
     }
 
-    /// True after an M3/M4 with S > 0, until an M5 (or S0).
+    /// True after an M3/M4 with S > 0 of any spindle, until its M5 (or S0).
     pub fn spindle_running(&self) -> bool {
-        self.spindle_running
+        self.spindle_running.contains(&true)
     }
 
-    /// Tells the planner whether the spindle runs (after a stop has brought it to rest, or
-    /// when re-syncing with the interpolator: see `Interpolator::spindle_running`).
+    /// Tells the planner whether the spindles run (after a stop has brought them to rest, or
+    /// when re-syncing with the interpolator: see `Interpolator::spindle_running`): every
+    /// spindle.
     pub fn set_spindle_running(&mut self, running: bool) {
-        self.spindle_running = running;
+        self.spindle_running = [running; MAX_SPINDLES];
+    }
+
+    /// The axis of spindle `number` and its slot in the per-spindle arrays.
+    fn spindle_slot(&self, number: u8) -> Result<(usize, usize), MotionErrorKind> {
+        let slot = usize::from(number).wrapping_sub(1);
+        match self.spindles.get(slot) {
+            Some(Some(axis)) => Ok((slot, *axis)),
+            _ => Err(MotionErrorKind::NoSpindle { number }),
+        }
     }
 
     /// Plans one segment starting where the previous one ended. On error nothing changes.
@@ -352,8 +368,14 @@ impl Planner {
                     ticks,
                 }
             }
-            SegmentKind::Spindle { rpm, dir } => self.spindle_move(*rpm, *dir)?,
-            SegmentKind::SpindleOrient { angle, program } => self.orient_move(*angle, *program)?,
+            SegmentKind::Spindle { rpm, dir, spindle } => {
+                self.spindle_move(*rpm, *dir, *spindle)?
+            }
+            SegmentKind::SpindleOrient {
+                angle,
+                program,
+                spindle,
+            } => self.orient_move(*angle, *program, *spindle)?,
             SegmentKind::ToolChange { tool } => MoveKind::ToolChange { tool: *tool },
             SegmentKind::Coolant { mist, flood } => MoveKind::Coolant {
                 mist: *mist,
@@ -364,9 +386,14 @@ impl Planner {
         })
     }
 
-    /// M3/M4/M5 at `rpm`: the spindle's new speed (deg/s) and its ramp limits.
-    fn spindle_move(&mut self, rpm: f64, dir: SpindleDir) -> Result<MoveKind, MotionErrorKind> {
-        let si = self.spindle.ok_or(MotionErrorKind::NoSpindle)?;
+    /// M3/M4/M5 at `rpm` of spindle `number`: its new speed (deg/s) and ramp limits.
+    fn spindle_move(
+        &mut self,
+        rpm: f64,
+        dir: SpindleDir,
+        number: u8,
+    ) -> Result<MoveKind, MotionErrorKind> {
+        let (slot, si) = self.spindle_slot(number)?;
         if !(rpm.is_finite() && rpm >= 0.0) {
             return Err(MotionErrorKind::BadRpm(rpm));
         }
@@ -381,22 +408,24 @@ impl Planner {
             return Err(MotionErrorKind::SpindleTooFast { rpm, max_rpm });
         }
         let velocity = sign * rpm.min(max_rpm) * 6.0;
-        self.spindle_running = velocity != 0.0;
+        self.spindle_running[slot] = velocity != 0.0;
         Ok(MoveKind::Spindle {
             velocity,
             acceleration: ax.a,
             jerk: ax.j,
+            spindle: number,
         })
     }
 
-    /// M19 to `angle` (program C reads `program` afterwards, when given): the spindle at rest
-    /// turns there within its axis limits.
+    /// M19 of spindle `number` to `angle` (its axis reads `program` afterwards, when
+    /// given): the spindle at rest turns there within its axis limits.
     fn orient_move(
         &mut self,
         angle: f64,
         program: Option<f64>,
+        number: u8,
     ) -> Result<MoveKind, MotionErrorKind> {
-        let si = self.spindle.ok_or(MotionErrorKind::NoSpindle)?;
+        let (slot, si) = self.spindle_slot(number)?;
         if !(angle.is_finite() && (0.0..360.0).contains(&angle)) {
             return Err(MotionErrorKind::BadOrientAngle(angle));
         }
@@ -405,7 +434,7 @@ impl Planner {
         {
             return Err(MotionErrorKind::BadOrientProgram { angle, program: c });
         }
-        if self.spindle_running {
+        if self.spindle_running[slot] {
             return Err(MotionErrorKind::SpindleRunning);
         }
         let ax = self.axes[si];
@@ -429,6 +458,7 @@ impl Planner {
             angle,
             limits,
             program,
+            spindle: number,
         })
     }
 
@@ -444,11 +474,13 @@ impl Planner {
             self.check_soft(i, v)?;
             e.0[i] = v;
         }
-        if let Some(si) = self.spindle
-            && self.spindle_running
-            && e.0[si] != self.pos.0[si]
-        {
-            return Err(MotionErrorKind::SpindleRunning);
+        for (si, running) in self.spindles.iter().zip(self.spindle_running) {
+            if let Some(si) = *si
+                && running
+                && e.0[si] != self.pos.0[si]
+            {
+                return Err(MotionErrorKind::SpindleRunning);
+            }
         }
         Ok(e)
     }
@@ -458,7 +490,7 @@ impl Planner {
     fn check_tap(&self, tap: &TapSegment) -> Result<(), MotionErrorKind> {
         let tool = usize::from(tap.tool);
         let tool_ok = tool < self.n_axes && self.axes[tool].linear;
-        let spindle_ok = self.spindle == Some(usize::from(tap.spindle));
+        let spindle_ok = self.spindles.contains(&Some(usize::from(tap.spindle)));
         if tool_ok && spindle_ok && tap.pitch.is_finite() && tap.pitch != 0.0 {
             Ok(())
         } else {

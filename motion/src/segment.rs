@@ -365,9 +365,16 @@ pub enum SegmentKind {
     },
     /// G4, and the P dwell of cycles.
     Dwell { seconds: f64 },
-    /// M3/M4/M5 with S: the spindle axis runs in speed mode. `rpm` ≥ 0.
-    Spindle { rpm: f64, dir: SpindleDir },
-    /// Spindle orientation (G76/G87 before the shift; M19): with the spindle at rest, a
+    /// M3/M4/M5 with S: the axis of spindle number `spindle` (1 = the program's default;
+    /// Fanuc `P`, LinuxCNC `$` select another) runs in speed mode. `rpm` ≥ 0.
+    Spindle {
+        rpm: f64,
+        dir: SpindleDir,
+        spindle: u8,
+    },
+    /// Spindle orientation (G76/G87 before the shift; M19) of spindle number `spindle`
+    /// (see `Spindle`), its own axis standing for "the spindle axis" and "C" below: with the
+    /// spindle at rest, a
     /// jerk-limited position move of the spindle axis the shorter way round to the nearest
     /// physical angle ≡ `angle` (degrees, 0 ≤ angle < 360) mod 360. Physical means machine C,
     /// i.e. program C plus the spindle offset that speed-mode runs leave (see the crate doc):
@@ -377,7 +384,11 @@ pub enum SegmentKind {
     /// `program: Some(c)` (G28/G30 C: the axis reads its reference position afterwards, as on
     /// Fanuc) program C becomes `c`, which must be ≡ `angle` (mod 360): afterwards the
     /// physical angle ≡ program C, so a later absolute C move lands on its angle.
-    SpindleOrient { angle: f64, program: Option<f64> },
+    SpindleOrient {
+        angle: f64,
+        program: Option<f64>,
+        spindle: u8,
+    },
     /// T with M6.
     ToolChange { tool: u32 },
     /// M7 (mist on), M8 (flood on), M9 (both off): the coolant state from here on.

@@ -301,6 +301,7 @@ fn spindle_override_ramps_the_speed() {
             SegmentKind::Spindle {
                 rpm: 3000.0,
                 dir: SpindleDir::Cw,
+                spindle: 1,
             },
             1,
         ),
@@ -309,7 +310,7 @@ fn spindle_override_ramps_the_speed() {
     let acts = [(1000, Act::Spindle(1.2)), (2500, Act::Spindle(0.3))];
     let t = run_with(&cfg, start, &segs, 1.0, &acts);
     check_limits(&cfg, &t);
-    let rps = |k: usize| t[k].spindle_velocity / 360.0 * 60.0;
+    let rps = |k: usize| t[k].spindle_velocity[0] / 360.0 * 60.0;
     assert!((rps(900) - 3000.0).abs() < 1e-6, "{}", rps(900));
     assert!((rps(2400) - 3600.0).abs() < 1e-6, "{}", rps(2400));
     assert!(

@@ -35,6 +35,7 @@ fn program() -> Vec<Segment> {
             SegmentKind::Spindle {
                 rpm: 1200.0,
                 dir: SpindleDir::Cw,
+                spindle: 1,
             },
             7,
         ),
@@ -43,6 +44,7 @@ fn program() -> Vec<Segment> {
             SegmentKind::Spindle {
                 rpm: 0.0,
                 dir: SpindleDir::Stop,
+                spindle: 1,
             },
             9,
         ),

@@ -207,6 +207,7 @@ fn spindle_ramps_to_speed_then_turns_through_moves_and_rebases_c() {
             SegmentKind::Spindle {
                 rpm: 3000.0,
                 dir: SpindleDir::Cw,
+                spindle: 1,
             },
             1,
         ),
@@ -215,6 +216,7 @@ fn spindle_ramps_to_speed_then_turns_through_moves_and_rebases_c() {
             SegmentKind::Spindle {
                 rpm: 0.0,
                 dir: SpindleDir::Stop,
+                spindle: 1,
             },
             3,
         ),
@@ -225,7 +227,7 @@ fn spindle_ramps_to_speed_then_turns_through_moves_and_rebases_c() {
     check_limits(&c, &ticks);
     let ramp_end = ticks.iter().position(|t| t.finished).unwrap();
     assert_eq!(ticks[ramp_end].state, TickState::SpindleRamp);
-    assert!((ticks[ramp_end].spindle_velocity - 18000.0).abs() < 1e-6);
+    assert!((ticks[ramp_end].spindle_velocity[0] - 18000.0).abs() < 1e-6);
     // Ramp time: 18000/36000 + 36000/720000 = 0.55 s.
     assert!((ramp_end as f64 * 1e-3 - 0.55).abs() < 2e-3, "{ramp_end}");
     // During the linear move the spindle turns at 18000 deg/s.
@@ -237,7 +239,7 @@ fn spindle_ramps_to_speed_then_turns_through_moves_and_rebases_c() {
     let stop_idx = ticks.iter().rposition(|t| t.line == 3).unwrap();
     let c_stop = ticks[stop_idx].pos.0[3];
     assert!(c_stop > 18000.0 * 0.5);
-    assert_eq!(ticks[stop_idx].spindle_velocity, 0.0);
+    assert_eq!(ticks[stop_idx].spindle_velocity[0], 0.0);
     let last = ticks.last().unwrap();
     assert!(
         (last.pos.0[3] - c_stop - 720.0).abs() < 1e-9,
@@ -255,7 +257,16 @@ fn spindle_ramps_to_speed_then_turns_through_moves_and_rebases_c() {
 #[test]
 fn spindle_reverses_under_its_limits_and_m5_completes_at_rest() {
     let c = cfg();
-    let sp = |rpm, dir, line| seg(SegmentKind::Spindle { rpm, dir }, line);
+    let sp = |rpm, dir, line| {
+        seg(
+            SegmentKind::Spindle {
+                rpm,
+                dir,
+                spindle: 1,
+            },
+            line,
+        )
+    };
     let ticks = run(
         &c,
         AxisPos::default(),
@@ -267,9 +278,9 @@ fn spindle_reverses_under_its_limits_and_m5_completes_at_rest() {
     );
     check_limits(&c, &ticks);
     let ends: Vec<&Tick> = ticks.iter().filter(|t| t.finished).collect();
-    assert!((ends[0].spindle_velocity - 36000.0).abs() < 1e-6);
-    assert!((ends[1].spindle_velocity + 36000.0).abs() < 1e-6);
-    assert_eq!(ends[2].spindle_velocity, 0.0);
+    assert!((ends[0].spindle_velocity[0] - 36000.0).abs() < 1e-6);
+    assert!((ends[1].spindle_velocity[0] + 36000.0).abs() < 1e-6);
+    assert_eq!(ends[2].spindle_velocity[0], 0.0);
 }
 
 #[test]
@@ -280,6 +291,7 @@ fn position_move_of_c_while_spindle_runs_is_refused() {
         SegmentKind::Spindle {
             rpm: 100.0,
             dir: SpindleDir::Cw,
+            spindle: 1,
         },
         1,
     ))
@@ -385,7 +397,8 @@ fn bad_segments_are_errors_not_panics() {
             &mut p,
             SegmentKind::Spindle {
                 rpm: 7000.0,
-                dir: SpindleDir::Cw
+                dir: SpindleDir::Cw,
+                spindle: 1,
             }
         ),
         MotionErrorKind::SpindleTooFast { .. }
@@ -395,7 +408,8 @@ fn bad_segments_are_errors_not_panics() {
             &mut p,
             SegmentKind::Spindle {
                 rpm: f64::NAN,
-                dir: SpindleDir::Cw
+                dir: SpindleDir::Cw,
+                spindle: 1,
             }
         ),
         MotionErrorKind::BadRpm(_)

@@ -21,6 +21,7 @@ fn ticks_and_starts_allocate_nothing() {
             SegmentKind::Spindle {
                 rpm: 2000.0,
                 dir: SpindleDir::Cw,
+                spindle: 1,
             },
             1,
         ),
@@ -48,6 +49,7 @@ fn ticks_and_starts_allocate_nothing() {
             SegmentKind::Spindle {
                 rpm: 0.0,
                 dir: SpindleDir::Stop,
+                spindle: 1,
             },
             7,
         ),
@@ -56,6 +58,7 @@ fn ticks_and_starts_allocate_nothing() {
             SegmentKind::SpindleOrient {
                 angle: 271.5,
                 program: None,
+                spindle: 1,
             },
             7,
         ),
@@ -65,6 +68,7 @@ fn ticks_and_starts_allocate_nothing() {
             SegmentKind::Spindle {
                 rpm: 3000.0,
                 dir: SpindleDir::Ccw,
+                spindle: 1,
             },
             10,
         ),

@@ -25,13 +25,21 @@ fn orient(angle: f64, line: u32) -> Segment {
         SegmentKind::SpindleOrient {
             angle,
             program: None,
+            spindle: 1,
         },
         line,
     )
 }
 
 fn spindle(rpm: f64, dir: SpindleDir, line: u32) -> Segment {
-    seg(SegmentKind::Spindle { rpm, dir }, line)
+    seg(
+        SegmentKind::Spindle {
+            rpm,
+            dir,
+            spindle: 1,
+        },
+        line,
+    )
 }
 
 /// The segments an interpreted G76 makes at the bottom of a bore after an M3 run, followed by
@@ -213,7 +221,7 @@ fn orientation_with_the_spindle_running_or_a_bad_angle_is_refused() {
     let mut c3 = c.clone();
     c3.axes.truncate(3);
     let e = Planner::new(&c3).plan(&orient(0.0, 7)).unwrap_err();
-    assert_eq!(e.kind, MotionErrorKind::NoSpindle);
+    assert_eq!(e.kind, MotionErrorKind::NoSpindle { number: 1 });
 }
 
 /// A stop mid-orientation decelerates along it (within the axis limits, never turning back
@@ -263,6 +271,7 @@ fn orient_to(angle: f64, program: f64, line: u32) -> Segment {
         SegmentKind::SpindleOrient {
             angle,
             program: Some(program),
+            spindle: 1,
         },
         line,
     )
@@ -375,6 +384,7 @@ fn orientation_to_a_program_c_off_its_angle_is_refused() {
                     jerk: 1000.0,
                 },
                 program: Some(10.0),
+                spindle: 1,
             },
             ends: SegmentEnd::ExactStop,
         })

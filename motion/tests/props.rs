@@ -201,7 +201,14 @@ fn build(specs: &[Spec], start: AxisPos) -> (Vec<Segment>, Vec<TapCheck>) {
                 if let Some(c) = program {
                     pos.0[3] = c;
                 }
-                segs.push(seg(SegmentKind::SpindleOrient { angle, program }, line));
+                segs.push(seg(
+                    SegmentKind::SpindleOrient {
+                        angle,
+                        program,
+                        spindle: 1,
+                    },
+                    line,
+                ));
             }
         }
     }
@@ -417,12 +424,19 @@ fn wild_segment() -> impl Strategy<Value = SegmentKind> {
                 feed,
             }),
         wild().prop_map(|seconds| SegmentKind::Dwell { seconds }),
-        (wild(), 0u8..3).prop_map(|(rpm, d)| SegmentKind::Spindle {
+        // Spindle numbers 0..=3: the machine has spindle 1 only.
+        (wild(), 0u8..3, 0u8..4).prop_map(|(rpm, d, spindle)| SegmentKind::Spindle {
             rpm,
             dir: [SpindleDir::Cw, SpindleDir::Ccw, SpindleDir::Stop][d as usize],
+            spindle,
         }),
-        (wild(), proptest::option::of(wild()))
-            .prop_map(|(angle, program)| SegmentKind::SpindleOrient { angle, program }),
+        (wild(), proptest::option::of(wild()), 0u8..4).prop_map(|(angle, program, spindle)| {
+            SegmentKind::SpindleOrient {
+                angle,
+                program,
+                spindle,
+            }
+        }),
     ]
 }
 

@@ -20,6 +20,7 @@ fn spindle_runs_past_two_wraps_of_int32_counts_without_a_jump() {
         SegmentKind::Spindle {
             rpm: 6000.0,
             dir: SpindleDir::Cw,
+            spindle: 1,
         },
         1,
     );
@@ -64,6 +65,7 @@ fn spindle_runs_past_two_wraps_of_int32_counts_without_a_jump() {
         SegmentKind::Spindle {
             rpm: 0.0,
             dir: SpindleDir::Stop,
+            spindle: 1,
         },
         2,
     );

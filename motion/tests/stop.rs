@@ -140,6 +140,7 @@ fn stop_ramps_the_spindle_down_and_clear_stop_allows_a_new_start() {
             SegmentKind::Spindle {
                 rpm: 5000.0,
                 dir: SpindleDir::Ccw,
+                spindle: 1,
             },
             1,
         ),
@@ -148,7 +149,7 @@ fn stop_ramps_the_spindle_down_and_clear_stop_allows_a_new_start() {
     let ticks = run_with_stop(&c, AxisPos::default(), &segs, 1000);
     check_limits(&c, &ticks);
     let held = ticks.iter().find(|t| t.state == TickState::Held).unwrap();
-    assert_eq!(held.spindle_velocity, 0.0);
+    assert_eq!(held.spindle_velocity[0], 0.0);
     // The spindle (1 s ramp at most from 30000 deg/s) takes longer than the path: the
     // interpolator reports Stopping until it is at rest.
     let first_held = ticks

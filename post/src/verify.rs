@@ -254,19 +254,30 @@ fn same(a: &Step, b: &Step) -> bool {
                 && near(*f1, *f2, FEED_TOLERANCE)
         }
         (K::Dwell { seconds: s1 }, K::Dwell { seconds: s2 }) => near(*s1, *s2, 0.0005),
-        (K::Spindle { rpm: r1, dir: d1 }, K::Spindle { rpm: r2, dir: d2 }) => {
-            d1 == d2 && near(*r1, *r2, 1e-9)
-        }
+        (
+            K::Spindle {
+                rpm: r1,
+                dir: d1,
+                spindle: s1,
+            },
+            K::Spindle {
+                rpm: r2,
+                dir: d2,
+                spindle: s2,
+            },
+        ) => (d1, s1) == (d2, s2) && near(*r1, *r2, 1e-9),
         (
             K::SpindleOrient {
                 angle: a1,
                 program: p1,
+                spindle: s1,
             },
             K::SpindleOrient {
                 angle: a2,
                 program: p2,
+                spindle: s2,
             },
-        ) => near(*a1, *a2, 1e-9) && p1.is_some() == p2.is_some(),
+        ) => s1 == s2 && near(*a1, *a2, 1e-9) && p1.is_some() == p2.is_some(),
         (x, y) => x == y,
     }
 }

@@ -7,7 +7,7 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use cnc402_config::{AxisKind, MAX_AXES, MachineConfig};
+use cnc402_config::{AxisKind, MAX_AXES, MAX_SPINDLES, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_motion::{AxisPos, Interpolator, MoveKind};
 
@@ -40,7 +40,10 @@ pub struct AxisTable {
     pub n: usize,
     pub counts_per_unit: [f64; MAX_AXES],
     pub linear: [bool; MAX_AXES],
+    /// Spindle 1's axis.
     pub spindle: Option<usize>,
+    /// Every spindle's axis, by number − 1.
+    pub spindles: [Option<usize>; MAX_SPINDLES],
     /// CANopen node of each axis's drive (0: none).
     pub nodes: [u8; MAX_AXES],
     /// The drive's dead time in cycles (config `feedback_delay_cycles`, 0–16: the same figure
@@ -68,6 +71,7 @@ impl AxisTable {
             counts_per_unit,
             linear,
             spindle: cfg.spindle_index().filter(|&i| i < n),
+            spindles: cfg.spindle_axes().map(|a| a.filter(|&i| i < n)),
             nodes,
             delay_cycles,
         }
@@ -111,7 +115,8 @@ pub struct CycleController<L: DriveLink> {
     /// Set when the spindle or the tool axis drive itself stops during a tap: the other
     /// axis of the pair follows its actual position instead of the path (see `follow_actual`).
     follow: Option<TapFollow>,
-    spindle_track: SpindleTrack,
+    /// Each spindle's actual motion (by number − 1), tracked in every mode.
+    spindle_tracks: [SpindleTrack; MAX_SPINDLES],
     /// The tool axis's actual motion during a tap (for a follow led by the tool axis).
     tool_track: SpindleTrack,
     /// Program stops (M0/M1): `None` passes them (log and go on).
@@ -208,7 +213,7 @@ impl<L: DriveLink> CycleController<L> {
             moves_started: 0,
             tap_anchor: (0.0, 0.0),
             follow: None,
-            spindle_track: SpindleTrack::default(),
+            spindle_tracks: [SpindleTrack::default(); MAX_SPINDLES],
             tool_track: SpindleTrack::default(),
             gate: None,
             held: false,
@@ -391,7 +396,7 @@ impl<L: DriveLink> CycleController<L> {
         if let Some(f) = &self.follow {
             let (i, v) = follow_actual(
                 f,
-                [&self.tool_track, &self.spindle_track],
+                [&self.tool_track, self.spindle_track_of(f.c.spindle)],
                 &self.axes,
                 self.tick,
                 &self.feedback,
@@ -554,17 +559,31 @@ impl<L: DriveLink> CycleController<L> {
         }
     }
 
-    /// The spindle's (and in a tap the tool axis's) actual velocity from its feedback, per
-    /// tick, updated when the drive has sampled a newer position.
+    /// Every spindle's (and in a tap the tool axis's) actual velocity from its feedback,
+    /// per tick, updated when the drive has sampled a newer position.
     #[inline]
     fn track_spindle(&mut self) {
-        if let Some(sp) = self.axes.spindle {
-            self.spindle_track.update(&self.feedback[sp], self.tick);
+        for (track, axis) in self.spindle_tracks.iter_mut().zip(self.axes.spindles) {
+            if let Some(sp) = axis {
+                track.update(&self.feedback[sp], self.tick);
+            }
         }
         if let Some(c) = self.tap.or(self.follow.map(|f| f.c)) {
             self.tool_track
                 .update(&self.feedback[c.tool as usize], self.tick);
         }
+    }
+
+    /// The track of the spindle on axis `axis` (a tap's `TapCoupling::spindle`).
+    #[inline]
+    fn spindle_track_of(&self, axis: u8) -> &SpindleTrack {
+        let k = self
+            .axes
+            .spindles
+            .iter()
+            .position(|&a| a == Some(usize::from(axis)))
+            .unwrap_or(0);
+        &self.spindle_tracks[k]
     }
 
     /// Records this tick's status (a full ring drops it, counted) and the largest following

@@ -36,6 +36,9 @@ pub(crate) struct LoopOutputs {
     clamp_after_hold: bool,
     /// An M5 spindle move is running: the enable goes off when it has ended.
     spindle_off_after_move: bool,
+    /// The spindles commanded to turn (bit number − 1): the one enable stays on while any
+    /// does (an M5 of spindle 2 left spindle 1 turning without its enable).
+    spindles_on: u8,
 }
 
 impl LoopOutputs {
@@ -58,6 +61,7 @@ impl LoopOutputs {
             state: CLAMP & configured,
             clamp_after_hold: false,
             spindle_off_after_move: false,
+            spindles_on: 0,
         }
     }
 
@@ -100,11 +104,19 @@ impl LoopOutputs {
         if std::mem::take(&mut self.spindle_off_after_move) {
             self.set(link, SPINDLE, false);
         }
-        if let MoveKind::Spindle { velocity, .. } = kind {
+        if let MoveKind::Spindle {
+            velocity, spindle, ..
+        } = kind
+        {
+            let bit = 1u8 << (spindle.wrapping_sub(1) & 7);
             if *velocity != 0.0 {
+                self.spindles_on |= bit;
                 self.set(link, SPINDLE, true);
-            } else if self.state & SPINDLE != 0 {
-                self.spindle_off_after_move = true;
+            } else {
+                self.spindles_on &= !bit;
+                if self.spindles_on == 0 && self.state & SPINDLE != 0 {
+                    self.spindle_off_after_move = true;
+                }
             }
         }
     }
@@ -137,4 +149,40 @@ pub fn output_name(bit: u8) -> &'static str {
         .iter()
         .find(|(_, b)| *b == bit)
         .map_or("?", |(o, _)| o.name())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::ModelLink;
+
+    /// Regression (m5_of_spindle_2_switched_spindle_1s_enable_off): the one enable output
+    /// went off after an M5 of either spindle, with the other still turning.
+    #[test]
+    fn the_spindle_enable_stays_on_while_either_spindle_turns() {
+        let text = include_str!("../../examples/two-spindles/machine.toml").replace(
+            "[interp]",
+            "[machine]\noutputs = { spindle_enable = { axis = \"Z\", bit = 16 } }\n\n[interp]",
+        );
+        let path = std::path::Path::new("../examples/two-spindles/machine.toml");
+        let cfg = MachineConfig::parse(&text, path).unwrap();
+        let mut link = ModelLink::new(&cfg, [0.0; cnc402_config::MAX_AXES], 1);
+        let mut o = LoopOutputs::new(&cfg);
+        let spin = |velocity, spindle| MoveKind::Spindle {
+            velocity,
+            acceleration: 1.0,
+            jerk: 1.0,
+            spindle,
+        };
+        let on = |o: &LoopOutputs| o.state & SPINDLE != 0;
+        o.move_started(&spin(6000.0, 1), &mut link);
+        o.move_started(&spin(-3000.0, 2), &mut link);
+        o.move_started(&spin(0.0, 2), &mut link);
+        o.move_started(&MoveKind::Message, &mut link);
+        assert!(on(&o), "spindle 1 still turns");
+        o.move_started(&spin(0.0, 1), &mut link);
+        assert!(on(&o), "off once the M5 ramp has ended");
+        o.move_started(&MoveKind::Message, &mut link);
+        assert!(!on(&o));
+    }
 }

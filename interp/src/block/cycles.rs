@@ -199,9 +199,9 @@ impl Exec<'_> {
                 peck_retract,
                 peck_clearance,
                 orient_angle: self
-                    .cfg
-                    .spindle_index()
+                    .spindle_axis()
                     .map(|_| self.cfg.interp.spindle_orient_angle),
+                spindle: self.st.spindle_sel,
                 spindle_turning: turning,
                 speed: self.st.speed,
                 spindle_dir: self.st.spindle,
@@ -398,8 +398,14 @@ impl Exec<'_> {
         } else {
             ("G74 (left-hand tap)", "M4", SpindleDir::Cw, -1.0)
         };
-        let Some(ic) = self.cfg.spindle_index() else {
-            return Err(self.err(span, format!("{name} needs a spindle axis in the config")));
+        let Some(ic) = self.spindle_axis() else {
+            return Err(self.err(
+                span,
+                format!(
+                    "{name} needs a spindle axis in the config (spindle {})",
+                    self.st.spindle_sel
+                ),
+            ));
         };
         if self.st.spindle == wrong {
             return Err(self
@@ -457,14 +463,17 @@ impl Exec<'_> {
     /// the offset that speed-mode runs leave), so this emits `SpindleOrient` and leaves the
     /// program's C unchanged (motion puts the turn into the offset).
     pub(crate) fn orient(&mut self) -> Result<(), NcError> {
+        let spindle = self.st.spindle_sel;
         self.push(SegmentKind::Spindle {
             rpm: 0.0,
             dir: SpindleDir::Stop,
+            spindle,
         });
-        if self.cfg.spindle_index().is_some() {
+        if self.spindle_axis().is_some() {
             self.push(SegmentKind::SpindleOrient {
                 angle: self.cfg.interp.spindle_orient_angle,
                 program: None,
+                spindle,
             });
         }
         Ok(())

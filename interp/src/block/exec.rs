@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use cnc402_config::MachineConfig;
+use cnc402_config::{MAX_SPINDLES, MachineConfig};
 use cnc402_lang::ast::{Comment, Line, Span};
 use cnc402_lang::{Dialect, NcError, SourceFile};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, Source, SpindleDir, StopKind};
@@ -72,6 +72,8 @@ pub(crate) struct Exec<'a> {
     pub tlo_cancel_after: bool,
     /// The block's move finished a held corner move or was held itself.
     pub corner_done: bool,
+    /// LinuxCNC's `$-1`: the block's S and M3/M4/M5 act on every spindle.
+    pub all_spindles: bool,
 }
 
 /// `(MSG, text)` → `text`.
@@ -186,6 +188,7 @@ impl Exec<'_> {
             tlo_commanded: false,
             tlo_cancel_after: false,
             corner_done: false,
+            all_spindles: false,
         };
         ex.run(line)?;
         Ok((ex.out, ex.end))
@@ -203,7 +206,8 @@ impl Exec<'_> {
         self.cutter_comp()?;
         self.feed_word()?;
         let spindle_m = self.w.m.iter().any(|m| matches!(m.0, 3..=5));
-        self.speed_word(spindle_m)?;
+        self.spindle_selection()?;
+        self.for_block_spindles(|ex| ex.speed_word(spindle_m))?;
         if let Some(t) = self.w.take('T') {
             self.st.tool_selected = self.whole(t, "T (tool number)")?;
         }
@@ -291,7 +295,7 @@ impl Exec<'_> {
                         bad(seconds.is_finite(), &['P', 'X'], "the dwell")
                     }
                     SegmentKind::Spindle { rpm, .. } => bad(rpm.is_finite(), &['S'], "the speed"),
-                    SegmentKind::SpindleOrient { angle, program } => bad(
+                    SegmentKind::SpindleOrient { angle, program, .. } => bad(
                         angle.is_finite() && program.is_none_or(f64::is_finite),
                         &['C'],
                         "the spindle angle",
@@ -590,6 +594,123 @@ impl Exec<'_> {
         Ok(())
     }
 
+    /// The axis of the selected spindle (see [`ModalState::spindle_sel`]).
+    pub(crate) fn spindle_axis(&self) -> Option<usize> {
+        self.cfg.spindle_axis(self.st.spindle_sel)
+    }
+
+    /// The spindle this block's S, M3/M4/M5 and M19 act on. Fanuc's multi-spindle control:
+    /// `P` in the block (1 or 2), kept until the next `P` (a `P` that the block's dwell, G10,
+    /// G30 or canned cycle takes is theirs). LinuxCNC: `$` (spindles counted from 0) for
+    /// this block only, the program's default spindle (`Options::default_spindle`) without.
+    fn spindle_selection(&mut self) -> Result<(), NcError> {
+        // Haas's `M19 P…` is the orientation angle, not a spindle.
+        let orient_p = self.dialect != Dialect::Haas;
+        let spindle_block = self.w.has('S')
+            || (self.w.m.iter()).any(|m| matches!(m.0, 3..=5) || (m.0 == 19 && orient_p));
+        let (number, span) = if self.dialect == Dialect::LinuxCnc {
+            let default = Some(self.opts.default_spindle)
+                .filter(|&n| self.cfg.spindle_axis(n).is_some())
+                .unwrap_or(1);
+            match self.w.dollar.take() {
+                None => (default, None),
+                Some(a) if a.v == -1.0 => {
+                    self.all_spindles = true;
+                    (default, Some(a.span))
+                }
+                Some(a) if a.v.fract() == 0.0 && (0.0..MAX_SPINDLES as f64).contains(&a.v) => {
+                    (a.v as u8 + 1, Some(a.span))
+                }
+                Some(a) => {
+                    return Err(self
+                        .err(a.span, format!("${} is not a spindle", fmt_num(a.v)))
+                        .with_expected(format!("$0..${} or $-1 (all)", MAX_SPINDLES - 1)));
+                }
+            }
+        } else {
+            if !spindle_block || self.p_is_taken() {
+                return Ok(());
+            }
+            let Some(p) = self.w.take('P') else {
+                return Ok(());
+            };
+            if p.v.fract() != 0.0 || !(1.0..=MAX_SPINDLES as f64).contains(&p.v) {
+                return Err(self
+                    .err(p.span, format!("P{} is not a spindle", fmt_num(p.v)))
+                    .with_expected(format!("P1..P{MAX_SPINDLES} (the spindle's number)")));
+            }
+            (p.v as u8, Some(p.span))
+        };
+        if let Some(at) = span {
+            if !spindle_block {
+                return Err(self
+                    .err(at, "a spindle selection without S, M3, M4, M5 or M19")
+                    .with_expected("the spindle's S, M3/M4/M5 or M19 in this block"));
+            }
+            if self.cfg.spindle_axis(number).is_none() {
+                return Err(self.err(
+                    at,
+                    format!("spindle {number} is not configured (axis … spindle = {number})"),
+                ));
+            }
+        }
+        self.st.select_spindle(number);
+        Ok(())
+    }
+
+    /// Runs `f` for the selected spindle, or (LinuxCNC's `$-1`) for every configured
+    /// spindle in turn, the selection left as it was.
+    fn for_block_spindles(
+        &mut self,
+        mut f: impl FnMut(&mut Self) -> Result<(), NcError>,
+    ) -> Result<(), NcError> {
+        if !self.all_spindles {
+            return f(self);
+        }
+        let selected = self.st.spindle_sel;
+        for number in 1..=MAX_SPINDLES as u8 {
+            if self.cfg.spindle_axis(number).is_some() {
+                self.st.select_spindle(number);
+                f(self)?;
+            }
+        }
+        self.st.select_spindle(selected);
+        Ok(())
+    }
+
+    /// M3/M4/M5 of the selected spindle.
+    fn spindle_m(&mut self, code: u32, span: Span) -> Result<(), NcError> {
+        self.check_spindle_configured(span)?;
+        let dir = match code {
+            3 => SpindleDir::Cw,
+            4 => SpindleDir::Ccw,
+            _ => SpindleDir::Stop,
+        };
+        self.st.spindle = dir;
+        let rpm = if dir == SpindleDir::Stop {
+            0.0
+        } else {
+            self.st.speed
+        };
+        self.push(SegmentKind::Spindle {
+            rpm,
+            dir,
+            spindle: self.st.spindle_sel,
+        });
+        Ok(())
+    }
+
+    /// The block's `P` belongs to its dwell, G10, G28/G30 or canned cycle (a cycle in force
+    /// takes the `P` of every block that has no motion code).
+    fn p_is_taken(&self) -> bool {
+        let cycle_code = self
+            .w
+            .g_of(GGroup::Cycle)
+            .is_some_and(|(c, _)| Cycle::from_code(c).is_some());
+        let cycle_on = self.st.cycle.is_some() && self.w.g_of(GGroup::Motion).is_none();
+        self.w.g_of(GGroup::NonModal).is_some() || cycle_code || cycle_on
+    }
+
     fn speed_word(&mut self, spindle_m: bool) -> Result<(), NcError> {
         let Some(s) = self.w.take('S') else {
             return Ok(());
@@ -599,10 +720,7 @@ impl Exec<'_> {
                 .err(s.span, "S must not be negative")
                 .with_expected("S >= 0"));
         }
-        if let Some(max) = self
-            .cfg
-            .spindle_index()
-            .and_then(|i| self.cfg.axes[i].max_rpm)
+        if let Some(max) = self.spindle_axis().and_then(|i| self.cfg.axes[i].max_rpm)
             && s.v > max
         {
             return Err(self.err(
@@ -620,6 +738,7 @@ impl Exec<'_> {
             self.push(SegmentKind::Spindle {
                 rpm: s.v,
                 dir: self.st.spindle,
+                spindle: self.st.spindle_sel,
             });
         }
         Ok(())
@@ -645,27 +764,12 @@ impl Exec<'_> {
                     });
                 }
                 29 => self.st.rigid = true,
-                3..=5 => {
-                    if self.cfg.spindle_index().is_none() {
-                        return Err(self.err(span, "no spindle axis is configured"));
-                    }
-                    let dir = match code {
-                        3 => SpindleDir::Cw,
-                        4 => SpindleDir::Ccw,
-                        _ => SpindleDir::Stop,
-                    };
-                    self.st.spindle = dir;
-                    let rpm = if dir == SpindleDir::Stop {
-                        0.0
-                    } else {
-                        self.st.speed
-                    };
-                    self.push(SegmentKind::Spindle { rpm, dir });
-                }
+                3..=5 => self.for_block_spindles(|ex| ex.spindle_m(code, span))?,
                 19 => {
-                    if self.cfg.spindle_index().is_none() {
-                        return Err(self.err(span, "no spindle axis is configured"));
+                    if self.all_spindles {
+                        return Err(self.err(span, "M19 orients one spindle, not $-1 (all)"));
                     }
+                    self.check_spindle_configured(span)?;
                     self.st.spindle = SpindleDir::Stop;
                     self.orient()?;
                 }
@@ -833,19 +937,28 @@ impl Exec<'_> {
         Ok(())
     }
 
-    /// Error if the spindle axis is asked to move while it turns in speed mode.
+    /// Error at a spindle M code when the selected spindle has no axis.
+    fn check_spindle_configured(&self, span: Span) -> Result<(), NcError> {
+        match (self.spindle_axis(), self.st.spindle_sel) {
+            (Some(_), _) => Ok(()),
+            (None, 1) => Err(self.err(span, "no spindle axis is configured")),
+            (None, n) => Err(self.err(span, format!("spindle {n} is not configured"))),
+        }
+    }
+
+    /// Error if a spindle axis is asked to move while it turns in speed mode.
     pub(crate) fn check_spindle_still(&self, end: &AxisPos) -> Result<(), NcError> {
-        if let Some(c) = self.cfg.spindle_index()
-            && (end[c] - self.st.pos[c]).abs() > 1e-9
-            && self.st.spindle_turning()
-        {
-            let name = self.cfg.axes[c].name;
-            return Err(self
-                .err(
-                    self.span_of(&[name]),
-                    format!("{name} positioning while the spindle turns"),
-                )
-                .with_expected("M5 before positioning the spindle axis"));
+        for (k, axis) in self.cfg.spindle_axes().into_iter().enumerate() {
+            let Some(c) = axis else { continue };
+            if (end[c] - self.st.pos[c]).abs() > 1e-9 && self.st.spindle_turning_of(k as u8 + 1) {
+                let name = self.cfg.axes[c].name;
+                return Err(self
+                    .err(
+                        self.span_of(&[name]),
+                        format!("{name} positioning while the spindle turns"),
+                    )
+                    .with_expected("M5 before positioning the spindle axis"));
+            }
         }
         Ok(())
     }
@@ -864,20 +977,17 @@ impl Exec<'_> {
         Ok(())
     }
 
-    /// A feed move to `end` that couples linear axis `tool` with the spindle axis at `pitch`
+    /// A feed move to `end` that couples linear axis `tool` with spindle axis `sp` at `pitch`
     /// (signed, see [`TapSegment`]): a `Tap` when both move, else a plain `Linear` (a move
     /// that turns no spindle or feeds no tool couples nothing).
     pub fn tap(
         &mut self,
         end: AxisPos,
         feed: f64,
-        tool: usize,
+        (tool, sp): (usize, usize),
         pitch: f64,
         hint: &[char],
     ) -> Result<(), NcError> {
-        let Some(sp) = self.cfg.spindle_index() else {
-            return self.linear(end, feed, hint);
-        };
         self.check_limits(&end, hint)?;
         self.push(SegmentKind::tap_or_feed(
             &self.st.pos,
@@ -890,22 +1000,25 @@ impl Exec<'_> {
         Ok(())
     }
 
-    /// A programmed feed move that moves the spindle axis as a position axis together with
+    /// A programmed feed move that moves a spindle axis as a position axis together with
     /// linear axes, each with its own word (`G1 Z.. C.. F..`, as source-000 tapping cycles
-    /// program it): a rigid tap of the linear axis that moves most, with the pitch the two
-    /// moves give. `None` when the block is no such move (or the pitch overflows).
-    fn programmed_tap(&self, end: &AxisPos, worded: &[bool]) -> Option<(usize, f64)> {
-        let sp = self.cfg.spindle_index()?;
+    /// program it; the spindle named by its axis letter): a rigid tap of the linear axis
+    /// that moves most with that spindle, at the pitch the two moves give. `None` when the
+    /// block is no such move (or the pitch overflows).
+    fn programmed_tap(&self, end: &AxisPos, worded: &[bool]) -> Option<(usize, usize, f64)> {
+        let sp = self
+            .cfg
+            .spindle_axes()
+            .into_iter()
+            .flatten()
+            .find(|&i| worded[i] && end[i] != self.st.pos[i])?;
         let dc = end[sp] - self.st.pos[sp];
-        if !worded[sp] || dc == 0.0 {
-            return None;
-        }
         let (tool, dt) = (0..self.cfg.axes.len())
             .filter(|&i| worded[i] && !self.cfg.axes[i].kind.is_rotary())
             .map(|i| (i, end[i] - self.st.pos[i]))
             .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
         let pitch = dt / dc * 360.0;
-        (dt != 0.0 && pitch.is_finite()).then_some((tool, pitch))
+        (dt != 0.0 && pitch.is_finite()).then_some((tool, sp, pitch))
     }
 
     /// A programmed value of axis `i` (already in mm / degrees) → machine position, G90 or
@@ -1045,7 +1158,7 @@ impl Exec<'_> {
                 } else {
                     let feed = self.feed_rate(motion_span)?;
                     match self.programmed_tap(&end, &worded) {
-                        Some((tool, pitch)) => self.tap(end, feed, tool, pitch, &[]),
+                        Some((tool, sp, pitch)) => self.tap(end, feed, (tool, sp), pitch, &[]),
                         None => {
                             let corner = self.corner_word()?;
                             self.corner_done = true;

@@ -36,11 +36,21 @@ pub struct Machine {
     pub(crate) dialect: Dialect,
 }
 
+/// The modal state a program starts in: `opts.start`, and `opts.default_spindle` selected
+/// when the machine has it.
+fn start_state(cfg: &MachineConfig, opts: &Options) -> ModalState {
+    let mut st = ModalState::new(cfg, opts.start);
+    if cfg.spindle_axis(opts.default_spindle).is_some() {
+        st.select_spindle(opts.default_spindle);
+    }
+    st
+}
+
 impl Machine {
     /// The machine `cfg` at the start of a program, exact-stop sync.
     pub(crate) fn new(cfg: &MachineConfig, opts: Options) -> Machine {
         Machine {
-            state: ModalState::new(cfg, opts.start),
+            state: start_state(cfg, &opts),
             cfg: cfg.clone(),
             sync: Box::new(ExactStop),
             path_len: 0.0,
@@ -53,7 +63,7 @@ impl Machine {
 
     /// A fresh start for the next program: modal state and path length (the sync stays).
     pub(crate) fn reset(&mut self) {
-        self.state = ModalState::new(&self.cfg, self.opts.start);
+        self.state = start_state(&self.cfg, &self.opts);
         self.path_len = 0.0;
         self.path_end = self.opts.start;
         self.canon = None;
@@ -117,9 +127,11 @@ impl Machine {
             }
             // G28/G30 C: program C reads the reference from here (the turn is no path).
             SegmentKind::SpindleOrient {
-                program: Some(c), ..
+                program: Some(c),
+                spindle,
+                ..
             } => {
-                if let Some(i) = self.cfg.spindle_index() {
+                if let Some(i) = self.cfg.spindle_axis(*spindle) {
                     self.path_end[i] = *c;
                 }
             }

@@ -352,10 +352,14 @@ impl Exec<'_> {
     /// G28/G29/G30 with the spindle axis while the spindle turns in speed mode: an error at
     /// its word, even when C would not move (its position is not known while it turns).
     fn spindle_still_for(&self, name: &str) -> Result<(), NcError> {
-        if let Some(c) = self.cfg.spindle_index()
-            && let Some(a) = self.w.peek(self.cfg.axes[c].name)
-            && self.st.spindle_turning()
-        {
+        for (k, axis) in self.cfg.spindle_axes().into_iter().enumerate() {
+            let Some(c) = axis else { continue };
+            let Some(a) = self.w.peek(self.cfg.axes[c].name) else {
+                continue;
+            };
+            if !self.st.spindle_turning_of(k as u8 + 1) {
+                continue;
+            }
             let letter = self.cfg.axes[c].name;
             return Err(self
                 .err(
@@ -409,7 +413,7 @@ impl Exec<'_> {
             }
         };
         let ord = ["", "second_", "third_", "fourth_"][slot];
-        let spindle = self.cfg.spindle_index();
+        let spindle = |i: usize| self.cfg.spindle_number(i);
         // Haas: a bare G28 sends every axis (not the spindle) straight to its reference.
         let home_all = code == 28
             && self.dialect == cnc402_lang::Dialect::Haas
@@ -417,7 +421,7 @@ impl Exec<'_> {
         let mut refs = Vec::new();
         for i in 0..self.cfg.axes.len() {
             let ax = &self.cfg.axes[i];
-            if home_all && spindle != Some(i) {
+            if home_all && spindle(i).is_none() {
                 refs.push(ax.references[0].unwrap_or_default());
             } else if let Some(a) = self.w.peek(ax.name) {
                 let Some(r) = ax.references[slot] else {
@@ -441,7 +445,7 @@ impl Exec<'_> {
         }
         let named: Vec<(usize, Option<f64>)> = if home_all {
             (0..self.cfg.axes.len())
-                .filter(|&i| spindle != Some(i))
+                .filter(|&i| spindle(i).is_none())
                 .map(|i| (i, None))
                 .collect()
         } else {
@@ -468,14 +472,14 @@ impl Exec<'_> {
             self.rapid(mid, &letters)?;
         }
         let mut end = mid;
-        let mut orient = None;
+        let mut orients = Vec::new();
         for (&(i, _), r) in named.iter().zip(refs) {
             self.st.ref_mid[i] = Some(mid[i]);
-            if spindle == Some(i) {
+            if let Some(number) = spindle(i) {
                 // The physical angle of the reference, 0 <= a < 360 (rem_euclid of a tiny
                 // negative number rounds to 360).
                 let a = r.rem_euclid(360.0);
-                orient = Some((i, if a >= 360.0 { 0.0 } else { a }, r));
+                orients.push((i, number, if a >= 360.0 { 0.0 } else { a }, r));
                 continue;
             }
             end[i] = r;
@@ -484,11 +488,12 @@ impl Exec<'_> {
         if end != self.st.pos {
             self.rapid(end, &letters)?;
         }
-        if let Some((i, angle, r)) = orient {
+        for (i, spindle, angle, r) in orients {
             // Program C reads the reference from here on (Fanuc), in motion as here.
             self.push(SegmentKind::SpindleOrient {
                 angle,
                 program: Some(r),
+                spindle,
             });
             self.st.pos[i] = r;
         }

@@ -15,6 +15,9 @@ pub struct Options {
     pub start: AxisPos,
     /// What `M99` without `P` does in the main program. Default [`MainM99::End`].
     pub main_m99: MainM99,
+    /// The spindle a program starts with selected (1..=2; default 1): a channel that owns
+    /// spindle 2 starts its programs on it. A number the machine lacks leaves spindle 1.
+    pub default_spindle: u8,
 }
 
 /// `M99` (without `P`) in the main program.
@@ -37,6 +40,7 @@ impl Default for Options {
             optional_stop: true,
             start: AxisPos::default(),
             main_m99: MainM99::End,
+            default_spindle: 1,
         }
     }
 }

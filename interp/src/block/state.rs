@@ -4,7 +4,9 @@
 //! copies of the tables a program may change (work offsets, tool offsets, the G92 shift), so
 //! that a change lasts for the run and the next run starts from the config again.
 
-use cnc402_config::{MAX_AXES, MachineConfig, PlaneDefault, ReturnPlane, ToolOffset, Units};
+use cnc402_config::{
+    MAX_AXES, MAX_SPINDLES, MachineConfig, PlaneDefault, ReturnPlane, ToolOffset, Units,
+};
 use cnc402_lang::ast::Span;
 use cnc402_motion::segment::{AxisPos, Plane, Source, SpindleDir};
 
@@ -168,10 +170,16 @@ pub struct ModalState {
     pub return_to_r: bool,
     /// F in mm/min (G94) or mm/rev (G95), as last programmed.
     pub feed: f64,
-    /// S, rpm.
+    /// S, rpm, of the selected spindle.
     pub speed: f64,
-    /// M3/M4/M5 as last programmed.
+    /// M3/M4/M5 as last programmed for the selected spindle.
     pub spindle: SpindleDir,
+    /// The selected spindle's number (Fanuc's modal `P` of an S/M3/M4/M5/M19 block; 1 at
+    /// program start): what S, M3/M4/M5, M19, taps and cycles act on.
+    pub spindle_sel: u8,
+    /// Each spindle's S and M3/M4/M5 by number − 1, while another one is selected (the
+    /// selected one's are `speed` and `spindle`).
+    pub parked: [(f64, SpindleDir); MAX_SPINDLES],
     /// M29 rigid tapping mode (until G80 or a group 01 code).
     pub rigid: bool,
     /// T as last programmed (selected for the next M6).
@@ -259,6 +267,8 @@ impl ModalState {
             feed: 0.0,
             speed: 0.0,
             spindle: SpindleDir::Stop,
+            spindle_sel: 1,
+            parked: [(0.0, SpindleDir::Stop); MAX_SPINDLES],
             rigid: false,
             tool_selected: 0,
             tool_loaded: None,
@@ -373,5 +383,31 @@ impl ModalState {
     /// The spindle is commanded to turn (M3/M4 with S > 0).
     pub fn spindle_turning(&self) -> bool {
         self.spindle != SpindleDir::Stop && self.speed > 0.0
+    }
+
+    /// Spindle `number` is commanded to turn, selected or not.
+    pub fn spindle_turning_of(&self, number: u8) -> bool {
+        if number == self.spindle_sel {
+            return self.spindle_turning();
+        }
+        let slot = usize::from(number).wrapping_sub(1);
+        self.parked
+            .get(slot)
+            .is_some_and(|&(speed, dir)| dir != SpindleDir::Stop && speed > 0.0)
+    }
+
+    /// Makes spindle `number` (1..=[`MAX_SPINDLES`]; another number changes nothing) the
+    /// selected one: the selected spindle's S and direction are parked, `number`'s taken up.
+    pub fn select_spindle(&mut self, number: u8) {
+        let old = usize::from(self.spindle_sel) - 1;
+        let Some(new) = usize::from(number).checked_sub(1) else {
+            return;
+        };
+        if old == new || new >= MAX_SPINDLES {
+            return;
+        }
+        self.parked[old] = (self.speed, self.spindle);
+        (self.speed, self.spindle) = self.parked[new];
+        self.spindle_sel = number;
     }
 }

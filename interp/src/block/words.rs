@@ -148,6 +148,9 @@ pub struct Words {
     /// The corner word `,R` (`'R'`) or `,C` (`'C'`) of Fanuc's corner rounding and
     /// chamfer, if the block has one; taken (set to `None`) by the code that uses it.
     pub corner: Option<(char, Arg)>,
+    /// LinuxCNC's spindle selection `$n` (spindles from 0), if the block has one; taken by
+    /// the block's spindle selection (the lexer gives `$` words in that dialect only).
+    pub dollar: Option<Arg>,
     /// M codes in source order.
     pub m: Vec<(u32, Span)>,
     args: [Option<Arg>; 26],
@@ -176,6 +179,7 @@ impl Words {
         let mut w = Words {
             g: Vec::new(),
             corner: None,
+            dollar: None,
             m: Vec::new(),
             args: [None; 26],
             given: 0,
@@ -197,6 +201,7 @@ impl Words {
         let w = self;
         w.g.clear();
         w.corner = None;
+        w.dollar = None;
         w.m.clear();
         w.args = [None; 26];
         w.given = 0;
@@ -263,6 +268,16 @@ impl Words {
                         has_point,
                     };
                     w.corner = Some((word.letter.to_ascii_uppercase(), a));
+                }
+                '$' => {
+                    if w.dollar.is_some() {
+                        return Err(here("a block takes one spindle selection `$`".into()));
+                    }
+                    w.dollar = Some(Arg {
+                        v,
+                        span: word.span,
+                        has_point,
+                    });
                 }
                 c if c.is_ascii_uppercase() => {
                     let i = (c as u8 - b'A') as usize;

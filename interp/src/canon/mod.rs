@@ -283,6 +283,8 @@ pub struct CyclePlan {
     pub peck_clearance: f64,
     /// G76/G87 orientation angle, when the machine has a spindle axis.
     pub orient_angle: Option<f64>,
+    /// The number of the cycle's spindle (the selected one): its axis is `TapPlan::spindle`.
+    pub spindle: u8,
     /// The spindle as the block found it: restored after taps, G86, G88, G76, G87.
     pub spindle_turning: bool,
     pub speed: f64,

@@ -7,7 +7,8 @@
 //! writes them (`end`, `feed`, `center`…; a `tap` has `tool`, `spindle`, `pitch`). A `canned_cycle` has `cycle` (`G81`…), `words` (`R` `Z` `Q` `P` as programmed in
 //! mm, `F`, `K`, `G91`, `G99`), `start`, `holes` (plane axes, one per repeat), `drill_axis`,
 //! `levels` (`initial` `R` `bottom` `return`), `feed` and `tap` (`pitch` `dir` `peck`
-//! `peck_retract`, or null). Last, `state`: `plane` (`G17`…), `units`, `feed_mode`,
+//! `peck_retract`, or null), and `spindle` when it is not spindle 1. Last, `state`:
+//! `plane` (`G17`…), `units`, `feed_mode`,
 //! `path_mode` (`G61` `G63` `G64`, with `tolerance`), `work_offset` (`G54`…), `offset` (work →
 //! machine per axis), `tool`, `tool_length_mode` (`G43` `G44` `G49`), `h`, `tool_length`.
 
@@ -16,7 +17,7 @@ use std::fmt::Write;
 use cnc402_config::MachineConfig;
 use cnc402_motion::segment::{Plane, SpindleDir};
 
-use super::{axes_obj, kind_keys, kind_name, num, source_keys};
+use super::{axes_obj, kind_keys, kind_name, num, source_keys, spindle_number};
 use crate::canon::{CannedCycle, CanonKind, CanonOp, CanonState, FeedMode, PathMode, ProgramUnits};
 
 fn opt(v: Option<f64>) -> String {
@@ -118,6 +119,7 @@ fn cycle_keys(o: &mut String, cc: &CannedCycle, cfg: &MachineConfig) {
         }
         None => o.push_str(",\"tap\":null"),
     }
+    spindle_number(o, cc.plan.spindle);
 }
 
 fn state_obj(o: &mut String, st: &CanonState, cfg: &MachineConfig) {

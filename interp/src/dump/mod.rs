@@ -252,6 +252,14 @@ fn source_keys_with(
     }
 }
 
+/// `,"spindle":N` for a spindle other than the first (dumps of one-spindle programs stay as
+/// they were).
+pub(crate) fn spindle_number(o: &mut String, spindle: u8) {
+    if spindle != 1 {
+        let _ = write!(o, ",\"spindle\":{spindle}");
+    }
+}
+
 /// The keys of `kind` after the source keys: positions, feed, arc, event data.
 pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig) {
     match kind {
@@ -309,19 +317,25 @@ pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig)
         SegmentKind::Dwell { seconds } => {
             let _ = write!(o, ",\"seconds\":{}", num(*seconds));
         }
-        SegmentKind::Spindle { rpm, dir } => {
+        SegmentKind::Spindle { rpm, dir, spindle } => {
             let dir = match dir {
                 SpindleDir::Cw => "cw",
                 SpindleDir::Ccw => "ccw",
                 SpindleDir::Stop => "stop",
             };
             let _ = write!(o, ",\"rpm\":{},\"dir\":\"{dir}\"", num(*rpm));
+            spindle_number(o, *spindle);
         }
-        SegmentKind::SpindleOrient { angle, program } => {
+        SegmentKind::SpindleOrient {
+            angle,
+            program,
+            spindle,
+        } => {
             let _ = write!(o, ",\"angle\":{}", num(*angle));
             if let Some(c) = program {
                 let _ = write!(o, ",\"program\":{}", num(*c));
             }
+            spindle_number(o, *spindle);
         }
         SegmentKind::ToolChange { tool } => {
             let _ = write!(o, ",\"tool\":{tool}");
@@ -512,10 +526,12 @@ mod tests {
             SegmentKind::Spindle {
                 rpm: 800.0,
                 dir: SpindleDir::Ccw,
+                spindle: 1,
             },
             SegmentKind::SpindleOrient {
                 angle: 271.5,
                 program: None,
+                spindle: 1,
             },
             SegmentKind::ToolChange { tool: 4 },
             SegmentKind::Coolant {
@@ -596,6 +612,7 @@ mod tests {
             &seg(SegmentKind::SpindleOrient {
                 angle: 90.25,
                 program: None,
+                spindle: 1,
             }),
             &cfg,
         );
@@ -608,6 +625,7 @@ mod tests {
             &seg(SegmentKind::SpindleOrient {
                 angle: 270.0,
                 program: Some(-90.0),
+                spindle: 1,
             }),
             &cfg,
         );

@@ -708,6 +708,7 @@ mod tests {
             optional_stop: false,
             start,
             main_m99: MainM99::End,
+            default_spindle: 1,
         };
         let segs: Vec<_> = load("/G0 X5\nM1\nG91 G0 Z-5\n", opts)
             .collect::<Result<_, _>>()
@@ -732,7 +733,8 @@ mod tests {
             kinds[1],
             SegmentKind::Spindle {
                 rpm: 200.0,
-                dir: SpindleDir::Cw
+                dir: SpindleDir::Cw,
+                spindle: 1,
             }
         );
         assert!(matches!(kinds[2], SegmentKind::Linear { feed, .. } if feed == 100.0));

@@ -207,6 +207,7 @@ impl<'a> Expander<'a> {
             SegmentKind::Spindle {
                 rpm: 0.0,
                 dir: SpindleDir::Stop,
+                spindle: self.cc.plan.spindle,
             },
             NO_HINT,
         );
@@ -220,6 +221,7 @@ impl<'a> Expander<'a> {
                 SegmentKind::Spindle {
                     rpm: plan.speed,
                     dir: plan.spindle_dir,
+                    spindle: plan.spindle,
                 },
                 NO_HINT,
             );
@@ -299,6 +301,7 @@ impl<'a> Expander<'a> {
                 SegmentKind::SpindleOrient {
                     angle,
                     program: None,
+                    spindle: self.cc.plan.spindle,
                 },
                 NO_HINT,
             );
@@ -455,6 +458,7 @@ impl<'a> Expander<'a> {
         let on = SegmentKind::Spindle {
             rpm: plan.speed,
             dir: plan.spindle_dir,
+            spindle: plan.spindle,
         };
         self.orient();
         self.shift(q);

@@ -455,8 +455,8 @@ impl<'a> Cx<'a> {
         let Some(c) = i.chars().next() else {
             return fail(i, 0, "missing word");
         };
-        // LinuxCNC's polar words: `@` radius, `^` angle.
-        let polar = self.dialect == Dialect::LinuxCnc && matches!(c, '@' | '^');
+        // LinuxCNC's polar words (`@` radius, `^` angle) and spindle selection `$`.
+        let polar = self.dialect == Dialect::LinuxCnc && matches!(c, '@' | '^' | '$');
         if !c.is_ascii_alphabetic() && !polar {
             return self.not_a_word(i, c);
         }

@@ -54,7 +54,7 @@ pub fn idle_tick(ip: &Interpolator, line: u32) -> Tick {
         finished: false,
         event: None,
         path_velocity: 0.0,
-        spindle_velocity: 0.0,
+        spindle_velocity: [0.0; 2],
     }
 }
 

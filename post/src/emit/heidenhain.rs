@@ -73,6 +73,9 @@ impl Itnc<'_> {
     }
 
     fn op(&mut self, op: &CanonOp) -> Result<(), PostError> {
+        if let Some(why) = super::ops::other_spindle_refused(op) {
+            return Err(self.e.refuse(op, why));
+        }
         let kind = match &op.kind {
             CanonKind::CannedCycle(cc) => return self.drilling(op, cc),
             CanonKind::Single(k) => k,
@@ -93,7 +96,7 @@ impl Itnc<'_> {
                     decimal(*seconds, 3).trim_end_matches('.')
                 )
             }
-            SegmentKind::Spindle { rpm, dir } => {
+            SegmentKind::Spindle { rpm, dir, .. } => {
                 let s = super::format::speed(self.e.rules, *rpm, &op.source)?;
                 if *dir != SpindleDir::Stop && self.e.modal.spindle.as_deref() != Some(&s) {
                     self.push(format!("TOOL CALL Z {s}"), op);

@@ -91,6 +91,9 @@ impl<'a> Emitter<'a> {
 
     /// Appends the blocks of one operation.
     fn op(&mut self, op: &CanonOp) -> Result<(), PostError> {
+        if let Some(why) = ops::other_spindle_refused(op) {
+            return Err(self.refuse(op, why));
+        }
         match &op.kind {
             CanonKind::CannedCycle(cc) => self.cycle(op, cc)?,
             CanonKind::Single(kind) => self.single(op, kind)?,

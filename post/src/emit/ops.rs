@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use cnc402_interp::canon::{CannedCycle, CanonOp, CanonState};
+use cnc402_interp::canon::{CannedCycle, CanonKind, CanonOp, CanonState};
 use cnc402_motion::segment::{ArcDir, AxisPos, SegmentKind, SpindleDir, StopKind};
 
 use super::Emitter;
@@ -27,6 +27,22 @@ pub(crate) fn stop_code(kind: StopKind) -> Option<&'static str> {
 }
 
 /// Why a channel wait is refused: the targets are one-path controls.
+/// The refusal of an operation on a spindle other than the first (cnc402's `P2`/`$1`): the
+/// targets' programs here address one spindle, so writing it as spindle 1 would turn the
+/// wrong one.
+pub(crate) fn other_spindle_refused(op: &CanonOp) -> Option<String> {
+    let spindle = match &op.kind {
+        CanonKind::Single(
+            SegmentKind::Spindle { spindle, .. } | SegmentKind::SpindleOrient { spindle, .. },
+        ) => *spindle,
+        CanonKind::CannedCycle(cc) => cc.plan.spindle,
+        _ => return None,
+    };
+    (spindle != 1).then(|| {
+        format!("spindle {spindle} (a multi-spindle selection): the post writes one spindle")
+    })
+}
+
 pub(crate) const WAIT_MARK_REFUSED: &str =
     "a wait for other channels (multi-path M100… / wait_mark): the target is a one-path control";
 
@@ -55,7 +71,7 @@ impl Emitter<'_> {
             SegmentKind::Dwell { seconds } => {
                 vec!["G4".into(), format!("X{}", decimal(*seconds, 3))]
             }
-            SegmentKind::Spindle { rpm, dir } => {
+            SegmentKind::Spindle { rpm, dir, .. } => {
                 let m = match dir {
                     SpindleDir::Cw => "M3",
                     SpindleDir::Ccw => "M4",
@@ -70,7 +86,9 @@ impl Emitter<'_> {
                 w.push(m.into());
                 w
             }
-            SegmentKind::SpindleOrient { angle, program } => self.orient(op, *angle, *program)?,
+            SegmentKind::SpindleOrient { angle, program, .. } => {
+                self.orient(op, *angle, *program)?
+            }
             SegmentKind::ToolChange { tool } => {
                 if *tool > self.rules.max_tool {
                     return Err(self.refuse(

@@ -276,6 +276,7 @@ impl Cl<'_> {
             self.push(CanonKind::Single(SegmentKind::Spindle {
                 rpm: 0.0,
                 dir: SpindleDir::Stop,
+                spindle: 1,
             }));
             return Ok(());
         }
@@ -293,6 +294,7 @@ impl Cl<'_> {
         self.push(CanonKind::Single(SegmentKind::Spindle {
             rpm: self.rpm,
             dir: self.dir,
+            spindle: 1,
         }));
         Ok(())
     }
@@ -464,6 +466,7 @@ impl Cl<'_> {
                 peck_retract: self.cfg.interp.peck_retract,
                 peck_clearance: self.cfg.interp.peck_clearance,
                 orient_angle: None,
+                spindle: 1,
                 spindle_turning: self.dir != SpindleDir::Stop && self.rpm > 0.0,
                 speed: self.rpm,
                 spindle_dir: self.dir,

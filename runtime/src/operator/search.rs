@@ -4,6 +4,7 @@
 //! here and there, the other axes at rapid, spindle and coolant as the state says, Z down —
 //! and runs the range, ending once a block after `--to` begins.
 
+use cnc402_config::MAX_SPINDLES;
 use cnc402_motion::{AxisPos, Segment, SegmentEnd, SegmentKind, Source};
 
 use super::BlockSpec;
@@ -43,9 +44,10 @@ pub(super) struct Search {
     pub(super) phase: Phase,
     /// Segments passed over so far.
     pub(super) skipped: u64,
-    /// The last tool change, spindle and coolant state of the skipped blocks.
+    /// The last tool change, spindle (each spindle's, by number − 1) and coolant state of
+    /// the skipped blocks.
     tool: Option<SegmentKind>,
-    spindle: Option<SegmentKind>,
+    spindle: [Option<SegmentKind>; MAX_SPINDLES],
     coolant: Option<SegmentKind>,
 }
 
@@ -56,7 +58,7 @@ impl Search {
             phase: Phase::Before,
             skipped: 0,
             tool: None,
-            spindle: None,
+            spindle: Default::default(),
             coolant: None,
         }
     }
@@ -66,7 +68,11 @@ impl Search {
         self.skipped += 1;
         match kind {
             SegmentKind::ToolChange { .. } => self.tool = Some(kind.clone()),
-            SegmentKind::Spindle { .. } => self.spindle = Some(kind.clone()),
+            SegmentKind::Spindle { spindle, .. } => {
+                if let Some(slot) = self.spindle.get_mut(usize::from(*spindle).wrapping_sub(1)) {
+                    *slot = Some(kind.clone());
+                }
+            }
             SegmentKind::Coolant { .. } => self.coolant = Some(kind.clone()),
             _ => {}
         }
@@ -103,7 +109,8 @@ impl Search {
             above.0[z] = safe;
         }
         rapid(above, &mut out);
-        out.extend(self.spindle.iter().chain(&self.coolant).cloned().map(seg));
+        let spindles = self.spindle.iter().flatten();
+        out.extend(spindles.chain(&self.coolant).cloned().map(seg));
         rapid(there, &mut out);
         out
     }
@@ -128,6 +135,7 @@ mod tests {
         s.skip(&SegmentKind::Spindle {
             rpm: 1200.0,
             dir: cnc402_motion::SpindleDir::Cw,
+            spindle: 1,
         });
         let src = Source {
             file: "p.nc".into(),
@@ -171,5 +179,34 @@ mod tests {
                 end: pos(10.0, 0.0, 5.0)
             }
         );
+    }
+
+    /// Regression (block_search_restored_only_the_last_spindle): with two spindles, a
+    /// search kept one spindle command, so the spindle started first stayed off.
+    #[test]
+    fn block_search_restores_every_spindle() {
+        let mut s = Search::new(SearchSpec {
+            from: BlockSpec::N(10),
+            to: None,
+        });
+        let sp = |rpm, spindle| SegmentKind::Spindle {
+            rpm,
+            dir: cnc402_motion::SpindleDir::Cw,
+            spindle,
+        };
+        for k in [sp(1000.0, 1), sp(2000.0, 2), sp(1500.0, 1), sp(7.0, 9)] {
+            s.skip(&k);
+        }
+        let src = Source {
+            file: "p.nc".into(),
+            line: 3,
+            n: Some(10),
+        };
+        let kinds: Vec<_> = s
+            .approach(pos(0.0, 0.0, 0.0), pos(0.0, 0.0, 0.0), Some(2), &src)
+            .into_iter()
+            .map(|g| g.kind)
+            .collect();
+        assert_eq!(kinds, vec![sp(1500.0, 1), sp(2000.0, 2)]);
     }
 }

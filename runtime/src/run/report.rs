@@ -177,15 +177,17 @@ fn incomplete_coupling(dropped: u64) -> String {
     )
 }
 
-/// One count of the tool axis or the tool-axis equivalent of one spindle count, whichever is
-/// larger, over all windows (µm). With no spindle or taps: one count of Z (or of the first
-/// linear axis).
+/// One count of the tool axis or the tool-axis equivalent of one spindle count (the coarser
+/// spindle's), whichever is larger, over all windows (µm). With no spindle or taps: one
+/// count of Z (or of the first linear axis).
 pub fn coupling_bound_um(axes: &AxisTable, taps: &[crate::recorder::TapWindow]) -> f64 {
     let tool_count = (0..axes.n)
         .filter(|&i| axes.linear[i])
         .map(|i| 1.0 / axes.counts_per_unit[i])
         .fold(0.0, f64::max);
-    let spindle_count = axes.spindle.map_or(0.0, |c| 1.0 / axes.counts_per_unit[c]);
+    let spindle_count = (axes.spindles.iter().flatten())
+        .map(|&c| 1.0 / axes.counts_per_unit[c])
+        .fold(0.0, f64::max);
     let pitch = taps.iter().map(|t| t.pitch_mm).fold(0.0, f64::max);
     tool_count.max(spindle_count * pitch / 360.0) * 1000.0
 }
