@@ -203,6 +203,24 @@ fn an_itnc530_program_is_read_by_segments_through_the_heidenhain_reader() {
 }
 
 #[test]
+fn sub_programs_posted_as_itnc_labels_run_as_the_job_through_segments() {
+    let out = tmp("subprograms.h");
+    let job = "post/tests/fixtures/subprograms.nc";
+    let o = cnc402(&[
+        "post",
+        "--target",
+        "itnc530",
+        job,
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("CALL LBL 3 REP 2\n"), "{text}");
+    assert_same_segments(out.to_str().unwrap(), job);
+}
+
+#[test]
 fn a_heidenhain_block_outside_the_subset_is_an_error_at_its_line() {
     let bad = tmp("bad.h");
     std::fs::write(

@@ -297,6 +297,31 @@ fn rigid_taps_on_the_itnc530_as_cycl_def_207_read_back_coupled() {
 }
 
 #[test]
+fn sub_programs_on_the_itnc530_as_labels_read_back_through_the_reader() {
+    golden("subprograms.nc", Target::Itnc530);
+    let text = std::fs::read_to_string(fixture("subprograms.itnc530.nc")).unwrap();
+    // M98 P3100 L3: a section repeated twice round one call; the bodies once, after M30.
+    assert!(
+        text.contains("LBL 3\n6 CALL LBL 1\n7 CALL LBL 3 REP 2\n"),
+        "{text}"
+    );
+    let m30 = text.find(" M30\n").unwrap();
+    assert!(text[m30..].contains("LBL 1\n") && text[m30..].contains("LBL 0\n"));
+    assert_eq!(text.matches("CALL LBL 2\n").count(), 2, "{text}");
+}
+
+#[test]
+fn a_speed_change_while_turning_was_two_spindle_steps_on_the_itnc530() {
+    // T2 M6 / S1500 M3 with the spindle turning: `TOOL CALL Z S1500` then `M3` read back as
+    // two spindle segments; the second changes nothing and is no step.
+    let cfg = config("config/machine.toml");
+    let job = "G21 G90 G17 G94\nT1 M6\nS1000 M3\nG43 H1 G0 X0 Y0 Z20.\nT2 M6\nS1500 M3\n\
+               G43 H2 G0 Z30.\nM30\n";
+    let text = cnc402_post::post(&cfg, "speed.nc", job, Target::Itnc530).expect("posts");
+    assert!(text.contains("TOOL CALL Z S1500\n"), "{text}");
+}
+
+#[test]
 fn the_contour_on_every_iso_target() {
     for t in ISO_TARGETS {
         post_and_prove(&config("config/machine.toml"), &fixture("contour.nc"), t).unwrap();

@@ -3,9 +3,11 @@
 //! block the interpreter already executes, line for line (errors keep the line number):
 //! `L`, `CC` + `C`, `TOOL CALL`, `CYCL DEF 9` (dwell), `CYCL DEF 200` (drilling, its Q
 //! parameters, called by `CYCL CALL` or `L … M99`: a G81/G82 block), M functions, comments,
-//! `BLK FORM`.
+//! `BLK FORM`, labels (`LBL`, `CALL LBL [REP]`: sub-programs and repeated sections, see
+//! [`labels`]).
 //! What is outside the subset is an error at its line, never a block read another way.
 
+mod labels;
 mod words;
 
 use words::{Word, split_words};
@@ -52,6 +54,7 @@ pub struct Translator {
     /// The S of the last `TOOL CALL` (cycle 207 taps at it).
     speed: Option<f64>,
     cycle_active: bool,
+    labels: labels::Labels,
 }
 
 impl Translator {
@@ -64,9 +67,12 @@ impl Translator {
         let text = body(line);
         let was_active = self.cycle_active;
         let mut out = self.translate(text)?;
-        if out.is_empty() || out.starts_with('(') {
+        // A flow line (a label's O, WHILE, END, M98, M99) takes no modal words: they wait
+        // for the next block.
+        if out.is_empty() || out.starts_with('(') || labels::is_flow(&out) {
             return Ok(out);
         }
+        self.labels.note_end(&out);
         if was_active && self.cycle_active && !(out.contains(" G8") || out.contains(" G74")) {
             out = format!("G80 {out}");
             self.cycle_active = false;
@@ -129,6 +135,8 @@ impl Translator {
                 }
             }
             "CYCL" => cycle(rest),
+            "LBL" => self.labels.label(rest),
+            "CALL" if rest.trim_start().starts_with("LBL") => self.labels.call(rest),
             _ if head.starts_with('Q') => self.q_parameter(text),
             "STOP" => {
                 let m = if rest.trim().is_empty() {
@@ -141,7 +149,7 @@ impl Translator {
             _ if head.starts_with('M') => Ok(m_words(&split_words(text)?)?.join(" ")),
             _ => Err(format!(
                 "{head} is not in the Heidenhain subset cnc402 reads (expected L, CC, C, TOOL \
-                 CALL, CYCL DEF 9, M, STOP, BLK FORM, a comment)"
+                 CALL, CYCL DEF 9/200/207, LBL, CALL LBL, M, STOP, BLK FORM, a comment)"
             )),
         }
     }

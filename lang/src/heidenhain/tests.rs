@@ -60,7 +60,7 @@ fn what_is_outside_the_subset_is_an_error() {
             "CYCL DEF 203 UNIVERSAL DRILLING",
             "cycle 203 is not in the subset",
         ),
-        ("CALL LBL 1", "CALL is not in the Heidenhain subset"),
+        ("CALL PGM OTHER", "CALL is not in the Heidenhain subset"),
         ("TOOL CALL 1 X S100", "tool axis Z"),
         ("L X+Q1", "not a number"),
     ] {
@@ -182,4 +182,80 @@ fn cycl_def_207_without_a_speed_is_an_error() {
     ])
     .unwrap_err();
     assert!(e.contains("without a spindle speed"), "{e}");
+}
+
+#[test]
+fn labels_become_sub_programs_and_repeated_sections() {
+    let out = translate(&[
+        "0 BEGIN PGM JOB MM",
+        "1 LBL 5",
+        "2 CALL LBL 1",
+        "3 CALL LBL 5 REP 2/2",
+        "4 M30",
+        "5 LBL 1",
+        "6 L X+1 F100",
+        "7 LBL 0",
+        "8 END PGM JOB MM",
+    ])
+    .unwrap();
+    assert_eq!(
+        out,
+        [
+            "(dialect: fanuc) (BEGIN PGM JOB)",
+            "WHILE [1 EQ 1] DO1",
+            "M98 P1",
+            "END1",
+            "G21 G90 G90.1 G17 M30",
+            "O1",
+            "G1 X1. F100.",
+            "M99",
+            "",
+        ]
+    );
+}
+
+#[test]
+fn a_section_runs_once_more_than_its_repeats_in_the_order_it_runs() {
+    // The lines as the interpreter reads them: END1 jumps back to the WHILE line, which is
+    // read (translated) again; after the last repeat its condition is false.
+    let mut t = Translator::default();
+    let mut run = |i: usize, l: &str| t.line(i, l).unwrap();
+    run(0, "0 BEGIN PGM JOB MM");
+    let mut passes = 0;
+    loop {
+        let head = run(1, "1 LBL 7");
+        if head.contains("1 EQ 0") {
+            break;
+        }
+        passes += 1;
+        assert_eq!(run(2, "2 CALL LBL 7 REP 2"), "END1");
+        assert!(passes < 10);
+    }
+    assert_eq!(passes, 3);
+}
+
+#[test]
+fn labels_outside_the_subset_are_errors() {
+    for (lines, why) in [
+        (&["0 BEGIN PGM J MM", "1 LBL 0"][..], "LBL 0 outside a sub-program"),
+        (
+            &["0 BEGIN PGM J MM", "1 CALL LBL 2 REP 3"][..],
+            "repeats the program section that LBL 2 opened",
+        ),
+        (
+            &["0 BEGIN PGM J MM", "1 LBL \"PART\""][..],
+            "numbered labels",
+        ),
+        (
+            &["0 BEGIN PGM J MM", "1 LBL 1", "2 CALL LBL 1 REP X"][..],
+            "expected a count",
+        ),
+        (
+            &["0 BEGIN PGM J MM", "1 LBL 1", "2 LBL 2", "3 LBL 3", "4 LBL 4"][..],
+            "more than 3 program sections",
+        ),
+    ] {
+        let e = translate(lines).unwrap_err();
+        assert!(e.contains(why), "{lines:?}: {e}");
+    }
 }

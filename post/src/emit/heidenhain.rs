@@ -30,7 +30,9 @@ pub fn emit_itnc(
     cfg: &cnc402_config::MachineConfig,
     rules: &crate::Rules,
     ops: &[CanonOp],
+    subs: &[crate::input::calls::SubBody],
 ) -> Result<(Program, bool), PostError> {
+    let mut runs = super::labels::Runs::new(subs);
     let mut e = Itnc {
         e: Emitter::new(cfg, rules),
         length: Length::Off,
@@ -48,9 +50,13 @@ pub fn emit_itnc(
                 .e
                 .refuse(op, "a change of units inside an iTNC program".into()));
         }
+        if runs.note(op, e.e.program.main.len()) {
+            continue;
+        }
         e.op(op)?;
         e.e.advance(op);
     }
+    runs.place(&mut e.e.program);
     Ok((e.e.program, inch))
 }
 
@@ -494,7 +500,8 @@ pub fn signed(v: f64, decimals: u32) -> String {
     }
 }
 
-/// The text: `0 BEGIN PGM NAME MM`, the blocks numbered from 1, `n END PGM NAME MM`.
+/// The text: `0 BEGIN PGM NAME MM`, the blocks numbered from 1, the label bodies
+/// (`LBL n` … `LBL 0`, after the main program's `M2`/`M30`), `n END PGM NAME MM`.
 pub fn assemble_itnc(
     program: &Program,
     inch: bool,
@@ -503,7 +510,12 @@ pub fn assemble_itnc(
     let units = if inch { "INCH" } else { "MM" };
     let mut text = format!("0 BEGIN PGM CNC402 {units}\n");
     let mut n = 1usize;
-    for b in &program.main {
+    let labels = (1..).zip(&program.subs).flat_map(|(label, sub)| {
+        std::iter::once(Block::new(vec![format!("LBL {label}")], None))
+            .chain(sub.blocks.iter().cloned())
+            .chain([Block::new(vec!["LBL 0".into()], None)])
+    });
+    for b in program.main.iter().cloned().chain(labels) {
         let body: Vec<String> = b
             .words
             .iter()

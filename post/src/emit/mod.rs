@@ -6,6 +6,7 @@
 mod carried;
 pub mod format;
 pub mod heidenhain;
+mod labels;
 pub mod macro_b;
 mod modal;
 mod ops;
