@@ -322,6 +322,30 @@ fn a_speed_change_while_turning_was_two_spindle_steps_on_the_itnc530() {
 }
 
 #[test]
+fn g83_on_the_itnc530_as_cycl_def_205_read_back_as_fanucs_g83() {
+    golden("pecking.nc", Target::Itnc530);
+    let text = std::fs::read_to_string(fixture("pecking.itnc530.nc")).unwrap();
+    // The machine's re-entry clearance (config/machine.toml: the default 0.5) is the
+    // advanced stop distance, above and below.
+    assert!(
+        text.contains("  Q258=+0.5 ;UPPER ADV STOP DIST\n  Q259=+0.5 ;"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_g83_peck_shorter_than_the_re_entry_clearance_is_refused_on_the_itnc530() {
+    let job = "G21 G90 G17 G94\nT1 M6\nS1000 M3\nG43 H1 G0 X0 Y0 Z20.\n\
+               G98 G83 X10. Y10. Z-5. R2. Q0.3 F100.\nG80\nM30\n";
+    let e = post_text(job, Target::Itnc530).unwrap_err().to_string();
+    assert!(
+        e.contains(":5: canned cycle G83: a peck Q shorter than the re-entry clearance 0.5"),
+        "{e}"
+    );
+    assert!(e.ends_with("(target itnc530)"), "{e}");
+}
+
+#[test]
 fn the_contour_on_every_iso_target() {
     for t in ISO_TARGETS {
         post_and_prove(&config("config/machine.toml"), &fixture("contour.nc"), t).unwrap();
@@ -459,8 +483,9 @@ fn cl_data_without_its_tool_or_with_an_unknown_statement_is_refused_at_its_line(
         e.contains("pocket.cl:7: tool 1 is not in the tool table"),
         "{e}"
     );
-    let e = post_cl(Target::Itnc530, TOOLS).unwrap_err().to_string();
-    assert!(e.contains("pocket.cl:24: canned cycle G83"), "{e}");
+    // CYCLE/DEEP (a G83) was refused on the iTNC until cycle 205 was written.
+    let text = post_cl(Target::Itnc530, TOOLS).expect("posts with CYCL DEF 205");
+    assert!(text.contains("CYCL DEF 205 UNIVERSAL PECKING\n"), "{text}");
     let cfg = config("config/machine.toml");
     let e = cnc402_post::post(&cfg, "j.cl", "LOADTL/1\nTHREAD/1\n", Target::Fanuc16)
         .unwrap_err()

@@ -39,9 +39,11 @@ impl Labels {
         let n = label_number(rest)?;
         if n == 0 {
             if self.depth == 0 {
-                return Err("LBL 0 outside a sub-program (it ends a label body after the main \
+                return Err(
+                    "LBL 0 outside a sub-program (it ends a label body after the main \
                             program's M2/M30)"
-                    .into());
+                        .into(),
+                );
             }
             self.depth -= 1;
             return Ok("M99".into());

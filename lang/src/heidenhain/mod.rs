@@ -55,14 +55,26 @@ pub struct Translator {
     speed: Option<f64>,
     cycle_active: bool,
     labels: labels::Labels,
+    /// The machine's G83 re-entry clearance (`interp.peck_clearance`): cycle 205 is read
+    /// as a G83 only with its advanced stop distances equal to it.
+    peck_clearance: Option<f64>,
 }
 
 impl Translator {
+    /// A translator for a machine whose G83 re-entry clearance is `peck_clearance` (the
+    /// clearance cnc402 runs a G83 with; `None`: cycle 205 is not read).
+    pub fn for_machine(peck_clearance: Option<f64>) -> Translator {
+        Translator {
+            peck_clearance,
+            ..Translator::default()
+        }
+    }
+
     /// The ISO text of one line (`index` 0 is the first: it starts the program afresh), or
     /// what is wrong with it.
     pub fn line(&mut self, index: usize, line: &str) -> Result<String, String> {
         if index == 0 {
-            *self = Translator::default();
+            *self = Translator::for_machine(self.peck_clearance);
         }
         let text = body(line);
         let was_active = self.cycle_active;
@@ -116,12 +128,12 @@ impl Translator {
             "L" => self.line_move(rest),
             "CC" => self.centre(rest),
             "C" => self.arc(rest),
-            "CYCL" if rest.starts_with("DEF 200") || rest.starts_with("DEF 207") => {
-                self.defined = if rest.starts_with("DEF 200") {
-                    200
-                } else {
-                    207
-                };
+            "CYCL"
+                if ["DEF 200", "DEF 205", "DEF 207"]
+                    .iter()
+                    .any(|d| rest.starts_with(d)) =>
+            {
+                self.defined = rest[4..7].parse().unwrap_or(0);
                 self.drilling = Some(Vec::new());
                 Ok(String::new())
             }
@@ -199,7 +211,7 @@ impl Translator {
     /// `Qnnn=value` of the cycle being defined.
     fn q_parameter(&mut self, text: &str) -> Result<String, String> {
         let Some(params) = self.drilling.as_mut() else {
-            return Err("Q parameters are read only in a CYCL DEF 200 or 207".into());
+            return Err("Q parameters are read only in a CYCL DEF 200, 205 or 207".into());
         };
         let (q, v) = text
             .split_once('=')
@@ -208,8 +220,8 @@ impl Translator {
             .trim()
             .parse()
             .map_err(|_| format!("{q} is not a Q parameter"))?;
-        if params.len() >= 16 {
-            return Err("more Q parameters than CYCL DEF 200 or 207 has".into());
+        if params.len() >= 24 {
+            return Err("more Q parameters than CYCL DEF 200, 205 or 207 has".into());
         }
         params.push((n, number(v.trim())?));
         Ok(String::new())
@@ -222,7 +234,7 @@ impl Translator {
     /// with Q204 not above Q200, to the set-up clearance (G99).
     fn drill(&mut self, xy: &[String]) -> Result<String, String> {
         let Some(params) = self.drilling.as_ref() else {
-            return Err("a cycle call without a CYCL DEF 200 or 207 before it".into());
+            return Err("a cycle call without a CYCL DEF 200, 205 or 207 before it".into());
         };
         let cycle = self.defined;
         let q = |n: u32| {
@@ -239,10 +251,14 @@ impl Translator {
                 "CYCL DEF {cycle} is read with a negative depth (Q201)"
             ));
         }
-        let (code, tail) = if cycle == 207 {
-            rigid_tap(q(239)?, self.speed)?
-        } else {
-            drilling(q(206)?, q(202)?, q(210)?, q(211)?, depth)?
+        let (code, tail) = match cycle {
+            207 => rigid_tap(q(239)?, self.speed)?,
+            205 => {
+                let stops = [q(258)?, q(259)?];
+                let rest = [q(212)?, q(257)?, q(211)?, q(379)?];
+                pecking(q(206)?, q(202)?, stops, rest, depth, self.peck_clearance)?
+            }
+            _ => drilling(q(206)?, q(202)?, q(210)?, q(211)?, depth)?,
         };
         let r = surface + clear;
         let mode = if clear2 > clear {
@@ -410,6 +426,49 @@ fn drilling(
     Ok((code.into(), tail))
 }
 
+/// Cycle 205's ISO code and words after Z R: Fanuc's G83 (Q the plunging depth), which
+/// cnc402 runs as cycle 205 runs with no decrement (Q212=0), no chip breaking (Q257=0), no
+/// dwell (Q211=0), no deepened start (Q379=0) and both advanced stop distances (Q258, Q259)
+/// equal to the machine's G83 re-entry clearance: back to the set-up clearance after each
+/// plunge, down at rapid to that distance above the last depth, on at the feed. A plunge
+/// shorter than that distance re-enters differently (cnc402 stops at R): not read.
+fn pecking(
+    feed: f64,
+    plunge: f64,
+    stops: [f64; 2],
+    rest: [f64; 4],
+    depth: f64,
+    clearance: Option<f64>,
+) -> Result<(String, Vec<String>), String> {
+    let Some(d) = clearance else {
+        return Err(
+            "CYCL DEF 205 is read only where the machine's G83 clearance is known \
+                    (cnc402 segments, run)"
+                .into(),
+        );
+    };
+    // The distances as the program writes them (4 decimals) stand for the machine's.
+    if stops.iter().any(|s| (s - d).abs() > 0.5e-4 + 1e-9) {
+        return Err(format!(
+            "CYCL DEF 205 is read with Q258 = Q259 = the machine's G83 clearance \
+             (interp.peck_clearance = {d})"
+        ));
+    }
+    if rest.iter().any(|v| *v != 0.0) {
+        return Err("CYCL DEF 205 is read with Q212, Q257, Q211 and Q379 all 0".into());
+    }
+    if plunge <= 0.0 || (plunge < -depth - 1e-9 && plunge < d - 1e-9) {
+        return Err(format!(
+            "CYCL DEF 205 is read with a plunging depth Q202 of at least the clearance {d}"
+        ));
+    }
+    let plunge = plunge.min(-depth);
+    Ok((
+        "G83".into(),
+        vec![format!("Q{}", fmt(plunge)), format!("F{}", fmt(feed))],
+    ))
+}
+
 /// Cycle 207's ISO code and words: a rigid tap (`M29`, so it runs coupled from a stopped
 /// spindle as from a turning one) at the `TOOL CALL`'s S, the feed S × |pitch| (G94),
 /// right-hand G84 for a positive pitch, left-hand G74 for a negative one.
@@ -440,7 +499,7 @@ fn cycle(rest: &str) -> Result<String, String> {
             Ok(format!("G4 X{}", number(t)?))
         }
         Some(n) => Err(format!(
-            "cycle {n} is not in the subset cnc402 reads (cycles 9, dwell, 200, drilling, and 207, rigid tapping, are)"
+            "cycle {n} is not in the subset cnc402 reads (cycles 9, dwell, 200, drilling, 205, pecking, and 207, rigid tapping, are)"
         )),
         None => Err("expected the cycle number".into()),
     }

@@ -237,7 +237,10 @@ fn a_section_runs_once_more_than_its_repeats_in_the_order_it_runs() {
 #[test]
 fn labels_outside_the_subset_are_errors() {
     for (lines, why) in [
-        (&["0 BEGIN PGM J MM", "1 LBL 0"][..], "LBL 0 outside a sub-program"),
+        (
+            &["0 BEGIN PGM J MM", "1 LBL 0"][..],
+            "LBL 0 outside a sub-program",
+        ),
         (
             &["0 BEGIN PGM J MM", "1 CALL LBL 2 REP 3"][..],
             "repeats the program section that LBL 2 opened",
@@ -251,11 +254,76 @@ fn labels_outside_the_subset_are_errors() {
             "expected a count",
         ),
         (
-            &["0 BEGIN PGM J MM", "1 LBL 1", "2 LBL 2", "3 LBL 3", "4 LBL 4"][..],
+            &[
+                "0 BEGIN PGM J MM",
+                "1 LBL 1",
+                "2 LBL 2",
+                "3 LBL 3",
+                "4 LBL 4",
+            ][..],
             "more than 3 program sections",
         ),
     ] {
         let e = translate(lines).unwrap_err();
         assert!(e.contains(why), "{lines:?}: {e}");
     }
+}
+
+const PECKING: [&str; 19] = [
+    "0 BEGIN PGM JOB MM",
+    "1 L X+0 Y+0 Z+20 R0 FMAX",
+    "2 CYCL DEF 205 UNIVERSAL PECKING",
+    "  Q200=+0 ;SET-UP CLEARANCE",
+    "  Q201=-14 ;DEPTH",
+    "  Q206=+100 ;FEED RATE FOR PLNGNG",
+    "  Q202=+3 ;PLUNGING DEPTH",
+    "  Q203=+2 ;SURFACE COORDINATE",
+    "  Q204=+18 ;2ND SET-UP CLEARANCE",
+    "  Q212=+0 ;DECREMENT",
+    "  Q205=+0 ;MIN. PLUNGING DEPTH",
+    "  Q258=+0.5 ;UPPER ADV STOP DIST",
+    "  Q259=+0.5 ;LOWER ADV STOP DIST",
+    "  Q257=+0 ;DEPTH FOR CHIP BRKNG",
+    "  Q256=+0.2 ;DIST FOR CHIP BRKNG",
+    "  Q211=+0 ;DWELL TIME AT DEPTH",
+    "  Q379=+0 ;STARTING POINT",
+    "  Q253=+750 ;F PRE-POSITIONING",
+    "3 L X+10 Y+10 FMAX M99",
+];
+
+fn translate_for(clearance: Option<f64>, lines: &[&str]) -> Result<Vec<String>, String> {
+    let mut t = Translator::for_machine(clearance);
+    lines
+        .iter()
+        .enumerate()
+        .map(|(i, l)| t.line(i, l))
+        .collect()
+}
+
+#[test]
+fn cycle_205_is_read_as_g83_with_the_machines_clearance() {
+    let out = translate_for(Some(0.5), &PECKING).unwrap();
+    assert_eq!(out.last().unwrap(), "G98 G83 X10. Y10. Z-12. R2. Q3. F100.");
+}
+
+#[test]
+fn cycle_205_read_another_way_than_g83_is_an_error() {
+    let e = translate_for(None, &PECKING).unwrap_err();
+    assert!(e.contains("G83 clearance is known"), "{e}");
+    let e = translate_for(Some(1.0), &PECKING).unwrap_err();
+    assert!(
+        e.contains("Q258 = Q259 = the machine's G83 clearance"),
+        "{e}"
+    );
+    let mut chip = PECKING;
+    chip[13] = "  Q257=+2 ;DEPTH FOR CHIP BRKNG";
+    let e = translate_for(Some(0.5), &chip).unwrap_err();
+    assert!(e.contains("Q212, Q257, Q211 and Q379 all 0"), "{e}");
+    let mut short = PECKING;
+    short[6] = "  Q202=+0.3 ;PLUNGING DEPTH";
+    let e = translate_for(Some(0.5), &short).unwrap_err();
+    assert!(
+        e.contains("plunging depth Q202 of at least the clearance"),
+        "{e}"
+    );
 }

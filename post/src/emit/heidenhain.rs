@@ -160,8 +160,8 @@ impl Itnc<'_> {
             self.e.refuse(
                 op,
                 format!(
-                    "canned cycle G{}: {why} (the iTNC output writes G81/G82 as CYCL DEF 200 \
-                     and rigid taps G84/G74 as CYCL DEF 207 only)",
+                    "canned cycle G{}: {why} (the iTNC output writes G81/G82 as CYCL DEF 200, \
+                     G83 as CYCL DEF 205 and rigid taps G84/G74 as CYCL DEF 207 only)",
                     cc.code
                 ),
             )
@@ -171,7 +171,7 @@ impl Itnc<'_> {
         let tap = matches!(cc.code, 74 | 84)
             && cc.tap.is_some_and(|t| t.peck.is_none())
             && cc.words.p.unwrap_or(0.0) == 0.0;
-        if !(matches!(cc.code, 81 | 82) || tap)
+        if !(matches!(cc.code, 81 | 82 | 83) || tap)
             || cc.plan.linuxcnc.is_some()
             || xyz.map(Some) != cc.axes.map(|i| Some(Some(i)))
         {
@@ -197,6 +197,10 @@ impl Itnc<'_> {
             Some(t) => (
                 "CYCL DEF 207 RIGID TAPPING NEW",
                 self.tapping_q(op, cc, t, depth, above)?,
+            ),
+            None if cc.code == 83 => (
+                "CYCL DEF 205 UNIVERSAL PECKING",
+                self.pecking_q(op, cc, depth, above)?,
             ),
             None => (
                 "CYCL DEF 200 DRILLING",
@@ -257,6 +261,51 @@ impl Itnc<'_> {
                 "DWELL TIME AT DEPTH",
             ),
         ])
+    }
+
+    /// The Q parameters of `CYCL DEF 205` for a G83: the plunging depth Q202 is the job's Q,
+    /// both advanced stop distances (Q258 upper, Q259 lower) the machine's G83 re-entry
+    /// clearance — so the iTNC goes back to R after each plunge and down at rapid to that
+    /// distance above the last depth, as Fanuc's G83 does; no decrement, chip breaking,
+    /// dwell or deepened start. A peck shorter than the clearance is refused (Fanuc stops
+    /// the re-entry at R, the iTNC would not).
+    fn pecking_q(
+        &self,
+        op: &CanonOp,
+        cc: &CannedCycle,
+        depth: f64,
+        above: f64,
+    ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
+        let d = self.e.rules.position_decimals;
+        let clearance = cc.plan.peck_clearance;
+        let peck = cc.words.q.unwrap_or(-depth).min(-depth);
+        let pecks = peck < -depth - SAME;
+        let differs = (clearance - self.e.cfg.interp.peck_clearance).abs() > SAME;
+        if (pecks && peck < clearance - SAME) || differs {
+            return Err(self.e.refuse(
+                op,
+                format!(
+                    "canned cycle G83: a peck Q shorter than the re-entry clearance {clearance} \
+                     (CYCL DEF 205 re-enters above R where the job's G83 stops at R)"
+                ),
+            ));
+        }
+        let mut q = self.drilling_q(op, cc, depth, above)?;
+        // Cycle 200's Q200 Q201 Q206 Q202 Q210 Q203 Q204 Q211, less Q210, then 205's own.
+        q.retain(|(name, _, _)| !matches!(*name, "Q210" | "Q211"));
+        q[3].1 = signed(peck, d);
+        q.extend([
+            ("Q212", "+0".to_string(), "DECREMENT"),
+            ("Q205", "+0".to_string(), "MIN. PLUNGING DEPTH"),
+            ("Q258", signed(clearance, d), "UPPER ADV STOP DIST"),
+            ("Q259", signed(clearance, d), "LOWER ADV STOP DIST"),
+            ("Q257", "+0".to_string(), "DEPTH FOR CHIP BRKNG"),
+            ("Q256", "+0.2".to_string(), "DIST FOR CHIP BRKNG"),
+            ("Q211", "+0".to_string(), "DWELL TIME AT DEPTH"),
+            ("Q379", "+0".to_string(), "STARTING POINT"),
+            ("Q253", "+750".to_string(), "F PRE-POSITIONING"),
+        ]);
+        Ok(q)
     }
 
     /// The Q parameters of `CYCL DEF 207` for a rigid tap: the pitch signed by the hand

@@ -132,8 +132,7 @@ fn common_tail(runs: &[&[Block]]) -> usize {
     let mut n = (0..shortest)
         .take_while(|&k| {
             let b = &runs[0][runs[0].len() - 1 - k];
-            runs.iter()
-                .all(|r| same(&r[r.len() - 1 - k], b))
+            runs.iter().all(|r| same(&r[r.len() - 1 - k], b))
         })
         .count();
     let first = runs[0];
