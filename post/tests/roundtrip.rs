@@ -447,6 +447,20 @@ fn an_inch_job_posts_in_inches() {
     assert!(text.contains("G2 X2. Y0.5 I0.5 J0.\n"), "{text}");
 }
 
+/// An inch job on the iTNC was refused: the output wrote mm values into a `BEGIN PGM … INCH`
+/// program (the proof caught it). Now inches (4 decimals) and F in 1/10 inch/min.
+#[test]
+fn an_inch_job_on_the_itnc530_wrote_mm_into_an_inch_program() {
+    golden("inch.nc", Target::Itnc530);
+    let text = std::fs::read_to_string(fixture("inch.itnc530.nc")).unwrap();
+    assert!(text.starts_with("0 BEGIN PGM CNC402 INCH\n"), "{text}");
+    // F5.9055 inch/min is F59.055 in 1/10 inch/min; the cycle's feed F4. is Q206=+40.
+    assert!(text.contains(" L Z-0.1 F59.055\n"), "{text}");
+    assert!(text.contains("  Q206=+40 ;"), "{text}");
+    // The machine's 0.5 mm re-entry clearance in inches.
+    assert!(text.contains("  Q258=+0.0197 ;"), "{text}");
+}
+
 fn post_cl(target: Target, tools: &str) -> Result<String, PostError> {
     let job = fixture("pocket.cl");
     let text = std::fs::read_to_string(&job).unwrap();

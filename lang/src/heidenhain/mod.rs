@@ -58,6 +58,8 @@ pub struct Translator {
     /// The machine's G83 re-entry clearance (`interp.peck_clearance`): cycle 205 is read
     /// as a G83 only with its advanced stop distances equal to it.
     peck_clearance: Option<f64>,
+    /// `BEGIN PGM … INCH`: lengths in inches, feeds in 1/10 inch/min.
+    inch: bool,
 }
 
 impl Translator {
@@ -177,6 +179,7 @@ impl Translator {
             Some("INCH") => "G20",
             _ => return Err("expected BEGIN PGM NAME MM|INCH".into()),
         };
+        self.inch = units == "G20";
         self.preamble = Some(format!("{units} G90 G90.1 G17"));
         Ok(format!("(dialect: fanuc) (BEGIN PGM {name})"))
     }
@@ -256,9 +259,26 @@ impl Translator {
             205 => {
                 let stops = [q(258)?, q(259)?];
                 let rest = [q(212)?, q(257)?, q(211)?, q(379)?];
-                pecking(q(206)?, q(202)?, stops, rest, depth, self.peck_clearance)?
+                // The machine's clearance (mm) in the program's length unit.
+                let clearance = self
+                    .peck_clearance
+                    .map(|d| if self.inch { d / 25.4 } else { d });
+                pecking(
+                    q(206)? * self.feed_scale(),
+                    q(202)?,
+                    stops,
+                    rest,
+                    depth,
+                    clearance,
+                )?
             }
-            _ => drilling(q(206)?, q(202)?, q(210)?, q(211)?, depth)?,
+            _ => drilling(
+                q(206)? * self.feed_scale(),
+                q(202)?,
+                q(210)?,
+                q(211)?,
+                depth,
+            )?,
         };
         let r = surface + clear;
         let mode = if clear2 > clear {
@@ -281,6 +301,22 @@ impl Translator {
         self.cycle_active = true;
         self.refeed = true;
         Ok(out.join(" "))
+    }
+
+    /// The words of a path block, its F in the ISO program's unit (an INCH program's F is
+    /// in 1/10 inch/min, G20's in inch/min).
+    fn path_words(&self, text: &str) -> Result<Vec<Word>, String> {
+        let mut words = split_words(text)?;
+        for w in &mut words {
+            if let Word::Feed(f) = w {
+                *f *= self.feed_scale();
+            }
+        }
+        Ok(words)
+    }
+
+    fn feed_scale(&self) -> f64 {
+        if self.inch { 0.1 } else { 1.0 }
     }
 
     /// Keeps where the tool is and the feed from a path block's words.
@@ -312,7 +348,7 @@ impl Translator {
 
     /// `L X.. Y.. Z.. R0|RL|RR F..|FMAX M..`.
     fn line_move(&mut self, rest: &str) -> Result<String, String> {
-        let words = split_words(rest)?;
+        let words = self.path_words(rest)?;
         if words.contains(&Word::M(99)) {
             let axes = axis_words(&words)?;
             if axes.iter().any(|a| !a.starts_with(['X', 'Y']))
@@ -373,7 +409,7 @@ impl Translator {
 
     /// `C X.. Y.. DR+|DR- R0 F.. M..`: an arc about the last `CC`, to an absolute end.
     fn arc(&mut self, rest: &str) -> Result<String, String> {
-        let words = split_words(rest)?;
+        let words = self.path_words(rest)?;
         let Some((cx, cy)) = self.centre else {
             return Err("C without a CC before it".into());
         };

@@ -327,3 +327,16 @@ fn cycle_205_read_another_way_than_g83_is_an_error() {
         "{e}"
     );
 }
+
+#[test]
+fn an_inch_programs_feeds_are_in_tenths_of_an_inch_per_minute() {
+    let out = translate(&[
+        "0 BEGIN PGM JOB INCH",
+        "1 L X+1.25 Z-0.1 R0 F59.055",
+        "2 CC X+1.25 Y+0.75",
+        "3 C X+2 Y+0.75 DR- F120",
+    ])
+    .unwrap();
+    assert_eq!(out[1], "G20 G90 G90.1 G17 G1 G40 X1.25 Z-0.1 F5.9055");
+    assert_eq!(out[3], "G2 X2. Y0.75 I1.25 J0.75 F12.");
+}

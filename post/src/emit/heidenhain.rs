@@ -40,10 +40,12 @@ pub fn emit_itnc(
         comp: None,
         feed: None,
         drilling: None,
+        inch: false,
     };
     let inch = ops
         .first()
         .is_some_and(|o| o.state.units == cnc402_interp::canon::ProgramUnits::Inch);
+    e.inch = inch;
     for op in ops {
         if (op.state.units == cnc402_interp::canon::ProgramUnits::Inch) != inch {
             return Err(e
@@ -68,9 +70,33 @@ struct Itnc<'a> {
     feed: Option<String>,
     /// The lines of the active `CYCL DEF 200` or `207` (the head and its Q lines).
     drilling: Option<Vec<String>>,
+    /// A `BEGIN PGM … INCH` program: lengths in inches, feeds in 1/10 inch/min.
+    inch: bool,
 }
 
 impl Itnc<'_> {
+    /// A length (mm) as the program writes it: mm, or inches (4 decimals) in an INCH program.
+    fn len(&self, mm: f64) -> String {
+        if self.inch {
+            signed(mm / 25.4, 4)
+        } else {
+            signed(mm, self.e.rules.position_decimals)
+        }
+    }
+
+    /// A feed (mm/min) as the program writes it, `F…`: mm/min, or in an INCH program
+    /// 1/10 inch/min (the iTNC's unit there: `F100` is 10 inch/min).
+    fn feed_word(&self, mm_per_min: f64, op: &CanonOp) -> Result<String, PostError> {
+        use super::format::Unit;
+        let (v, unit) = if self.inch {
+            (mm_per_min * 10.0, Unit::Inch)
+        } else {
+            (mm_per_min, Unit::Mm)
+        };
+        let f = super::format::feed(self.e.rules, v, unit, &op.source)?;
+        Ok(f.trim_end_matches('.').to_string())
+    }
+
     fn push(&mut self, text: String, op: &CanonOp) {
         self.e
             .program
@@ -192,7 +218,6 @@ impl Itnc<'_> {
                 "a return level below R, a depth above R, or a start off the initial level",
             ));
         }
-        let d = self.e.rules.position_decimals;
         let (head, q) = match cc.tap {
             Some(t) => (
                 "CYCL DEF 207 RIGID TAPPING NEW",
@@ -221,10 +246,7 @@ impl Itnc<'_> {
             self.drilling = Some(def);
         }
         for &[x, y] in &cc.holes {
-            self.push(
-                format!("L X{} Y{} FMAX M99", signed(x, d), signed(y, d)),
-                op,
-            );
+            self.push(format!("L X{} Y{} FMAX M99", self.len(x), self.len(y)), op);
         }
         // The cycle's feed is not the contour's: the next feed block writes its F.
         self.feed = None;
@@ -239,22 +261,20 @@ impl Itnc<'_> {
         depth: f64,
         above: f64,
     ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
-        let d = self.e.rules.position_decimals;
-        let unit = self.e.length_unit_of(op);
-        let f = super::format::feed(self.e.rules, cc.feed, unit, &op.source)?;
+        let f = self.feed_word(cc.feed, op)?;
         let dwell = cc.words.p.unwrap_or(0.0);
         Ok(vec![
             ("Q200", "+0".to_string(), "SET-UP CLEARANCE"),
-            ("Q201", signed(depth, d), "DEPTH"),
+            ("Q201", self.len(depth), "DEPTH"),
             (
                 "Q206",
                 format!("+{}", f.trim_start_matches('F').trim_end_matches('.')),
                 "FEED RATE FOR PLNGNG",
             ),
-            ("Q202", signed(-depth, d), "PLUNGING DEPTH"),
+            ("Q202", self.len(-depth), "PLUNGING DEPTH"),
             ("Q210", "+0".to_string(), "DWELL TIME AT TOP"),
-            ("Q203", signed(cc.r_level, d), "SURFACE COORDINATE"),
-            ("Q204", signed(above.max(0.0), d), "2ND SET-UP CLEARANCE"),
+            ("Q203", self.len(cc.r_level), "SURFACE COORDINATE"),
+            ("Q204", self.len(above.max(0.0)), "2ND SET-UP CLEARANCE"),
             (
                 "Q211",
                 format!("+{}", decimal(dwell, 3).trim_end_matches('.')),
@@ -276,7 +296,6 @@ impl Itnc<'_> {
         depth: f64,
         above: f64,
     ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
-        let d = self.e.rules.position_decimals;
         let clearance = cc.plan.peck_clearance;
         let peck = cc.words.q.unwrap_or(-depth).min(-depth);
         let pecks = peck < -depth - SAME;
@@ -293,12 +312,12 @@ impl Itnc<'_> {
         let mut q = self.drilling_q(op, cc, depth, above)?;
         // Cycle 200's Q200 Q201 Q206 Q202 Q210 Q203 Q204 Q211, less Q210, then 205's own.
         q.retain(|(name, _, _)| !matches!(*name, "Q210" | "Q211"));
-        q[3].1 = signed(peck, d);
+        q[3].1 = self.len(peck);
         q.extend([
             ("Q212", "+0".to_string(), "DECREMENT"),
             ("Q205", "+0".to_string(), "MIN. PLUNGING DEPTH"),
-            ("Q258", signed(clearance, d), "UPPER ADV STOP DIST"),
-            ("Q259", signed(clearance, d), "LOWER ADV STOP DIST"),
+            ("Q258", self.len(clearance), "UPPER ADV STOP DIST"),
+            ("Q259", self.len(clearance), "LOWER ADV STOP DIST"),
             ("Q257", "+0".to_string(), "DEPTH FOR CHIP BRKNG"),
             ("Q256", "+0.2".to_string(), "DIST FOR CHIP BRKNG"),
             ("Q211", "+0".to_string(), "DWELL TIME AT DEPTH"),
@@ -332,13 +351,17 @@ impl Itnc<'_> {
             1.0
         };
         // The pitch in the program's length unit, with the decimals a pitch needs.
-        let pitch = signed(hand * tap.pitch, d + 1);
+        let pitch = if self.inch {
+            signed(hand * tap.pitch / 25.4, 5)
+        } else {
+            signed(hand * tap.pitch, d + 1)
+        };
         Ok(vec![
             ("Q200", "+0".to_string(), "SET-UP CLEARANCE"),
-            ("Q201", signed(depth, d), "DEPTH"),
+            ("Q201", self.len(depth), "DEPTH"),
             ("Q239", pitch, "PITCH"),
-            ("Q203", signed(cc.r_level, d), "SURFACE COORDINATE"),
-            ("Q204", signed(above.max(0.0), d), "2ND SET-UP CLEARANCE"),
+            ("Q203", self.len(cc.r_level), "SURFACE COORDINATE"),
+            ("Q204", self.len(above.max(0.0)), "2ND SET-UP CLEARANCE"),
         ])
     }
 
@@ -367,7 +390,7 @@ impl Itnc<'_> {
                 axes.push(format!(
                     "{}{}",
                     self.e.letter(i),
-                    signed(end[i], self.e.rules.position_decimals)
+                    self.axis_value(i, end[i])
                 ));
             }
         }
@@ -375,7 +398,7 @@ impl Itnc<'_> {
             axes.push(format!(
                 "{}{}",
                 self.e.letter(0),
-                signed(end[0], self.e.rules.position_decimals)
+                self.axis_value(0, end[0])
             ));
         }
         if self.length == Length::Pending
@@ -393,9 +416,8 @@ impl Itnc<'_> {
         } = kind
         {
             self.arc_checks(op, end, *plane, *turns)?;
-            let d = self.e.rules.position_decimals;
             self.push(
-                format!("CC X{} Y{}", signed(center[0], d), signed(center[1], d)),
+                format!("CC X{} Y{}", self.len(center[0]), self.len(center[1])),
                 op,
             );
             words.push("C".to_string());
@@ -420,9 +442,7 @@ impl Itnc<'_> {
         match feed {
             None => words.push("FMAX".into()),
             Some(f) => {
-                let f =
-                    super::format::feed(self.e.rules, f, self.e.length_unit_of(op), &op.source)?;
-                let f = f.trim_end_matches('.').to_string();
+                let f = self.feed_word(f, op)?;
                 if self.feed.as_deref() != Some(&f) {
                     words.push(f.clone());
                     self.feed = Some(f);
@@ -467,6 +487,14 @@ impl Itnc<'_> {
             ));
         }
         Ok(())
+    }
+
+    /// Axis `i`'s value: a length, or degrees for a rotary axis.
+    fn axis_value(&self, i: usize, value: f64) -> String {
+        match self.e.cfg.axes[i].kind {
+            cnc402_config::AxisKind::Linear => self.len(value),
+            _ => signed(value, self.e.rules.position_decimals),
+        }
     }
 
     /// The job runs with the tool's length (G43 H of the called tool).
