@@ -60,6 +60,9 @@ pub struct Translator {
     peck_clearance: Option<f64>,
     /// `BEGIN PGM … INCH`: lengths in inches, feeds in 1/10 inch/min.
     inch: bool,
+    /// The datum shift of cycle 7 (X, Y, Z, program units) the G54 entry holds on top of
+    /// its own.
+    shift: [f64; 3],
 }
 
 impl Translator {
@@ -81,9 +84,18 @@ impl Translator {
         let text = body(line);
         let was_active = self.cycle_active;
         let mut out = self.translate(text)?;
-        // A flow line (a label's O, WHILE, END, M98, M99) takes no modal words: they wait
-        // for the next block.
+        // A flow line (a label's O, WHILE, END, M98, M99) or a datum shift's incremental
+        // G10 takes no modal words: they wait for the next block (after a shift: G90).
         if out.is_empty() || out.starts_with('(') || labels::is_flow(&out) {
+            return Ok(out);
+        }
+        if out.starts_with("G91 G10") {
+            let p = self.preamble.take().unwrap_or_else(|| "G90".into());
+            self.preamble = Some(if p.contains("G90") {
+                p
+            } else {
+                format!("{p} G90")
+            });
             return Ok(out);
         }
         self.labels.note_end(&out);
@@ -148,6 +160,7 @@ impl Translator {
                     _ => Err("CYCL CALL before X and Y are known".into()),
                 }
             }
+            "CYCL" if rest.starts_with("DEF 7.") => self.datum_shift(rest),
             "CYCL" => cycle(rest),
             "LBL" => self.labels.label(rest),
             "CALL" if rest.trim_start().starts_with("LBL") => self.labels.call(rest),
@@ -301,6 +314,42 @@ impl Translator {
         self.cycle_active = true;
         self.refeed = true;
         Ok(out.join(" "))
+    }
+
+    /// `CYCL DEF 7.0 DATUM SHIFT` (nothing yet) and `7.1`–`7.3 X|Y|Z±v` (`IX`: added):
+    /// the G54 entry moved by the change of the shift (`G91 G10 L2 P1`), so that the
+    /// program's zero is the machine's G54 plus the shift, as on the iTNC (whose shifts are
+    /// from its preset, cnc402's G54).
+    fn datum_shift(&mut self, rest: &str) -> Result<String, String> {
+        let mut parts = rest.split_whitespace().skip(1);
+        let step = parts.next().unwrap_or("");
+        if step == "7.0" {
+            return Ok(String::new());
+        }
+        let word = parts.next().unwrap_or("");
+        let (incremental, word) = match word.strip_prefix('I') {
+            Some(w) => (true, w),
+            None => (false, word),
+        };
+        let axis = "XYZ".find(word.chars().next().unwrap_or(' '));
+        let (Some(axis), Some(value), None) = (axis, word.get(1..), parts.next()) else {
+            return Err(format!(
+                "CYCL DEF {step} {word}: cnc402 reads datum shifts along X, Y or Z by a value \
+                 (no datum table numbers)"
+            ));
+        };
+        let value = number(value)?;
+        let new = if incremental {
+            self.shift[axis] + value
+        } else {
+            value
+        };
+        let change = new - self.shift[axis];
+        self.shift[axis] = new;
+        // Where the tool is in the shifted coordinates is no longer known.
+        self.at = [None; 3];
+        let letter = &"XYZ"[axis..=axis];
+        Ok(format!("G91 G10 L2 P1 {letter}{}", fmt(change)))
     }
 
     /// The words of a path block, its F in the ISO program's unit (an INCH program's F is

@@ -340,3 +340,32 @@ fn an_inch_programs_feeds_are_in_tenths_of_an_inch_per_minute() {
     assert_eq!(out[1], "G20 G90 G90.1 G17 G1 G40 X1.25 Z-0.1 F5.9055");
     assert_eq!(out[3], "G2 X2. Y0.75 I1.25 J0.75 F12.");
 }
+
+#[test]
+fn cycle_7_moves_the_g54_entry_by_the_change_of_the_shift() {
+    let out = translate(&[
+        "0 BEGIN PGM JOB MM",
+        "1 CYCL DEF 7.0 DATUM SHIFT",
+        "2 CYCL DEF 7.1 X+50",
+        "3 CYCL DEF 7.2 IY+20",
+        "4 L X+0 Y+0 R0 FMAX",
+        "5 CYCL DEF 7.0 DATUM SHIFT",
+        "6 CYCL DEF 7.1 X+10",
+        "7 L X+1 FMAX",
+    ])
+    .unwrap();
+    assert_eq!(
+        &out[1..],
+        [
+            "",
+            "G91 G10 L2 P1 X50.",
+            "G91 G10 L2 P1 Y20.",
+            "G21 G90 G90.1 G17 G0 G40 X0. Y0.",
+            "",
+            "G91 G10 L2 P1 X-40.",
+            "G90 G0 X1.",
+        ]
+    );
+    let e = translate(&["0 BEGIN PGM J MM", "1 CYCL DEF 7.1 #5"]).unwrap_err();
+    assert!(e.contains("datum shifts along X, Y or Z by a value"), "{e}");
+}

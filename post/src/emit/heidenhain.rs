@@ -2,9 +2,9 @@
 //! `CYCL DEF 9` dwells, M functions. What the iTNC does implicitly is checked against the
 //! job instead of written: the called tool's length switches on at the next Z move (the job
 //! must have `G43 H` of that tool there), the radius of `RL/RR` is the called tool's, the
-//! datum is the config's G54. G81/G82 become `CYCL DEF 200 DRILLING`, rigid taps G84/G74
-//! `CYCL DEF 207 RIGID TAPPING NEW`, each hole `L X Y FMAX M99`; other canned cycles,
-//! helices, G61/G64 changes: refused (not written yet: docs/post.md).
+//! preset is the config's G54 (other datums: `CYCL DEF 7`, [`super::datum`]). G81/G82 become
+//! `CYCL DEF 200`, G83 `205`, rigid taps `207`, each hole `L X Y FMAX M99`; sub-programs
+//! labels ([`super::labels`]); other cycles, helices, G61/G64 changes: refused (docs/post.md).
 
 use cnc402_interp::canon::{CannedCycle, CanonKind, CanonOp, CompSide};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, SpindleDir};
@@ -41,6 +41,7 @@ pub fn emit_itnc(
         feed: None,
         drilling: None,
         inch: false,
+        shift: [0.0; 3],
     };
     let inch = ops
         .first()
@@ -72,6 +73,8 @@ struct Itnc<'a> {
     drilling: Option<Vec<String>>,
     /// A `BEGIN PGM … INCH` program: lengths in inches, feeds in 1/10 inch/min.
     inch: bool,
+    /// The datum shift (cycle 7) the control holds.
+    shift: super::datum::Shift,
 }
 
 impl Itnc<'_> {
@@ -182,6 +185,7 @@ impl Itnc<'_> {
     /// that Q203 is the R level, Q204 the return level above it: 0 for G99) and an
     /// `L X Y FMAX M99` at each hole. Other cycles are refused, naming the block.
     fn drilling(&mut self, op: &CanonOp, cc: &CannedCycle) -> Result<(), PostError> {
+        self.datum(op)?;
         let refuse = |why: &str| {
             self.e.refuse(
                 op,
@@ -367,6 +371,7 @@ impl Itnc<'_> {
 
     /// `L` or `CC` + `C`.
     fn path(&mut self, op: &CanonOp, kind: &SegmentKind) -> Result<(), PostError> {
+        self.datum(op)?;
         self.check_state(op)?;
         let (end, feed) = match kind {
             SegmentKind::Rapid { end } => (end, None),
@@ -489,6 +494,18 @@ impl Itnc<'_> {
         Ok(())
     }
 
+    /// The job's datum as a cycle-7 shift from the machine's G54, written (four blocks at
+    /// once) before the first block that runs under a shift the control does not hold.
+    fn datum(&mut self, op: &CanonOp) -> Result<(), PostError> {
+        let want = super::datum::shift_of(&self.e, op).map_err(|m| self.e.refuse(op, m))?;
+        let blocks = super::datum::shift_blocks(&self.shift, &want, |v| self.len(v));
+        for b in blocks {
+            self.push(b, op);
+        }
+        self.shift = want;
+        Ok(())
+    }
+
     /// Axis `i`'s value: a length, or degrees for a rotary axis.
     fn axis_value(&self, i: usize, value: f64) -> String {
         match self.e.cfg.axes[i].kind {
@@ -509,20 +526,6 @@ impl Itnc<'_> {
         let st = &op.state;
         let refuse = |m: &str| Err(self.e.refuse(op, m.to_string()));
         let length = self.e.effective_length(op);
-        let mut zero = st.offset;
-        if let Some(t) = st.tool_axis {
-            zero[t] -= length;
-        }
-        if st.work_offset != 0
-            || self
-                .e
-                .axes()
-                .any(|i| (zero[i] - self.e.cfg.work_offsets[0][i]).abs() > SAME)
-        {
-            return refuse(
-                "a datum other than the machine's G54 (datum shifts are not written for the iTNC)",
-            );
-        }
         let tool = self.tool.unwrap_or(0);
         if length != 0.0 {
             let table = self.e.cfg.tool_offsets.get((tool as usize).wrapping_sub(1));

@@ -4,6 +4,7 @@
 //! match the job's at every block.
 
 mod carried;
+mod datum;
 pub mod format;
 pub mod heidenhain;
 mod labels;
