@@ -90,6 +90,14 @@ pub fn post_with(
     tools: &input::tools::ToolTable,
 ) -> Result<String, PostError> {
     let rules = target.rules();
+    // Without a tool table of its own, the config's `[tool_offsets]` cutting data.
+    let from_config;
+    let tools = if tools.tool.is_empty() {
+        from_config = input::tools::ToolTable::from_config(cfg);
+        &from_config
+    } else {
+        tools
+    };
     let job = read_job(cfg, name, text, target, tools)?;
     let posted = post_ops(cfg, &job, target)?;
     let job_segments = if job.cl {

@@ -492,6 +492,44 @@ fn post_cl(target: Target, tools: &str) -> Result<String, PostError> {
     cnc402_post::post_with(&cfg, &job.display().to_string(), &text, target, &tools)
 }
 
+/// Without `--tools`, the config's `[tool_offsets]` cutting data: the same S and F as the
+/// table file gives, and `SPINDL/CLW` / `FEDRAT/MMPT` without values take the tool's Vc, fz.
+#[test]
+fn cl_cutting_data_from_the_configs_tool_offsets() {
+    let mut cfg = config("config/machine.toml");
+    cfg.tool_offsets[0].cutting = cnc402_config::CuttingData {
+        diameter: Some(10.0),
+        teeth: Some(4),
+        vc: Some(150.0),
+        fz: Some(0.05),
+    };
+    let none = cnc402_post::input::tools::ToolTable::default();
+    let job = fixture("pocket.cl");
+    let text = std::fs::read_to_string(&job).unwrap();
+    let name = job.display().to_string();
+    let posted = cnc402_post::post_with(&cfg, &name, &text, Target::Fanuc16, &none).unwrap();
+    assert!(
+        posted.contains("S4775 M3") && posted.contains("F955."),
+        "{posted}"
+    );
+    let own = text
+        .replace("SPINDL/150.0,SMM,CLW", "SPINDL/CLW")
+        .replace("FEDRAT/0.05,MMPT", "FEDRAT/MMPT");
+    let posted = cnc402_post::post_with(&cfg, &name, &own, Target::Fanuc16, &none).unwrap();
+    assert!(
+        posted.contains("S4775 M3") && posted.contains("F955."),
+        "{posted}"
+    );
+    cfg.tool_offsets[0].cutting.fz = None;
+    let e = cnc402_post::post_with(&cfg, &name, &own, Target::Fanuc16, &none)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("pocket.cl:8: tool 1 has no fz in the tool table"),
+        "{e}"
+    );
+}
+
 const TOOLS: &str = "[tool.1]\ndiameter = 10.0\nteeth = 4\n";
 
 #[test]

@@ -264,12 +264,39 @@ impl Cl<'_> {
             .ok_or_else(|| self.error("cutting data before a LOADTL".into()))?;
         self.tools.tool.get(&n).copied().ok_or_else(|| {
             self.error(format!(
-                "tool {n} is not in the tool table (--tools: [tool.{n}] diameter, teeth)"
+                "tool {n} is not in the tool table (--tools: [tool.{n}] diameter, teeth; or \
+                 the config's [tool_offsets] {n} = {{ diameter, teeth, vc, fz }})"
             ))
         })
     }
 
-    /// `SPINDL/ n, RPM|SMM, CLW|CCLW` or `SPINDL/OFF`.
+    /// A value of the loaded tool's cutting data, or which key it lacks.
+    fn tool_value<T>(
+        &self,
+        key: &str,
+        get: impl Fn(&super::tools::Tool) -> Option<T>,
+    ) -> Result<T, PostError> {
+        let tool = self.tool()?;
+        get(&tool).ok_or_else(|| {
+            let n = self.state.tool.unwrap_or(0);
+            self.error(format!("tool {n} has no {key} in the tool table"))
+        })
+    }
+
+    /// The number at the head of `list`, if it starts with one (a statement's own value).
+    fn leading_number(&self, list: &[&str]) -> Result<Option<f64>, PostError> {
+        match list.first() {
+            Some(a)
+                if a.starts_with(|c: char| c.is_ascii_digit() || matches!(c, '.' | '-' | '+')) =>
+            {
+                Ok(Some(self.numbers(&list[..1], 1)?[0]))
+            }
+            _ => Ok(None),
+        }
+    }
+
+    /// `SPINDL/ n, RPM|SMM, CLW|CCLW` or `SPINDL/OFF`; without `n` (`SPINDL/CLW`), the
+    /// loaded tool's Vc from the tool table.
     fn spindle(&mut self, list: &[&str]) -> Result<(), PostError> {
         if list.first() == Some(&"OFF") {
             self.dir = SpindleDir::Stop;
@@ -279,11 +306,11 @@ impl Cl<'_> {
             }));
             return Ok(());
         }
-        let v = self.numbers(&list[..1.min(list.len())], 1)?[0];
-        self.rpm = if list.contains(&"SMM") {
-            rpm_from_vc(v, self.tool()?.diameter)
-        } else {
-            v
+        let diameter = || self.tool_value("diameter", |t| t.diameter);
+        self.rpm = match self.leading_number(list)? {
+            Some(vc) if list.contains(&"SMM") => rpm_from_vc(vc, diameter()?),
+            Some(rpm) => rpm,
+            None => rpm_from_vc(self.tool_value("vc", |t| t.vc)?, diameter()?),
         };
         self.dir = if list.contains(&"CCLW") {
             SpindleDir::Ccw
@@ -297,9 +324,14 @@ impl Cl<'_> {
         Ok(())
     }
 
-    /// `FEDRAT/ f, MMPM|MMPR|MMPT` (mm/min, per revolution, per tooth).
+    /// `FEDRAT/ f, MMPM|MMPR|MMPT` (mm/min, per revolution, per tooth); `FEDRAT/MMPT`
+    /// without `f`: the loaded tool's fz from the tool table.
     fn feedrate(&mut self, list: &[&str]) -> Result<(), PostError> {
-        let f = self.numbers(&list[..1.min(list.len())], 1)?[0];
+        let f = match self.leading_number(list)? {
+            Some(f) => f,
+            None if list.first() == Some(&"MMPT") => self.tool_value("fz", |t| t.fz)?,
+            None => self.numbers(&list[..1.min(list.len())], 1)?[0],
+        };
         let per_rev = || {
             if self.rpm > 0.0 {
                 Ok(self.rpm)
@@ -310,7 +342,7 @@ impl Cl<'_> {
         let feed = if list.contains(&"MMPR") {
             f * per_rev()?
         } else if list.contains(&"MMPT") {
-            feed_from_fz(f, self.tool()?.teeth, per_rev()?)
+            feed_from_fz(f, self.tool_value("teeth", |t| t.teeth)?, per_rev()?)
         } else {
             f
         };
