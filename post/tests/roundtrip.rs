@@ -530,6 +530,62 @@ fn cl_cutting_data_from_the_configs_tool_offsets() {
     );
 }
 
+/// `UNITS/INCHES` and `CYCLE/TAP` (a rigid tap: G84, CYCL DEF 207) were refused at their
+/// line; now read, posted for every target and proven.
+#[test]
+fn cl_data_in_inches_with_rigid_taps_posts_for_every_target() {
+    let cfg = config("config/machine.toml");
+    let job = fixture("tap-inch.cl");
+    let text = std::fs::read_to_string(&job).unwrap();
+    let name = job.display().to_string();
+    for target in ALL_TARGETS {
+        let posted = cnc402_post::post(&cfg, &name, &text, target).expect("posts");
+        if target == Target::Itnc530 {
+            assert!(posted.starts_with("0 BEGIN PGM CNC402 INCH\n"), "{posted}");
+            assert!(posted.contains("  Q239=+0.05 ;PITCH\n"), "{posted}");
+        } else {
+            assert!(posted.contains("G20\n"), "{posted}");
+            // 500 rpm x 0.05 in per revolution.
+            assert!(
+                posted.contains("G98 G84 X1. Y1. Z-0.5 R0.1 F25.\n"),
+                "{posted}"
+            );
+        }
+    }
+}
+
+#[test]
+fn apt_records_cnc402_does_not_read_are_refused_at_their_line() {
+    let cfg = config("config/machine.toml");
+    let post = |cl: &str| {
+        cnc402_post::post(&cfg, "j.cl", cl, Target::Fanuc16)
+            .unwrap_err()
+            .to_string()
+    };
+    let e = post("LOADTL/1\nCUTCOM/LEFT\n");
+    assert!(
+        e.starts_with("j.cl:2: CUTCOM is not read: the CL points would be"),
+        "{e}"
+    );
+    let e = post("LOADTL/1\nCYCLE/TAP,10,MMPR,1.5,2\n");
+    assert!(
+        e.starts_with("j.cl:2: CYCLE/TAP with the spindle stopped"),
+        "{e}"
+    );
+    let e = post("LOADTL/1\nRAPID\nGOTO/0,0,10\nUNITS/INCHES\n");
+    assert!(
+        e.starts_with("j.cl:4: UNITS/ changes the units after the data moved"),
+        "{e}"
+    );
+    let e = post("UNITS/FEET\n");
+    assert!(e.starts_with("j.cl:1: UNITS/ MM or INCHES"), "{e}");
+    let e = post("LOADTL/1\nCYCLE/REAM,10,MMPM,100,2\n");
+    assert!(
+        e.contains("CYCLE/REAM is not read (DRILL, DEEP, BORE, TAP, OFF are)"),
+        "{e}"
+    );
+}
+
 const TOOLS: &str = "[tool.1]\ndiameter = 10.0\nteeth = 4\n";
 
 #[test]
