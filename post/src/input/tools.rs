@@ -39,15 +39,16 @@ impl ToolTable {
     pub fn parse(text: &str) -> Result<ToolTable, String> {
         let t: ToolTable = toml::from_str(text).map_err(|e| e.to_string())?;
         for (n, tool) in &t.tool {
-            let positive = |v: Option<f64>| v.is_none_or(|v| v > 0.0 && v.is_finite());
-            if !positive(tool.diameter)
-                || tool.teeth == Some(0)
-                || !positive(tool.vc)
-                || !positive(tool.fz)
-            {
-                return Err(format!(
-                    "tool.{n}: diameter, vc and fz must be > 0, teeth >= 1"
-                ));
+            let values = [
+                ("diameter", tool.diameter),
+                ("vc", tool.vc),
+                ("fz", tool.fz),
+                ("teeth", tool.teeth.map(f64::from)),
+            ];
+            for (key, v) in values {
+                if v.is_some_and(|v| !(v > 0.0 && v.is_finite())) {
+                    return Err(format!("tool.{n}: {key} must be > 0"));
+                }
             }
         }
         Ok(t)
