@@ -253,6 +253,36 @@ fn g83_posted_as_cycl_def_205_runs_as_the_job_through_segments() {
     assert_same_segments(out.to_str().unwrap(), job);
 }
 
+/// `cnc402 which` and `view` parsed a program whole, so a Heidenhain program was a syntax
+/// error at `0 BEGIN PGM`; they read it through the Heidenhain reader now, as `segments`.
+#[test]
+fn which_and_view_refused_a_heidenhain_program_as_a_syntax_error() {
+    let h = tmp("which.h");
+    let job = "post/tests/fixtures/contour.nc";
+    let o = cnc402(&[
+        "post",
+        "--target",
+        "itnc530",
+        job,
+        "-o",
+        h.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = cnc402(&["which", h.to_str().unwrap(), "40", "-5", "-3"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8(o.stdout).unwrap();
+    // The nearest block is named by its line and shown as the Heidenhain text.
+    let first = out.lines().nth(1).unwrap_or("");
+    assert!(
+        first.contains("which.h:11") && first.ends_with("| 10 L X+40"),
+        "{out}"
+    );
+    let page = tmp("which.html");
+    let o = cnc402(&["view", h.to_str().unwrap(), "-o", page.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&page).unwrap().contains("which.h"));
+}
+
 #[test]
 fn a_heidenhain_block_outside_the_subset_is_an_error_at_its_line() {
     let bad = tmp("bad.h");
