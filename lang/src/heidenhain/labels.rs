@@ -7,8 +7,10 @@
 /// Most program sections open inside each other (Fanuc's WHILE levels DO1–DO3).
 pub const MAX_SECTIONS: usize = 3;
 
-/// Most repeats one `REP` may ask for (the iTNC's own limit is 65534).
+/// The repeats one `REP` may ask for, and the label numbers (the TNC's input formats: REP
+/// 1 to 65 534, labels 0 to 999).
 pub const MAX_REPEATS: u32 = 65_534;
+pub const MAX_LABEL: u32 = 999;
 
 /// What the label lines so far leave for the next.
 #[derive(Clone, Debug, Default)]
@@ -99,8 +101,8 @@ impl Labels {
         let m: u32 = count
             .parse()
             .ok()
-            .filter(|m| *m <= MAX_REPEATS)
-            .ok_or_else(|| format!("REP {count}: expected a count from 0 to {MAX_REPEATS}"))?;
+            .filter(|m| (1..=MAX_REPEATS).contains(m))
+            .ok_or_else(|| format!("REP {count}: expected a count from 1 to {MAX_REPEATS}"))?;
         let level = self.sections.len();
         self.sections.pop();
         if !self.repeats.iter().any(|(l, _)| *l == n) {
@@ -122,10 +124,10 @@ fn label_number(text: &str) -> Result<u32, String> {
     text.trim()
         .parse::<u32>()
         .ok()
-        .filter(|n| *n <= 65_535)
+        .filter(|n| *n <= MAX_LABEL)
         .ok_or_else(|| {
             format!(
-                "LBL {}: cnc402 reads numbered labels (0 to 65535), not named ones",
+                "LBL {}: cnc402 reads numbered labels (0 to {MAX_LABEL}), not named ones",
                 text.trim()
             )
         })
