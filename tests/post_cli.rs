@@ -91,6 +91,15 @@ fn the_slot_milling_cycle_posts_as_a_macro_call_and_segments_as_the_job() {
     assert_same_segments(out.to_str().unwrap(), job);
 }
 
+/// `cnc402 post --target TARGET JOB -o <tmp>/OUT`, which must succeed: the file and its text.
+fn posted(target: &str, job: &str, out: &str) -> (PathBuf, String) {
+    let out = tmp(out);
+    let o = cnc402(&["post", "--target", target, job, "-o", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    (out, text)
+}
+
 /// `cnc402 segments` of the posted program and of the job agree within 1 µm (a spindle
 /// segment that sets the speed and direction the spindle has changes nothing: not
 /// compared, as in the post's proof).
@@ -200,18 +209,8 @@ fn a_wrong_job_a_missing_job_and_an_unknown_target() {
 
 #[test]
 fn an_itnc530_program_is_read_by_segments_through_the_heidenhain_reader() {
-    let out = tmp("contour.h");
     let job = "post/tests/fixtures/contour.nc";
-    let o = cnc402(&[
-        "post",
-        "--target",
-        "itnc530",
-        job,
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = std::fs::read_to_string(&out).unwrap();
+    let (out, text) = posted("itnc530", job, "contour.h");
     assert!(
         text.starts_with("0 BEGIN PGM CNC402 MM\n1 TOOL CALL 1 Z\n"),
         "{text}"
@@ -221,35 +220,16 @@ fn an_itnc530_program_is_read_by_segments_through_the_heidenhain_reader() {
 
 #[test]
 fn sub_programs_posted_as_itnc_labels_run_as_the_job_through_segments() {
-    let out = tmp("subprograms.h");
     let job = "post/tests/fixtures/subprograms.nc";
-    let o = cnc402(&[
-        "post",
-        "--target",
-        "itnc530",
-        job,
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = std::fs::read_to_string(&out).unwrap();
+    let (out, text) = posted("itnc530", job, "subprograms.h");
     assert!(text.contains("CALL LBL 3 REP 2\n"), "{text}");
     assert_same_segments(out.to_str().unwrap(), job);
 }
 
 #[test]
 fn g83_posted_as_cycl_def_205_runs_as_the_job_through_segments() {
-    let out = tmp("pecking.h");
     let job = "post/tests/fixtures/pecking.nc";
-    let o = cnc402(&[
-        "post",
-        "--target",
-        "itnc530",
-        job,
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (out, _) = posted("itnc530", job, "pecking.h");
     assert_same_segments(out.to_str().unwrap(), job);
 }
 

@@ -1,12 +1,7 @@
 use super::*;
 
 fn translate(lines: &[&str]) -> Result<Vec<String>, String> {
-    let mut t = Translator::default();
-    lines
-        .iter()
-        .enumerate()
-        .map(|(i, l)| t.line(i, l))
-        .collect()
+    translate_for(None, lines)
 }
 
 #[test]

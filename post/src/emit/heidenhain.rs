@@ -201,7 +201,7 @@ impl Itnc<'_> {
         let tap = matches!(cc.code, 74 | 84)
             && cc.tap.is_some_and(|t| t.peck.is_none())
             && cc.words.p.unwrap_or(0.0) == 0.0;
-        if !(matches!(cc.code, 81 | 82 | 83) || tap)
+        if !(matches!(cc.code, 81..=83) || tap)
             || cc.plan.linuxcnc.is_some()
             || xyz.map(Some) != cc.axes.map(|i| Some(Some(i)))
         {
