@@ -125,8 +125,8 @@ impl Runs {
     }
 }
 
-/// How many blocks all `runs` end with alike, taken back to a numbered block (a cycle's Q
-/// lines stay with their `CYCL DEF`).
+/// How many blocks all `runs` end with alike, taken back to a block that starts something
+/// (a cycle's Q lines and its `CYCL DEF n.1…` lines stay with their `CYCL DEF`).
 fn common_tail(runs: &[&[Block]]) -> usize {
     let shortest = runs.iter().map(|r| r.len()).min().unwrap_or(0);
     let mut n = (0..shortest)
@@ -136,10 +136,20 @@ fn common_tail(runs: &[&[Block]]) -> usize {
         })
         .count();
     let first = runs[0];
-    while n > 0 && text_of(&first[first.len() - n]).starts_with(' ') {
+    while n > 0 && continues(&text_of(&first[first.len() - n])) {
         n -= 1;
     }
     n
+}
+
+/// Whether a block continues the one before: a Q line, or `CYCL DEF 7.1`, `9.1` ….
+fn continues(text: &str) -> bool {
+    let cycle_line = text
+        .strip_prefix("CYCL DEF ")
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|n| n.split_once('.'))
+        .is_some_and(|(_, k)| k != "0");
+    text.starts_with(' ') || cycle_line
 }
 
 fn same(a: &Block, b: &Block) -> bool {
@@ -187,5 +197,71 @@ fn repeat_sections(program: &mut Program, mut section: u32) {
             program.main.extend_from_slice(&old[i..i + row]);
         }
         i += row;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn blocks(texts: &[&str]) -> Vec<Block> {
+        texts
+            .iter()
+            .map(|t| Block::new(vec![t.to_string()], None))
+            .collect()
+    }
+
+    #[test]
+    fn a_body_never_starts_inside_a_cycle_definition() {
+        let a = blocks(&[
+            "L X+1",
+            "CYCL DEF 7.0 DATUM SHIFT",
+            "CYCL DEF 7.1 X+5",
+            "L Y+1",
+            "L Z+1",
+        ]);
+        let b = blocks(&[
+            "L X+2",
+            "CYCL DEF 7.0 DATUM SHIFT",
+            "CYCL DEF 7.1 X+5",
+            "L Y+1",
+            "L Z+1",
+        ]);
+        // The tails agree from 7.0 on; 7.1 alone does not start a body, 7.0 does.
+        assert_eq!(common_tail(&[&a, &b]), 4);
+        // Alike from a continuation line on: the body starts after it.
+        let g = blocks(&[
+            "CYCL DEF 9.0 DWELL TIME",
+            "CYCL DEF 9.1 DWELL 0.5",
+            "L X+1",
+            "L Y+1",
+        ]);
+        let h = blocks(&["L Z+5", "CYCL DEF 9.1 DWELL 0.5", "L X+1", "L Y+1"]);
+        assert_eq!(common_tail(&[&g, &h]), 2);
+        let c = blocks(&[
+            "L X+2",
+            "CYCL DEF 7.0 DATUM SHIFT",
+            "CYCL DEF 7.1 X+6",
+            "L Y+1",
+        ]);
+        let d = blocks(&[
+            "L X+2",
+            "CYCL DEF 7.0 DATUM SHIFT",
+            "CYCL DEF 7.1 X+5",
+            "L Y+1",
+        ]);
+        assert_eq!(common_tail(&[&c, &d]), 1);
+        let e = blocks(&[
+            "CYCL DEF 200 DRILLING",
+            "  Q200=+0 ;SET-UP CLEARANCE",
+            "L X+1 M99",
+        ]);
+        let f = blocks(&[
+            "CYCL DEF 200 DRILLING",
+            "  Q200=+1 ;SET-UP CLEARANCE",
+            "L X+1 M99",
+        ]);
+        assert_eq!(common_tail(&[&e, &f]), 1);
+        assert!(continues("CYCL DEF 9.1 DWELL 0.5") && !continues("CYCL DEF 9.0 DWELL TIME"));
     }
 }
