@@ -342,6 +342,20 @@ fn a_g83_peck_shorter_than_the_re_entry_clearance_is_refused_on_the_itnc530() {
     assert!(e.ends_with("(target itnc530)"), "{e}");
 }
 
+/// A called tool whose table length is 0 (config/machine.toml's T4) moves the same with its
+/// length on or off, but the second Z move was refused as "a move without the called
+/// tool's length" (it kept 53 of the 72 real programs off the iTNC).
+#[test]
+fn a_called_tool_of_length_zero_was_refused_after_its_first_z_move_on_the_itnc530() {
+    let job = "G21 G90 G17 G94 G49\nT4 M6\nS2500 M3\nG0 X-28.5 Y-11.4\nG43 Z25. H4\n\
+               G0 Z10.\nG1 Z-1. F100.\nG0 Z25.\nM30\n";
+    let text = post_text(job, Target::Itnc530).expect("posts");
+    assert!(text.contains("TOOL CALL 4 Z\n"), "{text}");
+    // The iTNC's own length (0) is the job's both before and after G43.
+    let job = job.replace("G43 Z25. H4", "G49 Z25.");
+    post_text(&job, Target::Itnc530).expect("posts without G43 too");
+}
+
 #[test]
 fn the_contour_on_every_iso_target() {
     for t in ISO_TARGETS {

@@ -514,6 +514,16 @@ impl Itnc<'_> {
         }
     }
 
+    /// The length of the called tool in the machine's table (what the iTNC switches on).
+    fn called_length(&self) -> f64 {
+        let tool = self.tool.unwrap_or(0) as usize;
+        self.e
+            .cfg
+            .tool_offsets
+            .get(tool.wrapping_sub(1))
+            .map_or(0.0, |t| t.length + t.length_wear)
+    }
+
     /// The job runs with the tool's length (G43 H of the called tool).
     fn length_wanted(&self, op: &CanonOp) -> bool {
         self.e.effective_length(op) != 0.0
@@ -541,7 +551,8 @@ impl Itnc<'_> {
             if self.length == Length::Off {
                 return refuse("a tool length with no tool called");
             }
-        } else if self.length == Length::On {
+        } else if self.length == Length::On && self.called_length() != 0.0 {
+            // (A called tool of length 0 moves the same with its length on or off.)
             return refuse(
                 "a move without the called tool's length (G49) after the iTNC switched it on",
             );
