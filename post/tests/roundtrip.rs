@@ -63,11 +63,7 @@ const REFUSED: &[(&str, &str, &str)] = &[
         "bolt-circle-drilling.nc",
         "block N50: a move without the called tool's length (G49)",
     ),
-    (
-        "itnc530",
-        "contour-arcs.nc",
-        "block N190: a helix (CP with IZ",
-    ),
+    // (contour-arcs.nc, refused on the iTNC for its helix until CP was written, posts.)
     (
         "itnc530",
         "fanuc-milling.nc",
@@ -354,6 +350,24 @@ fn a_called_tool_of_length_zero_was_refused_after_its_first_z_move_on_the_itnc53
     // The iTNC's own length (0) is the job's both before and after G43.
     let job = job.replace("G43 Z25. H4", "G49 Z25.");
     post_text(&job, Target::Itnc530).expect("posts without G43 too");
+}
+
+/// Helices were refused on the iTNC; now `CC` + `CP IPA IZ DR` (one turn at most), read back
+/// as the G2/G3 with Z the angle gives.
+#[test]
+fn helices_on_the_itnc530_as_cp_with_ipa_and_iz() {
+    let cfg = config("config/machine.toml");
+    let job = repo().join("examples/contour-arcs.nc");
+    let text = post_and_prove(&cfg, &job, Target::Itnc530).expect("posts");
+    assert!(text.contains(" CP IPA+360 IZ-1.5 DR+ F600\n"), "{text}");
+    // A quarter turn clockwise down 2 mm, with the compensation's and feed's words.
+    let job = "G21 G90 G17 G94\nT1 M6\nS1000 M3\nG43 H1 G0 X10. Y0 Z5.\n\
+               G1 Z0 F200.\nG2 X0 Y-10. Z-2. I-10. J0 F400.\nG0 Z20.\nM30\n";
+    let text = post_text(job, Target::Itnc530).expect("posts");
+    assert!(
+        text.contains("CC X+0 Y+0\n") && text.contains(" CP IPA-90 IZ-2 DR- F400\n"),
+        "{text}"
+    );
 }
 
 #[test]

@@ -1,10 +1,8 @@
 //! The Heidenhain conversational (Klartext) subset cnc402 reads: each line of a program that
 //! starts with `BEGIN PGM` (or is named `*.h`) is translated, as it is read, into the ISO
 //! block the interpreter already executes, line for line (errors keep the line number):
-//! `L`, `CC` + `C`, `TOOL CALL`, `CYCL DEF 9` (dwell), `CYCL DEF 200` (drilling, its Q
-//! parameters, called by `CYCL CALL` or `L … M99`: a G81/G82 block), M functions, comments,
-//! `BLK FORM`, labels (`LBL`, `CALL LBL [REP]`: sub-programs and repeated sections, see
-//! [`labels`]).
+//! `L`, `CC` + `C`, `CP IPA IZ` (helices), `TOOL CALL`, `CYCL DEF 7/9/200/205/207` with
+//! their Q parameters and calls, labels ([`labels`]), M functions, comments, `BLK FORM`.
 //! What is outside the subset is an error at its line, never a block read another way.
 
 mod labels;
@@ -142,6 +140,7 @@ impl Translator {
             "L" => self.line_move(rest),
             "CC" => self.centre(rest),
             "C" => self.arc(rest),
+            "CP" => self.polar_arc(rest),
             "CYCL"
                 if ["DEF 200", "DEF 205", "DEF 207"]
                     .iter()
@@ -478,6 +477,75 @@ impl Translator {
         let refeed = self.feed_again(&words, false);
         self.follow(&words);
         out.extend(axes);
+        out.push(format!("I{} J{}", fmt(cx), fmt(cy)));
+        out.extend(feed_words(&words));
+        out.extend(refeed);
+        out.extend(m_words(&words)?);
+        Ok(out.join(" "))
+    }
+}
+
+/// The most a `CP` may sweep: one turn (cnc402's Fanuc arcs have no turn count).
+const MAX_SWEEP: f64 = 360.0;
+
+impl Translator {
+    /// `CP IPA±a [IZ±dz] DR± [R0|RL|RR] [F] [M]`: an arc (a helix with IZ) about the last
+    /// `CC` by the incremental polar angle `a` (signed as DR), from where the tool is: the
+    /// G2/G3 to the end that angle gives, Z by dz, the centre absolute. Up to one turn.
+    fn polar_arc(&mut self, rest: &str) -> Result<String, String> {
+        let (mut ipa, mut iz, mut others) = (None, 0.0, Vec::new());
+        for w in rest.split_whitespace() {
+            if let Some(v) = w.strip_prefix("IPA") {
+                ipa = Some(number(v)?);
+            } else if let Some(v) = w.strip_prefix("IZ") {
+                iz = number(v)?;
+            } else {
+                others.push(w);
+            }
+        }
+        let Some(ipa) = ipa else {
+            return Err("CP is read with IPA (the incremental polar angle), not PA or PR".into());
+        };
+        let words = self.path_words(&others.join(" "))?;
+        if words.iter().any(|w| matches!(w, Word::Axis(..))) {
+            return Err("CP is read with IPA and IZ only (no absolute axis words)".into());
+        }
+        let ccw = words.iter().find_map(|w| match w {
+            Word::Dr(ccw) => Some(*ccw),
+            _ => None,
+        });
+        let Some(ccw) = ccw.filter(|ccw| *ccw == (ipa > 0.0)) else {
+            return Err("CP needs DR+ with a positive IPA or DR- with a negative one".into());
+        };
+        if ipa.abs() > MAX_SWEEP + 1e-9 {
+            return Err(format!("CP is read up to one turn (|IPA| <= {MAX_SWEEP})"));
+        }
+        let Some((cx, cy)) = self.centre else {
+            return Err("CP without a CC before it".into());
+        };
+        let [Some(x), Some(y), Some(z)] = self.at else {
+            return Err("CP needs the tool's X, Y and Z known (an absolute L before it)".into());
+        };
+        // A whole turn ends where it began (not a hair off it, which would be no turn).
+        let (ex, ey) = if (ipa.abs() - MAX_SWEEP).abs() <= 1e-9 {
+            (x, y)
+        } else {
+            let (s, c) = ipa.to_radians().sin_cos();
+            (
+                cx + (x - cx) * c - (y - cy) * s,
+                cy + (x - cx) * s + (y - cy) * c,
+            )
+        };
+        let mut out = vec![if ccw { "G3" } else { "G2" }.to_string()];
+        out.extend(self.compensation(&words)?);
+        if self.length_pending && iz != 0.0 {
+            out.push(format!("G43 H{}", self.tool.unwrap_or(0)));
+            self.length_pending = false;
+        }
+        let refeed = self.feed_again(&words, false);
+        self.follow(&words);
+        self.at = [Some(ex), Some(ey), Some(z + iz)];
+        out.push(format!("X{} Y{} Z{}", fmt(ex), fmt(ey), fmt(z + iz)));
         out.push(format!("I{} J{}", fmt(cx), fmt(cy)));
         out.extend(feed_words(&words));
         out.extend(refeed);

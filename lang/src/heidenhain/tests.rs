@@ -364,3 +364,41 @@ fn cycle_7_moves_the_g54_entry_by_the_change_of_the_shift() {
     let e = translate(&["0 BEGIN PGM J MM", "1 CYCL DEF 7.1 #5"]).unwrap_err();
     assert!(e.contains("datum shifts along X, Y or Z by a value"), "{e}");
 }
+
+#[test]
+fn cp_is_the_arc_its_incremental_angle_gives_from_where_the_tool_is() {
+    let out = translate(&[
+        "0 BEGIN PGM JOB MM",
+        "1 L X+10 Y+0 Z+0 R0 FMAX",
+        "2 CC X+0 Y+0",
+        "3 CP IPA-90 IZ-2 DR- F400",
+        "4 CP IPA+360 IZ-1.5 DR+",
+    ])
+    .unwrap();
+    assert!(
+        out[3].starts_with("G2 X0.0000000000000006") || out[3].starts_with("G2 X0"),
+        "{}",
+        out[3]
+    );
+    assert!(out[3].contains(" Y-10. Z-2. I0. J0. F400."), "{}", out[3]);
+    // A whole turn ends exactly where it began.
+    assert!(out[4].starts_with("G3 X"), "{}", out[4]);
+    assert!(out[4].contains(" Z-3.5 I0. J0."), "{}", out[4]);
+    for (line, why) in [
+        ("3 CP IPA+90 IZ-2 DR-", "DR+ with a positive IPA"),
+        ("3 CP IPA+400 DR+", "up to one turn"),
+        ("3 CP PA+90 DR+", "read with IPA"),
+        ("3 CP IPA+90 X+1 DR+", "IPA and IZ only"),
+    ] {
+        let e = translate(&[
+            "0 BEGIN PGM J MM",
+            "1 L X+1 Y+0 Z+0 FMAX",
+            "2 CC X+0 Y+0",
+            line,
+        ])
+        .unwrap_err();
+        assert!(e.contains(why), "{line}: {e}");
+    }
+    let e = translate(&["0 BEGIN PGM J MM", "1 CC X+0 Y+0", "2 CP IPA+90 DR+"]).unwrap_err();
+    assert!(e.contains("X, Y and Z known"), "{e}");
+}

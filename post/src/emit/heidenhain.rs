@@ -4,7 +4,8 @@
 //! must have `G43 H` of that tool there), the radius of `RL/RR` is the called tool's, the
 //! preset is the config's G54 (other datums: `CYCL DEF 7`, [`super::datum`]). G81/G82 become
 //! `CYCL DEF 200`, G83 `205`, rigid taps `207`, each hole `L X Y FMAX M99`; sub-programs
-//! labels ([`super::labels`]); other cycles, helices, G61/G64 changes: refused (docs/post.md).
+//! labels ([`super::labels`]); helices `CP` ([`super::helix`]); other cycles, G61/G64
+//! changes: refused (docs/post.md).
 
 use cnc402_interp::canon::{CannedCycle, CanonKind, CanonOp, CompSide};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, SpindleDir};
@@ -42,6 +43,7 @@ pub fn emit_itnc(
         drilling: None,
         inch: false,
         shift: [0.0; 3],
+        written: [false; 3],
     };
     let inch = ops
         .first()
@@ -75,6 +77,8 @@ struct Itnc<'a> {
     inch: bool,
     /// The datum shift (cycle 7) the control holds.
     shift: super::datum::Shift,
+    /// X, Y, Z written in a block yet (a reader of `CP` needs to know where the tool is).
+    written: [bool; 3],
 }
 
 impl Itnc<'_> {
@@ -251,6 +255,8 @@ impl Itnc<'_> {
         }
         for &[x, y] in &cc.holes {
             self.push(format!("L X{} Y{} FMAX M99", self.len(x), self.len(y)), op);
+            self.written[0] = true;
+            self.written[1] = true;
         }
         // The cycle's feed is not the contour's: the next feed block writes its F.
         self.feed = None;
@@ -420,15 +426,35 @@ impl Itnc<'_> {
             ..
         } = kind
         {
-            self.arc_checks(op, end, *plane, *turns)?;
+            let helix = self.arc_checks(op, end, *plane, *turns)?;
+            let start = op.state.to_work(&self.e.pos);
+            let [x, y, z] = self.e.xyz.map(|i| i.unwrap_or(0));
+            if helix.is_some() {
+                self.start_known(op, [start[x], start[y], start[z]])?;
+            }
             self.push(
                 format!("CC X{} Y{}", self.len(center[0]), self.len(center[1])),
                 op,
             );
-            words.push("C".to_string());
-            words.extend(axes);
-            words.push(if *dir == ArcDir::Ccw { "DR+" } else { "DR-" }.into());
+            let ccw = *dir == ArcDir::Ccw;
+            if let Some(full) = helix {
+                words = super::helix::polar_words(
+                    [start[x], start[y], start[z]],
+                    [end[x], end[y], end[z]],
+                    [center[0], center[1]],
+                    ccw,
+                    full,
+                    |v| self.len(v),
+                    |a| signed(a, 4),
+                );
+            } else {
+                self.note_written(&axes);
+                words.push("C".to_string());
+                words.extend(axes);
+                words.push(if ccw { "DR+" } else { "DR-" }.into());
+            }
         } else {
+            self.note_written(&axes);
             words.push("L".into());
             words.extend(axes);
         }
@@ -458,13 +484,41 @@ impl Itnc<'_> {
         Ok(())
     }
 
+    /// Notes which of X, Y, Z the words `axes` write.
+    fn note_written(&mut self, axes: &[String]) {
+        for (k, l) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+            self.written[k] |= axes.iter().any(|a| a.starts_with(l));
+        }
+    }
+
+    /// Before a `CP` (which runs from where the tool is): a rapid to where the tool is when
+    /// the program has not yet written all of X, Y, Z (it moves nothing; under compensation
+    /// it would, so then the helix is refused).
+    fn start_known(&mut self, op: &CanonOp, start: [f64; 3]) -> Result<(), PostError> {
+        if self.written.iter().all(|w| *w) {
+            return Ok(());
+        }
+        if self.comp.flatten().is_some() {
+            return Err(self.e.refuse(
+                op,
+                "a helix under compensation before the program wrote X, Y and Z".into(),
+            ));
+        }
+        let at = start.map(|v| self.len(v));
+        self.push(format!("L X{} Y{} Z{} FMAX", at[0], at[1], at[2]), op);
+        self.written = [true; 3];
+        Ok(())
+    }
+
+    /// Refuses an arc the iTNC output cannot write; `Some(full turn)` for a helix along Z
+    /// (written as `CP`), `None` for a plain XY arc.
     fn arc_checks(
         &self,
         op: &CanonOp,
         end: &AxisPos,
         plane: Plane,
         turns: u32,
-    ) -> Result<(), PostError> {
+    ) -> Result<Option<bool>, PostError> {
         if plane != Plane::XY {
             return Err(self.e.refuse(
                 op,
@@ -482,16 +536,21 @@ impl Itnc<'_> {
                 .e
                 .refuse(op, "an arc of more than one full turn".into()));
         }
-        let helix = self.e.axes().any(|i| {
-            !xy.contains(&Some(i)) && (op.state.to_machine(end)[i] - self.e.pos[i]).abs() > SAME
-        });
-        if helix {
+        let moves = |i: usize| (op.state.to_machine(end)[i] - self.e.pos[i]).abs() > SAME;
+        let z = self.e.xyz[2];
+        let other = self
+            .e
+            .axes()
+            .any(|i| !xy.contains(&Some(i)) && Some(i) != z && moves(i));
+        if other || xy.contains(&None) {
             return Err(self.e.refuse(
                 op,
-                "a helix (CP with IZ is not written yet for the iTNC)".into(),
+                "an arc moving another axis than X, Y, Z (the iTNC output writes XY arcs and \
+                 helices along Z)"
+                    .into(),
             ));
         }
-        Ok(())
+        Ok(z.is_some_and(moves).then_some(turns == 1))
     }
 
     /// The job's datum as a cycle-7 shift from the machine's G54, written (four blocks at

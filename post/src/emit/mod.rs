@@ -7,6 +7,7 @@ mod carried;
 mod datum;
 pub mod format;
 pub mod heidenhain;
+mod helix;
 mod labels;
 pub mod macro_b;
 mod modal;
