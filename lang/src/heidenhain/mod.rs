@@ -87,7 +87,12 @@ impl Translator {
         if out.is_empty() || out.starts_with('(') || labels::is_flow(&out) {
             return Ok(out);
         }
-        if out.starts_with("G91 G10") {
+        self.labels.note_end(&out);
+        if was_active && self.cycle_active && !(out.contains(" G8") || out.contains(" G74")) {
+            out = format!("G80 {out}");
+            self.cycle_active = false;
+        }
+        if out.contains("G91 G10") {
             let p = self.preamble.take().unwrap_or_else(|| "G90".into());
             self.preamble = Some(if p.contains("G90") {
                 p
@@ -95,11 +100,6 @@ impl Translator {
                 format!("{p} G90")
             });
             return Ok(out);
-        }
-        self.labels.note_end(&out);
-        if was_active && self.cycle_active && !(out.contains(" G8") || out.contains(" G74")) {
-            out = format!("G80 {out}");
-            self.cycle_active = false;
         }
         Ok(match self.preamble.take() {
             Some(p) => format!("{p} {out}"),

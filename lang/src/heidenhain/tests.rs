@@ -402,3 +402,19 @@ fn cp_is_the_arc_its_incremental_angle_gives_from_where_the_tool_is() {
     let e = translate(&["0 BEGIN PGM J MM", "1 CC X+0 Y+0", "2 CP IPA+90 DR+"]).unwrap_err();
     assert!(e.contains("X, Y and Z known"), "{e}");
 }
+
+#[test]
+fn a_datum_shift_after_a_cycle_call_cancels_the_cycle_first() {
+    let mut lines = DRILLING.to_vec();
+    lines.extend([
+        "  Q211=+0 ;DWELL TIME AT DEPTH",
+        "3 L X+10 Y+10 FMAX M99",
+        "11 CYCL DEF 7.0 DATUM SHIFT",
+        "12 CYCL DEF 7.1 X+5",
+        "13 L X+1 FMAX",
+    ]);
+    let out = translate(&lines).unwrap();
+    let n = out.len();
+    assert_eq!(out[n - 2], "G80 G91 G10 L2 P1 X5.");
+    assert_eq!(out[n - 1], "G90 G0 X1.");
+}
