@@ -371,6 +371,17 @@ fn helices_on_the_itnc530_as_cp_with_ipa_and_iz() {
 }
 
 #[test]
+fn g85_and_g89_on_the_itnc530_as_cycl_def_201_read_back_through_the_reader() {
+    golden("reaming.nc", Target::Itnc530);
+    let text = std::fs::read_to_string(fixture("reaming.itnc530.nc")).unwrap();
+    // G89 P500: the dwell at the depth; out at the plunging feed, as G85/G89 do.
+    assert!(
+        text.contains("  Q211=+0.5 ;DWELL TIME AT DEPTH\n  Q208=+90 ;"),
+        "{text}"
+    );
+}
+
+#[test]
 fn the_contour_on_every_iso_target() {
     for t in ISO_TARGETS {
         post_and_prove(&config("config/machine.toml"), &fixture("contour.nc"), t).unwrap();

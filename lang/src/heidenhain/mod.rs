@@ -1,7 +1,7 @@
 //! The Heidenhain conversational (Klartext) subset cnc402 reads: each line of a program that
 //! starts with `BEGIN PGM` (or is named `*.h`) is translated, as it is read, into the ISO
 //! block the interpreter already executes, line for line (errors keep the line number):
-//! `L`, `CC` + `C`, `CP IPA IZ` (helices), `TOOL CALL`, `CYCL DEF 7/9/200/205/207` with
+//! `L`, `CC` + `C`, `CP IPA IZ` (helices), `TOOL CALL`, `CYCL DEF 7/9/200/201/205/207` with
 //! their Q parameters and calls, labels ([`labels`]), M functions, comments, `BLK FORM`.
 //! What is outside the subset is an error at its line, never a block read another way.
 
@@ -142,7 +142,7 @@ impl Translator {
             "C" => self.arc(rest),
             "CP" => self.polar_arc(rest),
             "CYCL"
-                if ["DEF 200", "DEF 205", "DEF 207"]
+                if ["DEF 200", "DEF 201", "DEF 205", "DEF 207"]
                     .iter()
                     .any(|d| rest.starts_with(d)) =>
             {
@@ -226,7 +226,7 @@ impl Translator {
     /// `Qnnn=value` of the cycle being defined.
     fn q_parameter(&mut self, text: &str) -> Result<String, String> {
         let Some(params) = self.drilling.as_mut() else {
-            return Err("Q parameters are read only in a CYCL DEF 200, 205 or 207".into());
+            return Err("Q parameters are read only in a CYCL DEF 200, 201, 205 or 207".into());
         };
         let (q, v) = text
             .split_once('=')
@@ -283,6 +283,10 @@ impl Translator {
                     depth,
                     clearance,
                 )?
+            }
+            201 => {
+                let scale = self.feed_scale();
+                reaming(q(206)? * scale, q(208)? * scale, q(211)?)?
             }
             _ => drilling(
                 q(206)? * self.feed_scale(),
@@ -579,6 +583,25 @@ fn drilling(
     Ok((code.into(), tail))
 }
 
+/// Cycle 201's ISO code and words after Z R: Fanuc's G85 (G89 P with a dwell at the depth),
+/// in and out at the feed — read only with the retraction feed Q208 the plunging feed Q206.
+fn reaming(feed: f64, retract: f64, dwell: f64) -> Result<(String, Vec<String>), String> {
+    if (retract - feed).abs() > 1e-9 * feed.abs().max(1.0) {
+        return Err(
+            "CYCL DEF 201 is read with the retraction feed Q208 equal to Q206 (G85/G89 feed \
+             out as they feed in)"
+                .into(),
+        );
+    }
+    let mut tail = Vec::new();
+    if dwell > 0.0 {
+        tail.push(format!("P{}", (dwell * 1000.0).round()));
+    }
+    tail.push(format!("F{}", fmt(feed)));
+    let code = if dwell > 0.0 { "G89" } else { "G85" };
+    Ok((code.into(), tail))
+}
+
 /// Cycle 205's ISO code and words after Z R: Fanuc's G83 (Q the plunging depth), which
 /// cnc402 runs as cycle 205 runs with no decrement (Q212=0), no chip breaking (Q257=0), no
 /// dwell (Q211=0), no deepened start (Q379=0) and both advanced stop distances (Q258, Q259)
@@ -652,7 +675,7 @@ fn cycle(rest: &str) -> Result<String, String> {
             Ok(format!("G4 X{}", number(t)?))
         }
         Some(n) => Err(format!(
-            "cycle {n} is not in the subset cnc402 reads (cycles 9, dwell, 200, drilling, 205, pecking, and 207, rigid tapping, are)"
+            "cycle {n} is not in the subset cnc402 reads (cycles 7, datum shift, 9, dwell, 200, drilling, 201, reaming, 205, pecking, and 207, rigid tapping, are)"
         )),
         None => Err("expected the cycle number".into()),
     }

@@ -418,3 +418,26 @@ fn a_datum_shift_after_a_cycle_call_cancels_the_cycle_first() {
     assert_eq!(out[n - 2], "G80 G91 G10 L2 P1 X5.");
     assert_eq!(out[n - 1], "G90 G0 X1.");
 }
+
+#[test]
+fn cycle_201_is_read_as_g85_or_g89_with_the_same_feed_out() {
+    let reaming = |q208: &'static str| {
+        translate(&[
+            "0 BEGIN PGM JOB MM",
+            "1 L X+0 Y+0 Z+20 R0 FMAX",
+            "2 CYCL DEF 201 REAMING",
+            "  Q200=+0 ;SET-UP CLEARANCE",
+            "  Q201=-9 ;DEPTH",
+            "  Q206=+90 ;FEED RATE FOR PLNGNG",
+            "  Q211=+0.5 ;DWELL TIME AT DEPTH",
+            q208,
+            "  Q203=+1 ;SURFACE COORDINATE",
+            "  Q204=+19 ;2ND SET-UP CLEARANCE",
+            "3 L X+50 Y+10 FMAX M99",
+        ])
+    };
+    let out = reaming("  Q208=+90 ;RETRACTION FEED RATE").unwrap();
+    assert_eq!(out.last().unwrap(), "G98 G89 X50. Y10. Z-8. R1. P500 F90.");
+    let e = reaming("  Q208=+500 ;RETRACTION FEED RATE").unwrap_err();
+    assert!(e.contains("Q208 equal to Q206"), "{e}");
+}

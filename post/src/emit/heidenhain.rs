@@ -195,7 +195,7 @@ impl Itnc<'_> {
                 op,
                 format!(
                     "canned cycle G{}: {why} (the iTNC output writes G81/G82 as CYCL DEF 200, \
-                     G83 as CYCL DEF 205 and rigid taps G84/G74 as CYCL DEF 207 only)",
+                     G83 as 205, G85/G89 as 201 and rigid taps G84/G74 as 207 only)",
                     cc.code
                 ),
             )
@@ -205,7 +205,7 @@ impl Itnc<'_> {
         let tap = matches!(cc.code, 74 | 84)
             && cc.tap.is_some_and(|t| t.peck.is_none())
             && cc.words.p.unwrap_or(0.0) == 0.0;
-        if !(matches!(cc.code, 81..=83) || tap)
+        if !(matches!(cc.code, 81..=83 | 85 | 89) || tap)
             || cc.plan.linuxcnc.is_some()
             || xyz.map(Some) != cc.axes.map(|i| Some(Some(i)))
         {
@@ -234,6 +234,10 @@ impl Itnc<'_> {
             None if cc.code == 83 => (
                 "CYCL DEF 205 UNIVERSAL PECKING",
                 self.pecking_q(op, cc, depth, above)?,
+            ),
+            None if matches!(cc.code, 85 | 89) => (
+                "CYCL DEF 201 REAMING",
+                self.reaming_q(op, cc, depth, above)?,
             ),
             None => (
                 "CYCL DEF 200 DRILLING",
@@ -290,6 +294,39 @@ impl Itnc<'_> {
                 format!("+{}", decimal(dwell, 3).trim_end_matches('.')),
                 "DWELL TIME AT DEPTH",
             ),
+        ])
+    }
+
+    /// The Q parameters of `CYCL DEF 201` for a G85 (G89: with the dwell at the depth): in
+    /// at Q206, out to the set-up clearance (R) at the retraction feed Q208 — the same F,
+    /// as Fanuc's G85/G89 feed out — then to the 2nd set-up clearance at FMAX.
+    fn reaming_q(
+        &self,
+        op: &CanonOp,
+        cc: &CannedCycle,
+        depth: f64,
+        above: f64,
+    ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
+        let q = self.drilling_q(op, cc, depth, above)?;
+        let find = |name: &str| {
+            q.iter()
+                .find(|(n, _, _)| *n == name)
+                .map(|(_, v, _)| v.clone())
+                .unwrap_or_default()
+        };
+        let dwell = if cc.code == 89 {
+            find("Q211")
+        } else {
+            "+0".to_string()
+        };
+        Ok(vec![
+            ("Q200", find("Q200"), "SET-UP CLEARANCE"),
+            ("Q201", find("Q201"), "DEPTH"),
+            ("Q206", find("Q206"), "FEED RATE FOR PLNGNG"),
+            ("Q211", dwell, "DWELL TIME AT DEPTH"),
+            ("Q208", find("Q206"), "RETRACTION FEED RATE"),
+            ("Q203", find("Q203"), "SURFACE COORDINATE"),
+            ("Q204", find("Q204"), "2ND SET-UP CLEARANCE"),
         ])
     }
 
