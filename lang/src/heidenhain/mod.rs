@@ -574,13 +574,17 @@ fn drilling(
                 .into(),
         );
     }
+    Ok(dwelling(["G81", "G82"], dwell, feed))
+}
+
+/// `codes[0]` without a dwell, `codes[1]` with `P` (ms), then `F`: the words after Z R.
+fn dwelling(codes: [&str; 2], dwell: f64, feed: f64) -> (String, Vec<String>) {
     let mut tail = Vec::new();
     if dwell > 0.0 {
         tail.push(format!("P{}", (dwell * 1000.0).round()));
     }
     tail.push(format!("F{}", fmt(feed)));
-    let code = if dwell > 0.0 { "G82" } else { "G81" };
-    Ok((code.into(), tail))
+    (codes[usize::from(dwell > 0.0)].into(), tail)
 }
 
 /// Cycle 201's ISO code and words after Z R: Fanuc's G85 (G89 P with a dwell at the depth),
@@ -593,13 +597,7 @@ fn reaming(feed: f64, retract: f64, dwell: f64) -> Result<(String, Vec<String>),
                 .into(),
         );
     }
-    let mut tail = Vec::new();
-    if dwell > 0.0 {
-        tail.push(format!("P{}", (dwell * 1000.0).round()));
-    }
-    tail.push(format!("F{}", fmt(feed)));
-    let code = if dwell > 0.0 { "G89" } else { "G85" };
-    Ok((code.into(), tail))
+    Ok(dwelling(["G85", "G89"], dwell, feed))
 }
 
 /// Cycle 205's ISO code and words after Z R: Fanuc's G83 (Q the plunging depth), which

@@ -17,6 +17,9 @@ use crate::assemble::{Block, Program};
 
 const SAME: f64 = 1e-9;
 
+/// A cycle definition's Q lines: name, value as written, the iTNC's comment.
+type QParams = Vec<(&'static str, String, &'static str)>;
+
 /// Where the called tool's length stands on the control.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Length {
@@ -274,7 +277,7 @@ impl Itnc<'_> {
         cc: &CannedCycle,
         depth: f64,
         above: f64,
-    ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
+    ) -> Result<QParams, PostError> {
         let f = self.feed_word(cc.feed, op)?;
         let dwell = cc.words.p.unwrap_or(0.0);
         Ok(vec![
@@ -306,7 +309,7 @@ impl Itnc<'_> {
         cc: &CannedCycle,
         depth: f64,
         above: f64,
-    ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
+    ) -> Result<QParams, PostError> {
         let q = self.drilling_q(op, cc, depth, above)?;
         let find = |name: &str| {
             q.iter()
@@ -342,7 +345,7 @@ impl Itnc<'_> {
         cc: &CannedCycle,
         depth: f64,
         above: f64,
-    ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
+    ) -> Result<QParams, PostError> {
         let clearance = cc.plan.peck_clearance;
         let peck = cc.words.q.unwrap_or(-depth).min(-depth);
         let pecks = peck < -depth - SAME;
@@ -385,7 +388,7 @@ impl Itnc<'_> {
         tap: cnc402_interp::canon::TapPlan,
         depth: f64,
         above: f64,
-    ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
+    ) -> Result<QParams, PostError> {
         let d = self.e.rules.position_decimals;
         let s = super::format::speed(self.e.rules, cc.plan.speed, &op.source)?;
         if self.e.modal.spindle.as_deref() != Some(&s) {
