@@ -78,13 +78,32 @@ fn toolpath(
     frame: Frame,
 ) -> Result<(Toolpath, Program, SourceFile), CliError> {
     let src = crate::load_program(program)?;
-    let ast = cnc402_interp::parse_program(cfg, &src, dialect).map_err(CliError::Program)?;
     let mut interp = cnc402_interp::host_fs::interpreter(
         cfg,
         cnc402_interp::Options::default(),
         cnc402_interp::host_fs::VarsAccess::ReadOnly,
     );
-    interp.load(src.clone(), ast.clone());
+    // A Heidenhain program is read through its reader, line by line as `segments` reads
+    // it (it has no N numbers: the parsed program is empty).
+    let first = if src.line_count() > 0 {
+        src.line_text(1)
+    } else {
+        ""
+    };
+    let ast = if cnc402_lang::heidenhain::is_heidenhain(&src.name, first) {
+        let file = crate::open_program(program)?;
+        interp
+            .load_stream(src.name.to_string(), Box::new(file), dialect)
+            .map_err(CliError::Program)?;
+        Program {
+            lines: Vec::new(),
+            dialect: cnc402_lang::Dialect::Fanuc,
+        }
+    } else {
+        let ast = cnc402_interp::parse_program(cfg, &src, dialect).map_err(CliError::Program)?;
+        interp.load(src.clone(), ast.clone());
+        ast
+    };
     let tp = Toolpath::collect(
         cfg,
         &mut interp,

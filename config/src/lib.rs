@@ -40,7 +40,7 @@ pub use interp::{InterpDefaults, PathModeDefault, PlaneDefault, ReturnPlane, Uni
 pub use machine_io::{MachineOutputs, OUTPUT_NAMES, OutputBit, StopCategory, ToolChange};
 pub use mcodes::{BUILT_IN_M_CODES, MAction, PROGRAM_EXTENSIONS, program_file};
 pub use planner::{MAX_LOOKAHEAD, PlannerConfig};
-pub use tool_offsets::{TOOL_OFFSETS, ToolOffset};
+pub use tool_offsets::{CuttingData, TOOL_OFFSETS, ToolOffset};
 
 use check::Invalid;
 
@@ -835,7 +835,8 @@ mod tests {
                 length: -165.5,
                 length_wear: -0.02,
                 radius: 3.3,
-                radius_wear: 0.0
+                radius_wear: 0.0,
+                cutting: Default::default()
             }
         );
         assert_eq!(c.tool_offsets[399], ToolOffset::default());

@@ -49,6 +49,8 @@ pub struct LineReader {
     /// A Heidenhain program (issue 16): its lines are translated as they are read.
     /// (Boxed: most readers have none, and the reader is moved around whole.)
     heidenhain: Option<Box<crate::heidenhain::Translator>>,
+    /// The machine's G83 re-entry clearance, for the Heidenhain reader's cycle 205.
+    peck_clearance: Option<f64>,
 }
 
 impl LineReader {
@@ -60,7 +62,14 @@ impl LineReader {
             next: LinePos::default(),
             buf: Vec::new(),
             heidenhain: None,
+            peck_clearance: None,
         }
+    }
+
+    /// Tells the Heidenhain reader the machine's G83 re-entry clearance (`CYCL DEF 205` is
+    /// read as a G83 only with that clearance).
+    pub fn set_peck_clearance(&mut self, clearance: f64) {
+        self.peck_clearance = Some(clearance);
     }
 
     /// The program's name (its path).
@@ -159,8 +168,11 @@ impl LineReader {
         if at.index == 0 {
             // The first line decides whether the program is a Heidenhain one.
             let first = String::from_utf8_lossy(self.body());
-            self.heidenhain =
-                crate::heidenhain::is_heidenhain(&self.name, &first).then(Box::default);
+            self.heidenhain = crate::heidenhain::is_heidenhain(&self.name, &first).then(|| {
+                Box::new(crate::heidenhain::Translator::for_machine(
+                    self.peck_clearance,
+                ))
+            });
         }
         Ok(Some(at))
     }

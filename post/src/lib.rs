@@ -90,7 +90,15 @@ pub fn post_with(
     tools: &input::tools::ToolTable,
 ) -> Result<String, PostError> {
     let rules = target.rules();
-    let job = input::job(cfg, name, text, tools)?;
+    // Without a tool table of its own, the config's `[tool_offsets]` cutting data.
+    let from_config;
+    let tools = if tools.tool.is_empty() {
+        from_config = input::tools::ToolTable::from_config(cfg);
+        &from_config
+    } else {
+        tools
+    };
+    let job = read_job(cfg, name, text, target, tools)?;
     let posted = post_ops(cfg, &job, target)?;
     let job_segments = if job.cl {
         verify::lowered(cfg, &job.ops)
@@ -108,8 +116,23 @@ pub fn post_unproven(
     text: &str,
     target: Target,
 ) -> Result<String, PostError> {
-    let job = input::job(cfg, name, text, &input::tools::ToolTable::default())?;
+    let job = read_job(cfg, name, text, target, &input::tools::ToolTable::default())?;
     post_ops(cfg, &job, target)
+}
+
+/// The job as `target` takes it: the iTNC writes the job's sub-programs as labels.
+fn read_job(
+    cfg: &MachineConfig,
+    name: &str,
+    text: &str,
+    target: Target,
+    tools: &input::tools::ToolTable,
+) -> Result<input::Job, PostError> {
+    if target == Target::Itnc530 {
+        input::job_with_subs(cfg, name, text, tools)
+    } else {
+        input::job(cfg, name, text, tools)
+    }
 }
 
 /// The program of a job's operations for `target`, assembled.
@@ -117,7 +140,7 @@ fn post_ops(cfg: &MachineConfig, job: &input::Job, target: Target) -> Result<Str
     let rules = target.rules();
     if target == Target::Itnc530 {
         let ops = input::calls::without_markers(&job.ops);
-        let (program, inch) = emit::heidenhain::emit_itnc(cfg, &rules, &ops)?;
+        let (program, inch) = emit::heidenhain::emit_itnc(cfg, &rules, &ops, &job.subs)?;
         return emit::heidenhain::assemble_itnc(&program, inch, &rules);
     }
     let program = emit::emit(cfg, &rules, &job.ops, job.cycles.as_ref())?;

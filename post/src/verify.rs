@@ -6,7 +6,7 @@
 
 use cnc402_config::MachineConfig;
 use cnc402_lang::{Dialect, SourceFile};
-use cnc402_motion::segment::{AxisPos, MAX_AXES, Segment, SegmentEnd, SegmentKind};
+use cnc402_motion::segment::{AxisPos, MAX_AXES, Segment, SegmentEnd, SegmentKind, SpindleDir};
 
 use crate::PostError;
 use crate::input::MAX_OPERATIONS;
@@ -170,6 +170,7 @@ fn differs(rules: &Rules, a: &Step, b: &Step, i: usize) -> PostError {
 fn steps(segments: Vec<Segment>) -> Vec<Step> {
     let mut coolant = (false, false);
     let mut at: Option<AxisPos> = None;
+    let mut spindle = (0.0, SpindleDir::Stop);
     let mut out = Vec::with_capacity(segments.len());
     for s in segments {
         let before = at;
@@ -182,16 +183,32 @@ fn steps(segments: Vec<Segment>) -> Vec<Step> {
             // A rapid to where the tool is moves nothing: a Macro B body's positioning
             // writes one where the job's cycle leaves it out (either side: not compared).
             SegmentKind::Rapid { end } if before.is_some_and(|b| same_point(&b, &end)) => {}
-            kind => out.push(Step {
-                kind,
-                exact_stop: s.ends == SegmentEnd::ExactStop,
-                coolant,
-                line: s.source.line,
-                file: s.source.file.to_string(),
-            }),
+            // A speed and direction the spindle already has changes nothing: the iTNC's
+            // `TOOL CALL Z S` then `M3` sets one where the job's `S M3` block is one.
+            SegmentKind::Spindle { rpm, dir } if (rpm, dir) == spindle => {}
+            SegmentKind::Spindle { rpm, dir } => {
+                spindle = (rpm, dir);
+                out.push(step(s.kind, s.ends, coolant, &s.source));
+            }
+            kind => out.push(step(kind, s.ends, coolant, &s.source)),
         }
     }
     out
+}
+
+fn step(
+    kind: SegmentKind,
+    ends: SegmentEnd,
+    coolant: (bool, bool),
+    source: &cnc402_motion::segment::Source,
+) -> Step {
+    Step {
+        kind,
+        exact_stop: ends == SegmentEnd::ExactStop,
+        coolant,
+        line: source.line,
+        file: source.file.to_string(),
+    }
 }
 
 /// Where a segment leaves the tool, if it moves it.

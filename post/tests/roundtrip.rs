@@ -63,11 +63,7 @@ const REFUSED: &[(&str, &str, &str)] = &[
         "bolt-circle-drilling.nc",
         "block N50: a move without the called tool's length (G49)",
     ),
-    (
-        "itnc530",
-        "contour-arcs.nc",
-        "block N190: a helix (CP with IZ",
-    ),
+    // (contour-arcs.nc, refused on the iTNC for its helix until CP was written, posts.)
     (
         "itnc530",
         "fanuc-milling.nc",
@@ -85,11 +81,8 @@ const REFUSED: &[(&str, &str, &str)] = &[
     ),
     ("itnc530", "multipass_tap.nc", "(target itnc530)"),
     ("itnc530", "source_000_main.nc", "(target itnc530)"),
-    (
-        "itnc530",
-        "contour.nc",
-        "block N4: a datum other than the machine's G54",
-    ),
+    // (examples/lab-contour/contour.nc, refused for its datum until cycle 7 was written,
+    // now posts for the iTNC.)
 ];
 
 #[test]
@@ -297,6 +290,98 @@ fn rigid_taps_on_the_itnc530_as_cycl_def_207_read_back_coupled() {
 }
 
 #[test]
+fn sub_programs_on_the_itnc530_as_labels_read_back_through_the_reader() {
+    golden("subprograms.nc", Target::Itnc530);
+    let text = std::fs::read_to_string(fixture("subprograms.itnc530.nc")).unwrap();
+    // M98 P3100 L3: a section repeated twice round one call; the bodies once, after M30.
+    assert!(
+        text.contains("LBL 3\n6 CALL LBL 1\n7 CALL LBL 3 REP 2\n"),
+        "{text}"
+    );
+    let m30 = text.find(" M30\n").unwrap();
+    assert!(text[m30..].contains("LBL 1\n") && text[m30..].contains("LBL 0\n"));
+    assert_eq!(text.matches("CALL LBL 2\n").count(), 2, "{text}");
+}
+
+#[test]
+fn a_speed_change_while_turning_was_two_spindle_steps_on_the_itnc530() {
+    // T2 M6 / S1500 M3 with the spindle turning: `TOOL CALL Z S1500` then `M3` read back as
+    // two spindle segments; the second changes nothing and is no step.
+    let cfg = config("config/machine.toml");
+    let job = "G21 G90 G17 G94\nT1 M6\nS1000 M3\nG43 H1 G0 X0 Y0 Z20.\nT2 M6\nS1500 M3\n\
+               G43 H2 G0 Z30.\nM30\n";
+    let text = cnc402_post::post(&cfg, "speed.nc", job, Target::Itnc530).expect("posts");
+    assert!(text.contains("TOOL CALL Z S1500\n"), "{text}");
+}
+
+#[test]
+fn g83_on_the_itnc530_as_cycl_def_205_read_back_as_fanucs_g83() {
+    golden("pecking.nc", Target::Itnc530);
+    let text = std::fs::read_to_string(fixture("pecking.itnc530.nc")).unwrap();
+    // The machine's re-entry clearance (config/machine.toml: the default 0.5) is the
+    // advanced stop distance, above and below.
+    assert!(
+        text.contains("  Q258=+0.5 ;UPPER ADV STOP DIST\n  Q259=+0.5 ;"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_g83_peck_shorter_than_the_re_entry_clearance_is_refused_on_the_itnc530() {
+    let job = "G21 G90 G17 G94\nT1 M6\nS1000 M3\nG43 H1 G0 X0 Y0 Z20.\n\
+               G98 G83 X10. Y10. Z-5. R2. Q0.3 F100.\nG80\nM30\n";
+    let e = post_text(job, Target::Itnc530).unwrap_err().to_string();
+    assert!(
+        e.contains(":5: canned cycle G83: a peck Q shorter than the re-entry clearance 0.5"),
+        "{e}"
+    );
+    assert!(e.ends_with("(target itnc530)"), "{e}");
+}
+
+/// A called tool whose table length is 0 (config/machine.toml's T4) moves the same with its
+/// length on or off, but the second Z move was refused as "a move without the called
+/// tool's length" (it kept 53 of the 72 real programs off the iTNC).
+#[test]
+fn a_called_tool_of_length_zero_was_refused_after_its_first_z_move_on_the_itnc530() {
+    let job = "G21 G90 G17 G94 G49\nT4 M6\nS2500 M3\nG0 X-28.5 Y-11.4\nG43 Z25. H4\n\
+               G0 Z10.\nG1 Z-1. F100.\nG0 Z25.\nM30\n";
+    let text = post_text(job, Target::Itnc530).expect("posts");
+    assert!(text.contains("TOOL CALL 4 Z\n"), "{text}");
+    // The iTNC's own length (0) is the job's both before and after G43.
+    let job = job.replace("G43 Z25. H4", "G49 Z25.");
+    post_text(&job, Target::Itnc530).expect("posts without G43 too");
+}
+
+/// Helices were refused on the iTNC; now `CC` + `CP IPA IZ DR` (one turn at most), read back
+/// as the G2/G3 with Z the angle gives.
+#[test]
+fn helices_on_the_itnc530_as_cp_with_ipa_and_iz() {
+    let cfg = config("config/machine.toml");
+    let job = repo().join("examples/contour-arcs.nc");
+    let text = post_and_prove(&cfg, &job, Target::Itnc530).expect("posts");
+    assert!(text.contains(" CP IPA+360 IZ-1.5 DR+ F600\n"), "{text}");
+    // A quarter turn clockwise down 2 mm, with the compensation's and feed's words.
+    let job = "G21 G90 G17 G94\nT1 M6\nS1000 M3\nG43 H1 G0 X10. Y0 Z5.\n\
+               G1 Z0 F200.\nG2 X0 Y-10. Z-2. I-10. J0 F400.\nG0 Z20.\nM30\n";
+    let text = post_text(job, Target::Itnc530).expect("posts");
+    assert!(
+        text.contains("CC X+0 Y+0\n") && text.contains(" CP IPA-90 IZ-2 DR- F400\n"),
+        "{text}"
+    );
+}
+
+#[test]
+fn g85_and_g89_on_the_itnc530_as_cycl_def_201_read_back_through_the_reader() {
+    golden("reaming.nc", Target::Itnc530);
+    let text = std::fs::read_to_string(fixture("reaming.itnc530.nc")).unwrap();
+    // G89 P500: the dwell at the depth; out at the plunging feed, as G85/G89 do.
+    assert!(
+        text.contains("  Q211=+0.5 ;DWELL TIME AT DEPTH\n  Q208=+90 ;"),
+        "{text}"
+    );
+}
+
+#[test]
 fn the_contour_on_every_iso_target() {
     for t in ISO_TARGETS {
         post_and_prove(&config("config/machine.toml"), &fixture("contour.nc"), t).unwrap();
@@ -398,12 +483,146 @@ fn an_inch_job_posts_in_inches() {
     assert!(text.contains("G2 X2. Y0.5 I0.5 J0.\n"), "{text}");
 }
 
+/// An inch job on the iTNC was refused: the output wrote mm values into a `BEGIN PGM … INCH`
+/// program (the proof caught it). Now inches (4 decimals) and F in 1/10 inch/min.
+#[test]
+fn an_inch_job_on_the_itnc530_wrote_mm_into_an_inch_program() {
+    golden("inch.nc", Target::Itnc530);
+    let text = std::fs::read_to_string(fixture("inch.itnc530.nc")).unwrap();
+    assert!(text.starts_with("0 BEGIN PGM CNC402 INCH\n"), "{text}");
+    // F5.9055 inch/min is F59.055 in 1/10 inch/min; the cycle's feed F4. is Q206=+40.
+    assert!(text.contains(" L Z-0.1 F59.055\n"), "{text}");
+    assert!(text.contains("  Q206=+40 ;"), "{text}");
+    // The machine's 0.5 mm re-entry clearance in inches.
+    assert!(text.contains("  Q258=+0.0197 ;"), "{text}");
+}
+
+/// One job block, several target blocks: a `G10 L2` work-offset write (and G55, and back to
+/// G54) is one `CYCL DEF 7` datum shift of four blocks, read back by the reader's cycle 7.
+#[test]
+fn work_offset_writes_on_the_itnc530_as_cycl_def_7_datum_shifts() {
+    golden("datum.nc", Target::Itnc530);
+    let text = std::fs::read_to_string(fixture("datum.itnc530.nc")).unwrap();
+    assert!(
+        text.contains(
+            "CYCL DEF 7.0 DATUM SHIFT\n9 CYCL DEF 7.1 X+50\n10 CYCL DEF 7.2 Y+20\n\
+             11 CYCL DEF 7.3 Z+0\n"
+        ),
+        "{text}"
+    );
+    assert_eq!(text.matches("CYCL DEF 7.0").count(), 3, "{text}");
+}
+
+#[test]
+fn a_datum_shift_along_a_rotary_axis_is_refused_on_the_itnc530() {
+    let job = "G21 G90 G17\nG10 L2 P1 C10.\nG0 X1.\nM30\n";
+    let e = post_text(job, Target::Itnc530).unwrap_err().to_string();
+    assert!(
+        e.contains("job.nc:3: a datum shift along another axis than X, Y, Z"),
+        "{e}"
+    );
+}
+
 fn post_cl(target: Target, tools: &str) -> Result<String, PostError> {
     let job = fixture("pocket.cl");
     let text = std::fs::read_to_string(&job).unwrap();
     let tools = cnc402_post::input::tools::ToolTable::parse(tools).unwrap();
     let cfg = config("config/machine.toml");
     cnc402_post::post_with(&cfg, &job.display().to_string(), &text, target, &tools)
+}
+
+/// Without `--tools`, the config's `[tool_offsets]` cutting data: the same S and F as the
+/// table file gives, and `SPINDL/CLW` / `FEDRAT/MMPT` without values take the tool's Vc, fz.
+#[test]
+fn cl_cutting_data_from_the_configs_tool_offsets() {
+    let mut cfg = config("config/machine.toml");
+    cfg.tool_offsets[0].cutting = cnc402_config::CuttingData {
+        diameter: Some(10.0),
+        teeth: Some(4),
+        vc: Some(150.0),
+        fz: Some(0.05),
+    };
+    let none = cnc402_post::input::tools::ToolTable::default();
+    let job = fixture("pocket.cl");
+    let text = std::fs::read_to_string(&job).unwrap();
+    let name = job.display().to_string();
+    let posted = cnc402_post::post_with(&cfg, &name, &text, Target::Fanuc16, &none).unwrap();
+    assert!(
+        posted.contains("S4775 M3") && posted.contains("F955."),
+        "{posted}"
+    );
+    let own = text
+        .replace("SPINDL/150.0,SMM,CLW", "SPINDL/CLW")
+        .replace("FEDRAT/0.05,MMPT", "FEDRAT/MMPT");
+    let posted = cnc402_post::post_with(&cfg, &name, &own, Target::Fanuc16, &none).unwrap();
+    assert!(
+        posted.contains("S4775 M3") && posted.contains("F955."),
+        "{posted}"
+    );
+    cfg.tool_offsets[0].cutting.fz = None;
+    let e = cnc402_post::post_with(&cfg, &name, &own, Target::Fanuc16, &none)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("pocket.cl:8: tool 1 has no fz in the tool table"),
+        "{e}"
+    );
+}
+
+/// `UNITS/INCHES` and `CYCLE/TAP` (a rigid tap: G84, CYCL DEF 207) were refused at their
+/// line; now read, posted for every target and proven.
+#[test]
+fn cl_data_in_inches_with_rigid_taps_posts_for_every_target() {
+    let cfg = config("config/machine.toml");
+    let job = fixture("tap-inch.cl");
+    let text = std::fs::read_to_string(&job).unwrap();
+    let name = job.display().to_string();
+    for target in ALL_TARGETS {
+        let posted = cnc402_post::post(&cfg, &name, &text, target).expect("posts");
+        if target == Target::Itnc530 {
+            assert!(posted.starts_with("0 BEGIN PGM CNC402 INCH\n"), "{posted}");
+            assert!(posted.contains("  Q239=+0.05 ;PITCH\n"), "{posted}");
+        } else {
+            assert!(posted.contains("G20\n"), "{posted}");
+            // 500 rpm x 0.05 in per revolution.
+            assert!(
+                posted.contains("G98 G84 X1. Y1. Z-0.5 R0.1 F25.\n"),
+                "{posted}"
+            );
+        }
+    }
+}
+
+#[test]
+fn apt_records_cnc402_does_not_read_are_refused_at_their_line() {
+    let cfg = config("config/machine.toml");
+    let post = |cl: &str| {
+        cnc402_post::post(&cfg, "j.cl", cl, Target::Fanuc16)
+            .unwrap_err()
+            .to_string()
+    };
+    let e = post("LOADTL/1\nCUTCOM/LEFT\n");
+    assert!(
+        e.starts_with("j.cl:2: CUTCOM is not read: the CL points would be"),
+        "{e}"
+    );
+    let e = post("LOADTL/1\nCYCLE/TAP,10,MMPR,1.5,2\n");
+    assert!(
+        e.starts_with("j.cl:2: CYCLE/TAP with the spindle stopped"),
+        "{e}"
+    );
+    let e = post("LOADTL/1\nRAPID\nGOTO/0,0,10\nUNITS/INCHES\n");
+    assert!(
+        e.starts_with("j.cl:4: UNITS/ changes the units after the data moved"),
+        "{e}"
+    );
+    let e = post("UNITS/FEET\n");
+    assert!(e.starts_with("j.cl:1: UNITS/ MM or INCHES"), "{e}");
+    let e = post("LOADTL/1\nCYCLE/REAM,10,MMPM,100,2\n");
+    assert!(
+        e.contains("CYCLE/REAM is not read (DRILL, DEEP, BORE, TAP, OFF are)"),
+        "{e}"
+    );
 }
 
 const TOOLS: &str = "[tool.1]\ndiameter = 10.0\nteeth = 4\n";
@@ -434,8 +653,9 @@ fn cl_data_without_its_tool_or_with_an_unknown_statement_is_refused_at_its_line(
         e.contains("pocket.cl:7: tool 1 is not in the tool table"),
         "{e}"
     );
-    let e = post_cl(Target::Itnc530, TOOLS).unwrap_err().to_string();
-    assert!(e.contains("pocket.cl:24: canned cycle G83"), "{e}");
+    // CYCLE/DEEP (a G83) was refused on the iTNC until cycle 205 was written.
+    let text = post_cl(Target::Itnc530, TOOLS).expect("posts with CYCL DEF 205");
+    assert!(text.contains("CYCL DEF 205 UNIVERSAL PECKING\n"), "{text}");
     let cfg = config("config/machine.toml");
     let e = cnc402_post::post(&cfg, "j.cl", "LOADTL/1\nTHREAD/1\n", Target::Fanuc16)
         .unwrap_err()

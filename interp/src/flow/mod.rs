@@ -291,6 +291,7 @@ impl Interpreter {
         checked: bool,
     ) -> Result<(), NcError> {
         let mut reader = cnc402_lang::stream::LineReader::new(name, input);
+        reader.set_peck_clearance(self.m.cfg.interp.peck_clearance);
         let head = reader.head()?;
         let dialect = cnc402_lang::choose_dialect(&head, forced, self.m.cfg.interp.dialect)?;
         let main_src = Arc::new(SourceFile::window(reader.name().clone(), "", 1));

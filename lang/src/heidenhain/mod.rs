@@ -1,11 +1,11 @@
 //! The Heidenhain conversational (Klartext) subset cnc402 reads: each line of a program that
 //! starts with `BEGIN PGM` (or is named `*.h`) is translated, as it is read, into the ISO
 //! block the interpreter already executes, line for line (errors keep the line number):
-//! `L`, `CC` + `C`, `TOOL CALL`, `CYCL DEF 9` (dwell), `CYCL DEF 200` (drilling, its Q
-//! parameters, called by `CYCL CALL` or `L … M99`: a G81/G82 block), M functions, comments,
-//! `BLK FORM`.
+//! `L`, `CC` + `C`, `CP IPA IZ` (helices), `TOOL CALL`, `CYCL DEF 7/9/200/201/205/207` with
+//! their Q parameters and calls, labels ([`labels`]), M functions, comments, `BLK FORM`.
 //! What is outside the subset is an error at its line, never a block read another way.
 
+mod labels;
 mod words;
 
 use words::{Word, split_words};
@@ -52,24 +52,54 @@ pub struct Translator {
     /// The S of the last `TOOL CALL` (cycle 207 taps at it).
     speed: Option<f64>,
     cycle_active: bool,
+    labels: labels::Labels,
+    /// The machine's G83 re-entry clearance (`interp.peck_clearance`): cycle 205 is read
+    /// as a G83 only with its advanced stop distances equal to it.
+    peck_clearance: Option<f64>,
+    /// `BEGIN PGM … INCH`: lengths in inches, feeds in 1/10 inch/min.
+    inch: bool,
+    /// The datum shift of cycle 7 (X, Y, Z, program units) the G54 entry holds on top of
+    /// its own.
+    shift: [f64; 3],
 }
 
 impl Translator {
+    /// A translator for a machine whose G83 re-entry clearance is `peck_clearance` (the
+    /// clearance cnc402 runs a G83 with; `None`: cycle 205 is not read).
+    pub fn for_machine(peck_clearance: Option<f64>) -> Translator {
+        Translator {
+            peck_clearance,
+            ..Translator::default()
+        }
+    }
+
     /// The ISO text of one line (`index` 0 is the first: it starts the program afresh), or
     /// what is wrong with it.
     pub fn line(&mut self, index: usize, line: &str) -> Result<String, String> {
         if index == 0 {
-            *self = Translator::default();
+            *self = Translator::for_machine(self.peck_clearance);
         }
         let text = body(line);
         let was_active = self.cycle_active;
         let mut out = self.translate(text)?;
-        if out.is_empty() || out.starts_with('(') {
+        // A flow line (a label's O, WHILE, END, M98, M99) or a datum shift's incremental
+        // G10 takes no modal words: they wait for the next block (after a shift: G90).
+        if out.is_empty() || out.starts_with('(') || labels::is_flow(&out) {
             return Ok(out);
         }
+        self.labels.note_end(&out);
         if was_active && self.cycle_active && !(out.contains(" G8") || out.contains(" G74")) {
             out = format!("G80 {out}");
             self.cycle_active = false;
+        }
+        if out.contains("G91 G10") {
+            let p = self.preamble.take().unwrap_or_else(|| "G90".into());
+            self.preamble = Some(if p.contains("G90") {
+                p
+            } else {
+                format!("{p} G90")
+            });
+            return Ok(out);
         }
         Ok(match self.preamble.take() {
             Some(p) => format!("{p} {out}"),
@@ -110,12 +140,13 @@ impl Translator {
             "L" => self.line_move(rest),
             "CC" => self.centre(rest),
             "C" => self.arc(rest),
-            "CYCL" if rest.starts_with("DEF 200") || rest.starts_with("DEF 207") => {
-                self.defined = if rest.starts_with("DEF 200") {
-                    200
-                } else {
-                    207
-                };
+            "CP" => self.polar_arc(rest),
+            "CYCL"
+                if ["DEF 200", "DEF 201", "DEF 205", "DEF 207"]
+                    .iter()
+                    .any(|d| rest.starts_with(d)) =>
+            {
+                self.defined = rest[4..7].parse().unwrap_or(0);
                 self.drilling = Some(Vec::new());
                 Ok(String::new())
             }
@@ -128,7 +159,10 @@ impl Translator {
                     _ => Err("CYCL CALL before X and Y are known".into()),
                 }
             }
+            "CYCL" if rest.starts_with("DEF 7.") => self.datum_shift(rest),
             "CYCL" => cycle(rest),
+            "LBL" => self.labels.label(rest),
+            "CALL" if rest.trim_start().starts_with("LBL") => self.labels.call(rest),
             _ if head.starts_with('Q') => self.q_parameter(text),
             "STOP" => {
                 let m = if rest.trim().is_empty() {
@@ -141,7 +175,7 @@ impl Translator {
             _ if head.starts_with('M') => Ok(m_words(&split_words(text)?)?.join(" ")),
             _ => Err(format!(
                 "{head} is not in the Heidenhain subset cnc402 reads (expected L, CC, C, TOOL \
-                 CALL, CYCL DEF 9, M, STOP, BLK FORM, a comment)"
+                 CALL, CYCL DEF 9/200/207, LBL, CALL LBL, M, STOP, BLK FORM, a comment)"
             )),
         }
     }
@@ -157,6 +191,7 @@ impl Translator {
             Some("INCH") => "G20",
             _ => return Err("expected BEGIN PGM NAME MM|INCH".into()),
         };
+        self.inch = units == "G20";
         self.preamble = Some(format!("{units} G90 G90.1 G17"));
         Ok(format!("(dialect: fanuc) (BEGIN PGM {name})"))
     }
@@ -191,7 +226,7 @@ impl Translator {
     /// `Qnnn=value` of the cycle being defined.
     fn q_parameter(&mut self, text: &str) -> Result<String, String> {
         let Some(params) = self.drilling.as_mut() else {
-            return Err("Q parameters are read only in a CYCL DEF 200 or 207".into());
+            return Err("Q parameters are read only in a CYCL DEF 200, 201, 205 or 207".into());
         };
         let (q, v) = text
             .split_once('=')
@@ -200,8 +235,8 @@ impl Translator {
             .trim()
             .parse()
             .map_err(|_| format!("{q} is not a Q parameter"))?;
-        if params.len() >= 16 {
-            return Err("more Q parameters than CYCL DEF 200 or 207 has".into());
+        if params.len() >= 24 {
+            return Err("more Q parameters than CYCL DEF 200, 205 or 207 has".into());
         }
         params.push((n, number(v.trim())?));
         Ok(String::new())
@@ -214,7 +249,7 @@ impl Translator {
     /// with Q204 not above Q200, to the set-up clearance (G99).
     fn drill(&mut self, xy: &[String]) -> Result<String, String> {
         let Some(params) = self.drilling.as_ref() else {
-            return Err("a cycle call without a CYCL DEF 200 or 207 before it".into());
+            return Err("a cycle call without a CYCL DEF 200, 205 or 207 before it".into());
         };
         let cycle = self.defined;
         let q = |n: u32| {
@@ -231,10 +266,35 @@ impl Translator {
                 "CYCL DEF {cycle} is read with a negative depth (Q201)"
             ));
         }
-        let (code, tail) = if cycle == 207 {
-            rigid_tap(q(239)?, self.speed)?
-        } else {
-            drilling(q(206)?, q(202)?, q(210)?, q(211)?, depth)?
+        let (code, tail) = match cycle {
+            207 => rigid_tap(q(239)?, self.speed)?,
+            205 => {
+                let stops = [q(258)?, q(259)?];
+                let rest = [q(212)?, q(257)?, q(211)?, q(379)?];
+                // The machine's clearance (mm) in the program's length unit.
+                let clearance = self
+                    .peck_clearance
+                    .map(|d| if self.inch { d / 25.4 } else { d });
+                pecking(
+                    q(206)? * self.feed_scale(),
+                    q(202)?,
+                    stops,
+                    rest,
+                    depth,
+                    clearance,
+                )?
+            }
+            201 => {
+                let scale = self.feed_scale();
+                reaming(q(206)? * scale, q(208)? * scale, q(211)?)?
+            }
+            _ => drilling(
+                q(206)? * self.feed_scale(),
+                q(202)?,
+                q(210)?,
+                q(211)?,
+                depth,
+            )?,
         };
         let r = surface + clear;
         let mode = if clear2 > clear {
@@ -257,6 +317,58 @@ impl Translator {
         self.cycle_active = true;
         self.refeed = true;
         Ok(out.join(" "))
+    }
+
+    /// `CYCL DEF 7.0 DATUM SHIFT` (nothing yet) and `7.1`–`7.3 X|Y|Z±v` (`IX`: added):
+    /// the G54 entry moved by the change of the shift (`G91 G10 L2 P1`), so that the
+    /// program's zero is the machine's G54 plus the shift, as on the iTNC (whose shifts are
+    /// from its preset, cnc402's G54).
+    fn datum_shift(&mut self, rest: &str) -> Result<String, String> {
+        let mut parts = rest.split_whitespace().skip(1);
+        let step = parts.next().unwrap_or("");
+        if step == "7.0" {
+            return Ok(String::new());
+        }
+        let word = parts.next().unwrap_or("");
+        let (incremental, word) = match word.strip_prefix('I') {
+            Some(w) => (true, w),
+            None => (false, word),
+        };
+        let axis = "XYZ".find(word.chars().next().unwrap_or(' '));
+        let (Some(axis), Some(value), None) = (axis, word.get(1..), parts.next()) else {
+            return Err(format!(
+                "CYCL DEF {step} {word}: cnc402 reads datum shifts along X, Y or Z by a value \
+                 (no datum table numbers)"
+            ));
+        };
+        let value = number(value)?;
+        let new = if incremental {
+            self.shift[axis] + value
+        } else {
+            value
+        };
+        let change = new - self.shift[axis];
+        self.shift[axis] = new;
+        // Where the tool is in the shifted coordinates is no longer known.
+        self.at = [None; 3];
+        let letter = &"XYZ"[axis..=axis];
+        Ok(format!("G91 G10 L2 P1 {letter}{}", fmt(change)))
+    }
+
+    /// The words of a path block, its F in the ISO program's unit (an INCH program's F is
+    /// in 1/10 inch/min, G20's in inch/min).
+    fn path_words(&self, text: &str) -> Result<Vec<Word>, String> {
+        let mut words = split_words(text)?;
+        for w in &mut words {
+            if let Word::Feed(f) = w {
+                *f *= self.feed_scale();
+            }
+        }
+        Ok(words)
+    }
+
+    fn feed_scale(&self) -> f64 {
+        if self.inch { 0.1 } else { 1.0 }
     }
 
     /// Keeps where the tool is and the feed from a path block's words.
@@ -288,7 +400,7 @@ impl Translator {
 
     /// `L X.. Y.. Z.. R0|RL|RR F..|FMAX M..`.
     fn line_move(&mut self, rest: &str) -> Result<String, String> {
-        let words = split_words(rest)?;
+        let words = self.path_words(rest)?;
         if words.contains(&Word::M(99)) {
             let axes = axis_words(&words)?;
             if axes.iter().any(|a| !a.starts_with(['X', 'Y']))
@@ -349,7 +461,7 @@ impl Translator {
 
     /// `C X.. Y.. DR+|DR- R0 F.. M..`: an arc about the last `CC`, to an absolute end.
     fn arc(&mut self, rest: &str) -> Result<String, String> {
-        let words = split_words(rest)?;
+        let words = self.path_words(rest)?;
         let Some((cx, cy)) = self.centre else {
             return Err("C without a CC before it".into());
         };
@@ -377,6 +489,75 @@ impl Translator {
     }
 }
 
+/// The most a `CP` may sweep: one turn (cnc402's Fanuc arcs have no turn count).
+const MAX_SWEEP: f64 = 360.0;
+
+impl Translator {
+    /// `CP IPA±a [IZ±dz] DR± [R0|RL|RR] [F] [M]`: an arc (a helix with IZ) about the last
+    /// `CC` by the incremental polar angle `a` (signed as DR), from where the tool is: the
+    /// G2/G3 to the end that angle gives, Z by dz, the centre absolute. Up to one turn.
+    fn polar_arc(&mut self, rest: &str) -> Result<String, String> {
+        let (mut ipa, mut iz, mut others) = (None, 0.0, Vec::new());
+        for w in rest.split_whitespace() {
+            if let Some(v) = w.strip_prefix("IPA") {
+                ipa = Some(number(v)?);
+            } else if let Some(v) = w.strip_prefix("IZ") {
+                iz = number(v)?;
+            } else {
+                others.push(w);
+            }
+        }
+        let Some(ipa) = ipa else {
+            return Err("CP is read with IPA (the incremental polar angle), not PA or PR".into());
+        };
+        let words = self.path_words(&others.join(" "))?;
+        if words.iter().any(|w| matches!(w, Word::Axis(..))) {
+            return Err("CP is read with IPA and IZ only (no absolute axis words)".into());
+        }
+        let ccw = words.iter().find_map(|w| match w {
+            Word::Dr(ccw) => Some(*ccw),
+            _ => None,
+        });
+        let Some(ccw) = ccw.filter(|ccw| *ccw == (ipa > 0.0)) else {
+            return Err("CP needs DR+ with a positive IPA or DR- with a negative one".into());
+        };
+        if ipa.abs() > MAX_SWEEP + 1e-9 {
+            return Err(format!("CP is read up to one turn (|IPA| <= {MAX_SWEEP})"));
+        }
+        let Some((cx, cy)) = self.centre else {
+            return Err("CP without a CC before it".into());
+        };
+        let [Some(x), Some(y), Some(z)] = self.at else {
+            return Err("CP needs the tool's X, Y and Z known (an absolute L before it)".into());
+        };
+        // A whole turn ends where it began (not a hair off it, which would be no turn).
+        let (ex, ey) = if (ipa.abs() - MAX_SWEEP).abs() <= 1e-9 {
+            (x, y)
+        } else {
+            let (s, c) = ipa.to_radians().sin_cos();
+            (
+                cx + (x - cx) * c - (y - cy) * s,
+                cy + (x - cx) * s + (y - cy) * c,
+            )
+        };
+        let mut out = vec![if ccw { "G3" } else { "G2" }.to_string()];
+        out.extend(self.compensation(&words)?);
+        if self.length_pending && iz != 0.0 {
+            out.push(format!("G43 H{}", self.tool.unwrap_or(0)));
+            self.length_pending = false;
+        }
+        let refeed = self.feed_again(&words, false);
+        self.follow(&words);
+        self.at = [Some(ex), Some(ey), Some(z + iz)];
+        out.push(format!("X{} Y{} Z{}", fmt(ex), fmt(ey), fmt(z + iz)));
+        out.push(format!("I{} J{}", fmt(cx), fmt(cy)));
+        out.extend(feed_words(&words));
+        out.extend(refeed);
+        out.extend(m_words(&words)?);
+        Ok(out.join(" "))
+    }
+}
+
 /// Cycle 200's ISO code and words after Z R: one plunge (Q202 ≥ |Q201|), no dwell at the
 /// top; G82 P with a dwell at the depth.
 fn drilling(
@@ -393,13 +574,73 @@ fn drilling(
                 .into(),
         );
     }
+    Ok(dwelling(["G81", "G82"], dwell, feed))
+}
+
+/// `codes[0]` without a dwell, `codes[1]` with `P` (ms), then `F`: the words after Z R.
+fn dwelling(codes: [&str; 2], dwell: f64, feed: f64) -> (String, Vec<String>) {
     let mut tail = Vec::new();
     if dwell > 0.0 {
         tail.push(format!("P{}", (dwell * 1000.0).round()));
     }
     tail.push(format!("F{}", fmt(feed)));
-    let code = if dwell > 0.0 { "G82" } else { "G81" };
-    Ok((code.into(), tail))
+    (codes[usize::from(dwell > 0.0)].into(), tail)
+}
+
+/// Cycle 201's ISO code and words after Z R: Fanuc's G85 (G89 P with a dwell at the depth),
+/// in and out at the feed — read only with the retraction feed Q208 the plunging feed Q206.
+fn reaming(feed: f64, retract: f64, dwell: f64) -> Result<(String, Vec<String>), String> {
+    if (retract - feed).abs() > 1e-9 * feed.abs().max(1.0) {
+        return Err(
+            "CYCL DEF 201 is read with the retraction feed Q208 equal to Q206 (G85/G89 feed \
+             out as they feed in)"
+                .into(),
+        );
+    }
+    Ok(dwelling(["G85", "G89"], dwell, feed))
+}
+
+/// Cycle 205's ISO code and words after Z R: Fanuc's G83 (Q the plunging depth), which
+/// cnc402 runs as cycle 205 runs with no decrement (Q212=0), no chip breaking (Q257=0), no
+/// dwell (Q211=0), no deepened start (Q379=0) and both advanced stop distances (Q258, Q259)
+/// equal to the machine's G83 re-entry clearance: back to the set-up clearance after each
+/// plunge, down at rapid to that distance above the last depth, on at the feed. A plunge
+/// shorter than that distance re-enters differently (cnc402 stops at R): not read.
+fn pecking(
+    feed: f64,
+    plunge: f64,
+    stops: [f64; 2],
+    rest: [f64; 4],
+    depth: f64,
+    clearance: Option<f64>,
+) -> Result<(String, Vec<String>), String> {
+    let Some(d) = clearance else {
+        return Err(
+            "CYCL DEF 205 is read only where the machine's G83 clearance is known \
+                    (cnc402 segments, run)"
+                .into(),
+        );
+    };
+    // The distances as the program writes them (4 decimals) stand for the machine's.
+    if stops.iter().any(|s| (s - d).abs() > 0.5e-4 + 1e-9) {
+        return Err(format!(
+            "CYCL DEF 205 is read with Q258 = Q259 = the machine's G83 clearance \
+             (interp.peck_clearance = {d})"
+        ));
+    }
+    if rest.iter().any(|v| *v != 0.0) {
+        return Err("CYCL DEF 205 is read with Q212, Q257, Q211 and Q379 all 0".into());
+    }
+    if plunge <= 0.0 || (plunge < -depth - 1e-9 && plunge < d - 1e-9) {
+        return Err(format!(
+            "CYCL DEF 205 is read with a plunging depth Q202 of at least the clearance {d}"
+        ));
+    }
+    let plunge = plunge.min(-depth);
+    Ok((
+        "G83".into(),
+        vec![format!("Q{}", fmt(plunge)), format!("F{}", fmt(feed))],
+    ))
 }
 
 /// Cycle 207's ISO code and words: a rigid tap (`M29`, so it runs coupled from a stopped
@@ -432,7 +673,7 @@ fn cycle(rest: &str) -> Result<String, String> {
             Ok(format!("G4 X{}", number(t)?))
         }
         Some(n) => Err(format!(
-            "cycle {n} is not in the subset cnc402 reads (cycles 9, dwell, 200, drilling, and 207, rigid tapping, are)"
+            "cycle {n} is not in the subset cnc402 reads (cycles 7, datum shift, 9, dwell, 200, drilling, 201, reaming, 205, pecking, and 207, rigid tapping, are)"
         )),
         None => Err("expected the cycle number".into()),
     }

@@ -1,12 +1,7 @@
 use super::*;
 
 fn translate(lines: &[&str]) -> Result<Vec<String>, String> {
-    let mut t = Translator::default();
-    lines
-        .iter()
-        .enumerate()
-        .map(|(i, l)| t.line(i, l))
-        .collect()
+    translate_for(None, lines)
 }
 
 #[test]
@@ -60,7 +55,7 @@ fn what_is_outside_the_subset_is_an_error() {
             "CYCL DEF 203 UNIVERSAL DRILLING",
             "cycle 203 is not in the subset",
         ),
-        ("CALL LBL 1", "CALL is not in the Heidenhain subset"),
+        ("CALL PGM OTHER", "CALL is not in the Heidenhain subset"),
         ("TOOL CALL 1 X S100", "tool axis Z"),
         ("L X+Q1", "not a number"),
     ] {
@@ -182,4 +177,267 @@ fn cycl_def_207_without_a_speed_is_an_error() {
     ])
     .unwrap_err();
     assert!(e.contains("without a spindle speed"), "{e}");
+}
+
+#[test]
+fn labels_become_sub_programs_and_repeated_sections() {
+    let out = translate(&[
+        "0 BEGIN PGM JOB MM",
+        "1 LBL 5",
+        "2 CALL LBL 1",
+        "3 CALL LBL 5 REP 2/2",
+        "4 M30",
+        "5 LBL 1",
+        "6 L X+1 F100",
+        "7 LBL 0",
+        "8 END PGM JOB MM",
+    ])
+    .unwrap();
+    assert_eq!(
+        out,
+        [
+            "(dialect: fanuc) (BEGIN PGM JOB)",
+            "WHILE [1 EQ 1] DO1",
+            "M98 P1",
+            "END1",
+            "G21 G90 G90.1 G17 M30",
+            "O1",
+            "G1 X1. F100.",
+            "M99",
+            "",
+        ]
+    );
+}
+
+#[test]
+fn a_section_runs_once_more_than_its_repeats_in_the_order_it_runs() {
+    // The lines as the interpreter reads them: END1 jumps back to the WHILE line, which is
+    // read (translated) again; after the last repeat its condition is false.
+    let mut t = Translator::default();
+    let mut run = |i: usize, l: &str| t.line(i, l).unwrap();
+    run(0, "0 BEGIN PGM JOB MM");
+    let mut passes = 0;
+    loop {
+        let head = run(1, "1 LBL 7");
+        if head.contains("1 EQ 0") {
+            break;
+        }
+        passes += 1;
+        assert_eq!(run(2, "2 CALL LBL 7 REP 2"), "END1");
+        assert!(passes < 10);
+    }
+    assert_eq!(passes, 3);
+}
+
+#[test]
+fn labels_outside_the_subset_are_errors() {
+    for (lines, why) in [
+        (
+            &["0 BEGIN PGM J MM", "1 LBL 0"][..],
+            "LBL 0 outside a sub-program",
+        ),
+        (
+            &["0 BEGIN PGM J MM", "1 CALL LBL 2 REP 3"][..],
+            "repeats the program section that LBL 2 opened",
+        ),
+        (
+            &["0 BEGIN PGM J MM", "1 LBL \"PART\""][..],
+            "numbered labels",
+        ),
+        (
+            &["0 BEGIN PGM J MM", "1 LBL 1", "2 CALL LBL 1 REP X"][..],
+            "expected a count",
+        ),
+        (
+            &[
+                "0 BEGIN PGM J MM",
+                "1 LBL 1",
+                "2 LBL 2",
+                "3 LBL 3",
+                "4 LBL 4",
+            ][..],
+            "more than 3 program sections",
+        ),
+    ] {
+        let e = translate(lines).unwrap_err();
+        assert!(e.contains(why), "{lines:?}: {e}");
+    }
+}
+
+const PECKING: [&str; 19] = [
+    "0 BEGIN PGM JOB MM",
+    "1 L X+0 Y+0 Z+20 R0 FMAX",
+    "2 CYCL DEF 205 UNIVERSAL PECKING",
+    "  Q200=+0 ;SET-UP CLEARANCE",
+    "  Q201=-14 ;DEPTH",
+    "  Q206=+100 ;FEED RATE FOR PLNGNG",
+    "  Q202=+3 ;PLUNGING DEPTH",
+    "  Q203=+2 ;SURFACE COORDINATE",
+    "  Q204=+18 ;2ND SET-UP CLEARANCE",
+    "  Q212=+0 ;DECREMENT",
+    "  Q205=+0 ;MIN. PLUNGING DEPTH",
+    "  Q258=+0.5 ;UPPER ADV STOP DIST",
+    "  Q259=+0.5 ;LOWER ADV STOP DIST",
+    "  Q257=+0 ;DEPTH FOR CHIP BRKNG",
+    "  Q256=+0.2 ;DIST FOR CHIP BRKNG",
+    "  Q211=+0 ;DWELL TIME AT DEPTH",
+    "  Q379=+0 ;STARTING POINT",
+    "  Q253=+750 ;F PRE-POSITIONING",
+    "3 L X+10 Y+10 FMAX M99",
+];
+
+fn translate_for(clearance: Option<f64>, lines: &[&str]) -> Result<Vec<String>, String> {
+    let mut t = Translator::for_machine(clearance);
+    lines
+        .iter()
+        .enumerate()
+        .map(|(i, l)| t.line(i, l))
+        .collect()
+}
+
+#[test]
+fn cycle_205_is_read_as_g83_with_the_machines_clearance() {
+    let out = translate_for(Some(0.5), &PECKING).unwrap();
+    assert_eq!(out.last().unwrap(), "G98 G83 X10. Y10. Z-12. R2. Q3. F100.");
+}
+
+#[test]
+fn cycle_205_read_another_way_than_g83_is_an_error() {
+    let e = translate_for(None, &PECKING).unwrap_err();
+    assert!(e.contains("G83 clearance is known"), "{e}");
+    let e = translate_for(Some(1.0), &PECKING).unwrap_err();
+    assert!(
+        e.contains("Q258 = Q259 = the machine's G83 clearance"),
+        "{e}"
+    );
+    let mut chip = PECKING;
+    chip[13] = "  Q257=+2 ;DEPTH FOR CHIP BRKNG";
+    let e = translate_for(Some(0.5), &chip).unwrap_err();
+    assert!(e.contains("Q212, Q257, Q211 and Q379 all 0"), "{e}");
+    let mut short = PECKING;
+    short[6] = "  Q202=+0.3 ;PLUNGING DEPTH";
+    let e = translate_for(Some(0.5), &short).unwrap_err();
+    assert!(
+        e.contains("plunging depth Q202 of at least the clearance"),
+        "{e}"
+    );
+}
+
+#[test]
+fn an_inch_programs_feeds_are_in_tenths_of_an_inch_per_minute() {
+    let out = translate(&[
+        "0 BEGIN PGM JOB INCH",
+        "1 L X+1.25 Z-0.1 R0 F59.055",
+        "2 CC X+1.25 Y+0.75",
+        "3 C X+2 Y+0.75 DR- F120",
+    ])
+    .unwrap();
+    assert_eq!(out[1], "G20 G90 G90.1 G17 G1 G40 X1.25 Z-0.1 F5.9055");
+    assert_eq!(out[3], "G2 X2. Y0.75 I1.25 J0.75 F12.");
+}
+
+#[test]
+fn cycle_7_moves_the_g54_entry_by_the_change_of_the_shift() {
+    let out = translate(&[
+        "0 BEGIN PGM JOB MM",
+        "1 CYCL DEF 7.0 DATUM SHIFT",
+        "2 CYCL DEF 7.1 X+50",
+        "3 CYCL DEF 7.2 IY+20",
+        "4 L X+0 Y+0 R0 FMAX",
+        "5 CYCL DEF 7.0 DATUM SHIFT",
+        "6 CYCL DEF 7.1 X+10",
+        "7 L X+1 FMAX",
+    ])
+    .unwrap();
+    assert_eq!(
+        &out[1..],
+        [
+            "",
+            "G91 G10 L2 P1 X50.",
+            "G91 G10 L2 P1 Y20.",
+            "G21 G90 G90.1 G17 G0 G40 X0. Y0.",
+            "",
+            "G91 G10 L2 P1 X-40.",
+            "G90 G0 X1.",
+        ]
+    );
+    let e = translate(&["0 BEGIN PGM J MM", "1 CYCL DEF 7.1 #5"]).unwrap_err();
+    assert!(e.contains("datum shifts along X, Y or Z by a value"), "{e}");
+}
+
+#[test]
+fn cp_is_the_arc_its_incremental_angle_gives_from_where_the_tool_is() {
+    let out = translate(&[
+        "0 BEGIN PGM JOB MM",
+        "1 L X+10 Y+0 Z+0 R0 FMAX",
+        "2 CC X+0 Y+0",
+        "3 CP IPA-90 IZ-2 DR- F400",
+        "4 CP IPA+360 IZ-1.5 DR+",
+    ])
+    .unwrap();
+    assert!(
+        out[3].starts_with("G2 X0.0000000000000006") || out[3].starts_with("G2 X0"),
+        "{}",
+        out[3]
+    );
+    assert!(out[3].contains(" Y-10. Z-2. I0. J0. F400."), "{}", out[3]);
+    // A whole turn ends exactly where it began.
+    assert!(out[4].starts_with("G3 X"), "{}", out[4]);
+    assert!(out[4].contains(" Z-3.5 I0. J0."), "{}", out[4]);
+    for (line, why) in [
+        ("3 CP IPA+90 IZ-2 DR-", "DR+ with a positive IPA"),
+        ("3 CP IPA+400 DR+", "up to one turn"),
+        ("3 CP PA+90 DR+", "read with IPA"),
+        ("3 CP IPA+90 X+1 DR+", "IPA and IZ only"),
+    ] {
+        let e = translate(&[
+            "0 BEGIN PGM J MM",
+            "1 L X+1 Y+0 Z+0 FMAX",
+            "2 CC X+0 Y+0",
+            line,
+        ])
+        .unwrap_err();
+        assert!(e.contains(why), "{line}: {e}");
+    }
+    let e = translate(&["0 BEGIN PGM J MM", "1 CC X+0 Y+0", "2 CP IPA+90 DR+"]).unwrap_err();
+    assert!(e.contains("X, Y and Z known"), "{e}");
+}
+
+#[test]
+fn a_datum_shift_after_a_cycle_call_cancels_the_cycle_first() {
+    let mut lines = DRILLING.to_vec();
+    lines.extend([
+        "  Q211=+0 ;DWELL TIME AT DEPTH",
+        "3 L X+10 Y+10 FMAX M99",
+        "11 CYCL DEF 7.0 DATUM SHIFT",
+        "12 CYCL DEF 7.1 X+5",
+        "13 L X+1 FMAX",
+    ]);
+    let out = translate(&lines).unwrap();
+    let n = out.len();
+    assert_eq!(out[n - 2], "G80 G91 G10 L2 P1 X5.");
+    assert_eq!(out[n - 1], "G90 G0 X1.");
+}
+
+#[test]
+fn cycle_201_is_read_as_g85_or_g89_with_the_same_feed_out() {
+    let reaming = |q208: &'static str| {
+        translate(&[
+            "0 BEGIN PGM JOB MM",
+            "1 L X+0 Y+0 Z+20 R0 FMAX",
+            "2 CYCL DEF 201 REAMING",
+            "  Q200=+0 ;SET-UP CLEARANCE",
+            "  Q201=-9 ;DEPTH",
+            "  Q206=+90 ;FEED RATE FOR PLNGNG",
+            "  Q211=+0.5 ;DWELL TIME AT DEPTH",
+            q208,
+            "  Q203=+1 ;SURFACE COORDINATE",
+            "  Q204=+19 ;2ND SET-UP CLEARANCE",
+            "3 L X+50 Y+10 FMAX M99",
+        ])
+    };
+    let out = reaming("  Q208=+90 ;RETRACTION FEED RATE").unwrap();
+    assert_eq!(out.last().unwrap(), "G98 G89 X50. Y10. Z-8. R1. P500 F90.");
+    let e = reaming("  Q208=+500 ;RETRACTION FEED RATE").unwrap_err();
+    assert!(e.contains("Q208 equal to Q206"), "{e}");
 }

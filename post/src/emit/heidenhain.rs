@@ -2,9 +2,10 @@
 //! `CYCL DEF 9` dwells, M functions. What the iTNC does implicitly is checked against the
 //! job instead of written: the called tool's length switches on at the next Z move (the job
 //! must have `G43 H` of that tool there), the radius of `RL/RR` is the called tool's, the
-//! datum is the config's G54. G81/G82 become `CYCL DEF 200 DRILLING`, rigid taps G84/G74
-//! `CYCL DEF 207 RIGID TAPPING NEW`, each hole `L X Y FMAX M99`; other canned cycles,
-//! helices, G61/G64 changes: refused (not written yet: docs/post.md).
+//! preset is the config's G54 (other datums: `CYCL DEF 7`, [`super::datum`]). G81/G82 become
+//! `CYCL DEF 200`, G83 `205`, rigid taps `207`, each hole `L X Y FMAX M99`; sub-programs
+//! labels ([`super::labels`]); helices `CP` ([`super::helix`]); other cycles, G61/G64
+//! changes: refused (docs/post.md).
 
 use cnc402_interp::canon::{CannedCycle, CanonKind, CanonOp, CompSide};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, SpindleDir};
@@ -15,6 +16,9 @@ use crate::PostError;
 use crate::assemble::{Block, Program};
 
 const SAME: f64 = 1e-9;
+
+/// A cycle definition's Q lines: name, value as written, the iTNC's comment.
+type QParams = Vec<(&'static str, String, &'static str)>;
 
 /// Where the called tool's length stands on the control.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,7 +34,9 @@ pub fn emit_itnc(
     cfg: &cnc402_config::MachineConfig,
     rules: &crate::Rules,
     ops: &[CanonOp],
+    subs: &[crate::input::calls::SubBody],
 ) -> Result<(Program, bool), PostError> {
+    let mut runs = super::labels::Runs::new(subs);
     let mut e = Itnc {
         e: Emitter::new(cfg, rules),
         length: Length::Off,
@@ -38,19 +44,27 @@ pub fn emit_itnc(
         comp: None,
         feed: None,
         drilling: None,
+        inch: false,
+        shift: [0.0; 3],
+        written: [false; 3],
     };
     let inch = ops
         .first()
         .is_some_and(|o| o.state.units == cnc402_interp::canon::ProgramUnits::Inch);
+    e.inch = inch;
     for op in ops {
         if (op.state.units == cnc402_interp::canon::ProgramUnits::Inch) != inch {
             return Err(e
                 .e
                 .refuse(op, "a change of units inside an iTNC program".into()));
         }
+        if runs.note(op, e.e.program.main.len()) {
+            continue;
+        }
         e.op(op)?;
         e.e.advance(op);
     }
+    runs.place(&mut e.e.program);
     Ok((e.e.program, inch))
 }
 
@@ -62,9 +76,37 @@ struct Itnc<'a> {
     feed: Option<String>,
     /// The lines of the active `CYCL DEF 200` or `207` (the head and its Q lines).
     drilling: Option<Vec<String>>,
+    /// A `BEGIN PGM … INCH` program: lengths in inches, feeds in 1/10 inch/min.
+    inch: bool,
+    /// The datum shift (cycle 7) the control holds.
+    shift: super::datum::Shift,
+    /// X, Y, Z written in a block yet (a reader of `CP` needs to know where the tool is).
+    written: [bool; 3],
 }
 
 impl Itnc<'_> {
+    /// A length (mm) as the program writes it: mm, or inches (4 decimals) in an INCH program.
+    fn len(&self, mm: f64) -> String {
+        if self.inch {
+            signed(mm / 25.4, 4)
+        } else {
+            signed(mm, self.e.rules.position_decimals)
+        }
+    }
+
+    /// A feed (mm/min) as the program writes it, `F…`: mm/min, or in an INCH program
+    /// 1/10 inch/min (the iTNC's unit there: `F100` is 10 inch/min).
+    fn feed_word(&self, mm_per_min: f64, op: &CanonOp) -> Result<String, PostError> {
+        use super::format::Unit;
+        let (v, unit) = if self.inch {
+            (mm_per_min * 10.0, Unit::Inch)
+        } else {
+            (mm_per_min, Unit::Mm)
+        };
+        let f = super::format::feed(self.e.rules, v, unit, &op.source)?;
+        Ok(f.trim_end_matches('.').to_string())
+    }
+
     fn push(&mut self, text: String, op: &CanonOp) {
         self.e
             .program
@@ -153,12 +195,13 @@ impl Itnc<'_> {
     /// that Q203 is the R level, Q204 the return level above it: 0 for G99) and an
     /// `L X Y FMAX M99` at each hole. Other cycles are refused, naming the block.
     fn drilling(&mut self, op: &CanonOp, cc: &CannedCycle) -> Result<(), PostError> {
+        self.datum(op)?;
         let refuse = |why: &str| {
             self.e.refuse(
                 op,
                 format!(
-                    "canned cycle G{}: {why} (the iTNC output writes G81/G82 as CYCL DEF 200 \
-                     and rigid taps G84/G74 as CYCL DEF 207 only)",
+                    "canned cycle G{}: {why} (the iTNC output writes G81/G82 as CYCL DEF 200, \
+                     G83 as 205, G85/G89 as 201 and rigid taps G84/G74 as 207 only)",
                     cc.code
                 ),
             )
@@ -168,7 +211,7 @@ impl Itnc<'_> {
         let tap = matches!(cc.code, 74 | 84)
             && cc.tap.is_some_and(|t| t.peck.is_none())
             && cc.words.p.unwrap_or(0.0) == 0.0;
-        if !(matches!(cc.code, 81 | 82) || tap)
+        if !(matches!(cc.code, 81..=83 | 85 | 89) || tap)
             || cc.plan.linuxcnc.is_some()
             || xyz.map(Some) != cc.axes.map(|i| Some(Some(i)))
         {
@@ -189,11 +232,18 @@ impl Itnc<'_> {
                 "a return level below R, a depth above R, or a start off the initial level",
             ));
         }
-        let d = self.e.rules.position_decimals;
         let (head, q) = match cc.tap {
             Some(t) => (
                 "CYCL DEF 207 RIGID TAPPING NEW",
                 self.tapping_q(op, cc, t, depth, above)?,
+            ),
+            None if cc.code == 83 => (
+                "CYCL DEF 205 UNIVERSAL PECKING",
+                self.pecking_q(op, cc, depth, above)?,
+            ),
+            None if matches!(cc.code, 85 | 89) => (
+                "CYCL DEF 201 REAMING",
+                self.reaming_q(op, cc, depth, above)?,
             ),
             None => (
                 "CYCL DEF 200 DRILLING",
@@ -214,10 +264,9 @@ impl Itnc<'_> {
             self.drilling = Some(def);
         }
         for &[x, y] in &cc.holes {
-            self.push(
-                format!("L X{} Y{} FMAX M99", signed(x, d), signed(y, d)),
-                op,
-            );
+            self.push(format!("L X{} Y{} FMAX M99", self.len(x), self.len(y)), op);
+            self.written[0] = true;
+            self.written[1] = true;
         }
         // The cycle's feed is not the contour's: the next feed block writes its F.
         self.feed = None;
@@ -231,29 +280,104 @@ impl Itnc<'_> {
         cc: &CannedCycle,
         depth: f64,
         above: f64,
-    ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
-        let d = self.e.rules.position_decimals;
-        let unit = self.e.length_unit_of(op);
-        let f = super::format::feed(self.e.rules, cc.feed, unit, &op.source)?;
+    ) -> Result<QParams, PostError> {
+        let f = self.feed_word(cc.feed, op)?;
         let dwell = cc.words.p.unwrap_or(0.0);
         Ok(vec![
             ("Q200", "+0".to_string(), "SET-UP CLEARANCE"),
-            ("Q201", signed(depth, d), "DEPTH"),
+            ("Q201", self.len(depth), "DEPTH"),
             (
                 "Q206",
                 format!("+{}", f.trim_start_matches('F').trim_end_matches('.')),
                 "FEED RATE FOR PLNGNG",
             ),
-            ("Q202", signed(-depth, d), "PLUNGING DEPTH"),
+            ("Q202", self.len(-depth), "PLUNGING DEPTH"),
             ("Q210", "+0".to_string(), "DWELL TIME AT TOP"),
-            ("Q203", signed(cc.r_level, d), "SURFACE COORDINATE"),
-            ("Q204", signed(above.max(0.0), d), "2ND SET-UP CLEARANCE"),
+            ("Q203", self.len(cc.r_level), "SURFACE COORDINATE"),
+            ("Q204", self.len(above.max(0.0)), "2ND SET-UP CLEARANCE"),
             (
                 "Q211",
                 format!("+{}", decimal(dwell, 3).trim_end_matches('.')),
                 "DWELL TIME AT DEPTH",
             ),
         ])
+    }
+
+    /// The Q parameters of `CYCL DEF 201` for a G85 (G89: with the dwell at the depth): in
+    /// at Q206, out to the set-up clearance (R) at the retraction feed Q208 — the same F,
+    /// as Fanuc's G85/G89 feed out — then to the 2nd set-up clearance at FMAX.
+    fn reaming_q(
+        &self,
+        op: &CanonOp,
+        cc: &CannedCycle,
+        depth: f64,
+        above: f64,
+    ) -> Result<QParams, PostError> {
+        let q = self.drilling_q(op, cc, depth, above)?;
+        let find = |name: &str| {
+            q.iter()
+                .find(|(n, _, _)| *n == name)
+                .map(|(_, v, _)| v.clone())
+                .unwrap_or_default()
+        };
+        let dwell = if cc.code == 89 {
+            find("Q211")
+        } else {
+            "+0".to_string()
+        };
+        Ok(vec![
+            ("Q200", find("Q200"), "SET-UP CLEARANCE"),
+            ("Q201", find("Q201"), "DEPTH"),
+            ("Q206", find("Q206"), "FEED RATE FOR PLNGNG"),
+            ("Q211", dwell, "DWELL TIME AT DEPTH"),
+            ("Q208", find("Q206"), "RETRACTION FEED RATE"),
+            ("Q203", find("Q203"), "SURFACE COORDINATE"),
+            ("Q204", find("Q204"), "2ND SET-UP CLEARANCE"),
+        ])
+    }
+
+    /// The Q parameters of `CYCL DEF 205` for a G83: the plunging depth Q202 is the job's Q,
+    /// both advanced stop distances (Q258 upper, Q259 lower) the machine's G83 re-entry
+    /// clearance — so the iTNC goes back to R after each plunge and down at rapid to that
+    /// distance above the last depth, as Fanuc's G83 does; no decrement, chip breaking,
+    /// dwell or deepened start. A peck shorter than the clearance is refused (Fanuc stops
+    /// the re-entry at R, the iTNC would not).
+    fn pecking_q(
+        &self,
+        op: &CanonOp,
+        cc: &CannedCycle,
+        depth: f64,
+        above: f64,
+    ) -> Result<QParams, PostError> {
+        let clearance = cc.plan.peck_clearance;
+        let peck = cc.words.q.unwrap_or(-depth).min(-depth);
+        let pecks = peck < -depth - SAME;
+        let differs = (clearance - self.e.cfg.interp.peck_clearance).abs() > SAME;
+        if (pecks && peck < clearance - SAME) || differs {
+            return Err(self.e.refuse(
+                op,
+                format!(
+                    "canned cycle G83: a peck Q shorter than the re-entry clearance {clearance} \
+                     (CYCL DEF 205 re-enters above R where the job's G83 stops at R)"
+                ),
+            ));
+        }
+        let mut q = self.drilling_q(op, cc, depth, above)?;
+        // Cycle 200's Q200 Q201 Q206 Q202 Q210 Q203 Q204 Q211, less Q210, then 205's own.
+        q.retain(|(name, _, _)| !matches!(*name, "Q210" | "Q211"));
+        q[3].1 = self.len(peck);
+        q.extend([
+            ("Q212", "+0".to_string(), "DECREMENT"),
+            ("Q205", "+0".to_string(), "MIN. PLUNGING DEPTH"),
+            ("Q258", self.len(clearance), "UPPER ADV STOP DIST"),
+            ("Q259", self.len(clearance), "LOWER ADV STOP DIST"),
+            ("Q257", "+0".to_string(), "DEPTH FOR CHIP BRKNG"),
+            ("Q256", "+0.2".to_string(), "DIST FOR CHIP BRKNG"),
+            ("Q211", "+0".to_string(), "DWELL TIME AT DEPTH"),
+            ("Q379", "+0".to_string(), "STARTING POINT"),
+            ("Q253", "+750".to_string(), "F PRE-POSITIONING"),
+        ]);
+        Ok(q)
     }
 
     /// The Q parameters of `CYCL DEF 207` for a rigid tap: the pitch signed by the hand
@@ -267,7 +391,7 @@ impl Itnc<'_> {
         tap: cnc402_interp::canon::TapPlan,
         depth: f64,
         above: f64,
-    ) -> Result<Vec<(&'static str, String, &'static str)>, PostError> {
+    ) -> Result<QParams, PostError> {
         let d = self.e.rules.position_decimals;
         let s = super::format::speed(self.e.rules, cc.plan.speed, &op.source)?;
         if self.e.modal.spindle.as_deref() != Some(&s) {
@@ -280,18 +404,23 @@ impl Itnc<'_> {
             1.0
         };
         // The pitch in the program's length unit, with the decimals a pitch needs.
-        let pitch = signed(hand * tap.pitch, d + 1);
+        let pitch = if self.inch {
+            signed(hand * tap.pitch / 25.4, 5)
+        } else {
+            signed(hand * tap.pitch, d + 1)
+        };
         Ok(vec![
             ("Q200", "+0".to_string(), "SET-UP CLEARANCE"),
-            ("Q201", signed(depth, d), "DEPTH"),
+            ("Q201", self.len(depth), "DEPTH"),
             ("Q239", pitch, "PITCH"),
-            ("Q203", signed(cc.r_level, d), "SURFACE COORDINATE"),
-            ("Q204", signed(above.max(0.0), d), "2ND SET-UP CLEARANCE"),
+            ("Q203", self.len(cc.r_level), "SURFACE COORDINATE"),
+            ("Q204", self.len(above.max(0.0)), "2ND SET-UP CLEARANCE"),
         ])
     }
 
     /// `L` or `CC` + `C`.
     fn path(&mut self, op: &CanonOp, kind: &SegmentKind) -> Result<(), PostError> {
+        self.datum(op)?;
         self.check_state(op)?;
         let (end, feed) = match kind {
             SegmentKind::Rapid { end } => (end, None),
@@ -315,7 +444,7 @@ impl Itnc<'_> {
                 axes.push(format!(
                     "{}{}",
                     self.e.letter(i),
-                    signed(end[i], self.e.rules.position_decimals)
+                    self.axis_value(i, end[i])
                 ));
             }
         }
@@ -323,7 +452,7 @@ impl Itnc<'_> {
             axes.push(format!(
                 "{}{}",
                 self.e.letter(0),
-                signed(end[0], self.e.rules.position_decimals)
+                self.axis_value(0, end[0])
             ));
         }
         if self.length == Length::Pending
@@ -340,16 +469,35 @@ impl Itnc<'_> {
             ..
         } = kind
         {
-            self.arc_checks(op, end, *plane, *turns)?;
-            let d = self.e.rules.position_decimals;
+            let helix = self.arc_checks(op, end, *plane, *turns)?;
+            let start = op.state.to_work(&self.e.pos);
+            let [x, y, z] = self.e.xyz.map(|i| i.unwrap_or(0));
+            if helix.is_some() {
+                self.start_known(op, [start[x], start[y], start[z]])?;
+            }
             self.push(
-                format!("CC X{} Y{}", signed(center[0], d), signed(center[1], d)),
+                format!("CC X{} Y{}", self.len(center[0]), self.len(center[1])),
                 op,
             );
-            words.push("C".to_string());
-            words.extend(axes);
-            words.push(if *dir == ArcDir::Ccw { "DR+" } else { "DR-" }.into());
+            let ccw = *dir == ArcDir::Ccw;
+            if let Some(full) = helix {
+                words = super::helix::polar_words(
+                    [start[x], start[y], start[z]],
+                    [end[x], end[y], end[z]],
+                    [center[0], center[1]],
+                    ccw,
+                    full,
+                    |v| self.len(v),
+                    |a| signed(a, 4),
+                );
+            } else {
+                self.note_written(&axes);
+                words.push("C".to_string());
+                words.extend(axes);
+                words.push(if ccw { "DR+" } else { "DR-" }.into());
+            }
         } else {
+            self.note_written(&axes);
             words.push("L".into());
             words.extend(axes);
         }
@@ -368,9 +516,7 @@ impl Itnc<'_> {
         match feed {
             None => words.push("FMAX".into()),
             Some(f) => {
-                let f =
-                    super::format::feed(self.e.rules, f, self.e.length_unit_of(op), &op.source)?;
-                let f = f.trim_end_matches('.').to_string();
+                let f = self.feed_word(f, op)?;
                 if self.feed.as_deref() != Some(&f) {
                     words.push(f.clone());
                     self.feed = Some(f);
@@ -381,13 +527,41 @@ impl Itnc<'_> {
         Ok(())
     }
 
+    /// Notes which of X, Y, Z the words `axes` write.
+    fn note_written(&mut self, axes: &[String]) {
+        for (k, l) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+            self.written[k] |= axes.iter().any(|a| a.starts_with(l));
+        }
+    }
+
+    /// Before a `CP` (which runs from where the tool is): a rapid to where the tool is when
+    /// the program has not yet written all of X, Y, Z (it moves nothing; under compensation
+    /// it would, so then the helix is refused).
+    fn start_known(&mut self, op: &CanonOp, start: [f64; 3]) -> Result<(), PostError> {
+        if self.written.iter().all(|w| *w) {
+            return Ok(());
+        }
+        if self.comp.flatten().is_some() {
+            return Err(self.e.refuse(
+                op,
+                "a helix under compensation before the program wrote X, Y and Z".into(),
+            ));
+        }
+        let at = start.map(|v| self.len(v));
+        self.push(format!("L X{} Y{} Z{} FMAX", at[0], at[1], at[2]), op);
+        self.written = [true; 3];
+        Ok(())
+    }
+
+    /// Refuses an arc the iTNC output cannot write; `Some(full turn)` for a helix along Z
+    /// (written as `CP`), `None` for a plain XY arc.
     fn arc_checks(
         &self,
         op: &CanonOp,
         end: &AxisPos,
         plane: Plane,
         turns: u32,
-    ) -> Result<(), PostError> {
+    ) -> Result<Option<bool>, PostError> {
         if plane != Plane::XY {
             return Err(self.e.refuse(
                 op,
@@ -405,16 +579,51 @@ impl Itnc<'_> {
                 .e
                 .refuse(op, "an arc of more than one full turn".into()));
         }
-        let helix = self.e.axes().any(|i| {
-            !xy.contains(&Some(i)) && (op.state.to_machine(end)[i] - self.e.pos[i]).abs() > SAME
-        });
-        if helix {
+        let moves = |i: usize| (op.state.to_machine(end)[i] - self.e.pos[i]).abs() > SAME;
+        let z = self.e.xyz[2];
+        let other = self
+            .e
+            .axes()
+            .any(|i| !xy.contains(&Some(i)) && Some(i) != z && moves(i));
+        if other || xy.contains(&None) {
             return Err(self.e.refuse(
                 op,
-                "a helix (CP with IZ is not written yet for the iTNC)".into(),
+                "an arc moving another axis than X, Y, Z (the iTNC output writes XY arcs and \
+                 helices along Z)"
+                    .into(),
             ));
         }
+        Ok(z.is_some_and(moves).then_some(turns == 1))
+    }
+
+    /// The job's datum as a cycle-7 shift from the machine's G54, written (four blocks at
+    /// once) before the first block that runs under a shift the control does not hold.
+    fn datum(&mut self, op: &CanonOp) -> Result<(), PostError> {
+        let want = super::datum::shift_of(&self.e, op).map_err(|m| self.e.refuse(op, m))?;
+        let blocks = super::datum::shift_blocks(&self.shift, &want, |v| self.len(v));
+        for b in blocks {
+            self.push(b, op);
+        }
+        self.shift = want;
         Ok(())
+    }
+
+    /// Axis `i`'s value: a length, or degrees for a rotary axis.
+    fn axis_value(&self, i: usize, value: f64) -> String {
+        match self.e.cfg.axes[i].kind {
+            cnc402_config::AxisKind::Linear => self.len(value),
+            _ => signed(value, self.e.rules.position_decimals),
+        }
+    }
+
+    /// The length of the called tool in the machine's table (what the iTNC switches on).
+    fn called_length(&self) -> f64 {
+        let tool = self.tool.unwrap_or(0) as usize;
+        self.e
+            .cfg
+            .tool_offsets
+            .get(tool.wrapping_sub(1))
+            .map_or(0.0, |t| t.length + t.length_wear)
     }
 
     /// The job runs with the tool's length (G43 H of the called tool).
@@ -429,20 +638,6 @@ impl Itnc<'_> {
         let st = &op.state;
         let refuse = |m: &str| Err(self.e.refuse(op, m.to_string()));
         let length = self.e.effective_length(op);
-        let mut zero = st.offset;
-        if let Some(t) = st.tool_axis {
-            zero[t] -= length;
-        }
-        if st.work_offset != 0
-            || self
-                .e
-                .axes()
-                .any(|i| (zero[i] - self.e.cfg.work_offsets[0][i]).abs() > SAME)
-        {
-            return refuse(
-                "a datum other than the machine's G54 (datum shifts are not written for the iTNC)",
-            );
-        }
         let tool = self.tool.unwrap_or(0);
         if length != 0.0 {
             let table = self.e.cfg.tool_offsets.get((tool as usize).wrapping_sub(1));
@@ -458,7 +653,8 @@ impl Itnc<'_> {
             if self.length == Length::Off {
                 return refuse("a tool length with no tool called");
             }
-        } else if self.length == Length::On {
+        } else if self.length == Length::On && self.called_length() != 0.0 {
+            // (A called tool of length 0 moves the same with its length on or off.)
             return refuse(
                 "a move without the called tool's length (G49) after the iTNC switched it on",
             );
@@ -497,7 +693,8 @@ pub fn signed(v: f64, decimals: u32) -> String {
     }
 }
 
-/// The text: `0 BEGIN PGM NAME MM`, the blocks numbered from 1, `n END PGM NAME MM`.
+/// The text: `0 BEGIN PGM NAME MM`, the blocks numbered from 1, the label bodies
+/// (`LBL n` … `LBL 0`, after the main program's `M2`/`M30`), `n END PGM NAME MM`.
 pub fn assemble_itnc(
     program: &Program,
     inch: bool,
@@ -506,7 +703,12 @@ pub fn assemble_itnc(
     let units = if inch { "INCH" } else { "MM" };
     let mut text = format!("0 BEGIN PGM CNC402 {units}\n");
     let mut n = 1usize;
-    for b in &program.main {
+    let labels = (1..).zip(&program.subs).flat_map(|(label, sub)| {
+        std::iter::once(Block::new(vec![format!("LBL {label}")], None))
+            .chain(sub.blocks.iter().cloned())
+            .chain([Block::new(vec!["LBL 0".into()], None)])
+    });
+    for b in program.main.iter().cloned().chain(labels) {
         let body: Vec<String> = b
             .words
             .iter()

@@ -4,8 +4,11 @@
 //! match the job's at every block.
 
 mod carried;
+mod datum;
 pub mod format;
 pub mod heidenhain;
+mod helix;
+mod labels;
 pub mod macro_b;
 mod modal;
 mod ops;

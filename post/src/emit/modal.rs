@@ -235,15 +235,6 @@ impl Emitter<'_> {
         }
     }
 
-    /// How lengths of `op` are written in a program that keeps the job's units throughout.
-    pub(crate) fn length_unit_of(&self, op: &CanonOp) -> Unit {
-        if op.state.units == ProgramUnits::Inch {
-            Unit::Inch
-        } else {
-            Unit::Mm
-        }
-    }
-
     /// The word of axis `i` at `value` (mm or degrees).
     pub(crate) fn axis_word(
         &self,

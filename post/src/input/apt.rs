@@ -1,17 +1,18 @@
 //! APT/CL input (ISO 4343, the cutter-location data CAM systems write for post-processors):
 //! `GOTO/`, `GODLTA/`, `CIRCLE/` (+ the `GOTO/` that ends the arc), `RAPID`, `FEDRAT/`
-//! (`MMPM`, `MMPR`, `MMPT`: per tooth, from the tool table), `SPINDL/` (`RPM`, `SMM`: cutting
-//! speed, from the tool table; `CLW`, `CCLW`, `OFF`), `LOADTL/`, `COOLNT/`, `CYCLE/DRILL|
-//! DEEP|BORE … CYCLE/OFF`, `STOP`, `OPSTOP`, `PPRINT`, `END`, `FINI`, read straight into
-//! canonical operations (XY plane, mm, G54, the loaded tool's length from the config as
-//! `G43 H`). A statement outside that set is an error at its line.
+//! (`MMPM`, `MMPR`, `MMPT`, `IPM`…: per tooth, from the tool table), `SPINDL/` (`RPM`, `SMM`,
+//! `SFM`: cutting speed, from the tool table; `CLW`, `CCLW`, `OFF`), `LOADTL/`, `COOLNT/`,
+//! `CYCLE/DRILL|DEEP|BORE|TAP … CYCLE/OFF`, `UNITS/MM|INCHES`, `STOP`, `OPSTOP`, `PPRINT`,
+//! `END`, `FINI`, read straight into canonical operations (XY plane, G54, the loaded tool's
+//! length from the config as `G43 H`). A statement outside that set (`CUTCOM` among them)
+//! is an error at its line.
 
 use std::sync::Arc;
 
 use cnc402_config::MachineConfig;
 use cnc402_interp::canon::{
     CannedCycle, CanonKind, CanonOp, CanonState, CyclePlan, CycleWords, FeedMode, PathMode,
-    ProgramUnits,
+    ProgramUnits, TapPlan,
 };
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, Source, SpindleDir, StopKind};
 
@@ -44,6 +45,8 @@ struct ClCycle {
     code: u32,
     depth: f64,
     step: Option<f64>,
+    /// A tap's pitch (mm per revolution): a rigid tap, G84 (G74 with the spindle CCLW).
+    pitch: Option<f64>,
     feed: f64,
     clearance: f64,
     initial: Option<f64>,
@@ -65,6 +68,10 @@ struct Cl<'a> {
     cycle: Option<ClCycle>,
     coolant: (bool, bool),
     ops: Vec<CanonOp>,
+    /// mm per length unit of the data (`UNITS/INCHES`: 25.4), and whether anything moved
+    /// yet (units change only before).
+    unit: f64,
+    moved: bool,
 }
 
 /// The operations of CL text `text`.
@@ -109,6 +116,8 @@ pub fn read_cl(
         cycle: None,
         coolant: (false, false),
         ops: Vec::new(),
+        unit: 1.0,
+        moved: false,
     };
     // Machine 0 is where a run starts; in work coordinates that is −offset.
     cl.pos = cl.state.to_work(&AxisPos::default());
@@ -174,7 +183,13 @@ impl Cl<'_> {
             .collect();
         match word {
             "PARTNO" | "MULTAX" | "CUTTER" | "END" | "TPRINT" => Ok(()),
-            "UNITS" if list.first() == Some(&"MM") => Ok(()),
+            "UNITS" => self.units(&list),
+            "CUTCOM" => Err(self.error(
+                "CUTCOM is not read: the CL points would be the part contour, and the proof of \
+                 a CL job compares the posted program with the CL points as tool-centre moves \
+                 (post the CAM's tool-centre output, CUTCOM/OFF throughout)"
+                    .into(),
+            )),
             "PPRINT" => {
                 self.push(CanonKind::Single(SegmentKind::Message {
                     text: args.to_string(),
@@ -195,7 +210,12 @@ impl Cl<'_> {
             "CIRCLE" => self.circle(&list),
             "CYCLE" => self.cycle_statement(&list),
             "GOTO" | "GODLTA" => {
-                let v = self.numbers(&list, 3)?;
+                let v: Vec<f64> = self
+                    .numbers(&list, 3)?
+                    .iter()
+                    .map(|v| v * self.unit)
+                    .collect();
+                self.moved = true;
                 let mut end = self.pos;
                 for (k, axis) in ['X', 'Y', 'Z'].into_iter().enumerate() {
                     if let Some(i) = self.cfg.axis_index(axis) {
@@ -264,12 +284,39 @@ impl Cl<'_> {
             .ok_or_else(|| self.error("cutting data before a LOADTL".into()))?;
         self.tools.tool.get(&n).copied().ok_or_else(|| {
             self.error(format!(
-                "tool {n} is not in the tool table (--tools: [tool.{n}] diameter, teeth)"
+                "tool {n} is not in the tool table (--tools: [tool.{n}] diameter, teeth; or \
+                 the config's [tool_offsets] {n} = {{ diameter, teeth, vc, fz }})"
             ))
         })
     }
 
-    /// `SPINDL/ n, RPM|SMM, CLW|CCLW` or `SPINDL/OFF`.
+    /// A value of the loaded tool's cutting data, or which key it lacks.
+    fn tool_value<T>(
+        &self,
+        key: &str,
+        get: impl Fn(&super::tools::Tool) -> Option<T>,
+    ) -> Result<T, PostError> {
+        let tool = self.tool()?;
+        get(&tool).ok_or_else(|| {
+            let n = self.state.tool.unwrap_or(0);
+            self.error(format!("tool {n} has no {key} in the tool table"))
+        })
+    }
+
+    /// The number at the head of `list`, if it starts with one (a statement's own value).
+    fn leading_number(&self, list: &[&str]) -> Result<Option<f64>, PostError> {
+        match list.first() {
+            Some(a)
+                if a.starts_with(|c: char| c.is_ascii_digit() || matches!(c, '.' | '-' | '+')) =>
+            {
+                Ok(Some(self.numbers(&list[..1], 1)?[0]))
+            }
+            _ => Ok(None),
+        }
+    }
+
+    /// `SPINDL/ n, RPM|SMM, CLW|CCLW` or `SPINDL/OFF`; without `n` (`SPINDL/CLW`), the
+    /// loaded tool's Vc from the tool table.
     fn spindle(&mut self, list: &[&str]) -> Result<(), PostError> {
         if list.first() == Some(&"OFF") {
             self.dir = SpindleDir::Stop;
@@ -280,11 +327,13 @@ impl Cl<'_> {
             }));
             return Ok(());
         }
-        let v = self.numbers(&list[..1.min(list.len())], 1)?[0];
-        self.rpm = if list.contains(&"SMM") {
-            rpm_from_vc(v, self.tool()?.diameter)
-        } else {
-            v
+        let diameter = || self.tool_value("diameter", |t| t.diameter);
+        self.rpm = match self.leading_number(list)? {
+            Some(vc) if list.contains(&"SMM") => rpm_from_vc(vc, diameter()?),
+            // Surface feet per minute: 0.3048 m each.
+            Some(sfm) if list.contains(&"SFM") => rpm_from_vc(sfm * 0.3048, diameter()?),
+            Some(rpm) => rpm,
+            None => rpm_from_vc(self.tool_value("vc", |t| t.vc)?, diameter()?),
         };
         self.dir = if list.contains(&"CCLW") {
             SpindleDir::Ccw
@@ -299,9 +348,17 @@ impl Cl<'_> {
         Ok(())
     }
 
-    /// `FEDRAT/ f, MMPM|MMPR|MMPT` (mm/min, per revolution, per tooth).
+    /// `FEDRAT/ f, MMPM|MMPR|MMPT` (mm/min, per revolution, per tooth); `FEDRAT/MMPT`
+    /// without `f`: the loaded tool's fz from the tool table.
     fn feedrate(&mut self, list: &[&str]) -> Result<(), PostError> {
-        let f = self.numbers(&list[..1.min(list.len())], 1)?[0];
+        let f = match self.leading_number(list)? {
+            Some(f) => f,
+            // The table's fz is mm per tooth whatever the data's units.
+            None if list.first() == Some(&"MMPT") => {
+                self.tool_value("fz", |t| t.fz)? / self.length_unit(list)
+            }
+            None => self.numbers(&list[..1.min(list.len())], 1)?[0],
+        };
         let per_rev = || {
             if self.rpm > 0.0 {
                 Ok(self.rpm)
@@ -309,10 +366,11 @@ impl Cl<'_> {
                 Err(self.error("a feed per revolution or tooth with the spindle at 0 rpm".into()))
             }
         };
-        let feed = if list.contains(&"MMPR") {
+        let f = f * self.length_unit(list);
+        let feed = if list.iter().any(|w| matches!(*w, "MMPR" | "IPR")) {
             f * per_rev()?
-        } else if list.contains(&"MMPT") {
-            feed_from_fz(f, self.tool()?.teeth, per_rev()?)
+        } else if list.iter().any(|w| matches!(*w, "MMPT" | "IPT")) {
+            feed_from_fz(f, self.tool_value("teeth", |t| t.teeth)?, per_rev()?)
         } else {
             f
         };
@@ -335,6 +393,36 @@ impl Cl<'_> {
         Ok(())
     }
 
+    /// `UNITS/MM` or `UNITS/INCHES` (every length and feed of the data after it in inches;
+    /// the posted program is then an inch program), before anything moves.
+    fn units(&mut self, list: &[&str]) -> Result<(), PostError> {
+        let (unit, units) = match list.first().copied() {
+            Some("MM") => (1.0, ProgramUnits::Mm),
+            Some("INCHES") | Some("INCH") => (25.4, ProgramUnits::Inch),
+            _ => return Err(self.error("UNITS/ MM or INCHES".into())),
+        };
+        if self.moved && unit != self.unit {
+            return Err(self.error("UNITS/ changes the units after the data moved".into()));
+        }
+        self.unit = unit;
+        let mut st = (*self.state).clone();
+        st.units = units;
+        self.state = Arc::new(st);
+        Ok(())
+    }
+
+    /// mm per unit of a value whose statement names its unit (`MMPM`, `MMPR`, `MMPT`: mm;
+    /// `IPM`, `IPR`, `IPT`: inches), else the data's units.
+    fn length_unit(&self, list: &[&str]) -> f64 {
+        if list.iter().any(|w| matches!(*w, "MMPM" | "MMPR" | "MMPT")) {
+            1.0
+        } else if list.iter().any(|w| matches!(*w, "IPM" | "IPR" | "IPT")) {
+            25.4
+        } else {
+            self.unit
+        }
+    }
+
     /// `CIRCLE/ xc, yc, zc, i, j, k, r`: the next `GOTO/` runs along it (axis +Z: CCW).
     fn circle(&mut self, list: &[&str]) -> Result<(), PostError> {
         let v = self.numbers(list, 7)?;
@@ -344,12 +432,14 @@ impl Cl<'_> {
             );
         }
         let dir = if v[5] > 0.0 { ArcDir::Ccw } else { ArcDir::Cw };
-        self.circle = Some(([v[0], v[1], v[2]], dir));
+        let u = self.unit;
+        self.circle = Some(([v[0] * u, v[1] * u, v[2] * u], dir));
         Ok(())
     }
 
     /// `CYCLE/DRILL, depth, MMPM|MMPR, f, clearance`, `CYCLE/DEEP, depth, STEP, q, MMPM, f,
-    /// clearance`, `CYCLE/BORE, …` (G81, G83, G85 at every GOTO), `CYCLE/OFF`.
+    /// clearance`, `CYCLE/BORE, …`, `CYCLE/TAP, depth, MMPR, pitch, clearance` (or MMPM f:
+    /// pitch f/n) (G81, G83, G85, G84 rigid at every GOTO), `CYCLE/OFF`; IPM/IPR in inches.
     fn cycle_statement(&mut self, list: &[&str]) -> Result<(), PostError> {
         let code = match list.first().copied() {
             Some("OFF") => {
@@ -359,14 +449,16 @@ impl Cl<'_> {
             Some("DRILL") => 81,
             Some("DEEP") => 83,
             Some("BORE") => 85,
+            Some("TAP") => 84,
             other => {
                 return Err(self.error(format!(
-                    "CYCLE/{} is not read (DRILL, DEEP, BORE, OFF are)",
+                    "CYCLE/{} is not read (DRILL, DEEP, BORE, TAP, OFF are)",
                     other.unwrap_or("")
                 )));
             }
         };
         let rest = &list[1..];
+        let u = self.unit;
         let nums: Vec<f64> = rest.iter().filter_map(|a| a.parse::<f64>().ok()).collect();
         let step = if code == 83 {
             nums.get(1).copied()
@@ -380,23 +472,43 @@ impl Cl<'_> {
                 self.error("CYCLE/ needs depth, (STEP q,) MMPM|MMPR feed, clearance".into())
             );
         };
-        let feed = if rest.contains(&"MMPR") {
-            f * self.rpm
+        let f = f * self.length_unit(rest);
+        let per_rev = rest.iter().any(|w| matches!(*w, "MMPR" | "IPR"));
+        let feed = if per_rev { f * self.rpm } else { f };
+        let (code, pitch) = if code == 84 {
+            self.tap_of(feed)?
         } else {
-            *f
+            (code, None)
         };
         if feed <= 0.0 || *depth <= 0.0 || step.is_some_and(|q| q <= 0.0) {
             return Err(self.error("CYCLE/ depth, step and feed must be > 0".into()));
         }
         self.cycle = Some(ClCycle {
             code,
-            depth: *depth,
-            step,
+            depth: depth * u,
+            step: step.map(|q| q * u),
+            pitch,
             feed,
-            clearance: *clearance,
+            clearance: clearance * u,
             initial: None,
         });
         Ok(())
+    }
+
+    /// A rigid tap at `feed` (mm/min): G84 with the spindle CLW, G74 CCLW; the pitch is the
+    /// feed per revolution. The spindle must turn (the tap is coupled to it) and the machine
+    /// have a spindle axis.
+    fn tap_of(&self, feed: f64) -> Result<(u32, Option<f64>), PostError> {
+        if self.dir == SpindleDir::Stop || self.rpm <= 0.0 {
+            return Err(self.error("CYCLE/TAP with the spindle stopped (SPINDL/ first)".into()));
+        }
+        if self.cfg.spindle_index().is_none() {
+            return Err(self.error(
+                "CYCLE/TAP is a rigid tap: the machine has no spindle axis to couple it to".into(),
+            ));
+        }
+        let code = if self.dir == SpindleDir::Ccw { 74 } else { 84 };
+        Ok((code, Some(feed / self.rpm)))
     }
 
     fn goto(&mut self, end: AxisPos) -> Result<(), PostError> {
@@ -461,7 +573,16 @@ impl Cl<'_> {
             bottom: at[z] - c.depth,
             return_level: initial,
             feed: c.feed,
-            tap: None,
+            tap: c
+                .pitch
+                .zip(self.cfg.spindle_index())
+                .map(|(pitch, spindle)| TapPlan {
+                    spindle,
+                    pitch,
+                    dir: self.dir,
+                    peck: None,
+                    peck_retract: self.cfg.interp.tap_peck_retract,
+                }),
             plan: CyclePlan {
                 peck_retract: self.cfg.interp.peck_retract,
                 peck_clearance: self.cfg.interp.peck_clearance,

@@ -72,6 +72,77 @@ pub fn mark(text: &str) -> Option<Marked> {
     (!m.calls.is_empty()).then_some(m)
 }
 
+/// The text of the marker message at the start of a sub-program's body (followed by its
+/// `O` number): each run of the body begins with one.
+pub const SUB_MARKER: &str = "CNC402-POST-SUB ";
+
+/// A sub-program of the job that `M98` calls in the same file: its `O` number and the job
+/// lines from its `O` line to its `M99`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SubBody {
+    pub number: u32,
+    pub first_line: u32,
+    pub last_line: u32,
+}
+
+/// The job text with a marker after the `O` line of each sub-program `M98` calls (one that
+/// calls no other program itself), the job line of each line, and the bodies.
+#[derive(Clone, Debug, Default)]
+pub struct SubMarked {
+    pub bodies: Vec<SubBody>,
+    pub text: String,
+    pub line_of: Vec<u32>,
+}
+
+/// Words that make a sub-program's runs overlap others' (a call inside it): not marked.
+const CALLS: [&str; 4] = ["M98", "G65", "G66", "M99P"];
+
+/// The sub-programs of `text` called by `M98 P` in it, marked; `None` when there is none.
+pub fn mark_subs(text: &str) -> Option<SubMarked> {
+    let lines: Vec<&str> = text.lines().collect();
+    let called: Vec<u32> = lines
+        .iter()
+        .filter_map(|l| {
+            let b = bare(l);
+            let at = b.find("M98P")?;
+            let digits: String = b[at + 4..]
+                .chars()
+                .take_while(|c| c.is_ascii_digit())
+                .collect();
+            digits.parse().ok()
+        })
+        .collect();
+    let mut m = SubMarked::default();
+    let mut i = 0;
+    while i < lines.len() {
+        let n = i as u32 + 1;
+        m.text.push_str(lines[i]);
+        m.text.push('\n');
+        m.line_of.push(n);
+        let number = bare(lines[i])
+            .strip_prefix('O')
+            .and_then(|d| d.parse::<u32>().ok())
+            .filter(|d| called.contains(d));
+        let end = (i + 1..lines.len()).find(|&k| bare(lines[k]).ends_with("M99"));
+        if let (Some(number), Some(end)) = (number, end) {
+            let calls_others = lines[i + 1..=end]
+                .iter()
+                .any(|l| CALLS.iter().any(|w| bare(l).contains(w)));
+            if !calls_others {
+                m.text.push_str(&format!("(MSG,{SUB_MARKER}{number})\n"));
+                m.line_of.push(n);
+                m.bodies.push(SubBody {
+                    number,
+                    first_line: n,
+                    last_line: end as u32 + 1,
+                });
+            }
+        }
+        i += 1;
+    }
+    (!m.bodies.is_empty()).then_some(m)
+}
+
 /// `ops` without the call markers (for an emitter that writes messages).
 pub fn without_markers(ops: &[CanonOp]) -> Vec<CanonOp> {
     ops.iter()
@@ -233,6 +304,23 @@ mod tests {
         assert_eq!((m.programs[0].first_line, m.programs[0].last_line), (7, 9));
         assert!(m.text.contains("(MSG,CNC402-POST-CALL 0)\nN20 G65"));
         assert_eq!(&m.line_of[..4], &[1, 2, 3, 3]);
+    }
+
+    #[test]
+    fn sub_programs_called_by_m98_are_marked_after_their_o_line() {
+        let job = "O1\nM98 P20 L2\nM98 P30\nM30\nO20\nG1 X1.\nM99\nO30\nM98 P20\nM99\n";
+        let m = mark_subs(job).unwrap();
+        assert_eq!(
+            m.bodies,
+            [SubBody {
+                number: 20,
+                first_line: 5,
+                last_line: 7
+            }]
+        );
+        assert!(m.text.contains("O20\n(MSG,CNC402-POST-SUB 20)\nG1 X1."));
+        assert_eq!(&m.line_of[4..7], &[5, 5, 6]);
+        assert!(mark_subs("G1 X1.\nM30\n").is_none());
     }
 
     #[test]

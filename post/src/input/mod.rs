@@ -21,6 +21,8 @@ pub struct Job {
     pub cl: bool,
     /// The job's own cycle programs and their calls (marked in `ops` by messages).
     pub cycles: Option<calls::Marked>,
+    /// The job's sub-programs whose runs are marked in `ops` (iTNC labels).
+    pub subs: Vec<calls::SubBody>,
 }
 
 /// The job in `text`: CL data ([`apt::is_cl`]) or a program cnc402 runs.
@@ -35,38 +37,76 @@ pub fn job(
             ops: apt::read_cl(cfg, name, text, tools)?,
             cl: true,
             cycles: None,
+            subs: Vec::new(),
         })
     } else if let Some(marked) = calls::mark(text) {
-        let Ok(mut ops) = read_job(cfg, name, &marked.text) else {
-            // The error at the job's own lines, from the job as written.
-            return Ok(Job {
-                ops: read_job(cfg, name, text)?,
-                cl: false,
-                cycles: None,
-            });
-        };
-        // Back to the job's line numbers (the markers are lines of their own).
-        for op in &mut ops {
-            if op.source.file.as_ref() == name
-                && let Some(&line) = (op.source.line as usize)
-                    .checked_sub(1)
-                    .and_then(|i| marked.line_of.get(i))
-            {
-                op.source.line = line;
-            }
-        }
+        let ops = read_marked(cfg, name, text, &marked.text, &marked.line_of)?;
+        let cycles = ops.1.then_some(marked);
         Ok(Job {
-            ops,
+            ops: ops.0,
             cl: false,
-            cycles: Some(marked),
+            cycles,
+            subs: Vec::new(),
         })
     } else {
         Ok(Job {
             ops: read_job(cfg, name, text)?,
             cl: false,
             cycles: None,
+            subs: Vec::new(),
         })
     }
+}
+
+/// The job for a target that writes the job's sub-programs as its own (the iTNC's labels):
+/// each run of a sub-program `M98` calls begins with a marker ([`calls::mark_subs`]).
+pub fn job_with_subs(
+    cfg: &MachineConfig,
+    name: &str,
+    text: &str,
+    tools: &tools::ToolTable,
+) -> Result<Job, PostError> {
+    let marked = match calls::mark_subs(text) {
+        Some(m) if !apt::is_cl(name, text) => m,
+        _ => return job(cfg, name, text, tools),
+    };
+    let (ops, was_marked) = read_marked(cfg, name, text, &marked.text, &marked.line_of)?;
+    Ok(Job {
+        ops,
+        cl: false,
+        cycles: None,
+        subs: if was_marked {
+            marked.bodies
+        } else {
+            Vec::new()
+        },
+    })
+}
+
+/// The operations of `marked` (the job `text` with marker lines), at the job's own line
+/// numbers, and `true`; or, when the marked text does not run, the job's as written (its
+/// error at the job's own lines) and `false`.
+fn read_marked(
+    cfg: &MachineConfig,
+    name: &str,
+    text: &str,
+    marked: &str,
+    line_of: &[u32],
+) -> Result<(Vec<CanonOp>, bool), PostError> {
+    let Ok(mut ops) = read_job(cfg, name, marked) else {
+        return Ok((read_job(cfg, name, text)?, false));
+    };
+    // Back to the job's line numbers (the markers are lines of their own).
+    for op in &mut ops {
+        if op.source.file.as_ref() == name
+            && let Some(&line) = (op.source.line as usize)
+                .checked_sub(1)
+                .and_then(|i| line_of.get(i))
+        {
+            op.source.line = line;
+        }
+    }
+    Ok((ops, true))
 }
 
 /// The most operations one job may have: a program looping forever with motion (M99 in a

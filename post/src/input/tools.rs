@@ -1,22 +1,29 @@
 //! The post's tool table (`cnc402 post --tools FILE.toml`) and source 003's cutting data:
 //! spindle speed from cutting speed, n = 1000·Vc / (π·D), and feed from feed per tooth,
 //! F = fz·z·n. A CL job's `SPINDL/ vc, SMM` and `FEDRAT/ fz, MMPT` are recomputed with the
-//! diameter and teeth of the tool it loaded.
+//! diameter and teeth of the tool it loaded; `SPINDL/CLW` without a speed and
+//! `FEDRAT/MMPT` without a feed take the tool's own Vc and fz. Without `--tools` the table
+//! is the config's `[tool_offsets]` entries that carry cutting data.
 //!
 //! ```toml
 //! [tool.1]
 //! diameter = 10.0   # mm
 //! teeth = 4
+//! vc = 150.0        # m/min (optional)
+//! fz = 0.05         # mm per tooth (optional)
 //! ```
 
 use std::collections::BTreeMap;
 
-/// One tool: diameter (mm) and number of teeth.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
+/// One tool: diameter (mm), number of teeth, cutting speed Vc (m/min), feed per tooth fz
+/// (mm); what a table leaves out is `None` (an error where it is needed).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tool {
-    pub diameter: f64,
-    pub teeth: u32,
+    pub diameter: Option<f64>,
+    pub teeth: Option<u32>,
+    pub vc: Option<f64>,
+    pub fz: Option<f64>,
 }
 
 /// The table: tool number → tool.
@@ -32,11 +39,39 @@ impl ToolTable {
     pub fn parse(text: &str) -> Result<ToolTable, String> {
         let t: ToolTable = toml::from_str(text).map_err(|e| e.to_string())?;
         for (n, tool) in &t.tool {
-            if !(tool.diameter > 0.0 && tool.diameter.is_finite()) || tool.teeth == 0 {
-                return Err(format!("tool.{n}: diameter must be > 0 and teeth >= 1"));
+            let values = [
+                ("diameter", tool.diameter),
+                ("vc", tool.vc),
+                ("fz", tool.fz),
+                ("teeth", tool.teeth.map(f64::from)),
+            ];
+            for (key, v) in values {
+                if v.is_some_and(|v| !(v > 0.0 && v.is_finite())) {
+                    return Err(format!("tool.{n}: {key} must be > 0"));
+                }
             }
         }
         Ok(t)
+    }
+
+    /// The table of the config's `[tool_offsets]` entries that carry cutting data (keys
+    /// `diameter`, `teeth`, `vc`, `fz`), numbered as the offsets.
+    pub fn from_config(cfg: &cnc402_config::MachineConfig) -> ToolTable {
+        let tool = (1u32..)
+            .zip(&cfg.tool_offsets)
+            .filter(|(_, t)| t.cutting != cnc402_config::CuttingData::default())
+            .map(|(n, t)| {
+                let c = t.cutting;
+                let tool = Tool {
+                    diameter: c.diameter,
+                    teeth: c.teeth,
+                    vc: c.vc,
+                    fz: c.fz,
+                };
+                (n, tool)
+            })
+            .collect();
+        ToolTable { tool }
     }
 }
 
@@ -68,10 +103,12 @@ mod tests {
         assert_eq!(
             t.tool[&3],
             Tool {
-                diameter: 8.0,
-                teeth: 3
+                diameter: Some(8.0),
+                teeth: Some(3),
+                ..Tool::default()
             }
         );
+        assert!(ToolTable::parse("[tool.3]\nvc = -1.0\n").is_err());
         assert!(ToolTable::parse("[tool.3]\ndiameter = 0.0\nteeth = 3\n").is_err());
         assert!(ToolTable::parse("[tool.3]\ndiamter = 8.0\nteeth = 3\n").is_err());
     }
