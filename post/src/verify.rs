@@ -170,7 +170,7 @@ fn differs(rules: &Rules, a: &Step, b: &Step, i: usize) -> PostError {
 fn steps(segments: Vec<Segment>) -> Vec<Step> {
     let mut coolant = (false, false);
     let mut at: Option<AxisPos> = None;
-    let mut spindle = (0.0, SpindleDir::Stop);
+    let mut spindle = (0.0, SpindleDir::Stop, 0);
     let mut out = Vec::with_capacity(segments.len());
     for s in segments {
         let before = at;
@@ -185,9 +185,9 @@ fn steps(segments: Vec<Segment>) -> Vec<Step> {
             SegmentKind::Rapid { end } if before.is_some_and(|b| same_point(&b, &end)) => {}
             // A speed and direction the spindle already has changes nothing: the iTNC's
             // `TOOL CALL Z S` then `M3` sets one where the job's `S M3` block is one.
-            SegmentKind::Spindle { rpm, dir } if (rpm, dir) == spindle => {}
-            SegmentKind::Spindle { rpm, dir } => {
-                spindle = (rpm, dir);
+            SegmentKind::Spindle { rpm, dir, spindle: n } if (rpm, dir, n) == spindle => {}
+            SegmentKind::Spindle { rpm, dir, spindle: n } => {
+                spindle = (rpm, dir, n);
                 out.push(step(s.kind, s.ends, coolant, &s.source));
             }
             kind => out.push(step(kind, s.ends, coolant, &s.source)),
