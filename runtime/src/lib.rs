@@ -7,6 +7,7 @@
 // NcError (lang's) is large; it ends a run, outside the loop, so its size costs nothing.
 #![allow(clippy::result_large_err)]
 
+pub mod channel_set;
 pub mod controller;
 pub mod feeder;
 pub mod link;

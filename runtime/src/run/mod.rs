@@ -6,6 +6,7 @@
 
 mod cyclic;
 mod error;
+mod multi;
 mod prompt;
 mod real_time;
 mod report;
@@ -37,6 +38,7 @@ use crate::socket_machine::SocketLink;
 use crate::status::Outcome;
 use cyclic::{LoopEnd, LoopIo, run_cyclic};
 pub use error::RunError;
+pub use multi::{ChannelRun, ChannelsReport, run_channels};
 use prompt::OperatorPrompt;
 use real_time::RealTimeClock;
 use report::build_report;

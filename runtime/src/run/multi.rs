@@ -1,0 +1,480 @@
+//! A run of several channels (`[[channel]]`): each channel's program is dry-run on its own
+//! axes, then every channel gets its feeder thread, move ring, status ring and reporting side,
+//! and one [`ChannelSet`] ticks them all in one loop on one link, in virtual time. The run
+//! ends when every channel has ended; the report is per channel.
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use cnc402_config::{ChannelView, MAX_AXES, MachineConfig};
+use cnc402_drives::Instant;
+use cnc402_lang::{NcError, SourceFile};
+
+use super::cyclic::{LoopEnd, STARTUP_LIMIT, controller_end, counters_since};
+use super::prompt::OperatorPrompt;
+use super::report::build_report;
+use super::side::{FeederStart, Side};
+use super::{LinkSpec, Progress, RunError, RunOptions, Timing, link_for};
+use crate::channel_set::{ChannelPort, ChannelSet, Deadlock, Member};
+use crate::controller::{AxisTable, CycleController, start_position};
+use crate::feeder::{ProgramInput, dry_run_watched, motion_error_to_nc};
+use crate::link::{DriveLink, Startup};
+use crate::operator::{CommandInput, OperatorShared, Panel};
+use crate::program_stop::StopGate;
+use crate::recorder::Recorder;
+use crate::report::RunReport;
+use crate::ring::{MOVE_RING, STATUS_RING, StatusConsumer, move_ring, status_ring};
+use crate::status::Outcome;
+
+/// How one channel's program ended.
+#[derive(Debug)]
+pub struct ChannelRun {
+    pub index: usize,
+    pub name: String,
+    /// The program's name (`(none)` for a channel that had none).
+    pub program: String,
+    /// Its report, or the program error that stopped it.
+    pub result: Result<RunReport, RunError>,
+}
+
+/// The report of a run of several channels.
+#[derive(Debug)]
+pub struct ChannelsReport {
+    pub channels: Vec<ChannelRun>,
+    /// The channels waited for each other at marks that could never all be reached: what
+    /// each stood at.
+    pub deadlock: Option<String>,
+}
+
+impl ChannelsReport {
+    /// Every channel ran its program to its end.
+    pub fn ok(&self) -> bool {
+        self.deadlock.is_none()
+            && self
+                .channels
+                .iter()
+                .all(|c| matches!(&c.result, Ok(r) if r.ok))
+    }
+
+    /// The first error, with its channel, as one line.
+    pub fn error(&self) -> Option<String> {
+        if let Some(d) = &self.deadlock {
+            return Some(d.clone());
+        }
+        self.channels.iter().find_map(|c| match &c.result {
+            Ok(r) if r.ok => None,
+            Ok(r) => Some(format!(
+                "channel {} ({}): {}",
+                c.index,
+                c.name,
+                r.error.as_deref().unwrap_or("not ok")
+            )),
+            Err(e) => Some(format!(
+                "channel {} ({}): {}",
+                c.index,
+                c.name,
+                run_error_line(e)
+            )),
+        })
+    }
+
+    /// The summary: each channel's program, outcome and report.
+    pub fn summary(&self) -> String {
+        let mut out = String::new();
+        for c in &self.channels {
+            let outcome = match &c.result {
+                Ok(r) if r.ok => "finished".to_string(),
+                Ok(r) => format!("stopped: {}", r.error.as_deref().unwrap_or("not ok")),
+                Err(e) => format!("error: {}", run_error_line(e)),
+            };
+            out.push_str(&format!(
+                "== channel {} ({}): {} — {outcome}\n",
+                c.index, c.name, c.program
+            ));
+            if let Ok(r) = &c.result {
+                out.push_str(&r.summary());
+            }
+        }
+        if let Some(d) = &self.deadlock {
+            out.push_str(&format!("{d}\n"));
+        }
+        out
+    }
+
+    /// The JSON report: one entry per channel (its run report, or its error).
+    pub fn to_json(&self) -> serde_json::Value {
+        let channels: Vec<serde_json::Value> = self
+            .channels
+            .iter()
+            .map(|c| {
+                let (ok, error, report) = match &c.result {
+                    Ok(r) => (r.ok, r.error.clone(), r.to_json()),
+                    Err(e) => (false, Some(run_error_line(e)), serde_json::Value::Null),
+                };
+                serde_json::json!({
+                    "channel": c.index,
+                    "name": c.name,
+                    "program": c.program,
+                    "ok": ok,
+                    "error": error,
+                    "report": report,
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "ok": self.ok(),
+            "error": self.error(),
+            "deadlock": self.deadlock,
+            "channels": channels,
+        })
+    }
+}
+
+/// A run error as one line.
+fn run_error_line(e: &RunError) -> String {
+    match e {
+        RunError::Program(e) => format!("{}:{}:{}: {}", e.file, e.line, e.col, e.message),
+        RunError::Io(m) | RunError::Clock(m) => m.clone(),
+    }
+}
+
+/// `e` said of channel `k` of `n`.
+fn in_channel(mut e: NcError, view: &ChannelView) -> NcError {
+    e.message = format!("channel {} ({}): {}", view.index, view.name, e.message);
+    e
+}
+
+/// One channel being run: its view of the machine, its program and what it needs on the
+/// reporting side.
+struct Lane {
+    view: ChannelView,
+    input: ProgramInput,
+    src: SourceFile,
+    expected: u64,
+    gate: Arc<StopGate>,
+}
+
+/// An empty program (a channel given none idles at its position and ends at once).
+fn no_program() -> ProgramInput {
+    let src = SourceFile::new("(none)", "");
+    let program = cnc402_lang::ast::Program {
+        lines: Vec::new(),
+        dialect: Default::default(),
+    };
+    ProgramInput::Parsed { src, program }
+}
+
+/// Runs `programs[k]` on channel `k` of `cfg` (a channel without one idles), all channels in
+/// one loop on one link, in virtual time. Program errors found before motion are
+/// `Err(RunError::Program)` naming the channel; whatever happens during the run is in the
+/// per-channel report.
+pub fn run_channels(
+    cfg: &MachineConfig,
+    mut programs: Vec<Option<ProgramInput>>,
+    opts: RunOptions,
+    progress: &mut dyn FnMut(&Progress),
+) -> Result<ChannelsReport, RunError> {
+    let count = cfg.channel_count();
+    if programs.len() > count {
+        return Err(RunError::Io(format!(
+            "a program for channel {}: this machine has {count} channel(s) ([[channel]] in the \
+             config)",
+            programs.len() - 1
+        )));
+    }
+    if opts.timing == Timing::RealTime {
+        return Err(RunError::Io(
+            "several channels run on the embedded simulator in virtual time only (not yet in \
+             real time or on a CAN interface)"
+                .into(),
+        ));
+    }
+    programs.resize_with(count, || None);
+    let mut lanes = Vec::with_capacity(count);
+    for (k, p) in programs.into_iter().enumerate() {
+        let view = cfg
+            .channel(k)
+            .ok_or_else(|| RunError::Io(format!("channel {k} is not configured")))?;
+        let input = p.unwrap_or_else(no_program);
+        let gate = Arc::new(
+            StopGate::new(opts.at_stop, opts.optional_stop).with_manual_tool_change(
+                view.config.machine.tool_change == cnc402_config::ToolChange::Manual,
+            ),
+        );
+        let dry = dry_run_watched(&view.config, &input, Some(&gate), None)
+            .map_err(|e| RunError::Program(in_channel(e, &view)))?;
+        lanes.push(Lane {
+            src: input.source(),
+            expected: dry.ticks,
+            view,
+            input,
+            gate,
+        });
+    }
+    let spec = LinkSpec {
+        fault: opts.fault,
+        sim_faults: opts.sim_faults.clone(),
+        #[cfg(any(test, feature = "testing"))]
+        model: opts.model_link,
+        timeouts: opts.timeouts,
+    };
+    let link = link_for(cfg, &spec)?;
+    run_lanes(cfg, lanes, link, opts, progress)
+}
+
+/// The reporting sides, rings and controllers of `lanes`, then the loop.
+fn run_lanes(
+    cfg: &MachineConfig,
+    lanes: Vec<Lane>,
+    mut link: Box<dyn DriveLink>,
+    opts: RunOptions,
+    progress: &mut dyn FnMut(&Progress),
+) -> Result<ChannelsReport, RunError> {
+    let wall0 = std::time::Instant::now();
+    let period = Duration::from_micros(cfg.bus.period_us as u64);
+    let mut now = Instant::ZERO;
+    let start = loop {
+        match link.startup(now) {
+            Startup::Ready(p) => break p,
+            Startup::Pending if now.nanos() < STARTUP_LIMIT.as_nanos() as u64 => now += period,
+            Startup::Pending => return Ok(not_started(&lanes, "the drives were not enabled")),
+            Startup::Failed(s) => return Ok(not_started(&lanes, &s)),
+        }
+    };
+    let RunOptions {
+        trace,
+        stop_request,
+        no_operator_terminal,
+        operator,
+        ..
+    } = opts;
+    let commands = operator
+        .commands
+        .clone()
+        .unwrap_or_else(|| Arc::new(CommandInput::stdin()));
+    let panel = Arc::new(Panel::default());
+    let mut schedule = Some(operator.schedule.clone());
+    let mut operator = Some(operator);
+    let mut trace = trace;
+    let mut quiet: Vec<_> = (0..lanes.len()).map(|_| |_: &Progress| {}).collect();
+    let mut progress = Some(progress);
+    let mut sides = Vec::with_capacity(lanes.len());
+    let mut rings = Vec::with_capacity(lanes.len());
+    let mut members = Vec::with_capacity(lanes.len());
+    for (lane, q) in lanes.iter().zip(quiet.iter_mut()) {
+        let vcfg = &lane.view.config;
+        let mut recorder = Recorder::new(vcfg, lane.expected);
+        if let Some(t) = trace.take() {
+            recorder = recorder.with_trace(t);
+        }
+        let shared = Arc::new(OperatorShared::default());
+        let prompt = OperatorPrompt::new(
+            lane.gate.clone(),
+            no_operator_terminal,
+            commands.clone(),
+            shared,
+            panel.clone(),
+        );
+        let tell: &mut dyn FnMut(&Progress) = match progress.take() {
+            Some(p) => p,
+            None => q,
+        };
+        let mut side = Side::new(vcfg, recorder, tell, lane.expected, prompt, &lane.src.name);
+        side.main = Some(lane.src.clone());
+        let local = local_start(&lane.view, &start);
+        let (moves_tx, moves_rx) = move_ring(MOVE_RING);
+        let (status_tx, status_rx) = status_ring(STATUS_RING);
+        let mut ctrl = CycleController::new(
+            vcfg,
+            local,
+            ChannelPort::default(),
+            moves_rx,
+            status_tx,
+            stop_request.clone(),
+        )
+        .with_stop_gate(lane.gate.clone());
+        if let Some(s) = schedule.take() {
+            ctrl = ctrl.with_panel(panel.clone(), s);
+        }
+        let feed = FeederStart {
+            input: lane.input.clone(),
+            moves: moves_tx,
+            stop_request: stop_request.clone(),
+            operator: operator.take().unwrap_or_default(),
+        };
+        side.start_feeder(feed, &local)?;
+        members.push(Member::new(ctrl, &lane.view));
+        sides.push(side);
+        rings.push(status_rx);
+    }
+    let c0 = link.counters();
+    let mut set = ChannelSet::new(link, members, start);
+    let t0 = now;
+    let looped = tick_all(&mut set, &mut sides, &mut rings, now, period, &stop_request);
+    for (side, ring) in sides.iter_mut().zip(rings.iter_mut()) {
+        side.drain(ring);
+    }
+    let elapsed = looped.saturating_since(t0);
+    let counters = counters_since(set.link().counters(), c0);
+    let shutdown_error = set.link_mut().shutdown().err();
+    let bus = (counters, set.link().bitrate(), set.link().homed());
+    let deadlock = set.deadlock().map(|d| deadlock_text(d, &lanes));
+    let mut channels = Vec::with_capacity(lanes.len());
+    for ((lane, side), m) in lanes.iter().zip(sides.iter_mut()).zip(set.members()) {
+        side.stop_feeder();
+        let outcome = m.outcome.clone().unwrap_or(Outcome::Finished);
+        let mut end = controller_end(&m.ctrl, outcome, bus, elapsed, wall0.elapsed());
+        end.shutdown_error = shutdown_error.clone();
+        channels.push(ChannelRun {
+            index: lane.view.index,
+            name: lane.view.name.clone(),
+            program: lane.src.name.to_string(),
+            result: channel_result(lane, side, &end),
+        });
+    }
+    Ok(ChannelsReport { channels, deadlock })
+}
+
+/// Ticks `set` in virtual time from `now` until every channel has ended; returns the time
+/// of the last tick. A tick runs only when every running channel has something to do (so
+/// the result does not depend on how fast the feeders plan), as the one-channel loop does.
+fn tick_all(
+    set: &mut ChannelSet<Box<dyn DriveLink>>,
+    sides: &mut [Side],
+    rings: &mut [StatusConsumer],
+    mut now: Instant,
+    period: Duration,
+    stop_request: &Arc<std::sync::atomic::AtomicBool>,
+) -> Instant {
+    let mut ended_seen = vec![false; sides.len()];
+    let mut spins = 0u32;
+    loop {
+        if crate::rt::sigint_seen() {
+            stop_request.store(true, Ordering::SeqCst);
+        }
+        let mut ready = true;
+        let mut held = false;
+        for (k, m) in set.members().iter().enumerate() {
+            if m.outcome.is_some() {
+                continue;
+            }
+            let sh = &sides[k].shared;
+            let waiting = sh.waiting.load(Ordering::SeqCst);
+            held |= m.ctrl.is_held() || m.ctrl.is_feed_held();
+            if m.ctrl.has_work() || (waiting && !sh.motion_done()) {
+                continue;
+            }
+            ready = false;
+            // A feeder that ended without `End` (an error): looked at once more, then stop.
+            if sides[k].feeder.as_ref().is_some_and(|h| h.is_finished()) {
+                if ended_seen[k] {
+                    stop_request.store(true, Ordering::SeqCst);
+                }
+                ended_seen[k] = true;
+            }
+        }
+        if !ready {
+            for (side, ring) in sides.iter_mut().zip(rings.iter_mut()) {
+                side.drain(ring);
+            }
+            spins += 1;
+            if spins > 64 {
+                std::thread::sleep(Duration::from_micros(50));
+            } else {
+                std::thread::yield_now();
+            }
+            continue;
+        }
+        spins = 0;
+        if held {
+            // At a program stop for the operator: time runs at the wall clock's pace.
+            std::thread::sleep(period);
+        }
+        now += period;
+        let done = set.step(now);
+        for (side, ring) in sides.iter_mut().zip(rings.iter_mut()) {
+            side.drain(ring);
+        }
+        if done {
+            return now;
+        }
+    }
+}
+
+/// The drives' start position as channel `view`'s axes see it.
+fn local_start(view: &ChannelView, machine: &[f64; MAX_AXES]) -> [f64; MAX_AXES] {
+    let mut p = [0.0; MAX_AXES];
+    for (k, &a) in view.axes.iter().take(MAX_AXES).enumerate() {
+        p[k] = machine[a];
+    }
+    start_position(&AxisTable::new(&view.config), &p).0
+}
+
+/// A channel's result: its program error (found while running) or its report.
+fn channel_result(lane: &Lane, side: &mut Side, end: &LoopEnd) -> Result<RunReport, RunError> {
+    let _ = side.recorder.finish();
+    if let Some(e) = side.program_error.take() {
+        return Err(RunError::Program(in_channel(e, &lane.view)));
+    }
+    if let Outcome::MotionFailed { error } = &end.outcome {
+        let text = crate::feeder::line_source(&lane.src.name, error.line, &lane.src);
+        let e = motion_error_to_nc(&text, error);
+        return Err(RunError::Program(in_channel(e, &lane.view)));
+    }
+    Ok(build_report(&lane.view.config, &lane.src, side, end))
+}
+
+/// The report of a run whose drives never got enabled: every channel says why.
+fn not_started(lanes: &[Lane], why: &str) -> ChannelsReport {
+    let channels = lanes
+        .iter()
+        .map(|l| {
+            let axes: Vec<char> = l.view.config.axes.iter().map(|a| a.name).collect();
+            let msg = format!("start-up failed: {why}");
+            ChannelRun {
+                index: l.view.index,
+                name: l.view.name.clone(),
+                program: l.src.name.to_string(),
+                result: Ok(RunReport::not_run(l.view.config.bus.period_us, &axes, msg)),
+            }
+        })
+        .collect();
+    ChannelsReport {
+        channels,
+        deadlock: None,
+    }
+}
+
+/// The deadlock as one line naming every channel's file:line and what it waited for.
+fn deadlock_text(d: &Deadlock, lanes: &[Lane]) -> String {
+    let parts: Vec<String> = lanes
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            let at = format!("{}:{}", l.src.name, d.lines[k]);
+            let what = match d.marks[k] {
+                Some((mark, 0)) => format!("waits at mark {mark} for every channel"),
+                Some((mark, bits)) => {
+                    format!("waits at mark {mark} for channels {}", bits_text(bits))
+                }
+                None if d.ended[k] => "has ended".into(),
+                None => "runs".into(),
+            };
+            format!("channel {k} ({}) at {at} {what}", l.view.name)
+        })
+        .collect();
+    format!(
+        "channel wait deadlock: {}; every channel was stopped",
+        parts.join("; ")
+    )
+}
+
+/// Channel bits as `0, 2`.
+fn bits_text(bits: u16) -> String {
+    let v: Vec<String> = (0..16)
+        .filter(|b| bits & (1 << b) != 0)
+        .map(|b| b.to_string())
+        .collect();
+    v.join(", ")
+}
