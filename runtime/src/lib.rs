@@ -38,7 +38,8 @@ pub use plot::write_plot;
 pub use program_stop::{AtStop, StopDecision, StopGate, StopPolicy, StopRecord};
 pub use report::RunReport;
 pub use run::{
-    Progress, RunError, RunOptions, StatsSample, Timing, make_link, run_input, run_program,
+    ChannelRun, ChannelsReport, Progress, RunError, RunOptions, StatsSample, Timing, make_link,
+    run_channels, run_input, run_program,
 };
 pub use sim_machine::{SimFault, SimFaultPlan, SimLink, SimMachine};
 pub use socket_machine::{SocketLink, SocketMachine};

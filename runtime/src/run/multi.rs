@@ -320,6 +320,7 @@ fn run_lanes(
     let shutdown_error = set.link_mut().shutdown().err();
     let bus = (counters, set.link().bitrate(), set.link().homed());
     let deadlock = set.deadlock().map(|d| deadlock_text(d, &lanes));
+    let planned = cnc402_config::busload::BusLoad::of_machine(cfg).percent();
     let mut channels = Vec::with_capacity(lanes.len());
     for ((lane, side), m) in lanes.iter().zip(sides.iter_mut()).zip(set.members()) {
         side.stop_feeder();
@@ -330,7 +331,11 @@ fn run_lanes(
             index: lane.view.index,
             name: lane.view.name.clone(),
             program: lane.src.name.to_string(),
-            result: channel_result(lane, side, &end),
+            result: channel_result(lane, side, &end).map(|mut r| {
+                // The bus is the machine's, not the channel's.
+                r.bus_planned_percent = planned;
+                r
+            }),
         });
     }
     Ok(ChannelsReport { channels, deadlock })
