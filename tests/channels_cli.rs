@@ -60,8 +60,22 @@ fn two_channels_run_their_programs_concurrently_with_a_report_per_channel() {
         &format!("1={b}"),
         "--report",
         r.to_str().unwrap(),
+        "--trace",
+        d.join("t.csv").to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", text(&o));
+    let trace = std::fs::read_to_string(d.join("t.csv")).unwrap();
+    let mut rows = trace.lines();
+    let header = rows.next().unwrap();
+    assert!(
+        header.starts_with("t,line,line_ch1,X_cmd,X_act,"),
+        "{header}"
+    );
+    assert!(header.contains(",U_cmd,U_act,W_cmd,W_act,"), "{header}");
+    let last: Vec<&str> = rows.last().unwrap().split(',').collect();
+    // Channel 0 ended at line 3 (M30), channel 1 at line 3; U at -3.
+    assert_eq!((last[1], last[2]), ("3", "3"), "{last:?}");
+    assert_eq!(last[11], "-3", "{last:?}");
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("== channel 0 (main): ") && out.contains("== channel 1 (sub): "));
     let rep: Value = serde_json::from_str(&std::fs::read_to_string(&r).unwrap()).unwrap();

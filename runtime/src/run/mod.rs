@@ -12,6 +12,7 @@ mod real_time;
 mod report;
 mod side;
 mod stats;
+mod trace;
 mod virtual_time;
 
 use std::io::Write;

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
-use cnc402_config::{ChannelView, MAX_AXES, MachineConfig};
+use cnc402_config::{ChannelView, MAX_AXES, MAX_CHANNELS, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_lang::{NcError, SourceFile};
 
@@ -15,6 +15,7 @@ use super::cyclic::{LoopEnd, STARTUP_LIMIT, controller_end, counters_since};
 use super::prompt::OperatorPrompt;
 use super::report::build_report;
 use super::side::{FeederStart, Side};
+use super::trace::MachineTrace;
 use super::{LinkSpec, Progress, RunError, RunOptions, Timing, link_for};
 use crate::channel_set::{ChannelPort, ChannelSet, Deadlock, Member};
 use crate::controller::{AxisTable, CycleController, start_position};
@@ -256,7 +257,7 @@ fn run_lanes(
     let panel = Arc::new(Panel::default());
     let mut schedule = Some(operator.schedule.clone());
     let mut operator = Some(operator);
-    let mut trace = trace;
+    let mut trace = trace.map(|t| MachineTrace::new(cfg, t));
     let mut quiet: Vec<_> = (0..lanes.len()).map(|_| |_: &Progress| {}).collect();
     let mut progress = Some(progress);
     let mut sides = Vec::with_capacity(lanes.len());
@@ -264,10 +265,7 @@ fn run_lanes(
     let mut members = Vec::with_capacity(lanes.len());
     for (lane, q) in lanes.iter().zip(quiet.iter_mut()) {
         let vcfg = &lane.view.config;
-        let mut recorder = Recorder::new(vcfg, lane.expected);
-        if let Some(t) = trace.take() {
-            recorder = recorder.with_trace(t);
-        }
+        let recorder = Recorder::new(vcfg, lane.expected);
         let shared = Arc::new(OperatorShared::default());
         let prompt = OperatorPrompt::new(
             lane.gate.clone(),
@@ -311,7 +309,13 @@ fn run_lanes(
     let c0 = link.counters();
     let mut set = ChannelSet::new(link, members, start);
     let t0 = now;
-    let looped = tick_all(&mut set, &mut sides, &mut rings, now, period, &stop_request);
+    let mut io = TickIo {
+        sides: &mut sides,
+        rings: &mut rings,
+        trace: trace.as_mut(),
+        stop_request: &stop_request,
+    };
+    let looped = tick_all(&mut set, &mut io, now, period);
     for (side, ring) in sides.iter_mut().zip(rings.iter_mut()) {
         side.drain(ring);
     }
@@ -319,6 +323,12 @@ fn run_lanes(
     let counters = counters_since(set.link().counters(), c0);
     let shutdown_error = set.link_mut().shutdown().err();
     let bus = (counters, set.link().bitrate(), set.link().homed());
+    if let Some(Err(e)) = trace.map(MachineTrace::finish) {
+        for side in sides.iter_mut() {
+            side.stop_feeder();
+        }
+        return Err(RunError::Io(format!("trace: {e}")));
+    }
     let deadlock = set.deadlock().map(|d| deadlock_text(d, &lanes));
     let planned = cnc402_config::busload::BusLoad::of_machine(cfg).percent();
     let mut channels = Vec::with_capacity(lanes.len());
@@ -334,6 +344,7 @@ fn run_lanes(
             result: channel_result(lane, side, &end).map(|mut r| {
                 // The bus is the machine's, not the channel's.
                 r.bus_planned_percent = planned;
+                r.error = r.error.map(|e| whose_stop(cfg, lane, &end.outcome, e));
                 r
             }),
         });
@@ -346,13 +357,18 @@ fn run_lanes(
 /// the result does not depend on how fast the feeders plan), as the one-channel loop does.
 fn tick_all(
     set: &mut ChannelSet<Box<dyn DriveLink>>,
-    sides: &mut [Side],
-    rings: &mut [StatusConsumer],
+    io: &mut TickIo,
     mut now: Instant,
     period: Duration,
-    stop_request: &Arc<std::sync::atomic::AtomicBool>,
 ) -> Instant {
+    let TickIo {
+        sides,
+        rings,
+        trace,
+        stop_request,
+    } = io;
     let mut ended_seen = vec![false; sides.len()];
+    let mut tick = 0;
     let mut spins = 0u32;
     loop {
         if crate::rt::sigint_seen() {
@@ -398,13 +414,27 @@ fn tick_all(
         }
         now += period;
         let done = set.step(now);
-        for (side, ring) in sides.iter_mut().zip(rings.iter_mut()) {
+        let mut last = [None; MAX_CHANNELS];
+        for ((side, ring), l) in sides.iter_mut().zip(rings.iter_mut()).zip(&mut last) {
             side.drain(ring);
+            *l = side.recorder.last;
         }
+        if let Some(t) = trace {
+            t.row(tick, &last);
+        }
+        tick += 1;
         if done {
             return now;
         }
     }
+}
+
+/// What the loop of several channels reads and writes besides the set.
+struct TickIo<'r, 's, 'a> {
+    sides: &'r mut [Side<'a>],
+    rings: &'r mut [StatusConsumer],
+    trace: Option<&'r mut MachineTrace>,
+    stop_request: &'s Arc<std::sync::atomic::AtomicBool>,
 }
 
 /// The drives' start position as channel `view`'s axes see it.
@@ -428,6 +458,22 @@ fn channel_result(lane: &Lane, side: &mut Side, end: &LoopEnd) -> Result<RunRepo
         return Err(RunError::Program(in_channel(e, &lane.view)));
     }
     Ok(build_report(&lane.view.config, &lane.src, side, end))
+}
+
+/// A stop raised by another channel's drive says so: `error` prefixed with that channel.
+fn whose_stop(cfg: &MachineConfig, lane: &Lane, outcome: &Outcome, error: String) -> String {
+    let Outcome::Stopped { stop, .. } = outcome else {
+        return error;
+    };
+    let owner = (0..cfg.channel_count())
+        .filter_map(|k| cfg.channel(k))
+        .find(|v| v.config.axes.iter().any(|a| a.node == Some(stop.node)));
+    match owner {
+        Some(v) if stop.node != 0 && v.index != lane.view.index => {
+            format!("stopped with channel {} ({}): {error}", v.index, v.name)
+        }
+        _ => error,
+    }
 }
 
 /// The report of a run whose drives never got enabled: every channel says why.
