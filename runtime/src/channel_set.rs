@@ -4,11 +4,15 @@
 //! the feedback back and completes each. It also holds channels at wait marks, detects a wait
 //! that can never end, and spreads a channel's stop to the others per its `on_error`.
 
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+
 use cnc402_config::{ChannelView, MAX_AXES, MAX_CHANNELS, OnError};
 use cnc402_drives::Instant;
 use cnc402_drives::bus::BusCounters;
 use cnc402_motion::Tick;
 
+use crate::channels::ChannelSignal;
 use crate::controller::{CycleController, Step, stop_without_drive};
 use crate::link::{DriveFeedback, DriveLink, DriveStop, Startup, StopCause};
 use crate::machine_io::OUTPUTS;
@@ -71,6 +75,9 @@ pub struct Member {
     tick: Option<Tick>,
     /// How it ended (`None` while it runs).
     pub outcome: Option<Outcome>,
+    /// A resident channel's signal: it takes programs one after another from the board and
+    /// ends with the run (see `crate::channels`); `None`: it ends with its program.
+    signal: Option<Arc<ChannelSignal>>,
 }
 
 impl Member {
@@ -91,11 +98,25 @@ impl Member {
             on_error: view.on_error,
             tick: None,
             outcome: None,
+            signal: None,
         }
+    }
+
+    /// A resident channel (see [`Member::signal`](Self)).
+    pub fn resident(mut self, signal: Arc<ChannelSignal>) -> Member {
+        self.signal = Some(signal);
+        self
     }
 
     fn live(&self) -> bool {
         self.outcome.is_none()
+    }
+
+    /// A resident channel with no program queued or running.
+    fn idle_resident(&self) -> bool {
+        self.signal
+            .as_ref()
+            .is_some_and(|s| !s.busy.load(Ordering::SeqCst))
     }
 }
 
@@ -164,6 +185,9 @@ impl<L: DriveLink> ChannelSet<L> {
     /// Allocation-free.
     pub fn step(&mut self, now: Instant) -> bool {
         for m in self.members.iter_mut().filter(|m| m.live()) {
+            if let Some(sig) = &m.signal {
+                m.ctrl.set_discarding(sig.reset.load(Ordering::Relaxed));
+            }
             m.tick = Some(m.ctrl.prepare());
             for (k, on) in m.ctrl.link_mut().take_outputs().into_iter().enumerate() {
                 if let Some(on) = on {
@@ -199,10 +223,32 @@ impl<L: DriveLink> ChannelSet<L> {
             if let Step::Done(o) = m.ctrl.complete(&t, r, stopped) {
                 m.outcome = Some(o);
             }
+            if let Some(sig) = &m.signal {
+                sig.at_mark
+                    .store(m.ctrl.at_mark().is_some(), Ordering::Relaxed);
+                sig.line.store(m.ctrl.line(), Ordering::Relaxed);
+                sig.dead.store(!m.live(), Ordering::Relaxed);
+            }
         }
         self.spread_stops();
         self.wait_marks();
+        self.end_residents();
         self.is_done()
+    }
+
+    /// Once every channel that runs one program has ended, the resident channels without
+    /// a program end too (nobody is left to start one).
+    fn end_residents(&mut self) {
+        let others_ended = self.members.iter().all(|m| m.signal.is_some() || !m.live());
+        if !others_ended {
+            return;
+        }
+        let rest = |m: &Member| m.live() && m.idle_resident() && m.ctrl.is_at_rest();
+        if self.members.iter().filter(|m| m.live()).all(rest) {
+            for m in self.members.iter_mut().filter(|m| m.live()) {
+                m.outcome = Some(Outcome::Finished);
+            }
+        }
     }
 
     /// The channel whose drive is `node` (`None` for 0: the bus, the operator).
@@ -238,7 +284,8 @@ impl<L: DriveLink> ChannelSet<L> {
         let mark_of = |j: usize| self.members[j].ctrl.at_mark();
         let ended = |j: usize| {
             let m = &self.members[j];
-            !m.live() || (m.ctrl.is_ending() && m.ctrl.at_mark().is_none())
+            let at_rest = m.ctrl.is_ending() || m.idle_resident();
+            !m.live() || (at_rest && m.ctrl.at_mark().is_none())
         };
         let mut release = [false; MAX_CHANNELS];
         let mut stuck = false;
@@ -279,8 +326,10 @@ impl<L: DriveLink> ChannelSet<L> {
         }
         self.deadlock = Some(d);
         // A channel that ended its program settles as it would have.
-        let stuck =
-            |m: &&mut Member| m.live() && (!m.ctrl.is_ending() || m.ctrl.at_mark().is_some());
+        let stuck = |m: &&mut Member| {
+            let at_rest = m.ctrl.is_ending() || m.idle_resident();
+            m.live() && (!at_rest || m.ctrl.at_mark().is_some())
+        };
         for m in self.members.iter_mut().filter(stuck) {
             m.ctrl
                 .stop_for(stop_without_drive(StopCause::ChannelDeadlock));

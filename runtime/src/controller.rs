@@ -140,6 +140,8 @@ pub struct CycleController<L: DriveLink> {
     wait_marks: bool,
     /// At rest at a wait mark `(mark, channels)` until the channel set releases it.
     mark: Option<(u16, u16)>,
+    /// A channel reset: the path stops, queued moves are dropped, the channel stays running.
+    discarding: bool,
 }
 
 /// One axis of a tap slaved to the other's actual position after that one's drive stopped
@@ -228,6 +230,7 @@ impl<L: DriveLink> CycleController<L> {
             outputs: crate::machine_io::LoopOutputs::new(cfg),
             wait_marks: false,
             mark: None,
+            discarding: false,
         }
     }
 
@@ -243,6 +246,30 @@ impl<L: DriveLink> CycleController<L> {
         self.mark.filter(|_| self.phase == Phase::Running)
     }
 
+    /// A channel reset (`on`): the path decelerates to rest and every queued move is
+    /// dropped (counted as started, so the feeder's motion sync sees them done) until it is
+    /// turned off; the controller stays in the running phase and takes moves again after.
+    pub fn set_discarding(&mut self, on: bool) {
+        if on && !self.discarding && !self.interp.is_idle() {
+            self.interp.request_stop();
+        }
+        self.discarding = on;
+    }
+
+    /// Drops the queued moves and ends a reset's stop once at rest (see `set_discarding`).
+    fn discard(&mut self) {
+        while let Some(input) = self.moves.try_pop() {
+            if let LoopInput::Move(_) = input {
+                self.moves_started += 1;
+            }
+        }
+        self.mark = None;
+        self.held = false;
+        if self.interp.is_held() {
+            self.interp.clear_stop();
+        }
+    }
+
     /// The other channels reached the mark: the next move starts on the next period.
     pub fn release_mark(&mut self) {
         self.mark = None;
@@ -252,6 +279,15 @@ impl<L: DriveLink> CycleController<L> {
     /// this one waits forever).
     pub fn is_ending(&self) -> bool {
         self.phase != Phase::Running || (self.input_done && self.interp.is_idle())
+    }
+
+    /// Running, idle, nothing queued, not held: a resident channel between programs.
+    pub fn is_at_rest(&self) -> bool {
+        self.phase == Phase::Running
+            && self.interp.is_idle()
+            && self.moves.is_empty()
+            && !self.held
+            && self.mark.is_none()
     }
 
     /// The first stop of this run (a drive's, the operator's, a motion error's), with the
@@ -418,7 +454,10 @@ impl<L: DriveLink> CycleController<L> {
     pub fn prepare(&mut self) -> cnc402_motion::Tick {
         self.take_requests();
         self.take_panel();
-        let free = !self.held && self.mark.is_none();
+        if self.discarding && self.phase == Phase::Running {
+            self.discard();
+        }
+        let free = !self.held && self.mark.is_none() && !self.discarding;
         if self.phase == Phase::Running && free && !std::mem::take(&mut self.clamped_now) {
             // A blended move shorter than the rest of the period passes between two samples
             // (the interpolator stays idle): start moves until one takes this tick (none from

@@ -8,6 +8,7 @@
 #![allow(clippy::result_large_err)]
 
 pub mod channel_set;
+pub mod channels;
 pub mod controller;
 pub mod feeder;
 pub mod link;

@@ -314,6 +314,7 @@ pub fn run_input(
         moves: moves_tx,
         stop_request: stop_request.clone(),
         operator,
+        channels: None,
     };
     let io = LoopIo {
         moves: moves_rx,

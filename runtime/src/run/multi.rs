@@ -18,8 +18,9 @@ use super::side::{FeederStart, Side};
 use super::trace::MachineTrace;
 use super::{LinkSpec, Progress, RunError, RunOptions, Timing, link_for};
 use crate::channel_set::{ChannelPort, ChannelSet, Deadlock, Member};
+use crate::channels::{ChannelBoard, DryChannels, Resident, spawn_resident};
 use crate::controller::{AxisTable, CycleController, start_position};
-use crate::feeder::{ProgramInput, dry_run_watched, motion_error_to_nc};
+use crate::feeder::{ProgramInput, dry_run_channel, motion_error_to_nc};
 use crate::link::{DriveLink, Startup};
 use crate::operator::{CommandInput, OperatorShared, Panel};
 use crate::program_stop::StopGate;
@@ -35,6 +36,9 @@ pub struct ChannelRun {
     pub name: String,
     /// The program's name (`(none)` for a channel that had none).
     pub program: String,
+    /// A resident channel's programs (given and started by `channel_run`), each with how
+    /// it ended: `name: ok` or `name: error`.
+    pub programs: Vec<String>,
     /// Its report, or the program error that stopped it.
     pub result: Result<RunReport, RunError>,
 }
@@ -146,30 +150,22 @@ fn in_channel(mut e: NcError, view: &ChannelView) -> NcError {
     e
 }
 
-/// One channel being run: its view of the machine, its program and what it needs on the
-/// reporting side.
+/// One channel being run: its view of the machine, its program (channel 0's always; another
+/// channel's from the command line, or none) and what it needs on the reporting side.
 struct Lane {
     view: ChannelView,
-    input: ProgramInput,
+    input: Option<ProgramInput>,
     src: SourceFile,
     expected: u64,
     gate: Arc<StopGate>,
 }
 
-/// An empty program (a channel given none idles at its position and ends at once).
-fn no_program() -> ProgramInput {
-    let src = SourceFile::new("(none)", "");
-    let program = cnc402_lang::ast::Program {
-        lines: Vec::new(),
-        dialect: Default::default(),
-    };
-    ProgramInput::Parsed { src, program }
-}
-
-/// Runs `programs[k]` on channel `k` of `cfg` (a channel without one idles), all channels in
-/// one loop on one link, in virtual time. Program errors found before motion are
-/// `Err(RunError::Program)` naming the channel; whatever happens during the run is in the
-/// per-channel report.
+/// Runs `programs[k]` on channel `k` of `cfg`, all channels in one loop on one link, in
+/// virtual time. Channel 0 runs its program (it must have one); every other channel is
+/// resident: it runs the program given for it, then the ones programs start on it
+/// (`channel_run`), holding position in between, until channel 0 has ended and it is idle.
+/// Program errors found before motion are `Err(RunError::Program)` naming the channel;
+/// whatever happens during the run is in the per-channel report.
 pub fn run_channels(
     cfg: &MachineConfig,
     mut programs: Vec<Option<ProgramInput>>,
@@ -177,11 +173,10 @@ pub fn run_channels(
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<ChannelsReport, RunError> {
     let count = cfg.channel_count();
-    if programs.len() > count {
+    if programs.len() > count || programs.first().is_none_or(Option::is_none) {
         return Err(RunError::Io(format!(
-            "a program for channel {}: this machine has {count} channel(s) ([[channel]] in the \
-             config)",
-            programs.len() - 1
+            "one program for channel 0 and at most one for each other channel: this machine \
+             has {count} channel(s) ([[channel]] in the config)"
         )));
     }
     if opts.timing == Timing::RealTime {
@@ -192,22 +187,30 @@ pub fn run_channels(
         ));
     }
     programs.resize_with(count, || None);
+    let board = ChannelBoard::new(cfg);
     let mut lanes = Vec::with_capacity(count);
-    for (k, p) in programs.into_iter().enumerate() {
+    for (k, input) in programs.into_iter().enumerate() {
         let view = cfg
             .channel(k)
             .ok_or_else(|| RunError::Io(format!("channel {k} is not configured")))?;
-        let input = p.unwrap_or_else(no_program);
         let gate = Arc::new(
             StopGate::new(opts.at_stop, opts.optional_stop).with_manual_tool_change(
                 view.config.machine.tool_change == cnc402_config::ToolChange::Manual,
             ),
         );
-        let dry = dry_run_watched(&view.config, &input, Some(&gate), None)
-            .map_err(|e| RunError::Program(in_channel(e, &view)))?;
+        let mut expected = 0;
+        if let Some(input) = &input {
+            let host = Box::new(DryChannels::new(board.clone(), k));
+            let globals = cnc402_interp::SharedGlobals::default();
+            let dry = dry_run_channel(&view.config, input, Some(&gate), host, globals)
+                .map_err(|e| RunError::Program(in_channel(e, &view)))?;
+            expected = dry.ticks;
+        }
         lanes.push(Lane {
-            src: input.source(),
-            expected: dry.ticks,
+            src: input
+                .as_ref()
+                .map_or_else(|| SourceFile::new("(none)", ""), ProgramInput::source),
+            expected,
             view,
             input,
             gate,
@@ -221,7 +224,83 @@ pub fn run_channels(
         timeouts: opts.timeouts,
     };
     let link = link_for(cfg, &spec)?;
-    run_lanes(cfg, lanes, link, opts, progress)
+    run_lanes(cfg, lanes, link, opts, progress, board)
+}
+
+/// What every lane of a run shares.
+struct Common {
+    board: Arc<ChannelBoard>,
+    commands: Arc<CommandInput>,
+    panel: Arc<Panel>,
+    no_operator_terminal: bool,
+    stop_request: Arc<std::sync::atomic::AtomicBool>,
+}
+
+/// Channel `lane`'s reporting side (its feeder started), status ring and loop member, the
+/// drives standing at `start`. Channel 0 gets the operator's options and `schedule`.
+fn open_lane<'a>(
+    lane: &'a Lane,
+    common: &Common,
+    start: &[f64; MAX_AXES],
+    tell: &'a mut dyn FnMut(&Progress),
+    operator: Option<crate::operator::OperatorOptions>,
+) -> Result<(Side<'a>, StatusConsumer, Member), RunError> {
+    let k = lane.view.index;
+    let vcfg = &lane.view.config;
+    let prompt = OperatorPrompt::new(
+        lane.gate.clone(),
+        common.no_operator_terminal,
+        common.commands.clone(),
+        Arc::new(OperatorShared::default()),
+        common.panel.clone(),
+    );
+    let recorder = Recorder::new(vcfg, lane.expected);
+    let mut side = Side::new(vcfg, recorder, tell, lane.expected, prompt, &lane.src.name);
+    side.main = Some(lane.src.clone());
+    let local = local_start(&lane.view, start);
+    let (moves_tx, moves_rx) = move_ring(MOVE_RING);
+    let (status_tx, status_rx) = status_ring(STATUS_RING);
+    let stop = common.stop_request.clone();
+    let ctrl = CycleController::new(
+        vcfg,
+        local,
+        ChannelPort::default(),
+        moves_rx,
+        status_tx,
+        stop,
+    )
+    .with_stop_gate(lane.gate.clone());
+    let member;
+    if let (0, Some(input), Some(operator)) = (k, &lane.input, operator) {
+        let ctrl = ctrl.with_panel(common.panel.clone(), operator.schedule.clone());
+        member = Member::new(ctrl, &lane.view);
+        let feed = FeederStart {
+            input: input.clone(),
+            moves: moves_tx,
+            stop_request: common.stop_request.clone(),
+            operator,
+            channels: Some(common.board.host(0)),
+        };
+        side.start_feeder(feed, &local)?;
+    } else {
+        member = Member::new(ctrl, &lane.view).resident(common.board.signal(k));
+        if let Some(input) = &lane.input {
+            common.board.queue_first(k, input.clone());
+        }
+        let resident = Resident {
+            board: common.board.clone(),
+            k,
+            ring: moves_tx,
+            shared: side.shared.clone(),
+            gate: Some(lane.gate.clone()),
+            start: start_position(&AxisTable::new(vcfg), &local),
+            first_from_command_line: lane.input.is_some(),
+        };
+        let h = spawn_resident(resident)
+            .map_err(|e| RunError::Io(format!("cannot start channel {k}'s thread: {e}")))?;
+        side.feeder = Some(h);
+    }
+    Ok((side, status_rx, member))
 }
 
 /// The reporting sides, rings and controllers of `lanes`, then the loop.
@@ -231,6 +310,7 @@ fn run_lanes(
     mut link: Box<dyn DriveLink>,
     opts: RunOptions,
     progress: &mut dyn FnMut(&Progress),
+    board: Arc<ChannelBoard>,
 ) -> Result<ChannelsReport, RunError> {
     let wall0 = std::time::Instant::now();
     let period = Duration::from_micros(cfg.bus.period_us as u64);
@@ -250,12 +330,16 @@ fn run_lanes(
         operator,
         ..
     } = opts;
-    let commands = operator
-        .commands
-        .clone()
-        .unwrap_or_else(|| Arc::new(CommandInput::stdin()));
-    let panel = Arc::new(Panel::default());
-    let mut schedule = Some(operator.schedule.clone());
+    let common = Common {
+        board,
+        commands: operator
+            .commands
+            .clone()
+            .unwrap_or_else(|| Arc::new(CommandInput::stdin())),
+        panel: Arc::new(Panel::default()),
+        no_operator_terminal,
+        stop_request,
+    };
     let mut operator = Some(operator);
     let mut trace = trace.map(|t| MachineTrace::new(cfg, t));
     let mut quiet: Vec<_> = (0..lanes.len()).map(|_| |_: &Progress| {}).collect();
@@ -264,83 +348,86 @@ fn run_lanes(
     let mut rings = Vec::with_capacity(lanes.len());
     let mut members = Vec::with_capacity(lanes.len());
     for (lane, q) in lanes.iter().zip(quiet.iter_mut()) {
-        let vcfg = &lane.view.config;
-        let recorder = Recorder::new(vcfg, lane.expected);
-        let shared = Arc::new(OperatorShared::default());
-        let prompt = OperatorPrompt::new(
-            lane.gate.clone(),
-            no_operator_terminal,
-            commands.clone(),
-            shared,
-            panel.clone(),
-        );
         let tell: &mut dyn FnMut(&Progress) = match progress.take() {
             Some(p) => p,
             None => q,
         };
-        let mut side = Side::new(vcfg, recorder, tell, lane.expected, prompt, &lane.src.name);
-        side.main = Some(lane.src.clone());
-        let local = local_start(&lane.view, &start);
-        let (moves_tx, moves_rx) = move_ring(MOVE_RING);
-        let (status_tx, status_rx) = status_ring(STATUS_RING);
-        let mut ctrl = CycleController::new(
-            vcfg,
-            local,
-            ChannelPort::default(),
-            moves_rx,
-            status_tx,
-            stop_request.clone(),
-        )
-        .with_stop_gate(lane.gate.clone());
-        if let Some(s) = schedule.take() {
-            ctrl = ctrl.with_panel(panel.clone(), s);
-        }
-        let feed = FeederStart {
-            input: lane.input.clone(),
-            moves: moves_tx,
-            stop_request: stop_request.clone(),
-            operator: operator.take().unwrap_or_default(),
+        let opened = open_lane(lane, &common, &start, tell, operator.take());
+        let (side, ring, member) = match opened {
+            Ok(o) => o,
+            Err(e) => {
+                sides.iter_mut().for_each(Side::stop_feeder);
+                let _ = link.shutdown();
+                return Err(e);
+            }
         };
-        side.start_feeder(feed, &local)?;
-        members.push(Member::new(ctrl, &lane.view));
         sides.push(side);
-        rings.push(status_rx);
+        rings.push(ring);
+        members.push(member);
     }
     let c0 = link.counters();
     let mut set = ChannelSet::new(link, members, start);
-    let t0 = now;
     let mut io = TickIo {
         sides: &mut sides,
         rings: &mut rings,
         trace: trace.as_mut(),
-        stop_request: &stop_request,
+        common: &common,
     };
     let looped = tick_all(&mut set, &mut io, now, period);
     for (side, ring) in sides.iter_mut().zip(rings.iter_mut()) {
         side.drain(ring);
     }
-    let elapsed = looped.saturating_since(t0);
     let counters = counters_since(set.link().counters(), c0);
     let shutdown_error = set.link_mut().shutdown().err();
-    let bus = (counters, set.link().bitrate(), set.link().homed());
+    sides.iter_mut().for_each(Side::stop_feeder);
     if let Some(Err(e)) = trace.map(MachineTrace::finish) {
-        for side in sides.iter_mut() {
-            side.stop_feeder();
-        }
         return Err(RunError::Io(format!("trace: {e}")));
     }
-    let deadlock = set.deadlock().map(|d| deadlock_text(d, &lanes));
+    let end = RunEnd {
+        bus: (counters, set.link().bitrate(), set.link().homed()),
+        elapsed: looped.saturating_since(now),
+        wall: wall0.elapsed(),
+        shutdown_error,
+    };
+    Ok(channels_report(
+        cfg,
+        &lanes,
+        &mut sides,
+        &set,
+        &common.board,
+        end,
+    ))
+}
+
+/// What the whole run measured, for every channel's report.
+struct RunEnd {
+    bus: (cnc402_drives::bus::BusCounters, u32, [bool; MAX_AXES]),
+    elapsed: Duration,
+    wall: Duration,
+    shutdown_error: Option<String>,
+}
+
+/// The report of each channel (and the deadlock, if one stopped them).
+fn channels_report(
+    cfg: &MachineConfig,
+    lanes: &[Lane],
+    sides: &mut [Side],
+    set: &ChannelSet<Box<dyn DriveLink>>,
+    board: &ChannelBoard,
+    run: RunEnd,
+) -> ChannelsReport {
+    let deadlock = set.deadlock().map(|d| deadlock_text(d, lanes));
     let planned = cnc402_config::busload::BusLoad::of_machine(cfg).percent();
     let mut channels = Vec::with_capacity(lanes.len());
     for ((lane, side), m) in lanes.iter().zip(sides.iter_mut()).zip(set.members()) {
-        side.stop_feeder();
         let outcome = m.outcome.clone().unwrap_or(Outcome::Finished);
-        let mut end = controller_end(&m.ctrl, outcome, bus, elapsed, wall0.elapsed());
-        end.shutdown_error = shutdown_error.clone();
+        let mut end = controller_end(&m.ctrl, outcome, run.bus, run.elapsed, run.wall);
+        end.shutdown_error = run.shutdown_error.clone();
         channels.push(ChannelRun {
             index: lane.view.index,
             name: lane.view.name.clone(),
             program: lane.src.name.to_string(),
+            programs: board.history(lane.view.index),
             result: channel_result(lane, side, &end).map(|mut r| {
                 // The bus is the machine's, not the channel's.
                 r.bus_planned_percent = planned;
@@ -349,7 +436,7 @@ fn run_lanes(
             }),
         });
     }
-    Ok(ChannelsReport { channels, deadlock })
+    ChannelsReport { channels, deadlock }
 }
 
 /// Ticks `set` in virtual time from `now` until every channel has ended; returns the time
@@ -365,8 +452,9 @@ fn tick_all(
         sides,
         rings,
         trace,
-        stop_request,
+        common,
     } = io;
+    let stop_request = &common.stop_request;
     let mut ended_seen = vec![false; sides.len()];
     let mut tick = 0;
     let mut spins = 0u32;
@@ -383,7 +471,11 @@ fn tick_all(
             let sh = &sides[k].shared;
             let waiting = sh.waiting.load(Ordering::SeqCst);
             held |= m.ctrl.is_held() || m.ctrl.is_feed_held();
-            if m.ctrl.has_work() || (waiting && !sh.motion_done()) {
+            // Blocked in a channel wait, or resident without a program: time runs on.
+            let sig = common.board.signal(k);
+            let idle =
+                sig.blocked.load(Ordering::SeqCst) || (k > 0 && !sig.busy.load(Ordering::SeqCst));
+            if idle || m.ctrl.has_work() || (waiting && !sh.motion_done()) {
                 continue;
             }
             ready = false;
@@ -434,7 +526,7 @@ struct TickIo<'r, 's, 'a> {
     sides: &'r mut [Side<'a>],
     rings: &'r mut [StatusConsumer],
     trace: Option<&'r mut MachineTrace>,
-    stop_request: &'s Arc<std::sync::atomic::AtomicBool>,
+    common: &'s Common,
 }
 
 /// The drives' start position as channel `view`'s axes see it.
@@ -487,6 +579,7 @@ fn not_started(lanes: &[Lane], why: &str) -> ChannelsReport {
                 index: l.view.index,
                 name: l.view.name.clone(),
                 program: l.src.name.to_string(),
+                programs: Vec::new(),
                 result: Ok(RunReport::not_run(l.view.config.bus.period_us, &axes, msg)),
             }
         })

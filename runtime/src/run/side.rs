@@ -38,6 +38,12 @@ pub(super) struct FeederStart {
     pub(super) stop_request: Arc<AtomicBool>,
     /// Breakpoints, single block and block search.
     pub(super) operator: crate::operator::OperatorOptions,
+    /// The machine's channels and the run's shared globals, for the interpreter (a run of
+    /// several channels).
+    pub(super) channels: Option<(
+        Box<dyn cnc402_interp::Channels>,
+        cnc402_interp::SharedGlobals,
+    )>,
 }
 
 /// The reporting side: recorder, progress callback, and what the feeder thread needs to know.
@@ -113,6 +119,9 @@ impl<'a> Side<'a> {
         let start = start_position(&axes, start);
         let mut feeder =
             Feeder::from_input(self.cfg, &feed.input, start, false).map_err(RunError::Program)?;
+        if let Some((host, globals)) = feed.channels {
+            feeder.attach_channels(host, globals);
+        }
         self.lookahead = Some(feeder.lookahead());
         // Feed override above 100 % is planned: the lookahead reads it per segment.
         crate::feeder::lock(&feeder.lookahead())
