@@ -72,6 +72,8 @@ pub struct ChannelBoard {
     changed: Condvar,
     signals: Vec<Arc<ChannelSignal>>,
     globals: SharedGlobals,
+    /// The run is over: no program starts, no wait blocks.
+    closed: AtomicBool,
 }
 
 /// How long a `channel_wait` or `channel_reset` may block at most (wall clock) before it is
@@ -92,7 +94,14 @@ impl ChannelBoard {
             changed: Condvar::new(),
             signals: (0..n).map(|_| Arc::default()).collect(),
             globals: SharedGlobals::default(),
+            closed: AtomicBool::new(false),
         })
+    }
+
+    /// The run is over: waits return (false), starts fail.
+    pub fn close(&self) {
+        self.closed.store(true, Ordering::SeqCst);
+        self.changed.notify_all();
     }
 
     /// Channel `k`'s signal (the loop's side).
@@ -190,6 +199,7 @@ impl ChannelBoard {
     /// Whether channel `k` can take a program now: Auto, not running, not in error, alive.
     fn ready(&self, k: usize, slot: &Slot) -> bool {
         self.views[k].mode == cnc402_config::ChannelMode::Auto
+            && !self.closed.load(Ordering::SeqCst)
             && !self.signals[k].busy.load(Ordering::SeqCst)
             && !self.signals[k].dead.load(Ordering::SeqCst)
             && slot.error.is_none()
@@ -272,7 +282,7 @@ impl ChannelHost {
             if done(&slots) {
                 break true;
             }
-            if t0.elapsed() > WAIT_LIMIT {
+            if t0.elapsed() > WAIT_LIMIT || self.board.closed.load(Ordering::SeqCst) {
                 break false;
             }
             slots = match self
@@ -408,13 +418,19 @@ impl Channels for ChannelHost {
     fn reset(&mut self, ch: usize) -> Result<bool, String> {
         self.other(ch)?;
         let sig = self.board.signals[ch].clone();
-        {
+        let not_started = {
             let mut slots = self.board.lock();
             slots[ch].resetting = true;
-            slots[ch].queued = None;
-            if sig.busy.load(Ordering::SeqCst) {
+            let queued = slots[ch].queued.take().is_some();
+            if !queued && sig.busy.load(Ordering::SeqCst) {
                 sig.reset.store(true, Ordering::SeqCst);
             }
+            queued
+        };
+        if not_started {
+            // Taken off the queue before its feeder saw it: it never ran.
+            self.board
+                .finished(ch, Some("reset (channel_reset) before it started".into()));
         }
         let ended = self.block_until(|_| !sig.busy.load(Ordering::SeqCst));
         let mut slots = self.board.lock();
@@ -484,9 +500,13 @@ fn run_resident(r: Resident) -> Option<NcError> {
                     cancel: Some(&signal.reset),
                 };
                 let e = feed(&mut feeder, to, false);
+                // Waiting for the motion, as the interpreter's motion sync does: virtual
+                // time runs on until it is done.
+                shared.waiting.store(true, Ordering::SeqCst);
                 while !shared.motion_done() && !shared.has_ended() {
                     std::thread::sleep(Duration::from_millis(1));
                 }
+                shared.waiting.store(false, Ordering::SeqCst);
                 e
             }
         };
@@ -494,9 +514,13 @@ fn run_resident(r: Resident) -> Option<NcError> {
             log::warn!("channel {k}: {}:{}: {}", e.file, e.line, e.message);
         }
         let failed = error.as_ref().map(|e| e.to_string()).or_else(|| {
-            shared
-                .has_ended()
-                .then(|| "the channel stopped before its program ended".to_string())
+            if signal.reset.load(Ordering::SeqCst) {
+                Some("reset (channel_reset) before its end".to_string())
+            } else {
+                shared
+                    .has_ended()
+                    .then(|| "the channel stopped before its program ended".to_string())
+            }
         });
         if std::mem::take(&mut first) && first_from_command_line {
             first_error = error;
@@ -551,5 +575,61 @@ impl Channels for DryChannels {
     }
     fn reset(&mut self, ch: usize) -> Result<bool, String> {
         self.board.other(self.this, ch).map(|_| true)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn board() -> Arc<ChannelBoard> {
+        let cfg = MachineConfig::load(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../examples/axioma/two-channel.toml"
+        ))
+        .expect("config");
+        ChannelBoard::new(&cfg)
+    }
+
+    /// Channel 1 waits for channel 0 (its program at line 7); channel 0's wait for channel 1
+    /// can never end: an error naming both channels' lines, at once.
+    #[test]
+    fn a_wait_for_a_channel_that_waits_for_this_one_is_a_deadlock() {
+        let b = board();
+        {
+            let mut slots = b.lock();
+            slots[1].waiting_for = Some(0);
+            slots[1].program = "sub.nc".into();
+            slots[0].program = "main.nc".into();
+        }
+        b.signal(1).busy.store(true, Ordering::SeqCst);
+        b.signal(1).line.store(7, Ordering::SeqCst);
+        b.signal(0).line.store(3, Ordering::SeqCst);
+        let (mut host, _) = b.host(0);
+        let e = host.wait(1).unwrap_err();
+        assert!(e.contains("deadlock"), "{e}");
+        assert!(e.contains("main.nc:3") && e.contains("sub.nc:7"), "{e}");
+    }
+
+    #[test]
+    fn a_channel_the_machine_lacks_or_its_own_is_a_program_error() {
+        let b = board();
+        let (mut host, _) = b.host(0);
+        assert!(host.state(9).unwrap_err().contains("2 channels"));
+        assert!(host.wait(0).unwrap_err().contains("its own channel"));
+        assert!(host.run(2, "x.nc", "m.nc").is_err());
+        let mut dry = DryChannels::new(b.clone(), 0);
+        assert!(dry.start(0, "x.nc", "m.nc").is_err());
+        assert_eq!(dry.start(1, "missing.nc", "m.nc"), Ok(false));
+        assert_eq!(dry.wait(1), Ok(true));
+    }
+
+    #[test]
+    fn a_closed_board_starts_nothing_and_waits_for_nothing() {
+        let b = board();
+        b.signal(1).busy.store(true, Ordering::SeqCst);
+        b.close();
+        let (mut host, _) = b.host(0);
+        assert_eq!(host.wait(1), Ok(false));
     }
 }

@@ -80,6 +80,11 @@ pub struct RunOptions {
     /// `STATUS_RING / 2`, so a smaller ring loses records as a slow reporter would.
     #[cfg(any(test, feature = "testing"))]
     pub status_ring: Option<usize>,
+    /// Run on a thread of its own once the channels of a run of several are started, with
+    /// channel 0's `Channels`: it stands in for channel 0's program calling `channel_run`
+    /// and the others (tests; only with the `testing` feature).
+    #[cfg(any(test, feature = "testing"))]
+    pub channels_hook: Option<ChannelsHook>,
     /// Boot and enable limits; `None`: [`LinkTimeouts::default`] on the simulator,
     /// [`LinkTimeouts::real_bus`] on a CAN interface.
     pub timeouts: Option<LinkTimeouts>,
@@ -112,6 +117,8 @@ impl Default for RunOptions {
             model_link: false,
             #[cfg(any(test, feature = "testing"))]
             status_ring: None,
+            #[cfg(any(test, feature = "testing"))]
+            channels_hook: None,
             timeouts: None,
             at_stop: AtStop::Continue,
             optional_stop: false,
@@ -122,6 +129,10 @@ impl Default for RunOptions {
         }
     }
 }
+
+/// See [`RunOptions::channels_hook`].
+#[cfg(any(test, feature = "testing"))]
+pub type ChannelsHook = Box<dyn FnOnce(Box<dyn cnc402_interp::Channels>) + Send>;
 
 /// The drive link for `cfg`'s bus: the embedded simulated machine for `interface = "sim"`,
 /// otherwise the master on that SocketCAN interface ([`SocketLink`]; an interface that cannot

@@ -97,6 +97,9 @@ impl ChannelsReport {
                 "== channel {} ({}): {} — {outcome}\n",
                 c.index, c.name, c.program
             ));
+            if !c.programs.is_empty() {
+                out.push_str(&format!("  programs run: {}\n", c.programs.join("; ")));
+            }
             if let Ok(r) = &c.result {
                 out.push_str(&r.summary());
             }
@@ -121,6 +124,7 @@ impl ChannelsReport {
                     "channel": c.index,
                     "name": c.name,
                     "program": c.program,
+                    "programs": c.programs,
                     "ok": ok,
                     "error": error,
                     "report": report,
@@ -308,10 +312,12 @@ fn run_lanes(
     cfg: &MachineConfig,
     lanes: Vec<Lane>,
     mut link: Box<dyn DriveLink>,
-    opts: RunOptions,
+    #[allow(unused_mut)] mut opts: RunOptions,
     progress: &mut dyn FnMut(&Progress),
     board: Arc<ChannelBoard>,
 ) -> Result<ChannelsReport, RunError> {
+    #[cfg(any(test, feature = "testing"))]
+    let hook = opts.channels_hook.take();
     let wall0 = std::time::Instant::now();
     let period = Duration::from_micros(cfg.bus.period_us as u64);
     let mut now = Instant::ZERO;
@@ -365,6 +371,11 @@ fn run_lanes(
         rings.push(ring);
         members.push(member);
     }
+    #[cfg(any(test, feature = "testing"))]
+    let hook = hook.map(|h| {
+        let (host, _) = common.board.host(0);
+        std::thread::spawn(move || h(host))
+    });
     let c0 = link.counters();
     let mut set = ChannelSet::new(link, members, start);
     let mut io = TickIo {
@@ -379,7 +390,12 @@ fn run_lanes(
     }
     let counters = counters_since(set.link().counters(), c0);
     let shutdown_error = set.link_mut().shutdown().err();
+    common.board.close();
     sides.iter_mut().for_each(Side::stop_feeder);
+    #[cfg(any(test, feature = "testing"))]
+    if let Some(h) = hook {
+        let _ = h.join();
+    }
     if let Some(Err(e)) = trace.map(MachineTrace::finish) {
         return Err(RunError::Io(format!("trace: {e}")));
     }
