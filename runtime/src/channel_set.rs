@@ -195,8 +195,8 @@ impl<L: DriveLink> ChannelSet<L> {
                 }
             }
             let sent = m.ctrl.sent();
-            for i in 0..m.n {
-                self.commands[m.map[i]] = sent[i];
+            for (&a, &x) in m.map[..m.n].iter().zip(sent) {
+                self.commands[a] = x;
             }
         }
         // A channel that ended keeps its axes at its last setpoints (the link holds them).
@@ -213,8 +213,8 @@ impl<L: DriveLink> ChannelSet<L> {
         for (k, m) in self.members.iter_mut().enumerate() {
             let Some(t) = m.tick.take() else { continue };
             let fb = m.ctrl.feedback_mut();
-            for i in 0..m.n {
-                fb[i] = self.feedback[m.map[i]];
+            for (f, &a) in fb.iter_mut().zip(&m.map[..m.n]) {
+                *f = self.feedback[a];
             }
             let r = raised.filter(|_| to_all || owner == Some(k));
             // Alone in its quick stop, a channel's motion is at rest and its axes held: it

@@ -376,10 +376,8 @@ impl Channels for ChannelHost {
         self.other(ch)?;
         let wanted = self.board.find(program, main);
         let loaded = self.board.lock()[ch].loaded.clone();
-        if wanted.is_none() || wanted != loaded {
-            if !self.load(ch, program, main)? {
-                return Ok(false);
-            }
+        if (wanted.is_none() || wanted != loaded) && !self.load(ch, program, main)? {
+            return Ok(false);
         }
         let mut slots = self.board.lock();
         if !self.board.ready(ch, &slots[ch]) {

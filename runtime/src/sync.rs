@@ -302,7 +302,7 @@ pub fn feed(feeder: &mut Feeder, to: FeedTo, end: bool) -> Option<NcError> {
         push_waiting(
             &mut ring.lock().unwrap_or_else(|e| e.into_inner()),
             item,
-            &shared,
+            shared,
         )
     };
     let mut holds = 0u64;

@@ -276,7 +276,7 @@ fn open_lane<'a>(
     .with_stop_gate(lane.gate.clone());
     let member;
     if let (0, Some(input), Some(operator)) = (k, &lane.input, operator) {
-        let ctrl = ctrl.with_panel(common.panel.clone(), operator.schedule.clone());
+        let ctrl = ctrl.with_panel(common.panel.clone(), operator.schedule);
         member = Member::new(ctrl, &lane.view);
         let feed = FeederStart {
             input: input.clone(),
