@@ -153,3 +153,43 @@ fn a_drive_fault_in_channel_1_stops_both_channels_and_says_where() {
     assert!(final_position(&rep, 0, "X") < 50.0);
     assert!(final_position(&rep, 1, "U") < 50.0);
 }
+
+#[test]
+fn two_channels_run_in_real_time_too_with_the_same_trace_rows() {
+    let d = dir("realtime");
+    let a = program(&d, "a.nc", "G90 G0 X10 Y5\nG1 X20 F600\nM30\n");
+    let b = program(&d, "b.nc", "G90 G1 U20 W-5 F1200\nG0 U-3\nM30\n");
+    let mut rows = Vec::new();
+    for (name, rt) in [("v.csv", false), ("rt.csv", true)] {
+        let trace = d.join(name);
+        let mut args = vec![
+            "--config".to_string(),
+            TWO.to_string(),
+            "run".to_string(),
+            a.clone(),
+            "--channel".to_string(),
+            format!("1={b}"),
+            "--trace".to_string(),
+            trace.display().to_string(),
+        ];
+        if rt {
+            args.push("--realtime".into());
+        }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = cnc402(&args);
+        assert!(o.status.success(), "{}", text(&o));
+        let t = std::fs::read_to_string(&trace).unwrap();
+        // The setpoints are the same whatever the clock (t and actuals may differ).
+        let cmds: Vec<String> = t
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                format!("{} {} {} {}", f[1], f[2], f[3], f[11])
+            })
+            .collect();
+        rows.push(cmds);
+    }
+    assert_eq!(rows[0].len(), rows[1].len());
+    assert_eq!(rows[0], rows[1]);
+}

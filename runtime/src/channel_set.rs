@@ -75,9 +75,12 @@ pub struct Member {
     tick: Option<Tick>,
     /// How it ended (`None` while it runs).
     pub outcome: Option<Outcome>,
-    /// A resident channel's signal: it takes programs one after another from the board and
-    /// ends with the run (see `crate::channels`); `None`: it ends with its program.
+    /// What the board and the reporting side read of this channel (its state, line, end);
+    /// lock-free.
     signal: Option<Arc<ChannelSignal>>,
+    /// It takes programs one after another from the board and ends with the run (see
+    /// `crate::channels`); otherwise it ends with its program.
+    resident: bool,
 }
 
 impl Member {
@@ -99,11 +102,20 @@ impl Member {
             tick: None,
             outcome: None,
             signal: None,
+            resident: false,
         }
     }
 
-    /// A resident channel (see [`Member::signal`](Self)).
-    pub fn resident(mut self, signal: Arc<ChannelSignal>) -> Member {
+    /// A resident channel (see [`Member::resident`](Self)) reporting through `signal`.
+    pub fn resident(self, signal: Arc<ChannelSignal>) -> Member {
+        Member {
+            resident: true,
+            ..self.signalled(signal)
+        }
+    }
+
+    /// A channel reporting its state, line and end through `signal`.
+    pub fn signalled(mut self, signal: Arc<ChannelSignal>) -> Member {
         self.signal = Some(signal);
         self
     }
@@ -114,9 +126,11 @@ impl Member {
 
     /// A resident channel with no program queued or running.
     fn idle_resident(&self) -> bool {
-        self.signal
-            .as_ref()
-            .is_some_and(|s| !s.busy.load(Ordering::SeqCst))
+        self.resident
+            && self
+                .signal
+                .as_ref()
+                .is_some_and(|s| !s.busy.load(Ordering::SeqCst))
     }
 }
 
@@ -171,6 +185,12 @@ impl<L: DriveLink> ChannelSet<L> {
         &mut self.link
     }
 
+    /// The link, the channels and the deadlock that stopped them, if one did (after the
+    /// run).
+    pub fn into_parts(self) -> (L, Vec<Member>, Option<Deadlock>) {
+        (self.link, self.members, self.deadlock)
+    }
+
     /// The deadlock that stopped the channels, if one did.
     pub fn deadlock(&self) -> Option<&Deadlock> {
         self.deadlock.as_ref()
@@ -185,7 +205,7 @@ impl<L: DriveLink> ChannelSet<L> {
     /// Allocation-free.
     pub fn step(&mut self, now: Instant) -> bool {
         for m in self.members.iter_mut().filter(|m| m.live()) {
-            if let Some(sig) = &m.signal {
+            if let (true, Some(sig)) = (m.resident, &m.signal) {
                 m.ctrl.set_discarding(sig.reset.load(Ordering::Relaxed));
             }
             m.tick = Some(m.ctrl.prepare());
@@ -239,7 +259,7 @@ impl<L: DriveLink> ChannelSet<L> {
     /// Once every channel that runs one program has ended, the resident channels without
     /// a program end too (nobody is left to start one).
     fn end_residents(&mut self) {
-        let others_ended = self.members.iter().all(|m| m.signal.is_some() || !m.live());
+        let others_ended = self.members.iter().all(|m| m.resident || !m.live());
         if !others_ended {
             return;
         }

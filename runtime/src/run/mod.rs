@@ -177,6 +177,23 @@ fn make_link_with(
     Ok(Box::new(link))
 }
 
+/// Locked memory and SCHED_FIFO for the calling (loop) thread; without them an error with
+/// `require_rt`, else a warning.
+fn realtime_grant(require_rt: bool) -> Result<crate::rt::RtGrant, RunError> {
+    let grant = request_realtime();
+    if grant.is_full() {
+        log::info!("{}", grant.describe());
+    } else if require_rt {
+        return Err(RunError::Io(format!("--require-rt: {}", grant.describe())));
+    } else {
+        log::warn!(
+            "{} — running anyway, expect more late wake-ups",
+            grant.describe()
+        );
+    }
+    Ok(grant)
+}
+
 /// Which drive link a run uses (see [`make_link`]).
 #[derive(Clone, Debug)]
 struct LinkSpec {
@@ -405,17 +422,7 @@ fn run_realtime(
     let handle = std::thread::Builder::new()
         .name("cnc402-loop".into())
         .spawn(move || -> Result<LoopEnd, RunError> {
-            let grant = request_realtime();
-            if grant.is_full() {
-                log::info!("{}", grant.describe());
-            } else if require_rt {
-                return Err(RunError::Io(format!("--require-rt: {}", grant.describe())));
-            } else {
-                log::warn!(
-                    "{} — running anyway, expect more late wake-ups",
-                    grant.describe()
-                );
-            }
+            let grant = realtime_grant(require_rt)?;
             let wall0 = std::time::Instant::now();
             let link = link_for(&cfg_t, &spec)?;
             let mut clock = RealTimeClock::new(period_ns, grant, counters);

@@ -7,15 +7,17 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
-use cnc402_config::{ChannelView, MAX_AXES, MAX_CHANNELS, MachineConfig};
+use cnc402_config::{ChannelView, MAX_AXES, MachineConfig};
 use cnc402_drives::Instant;
 use cnc402_lang::{NcError, SourceFile};
 
+use super::cyclic::{CycleClock, LoopState};
 use super::cyclic::{LoopEnd, STARTUP_LIMIT, controller_end, counters_since};
 use super::prompt::OperatorPrompt;
+use super::real_time::RealTimeClock;
 use super::report::build_report;
 use super::side::{FeederStart, Side};
-use super::trace::MachineTrace;
+use super::trace::{MachineTrace, TraceRows};
 use super::{LinkSpec, Progress, RunError, RunOptions, Timing, link_for};
 use crate::channel_set::{ChannelPort, ChannelSet, Deadlock, Member};
 use crate::channels::{ChannelBoard, DryChannels, Resident, spawn_resident};
@@ -183,13 +185,6 @@ pub fn run_channels(
              has {count} channel(s) ([[channel]] in the config)"
         )));
     }
-    if opts.timing == Timing::RealTime {
-        return Err(RunError::Io(
-            "several channels run on the embedded simulator in virtual time only (not yet in \
-             real time or on a CAN interface)"
-                .into(),
-        ));
-    }
     programs.resize_with(count, || None);
     let board = ChannelBoard::new(cfg);
     let mut lanes = Vec::with_capacity(count);
@@ -227,8 +222,7 @@ pub fn run_channels(
         model: opts.model_link,
         timeouts: opts.timeouts,
     };
-    let link = link_for(cfg, &spec)?;
-    run_lanes(cfg, lanes, link, opts, progress, board)
+    run_lanes(cfg, lanes, spec, opts, progress, board)
 }
 
 /// What every lane of a run shares.
@@ -277,7 +271,7 @@ fn open_lane<'a>(
     let member;
     if let (0, Some(input), Some(operator)) = (k, &lane.input, operator) {
         let ctrl = ctrl.with_panel(common.panel.clone(), operator.schedule);
-        member = Member::new(ctrl, &lane.view);
+        member = Member::new(ctrl, &lane.view).signalled(common.board.signal(0));
         let feed = FeederStart {
             input: input.clone(),
             moves: moves_tx,
@@ -307,33 +301,27 @@ fn open_lane<'a>(
     Ok((side, status_rx, member))
 }
 
-/// The reporting sides, rings and controllers of `lanes`, then the loop.
+/// The reporting sides, rings and controllers of `lanes`, the loop in `opts.timing`, then
+/// the report.
 fn run_lanes(
     cfg: &MachineConfig,
     lanes: Vec<Lane>,
-    mut link: Box<dyn DriveLink>,
+    spec: LinkSpec,
     #[allow(unused_mut)] mut opts: RunOptions,
     progress: &mut dyn FnMut(&Progress),
     board: Arc<ChannelBoard>,
 ) -> Result<ChannelsReport, RunError> {
     #[cfg(any(test, feature = "testing"))]
     let hook = opts.channels_hook.take();
-    let wall0 = std::time::Instant::now();
-    let period = Duration::from_micros(cfg.bus.period_us as u64);
-    let mut now = Instant::ZERO;
-    let start = loop {
-        match link.startup(now) {
-            Startup::Ready(p) => break p,
-            Startup::Pending if now.nanos() < STARTUP_LIMIT.as_nanos() as u64 => now += period,
-            Startup::Pending => return Ok(not_started(&lanes, "the drives were not enabled")),
-            Startup::Failed(s) => return Ok(not_started(&lanes, &s)),
-        }
-    };
+    #[cfg(not(any(test, feature = "testing")))]
+    let hook: Option<Hook> = None;
     let RunOptions {
+        timing,
         trace,
         stop_request,
         no_operator_terminal,
         operator,
+        require_rt,
         ..
     } = opts;
     let common = Common {
@@ -346,73 +334,373 @@ fn run_lanes(
         no_operator_terminal,
         stop_request,
     };
-    let mut operator = Some(operator);
-    let mut trace = trace.map(|t| MachineTrace::new(cfg, t));
-    let mut quiet: Vec<_> = (0..lanes.len()).map(|_| |_: &Progress| {}).collect();
+    let mut rows = trace.map(|t| TraceRows::new(MachineTrace::new(cfg, t)));
+    let setup = Setup {
+        cfg,
+        lanes: &lanes,
+        common: &common,
+        spec,
+        operator,
+        hook,
+    };
+    let mut quiet = vec![no_progress as fn(&Progress); lanes.len()];
+    let ran = match timing {
+        Timing::Virtual => run_virtual_lanes(setup, progress, &mut quiet, rows.as_mut()),
+        Timing::RealTime => {
+            run_realtime_lanes(setup, progress, &mut quiet, rows.as_mut(), require_rt)
+        }
+    };
+    common.board.close();
+    let (mut sides, members, deadlock, end) = match ran {
+        Ran::NotStarted(why) => return Ok(not_started(&lanes, &why)),
+        Ran::Failed(sides, e) => {
+            finish_sides(sides);
+            return Err(e);
+        }
+        Ran::Done {
+            sides,
+            members,
+            deadlock,
+            end,
+        } => (sides, members, deadlock, end),
+    };
+    sides.iter_mut().for_each(|o| o.stop());
+    if let Some(Err(e)) = rows.map(|r| r.trace.finish()) {
+        return Err(RunError::Io(format!("trace: {e}")));
+    }
+    let mut plain: Vec<Side> = sides.into_iter().map(|o| o.side).collect();
+    let report = channels_report(
+        cfg,
+        &lanes,
+        &mut plain,
+        &members,
+        deadlock.as_ref(),
+        &common.board,
+        end,
+    );
+    Ok(report)
+}
+
+/// A test's stand-in for channel 0's program (see `RunOptions::channels_hook`).
+#[cfg(not(any(test, feature = "testing")))]
+type Hook = Box<dyn FnOnce(Box<dyn cnc402_interp::Channels>) + Send>;
+#[cfg(any(test, feature = "testing"))]
+type Hook = super::ChannelsHook;
+
+/// What both timings start from.
+struct Setup<'a> {
+    cfg: &'a MachineConfig,
+    lanes: &'a [Lane],
+    common: &'a Common,
+    spec: LinkSpec,
+    operator: crate::operator::OperatorOptions,
+    hook: Option<Hook>,
+}
+
+/// A channel's reporting side with its status ring (and the test hook's thread on
+/// channel 0's).
+struct Opened<'a> {
+    side: Side<'a>,
+    ring: StatusConsumer,
+    hook: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Opened<'_> {
+    /// Ends the feeder thread (and the hook's), after a last drain.
+    fn stop(&mut self) {
+        self.side.drain(&mut self.ring);
+        self.side.stop_feeder();
+        if let Some(h) = self.hook.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+fn finish_sides(mut sides: Vec<Opened>) {
+    sides.iter_mut().for_each(Opened::stop);
+}
+
+/// How the loop part of a run of several channels ended.
+enum Ran<'a> {
+    NotStarted(String),
+    Failed(Vec<Opened<'a>>, RunError),
+    Done {
+        sides: Vec<Opened<'a>>,
+        members: Vec<Member>,
+        deadlock: Option<Deadlock>,
+        end: RunEnd,
+    },
+}
+
+/// Every lane's side (feeders started), ring and loop member, the drives standing at
+/// `start`; the test hook started. On an error the sides opened so far are handed back.
+fn open_all<'a>(
+    setup: &mut Setup<'a>,
+    start: &[f64; MAX_AXES],
+    progress: &'a mut dyn FnMut(&Progress),
+    quiet: &'a mut [fn(&Progress)],
+) -> Result<(Vec<Opened<'a>>, Vec<Member>), (Vec<Opened<'a>>, RunError)> {
+    let mut operator = Some(std::mem::take(&mut setup.operator));
     let mut progress = Some(progress);
-    let mut sides = Vec::with_capacity(lanes.len());
-    let mut rings = Vec::with_capacity(lanes.len());
-    let mut members = Vec::with_capacity(lanes.len());
-    for (lane, q) in lanes.iter().zip(quiet.iter_mut()) {
+    let mut sides = Vec::with_capacity(setup.lanes.len());
+    let mut members = Vec::with_capacity(setup.lanes.len());
+    for (lane, q) in setup.lanes.iter().zip(quiet.iter_mut()) {
         let tell: &mut dyn FnMut(&Progress) = match progress.take() {
             Some(p) => p,
             None => q,
         };
-        let opened = open_lane(lane, &common, &start, tell, operator.take());
-        let (side, ring, member) = match opened {
-            Ok(o) => o,
-            Err(e) => {
-                sides.iter_mut().for_each(Side::stop_feeder);
-                let _ = link.shutdown();
-                return Err(e);
+        match open_lane(lane, setup.common, start, tell, operator.take()) {
+            Ok((side, ring, member)) => {
+                sides.push(Opened {
+                    side,
+                    ring,
+                    hook: None,
+                });
+                members.push(member);
             }
-        };
-        sides.push(side);
-        rings.push(ring);
-        members.push(member);
+            Err(e) => return Err((sides, e)),
+        }
     }
-    #[cfg(any(test, feature = "testing"))]
-    let hook = hook.map(|h| {
-        let (host, _) = common.board.host(0);
-        std::thread::spawn(move || h(host))
-    });
+    if let (Some(h), Some(first)) = (setup.hook.take(), sides.first_mut()) {
+        let (host, _) = setup.common.board.host(0);
+        first.hook = Some(std::thread::spawn(move || h(host)));
+    }
+    Ok((sides, members))
+}
+
+/// The no-op progress of every channel but channel 0.
+fn no_progress(_: &Progress) {}
+
+/// Start-up and the loop on the calling thread in virtual time.
+fn run_virtual_lanes<'a>(
+    mut setup: Setup<'a>,
+    progress: &'a mut dyn FnMut(&Progress),
+    quiet: &'a mut [fn(&Progress)],
+    rows: Option<&mut TraceRows>,
+) -> Ran<'a> {
+    let wall0 = std::time::Instant::now();
+    let period = Duration::from_micros(setup.cfg.bus.period_us as u64);
+    let mut link = match link_for(setup.cfg, &setup.spec) {
+        Ok(l) => l,
+        Err(e) => return Ran::Failed(Vec::new(), e),
+    };
+    let mut now = Instant::ZERO;
+    let start = loop {
+        match link.startup(now) {
+            Startup::Ready(p) => break p,
+            Startup::Pending if now.nanos() < STARTUP_LIMIT.as_nanos() as u64 => now += period,
+            Startup::Pending => return Ran::NotStarted("the drives were not enabled".into()),
+            Startup::Failed(s) => return Ran::NotStarted(s),
+        }
+    };
+    let (mut sides, members) = match open_all(&mut setup, &start, progress, quiet) {
+        Ok(o) => o,
+        Err((sides, e)) => {
+            let _ = link.shutdown();
+            return Ran::Failed(sides, e);
+        }
+    };
     let c0 = link.counters();
     let mut set = ChannelSet::new(link, members, start);
     let mut io = TickIo {
         sides: &mut sides,
-        rings: &mut rings,
-        trace: trace.as_mut(),
-        common: &common,
+        rows,
+        common: setup.common,
     };
     let looped = tick_all(&mut set, &mut io, now, period);
-    for (side, ring) in sides.iter_mut().zip(rings.iter_mut()) {
-        side.drain(ring);
-    }
     let counters = counters_since(set.link().counters(), c0);
     let shutdown_error = set.link_mut().shutdown().err();
-    common.board.close();
-    sides.iter_mut().for_each(Side::stop_feeder);
-    #[cfg(any(test, feature = "testing"))]
-    if let Some(h) = hook {
-        let _ = h.join();
-    }
-    if let Some(Err(e)) = trace.map(MachineTrace::finish) {
-        return Err(RunError::Io(format!("trace: {e}")));
-    }
     let end = RunEnd {
         bus: (counters, set.link().bitrate(), set.link().homed()),
         elapsed: looped.saturating_since(now),
         wall: wall0.elapsed(),
         shutdown_error,
     };
-    Ok(channels_report(
-        cfg,
-        &lanes,
-        &mut sides,
-        &set,
-        &common.board,
+    let (_, members, deadlock) = set.into_parts();
+    Ran::Done {
+        sides,
+        members,
+        deadlock,
         end,
-    ))
+    }
+}
+
+/// What the real-time loop thread hands back.
+enum LoopOut {
+    NotStarted(String),
+    Done {
+        members: Vec<Member>,
+        deadlock: Option<Deadlock>,
+        end: RunEnd,
+    },
+}
+
+/// Start-up and the loop on a thread of its own in real time (as the one-channel run),
+/// while the calling thread starts the channels once the drives are enabled and drains
+/// their status rings every 2 ms.
+fn run_realtime_lanes<'a>(
+    mut setup: Setup<'a>,
+    progress: &'a mut dyn FnMut(&Progress),
+    quiet: &'a mut [fn(&Progress)],
+    mut rows: Option<&mut TraceRows>,
+    require_rt: bool,
+) -> Ran<'a> {
+    let (start_tx, start_rx) = std::sync::mpsc::sync_channel::<[f64; MAX_AXES]>(1);
+    let (members_tx, members_rx) = std::sync::mpsc::sync_channel::<Option<Vec<Member>>>(1);
+    let cfg = setup.cfg.clone();
+    let spec = setup.spec.clone();
+    let stop_request = setup.common.stop_request.clone();
+    let handle = std::thread::Builder::new()
+        .name("cnc402-loop".into())
+        .spawn(move || -> Result<LoopOut, RunError> {
+            let grant = super::realtime_grant(require_rt)?;
+            let link = link_for(&cfg, &spec)?;
+            let period_ns = cfg.bus.period_us as u64 * 1000;
+            let counters = Arc::new(super::stats::LoopCounters::default());
+            let clock = RealTimeClock::new(period_ns, grant, counters);
+            realtime_loop(clock, link, start_tx, members_rx, &stop_request)
+        });
+    let handle = match handle {
+        Ok(h) => h,
+        Err(e) => {
+            return Ran::Failed(
+                Vec::new(),
+                RunError::Io(format!("cannot start the loop thread: {e}")),
+            );
+        }
+    };
+    let joined = |h: std::thread::JoinHandle<Result<LoopOut, RunError>>| {
+        h.join()
+            .map_err(|_| RunError::Io("the loop thread panicked".into()))
+            .and_then(|r| r)
+    };
+    let Ok(start) = start_rx.recv() else {
+        return match joined(handle) {
+            Ok(LoopOut::NotStarted(why)) => Ran::NotStarted(why),
+            Ok(_) => Ran::Failed(
+                Vec::new(),
+                RunError::Io("the loop ended before start-up".into()),
+            ),
+            Err(e) => Ran::Failed(Vec::new(), e),
+        };
+    };
+    let (mut sides, members) = match open_all(&mut setup, &start, progress, quiet) {
+        Ok(o) => o,
+        Err((sides, e)) => {
+            let _ = members_tx.send(None);
+            let _ = joined(handle);
+            return Ran::Failed(sides, e);
+        }
+    };
+    let _ = members_tx.send(Some(members));
+    while !handle.is_finished() {
+        drain_lanes(&mut sides, rows.as_deref_mut(), &setup.common.board);
+        if crate::rt::sigint_seen() {
+            setup.common.stop_request.store(true, Ordering::SeqCst);
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    drain_lanes(&mut sides, rows.as_deref_mut(), &setup.common.board);
+    match joined(handle) {
+        Ok(LoopOut::Done {
+            members,
+            deadlock,
+            end,
+        }) => Ran::Done {
+            sides,
+            members,
+            deadlock,
+            end,
+        },
+        Ok(LoopOut::NotStarted(why)) => {
+            finish_sides(sides);
+            Ran::NotStarted(why)
+        }
+        Err(e) => Ran::Failed(sides, e),
+    }
+}
+
+/// The real-time loop thread's work: start-up on `clock`, the start position out, the
+/// channels in, then one set step per tick until every channel has ended.
+fn realtime_loop(
+    mut clock: RealTimeClock,
+    mut link: Box<dyn DriveLink>,
+    start_tx: std::sync::mpsc::SyncSender<[f64; MAX_AXES]>,
+    members_rx: std::sync::mpsc::Receiver<Option<Vec<Member>>>,
+    stop_request: &std::sync::atomic::AtomicBool,
+) -> Result<LoopOut, RunError> {
+    let start = loop {
+        let now = clock.now();
+        match link.startup(now) {
+            Startup::Ready(p) => break p,
+            Startup::Pending if now.nanos() < STARTUP_LIMIT.as_nanos() as u64 => {}
+            Startup::Pending => {
+                return Ok(LoopOut::NotStarted("the drives were not enabled".into()));
+            }
+            Startup::Failed(s) => return Ok(LoopOut::NotStarted(s)),
+        }
+        if let Err(e) = clock.wait_startup() {
+            let _ = link.shutdown();
+            return Err(RunError::clock(e));
+        }
+    };
+    let _ = start_tx.send(start);
+    let Ok(Some(members)) = members_rx.recv() else {
+        let _ = link.shutdown();
+        return Err(RunError::Io("the channels could not be started".into()));
+    };
+    clock.start_cyclic();
+    let c0 = link.counters();
+    let mut set = ChannelSet::new(link, members, start);
+    let state = LoopState {
+        has_work: true,
+        held: false,
+    };
+    loop {
+        let now = match clock.next_tick(state) {
+            Ok(Some(now)) => now,
+            Ok(None) => continue,
+            Err(e) => {
+                let _ = set.link_mut().shutdown();
+                return Err(RunError::clock(e));
+            }
+        };
+        if crate::rt::sigint_seen() {
+            stop_request.store(true, Ordering::SeqCst);
+        }
+        if set.step(now) {
+            break;
+        }
+    }
+    let t = clock.finish();
+    let counters = counters_since(set.link().counters(), c0);
+    let shutdown_error = set.link_mut().shutdown().err();
+    let end = RunEnd {
+        bus: (counters, set.link().bitrate(), set.link().homed()),
+        elapsed: t.elapsed,
+        wall: t.wall,
+        shutdown_error,
+    };
+    let (_, members, deadlock) = set.into_parts();
+    Ok(LoopOut::Done {
+        members,
+        deadlock,
+        end,
+    })
+}
+
+/// Drains every channel's status ring into its side, and the trace's rows.
+fn drain_lanes(sides: &mut [Opened], mut rows: Option<&mut TraceRows>, board: &ChannelBoard) {
+    for (k, o) in sides.iter_mut().enumerate() {
+        o.side.drain_with(&mut o.ring, |s| {
+            if let Some(r) = rows.as_deref_mut() {
+                r.push(k, s);
+            }
+        });
+    }
+    if let Some(r) = rows {
+        r.flush(|k| board.signal(k).dead.load(Ordering::SeqCst));
+    }
 }
 
 /// What the whole run measured, for every channel's report.
@@ -428,14 +716,15 @@ fn channels_report(
     cfg: &MachineConfig,
     lanes: &[Lane],
     sides: &mut [Side],
-    set: &ChannelSet<Box<dyn DriveLink>>,
+    members: &[Member],
+    deadlock: Option<&Deadlock>,
     board: &ChannelBoard,
     run: RunEnd,
 ) -> ChannelsReport {
-    let deadlock = set.deadlock().map(|d| deadlock_text(d, lanes));
+    let deadlock = deadlock.map(|d| deadlock_text(d, lanes));
     let planned = cnc402_config::busload::BusLoad::of_machine(cfg).percent();
     let mut channels = Vec::with_capacity(lanes.len());
-    for ((lane, side), m) in lanes.iter().zip(sides.iter_mut()).zip(set.members()) {
+    for ((lane, side), m) in lanes.iter().zip(sides.iter_mut()).zip(members) {
         let outcome = m.outcome.clone().unwrap_or(Outcome::Finished);
         let mut end = controller_end(&m.ctrl, outcome, run.bus, run.elapsed, run.wall);
         end.shutdown_error = run.shutdown_error.clone();
@@ -464,15 +753,9 @@ fn tick_all(
     mut now: Instant,
     period: Duration,
 ) -> Instant {
-    let TickIo {
-        sides,
-        rings,
-        trace,
-        common,
-    } = io;
-    let stop_request = &common.stop_request;
-    let mut ended_seen = vec![false; sides.len()];
-    let mut tick = 0;
+    let stop_request = &io.common.stop_request;
+    let board = &io.common.board;
+    let mut ended_seen = vec![false; io.sides.len()];
     let mut spins = 0u32;
     loop {
         if crate::rt::sigint_seen() {
@@ -484,11 +767,11 @@ fn tick_all(
             if m.outcome.is_some() {
                 continue;
             }
-            let sh = &sides[k].shared;
+            let sh = &io.sides[k].side.shared;
             let waiting = sh.waiting.load(Ordering::SeqCst);
             held |= m.ctrl.is_held() || m.ctrl.is_feed_held();
             // Blocked in a channel wait, or resident without a program: time runs on.
-            let sig = common.board.signal(k);
+            let sig = board.signal(k);
             let idle =
                 sig.blocked.load(Ordering::SeqCst) || (k > 0 && !sig.busy.load(Ordering::SeqCst));
             if idle || m.ctrl.has_work() || (waiting && !sh.motion_done()) {
@@ -496,7 +779,12 @@ fn tick_all(
             }
             ready = false;
             // A feeder that ended without `End` (an error): looked at once more, then stop.
-            if sides[k].feeder.as_ref().is_some_and(|h| h.is_finished()) {
+            if io.sides[k]
+                .side
+                .feeder
+                .as_ref()
+                .is_some_and(|h| h.is_finished())
+            {
                 if ended_seen[k] {
                     stop_request.store(true, Ordering::SeqCst);
                 }
@@ -504,9 +792,7 @@ fn tick_all(
             }
         }
         if !ready {
-            for (side, ring) in sides.iter_mut().zip(rings.iter_mut()) {
-                side.drain(ring);
-            }
+            drain_lanes(io.sides, io.rows.as_deref_mut(), board);
             spins += 1;
             if spins > 64 {
                 std::thread::sleep(Duration::from_micros(50));
@@ -522,15 +808,7 @@ fn tick_all(
         }
         now += period;
         let done = set.step(now);
-        let mut last = [None; MAX_CHANNELS];
-        for ((side, ring), l) in sides.iter_mut().zip(rings.iter_mut()).zip(&mut last) {
-            side.drain(ring);
-            *l = side.recorder.last;
-        }
-        if let Some(t) = trace {
-            t.row(tick, &last);
-        }
-        tick += 1;
+        drain_lanes(io.sides, io.rows.as_deref_mut(), board);
         if done {
             return now;
         }
@@ -538,11 +816,10 @@ fn tick_all(
 }
 
 /// What the loop of several channels reads and writes besides the set.
-struct TickIo<'r, 's, 'a> {
-    sides: &'r mut [Side<'a>],
-    rings: &'r mut [StatusConsumer],
-    trace: Option<&'r mut MachineTrace>,
-    common: &'s Common,
+struct TickIo<'r, 'a> {
+    sides: &'r mut [Opened<'a>],
+    rows: Option<&'r mut TraceRows>,
+    common: &'r Common,
 }
 
 /// The drives' start position as channel `view`'s axes see it.

@@ -172,8 +172,14 @@ impl<'a> Side<'a> {
     /// Takes every status record the loop has sent so far: events logged (program stops to
     /// the operator), records to the recorder, progress published and told.
     pub(super) fn drain(&mut self, ring: &mut StatusConsumer) {
+        self.drain_with(ring, |_| {});
+    }
+
+    /// [`drain`](Self::drain), showing `each` every record too.
+    pub(super) fn drain_with(&mut self, ring: &mut StatusConsumer, mut each: impl FnMut(&Status)) {
         let mut last: Option<Status> = None;
         while let Some(s) = ring.try_pop() {
+            each(&s);
             self.event(&s);
             if s.phase != Phase::Settling && s.phase != Phase::QuickStop {
                 self.program_ticks = s.tick + 1;

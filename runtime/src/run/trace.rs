@@ -3,6 +3,7 @@
 //! (`line` is channel 0's, `line_ch1`… the others'), the statuswords, and channel 0's panel
 //! column. A one-channel run writes its trace through the recorder as before.
 
+use std::collections::VecDeque;
 use std::io::Write;
 
 use cnc402_config::{MAX_AXES, MachineConfig};
@@ -87,5 +88,62 @@ impl MachineTrace {
             return Err(e);
         }
         self.out.flush()
+    }
+}
+
+/// The trace's rows from the channels' records as they are drained (several ticks at a time
+/// in real time): a row for tick `t` is written once every channel has sent its record for
+/// `t` or has ended (then its last record stands).
+pub(super) struct TraceRows {
+    pub(super) trace: MachineTrace,
+    pending: Vec<VecDeque<Status>>,
+    last: [Option<Status>; cnc402_config::MAX_CHANNELS],
+    next: u64,
+}
+
+impl TraceRows {
+    pub(super) fn new(trace: MachineTrace) -> TraceRows {
+        TraceRows {
+            pending: (0..trace.channels).map(|_| VecDeque::new()).collect(),
+            trace,
+            last: [None; cnc402_config::MAX_CHANNELS],
+            next: 0,
+        }
+    }
+
+    /// Channel `k`'s next record.
+    pub(super) fn push(&mut self, k: usize, s: &Status) {
+        if let Some(p) = self.pending.get_mut(k) {
+            p.push_back(*s);
+        }
+    }
+
+    /// Writes every row that is complete; `ended(k)`: channel `k` sends no more records.
+    pub(super) fn flush(&mut self, ended: impl Fn(usize) -> bool) {
+        // Each turn writes one row and takes at least one record: bounded by the records.
+        loop {
+            let mut any = false;
+            for (k, p) in self.pending.iter_mut().enumerate() {
+                while p.front().is_some_and(|s| s.tick < self.next) {
+                    self.last[k] = p.pop_front();
+                }
+                match p.front() {
+                    Some(s) if s.tick == self.next => any = true,
+                    Some(_) => {}
+                    None if ended(k) => {}
+                    None => return,
+                }
+            }
+            if !any {
+                return;
+            }
+            for (k, p) in self.pending.iter_mut().enumerate() {
+                if p.front().is_some_and(|s| s.tick == self.next) {
+                    self.last[k] = p.pop_front();
+                }
+            }
+            self.trace.row(self.next, &self.last);
+            self.next += 1;
+        }
     }
 }
