@@ -198,3 +198,37 @@ fn two_channels_run_in_real_time_too_with_the_same_setpoints() {
     assert_eq!(rows[0], rows[1]);
     assert_eq!(rows[0].1.last().map(String::as_str), Some("-3"));
 }
+
+/// hil-tests/scenarios/15-two-channels.sh in process: the same programs on the embedded
+/// simulator (the example machine the scenario's config is made from), in real time as on
+/// vcan, with the scenario's run assertions.
+#[test]
+fn hil_15_two_channels_in_process() {
+    let d = dir("hil15");
+    let r = d.join("r.json");
+    let o = cnc402(&[
+        "--config",
+        TWO,
+        "run",
+        "hil-tests/scenarios/programs/two-channel-main.nc",
+        "--channel",
+        "1=hil-tests/scenarios/programs/two-channel-sub.nc",
+        "--realtime",
+        "--report",
+        r.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let rep: Value = serde_json::from_str(&std::fs::read_to_string(&r).unwrap()).unwrap();
+    assert_eq!(rep["ok"], true);
+    assert_eq!(rep["channels"][0]["ok"], true);
+    assert_eq!(rep["channels"][1]["ok"], true);
+    for (k, axis, want) in [
+        (0, "X", 40.0),
+        (0, "Y", 20.0),
+        (1, "U", 25.0),
+        (1, "W", 0.0),
+    ] {
+        let got = final_position(&rep, k, axis);
+        assert!((got - want).abs() < 0.001, "{axis}: {got}");
+    }
+}
