@@ -45,24 +45,29 @@ fn final_position(report: &Value, channel: usize, axis: &str) -> f64 {
         .unwrap()
 }
 
+/// `cnc402 run A --channel 1=B --report d/r.json EXTRA…` on the two-channel machine; its
+/// output and report.
+fn run_two(d: &Path, a: &str, b: &str, extra: &[&str]) -> (Output, Value) {
+    let r = d.join("r.json");
+    let channel = format!("1={b}");
+    let mut args = vec!["--config", TWO, "run", a, "--channel", &channel];
+    args.extend(["--report", r.to_str().unwrap()]);
+    args.extend(extra);
+    let o = cnc402(&args);
+    let rep = std::fs::read_to_string(&r)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or(Value::Null);
+    (o, rep)
+}
+
 #[test]
 fn two_channels_run_their_programs_concurrently_with_a_report_per_channel() {
     let d = dir("ok");
     let a = program(&d, "a.nc", "G90 G0 X10 Y5\nG1 X20 F600\nM30\n");
     let b = program(&d, "b.nc", "G90 G1 U20 W-5 F1200\nG0 U-3\nM30\n");
-    let r = d.join("r.json");
-    let o = cnc402(&[
-        "--config",
-        TWO,
-        "run",
-        &a,
-        "--channel",
-        &format!("1={b}"),
-        "--report",
-        r.to_str().unwrap(),
-        "--trace",
-        d.join("t.csv").to_str().unwrap(),
-    ]);
+    let trace = d.join("t.csv");
+    let (o, rep) = run_two(&d, &a, &b, &["--trace", trace.to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o));
     let trace = std::fs::read_to_string(d.join("t.csv")).unwrap();
     let mut rows = trace.lines();
@@ -78,7 +83,6 @@ fn two_channels_run_their_programs_concurrently_with_a_report_per_channel() {
     assert_eq!(last[11], "-3", "{last:?}");
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("== channel 0 (main): ") && out.contains("== channel 1 (sub): "));
-    let rep: Value = serde_json::from_str(&std::fs::read_to_string(&r).unwrap()).unwrap();
     assert_eq!(rep["ok"], true);
     assert_eq!(final_position(&rep, 0, "X"), 20.0);
     assert_eq!(final_position(&rep, 0, "Y"), 5.0);
@@ -129,21 +133,8 @@ fn a_drive_fault_in_channel_1_stops_both_channels_and_says_where() {
     let d = dir("fault");
     let a = program(&d, "a.nc", "G90 G1 X100 F600\nM30\n");
     let b = program(&d, "b.nc", "G90 G1 U100 F600\nM30\n");
-    let r = d.join("r.json");
-    let o = cnc402(&[
-        "--config",
-        TWO,
-        "run",
-        &a,
-        "--channel",
-        &format!("1={b}"),
-        "--inject-fault",
-        "5:8611@0.5",
-        "--report",
-        r.to_str().unwrap(),
-    ]);
+    let (o, rep) = run_two(&d, &a, &b, &["--inject-fault", "5:8611@0.5"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    let rep: Value = serde_json::from_str(&std::fs::read_to_string(&r).unwrap()).unwrap();
     assert_eq!(rep["ok"], false);
     for k in 0..2 {
         assert_eq!(rep["channels"][k]["ok"], false, "channel {k}");

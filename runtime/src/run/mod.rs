@@ -205,6 +205,19 @@ struct LinkSpec {
     timeouts: Option<LinkTimeouts>,
 }
 
+impl LinkSpec {
+    /// The link `opts` ask for.
+    fn of(opts: &RunOptions) -> LinkSpec {
+        LinkSpec {
+            fault: opts.fault,
+            sim_faults: opts.sim_faults.clone(),
+            #[cfg(any(test, feature = "testing"))]
+            model: opts.model_link,
+            timeouts: opts.timeouts,
+        }
+    }
+}
+
 /// The link of a run: [`make_link`], or the test double when asked for (feature `testing`).
 fn link_for(cfg: &MachineConfig, spec: &LinkSpec) -> Result<Box<dyn DriveLink>, RunError> {
     #[cfg(any(test, feature = "testing"))]
@@ -279,13 +292,7 @@ pub fn run_input(
             src.name
         );
     }
-    let spec = LinkSpec {
-        fault: opts.fault,
-        sim_faults: opts.sim_faults.clone(),
-        #[cfg(any(test, feature = "testing"))]
-        model: opts.model_link,
-        timeouts: opts.timeouts,
-    };
+    let spec = LinkSpec::of(&opts);
     #[cfg(any(test, feature = "testing"))]
     let model = spec.model;
     #[cfg(not(any(test, feature = "testing")))]

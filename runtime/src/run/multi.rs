@@ -215,13 +215,7 @@ pub fn run_channels(
             gate,
         });
     }
-    let spec = LinkSpec {
-        fault: opts.fault,
-        sim_faults: opts.sim_faults.clone(),
-        #[cfg(any(test, feature = "testing"))]
-        model: opts.model_link,
-        timeouts: opts.timeouts,
-    };
+    let spec = LinkSpec::of(&opts);
     run_lanes(cfg, lanes, spec, opts, progress, board)
 }
 
