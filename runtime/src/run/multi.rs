@@ -427,13 +427,14 @@ enum Ran<'a> {
 }
 
 /// Every lane's side (feeders started), ring and loop member, the drives standing at
-/// `start`; the test hook started. On an error the sides opened so far are handed back.
+/// `start`; the test hook started. On an error the sides opened so far are handed back
+/// (`Ran::Failed`).
 fn open_all<'a>(
     setup: &mut Setup<'a>,
     start: &[f64; MAX_AXES],
     progress: &'a mut dyn FnMut(&Progress),
     quiet: &'a mut [fn(&Progress)],
-) -> Result<(Vec<Opened<'a>>, Vec<Member>), (Vec<Opened<'a>>, RunError)> {
+) -> Result<(Vec<Opened<'a>>, Vec<Member>), Ran<'a>> {
     let mut operator = Some(std::mem::take(&mut setup.operator));
     let mut progress = Some(progress);
     let mut sides = Vec::with_capacity(setup.lanes.len());
@@ -452,7 +453,7 @@ fn open_all<'a>(
                 });
                 members.push(member);
             }
-            Err(e) => return Err((sides, e)),
+            Err(e) => return Err(Ran::Failed(sides, e)),
         }
     }
     if let (Some(h), Some(first)) = (setup.hook.take(), sides.first_mut()) {
@@ -489,9 +490,9 @@ fn run_virtual_lanes<'a>(
     };
     let (mut sides, members) = match open_all(&mut setup, &start, progress, quiet) {
         Ok(o) => o,
-        Err((sides, e)) => {
+        Err(failed) => {
             let _ = link.shutdown();
-            return Ran::Failed(sides, e);
+            return failed;
         }
     };
     let c0 = link.counters();
@@ -580,10 +581,10 @@ fn run_realtime_lanes<'a>(
     };
     let (mut sides, members) = match open_all(&mut setup, &start, progress, quiet) {
         Ok(o) => o,
-        Err((sides, e)) => {
+        Err(failed) => {
             let _ = members_tx.send(None);
             let _ = joined(handle);
-            return Ran::Failed(sides, e);
+            return failed;
         }
     };
     let _ = members_tx.send(Some(members));
@@ -594,7 +595,7 @@ fn run_realtime_lanes<'a>(
         }
         std::thread::sleep(Duration::from_millis(2));
     }
-    drain_lanes(&mut sides, rows.as_deref_mut(), &setup.common.board);
+    drain_lanes(&mut sides, rows, &setup.common.board);
     match joined(handle) {
         Ok(LoopOut::Done {
             members,
