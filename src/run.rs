@@ -296,12 +296,7 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         }
     };
     if cfg.channel_count() > 1 || !args.channels.is_empty() {
-        let programs = channel_programs(cfg, args, input)?;
-        let result = cnc402_runtime::run_channels(cfg, programs, opts, &mut on_progress);
-        if let Some(b) = &bar {
-            b.finish_and_clear();
-        }
-        return channels_done(cfg, args, result);
+        return run_channels(cfg, args, (input, opts), &mut on_progress, bar.as_ref());
     }
     let result = cnc402_runtime::run_input(cfg, input, opts, &mut on_progress);
     if let Some(b) = &bar {
@@ -368,6 +363,23 @@ fn channel_programs(
         });
     }
     Ok(programs)
+}
+
+/// `cnc402 run` of a machine with several channels (or with `--channel`): `main` on channel
+/// 0, each `--channel N=FILE` on N.
+fn run_channels(
+    cfg: &MachineConfig,
+    args: &RunArgs,
+    (main, opts): (cnc402_runtime::ProgramInput, RunOptions),
+    on_progress: &mut dyn FnMut(&Progress),
+    bar: Option<&indicatif::ProgressBar>,
+) -> Result<(), CliError> {
+    let programs = channel_programs(cfg, args, main)?;
+    let result = cnc402_runtime::run_channels(cfg, programs, opts, on_progress);
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    channels_done(cfg, args, result)
 }
 
 /// The summary and report of a run of several channels, and its exit.

@@ -11,7 +11,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use cnc402_config::{ChannelView, MachineConfig, PROGRAM_EXTENSIONS};
-use cnc402_interp::{ChannelMode, ChannelState, Channels, Interpreter, SharedGlobals};
+use cnc402_interp::{ChannelMode, ChannelState, Channels, SharedGlobals};
 use cnc402_lang::NcError;
 use cnc402_motion::AxisPos;
 
@@ -19,13 +19,6 @@ use crate::feeder::{Feeder, ProgramInput};
 use crate::program_stop::StopGate;
 use crate::ring::MoveProducer;
 use crate::sync::{FeedTo, SyncShared, feed, sync_to};
-
-/// Hands `host` and the run's shared `$` globals to `interp`. (The interpreter takes them
-/// once the language side of issue 15 lands: `interp.set_channels(Box::new(host));
-/// interp.set_shared_globals(globals);` — until then a program sees one channel.)
-pub fn attach(interp: &mut Interpreter, host: Box<dyn Channels>, globals: SharedGlobals) {
-    let _ = (interp, host, globals);
-}
 
 /// What the loop and the board share about one channel, lock-free.
 #[derive(Debug, Default)]

@@ -367,13 +367,16 @@ impl Feeder {
         }
     }
 
-    /// Gives the interpreter the machine's channels and the run's shared `$` globals.
+    /// Gives the interpreter the machine's channels and the run's shared `$` globals (see
+    /// `crate::channels`). The interpreter takes them once the language side of issue 15
+    /// lands (`self.interp.set_channels(host); self.interp.set_shared_globals(globals);`);
+    /// until then a program sees one channel.
     pub fn attach_channels(
         &mut self,
         host: Box<dyn cnc402_interp::Channels>,
         globals: cnc402_interp::SharedGlobals,
     ) {
-        crate::channels::attach(&mut self.interp, host, globals);
+        let _ = (&mut self.interp, host, globals);
     }
 
     /// Replaces the interpreter's motion sync (see [`crate::sync`]).
