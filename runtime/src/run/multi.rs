@@ -249,6 +249,7 @@ fn open_lane<'a>(
     let recorder = Recorder::new(vcfg, lane.expected);
     let mut side = Side::new(vcfg, recorder, tell, lane.expected, prompt, &lane.src.name);
     side.main = Some(lane.src.clone());
+    side.label = format!("channel {k} ({}): ", lane.view.name);
     let local = local_start(&lane.view, start);
     let (moves_tx, moves_rx) = move_ring(MOVE_RING);
     let (status_tx, status_rx) = status_ring(STATUS_RING);

@@ -74,6 +74,9 @@ pub(super) struct Side<'a> {
     last_outputs: Option<u8>,
     pub(super) outputs: Vec<crate::report::OutputChange>,
     pub(super) outputs_lost: u64,
+    /// Put before each event line on stderr: the channel (`channel 1 (sub): `) in a run of
+    /// several, empty in a one-channel run.
+    pub(super) label: String,
 }
 
 impl<'a> Side<'a> {
@@ -106,6 +109,7 @@ impl<'a> Side<'a> {
             last_outputs: None,
             outputs: Vec::new(),
             outputs_lost: 0,
+            label: String::new(),
         }
     }
 
@@ -247,7 +251,8 @@ impl<'a> Side<'a> {
             }
             let (output, on) = (crate::machine_io::output_name(bit), s.outputs & bit != 0);
             let state = if on { "on" } else { "off" };
-            log::info!("{file}:{}: {output} {state} at {t_s:.3} s", s.line);
+            let label = &self.label;
+            log::info!("{label}{file}:{}: {output} {state} at {t_s:.3} s", s.line);
             if self.outputs.len() >= crate::report::MAX_OUTPUT_CHANGES {
                 self.outputs_lost += 1;
                 continue;
@@ -269,7 +274,8 @@ impl<'a> Side<'a> {
             // Where the loop applied it, for the operator (the report keeps it too).
             let pct = a.percent().map(|p| format!(" {p} %")).unwrap_or_default();
             eprintln!(
-                "{}{pct} at {:.3} s, {}:{} | {}",
+                "{}{}{pct} at {:.3} s, {}:{} | {}",
+                self.label,
                 a.name(),
                 s.tick as f64 * self.cfg.bus.period_s(),
                 self.file_of(s),
@@ -306,7 +312,7 @@ impl<'a> Side<'a> {
                     let file = self.file_of(s);
                     self.prompt.tool_change(s.line, tool, file, s.tick);
                 } else {
-                    log::info!("line {}: tool change to T{tool}", s.line);
+                    log::info!("{}line {}: tool change to T{tool}", self.label, s.line);
                 }
             }
             Some(MoveEvent::Coolant { mist, flood }) => {
@@ -316,7 +322,7 @@ impl<'a> Side<'a> {
                     (false, true) => "flood",
                     (true, true) => "mist and flood",
                 };
-                log::info!("line {}: coolant {state}", s.line);
+                log::info!("{}line {}: coolant {state}", self.label, s.line);
                 self.coolant_on = mist || flood;
             }
             None => {}
