@@ -198,6 +198,10 @@ struct RunArgs {
     /// Testing: make drive NODE fault with EMCY CODE (hex) SECONDS after enable.
     #[arg(long, hide = true, value_name = "NODE:CODE@SECONDS")]
     inject_fault: Option<String>,
+    /// Run FILE on channel N (`[[channel]]` in the config) beside PROGRAM on channel 0, in
+    /// the same loop; the run ends when every channel has ended. Repeatable.
+    #[arg(long = "channel", value_name = "N=FILE")]
+    channels: Vec<String>,
 }
 
 /// `--at-stop`: what a program stop does.

@@ -295,6 +295,9 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
             b.set_message(format!("{name}:{}", p.line));
         }
     };
+    if cfg.channel_count() > 1 || !args.channels.is_empty() {
+        return run_channels(cfg, args, (input, opts), &mut on_progress, bar.as_ref());
+    }
     let result = cnc402_runtime::run_input(cfg, input, opts, &mut on_progress);
     if let Some(b) = &bar {
         b.finish_and_clear();
@@ -318,6 +321,96 @@ pub fn run(cfg: &MachineConfig, args: &RunArgs) -> Result<(), CliError> {
         None if report.ok => Ok(()),
         e => Err(CliError::Fault(
             e.unwrap_or_else(|| "the machine stopped".into()),
+        )),
+    }
+}
+
+/// The program of each channel: PROGRAM on channel 0, each `--channel N=FILE` on N.
+fn channel_programs(
+    cfg: &MachineConfig,
+    args: &RunArgs,
+    main: cnc402_runtime::ProgramInput,
+) -> Result<Vec<Option<cnc402_runtime::ProgramInput>>, CliError> {
+    let count = cfg.channel_count();
+    let mut programs: Vec<Option<cnc402_runtime::ProgramInput>> = vec![None; count];
+    programs[0] = Some(main);
+    for c in &args.channels {
+        let bad = |why: String| CliError::Usage(format!("--channel {c:?}: {why}"));
+        let (n, file) = c
+            .split_once('=')
+            .ok_or_else(|| bad("expected N=FILE, e.g. 1=sub.nc".into()))?;
+        let n: usize = n
+            .trim()
+            .parse()
+            .map_err(|_| bad("N is a channel number".into()))?;
+        if n == 0 {
+            return Err(bad("channel 0 runs PROGRAM".into()));
+        }
+        if n >= count {
+            return Err(bad(format!(
+                "this machine has {count} channel(s) (0..={}); [[channel]] in the config adds more",
+                count - 1
+            )));
+        }
+        if programs[n].is_some() {
+            return Err(bad(format!("channel {n} has a program already")));
+        }
+        let path = std::path::PathBuf::from(file);
+        crate::open_program(&path)?;
+        programs[n] = Some(cnc402_runtime::ProgramInput::File {
+            path,
+            dialect: args.dialect,
+        });
+    }
+    Ok(programs)
+}
+
+/// `cnc402 run` of a machine with several channels (or with `--channel`): `main` on channel
+/// 0, each `--channel N=FILE` on N.
+fn run_channels(
+    cfg: &MachineConfig,
+    args: &RunArgs,
+    (main, opts): (cnc402_runtime::ProgramInput, RunOptions),
+    on_progress: &mut dyn FnMut(&Progress),
+    bar: Option<&indicatif::ProgressBar>,
+) -> Result<(), CliError> {
+    let programs = channel_programs(cfg, args, main)?;
+    let result = cnc402_runtime::run_channels(cfg, programs, opts, on_progress);
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    channels_done(cfg, args, result)
+}
+
+/// The summary and report of a run of several channels, and its exit.
+fn channels_done(
+    cfg: &MachineConfig,
+    args: &RunArgs,
+    result: Result<cnc402_runtime::ChannelsReport, RunError>,
+) -> Result<(), CliError> {
+    let report = match result {
+        Ok(r) => r,
+        Err(e) => return Err(not_run(cfg, args, e)),
+    };
+    print!("{}", report.summary());
+    if let Some(p) = &args.report {
+        let io = |e: &dyn std::fmt::Display| CliError::Io(format!("{}: {e}", p.display()));
+        let text = serde_json::to_string_pretty(&report.to_json()).map_err(|e| io(&e))?;
+        cnc402_durable::write_atomic(p, format!("{text}\n").as_bytes()).map_err(|e| io(&e))?;
+    }
+    if args.plot.is_some() {
+        log::warn!("--plot draws one channel's run: not written for several channels");
+    }
+    let (ok, error) = (report.ok(), report.error());
+    let program_error = report.channels.into_iter().find_map(|c| match c.result {
+        Err(RunError::Program(e)) => Some(e),
+        _ => None,
+    });
+    match (program_error, ok) {
+        (Some(e), _) => Err(CliError::Program(e)),
+        (None, true) => Ok(()),
+        (None, false) => Err(CliError::Fault(
+            error.unwrap_or_else(|| "the machine stopped".into()),
         )),
     }
 }

@@ -9,6 +9,7 @@
 mod axes;
 mod bus;
 pub mod busload;
+mod channels;
 mod check;
 pub mod commissioning;
 mod cutter_comp;
@@ -32,6 +33,7 @@ pub use axes::{
     MIN_MODEL_BANDWIDTH_HZ, SimDynamics,
 };
 pub use bus::BusConfig;
+pub use channels::{ChannelConfig, ChannelMode, ChannelView, MAX_CHANNELS, OnError};
 pub use commissioning::{Commissioning, SdoWrite, SkippedParameter};
 pub use cutter_comp::{CompCorner, CompGouge, CompStartup, CutterComp};
 pub use error::ConfigError;
@@ -68,6 +70,8 @@ pub struct MachineConfig {
     pub mcodes: std::collections::BTreeMap<u32, MAction>,
     /// `[machine]`: machine-wide behaviour.
     pub machine: MachineOptions,
+    /// `[[channel]]`: the axes of each channel (one channel with every axis without it).
+    pub channels: Vec<ChannelConfig>,
 }
 
 /// `[machine]`.
@@ -249,6 +253,8 @@ struct RawConfig {
     #[serde(default, deserialize_with = "check::table")]
     machine: RawMachine,
     axis: Vec<check::Table<axes::RawAxis>>,
+    #[serde(default)]
+    channel: Vec<check::Table<channels::RawChannel>>,
 }
 
 /// Validates the sections in file order of dependence: the bus first (the axes check their
@@ -283,6 +289,7 @@ fn validate(raw: RawConfig, path: &Path, text: &str) -> Result<MachineConfig, In
     let work_offsets = work_offsets::validate(&raw.work_offsets, &axes)?;
     let tool_offsets = tool_offsets::validate(&raw.tool_offsets)?;
     let mcodes = mcodes::validate(&raw.mcodes)?;
+    let channels = channels::validate(&raw.channel, &axes)?;
     let config = MachineConfig {
         path: path.to_path_buf(),
         axes,
@@ -293,6 +300,7 @@ fn validate(raw: RawConfig, path: &Path, text: &str) -> Result<MachineConfig, In
         tool_offsets,
         mcodes,
         machine,
+        channels,
     };
     raw.interp.check_paths(&config)?;
     mcodes::check_targets(&raw.mcodes, &config.mcodes, &config.program_dir())?;

@@ -6,7 +6,8 @@
 # $HIL_OUT/result.txt for hil-tests/suite.sh's summary.
 #
 #   source "$HIL_REPO/hil-tests/scenarios/common.bash"
-#   scenario_run CONFIG PROGRAM [SIMDRIVE_ARG...]   # sets RUN_RC, DRIVE_RC
+#   scenario_run CONFIG PROGRAM [SIMDRIVE_ARG...]   # sets RUN_RC, DRIVE_RC ($RUN_EXTRA: more
+#                                                   # `cnc402 run` arguments)
 #   scenario_check 'drive-assertion'... -- 'run-assertion'...
 #   scenario_end "figures template"
 set -uo pipefail
@@ -82,7 +83,9 @@ scenario_run() {
         fi
         hil_wait run "$run_limit" || RUN_RC=$?
     else
-        timeout -k 5 "$run_limit" "$HIL_BIN/cnc402" --config "$cfg" run "$prog" \
+        # RUN_EXTRA: further `cnc402 run` arguments (e.g. `--channel 1=FILE`), word-split.
+        # shellcheck disable=SC2086
+        timeout -k 5 "$run_limit" "$HIL_BIN/cnc402" --config "$cfg" run "$prog" ${RUN_EXTRA:-} \
             --report "$RUN_JSON" >"$HIL_OUT/run.log" 2>&1 || RUN_RC=$?
     fi
     kill -TERM "${HIL_PIDS[drive]}" 2>/dev/null

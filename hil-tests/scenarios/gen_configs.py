@@ -7,6 +7,8 @@ machine changes; hil-tests/suite.sh warns when they drift):
   machine-vcan-tight-fe.toml the same with X's following-error window 0.01 mm
   machine-vcan-wrap.toml     the same with C at 2^20 counts/rev (INT32 wrap after 20.5 s at 6000 rpm)
   machine-vcan-mismatched.toml the same with the spindle's simulated drive slower than Z
+  machine-vcan-two-channel.toml the same with a second slide U W as channel 1
+                             (examples/axioma/two-channel.toml)
                              (sim and the master's dynamics: 2 cycles / 40 Hz; Z 1 / 150 Hz)
 
   python3 hil-tests/scenarios/gen_configs.py [--check] [--source PATH]
@@ -73,6 +75,18 @@ def widen(s, keep_x=None):
     return "".join(out)
 
 
+def two_channel(b):
+    """The machine with the two-channel example's U and W axes and channels (read from it)."""
+    two = (HERE.parent.parent / "examples" / "axioma" / "two-channel.toml").read_text()
+    extra = two[two.index('[[axis]]\nname = "U"'):]
+    s = sub1(r"^period_us = 1000$", "period_us = 2000               # HIL: six drives (see the bus load check)", b)
+    # The machine's axes have drive models: the new ones need theirs (all or none).
+    model = re.search(r"^dynamics = [^\n]*$", s, re.M)
+    if model:
+        extra = re.sub(r"^(sim = [^\n]*)$", lambda m: m.group(1) + "\n" + model.group(0), extra, flags=re.M)
+    return widen(s.rstrip("\n") + "\n\n" + extra)
+
+
 def main():
     args = sys.argv[1:]
     source = Path(args[args.index("--source") + 1]) if "--source" in args[:-1] else SOURCE
@@ -90,6 +104,10 @@ def main():
             "counts_per_rev = 1048576      # HIL: 2^20 (machine.toml: 131072), so 6000 rpm crosses 2^31 counts after 20.5 s, not 164 s",
             widen(b),
         ),
+        "machine-vcan-two-channel.toml": HEADER
+        + "# Variant for the two-channel scenario: examples/axioma/two-channel.toml's second slide\n"
+        + "# (U, W on nodes 5, 6) and its [[channel]] entries; six drives need the 2000 us period.\n"
+        + two_channel(b),
         "machine-vcan-mismatched.toml": HEADER
         + "# Variant for the mismatched-dynamics tap scenario: the spindle's drive slower than Z's.\n"
         + sub1(

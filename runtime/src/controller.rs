@@ -141,6 +141,12 @@ pub struct CycleController<L: DriveLink> {
     panel_now: Option<crate::operator::PanelAction>,
     /// Coolant, spindle enable and tool clamp as the program sets them.
     outputs: crate::machine_io::LoopOutputs,
+    /// Wait marks hold (a channel of several); off, they pass as on a one-channel machine.
+    wait_marks: bool,
+    /// At rest at a wait mark `(mark, channels)` until the channel set releases it.
+    mark: Option<(u16, u16)>,
+    /// A channel reset: the path stops, queued moves are dropped, the channel stays running.
+    discarding: bool,
 }
 
 /// One axis of a tap slaved to the other's actual position after that one's drive stopped
@@ -227,7 +233,86 @@ impl<L: DriveLink> CycleController<L> {
             last_n: None,
             panel_now: None,
             outputs: crate::machine_io::LoopOutputs::new(cfg),
+            wait_marks: false,
+            mark: None,
+            discarding: false,
         }
+    }
+
+    /// Holds at wait marks (`StopKind::WaitMark`) until [`release_mark`](Self::release_mark):
+    /// a channel of a machine with several.
+    pub fn with_wait_marks(mut self) -> Self {
+        self.wait_marks = true;
+        self
+    }
+
+    /// The wait mark this controller holds at, `(mark, channel bits)`, if any.
+    pub fn at_mark(&self) -> Option<(u16, u16)> {
+        self.mark.filter(|_| self.phase == Phase::Running)
+    }
+
+    /// A channel reset (`on`): the path decelerates to rest and every queued move is
+    /// dropped (counted as started, so the feeder's motion sync sees them done) until it is
+    /// turned off; the controller stays in the running phase and takes moves again after.
+    pub fn set_discarding(&mut self, on: bool) {
+        if on && !self.discarding && !self.interp.is_idle() {
+            self.interp.request_stop();
+        }
+        self.discarding = on;
+    }
+
+    /// Drops the queued moves and ends a reset's stop once at rest (see `set_discarding`).
+    fn discard(&mut self) {
+        while let Some(input) = self.moves.try_pop() {
+            if let LoopInput::Move(_) = input {
+                self.moves_started += 1;
+            }
+        }
+        self.mark = None;
+        self.held = false;
+        if self.interp.is_held() {
+            self.interp.clear_stop();
+        }
+    }
+
+    /// The other channels reached the mark: the next move starts on the next period.
+    pub fn release_mark(&mut self) {
+        self.mark = None;
+    }
+
+    /// The program is over or stopping: no more moves will start (a channel waiting for
+    /// this one waits forever).
+    pub fn is_ending(&self) -> bool {
+        self.phase != Phase::Running || (self.input_done && self.interp.is_idle())
+    }
+
+    /// Running, idle, nothing queued, not held: a resident channel between programs.
+    pub fn is_at_rest(&self) -> bool {
+        self.phase == Phase::Running
+            && self.interp.is_idle()
+            && self.moves.is_empty()
+            && !self.held
+            && self.mark.is_none()
+    }
+
+    /// The first stop of this run (a drive's, the operator's, a motion error's), with the
+    /// line executing then.
+    pub fn first_stop(&self) -> Option<(DriveStop, u32)> {
+        if let Some(e) = self.motion_error {
+            return Some((stop_without_drive(StopCause::Motion), e.line));
+        }
+        self.stop.map(|(s, line, _)| (s, line))
+    }
+
+    /// The line of the move executing.
+    pub fn line(&self) -> u32 {
+        self.last_line
+    }
+
+    /// Stops this controller's motion along its path for `stop` (another channel's fault,
+    /// a deadlock), as a safety reaction of its own would.
+    pub fn stop_for(&mut self, stop: DriveStop) {
+        self.begin_stop(stop);
     }
 
     /// Takes feed hold, resume and overrides from `panel` (set at once from the terminal)
@@ -309,6 +394,7 @@ impl<L: DriveLink> CycleController<L> {
         self.phase != Phase::Running
             || self.held
             || self.applied.hold
+            || self.mark.is_some()
             || self.input_done
             || !self.interp.is_idle()
             || !self.moves.is_empty()
@@ -352,11 +438,32 @@ impl<L: DriveLink> CycleController<L> {
         &mut self.link
     }
 
-    /// Runs one period at `now`. Allocation-free.
+    /// Runs one period at `now`: [`prepare`](Self::prepare), the exchange with the drive
+    /// link, [`complete`](Self::complete). Allocation-free.
     pub fn step(&mut self, now: Instant) -> Step {
+        let t = self.prepare();
+        let (raised, all_stopped) = if self.wants_quick_stop() {
+            (None, self.link.quick_stop(now, &mut self.feedback))
+        } else {
+            (
+                self.link.cycle(now, &self.sent, &mut self.feedback).err(),
+                false,
+            )
+        };
+        self.complete(&t, raised, all_stopped)
+    }
+
+    /// The part of a period before the exchange with the drives: requests, the next moves,
+    /// the interpolator's tick and the setpoints to send ([`sent`](Self::sent)). A loop of
+    /// several channels prepares each, exchanges once for all, then completes each.
+    pub fn prepare(&mut self) -> cnc402_motion::Tick {
         self.take_requests();
         self.take_panel();
-        if self.phase == Phase::Running && !self.held && !std::mem::take(&mut self.clamped_now) {
+        if self.discarding && self.phase == Phase::Running {
+            self.discard();
+        }
+        let free = !self.held && self.mark.is_none() && !self.discarding;
+        if self.phase == Phase::Running && free && !std::mem::take(&mut self.clamped_now) {
             // A blended move shorter than the rest of the period passes between two samples
             // (the interpolator stays idle): start moves until one takes this tick (none from
             // rest in a feed hold).
@@ -408,16 +515,34 @@ impl<L: DriveLink> CycleController<L> {
         self.sent = self.commands;
         let tapping = self.tap.is_some() && !self.interp.is_idle() && !self.interp.is_held();
         self.matching.apply(&mut self.sent, tapping);
+        t
+    }
 
-        let mut raised = None;
-        let all_stopped = if self.phase == Phase::QuickStop {
-            self.link.quick_stop(now, &mut self.feedback)
-        } else {
-            if let Err(s) = self.link.cycle(now, &self.sent, &mut self.feedback) {
-                raised = Some(s);
-            }
-            false
-        };
+    /// The setpoints [`prepare`](Self::prepare) made for the drives (axis units, this
+    /// controller's axis order).
+    pub fn sent(&self) -> &[f64; MAX_AXES] {
+        &self.sent
+    }
+
+    /// The drives' feedback for this period, filled by the exchange before
+    /// [`complete`](Self::complete).
+    pub fn feedback_mut(&mut self) -> &mut [DriveFeedback; MAX_AXES] {
+        &mut self.feedback
+    }
+
+    /// The drives are to get quick stop this period instead of setpoints.
+    pub fn wants_quick_stop(&self) -> bool {
+        self.phase == Phase::QuickStop
+    }
+
+    /// The part of a period after the exchange: `raised` is the safety reaction the link
+    /// returned, `all_stopped` whether every drive reported standstill in a quick stop.
+    pub fn complete(
+        &mut self,
+        t: &cnc402_motion::Tick,
+        raised: Option<DriveStop>,
+        all_stopped: bool,
+    ) -> Step {
         self.track_spindle();
         if let Some(s) = raised {
             self.begin_stop(s);
@@ -436,7 +561,7 @@ impl<L: DriveLink> CycleController<L> {
             let linear = &self.axes.linear[..self.axes.n];
             self.path.sample_actual(linear, &act, &age, self.tick);
         }
-        self.publish_status(&t, raised);
+        self.publish_status(t, raised);
         self.tick += 1;
         self.phase_ticks = self.phase_ticks.saturating_add(1);
         self.advance_phase(all_stopped)
@@ -542,6 +667,13 @@ impl<L: DriveLink> CycleController<L> {
     /// allocation).
     #[inline]
     fn program_stop(&mut self, kind: cnc402_motion::StopKind) {
+        if let cnc402_motion::StopKind::WaitMark { mark, channels } = kind
+            && self.wait_marks
+            && self.phase == Phase::Running
+        {
+            self.mark = Some((mark, channels));
+            return;
+        }
         let Some(g) = &self.gate else {
             return;
         };
@@ -711,6 +843,7 @@ impl<L: DriveLink> CycleController<L> {
     }
 
     fn begin_stop(&mut self, stop: DriveStop) {
+        self.mark = None;
         if self.stop.is_none() && self.motion_error.is_none() {
             self.stop = Some((stop, self.last_line, self.moves_started));
         }
@@ -859,7 +992,7 @@ fn follow_actual(
 }
 
 /// A stop that no drive raised (the operator's, a motion error).
-fn stop_without_drive(cause: StopCause) -> DriveStop {
+pub(crate) fn stop_without_drive(cause: StopCause) -> DriveStop {
     DriveStop {
         cause,
         node: 0,

@@ -367,6 +367,18 @@ impl Feeder {
         }
     }
 
+    /// Gives the interpreter the machine's channels and the run's shared `$` globals (see
+    /// `crate::channels`). The interpreter takes them once the language side of issue 15
+    /// lands (`self.interp.set_channels(host); self.interp.set_shared_globals(globals);`);
+    /// until then a program sees one channel.
+    pub fn attach_channels(
+        &mut self,
+        host: Box<dyn cnc402_interp::Channels>,
+        globals: cnc402_interp::SharedGlobals,
+    ) {
+        let _ = (&mut self.interp, host, globals);
+    }
+
     /// Replaces the interpreter's motion sync (see [`crate::sync`]).
     pub fn set_motion_sync(&mut self, sync: Box<dyn cnc402_interp::MotionSync>) {
         self.interp.set_motion_sync(sync);
@@ -468,6 +480,20 @@ pub fn dry_run_watched(
         Some(w) => f.with_watch(w),
         None => f,
     };
+    dry_run_feeder(cfg, f, gate, DRY_RUN_MOVES)
+}
+
+/// [`dry_run_watched`] (no watch) of a channel's program, whose interpreter sees the
+/// machine's channels as `host` answers (see `crate::channels::DryChannels`).
+pub fn dry_run_channel(
+    cfg: &MachineConfig,
+    input: &ProgramInput,
+    gate: Option<&crate::program_stop::StopGate>,
+    host: Box<dyn cnc402_interp::Channels>,
+    globals: cnc402_interp::SharedGlobals,
+) -> Result<DryRun, NcError> {
+    let mut f = Feeder::from_input(cfg, input, AxisPos::default(), true)?;
+    f.attach_channels(host, globals);
     dry_run_feeder(cfg, f, gate, DRY_RUN_MOVES)
 }
 

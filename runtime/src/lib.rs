@@ -7,6 +7,8 @@
 // NcError (lang's) is large; it ends a run, outside the loop, so its size costs nothing.
 #![allow(clippy::result_large_err)]
 
+pub mod channel_set;
+pub mod channels;
 pub mod controller;
 pub mod feeder;
 pub mod link;
@@ -37,7 +39,8 @@ pub use plot::write_plot;
 pub use program_stop::{AtStop, StopDecision, StopGate, StopPolicy, StopRecord};
 pub use report::RunReport;
 pub use run::{
-    Progress, RunError, RunOptions, StatsSample, Timing, make_link, run_input, run_program,
+    ChannelRun, ChannelsReport, Progress, RunError, RunOptions, StatsSample, Timing, make_link,
+    run_channels, run_input, run_program,
 };
 pub use sim_machine::{SimFault, SimFaultPlan, SimLink, SimMachine};
 pub use socket_machine::{SocketLink, SocketMachine};

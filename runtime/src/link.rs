@@ -57,6 +57,10 @@ pub enum StopCause {
     LimitSwitch,
     /// The E-stop chain opened (`[machine] estop_input`).
     EstopOpen,
+    /// Another channel stopped (its fault or motion error, with `on_error = "all"`).
+    OtherChannel,
+    /// Channels wait for each other at wait marks that can never all be reached.
+    ChannelDeadlock,
 }
 
 impl StopCause {
@@ -76,6 +80,8 @@ impl StopCause {
             StopCause::Motion => "motion error",
             StopCause::LimitSwitch => "limit switch",
             StopCause::EstopOpen => "E-stop open",
+            StopCause::OtherChannel => "another channel stopped",
+            StopCause::ChannelDeadlock => "channel wait deadlock",
         }
     }
 }

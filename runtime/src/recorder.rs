@@ -349,12 +349,7 @@ impl Recorder {
             }
         }
         line.push(',');
-        if let Some(a) = s.panel {
-            line.push_str(a.name());
-            if let Some(p) = a.percent() {
-                line.push_str(&format!(" {p}"));
-            }
-        }
+        push_panel(&mut line, s);
         line.push('\n');
         if let Some(t) = self.trace.as_mut()
             && let Err(e) = t.write_all(line.as_bytes())
@@ -412,7 +407,18 @@ impl Recorder {
 }
 
 /// A position with enough digits for 0.1 µm / one spindle count, trailing zeros cut.
-fn fmt(v: f64) -> String {
+/// The trace's `panel` cell of record `s`: the panel change applied on its tick, if any.
+pub(crate) fn push_panel(line: &mut String, s: &Status) {
+    if let Some(a) = s.panel {
+        line.push_str(a.name());
+        if let Some(p) = a.percent() {
+            line.push_str(&format!(" {p}"));
+        }
+    }
+}
+
+/// A trace number: up to 7 decimals, no trailing zeros, no `-0`.
+pub(crate) fn fmt(v: f64) -> String {
     let s = format!("{v:.7}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
     if s == "-0" {

@@ -87,6 +87,16 @@ impl SyncShared {
         self.changed.notify_all();
     }
 
+    /// The actual positions of the last drained tick.
+    pub fn actual(&self) -> AxisPos {
+        self.lock().actual
+    }
+
+    /// The loop left the running phase (stop, fault, end) or the run is over.
+    pub fn has_ended(&self) -> bool {
+        self.lock().ended || self.abort.load(Ordering::SeqCst)
+    }
+
     /// True when every move pushed so far has run and the machine has settled.
     pub fn motion_done(&self) -> bool {
         Self::done(&self.lock(), self.pushed.load(Ordering::SeqCst))
@@ -244,96 +254,135 @@ pub fn spawn_feeder(
     gate: Option<Arc<StopGate>>,
 ) -> std::io::Result<JoinHandle<Option<NcError>>> {
     let ring = Arc::new(Mutex::new(ring));
-    feeder.set_motion_sync(Box::new(LoopSync {
-        shared: shared.clone(),
-        flush: Some((feeder.lookahead(), ring.clone())),
-    }));
+    sync_to(&mut feeder, &ring, shared.clone());
     std::thread::Builder::new()
         .name("cnc402-feeder".into())
         .spawn(move || {
-            let push = |ring: &Mutex<MoveProducer>, item: LoopInput| -> bool {
-                push_waiting(
-                    &mut ring.lock().unwrap_or_else(|e| e.into_inner()),
-                    item,
-                    &shared,
-                )
+            let to = FeedTo {
+                ring: &ring,
+                shared: &shared,
+                stop: &stop,
+                gate: gate.as_deref(),
+                cancel: None,
             };
-            let mut holds = 0u64;
-            loop {
-                if shared.abort.load(Ordering::SeqCst) {
+            feed(&mut feeder, to, true)
+        })
+}
+
+/// Where [`feed`] sends a program's moves and what it answers to.
+pub struct FeedTo<'a> {
+    pub ring: &'a Arc<Mutex<MoveProducer>>,
+    pub shared: &'a SyncShared,
+    /// Raised on a program error (stops the machine).
+    pub stop: &'a AtomicBool,
+    pub gate: Option<&'a StopGate>,
+    /// Raised to abandon the program (a channel reset).
+    pub cancel: Option<&'a AtomicBool>,
+}
+
+/// Makes `ring` (shared with the motion sync's flush) the target of `feeder`'s motion sync.
+pub fn sync_to(feeder: &mut Feeder, ring: &Arc<Mutex<MoveProducer>>, shared: Arc<SyncShared>) {
+    feeder.set_motion_sync(Box::new(LoopSync {
+        shared,
+        flush: Some((feeder.lookahead(), ring.clone())),
+    }));
+}
+
+/// Runs `feeder` to the end of its program on the calling thread, pushing every move into
+/// the ring (and `End` after the last when `end`), as [`spawn_feeder`] describes.
+pub fn feed(feeder: &mut Feeder, to: FeedTo, end: bool) -> Option<NcError> {
+    let FeedTo {
+        ring,
+        shared,
+        stop,
+        gate,
+        cancel,
+    } = to;
+    let push = |ring: &Mutex<MoveProducer>, item: LoopInput| -> bool {
+        push_waiting(
+            &mut ring.lock().unwrap_or_else(|e| e.into_inner()),
+            item,
+            shared,
+        )
+    };
+    let mut holds = 0u64;
+    loop {
+        let cancelled = cancel.is_some_and(|c| c.load(Ordering::SeqCst));
+        if shared.abort.load(Ordering::SeqCst) || cancelled {
+            return None;
+        }
+        let next = feeder.next_move();
+        while let Some(t) = feeder.take_message() {
+            shared
+                .messages
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push_back(t);
+        }
+        match next {
+            Ok(Some(mv)) => {
+                let index = shared.pushed.load(Ordering::SeqCst) + 1;
+                let is_break = feeder.take_break().is_some();
+                if let (true, Some(g)) = (is_break, gate) {
+                    g.arm_break(index);
+                }
+                if let Some(f) = feeder.last_file() {
+                    let mut files = shared.files.lock().unwrap_or_else(|e| e.into_inner());
+                    if files.last().is_none_or(|(_, last)| last != f) {
+                        files.push((index, f.clone()));
+                    }
+                }
+                if !push(ring, LoopInput::Move(mv)) {
                     return None;
                 }
-                let next = feeder.next_move();
-                while let Some(t) = feeder.take_message() {
-                    shared
-                        .messages
-                        .lock()
-                        .unwrap_or_else(|e| e.into_inner())
-                        .push_back(t);
-                }
-                match next {
-                    Ok(Some(mv)) => {
-                        let index = shared.pushed.load(Ordering::SeqCst) + 1;
-                        let is_break = feeder.take_break().is_some();
-                        if let (true, Some(g)) = (is_break, gate.as_deref()) {
-                            g.arm_break(index);
-                        }
-                        if let Some(f) = feeder.last_file() {
-                            let mut files = shared.files.lock().unwrap_or_else(|e| e.into_inner());
-                            if files.last().is_none_or(|(_, last)| last != f) {
-                                files.push((index, f.clone()));
-                            }
-                        }
-                        if !push(&ring, LoopInput::Move(mv)) {
-                            return None;
-                        }
-                        shared.pushed.fetch_add(1, Ordering::SeqCst);
-                        let after = if is_break {
-                            AfterStop::Hold
-                        } else {
-                            after_stop(&mv, gate.as_deref())
+                shared.pushed.fetch_add(1, Ordering::SeqCst);
+                let after = if is_break {
+                    AfterStop::Hold
+                } else {
+                    after_stop(&mv, gate)
+                };
+                match after {
+                    AfterStop::GoOn => {}
+                    AfterStop::EndHere => return None,
+                    AfterStop::Hold => {
+                        holds += 1;
+                        let Some(g) = gate else {
+                            continue;
                         };
-                        match after {
-                            AfterStop::GoOn => {}
-                            AfterStop::EndHere => return None,
-                            AfterStop::Hold => {
-                                holds += 1;
-                                let Some(g) = gate.as_deref() else {
-                                    continue;
-                                };
-                                // Until the loop has reached this hold and it is released.
-                                loop {
-                                    if shared.abort.load(Ordering::SeqCst)
-                                        || shared.lock().ended
-                                        || g.end_requested()
-                                    {
-                                        return None;
-                                    }
-                                    if g.holds_reached() >= holds && g.released() {
-                                        break;
-                                    }
-                                    std::thread::sleep(Duration::from_millis(1));
-                                }
-                                if let Err(e) = feeder.reload_persistent_vars(mv.line) {
-                                    stop.store(true, Ordering::SeqCst);
-                                    return Some(e);
-                                }
+                        // Until the loop has reached this hold and it is released.
+                        loop {
+                            if shared.abort.load(Ordering::SeqCst)
+                                || shared.lock().ended
+                                || g.end_requested()
+                            {
+                                return None;
                             }
+                            if g.holds_reached() >= holds && g.released() {
+                                break;
+                            }
+                            std::thread::sleep(Duration::from_millis(1));
                         }
-                    }
-                    Ok(None) => {
-                        push(&ring, LoopInput::End);
-                        return None;
-                    }
-                    Err(e) => {
-                        if shared.abort.load(Ordering::SeqCst) || shared.lock().ended {
-                            // The machine stopped under a waiting read: not a program error.
-                            return None;
+                        if let Err(e) = feeder.reload_persistent_vars(mv.line) {
+                            stop.store(true, Ordering::SeqCst);
+                            return Some(e);
                         }
-                        stop.store(true, Ordering::SeqCst);
-                        return Some(e);
                     }
                 }
             }
-        })
+            Ok(None) => {
+                if end {
+                    push(ring, LoopInput::End);
+                }
+                return None;
+            }
+            Err(e) => {
+                if shared.abort.load(Ordering::SeqCst) || shared.lock().ended {
+                    // The machine stopped under a waiting read: not a program error.
+                    return None;
+                }
+                stop.store(true, Ordering::SeqCst);
+                return Some(e);
+            }
+        }
+    }
 }

@@ -321,3 +321,114 @@ fn holding_at_m0_allocates_nothing_and_holds_position() {
     let last = std::iter::from_fn(|| sc.try_pop()).last().expect("status");
     assert!((last.cmd[0] - 9.0).abs() < 1e-9, "X {}", last.cmd[0]);
 }
+
+/// Two channels (X Y Z C and U W) in one loop on the simulated bus: each channel's moves with
+/// a wait mark after its first, planned before arming; every tick of the set is armed.
+fn run_two_channels_armed(fault: Option<FaultPlan>) -> (u64, Vec<Option<Outcome>>, u64) {
+    use cnc402_motion::{MoveKind, PlannedMove, SegmentEnd, StopKind};
+    use cnc402_runtime::channel_set::{ChannelPort, ChannelSet, Member};
+    use cnc402_runtime::ring::{LoopInput, Producer, move_ring};
+
+    let cfg = MachineConfig::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/axioma/two-channel.toml"
+    ))
+    .expect("config");
+    let mut link = SimLink::simulated(&cfg, None).expect("sim link");
+    if let Some(f) = fault {
+        link = link.with_fault(f);
+    }
+    let start = common::started(&mut link);
+    let stop = Arc::new(AtomicBool::new(false));
+    let programs = [TAP, "G90 G1 U20 W-5 F3000\nG0 U0 W0\nM30\n"];
+    let mut members = Vec::new();
+    let mut rings = Vec::new();
+    let mut producers = Vec::new();
+    for (k, text) in programs.iter().enumerate() {
+        let view = cfg.channel(k).expect("channel");
+        let mut local = [0.0; cnc402_config::MAX_AXES];
+        for (i, &a) in view.axes.iter().enumerate() {
+            local[i] = start[a];
+        }
+        let mut feeder = common::feeder(&view.config, "t.nc", text, &local);
+        let (mut mp, mc) = move_ring(8192);
+        let mut first = true;
+        while let Some(mv) = feeder.next_move().expect("plan") {
+            assert!(mp.try_push(LoopInput::Move(mv)).is_ok());
+            if std::mem::take(&mut first) {
+                let mark = PlannedMove {
+                    line: 1,
+                    n: None,
+                    kind: MoveKind::ProgramStop {
+                        kind: StopKind::WaitMark {
+                            mark: 1,
+                            channels: 0,
+                        },
+                    },
+                    ends: SegmentEnd::ExactStop,
+                };
+                assert!(mp.try_push(LoopInput::Move(mark)).is_ok());
+            }
+        }
+        assert!(mp.try_push(LoopInput::End).is_ok());
+        let (sp, sc) = status_ring(1 << 16);
+        let ctrl = CycleController::new(
+            &view.config,
+            local,
+            ChannelPort::default(),
+            mc,
+            sp,
+            stop.clone(),
+        );
+        members.push(Member::new(ctrl, &view));
+        rings.push(sc);
+        producers.push(mp);
+    }
+    let mut set = ChannelSet::new(link, members, start);
+    let period = Duration::from_micros(cfg.bus.period_us as u64);
+    let mut now = Instant::ZERO;
+    for _ in 0..20 {
+        now += period;
+        assert!(!set.step(now));
+    }
+    let before = allocs();
+    arm(true);
+    let mut ticks = 0;
+    for _ in 0..60_000 {
+        now += period;
+        ticks += 1;
+        if set.step(now) {
+            break;
+        }
+        for sc in rings.iter_mut() {
+            if sc.occupied_len() > 30_000 {
+                while sc.try_pop().is_some() {}
+            }
+        }
+    }
+    arm(false);
+    let n = allocs() - before;
+    let outcomes = set.members().iter().map(|m| m.outcome.clone()).collect();
+    (n, outcomes, ticks)
+}
+
+#[test]
+fn two_channels_in_one_loop_allocate_nothing_through_a_wait_mark_and_a_tap() {
+    let (n, outcomes, ticks) = run_two_channels_armed(None);
+    assert_eq!(outcomes, vec![Some(Outcome::Finished); 2]);
+    assert!(ticks > 1000, "{ticks}");
+    assert_eq!(n, 0, "allocations in {ticks} ticks");
+}
+
+#[test]
+fn two_channels_in_one_loop_allocate_nothing_through_a_fault_and_stop() {
+    let plan = common::fault(5, 600, 0x8611);
+    let (n, outcomes, ticks) = run_two_channels_armed(Some(plan));
+    assert!(
+        outcomes
+            .iter()
+            .all(|o| matches!(o, Some(Outcome::Stopped { .. }))),
+        "{outcomes:?}"
+    );
+    assert_eq!(n, 0, "allocations in {ticks} ticks");
+}

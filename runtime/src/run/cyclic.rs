@@ -198,6 +198,21 @@ fn cyclic_end(
 ) -> LoopEnd {
     let counters = counters_since(ctrl.link().counters(), c0);
     let shutdown_error = ctrl.link_mut().shutdown().err();
+    let bus = (counters, ctrl.link().bitrate(), ctrl.link().homed());
+    LoopEnd {
+        shutdown_error,
+        ..controller_end(ctrl, outcome, bus, elapsed, wall)
+    }
+}
+
+/// What `ctrl` counted over the cyclic phase, with the bus's `(counters, bitrate, homed)`.
+pub(super) fn controller_end<L: DriveLink>(
+    ctrl: &CycleController<L>,
+    outcome: Outcome,
+    bus: (BusCounters, u32, [bool; MAX_AXES]),
+    elapsed: Duration,
+    wall: Duration,
+) -> LoopEnd {
     LoopEnd {
         outcome,
         ticks: ctrl.ticks(),
@@ -206,14 +221,14 @@ fn cyclic_end(
         max_following_error: ctrl.max_following_error(),
         tap_moves: ctrl.tap_moves(),
         path: ctrl.path_figures(),
-        counters,
-        bitrate: ctrl.link().bitrate(),
-        homed: ctrl.link().homed(),
+        counters: bus.0,
+        bitrate: bus.1,
+        homed: bus.2,
         elapsed,
         latency: None,
         grant: None,
         wall,
-        shutdown_error,
+        shutdown_error: None,
         panel: *ctrl.panel_log(),
     }
 }
@@ -246,7 +261,7 @@ fn failed_end(
 }
 
 /// Counters of the cyclic phase only (boot traffic left out of the bus load).
-fn counters_since(end: BusCounters, start: BusCounters) -> BusCounters {
+pub(super) fn counters_since(end: BusCounters, start: BusCounters) -> BusCounters {
     BusCounters {
         tx_frames: end.tx_frames.saturating_sub(start.tx_frames),
         rx_frames: end.rx_frames.saturating_sub(start.rx_frames),

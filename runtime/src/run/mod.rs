@@ -6,11 +6,13 @@
 
 mod cyclic;
 mod error;
+mod multi;
 mod prompt;
 mod real_time;
 mod report;
 mod side;
 mod stats;
+mod trace;
 mod virtual_time;
 
 use std::io::Write;
@@ -37,6 +39,7 @@ use crate::socket_machine::SocketLink;
 use crate::status::Outcome;
 use cyclic::{LoopEnd, LoopIo, run_cyclic};
 pub use error::RunError;
+pub use multi::{ChannelRun, ChannelsReport, run_channels};
 use prompt::OperatorPrompt;
 use real_time::RealTimeClock;
 use report::build_report;
@@ -77,6 +80,11 @@ pub struct RunOptions {
     /// `STATUS_RING / 2`, so a smaller ring loses records as a slow reporter would.
     #[cfg(any(test, feature = "testing"))]
     pub status_ring: Option<usize>,
+    /// Run on a thread of its own once the channels of a run of several are started, with
+    /// channel 0's `Channels`: it stands in for channel 0's program calling `channel_run`
+    /// and the others (tests; only with the `testing` feature).
+    #[cfg(any(test, feature = "testing"))]
+    pub channels_hook: Option<ChannelsHook>,
     /// Boot and enable limits; `None`: [`LinkTimeouts::default`] on the simulator,
     /// [`LinkTimeouts::real_bus`] on a CAN interface.
     pub timeouts: Option<LinkTimeouts>,
@@ -109,6 +117,8 @@ impl Default for RunOptions {
             model_link: false,
             #[cfg(any(test, feature = "testing"))]
             status_ring: None,
+            #[cfg(any(test, feature = "testing"))]
+            channels_hook: None,
             timeouts: None,
             at_stop: AtStop::Continue,
             optional_stop: false,
@@ -119,6 +129,10 @@ impl Default for RunOptions {
         }
     }
 }
+
+/// See [`RunOptions::channels_hook`].
+#[cfg(any(test, feature = "testing"))]
+pub type ChannelsHook = Box<dyn FnOnce(Box<dyn cnc402_interp::Channels>) + Send>;
 
 /// The drive link for `cfg`'s bus: the embedded simulated machine for `interface = "sim"`,
 /// otherwise the master on that SocketCAN interface ([`SocketLink`]; an interface that cannot
@@ -163,6 +177,23 @@ fn make_link_with(
     Ok(Box::new(link))
 }
 
+/// Locked memory and SCHED_FIFO for the calling (loop) thread; without them an error with
+/// `require_rt`, else a warning.
+fn realtime_grant(require_rt: bool) -> Result<crate::rt::RtGrant, RunError> {
+    let grant = request_realtime();
+    if grant.is_full() {
+        log::info!("{}", grant.describe());
+    } else if require_rt {
+        return Err(RunError::Io(format!("--require-rt: {}", grant.describe())));
+    } else {
+        log::warn!(
+            "{} — running anyway, expect more late wake-ups",
+            grant.describe()
+        );
+    }
+    Ok(grant)
+}
+
 /// Which drive link a run uses (see [`make_link`]).
 #[derive(Clone, Debug)]
 struct LinkSpec {
@@ -172,6 +203,19 @@ struct LinkSpec {
     #[cfg(any(test, feature = "testing"))]
     model: bool,
     timeouts: Option<LinkTimeouts>,
+}
+
+impl LinkSpec {
+    /// The link `opts` ask for.
+    fn of(opts: &RunOptions) -> LinkSpec {
+        LinkSpec {
+            fault: opts.fault,
+            sim_faults: opts.sim_faults.clone(),
+            #[cfg(any(test, feature = "testing"))]
+            model: opts.model_link,
+            timeouts: opts.timeouts,
+        }
+    }
 }
 
 /// The link of a run: [`make_link`], or the test double when asked for (feature `testing`).
@@ -248,13 +292,7 @@ pub fn run_input(
             src.name
         );
     }
-    let spec = LinkSpec {
-        fault: opts.fault,
-        sim_faults: opts.sim_faults.clone(),
-        #[cfg(any(test, feature = "testing"))]
-        model: opts.model_link,
-        timeouts: opts.timeouts,
-    };
+    let spec = LinkSpec::of(&opts);
     #[cfg(any(test, feature = "testing"))]
     let model = spec.model;
     #[cfg(not(any(test, feature = "testing")))]
@@ -311,6 +349,7 @@ pub fn run_input(
         moves: moves_tx,
         stop_request: stop_request.clone(),
         operator,
+        channels: None,
     };
     let io = LoopIo {
         moves: moves_rx,
@@ -390,17 +429,7 @@ fn run_realtime(
     let handle = std::thread::Builder::new()
         .name("cnc402-loop".into())
         .spawn(move || -> Result<LoopEnd, RunError> {
-            let grant = request_realtime();
-            if grant.is_full() {
-                log::info!("{}", grant.describe());
-            } else if require_rt {
-                return Err(RunError::Io(format!("--require-rt: {}", grant.describe())));
-            } else {
-                log::warn!(
-                    "{} — running anyway, expect more late wake-ups",
-                    grant.describe()
-                );
-            }
+            let grant = realtime_grant(require_rt)?;
             let wall0 = std::time::Instant::now();
             let link = link_for(&cfg_t, &spec)?;
             let mut clock = RealTimeClock::new(period_ns, grant, counters);

@@ -38,6 +38,12 @@ pub(super) struct FeederStart {
     pub(super) stop_request: Arc<AtomicBool>,
     /// Breakpoints, single block and block search.
     pub(super) operator: crate::operator::OperatorOptions,
+    /// The machine's channels and the run's shared globals, for the interpreter (a run of
+    /// several channels).
+    pub(super) channels: Option<(
+        Box<dyn cnc402_interp::Channels>,
+        cnc402_interp::SharedGlobals,
+    )>,
 }
 
 /// The reporting side: recorder, progress callback, and what the feeder thread needs to know.
@@ -68,6 +74,9 @@ pub(super) struct Side<'a> {
     last_outputs: Option<u8>,
     pub(super) outputs: Vec<crate::report::OutputChange>,
     pub(super) outputs_lost: u64,
+    /// Put before each event line on stderr: the channel (`channel 1 (sub): `) in a run of
+    /// several, empty in a one-channel run.
+    pub(super) label: String,
 }
 
 impl<'a> Side<'a> {
@@ -100,6 +109,7 @@ impl<'a> Side<'a> {
             last_outputs: None,
             outputs: Vec::new(),
             outputs_lost: 0,
+            label: String::new(),
         }
     }
 
@@ -113,6 +123,9 @@ impl<'a> Side<'a> {
         let start = start_position(&axes, start);
         let mut feeder =
             Feeder::from_input(self.cfg, &feed.input, start, false).map_err(RunError::Program)?;
+        if let Some((host, globals)) = feed.channels {
+            feeder.attach_channels(host, globals);
+        }
         self.lookahead = Some(feeder.lookahead());
         // Feed override above 100 % is planned: the lookahead reads it per segment.
         crate::feeder::lock(&feeder.lookahead())
@@ -163,8 +176,14 @@ impl<'a> Side<'a> {
     /// Takes every status record the loop has sent so far: events logged (program stops to
     /// the operator), records to the recorder, progress published and told.
     pub(super) fn drain(&mut self, ring: &mut StatusConsumer) {
+        self.drain_with(ring, |_| {});
+    }
+
+    /// [`drain`](Self::drain), showing `each` every record too.
+    pub(super) fn drain_with(&mut self, ring: &mut StatusConsumer, mut each: impl FnMut(&Status)) {
         let mut last: Option<Status> = None;
         while let Some(s) = ring.try_pop() {
+            each(&s);
             self.event(&s);
             if s.phase != Phase::Settling && s.phase != Phase::QuickStop {
                 self.program_ticks = s.tick + 1;
@@ -232,7 +251,8 @@ impl<'a> Side<'a> {
             }
             let (output, on) = (crate::machine_io::output_name(bit), s.outputs & bit != 0);
             let state = if on { "on" } else { "off" };
-            log::info!("{file}:{}: {output} {state} at {t_s:.3} s", s.line);
+            let label = &self.label;
+            log::info!("{label}{file}:{}: {output} {state} at {t_s:.3} s", s.line);
             if self.outputs.len() >= crate::report::MAX_OUTPUT_CHANGES {
                 self.outputs_lost += 1;
                 continue;
@@ -254,7 +274,8 @@ impl<'a> Side<'a> {
             // Where the loop applied it, for the operator (the report keeps it too).
             let pct = a.percent().map(|p| format!(" {p} %")).unwrap_or_default();
             eprintln!(
-                "{}{pct} at {:.3} s, {}:{} | {}",
+                "{}{}{pct} at {:.3} s, {}:{} | {}",
+                self.label,
                 a.name(),
                 s.tick as f64 * self.cfg.bus.period_s(),
                 self.file_of(s),
@@ -291,7 +312,7 @@ impl<'a> Side<'a> {
                     let file = self.file_of(s);
                     self.prompt.tool_change(s.line, tool, file, s.tick);
                 } else {
-                    log::info!("line {}: tool change to T{tool}", s.line);
+                    log::info!("{}line {}: tool change to T{tool}", self.label, s.line);
                 }
             }
             Some(MoveEvent::Coolant { mist, flood }) => {
@@ -301,7 +322,7 @@ impl<'a> Side<'a> {
                     (false, true) => "flood",
                     (true, true) => "mist and flood",
                 };
-                log::info!("line {}: coolant {state}", s.line);
+                log::info!("{}line {}: coolant {state}", self.label, s.line);
                 self.coolant_on = mist || flood;
             }
             None => {}

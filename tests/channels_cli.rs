@@ -1,0 +1,225 @@
+//! `cnc402 run MAIN --channel 1=FILE` on the two-channel example machine: both programs in
+//! one loop, the report per channel, and the errors (a bad `--channel`, a program error in
+//! the second channel, a drive fault stopping every channel) with their channel.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+const TWO: &str = "examples/axioma/two-channel.toml";
+
+fn cnc402(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("run cnc402")
+}
+
+/// A folder of the test's own.
+fn dir(test: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("cnc402-channels-{}-{test}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn program(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn final_position(report: &Value, channel: usize, axis: &str) -> f64 {
+    report["channels"][channel]["report"]["axes"][axis]["final_position"]
+        .as_f64()
+        .unwrap()
+}
+
+/// `cnc402 run A --channel 1=B --report d/r.json EXTRA…` on the two-channel machine; its
+/// output and report.
+fn run_two(d: &Path, a: &str, b: &str, extra: &[&str]) -> (Output, Value) {
+    let r = d.join("r.json");
+    let channel = format!("1={b}");
+    let mut args = vec!["--config", TWO, "run", a, "--channel", &channel];
+    args.extend(["--report", r.to_str().unwrap()]);
+    args.extend(extra);
+    let o = cnc402(&args);
+    let rep = std::fs::read_to_string(&r)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or(Value::Null);
+    (o, rep)
+}
+
+#[test]
+fn two_channels_run_their_programs_concurrently_with_a_report_per_channel() {
+    let d = dir("ok");
+    let a = program(&d, "a.nc", "G90 G0 X10 Y5\nG1 X20 F600\nM30\n");
+    let b = program(&d, "b.nc", "G90 G1 U20 W-5 F1200\nG0 U-3\nM30\n");
+    let trace = d.join("t.csv");
+    let (o, rep) = run_two(&d, &a, &b, &["--trace", trace.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let trace = std::fs::read_to_string(d.join("t.csv")).unwrap();
+    let mut rows = trace.lines();
+    let header = rows.next().unwrap();
+    assert!(
+        header.starts_with("t,line,line_ch1,X_cmd,X_act,"),
+        "{header}"
+    );
+    assert!(header.contains(",U_cmd,U_act,W_cmd,W_act,"), "{header}");
+    let last: Vec<&str> = rows.last().unwrap().split(',').collect();
+    // Channel 0 ended at line 3 (M30), channel 1 at line 3; U at -3.
+    assert_eq!((last[1], last[2]), ("3", "3"), "{last:?}");
+    assert_eq!(last[11], "-3", "{last:?}");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("== channel 0 (main): ") && out.contains("== channel 1 (sub): "));
+    assert_eq!(rep["ok"], true);
+    assert_eq!(final_position(&rep, 0, "X"), 20.0);
+    assert_eq!(final_position(&rep, 0, "Y"), 5.0);
+    assert_eq!(final_position(&rep, 1, "U"), -3.0);
+    assert_eq!(final_position(&rep, 1, "W"), -5.0);
+    // One loop: both channels' cyclic phases share one clock, so neither waited for the other.
+    let ticks = |k: usize| rep["channels"][k]["report"]["ticks"].as_u64().unwrap();
+    let (t0, t1) = (ticks(0), ticks(1));
+    assert!(t0.max(t1) < t0 + t1 - 100, "{t0} {t1}");
+}
+
+#[test]
+fn a_bad_channel_option_is_a_usage_error() {
+    let d = dir("usage");
+    let a = program(&d, "a.nc", "G0 X1\nM30\n");
+    for (config, arg, want) in [
+        (TWO, format!("5={a}"), "this machine has 2 channel"),
+        (TWO, format!("0={a}"), "channel 0 runs PROGRAM"),
+        (TWO, "1".to_string(), "expected N=FILE"),
+        (
+            "config/machine.toml",
+            format!("1={a}"),
+            "this machine has 1 channel",
+        ),
+    ] {
+        let o = cnc402(&["--config", config, "run", &a, "--channel", &arg]);
+        assert_eq!(o.status.code(), Some(64), "{arg}: {}", text(&o));
+        // miette wraps long messages: compare the words.
+        let words = text(&o).replace('│', " ");
+        let words: Vec<&str> = words.split_whitespace().collect();
+        assert!(words.join(" ").contains(want), "{arg}: {}", text(&o));
+    }
+}
+
+#[test]
+fn a_program_error_in_channel_1_names_the_channel_and_the_line_before_motion() {
+    let d = dir("program-error");
+    let a = program(&d, "a.nc", "G0 X1\nM30\n");
+    let b = program(&d, "b.nc", "G0 U1\nG0 X5\nM30\n");
+    let o = cnc402(&["--config", TWO, "run", &a, "--channel", &format!("1={b}")]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("channel 1 (sub)") && t.contains("b.nc:2"), "{t}");
+}
+
+#[test]
+fn a_drive_fault_in_channel_1_stops_both_channels_and_says_where() {
+    let d = dir("fault");
+    let a = program(&d, "a.nc", "G90 G1 X100 F600\nM30\n");
+    let b = program(&d, "b.nc", "G90 G1 U100 F600\nM30\n");
+    let (o, rep) = run_two(&d, &a, &b, &["--inject-fault", "5:8611@0.5"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert_eq!(rep["ok"], false);
+    for k in 0..2 {
+        assert_eq!(rep["channels"][k]["ok"], false, "channel {k}");
+    }
+    let err = rep["error"].as_str().unwrap();
+    assert!(err.starts_with("channel "), "{err}");
+    assert!(final_position(&rep, 0, "X") < 50.0);
+    assert!(final_position(&rep, 1, "U") < 50.0);
+}
+
+#[test]
+fn two_channels_run_in_real_time_too_with_the_same_setpoints() {
+    let d = dir("realtime");
+    let a = program(&d, "a.nc", "G90 G0 X10 Y5\nG1 X20 F600\nM30\n");
+    let b = program(&d, "b.nc", "G90 G1 U20 W-5 F1200\nG0 U-3\nM30\n");
+    let mut rows = Vec::new();
+    for (name, rt) in [("v.csv", false), ("rt.csv", true)] {
+        let trace = d.join(name);
+        let mut args = vec![
+            "--config".to_string(),
+            TWO.to_string(),
+            "run".to_string(),
+            a.clone(),
+            "--channel".to_string(),
+            format!("1={b}"),
+            "--trace".to_string(),
+            trace.display().to_string(),
+        ];
+        if rt {
+            args.push("--realtime".into());
+        }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = cnc402(&args);
+        assert!(o.status.success(), "{}", text(&o));
+        let t = std::fs::read_to_string(&trace).unwrap();
+        // Each channel's setpoints are the same whatever the clock; in real time a channel
+        // may start a tick later than in virtual time (its feeder is not waited for), so the
+        // channels are compared each on its own, repeats (ticks at rest) left out.
+        let column = |i: usize| {
+            let mut v: Vec<String> = t
+                .lines()
+                .skip(1)
+                .map(|l| l.split(',').nth(i).unwrap().to_string())
+                .collect();
+            v.dedup();
+            // Ticks at the start position before the channel's first move.
+            let moved = v.iter().position(|x| x != "0").unwrap_or(v.len());
+            v.split_off(moved)
+        };
+        rows.push((column(3), column(11)));
+    }
+    assert_eq!(rows[0], rows[1]);
+    assert_eq!(rows[0].1.last().map(String::as_str), Some("-3"));
+}
+
+/// hil-tests/scenarios/15-two-channels.sh in process: the same programs on the embedded
+/// simulator (the example machine the scenario's config is made from), in real time as on
+/// vcan, with the scenario's run assertions.
+#[test]
+fn hil_15_two_channels_in_process() {
+    let d = dir("hil15");
+    let r = d.join("r.json");
+    let o = cnc402(&[
+        "--config",
+        TWO,
+        "run",
+        "hil-tests/scenarios/programs/two-channel-main.nc",
+        "--channel",
+        "1=hil-tests/scenarios/programs/two-channel-sub.nc",
+        "--realtime",
+        "--report",
+        r.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let rep: Value = serde_json::from_str(&std::fs::read_to_string(&r).unwrap()).unwrap();
+    assert_eq!(rep["ok"], true);
+    assert_eq!(rep["channels"][0]["ok"], true);
+    assert_eq!(rep["channels"][1]["ok"], true);
+    for (k, axis, want) in [
+        (0, "X", 40.0),
+        (0, "Y", 20.0),
+        (1, "U", 25.0),
+        (1, "W", 0.0),
+    ] {
+        let got = final_position(&rep, k, axis);
+        assert!((got - want).abs() < 0.001, "{axis}: {got}");
+    }
+}
