@@ -76,7 +76,10 @@ fn two_channels_run_their_programs_concurrently_with_a_report_per_channel() {
         header.starts_with("t,line,line_ch1,X_cmd,X_act,"),
         "{header}"
     );
-    assert!(header.contains(",U_cmd,U_act,W_cmd,W_act,"), "{header}");
+    assert!(
+        header.contains(",U_cmd,U_act,V_cmd,V_act,W_cmd,W_act,"),
+        "{header}"
+    );
     let last: Vec<&str> = rows.last().unwrap().split(',').collect();
     // Channel 0 ended at line 3 (M30), channel 1 at line 3; U at -3.
     assert_eq!((last[1], last[2]), ("3", "3"), "{last:?}");
@@ -222,4 +225,110 @@ fn hil_15_two_channels_in_process() {
         let got = final_position(&rep, k, axis);
         assert!((got - want).abs() < 0.001, "{axis}: {got}");
     }
+}
+
+/// Source 000's regression-test program, as printed (typos fixed), on channel 0: it checks
+/// channel 1 is in Auto and ready, then loads and runs 01.nc and 02.nc there; channel 1's
+/// U V W end where 02.nc leaves them, and the run passes.
+#[test]
+fn the_seeds_regression_test_runs_its_part_programs_on_channel_1() {
+    let d = dir("seed");
+    let r = d.join("r.json");
+    let o = cnc402(&[
+        "--config",
+        TWO,
+        "run",
+        "examples/axioma/regression_test.nc",
+        "--report",
+        r.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let all = text(&o);
+    assert_eq!(all.matches("MSG: Kanal zapuwen").count(), 2, "{all}");
+    let rep: Value = serde_json::from_str(&std::fs::read_to_string(&r).unwrap()).unwrap();
+    assert_eq!(rep["ok"], true, "{rep}");
+    let programs = rep["channels"][1]["programs"].to_string();
+    assert!(
+        programs.contains("01.nc") && programs.contains("02.nc"),
+        "{programs}"
+    );
+    assert!((final_position(&rep, 1, "W") - 5.0).abs() < 1e-3, "{rep}");
+    assert!(final_position(&rep, 1, "U").abs() < 1e-3, "{rep}");
+}
+
+/// The variant with a part program that fails on purpose (zero feed): channel_run fails,
+/// the retry after channel_reset fails too, and the test program ends with terminate 5558
+/// at its line; channel 1 stops as the other channel's error, not as an operator's stop.
+#[test]
+fn the_seeds_regression_test_with_a_failing_program_ends_in_terminate_5558() {
+    let o = cnc402(&[
+        "--config",
+        TWO,
+        "run",
+        "examples/axioma/regression_test_fails.nc",
+    ]);
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{all}");
+    assert!(
+        all.contains("regression_test_fails.nc:47:13") && all.contains("terminate 5558"),
+        "{all}"
+    );
+    assert_eq!(
+        all.matches("03_zero_feed.nc:5:5: zero feed").count() >= 2,
+        true,
+        "{all}"
+    );
+    assert!(all.contains("another channel stopped"), "{all}");
+    assert!(!all.contains("SIGINT"), "{all}");
+}
+
+/// Fanuc's multi-path wait: `M100 P12` in both programs; channel 1 reaches it first (a
+/// short move) and waits at rest until channel 0 gets there, then both go on together.
+#[test]
+fn m100_p12_holds_the_first_channel_until_the_other_reaches_it() {
+    let d = dir("m100");
+    let a = program(&d, "a.nc", "G90 G1 X30 F600\nM100 P12\nG1 Y10 F600\nM30\n");
+    let b = program(&d, "b.nc", "G90 G1 U1 F600\nM100 P12\nG1 U5 F600\nM30\n");
+    let trace = d.join("t.csv");
+    let (o, rep) = run_two(&d, &a, &b, &["--trace", trace.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(rep["ok"], true, "{rep}");
+    let trace = std::fs::read_to_string(trace).unwrap();
+    let mut rows = trace.lines();
+    let header: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let (x, u) = (col("X_cmd"), col("U_cmd"));
+    let rows: Vec<Vec<f64>> = rows
+        .map(|r| {
+            r.split(',')
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    // U leaves 1 only once X has reached 30.
+    let u_moves = rows.iter().position(|r| r[u] > 1.0 + 1e-6).unwrap();
+    assert!(
+        (rows[u_moves][x] - 30.0).abs() < 1e-6,
+        "{:?}",
+        rows[u_moves]
+    );
+    assert!(
+        rows[..u_moves]
+            .iter()
+            .any(|r| (r[u] - 1.0).abs() < 1e-9 && r[x] < 29.0)
+    );
+}
+
+/// Waits that can never all be met (channel 0 at M100, channel 1 at M101): both channels
+/// stop, and the error names each channel's line.
+#[test]
+fn wait_marks_that_disagree_are_a_deadlock_naming_both_lines() {
+    let d = dir("deadlock");
+    let a = program(&d, "a.nc", "G90 G1 X5 F600\nM100 P12\nM30\n");
+    let b = program(&d, "b.nc", "G90 G1 U5 F600\nM101 P12\nM30\n");
+    let (o, _) = run_two(&d, &a, &b, &[]);
+    let all = text(&o);
+    assert!(!o.status.success(), "{all}");
+    assert!(all.contains("deadlock"), "{all}");
+    assert!(all.contains("a.nc:2") && all.contains("b.nc:2"), "{all}");
 }

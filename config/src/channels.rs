@@ -6,7 +6,7 @@
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::axes::{AxisConfig, AxisKind};
+use crate::axes::AxisConfig;
 use crate::check::Invalid;
 use crate::{MAX_AXES, MachineConfig, MachineOutputs, OutputBit};
 
@@ -76,7 +76,7 @@ fn whole_machine(axes: &[AxisConfig]) -> ChannelConfig {
 }
 
 /// Validates the `[[channel]]` entries against the axes: each axis in exactly one channel,
-/// every channel with at least one axis and at most one spindle, at most [`MAX_CHANNELS`].
+/// every channel with at least one axis, at most [`MAX_CHANNELS`].
 pub(crate) fn validate(
     raw: &[crate::check::Table<RawChannel>],
     axes: &[AxisConfig],
@@ -167,18 +167,6 @@ impl RawChannel {
             }
             owner[i] = Some(k);
             mine.push(i);
-        }
-        if mine
-            .iter()
-            .filter(|&&i| axes[i].kind == AxisKind::Spindle)
-            .count()
-            > 1
-        {
-            return Err((
-                self.axes.span(),
-                key("axes"),
-                "a channel has at most one spindle".into(),
-            ));
         }
         Ok(ChannelConfig {
             name,
@@ -280,7 +268,26 @@ impl MachineConfig {
         };
         let o = &self.machine.outputs;
         let mut cfg = MachineConfig {
-            axes: c.axes.iter().map(|&a| self.axes[a].clone()).collect(),
+            // A channel's spindles are its spindles 1 and 2 in config order, whatever their
+            // machine numbers: S, M3 and P address the channel's own (as each Fanuc path
+            // has its own spindle).
+            axes: {
+                let mut spindles = 0u8;
+                c.axes
+                    .iter()
+                    .map(|&a| {
+                        let axis = &self.axes[a];
+                        let spindle = axis.spindle.map(|_| {
+                            spindles += 1;
+                            spindles
+                        });
+                        AxisConfig {
+                            spindle,
+                            ..axis.clone()
+                        }
+                    })
+                    .collect()
+            },
             work_offsets,
             channels: vec![ChannelConfig {
                 axes: (0..c.axes.len()).collect(),
@@ -345,10 +352,14 @@ mod tests {
         let v1 = c.channel(1).unwrap();
         let names = |v: &ChannelView| v.config.axes.iter().map(|a| a.name).collect::<String>();
         assert_eq!(names(&v0), "XYZC");
-        assert_eq!(names(&v1), "UW");
+        assert_eq!(names(&v1), "UVW");
         assert_eq!(
             v1.axes,
-            vec![c.axis_index('U').unwrap(), c.axis_index('W').unwrap()]
+            vec![
+                c.axis_index('U').unwrap(),
+                c.axis_index('V').unwrap(),
+                c.axis_index('W').unwrap()
+            ]
         );
         assert_eq!(v1.config.spindle_index(), None);
         assert_eq!(v0.config.spindle_index(), Some(3));
@@ -356,6 +367,26 @@ mod tests {
         let u = c.axis_index('U').unwrap();
         assert_eq!(v1.config.work_offsets[1][0], c.work_offsets[1][u]);
         assert_eq!(v1.on_error, OnError::All);
+    }
+
+    /// Each Fanuc path has its own spindle: a channel that owns the machine's spindle 2
+    /// addresses it as its spindle 1 (S, M3 and P in its programs).
+    #[test]
+    fn a_channel_owning_the_machines_second_spindle_sees_it_as_its_first() {
+        let base = TWO.split("[[channel]]").next().unwrap();
+        let second = "[[axis]]\nname = \"B\"\nkind = \"spindle\"\nnode = 8\n\
+            counts_per_rev = 131072\nmax_velocity = 36000.0\nmax_acceleration = 36000.0\n\
+            max_jerk = 720000.0\nmax_rpm = 6000.0\nfollowing_error_window = 90.0\n\
+            following_error_timeout_ms = 10\n\
+            [[channel]]\naxes = [\"X\",\"Y\",\"Z\",\"C\"]\n\
+            [[channel]]\naxes = [\"U\",\"V\",\"W\",\"B\"]\n";
+        let c = parse(&format!("{base}{second}")).unwrap();
+        let b = c.axis_index('B').unwrap();
+        assert_eq!(c.spindle_number(b), Some(2));
+        let v1 = c.channel(1).unwrap();
+        assert_eq!(v1.config.spindle_axis(1), Some(3));
+        assert_eq!(v1.config.spindle_axis(2), None);
+        assert_eq!(c.channel(0).unwrap().config.spindle_axis(1), Some(3));
     }
 
     #[test]
@@ -367,7 +398,7 @@ mod tests {
                 "at least one axis",
             ),
             (
-                "[[channel]]\naxes = [\"X\",\"Y\",\"Z\",\"C\"]\n[[channel]]\naxes = [\"U\",\"W\",\"X\"]\n",
+                "[[channel]]\naxes = [\"X\",\"Y\",\"Z\",\"C\"]\n[[channel]]\naxes = [\"U\",\"V\",\"W\",\"X\"]\n",
                 "channel[1].axes",
                 "channel[0] already",
             ),
@@ -377,28 +408,28 @@ mod tests {
                 "not a configured axis",
             ),
             (
-                "[[channel]]\naxes = [\"X\",\"Y\",\"Z\",\"C\",\"U\"]\n",
+                "[[channel]]\naxes = [\"X\",\"Y\",\"Z\",\"C\",\"U\",\"V\"]\n",
                 "channel",
                 "axis W is in no channel",
             ),
             (
-                "[[channel]]\naxes = [\"X\",\"Y\",\"Z\",\"C\",\"U\",\"W\"]\nmode = \"auto-ish\"\n",
+                "[[channel]]\naxes = [\"X\",\"Y\",\"Z\",\"C\",\"U\",\"V\",\"W\"]\nmode = \"auto-ish\"\n",
                 "channel[0].mode",
                 "expected",
             ),
             (
-                "[[channel]]\naxes = [\"X\",\"Y\",\"Z\",\"C\",\"U\",\"W\"]\non_error = \"none\"\n",
+                "[[channel]]\naxes = [\"X\",\"Y\",\"Z\",\"C\",\"U\",\"V\",\"W\"]\non_error = \"none\"\n",
                 "channel[0].on_error",
                 "expected",
             ),
             (
                 "[[channel]]\naxes=[\"X\"]\n[[channel]]\naxes=[\"Y\"]\n[[channel]]\naxes=[\"Z\"]\n\
-                 [[channel]]\naxes=[\"C\"]\n[[channel]]\naxes=[\"U\",\"W\"]\n",
+                 [[channel]]\naxes=[\"C\"]\n[[channel]]\naxes=[\"U\",\"V\",\"W\"]\n",
                 "channel[4]",
                 "at most 4 channels",
             ),
             (
-                "[[channel]]\nname = \"a\"\naxes=[\"X\",\"Y\",\"Z\",\"C\"]\n[[channel]]\nname = \"a\"\naxes=[\"U\",\"W\"]\n",
+                "[[channel]]\nname = \"a\"\naxes=[\"X\",\"Y\",\"Z\",\"C\"]\n[[channel]]\nname = \"a\"\naxes=[\"U\",\"V\",\"W\"]\n",
                 "channel[1].name",
                 "earlier channel",
             ),
@@ -416,14 +447,14 @@ mod tests {
     fn mode_and_on_error_are_read() {
         let full = with_channels(
             "[[channel]]\naxes = [\"X\",\"Y\",\"Z\",\"C\"]\non_error = \"channel\"\n\
-             [[channel]]\naxes = [\"w\",\"u\"]\nmode = \"manual\"\n",
+             [[channel]]\naxes = [\"w\",\"u\",\"v\"]\nmode = \"manual\"\n",
         );
         let c = parse(&full).unwrap();
         let v1 = c.channel(1).unwrap();
         assert_eq!(v1.mode, ChannelMode::Manual);
         assert_eq!(c.channel(0).unwrap().on_error, OnError::Channel);
         let names: String = v1.config.axes.iter().map(|a| a.name).collect();
-        assert_eq!(names, "WU", "the channel's own axis order");
+        assert_eq!(names, "WUV", "the channel's own axis order");
         assert_eq!(v1.name, "ch1");
     }
 }

@@ -76,10 +76,10 @@ def widen(s, keep_x=None):
 
 
 def two_channel(b):
-    """The machine with the two-channel example's U and W axes and channels (read from it)."""
+    """The machine with the two-channel example's U, V and W axes and channels (read from it)."""
     two = (HERE.parent.parent / "examples" / "axioma" / "two-channel.toml").read_text()
     extra = two[two.index('[[axis]]\nname = "U"'):]
-    s = sub1(r"^period_us = 1000$", "period_us = 2000               # HIL: six drives (see the bus load check)", b)
+    s = sub1(r"^period_us = 1000$", "period_us = 2000               # HIL: seven drives (see the bus load check)", b)
     # The machine's axes have drive models: the new ones need theirs (all or none).
     model = re.search(r"^dynamics = [^\n]*$", s, re.M)
     if model:

@@ -185,8 +185,16 @@ fn steps(segments: Vec<Segment>) -> Vec<Step> {
             SegmentKind::Rapid { end } if before.is_some_and(|b| same_point(&b, &end)) => {}
             // A speed and direction the spindle already has changes nothing: the iTNC's
             // `TOOL CALL Z S` then `M3` sets one where the job's `S M3` block is one.
-            SegmentKind::Spindle { rpm, dir, spindle: n } if (rpm, dir, n) == spindle => {}
-            SegmentKind::Spindle { rpm, dir, spindle: n } => {
+            SegmentKind::Spindle {
+                rpm,
+                dir,
+                spindle: n,
+            } if (rpm, dir, n) == spindle => {}
+            SegmentKind::Spindle {
+                rpm,
+                dir,
+                spindle: n,
+            } => {
                 spindle = (rpm, dir, n);
                 out.push(step(s.kind, s.ends, coolant, &s.source));
             }

@@ -5,7 +5,7 @@
 //! that can never end, and spreads a channel's stop to the others per its `on_error`.
 
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use cnc402_config::{ChannelView, MAX_AXES, MAX_CHANNELS, OnError};
 use cnc402_drives::Instant;
@@ -81,6 +81,9 @@ pub struct Member {
     /// It takes programs one after another from the board and ends with the run (see
     /// `crate::channels`); otherwise it ends with its program.
     resident: bool,
+    /// Raised by its feeder when its program fails while it runs: the channel stops as a
+    /// program error (and the others as its `on_error` says), not as an operator's stop.
+    program_failed: Option<Arc<AtomicBool>>,
 }
 
 impl Member {
@@ -103,7 +106,14 @@ impl Member {
             outcome: None,
             signal: None,
             resident: false,
+            program_failed: None,
         }
+    }
+
+    /// Stops as a program error once `flag` is raised (its feeder's stop flag).
+    pub fn with_failure_flag(mut self, flag: Arc<AtomicBool>) -> Member {
+        self.program_failed = Some(flag);
+        self
     }
 
     /// A resident channel (see [`Member::resident`](Self)) reporting through `signal`.
@@ -205,6 +215,13 @@ impl<L: DriveLink> ChannelSet<L> {
     /// Allocation-free.
     pub fn step(&mut self, now: Instant) -> bool {
         for m in self.members.iter_mut().filter(|m| m.live()) {
+            if m.program_failed
+                .as_ref()
+                .is_some_and(|f| f.load(Ordering::Relaxed))
+                && m.ctrl.first_stop().is_none()
+            {
+                m.ctrl.stop_for(stop_without_drive(StopCause::ProgramError));
+            }
             if let (true, Some(sig)) = (m.resident, &m.signal) {
                 m.ctrl.set_discarding(sig.reset.load(Ordering::Relaxed));
             }
@@ -502,7 +519,8 @@ mod tests {
         let last0 = st[0].last().unwrap();
         let last1 = st[1].last().unwrap();
         assert!((last0.cmd[0] - 10.0).abs() < 1e-9 && (last0.cmd[1] - 5.0).abs() < 1e-9);
-        assert!((last1.cmd[0] - 20.0).abs() < 1e-9 && (last1.cmd[1] + 5.0).abs() < 1e-9);
+        // Channel 1's axes U V W: U to 20, W to -5.
+        assert!((last1.cmd[0] - 20.0).abs() < 1e-9 && (last1.cmd[2] + 5.0).abs() < 1e-9);
         // The two moved at once, not one after the other.
         assert_eq!(first_past(&st[0], 0, 0.0), first_past(&st[1], 0, 0.0));
         // Feedback went back to its own channel: U's actual reached 20.

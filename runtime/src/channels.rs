@@ -477,11 +477,9 @@ fn run_resident(r: Resident) -> Option<NcError> {
     // Each turn runs one program; `next_program` ends the loop with the run.
     while let Some(input) = board.next_program(k, &shared) {
         let at = if first { start } else { shared.actual() };
-        let error = match Feeder::from_input(&cfg, &input, at, false) {
+        let error = match Feeder::from_input_on(&cfg, &input, at, false, Some(board.host(k))) {
             Err(e) => Some(e),
             Ok(mut feeder) => {
-                let (host, globals) = board.host(k);
-                feeder.attach_channels(host, globals);
                 sync_to(&mut feeder, &ring, shared.clone());
                 let to = FeedTo {
                     ring: &ring,

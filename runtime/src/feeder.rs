@@ -155,7 +155,28 @@ impl Feeder {
         start: AxisPos,
         dry: bool,
     ) -> Result<Feeder, NcError> {
+        Self::from_input_on(cfg, input, start, dry, None)
+    }
+
+    /// [`from_input`](Self::from_input) of a program whose interpreter sees the machine's
+    /// channels as `channels` answers and shares the run's `$` globals (see
+    /// `crate::channels`); given before the program is loaded, since a C-like program takes
+    /// its channels and globals when it loads.
+    pub fn from_input_on(
+        cfg: &MachineConfig,
+        input: &ProgramInput,
+        start: AxisPos,
+        dry: bool,
+        channels: Option<(
+            Box<dyn cnc402_interp::Channels>,
+            cnc402_interp::SharedGlobals,
+        )>,
+    ) -> Result<Feeder, NcError> {
         let mut interp = new_interp(cfg, start, dry);
+        if let Some((host, globals)) = channels {
+            interp.set_channels(host);
+            interp.set_shared_globals(globals);
+        }
         // The run comes after its dry run, which parsed every line.
         input.load_into(&mut interp, !dry)?;
         Ok(Feeder::with_interp(cfg, interp, input.source(), start, dry))
@@ -367,18 +388,6 @@ impl Feeder {
         }
     }
 
-    /// Gives the interpreter the machine's channels and the run's shared `$` globals (see
-    /// `crate::channels`). The interpreter takes them once the language side of issue 15
-    /// lands (`self.interp.set_channels(host); self.interp.set_shared_globals(globals);`);
-    /// until then a program sees one channel.
-    pub fn attach_channels(
-        &mut self,
-        host: Box<dyn cnc402_interp::Channels>,
-        globals: cnc402_interp::SharedGlobals,
-    ) {
-        let _ = (&mut self.interp, host, globals);
-    }
-
     /// Replaces the interpreter's motion sync (see [`crate::sync`]).
     pub fn set_motion_sync(&mut self, sync: Box<dyn cnc402_interp::MotionSync>) {
         self.interp.set_motion_sync(sync);
@@ -492,8 +501,7 @@ pub fn dry_run_channel(
     host: Box<dyn cnc402_interp::Channels>,
     globals: cnc402_interp::SharedGlobals,
 ) -> Result<DryRun, NcError> {
-    let mut f = Feeder::from_input(cfg, input, AxisPos::default(), true)?;
-    f.attach_channels(host, globals);
+    let f = Feeder::from_input_on(cfg, input, AxisPos::default(), true, Some((host, globals)))?;
     dry_run_feeder(cfg, f, gate, DRY_RUN_MOVES)
 }
 

@@ -61,6 +61,9 @@ pub enum StopCause {
     OtherChannel,
     /// Channels wait for each other at wait marks that can never all be reached.
     ChannelDeadlock,
+    /// The channel's program ended in an error while it ran (a multi-channel run stops that
+    /// channel along its path, and the others as its `on_error` says).
+    ProgramError,
 }
 
 impl StopCause {
@@ -82,6 +85,7 @@ impl StopCause {
             StopCause::EstopOpen => "E-stop open",
             StopCause::OtherChannel => "another channel stopped",
             StopCause::ChannelDeadlock => "channel wait deadlock",
+            StopCause::ProgramError => "program error",
         }
     }
 }

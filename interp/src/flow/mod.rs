@@ -136,6 +136,21 @@ impl Interpreter {
 
     /// An interpreter with explicit operator switches.
     pub fn with_options(cfg: &MachineConfig, opts: Options) -> Self {
+        let mut it = Self::one_channel(cfg, opts);
+        // Without a runtime (segments, canon, which, view, post) a program of a multi-channel
+        // machine is checked against that machine's channels, as channel 0, every call to
+        // another channel succeeding at once; a run attaches the real channels instead.
+        if cfg.channels.len() > 1 {
+            it.hll
+                .set_channels(Box::new(crate::host::channels::DryChannels {
+                    count: cfg.channels.len(),
+                    this: 0,
+                }));
+        }
+        it
+    }
+
+    fn one_channel(cfg: &MachineConfig, opts: Options) -> Self {
         Interpreter {
             m: Machine::new(cfg, opts),
             flow: Flow {

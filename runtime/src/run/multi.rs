@@ -23,7 +23,7 @@ use crate::channel_set::{ChannelPort, ChannelSet, Deadlock, Member};
 use crate::channels::{ChannelBoard, DryChannels, Resident, spawn_resident};
 use crate::controller::{AxisTable, CycleController, start_position};
 use crate::feeder::{ProgramInput, dry_run_channel, motion_error_to_nc};
-use crate::link::{DriveLink, Startup};
+use crate::link::{DriveLink, Startup, StopCause};
 use crate::operator::{CommandInput, OperatorShared, Panel};
 use crate::program_stop::StopGate;
 use crate::recorder::Recorder;
@@ -266,11 +266,15 @@ fn open_lane<'a>(
     let member;
     if let (0, Some(input), Some(operator)) = (k, &lane.input, operator) {
         let ctrl = ctrl.with_panel(common.panel.clone(), operator.schedule);
-        member = Member::new(ctrl, &lane.view).signalled(common.board.signal(0));
+        // Its program's error stops this channel (and the others per `on_error`).
+        let failed = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        member = Member::new(ctrl, &lane.view)
+            .signalled(common.board.signal(0))
+            .with_failure_flag(failed.clone());
         let feed = FeederStart {
             input: input.clone(),
             moves: moves_tx,
-            stop_request: common.stop_request.clone(),
+            stop_request: failed,
             operator,
             channels: Some(common.board.host(0)),
         };
@@ -757,6 +761,7 @@ fn tick_all(
         if crate::rt::sigint_seen() {
             stop_request.store(true, Ordering::SeqCst);
         }
+        let mut failed = None;
         let mut ready = true;
         let mut held = false;
         for (k, m) in set.members().iter().enumerate() {
@@ -782,10 +787,19 @@ fn tick_all(
                 .is_some_and(|h| h.is_finished())
             {
                 if ended_seen[k] {
-                    stop_request.store(true, Ordering::SeqCst);
+                    failed = Some(k);
                 }
                 ended_seen[k] = true;
             }
+        }
+        if let Some(k) = failed {
+            // Stopped as its program error, not as an operator's stop; the others follow
+            // its `on_error` on the next step.
+            set.members_mut()[k]
+                .ctrl
+                .stop_for(crate::controller::stop_without_drive(
+                    StopCause::ProgramError,
+                ));
         }
         if !ready {
             drain_lanes(io.sides, io.rows.as_deref_mut(), board);

@@ -121,11 +121,8 @@ impl<'a> Side<'a> {
     ) -> Result<(), RunError> {
         let axes = AxisTable::new(self.cfg);
         let start = start_position(&axes, start);
-        let mut feeder =
-            Feeder::from_input(self.cfg, &feed.input, start, false).map_err(RunError::Program)?;
-        if let Some((host, globals)) = feed.channels {
-            feeder.attach_channels(host, globals);
-        }
+        let mut feeder = Feeder::from_input_on(self.cfg, &feed.input, start, false, feed.channels)
+            .map_err(RunError::Program)?;
         self.lookahead = Some(feeder.lookahead());
         // Feed override above 100 % is planned: the lookahead reads it per segment.
         crate::feeder::lock(&feeder.lookahead())
