@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Two channels on one bus (issue 15): channel 0 runs X Y Z, channel 1 runs U V W
 # (machine-vcan-two-channel.toml: seven drives, 2000 us period), both in the one loop with one
-# master and one SYNC. Both programs end ok at their programmed final positions, every drive
-# (nodes 1-7) reached OPERATION ENABLED and never faulted, no protocol errors. The in-process
+# master and one SYNC, meeting at a Fanuc wait M code (M100 P12). Both programs end ok at
+# their programmed final positions, every drive (nodes 1-7) reached OPERATION ENABLED and never faulted, no protocol errors. The in-process
 # equivalent is tests/channels_cli.rs::hil_15_two_channels_in_process.
 source "$HIL_REPO/hil-tests/scenarios/common.bash"
 # A guard against a hang, not a timing check (a few seconds of program time).
