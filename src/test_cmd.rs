@@ -419,8 +419,14 @@ fn run_verdict(
             stop_request.store(true, Ordering::SeqCst);
         }
     };
-    // One channel today; on a multi-channel machine each program runs on channel 0.
-    let result = cnc402_runtime::run_input(cfg, input, opts, &mut on_progress);
+    // On a multi-channel machine each program runs on channel 0 (and starts what it runs
+    // on the others), as `cnc402 run` runs it there.
+    let result = if cfg.channel_count() > 1 {
+        cnc402_runtime::run_channels(cfg, vec![Some(input)], opts, &mut on_progress)
+            .and_then(cnc402_runtime::ChannelsReport::into_main)
+    } else {
+        cnc402_runtime::run_input(cfg, input, opts, &mut on_progress)
+    };
     match result {
         Err(e) => (Verdict::from_run_error(e), 0.0),
         Ok(report) if report.ok && report.error.is_none() => (

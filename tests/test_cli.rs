@@ -443,3 +443,29 @@ fn bad_usage_config_junit_path_and_can_interface_exit_with_their_codes_before_an
     assert!(stdout(&o).is_empty(), "{}", stdout(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// On a multi-channel machine a program runs on channel 0 as `cnc402 run` runs it there, so
+/// the seed's regression test really drives channel 1: it passes, and its variant with a
+/// part program that fails on purpose fails with terminate 5558 at its line (a one-channel
+/// run would have let every channel call succeed without running anything).
+#[test]
+fn the_seeds_regression_test_runs_on_the_two_channel_machine() {
+    let o = cnc402()
+        .args(["--config", "examples/axioma/two-channel.toml", "test"])
+        .args(["examples/axioma/regression_test.nc"])
+        .args(["examples/axioma/regression_test_fails.nc"])
+        .output()
+        .expect("run cnc402");
+    let out = stdout(&o);
+    assert!(out.contains("1 passed; 1 failed; 0 could not run"), "{out}");
+    assert_eq!(o.status.code(), Some(1), "{out}{}", stderr(&o));
+    assert!(
+        out.contains("PASS examples/axioma/regression_test.nc"),
+        "{out}"
+    );
+    assert!(
+        out.contains("FAIL examples/axioma/regression_test_fails.nc: examples/axioma/regression_test_fails.nc:47:13")
+            && out.contains("terminate 5558"),
+        "{out}"
+    );
+}

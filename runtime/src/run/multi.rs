@@ -55,6 +55,28 @@ pub struct ChannelsReport {
 }
 
 impl ChannelsReport {
+    /// The run as one program's run of channel 0 (`cnc402 test`): a program error of any
+    /// channel (channel 0's first) is the error; otherwise channel 0's report, ok only when
+    /// every channel ended well, its error the run's first.
+    pub fn into_main(self) -> Result<RunReport, RunError> {
+        let (ok, error) = (self.ok(), self.error());
+        let mut main = None;
+        for c in self.channels {
+            match c.result {
+                Err(e) => return Err(e),
+                Ok(r) if main.is_none() => main = Some(r),
+                Ok(_) => {}
+            }
+        }
+        let mut main =
+            main.ok_or_else(|| RunError::Io("the run has no channel 0 report".into()))?;
+        main.ok = ok;
+        if !ok && main.error.is_none() {
+            main.error = error;
+        }
+        Ok(main)
+    }
+
     /// Every channel ran its program to its end.
     pub fn ok(&self) -> bool {
         self.deadlock.is_none()
