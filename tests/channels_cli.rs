@@ -332,3 +332,24 @@ fn wait_marks_that_disagree_are_a_deadlock_naming_both_lines() {
     assert!(all.contains("deadlock"), "{all}");
     assert!(all.contains("a.nc:2") && all.contains("b.nc:2"), "{all}");
 }
+
+/// Channels exchange flags through the shared `$` globals: channel 1's program sets `$flag`,
+/// channel 0 reads it after `channel_run`. The dry run (which runs nothing on channel 1)
+/// would see the old value: it only warns, and the run decides.
+#[test]
+fn a_shared_flag_set_by_channel_1_is_read_by_channel_0() {
+    let d = dir("flag");
+    let main = program(
+        &d,
+        "main.nc",
+        "bool ok;\n$flag = 0;\nok = channel_run(1, \"setflag.nc\");\n\
+         if (ok == false) { terminate(1, \"run failed\"); }\n\
+         if ($flag != 7) { terminate(2, \"flag not seen\"); }\nMSG(\"flag seen\");\n",
+    );
+    program(&d, "setflag.nc", "G90 G1 U5 F600;\n$flag = 7;\n");
+    let o = cnc402(&["--config", TWO, "run", &main]);
+    let all = text(&o);
+    assert!(o.status.success(), "{all}");
+    assert!(all.contains("MSG: flag seen"), "{all}");
+    assert!(all.contains("checked again when it gets there"), "{all}");
+}

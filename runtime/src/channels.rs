@@ -525,11 +525,28 @@ fn run_resident(r: Resident) -> Option<NcError> {
 pub struct DryChannels {
     board: Arc<ChannelBoard>,
     this: usize,
+    /// Calls that would act on another channel (load, start, wait, reset), counted so the
+    /// dry run knows its program has gone past one.
+    calls: Arc<std::sync::atomic::AtomicU64>,
 }
 
 impl DryChannels {
     pub fn new(board: Arc<ChannelBoard>, this: usize) -> DryChannels {
-        DryChannels { board, this }
+        DryChannels {
+            board,
+            this,
+            calls: Arc::default(),
+        }
+    }
+
+    /// Counts its calls on `calls`.
+    pub fn counting(mut self, calls: Arc<std::sync::atomic::AtomicU64>) -> DryChannels {
+        self.calls = calls;
+        self
+    }
+
+    fn called(&self) {
+        self.calls.fetch_add(1, Ordering::SeqCst);
     }
 }
 
@@ -553,6 +570,7 @@ impl Channels for DryChannels {
     }
     fn load(&mut self, ch: usize, program: &str, main: &str) -> Result<bool, String> {
         self.board.other(self.this, ch)?;
+        self.called();
         let auto = self.board.mode(ch)? == ChannelMode::Auto;
         Ok(auto && self.board.checked(ch, program, main).is_some())
     }
@@ -560,10 +578,14 @@ impl Channels for DryChannels {
         self.load(ch, program, main)
     }
     fn wait(&mut self, ch: usize) -> Result<bool, String> {
-        self.board.other(self.this, ch).map(|_| true)
+        self.board.other(self.this, ch)?;
+        self.called();
+        Ok(true)
     }
     fn reset(&mut self, ch: usize) -> Result<bool, String> {
-        self.board.other(self.this, ch).map(|_| true)
+        self.board.other(self.this, ch)?;
+        self.called();
+        Ok(true)
     }
 }
 

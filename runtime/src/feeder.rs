@@ -457,6 +457,11 @@ pub struct DryRun {
     /// variables during the stop; it is the run's to report if it still happens. (An error
     /// past the stop that reads none of them is refused before motion, as any other.)
     pub after_hold: Option<(u32, NcError)>,
+    /// The error the dry run met after the program had called another channel
+    /// (`channel_run`, …): the dry run runs nothing there, so what the program reads
+    /// afterwards (a shared `$` flag, a channel's state) may differ in the run; it is the
+    /// run's to report if it still happens.
+    pub after_channel_call: Option<NcError>,
     /// The dry run stopped after this many moves ([`DRY_RUN_MOVES`]) with the program going
     /// on past them: only those were checked.
     pub checked_only: Option<u64>,
@@ -500,9 +505,16 @@ pub fn dry_run_channel(
     gate: Option<&crate::program_stop::StopGate>,
     host: Box<dyn cnc402_interp::Channels>,
     globals: cnc402_interp::SharedGlobals,
+    channel_calls: &std::sync::atomic::AtomicU64,
 ) -> Result<DryRun, NcError> {
     let f = Feeder::from_input_on(cfg, input, AxisPos::default(), true, Some((host, globals)))?;
-    dry_run_feeder(cfg, f, gate, DRY_RUN_MOVES)
+    match dry_run_feeder(cfg, f, gate, DRY_RUN_MOVES) {
+        Err(e) if channel_calls.load(std::sync::atomic::Ordering::SeqCst) > 0 => Ok(DryRun {
+            after_channel_call: Some(e),
+            ..DryRun::default()
+        }),
+        r => r,
+    }
 }
 
 /// [`dry_run`] checking at most `max_moves` moves.

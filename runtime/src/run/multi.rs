@@ -221,10 +221,22 @@ pub fn run_channels(
         );
         let mut expected = 0;
         if let Some(input) = &input {
-            let host = Box::new(DryChannels::new(board.clone(), k));
+            let calls = Arc::new(std::sync::atomic::AtomicU64::new(0));
+            let host = Box::new(DryChannels::new(board.clone(), k).counting(calls.clone()));
             let globals = cnc402_interp::SharedGlobals::default();
-            let dry = dry_run_channel(&view.config, input, Some(&gate), host, globals)
+            let dry = dry_run_channel(&view.config, input, Some(&gate), host, globals, &calls)
                 .map_err(|e| RunError::Program(in_channel(e, &view)))?;
+            if let Some(e) = &dry.after_channel_call {
+                log::warn!(
+                    "channel {k}: the program, checked without running what it starts on other \
+                     channels, would fail at {}:{}:{}: {} (checked again when it gets there: \
+                     the other channels' programs may change what it reads)",
+                    e.file,
+                    e.line,
+                    e.col,
+                    e.message
+                );
+            }
             expected = dry.ticks;
         }
         lanes.push(Lane {
