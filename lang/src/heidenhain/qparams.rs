@@ -37,19 +37,19 @@ impl QTable {
             }
             None => (None, text),
         };
+        if let Some(k) = fnk.as_deref().filter(|k| !["0", "1", "2", "3", "4"].contains(k)) {
+            return Err(format!(
+                "FN {k} is not read (cnc402 reads FN 0 to FN 4 and Q formulas with + - * / \
+                 and parentheses)"
+            ));
+        }
         let (q, expr) = text
             .split_once('=')
             .ok_or_else(|| format!("{text}: expected Qn = value"))?;
         let n = q_number(q.trim())?;
         let value = match fnk.as_deref() {
-            None | Some("0") => self.formula(expr)?,
             Some(k @ ("1" | "2" | "3" | "4")) => self.fn_arithmetic(k, expr)?,
-            Some(k) => {
-                return Err(format!(
-                    "FN {k} is not read (cnc402 reads FN 0 to FN 4 and Q formulas with + - * / \
-                     and parentheses)"
-                ));
-            }
+            _ => self.formula(expr)?,
         };
         if !value.is_finite() {
             return Err(format!("Q{n} = {expr}: the result is not a finite number"));

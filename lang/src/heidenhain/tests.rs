@@ -450,3 +450,6 @@ fn cycle_201_is_read_as_g85_or_g89_with_the_same_feed_out() {
     let e = reaming("  Q208=+500 ;RETRACTION FEED RATE").unwrap_err();
     assert!(e.contains("Q208 equal to Q206"), "{e}");
 }
+
+#[cfg(test)]
+mod contour_blocks;
