@@ -51,8 +51,10 @@ fn near(a: (f64, f64), b: (f64, f64)) -> bool {
     (a.0 - b.0).abs() < 1e-6 && (a.1 - b.1).abs() < 1e-6
 }
 
-/// The motion segments (kind, end, centre) of the feed moves.
-fn path(segs: &[serde_json::Value]) -> Vec<(String, (f64, f64), Option<(f64, f64)>)> {
+/// A feed move: `line`, `cw` or `ccw`, its end and an arc's centre.
+type Step = (String, (f64, f64), Option<(f64, f64)>);
+
+fn path(segs: &[serde_json::Value]) -> Vec<Step> {
     segs.iter()
         .filter(|s| s["kind"] == "linear" || s["kind"] == "arc")
         .map(|s| {
@@ -160,7 +162,10 @@ fn contour_blocks_that_cannot_be_read_are_errors_at_their_line() {
         // The message as one line (the report wraps it).
         let e = stderr(&o).replace('│', " ");
         let e = e.split_whitespace().collect::<Vec<_>>().join(" ");
-        assert!(e.contains(&format!("bad.h{at}")) && e.contains(why), "{body}: {e}");
+        assert!(
+            e.contains(&format!("bad.h{at}")) && e.contains(why),
+            "{body}: {e}"
+        );
     }
 }
 

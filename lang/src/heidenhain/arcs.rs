@@ -107,7 +107,9 @@ impl Translator {
             } else if let Some(r) = radius.or((what == "CHF").then_some(w)) {
                 size = Some(number(r)?);
             } else {
-                return Err(format!("{w} is not a word of {what} (expected {what} size F)"));
+                return Err(format!(
+                    "{w} is not a word of {what} (expected {what} size F)"
+                ));
             }
         }
         let expected = if what == "RND" { "RND R r" } else { "CHF c" };
@@ -160,9 +162,9 @@ impl Translator {
     pub(super) fn radius_arc(&mut self, rest: &str) -> Result<String, String> {
         let (mut radius, mut others) = (None, Vec::new());
         for w in rest.split_whitespace() {
-            let value = w
-                .strip_prefix('R')
-                .filter(|v| w != "R0" && v.starts_with(|c: char| c == '+' || c == '-' || c.is_ascii_digit()));
+            let value = w.strip_prefix('R').filter(|v| {
+                w != "R0" && v.starts_with(|c: char| c == '+' || c == '-' || c.is_ascii_digit())
+            });
             match value {
                 Some(v) => radius = Some(number(v)?),
                 None => others.push(w),
@@ -204,6 +206,62 @@ impl Translator {
         self.plane_arc(&words, arc)
     }
 
+    /// `LP PR±r PA±a` (or `IPR`, `IPA`: added to where the tool is about the pole) and the
+    /// block's other words: the same `L` words with the end point in X and Y. A radius or
+    /// angle not given is the tool's, about the `CC` (the pole).
+    pub(super) fn polar_line(&self, rest: &str) -> Result<String, String> {
+        let Some(pole) = self.centre else {
+            return Err("LP without a CC (its pole) before it".into());
+        };
+        let here = self.xy().map(|p| {
+            let d = contour::sub(p, pole);
+            (d.0.hypot(d.1), d.1.atan2(d.0).to_degrees())
+        });
+        let (mut radius, mut angle, mut others) = (None, None, Vec::new());
+        for w in rest.split_whitespace() {
+            let (incremental, word) = match w.strip_prefix('I') {
+                Some(p) if p.starts_with("PR") || p.starts_with("PA") => (true, p),
+                _ => (false, w),
+            };
+            let slot = if let Some(v) = word.strip_prefix("PR") {
+                (&mut radius, 0, v)
+            } else if let Some(v) = word.strip_prefix("PA") {
+                (&mut angle, 1, v)
+            } else {
+                others.push(w);
+                continue;
+            };
+            let value = number(slot.2)?;
+            let base = match (incremental, here) {
+                (false, _) => 0.0,
+                (true, Some(h)) => [h.0, h.1][slot.1],
+                (true, None) => {
+                    return Err(format!("{w} needs the tool's X and Y known"));
+                }
+            };
+            *slot.0 = Some(base + value);
+        }
+        let (Some(r), Some(a)) = (radius.or(here.map(|h| h.0)), angle.or(here.map(|h| h.1))) else {
+            return Err("LP needs PR and PA (or the tool's X and Y known to keep one)".into());
+        };
+        if r < 0.0 {
+            return Err(format!("LP with a negative polar radius PR {r}"));
+        }
+        let (s, c) = a.to_radians().sin_cos();
+        // On a nanometre grid: the sine and cosine's last bits (cos 90°) are not a position.
+        let clean = |v: f64| (v * 1e9).round() / 1e9 + 0.0;
+        let (x, y) = (clean(pole.0 + r * c), clean(pole.1 + r * s));
+        let signed = |v: f64| {
+            if v < 0.0 {
+                format!("{v}")
+            } else {
+                format!("+{v}")
+            }
+        };
+        others.insert(0, "");
+        Ok(format!("X{} Y{}{}", signed(x), signed(y), others.join(" ")))
+    }
+
     /// The G2/G3 of `arc` with the block's other words.
     fn plane_arc(&mut self, words: &[Word], arc: contour::Arc) -> Result<String, String> {
         let mut out = vec![if arc.ccw { "G3" } else { "G2" }.to_string()];
@@ -232,7 +290,9 @@ fn plane_only(what: &str, words: &[Word]) -> Result<(), String> {
         .iter()
         .any(|w| matches!(w, Word::Axis(l, _) if *l != 'X' && *l != 'Y'))
     {
-        return Err(format!("{what} moves X and Y only in the subset (no helix)"));
+        return Err(format!(
+            "{what} moves X and Y only in the subset (no helix)"
+        ));
     }
     Ok(())
 }

@@ -183,6 +183,10 @@ impl Translator {
             "BLK" if rest.starts_with("FORM") => Ok(String::new()),
             "TOOL" if rest.starts_with("CALL") => self.tool_call(&rest[4..]),
             "L" => self.line_move(rest, ahead),
+            "LP" => {
+                let cartesian = self.polar_line(rest)?;
+                self.line_move(&cartesian, ahead)
+            }
             "CC" => self.centre(rest),
             "C" => self.arc(rest),
             "CP" => self.polar_arc(rest),
@@ -464,8 +468,9 @@ impl Translator {
         // A move along the tool axis only leaves no direction in the plane for a CT.
         let moved_z = words.iter().any(|w| matches!(w, Word::Axis('Z', _)));
         self.tangent = match (start, end) {
-            (Some(s), Some(e)) => contour::unit(contour::sub(e, s))
-                .or(if moved_z { None } else { self.tangent }),
+            (Some(s), Some(e)) => {
+                contour::unit(contour::sub(e, s)).or(if moved_z { None } else { self.tangent })
+            }
             _ => None,
         };
         let refeed = self.feed_again(&words, words.contains(&Word::Fmax));
@@ -536,7 +541,12 @@ impl Translator {
         self.follow(&words);
         self.tangent = self.xy().map(|end| {
             let ccw = dir == "G3";
-            contour::Arc { end, centre: (cx, cy), ccw }.end_tangent()
+            contour::Arc {
+                end,
+                centre: (cx, cy),
+                ccw,
+            }
+            .end_tangent()
         });
         out.extend(axes);
         out.push(format!("I{} J{}", fmt(cx), fmt(cy)));
@@ -627,7 +637,8 @@ impl Translator {
 /// Whether a line is a straight `L` (it may end where an `RND`/`CHF` after it begins: the
 /// reader hands it the [`AHEAD_LINES`] lines after it).
 pub fn looks_ahead(line: &str) -> bool {
-    body(line).starts_with("L ")
+    let b = body(line);
+    b.starts_with("L ") || b.starts_with("LP ")
 }
 
 /// Up to [`AHEAD_LINES`] lines of `input` from where it is (byte offset `at`), which is
@@ -640,7 +651,11 @@ pub fn peek_lines(
         bytes
             .split(|b| *b == b'\n')
             .take(AHEAD_LINES)
-            .map(|l| String::from_utf8_lossy(l).trim_end_matches('\r').to_string())
+            .map(|l| {
+                String::from_utf8_lossy(l)
+                    .trim_end_matches('\r')
+                    .to_string()
+            })
             .collect()
     };
     let buffered = input.fill_buf()?;

@@ -37,7 +37,10 @@ impl QTable {
             }
             None => (None, text),
         };
-        if let Some(k) = fnk.as_deref().filter(|k| !["0", "1", "2", "3", "4"].contains(k)) {
+        if let Some(k) = fnk
+            .as_deref()
+            .filter(|k| !["0", "1", "2", "3", "4"].contains(k))
+        {
             return Err(format!(
                 "FN {k} is not read (cnc402 reads FN 0 to FN 4 and Q formulas with + - * / \
                  and parentheses)"
@@ -63,9 +66,7 @@ impl QTable {
         let op = ["+", "-", "*", "DIV"][k.parse::<usize>().unwrap_or(1) - 1];
         let expected = || format!("FN {k}: expected Qn = a {op} b (a and b numbers or Q)");
         // The operator stands between spaces (`+Q2 + -5`): a sign is glued to its operand.
-        let (a, b) = expr
-            .split_once(&format!(" {op} "))
-            .ok_or_else(expected)?;
+        let (a, b) = expr.split_once(&format!(" {op} ")).ok_or_else(expected)?;
         let (a, b) = (self.operand(a.trim())?, self.operand(b.trim())?);
         Ok(match op {
             "+" => a + b,
@@ -96,7 +97,9 @@ impl QTable {
         let mut at = 0;
         let v = self.sum(&tokens, &mut at, 0)?;
         if at != tokens.len() {
-            return Err(format!("{expr}: expected a formula of numbers, Qn, + - * / and ( )"));
+            return Err(format!(
+                "{expr}: expected a formula of numbers, Qn, + - * / and ( )"
+            ));
         }
         Ok(v)
     }

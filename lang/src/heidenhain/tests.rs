@@ -295,7 +295,11 @@ fn translate_for(clearance: Option<f64>, lines: &[&str]) -> Result<Vec<String>, 
         .map(|(i, l)| {
             // As the stream reader gives them: the lines after an L.
             let ahead: Vec<String> = if looks_ahead(l) {
-                lines[i + 1..].iter().take(AHEAD_LINES).map(|l| l.to_string()).collect()
+                lines[i + 1..]
+                    .iter()
+                    .take(AHEAD_LINES)
+                    .map(|l| l.to_string())
+                    .collect()
             } else {
                 Vec::new()
             };

@@ -85,7 +85,10 @@ fn chf_cuts_the_corner_by_its_length_on_both_legs() {
         "3 CHF 5",
         "4 L X+20 Y+20",
     ]);
-    assert_eq!(out[1..], ["G1 X15. Y0. F100.", "G1 X20. Y5.", "G1 X20. Y20."]);
+    assert_eq!(
+        out[1..],
+        ["G1 X15. Y0. F100.", "G1 X20. Y5.", "G1 X20. Y20."]
+    );
 }
 
 #[test]
@@ -118,7 +121,13 @@ fn rnd_or_chf_where_it_cannot_be_is_an_error_naming_what_was_expected() {
             "RND after a block that is not a straight L",
         ),
         (
-            &["1 L X+0 Y+0 FMAX", "2 CC X+0 Y+5", "3 C X+5 Y+5 DR+", "4 CHF 1", "5 L X+9"],
+            &[
+                "1 L X+0 Y+0 FMAX",
+                "2 CC X+0 Y+5",
+                "3 C X+5 Y+5 DR+",
+                "4 CHF 1",
+                "5 L X+9",
+            ],
             "CHF after a block that is not a straight L",
         ),
         (
@@ -126,7 +135,13 @@ fn rnd_or_chf_where_it_cannot_be_is_an_error_naming_what_was_expected() {
             "more than the legs have",
         ),
         (
-            &["1 L X+0 Y+0 FMAX", "2 L X+20 F100", "3 RND R3", "4 CC X+20 Y+5", "5 C Y+10 DR+"],
+            &[
+                "1 L X+0 Y+0 FMAX",
+                "2 L X+20 F100",
+                "3 RND R3",
+                "4 CC X+20 Y+5",
+                "5 C Y+10 DR+",
+            ],
             "needs a straight L block after it",
         ),
         (
@@ -185,8 +200,18 @@ fn ct_is_tangent_to_the_block_before_it() {
 fn ct_without_a_direction_before_it_is_an_error() {
     for lines in [
         &["1 L X+0 Y+0 Z+5 FMAX", "2 CT X+10 Y+10"][..],
-        &["1 L X+0 Y+0 FMAX", "2 L X+5 F100", "3 TOOL CALL 2 Z S500", "4 CT X+9 Y+9"],
-        &["1 L X+0 Y+0 FMAX", "2 L X+5 F100", "3 L Z-2", "4 CT X+9 Y+9"],
+        &[
+            "1 L X+0 Y+0 FMAX",
+            "2 L X+5 F100",
+            "3 TOOL CALL 2 Z S500",
+            "4 CT X+9 Y+9",
+        ],
+        &[
+            "1 L X+0 Y+0 FMAX",
+            "2 L X+5 F100",
+            "3 L Z-2",
+            "4 CT X+9 Y+9",
+        ],
     ] {
         let e = error(lines);
         assert!(e.contains("CT with no previous contour direction"), "{e}");
@@ -237,5 +262,71 @@ fn q_parameters_outside_what_is_read_are_errors() {
     ] {
         let e = error(&[line]);
         assert!(e.contains(why), "{line}: {e}");
+    }
+}
+
+#[test]
+fn the_lines_ahead_come_from_the_buffer_or_are_read_and_sought_back() {
+    use std::io::{BufRead, BufReader, Cursor, Seek};
+    let text = (0..20)
+        .map(|i| format!("{i} L X+{i}\n"))
+        .collect::<String>();
+    // A buffer that holds every line ahead, and one (16 bytes) that holds one at most.
+    for capacity in [1 << 16, 16] {
+        let mut input = BufReader::with_capacity(capacity, Cursor::new(text.clone().into_bytes()));
+        let mut first = String::new();
+        input.read_line(&mut first).unwrap();
+        let at = first.len() as u64;
+        let ahead = super::super::peek_lines(&mut input, at).unwrap();
+        assert_eq!(ahead.len(), super::super::AHEAD_LINES);
+        assert_eq!(ahead[0], "1 L X+1");
+        assert_eq!(ahead[7], "8 L X+8");
+        // The reader is where it was: the next line read is line 1.
+        assert_eq!(input.stream_position().unwrap(), at);
+        let mut next = String::new();
+        input.read_line(&mut next).unwrap();
+        assert_eq!(next, "1 L X+1\n");
+    }
+    // At the end of the file: what there is.
+    let mut input = Cursor::new(b"0 L X+0\n1 RND R2".to_vec());
+    let mut first = String::new();
+    input.read_line(&mut first).unwrap();
+    let ahead = super::super::peek_lines(&mut input, 8).unwrap();
+    assert_eq!(ahead, ["1 RND R2"]);
+}
+
+#[test]
+fn lp_is_the_line_to_the_point_its_polar_radius_and_angle_give_about_the_cc() {
+    let out = read(&[
+        "1 CC X+10 Y+10",
+        "2 LP PR+5 PA+0 R0 FMAX",
+        "3 LP PA+90 F100",
+        "4 LP IPA+90",
+        "5 LP IPA+90",
+        "6 LP IPR+5",
+        "7 RND R1",
+        "8 L X+30",
+    ]);
+    assert_eq!(
+        out[1..7],
+        [
+            "G0 G40 X15. Y10.",
+            "G1 X10. Y15. F100.",
+            "G1 X5. Y10.",
+            "G1 X10. Y5.",
+            "G1 X10. Y1.",
+            "G3 X11. Y0. I11. J1.",
+        ]
+    );
+    for (lines, why) in [
+        (&["1 LP PR+5 PA+0"][..], "LP without a CC"),
+        (&["1 CC X+0 Y+0", "2 LP PA+30"], "LP needs PR and PA"),
+        (
+            &["1 CC X+0 Y+0", "2 LP PR-2 PA+30"],
+            "negative polar radius",
+        ),
+    ] {
+        let e = error(lines);
+        assert!(e.contains(why), "{lines:?}: {e}");
     }
 }
