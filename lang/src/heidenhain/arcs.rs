@@ -14,16 +14,10 @@ impl Translator {
 
     /// Where a block with `words` ends in the plane (the axes it leaves stay).
     pub(super) fn plane_end(&self, words: &[Word]) -> Option<Xy> {
-        let get = |l: char, i: usize| {
-            words
-                .iter()
-                .find_map(|w| match w {
-                    Word::Axis(a, v) if *a == l => Some(*v),
-                    _ => None,
-                })
-                .or(self.at[i])
-        };
-        Some((get('X', 0)?, get('Y', 1)?))
+        Some((
+            axis(words, 'X').or(self.at[0])?,
+            axis(words, 'Y').or(self.at[1])?,
+        ))
     }
 
     /// The `RND`/`CHF` in `ahead` (the lines after an `L` from `start` with `words`), if the
@@ -84,16 +78,10 @@ impl Translator {
             ));
         }
         // The next L's end, from the corner (its own axes, else the corner's).
-        let get = |l: char, dflt: f64| {
-            next_words
-                .iter()
-                .find_map(|w| match w {
-                    Word::Axis(a, v) if *a == l => Some(*v),
-                    _ => None,
-                })
-                .unwrap_or(dflt)
-        };
-        let next_end = (get('X', corner.0), get('Y', corner.1));
+        let next_end = (
+            axis(&next_words, 'X').unwrap_or(corner.0),
+            axis(&next_words, 'Y').unwrap_or(corner.1),
+        );
         contour::corner(start, corner, next_end, size, what == "RND", feed)
     }
 
@@ -276,6 +264,14 @@ impl Translator {
         self.tangent = Some(arc.end_tangent());
         Ok(out.join(" "))
     }
+}
+
+/// The value of the block's axis word `letter`, if it has one.
+fn axis(words: &[Word], letter: char) -> Option<f64> {
+    words.iter().find_map(|w| match w {
+        Word::Axis(a, v) if *a == letter => Some(*v),
+        _ => None,
+    })
 }
 
 fn direction(words: &[Word]) -> Option<bool> {

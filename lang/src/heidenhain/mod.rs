@@ -1,8 +1,9 @@
 //! The Heidenhain conversational (Klartext) subset cnc402 reads: each line of a program that
 //! starts with `BEGIN PGM` (or is named `*.h`) is translated, as it is read, into the ISO
 //! block the interpreter already executes, line for line (errors keep the line number):
-//! `L`, `CC` + `C`, `CP IPA IZ` (helices), `TOOL CALL`, `CYCL DEF 7/9/200/201/205/207` with
-//! their Q parameters and calls, labels ([`labels`]), M functions, comments, `BLK FORM`.
+//! `L`, `LP`, `CC` + `C`, `CP IPA IZ` (helices), `CR`, `CT`, `RND`, `CHF` ([`arcs`]), Q
+//! parameters as values ([`qparams`]), `TOOL CALL`, `CYCL DEF 7/9/200/201/205/207` with
+//! their calls, labels ([`labels`]), M functions, comments, `BLK FORM`.
 //! What is outside the subset is an error at its line, never a block read another way.
 
 mod arcs;
