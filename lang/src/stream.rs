@@ -206,7 +206,7 @@ impl LineReader {
         let text = window.line_text(line_no);
         // An `L` ends where an `RND`/`CHF` after it begins: it sees the lines ahead.
         let ahead = if crate::heidenhain::looks_ahead(text) {
-            crate::heidenhain::peek_lines(&mut *self.input, self.next.offset)
+            crate::heidenhain::peek_lines(&mut *self.input, self.next.offset, MAX_LINE_BYTES)
                 .map_err(|e| NcError::new(&window, crate::ast::Span::new(0, 0), e.to_string()))?
         } else {
             Vec::new()

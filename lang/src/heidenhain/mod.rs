@@ -644,9 +644,11 @@ pub fn looks_ahead(line: &str) -> bool {
 
 /// Up to [`AHEAD_LINES`] lines of `input` from where it is (byte offset `at`), which is
 /// where it is again afterwards: from the reader's buffer when they are there (no seek).
-pub fn peek_lines(
-    input: &mut dyn crate::stream::ProgramRead,
+/// (`max_line`: the longest line the reader reads, so a line read ahead is as bounded.)
+pub fn peek_lines<R: BufRead + std::io::Seek + ?Sized>(
+    input: &mut R,
     at: u64,
+    max_line: usize,
 ) -> std::io::Result<Vec<String>> {
     let lines_of = |bytes: &[u8]| -> Vec<String> {
         bytes
@@ -660,21 +662,25 @@ pub fn peek_lines(
             .collect()
     };
     let buffered = input.fill_buf()?;
-    let complete = buffered.iter().filter(|b| **b == b'\n').count();
-    if complete >= AHEAD_LINES || buffered.is_empty() {
-        let end = buffered
-            .iter()
-            .enumerate()
-            .filter(|(_, b)| **b == b'\n')
-            .nth(AHEAD_LINES.saturating_sub(1))
-            .map_or(buffered.len(), |(i, _)| i);
+    // The end of the last line ahead, looking no further than those lines (not the whole
+    // buffer: an L reads a few lines, whatever the buffer's size).
+    let last_end = buffered
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| **b == b'\n')
+        .nth(AHEAD_LINES - 1)
+        .map(|(i, _)| i);
+    if let Some(end) = last_end {
         return Ok(lines_of(&buffered[..end]));
+    }
+    if buffered.is_empty() {
+        return Ok(Vec::new());
     }
     // The lines ahead run past the buffer: read them (each as long as a line may be) and
     // go back.
     let mut bytes = Vec::new();
     for _ in 0..AHEAD_LINES {
-        let limit = crate::stream::MAX_LINE_BYTES as u64 + 1;
+        let limit = max_line as u64 + 1;
         if std::io::Read::take(&mut *input, limit).read_until(b'\n', &mut bytes)? == 0 {
             break;
         }

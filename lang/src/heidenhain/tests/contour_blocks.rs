@@ -277,7 +277,7 @@ fn the_lines_ahead_come_from_the_buffer_or_are_read_and_sought_back() {
         let mut first = String::new();
         input.read_line(&mut first).unwrap();
         let at = first.len() as u64;
-        let ahead = super::super::peek_lines(&mut input, at).unwrap();
+        let ahead = super::super::peek_lines(&mut input, at, 1 << 20).unwrap();
         assert_eq!(ahead.len(), super::super::AHEAD_LINES);
         assert_eq!(ahead[0], "1 L X+1");
         assert_eq!(ahead[7], "8 L X+8");
@@ -291,7 +291,7 @@ fn the_lines_ahead_come_from_the_buffer_or_are_read_and_sought_back() {
     let mut input = Cursor::new(b"0 L X+0\n1 RND R2".to_vec());
     let mut first = String::new();
     input.read_line(&mut first).unwrap();
-    let ahead = super::super::peek_lines(&mut input, 8).unwrap();
+    let ahead = super::super::peek_lines(&mut input, 8, 1 << 20).unwrap();
     assert_eq!(ahead, ["1 RND R2"]);
 }
 
