@@ -185,3 +185,42 @@ fn the_heidenhain_contour_example_runs_and_matches_its_reviewed_dump() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).starts_with("ok:"));
 }
+
+/// The load pass read the lines in file order, so a Q parameter that a label body called
+/// before the block sets had no value yet there: the program was refused at load although
+/// it runs. Now the block reads the value the run has; with none, the run stops there.
+#[test]
+fn a_q_parameter_a_called_label_sets_was_refused_before_the_call_ran() {
+    let p = tmp(
+        "sub.h",
+        "0 BEGIN PGM SUB MM
+1 L X+0 Y+0 Z+0 R0 FMAX
+2 CALL LBL 1
+3 L X+Q5 F100
+\
+         4 M30
+5 LBL 1
+6 Q5 = 10
+7 LBL 0
+8 END PGM SUB MM
+",
+    );
+    let got = path(&segments(&p));
+    assert_eq!(got.len(), 1);
+    assert!(near(got[0].1, (10.0, 0.0)), "{got:?}");
+    let p = tmp(
+        "unset.h",
+        "0 BEGIN PGM U MM
+1 L X+0 Y+0 Z+0 R0 FMAX
+2 L X+Q5 F100
+3 M30
+",
+    );
+    let o = cnc402(&["segments", p.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(exit::PROGRAM.into()));
+    let e = stderr(&o);
+    assert!(
+        e.contains("unset.h:3:1") && e.contains("Q5 HAS NO VALUE"),
+        "{e}"
+    );
+}

@@ -150,7 +150,9 @@ impl Translator {
             Some((t, c)) => (t.trim(), comment(c)),
             None => (text, String::new()),
         };
-        let mut out = self.block(text, ahead)?;
+        let mut out = self
+            .block(text, ahead)
+            .or_else(|m| qparams::alarm_if_unset(&m))?;
         if !tail.is_empty() {
             out = if out.is_empty() {
                 tail

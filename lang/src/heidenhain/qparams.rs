@@ -11,6 +11,22 @@ pub const MAX_Q: u32 = 1999;
 /// Most nested parentheses in a formula (an expression's recursion ends here).
 const MAX_DEPTH: u32 = 16;
 
+/// The tail of the message of a Q parameter read before it has a value.
+const UNSET: &str = " has no value (no Q = before it in the run)";
+
+/// A block that reads a Q parameter with no value yet: an alarm (`#3000`) at that block
+/// when it runs, not an error when it is read — the load pass reads the lines in file
+/// order, so a value a label body called earlier sets is not there yet; in the run it is,
+/// and where it is not the run stops at the block with the message. Other errors stay.
+pub fn alarm_if_unset(message: &str) -> Result<String, String> {
+    match message.strip_suffix(UNSET) {
+        Some(q) if q.starts_with('Q') && !q.contains(' ') => Ok(format!(
+            "#3000=1 ({q} HAS NO VALUE: NO {q} = BEFORE THIS BLOCK)"
+        )),
+        _ => Err(message.to_string()),
+    }
+}
+
 /// The values assigned so far (at most `MAX_Q + 1` of them).
 #[derive(Clone, Debug, Default)]
 pub struct QTable {
@@ -22,7 +38,7 @@ impl QTable {
         self.values
             .get(&n)
             .copied()
-            .ok_or_else(|| format!("Q{n} has no value (no Q{n} = … before it)"))
+            .ok_or_else(|| format!("Q{n}{UNSET}"))
     }
 
     /// `Qn = expr` or `FN k: Qn = …` (`text` without a comment): the parameter set and its

@@ -257,7 +257,6 @@ fn q_parameters_outside_what_is_read_are_errors() {
         ("1 Q2000 = 1", "not a Q parameter"),
         ("1 FN 9: IF +1 EQU +1 GOTO LBL 2", "FN 9 is not read"),
         ("1 Q1 = 2 +", "expected a number"),
-        ("1 Q1 = Q3", "Q3 has no value"),
         ("1 FN 1: Q1 = +1 * +2", "expected Qn = a + b"),
     ] {
         let e = error(&[line]);
@@ -328,5 +327,15 @@ fn lp_is_the_line_to_the_point_its_polar_radius_and_angle_give_about_the_cc() {
     ] {
         let e = error(lines);
         assert!(e.contains(why), "{lines:?}: {e}");
+    }
+}
+
+#[test]
+fn a_q_parameter_with_no_value_yet_is_an_alarm_when_its_block_runs() {
+    // (Not an error when read: the load pass reads the lines in file order.)
+    for line in ["1 L X+Q1 F100", "1 Q2 = Q3 + 1", "1 FN 1: Q2 = +Q4 + +1"] {
+        let out = read(&[line]);
+        assert!(out[0].starts_with("#3000=1 (Q"), "{line}: {out:?}");
+        assert!(out[0].contains("HAS NO VALUE"), "{line}: {out:?}");
     }
 }
