@@ -204,7 +204,14 @@ impl LineReader {
         };
         let line_no = window.first_line();
         let text = window.line_text(line_no);
-        match t.line(at.index, text) {
+        // An `L` ends where an `RND`/`CHF` after it begins: it sees the lines ahead.
+        let ahead = if crate::heidenhain::looks_ahead(text) {
+            crate::heidenhain::peek_lines(&mut *self.input, self.next.offset, MAX_LINE_BYTES)
+                .map_err(|e| NcError::new(&window, crate::ast::Span::new(0, 0), e.to_string()))?
+        } else {
+            Vec::new()
+        };
+        match t.line_ahead(at.index, text, &ahead) {
             Ok(iso) => Ok(SourceFile::window(self.name.clone(), iso, line_no)),
             Err(m) => Err(NcError::new(
                 &window,

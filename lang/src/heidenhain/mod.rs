@@ -1,14 +1,25 @@
 //! The Heidenhain conversational (Klartext) subset cnc402 reads: each line of a program that
 //! starts with `BEGIN PGM` (or is named `*.h`) is translated, as it is read, into the ISO
 //! block the interpreter already executes, line for line (errors keep the line number):
-//! `L`, `CC` + `C`, `CP IPA IZ` (helices), `TOOL CALL`, `CYCL DEF 7/9/200/201/205/207` with
-//! their Q parameters and calls, labels ([`labels`]), M functions, comments, `BLK FORM`.
+//! `L`, `LP`, `CC` + `C`, `CP IPA IZ` (helices), `CR`, `CT`, `RND`, `CHF` ([`arcs`]), Q
+//! parameters as values ([`qparams`]), `TOOL CALL`, `CYCL DEF 7/9/200/201/205/207` with
+//! their calls, labels ([`labels`]), M functions, comments, `BLK FORM`.
 //! What is outside the subset is an error at its line, never a block read another way.
 
+mod arcs;
+mod contour;
 mod labels;
+mod qparams;
 mod words;
 
+use std::io::BufRead;
+
+use contour::Xy;
 use words::{Word, split_words};
+
+/// Most lines a contour block looks ahead for an `RND`/`CHF` and the block after it
+/// (comments and empty lines between them count).
+pub const AHEAD_LINES: usize = 8;
 
 /// Whether a program is Heidenhain conversational: named `*.h`, or its first line (after
 /// the block number) is `BEGIN PGM`.
@@ -61,6 +72,15 @@ pub struct Translator {
     /// The datum shift of cycle 7 (X, Y, Z, program units) the G54 entry holds on top of
     /// its own.
     shift: [f64; 3],
+    /// The Q parameters' values so far, and whether the lines read are a cycle's
+    /// definition (its `Q2xx=` lines after `CYCL DEF`).
+    q: qparams::QTable,
+    defining: bool,
+    /// The direction the last contour element in the plane ended in (for `CT`).
+    tangent: Option<Xy>,
+    /// The `RND`/`CHF` the last `L` saw ahead of it: computed there (the `L` ends where the
+    /// corner starts), emitted at its own line; or why it cannot be.
+    corner: Option<Result<contour::Corner, String>>,
 }
 
 impl Translator {
@@ -76,12 +96,23 @@ impl Translator {
     /// The ISO text of one line (`index` 0 is the first: it starts the program afresh), or
     /// what is wrong with it.
     pub fn line(&mut self, index: usize, line: &str) -> Result<String, String> {
+        self.line_ahead(index, line, &[])
+    }
+
+    /// As [`Self::line`], with the lines after it (`ahead`, as many as [`looks_ahead`]
+    /// asks for: an `L` needs them to end where an `RND` or `CHF` after it begins).
+    pub fn line_ahead(
+        &mut self,
+        index: usize,
+        line: &str,
+        ahead: &[String],
+    ) -> Result<String, String> {
         if index == 0 {
             *self = Translator::for_machine(self.peck_clearance);
         }
         let text = body(line);
         let was_active = self.cycle_active;
-        let mut out = self.translate(text)?;
+        let mut out = self.translate(text, ahead)?;
         // A flow line (a label's O, WHILE, END, M98, M99) or a datum shift's incremental
         // G10 takes no modal words: they wait for the next block (after a shift: G90).
         if out.is_empty() || out.starts_with('(') || labels::is_flow(&out) {
@@ -107,7 +138,7 @@ impl Translator {
         })
     }
 
-    fn translate(&mut self, text: &str) -> Result<String, String> {
+    fn translate(&mut self, text: &str, ahead: &[String]) -> Result<String, String> {
         if text.is_empty() {
             return Ok(String::new());
         }
@@ -119,7 +150,9 @@ impl Translator {
             Some((t, c)) => (t.trim(), comment(c)),
             None => (text, String::new()),
         };
-        let mut out = self.block(text)?;
+        let mut out = self
+            .block(text, ahead)
+            .or_else(|m| qparams::alarm_if_unset(&m))?;
         if !tail.is_empty() {
             out = if out.is_empty() {
                 tail
@@ -130,14 +163,33 @@ impl Translator {
         Ok(out)
     }
 
-    fn block(&mut self, text: &str) -> Result<String, String> {
-        let (head, rest) = text.split_once(' ').unwrap_or((text, ""));
+    fn block(&mut self, text: &str, ahead: &[String]) -> Result<String, String> {
+        let head = text.split_once(' ').map_or(text, |(h, _)| h);
+        if head.starts_with('Q') || head == "FN" {
+            return self.q_parameter(text);
+        }
+        self.defining = false;
+        let corner = self.corner.take();
+        if !matches!(head, "L" | "C" | "CC" | "CR" | "CT" | "CP" | "RND" | "CHF")
+            && !head.starts_with('M')
+        {
+            self.tangent = None;
+        }
+        let text = self.q.substitute(text)?;
+        let (head, rest) = text.split_once(' ').unwrap_or((&text, ""));
         match head {
+            "RND" | "CHF" => self.rounding(head, corner),
+            "CR" => self.radius_arc(rest),
+            "CT" => self.tangent_arc(rest),
             "BEGIN" => self.begin(rest),
             "END" if rest.starts_with("PGM") => Ok(String::new()),
             "BLK" if rest.starts_with("FORM") => Ok(String::new()),
             "TOOL" if rest.starts_with("CALL") => self.tool_call(&rest[4..]),
-            "L" => self.line_move(rest),
+            "L" => self.line_move(rest, ahead),
+            "LP" => {
+                let cartesian = self.polar_line(rest)?;
+                self.line_move(&cartesian, ahead)
+            }
             "CC" => self.centre(rest),
             "C" => self.arc(rest),
             "CP" => self.polar_arc(rest),
@@ -148,6 +200,7 @@ impl Translator {
             {
                 self.defined = rest[4..7].parse().unwrap_or(0);
                 self.drilling = Some(Vec::new());
+                self.defining = true;
                 Ok(String::new())
             }
             "CYCL" if rest.trim() == "CALL" => {
@@ -163,7 +216,6 @@ impl Translator {
             "CYCL" => cycle(rest),
             "LBL" => self.labels.label(rest),
             "CALL" if rest.trim_start().starts_with("LBL") => self.labels.call(rest),
-            _ if head.starts_with('Q') => self.q_parameter(text),
             "STOP" => {
                 let m = if rest.trim().is_empty() {
                     "M0"
@@ -172,10 +224,11 @@ impl Translator {
                 };
                 Ok(m.to_string())
             }
-            _ if head.starts_with('M') => Ok(m_words(&split_words(text)?)?.join(" ")),
+            _ if head.starts_with('M') => Ok(m_words(&split_words(&text)?)?.join(" ")),
             _ => Err(format!(
-                "{head} is not in the Heidenhain subset cnc402 reads (expected L, CC, C, TOOL \
-                 CALL, CYCL DEF 9/200/207, LBL, CALL LBL, M, STOP, BLK FORM, a comment)"
+                "{head} is not in the Heidenhain subset cnc402 reads (expected L, CC, C, CR, CT, \
+                 CP, RND, CHF, Qn =, FN 0-4, TOOL CALL, CYCL DEF 7/9/200/201/205/207, LBL, CALL \
+                 LBL, M, STOP, BLK FORM, a comment)"
             )),
         }
     }
@@ -223,22 +276,17 @@ impl Translator {
         Ok(out.join(" "))
     }
 
-    /// `Qnnn=value` of the cycle being defined.
+    /// `Qn = …` or `FN k: Qn = …`: the parameter's new value; inside a cycle's definition
+    /// (the lines after `CYCL DEF`) also one of the cycle's parameters.
     fn q_parameter(&mut self, text: &str) -> Result<String, String> {
-        let Some(params) = self.drilling.as_mut() else {
-            return Err("Q parameters are read only in a CYCL DEF 200, 201, 205 or 207".into());
-        };
-        let (q, v) = text
-            .split_once('=')
-            .ok_or_else(|| format!("{text}: expected Qnnn=value"))?;
-        let n: u32 = q[1..]
-            .trim()
-            .parse()
-            .map_err(|_| format!("{q} is not a Q parameter"))?;
-        if params.len() >= 24 {
-            return Err("more Q parameters than CYCL DEF 200, 205 or 207 has".into());
+        let (n, v) = self.q.assign(text)?;
+        if self.defining {
+            let params = self.drilling.get_or_insert_with(Vec::new);
+            if params.len() >= 24 {
+                return Err("more Q parameters than CYCL DEF 200, 205 or 207 has".into());
+            }
+            params.push((n, v));
         }
-        params.push((n, number(v.trim())?));
         Ok(String::new())
     }
 
@@ -399,9 +447,10 @@ impl Translator {
     }
 
     /// `L X.. Y.. Z.. R0|RL|RR F..|FMAX M..`.
-    fn line_move(&mut self, rest: &str) -> Result<String, String> {
-        let words = self.path_words(rest)?;
+    fn line_move(&mut self, rest: &str, ahead: &[String]) -> Result<String, String> {
+        let mut words = self.path_words(rest)?;
         if words.contains(&Word::M(99)) {
+            self.tangent = None;
             let axes = axis_words(&words)?;
             if axes.iter().any(|a| !a.starts_with(['X', 'Y']))
                 || words
@@ -414,6 +463,19 @@ impl Translator {
             let out = self.drill(&axes)?;
             return Ok(out);
         }
+        let (start, end) = (self.xy(), self.plane_end(&words));
+        self.corner = self.corner_ahead(start, &words, ahead);
+        if let Some(Ok(c)) = &self.corner {
+            set_xy(&mut words, c.leg_end);
+        }
+        // A move along the tool axis only leaves no direction in the plane for a CT.
+        let moved_z = words.iter().any(|w| matches!(w, Word::Axis('Z', _)));
+        self.tangent = match (start, end) {
+            (Some(s), Some(e)) => {
+                contour::unit(contour::sub(e, s)).or(if moved_z { None } else { self.tangent })
+            }
+            _ => None,
+        };
         let refeed = self.feed_again(&words, words.contains(&Word::Fmax));
         self.follow(&words);
         let rapid = words.iter().any(|w| matches!(w, Word::Fmax));
@@ -480,6 +542,15 @@ impl Translator {
         }
         let refeed = self.feed_again(&words, false);
         self.follow(&words);
+        self.tangent = self.xy().map(|end| {
+            let ccw = dir == "G3";
+            contour::Arc {
+                end,
+                centre: (cx, cy),
+                ccw,
+            }
+            .end_tangent()
+        });
         out.extend(axes);
         out.push(format!("I{} J{}", fmt(cx), fmt(cy)));
         out.extend(feed_words(&words));
@@ -549,12 +620,105 @@ impl Translator {
         let refeed = self.feed_again(&words, false);
         self.follow(&words);
         self.at = [Some(ex), Some(ey), Some(z + iz)];
+        self.tangent = Some(
+            contour::Arc {
+                end: (ex, ey),
+                centre: (cx, cy),
+                ccw,
+            }
+            .end_tangent(),
+        );
         out.push(format!("X{} Y{} Z{}", fmt(ex), fmt(ey), fmt(z + iz)));
         out.push(format!("I{} J{}", fmt(cx), fmt(cy)));
         out.extend(feed_words(&words));
         out.extend(refeed);
         out.extend(m_words(&words)?);
         Ok(out.join(" "))
+    }
+}
+
+/// Whether a line is a straight `L` (it may end where an `RND`/`CHF` after it begins: the
+/// reader hands it the [`AHEAD_LINES`] lines after it).
+pub fn looks_ahead(line: &str) -> bool {
+    let b = body(line);
+    b.starts_with("L ") || b.starts_with("LP ")
+}
+
+/// Up to [`AHEAD_LINES`] lines of `input` from where it is (byte offset `at`), which is
+/// where it is again afterwards: from the reader's buffer when they are there (no seek).
+/// (`max_line`: the longest line the reader reads, so a line read ahead is as bounded.)
+pub fn peek_lines<R: BufRead + std::io::Seek + ?Sized>(
+    input: &mut R,
+    at: u64,
+    max_line: usize,
+) -> std::io::Result<Vec<String>> {
+    let lines_of = |bytes: &[u8]| -> Vec<String> {
+        bytes
+            .split(|b| *b == b'\n')
+            .take(AHEAD_LINES)
+            .map(|l| {
+                String::from_utf8_lossy(l)
+                    .trim_end_matches('\r')
+                    .to_string()
+            })
+            .collect()
+    };
+    let buffered = input.fill_buf()?;
+    // The end of the last line ahead, looking no further than those lines (not the whole
+    // buffer: an L reads a few lines, whatever the buffer's size).
+    let last_end = buffered
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| **b == b'\n')
+        .nth(AHEAD_LINES - 1)
+        .map(|(i, _)| i);
+    if let Some(end) = last_end {
+        return Ok(lines_of(&buffered[..end]));
+    }
+    if buffered.is_empty() {
+        return Ok(Vec::new());
+    }
+    // The lines ahead run past the buffer: read them (each as long as a line may be) and
+    // go back.
+    let mut bytes = Vec::new();
+    for _ in 0..AHEAD_LINES {
+        let limit = max_line as u64 + 1;
+        if std::io::Read::take(&mut *input, limit).read_until(b'\n', &mut bytes)? == 0 {
+            break;
+        }
+    }
+    std::io::Seek::seek(input, std::io::SeekFrom::Start(at))?;
+    Ok(lines_of(bytes.strip_suffix(b"\n").unwrap_or(&bytes)))
+}
+
+/// The words with the plane's end point `xy` (X and Y words set or added).
+fn set_xy(words: &mut Vec<Word>, xy: Xy) {
+    for (letter, v) in [('X', xy.0), ('Y', xy.1)] {
+        match words
+            .iter_mut()
+            .find(|w| matches!(w, Word::Axis(l, _) if *l == letter))
+        {
+            Some(w) => *w = Word::Axis(letter, v),
+            None => {
+                let at = words
+                    .iter()
+                    .position(|w| !matches!(w, Word::Axis(..)))
+                    .unwrap_or(words.len());
+                words.insert(at, Word::Axis(letter, v));
+            }
+        }
+    }
+    // X before Y, as the ISO block writes them.
+    let axes: Vec<usize> = (0..words.len())
+        .filter(|i| matches!(words[*i], Word::Axis(..)))
+        .collect();
+    let mut sorted: Vec<Word> = axes.iter().map(|i| words[*i].clone()).collect();
+    sorted.sort_by_key(|w| match w {
+        Word::Axis(l, _) => "XYZABC".find(*l).unwrap_or(6),
+        _ => 7,
+    });
+    for (i, w) in axes.into_iter().zip(sorted) {
+        words[i] = w;
     }
 }
 

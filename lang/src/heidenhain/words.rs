@@ -16,8 +16,8 @@ pub enum Word {
     M(u32),
 }
 
-/// The words of `text`, or what is not one (incremental `IX`, polar, Q parameters are
-/// outside the subset).
+/// The words of `text`, or what is not one (incremental `IX` is outside the subset; Q
+/// parameters are values by now, polar `LP` words X and Y).
 pub fn split_words(text: &str) -> Result<Vec<Word>, String> {
     let mut out = Vec::new();
     for w in text.split_whitespace() {
@@ -49,7 +49,7 @@ fn one(w: &str) -> Result<Word, String> {
             .map_err(|_| format!("{w} is not an M function")),
         _ => Err(format!(
             "{w} is not a word cnc402 reads here (absolute signed axes X+/-, R0/RL/RR, F, \
-             FMAX, DR+/-, M; no IX, polar or Q parameters)"
+             FMAX, DR+/-, M, a Q parameter as X+Qn; no IX)"
         )),
     }
 }
