@@ -312,3 +312,22 @@ fn cl_data_with_a_tool_table() {
         stderr(&o)
     );
 }
+
+/// A Heidenhain program is a job too (iTNC → Fanuc conversion): read through the
+/// Heidenhain reader (RND, CHF, CT, CR, Q parameters resolved to plain moves), posted for
+/// every target and proven; `segments` of each result is the job's (it was a syntax error
+/// at `0 BEGIN PGM`).
+#[test]
+fn a_heidenhain_job_posts_for_every_target_and_runs_as_the_job() {
+    let job = "examples/heidenhain/contour.h";
+    for (target, out) in [
+        ("fanuc0", "hh-fanuc0.nc"),
+        ("fanuc16", "hh-fanuc16.nc"),
+        ("fanuc32", "hh-fanuc32.nc"),
+        ("arumatik", "hh-arumatik.nc"),
+        ("itnc530", "hh-itnc.h"),
+    ] {
+        let (out, _) = posted(target, job, out);
+        assert_same_segments(out.to_str().unwrap(), job);
+    }
+}

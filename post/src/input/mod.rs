@@ -32,6 +32,9 @@ pub fn job(
     text: &str,
     tools: &tools::ToolTable,
 ) -> Result<Job, PostError> {
+    if is_heidenhain_job(name, text) {
+        return plain_job(cfg, name, text);
+    }
     if apt::is_cl(name, text) {
         Ok(Job {
             ops: apt::read_cl(cfg, name, text, tools)?,
@@ -66,6 +69,9 @@ pub fn job_with_subs(
     text: &str,
     tools: &tools::ToolTable,
 ) -> Result<Job, PostError> {
+    if is_heidenhain_job(name, text) {
+        return plain_job(cfg, name, text);
+    }
     let marked = match calls::mark_subs(text) {
         Some(m) if !apt::is_cl(name, text) => m,
         _ => return job(cfg, name, text, tools),
@@ -109,6 +115,22 @@ fn read_marked(
     Ok((ops, true))
 }
 
+/// A Heidenhain program (by its `BEGIN PGM` line or `.h` name): read through the reader's
+/// translation; its labels and cycles come out as the target's from the operations (no ISO
+/// text to mark calls in).
+fn is_heidenhain_job(name: &str, text: &str) -> bool {
+    cnc402_lang::heidenhain::is_heidenhain(name, text.lines().next().unwrap_or(""))
+}
+
+fn plain_job(cfg: &MachineConfig, name: &str, text: &str) -> Result<Job, PostError> {
+    Ok(Job {
+        ops: read_job(cfg, name, text)?,
+        cl: false,
+        cycles: None,
+        subs: Vec::new(),
+    })
+}
+
 /// The most operations one job may have: a program looping forever with motion (M99 in a
 /// main program is one pass here) ends in an error instead of filling memory.
 pub const MAX_OPERATIONS: usize = 2_000_000;
@@ -116,6 +138,14 @@ pub const MAX_OPERATIONS: usize = 2_000_000;
 /// An interpreter with the file system (sub-programs, `#use` files, variables read-only),
 /// loaded with `text`.
 pub fn load(cfg: &MachineConfig, name: &str, text: &str) -> Result<Interpreter, PostError> {
+    // A Heidenhain job is read as `cnc402 run` reads it: line by line through the reader's
+    // translation (a conversion from iTNC to an ISO target).
+    if is_heidenhain_job(name, text) {
+        let mut it = interpreter(cfg, Options::default(), VarsAccess::ReadOnly);
+        let input = Box::new(std::io::Cursor::new(text.to_owned()));
+        it.load_stream(name, input, None).map_err(PostError::Job)?;
+        return Ok(it);
+    }
     let src = SourceFile::new(name, text);
     let program = cnc402_interp::parse_program(cfg, &src, None).map_err(PostError::Job)?;
     let mut it = interpreter(cfg, Options::default(), VarsAccess::ReadOnly);
