@@ -69,11 +69,8 @@ pub fn job_with_subs(
     text: &str,
     tools: &tools::ToolTable,
 ) -> Result<Job, PostError> {
-    if is_heidenhain_job(name, text) {
-        return plain_job(cfg, name, text);
-    }
     let marked = match calls::mark_subs(text) {
-        Some(m) if !apt::is_cl(name, text) => m,
+        Some(m) if !apt::is_cl(name, text) && !is_heidenhain_job(name, text) => m,
         _ => return job(cfg, name, text, tools),
     };
     let (ops, was_marked) = read_marked(cfg, name, text, &marked.text, &marked.line_of)?;
