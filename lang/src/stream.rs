@@ -322,6 +322,27 @@ pub fn parse_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcError
     {
         return Ok(line);
     }
+    parse_general_line(window, dialect)
+}
+
+/// [`parse_line`] into `line`, whose vectors a plain block reuses (a streamed program's
+/// blocks are read one after another into the same line). On an error `line` is left
+/// half made and must not be read.
+pub fn parse_line_into(
+    window: &SourceFile,
+    dialect: Dialect,
+    line: &mut Line,
+) -> Result<(), NcError> {
+    let text: &str = &window.text;
+    if !text.contains('\n') && crate::parse::simple::line_into(text, window.first_line(), line) {
+        return Ok(());
+    }
+    *line = parse_general_line(window, dialect)?;
+    Ok(())
+}
+
+/// The one line of `window` read by the general parser.
+fn parse_general_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcError> {
     let Program { mut lines, .. } = crate::parse::parse_gcode(window, dialect)?;
     match lines.pop() {
         Some(l) if lines.is_empty() => Ok(l),

@@ -12,7 +12,8 @@ use std::sync::Arc;
 
 use cnc402_lang::ast::{LineKind, Program};
 use cnc402_lang::stream::{
-    LinePos, LineReader, ReadLine, is_statement_line, line_window, parse_line, plain_block,
+    LinePos, LineReader, ReadLine, is_statement_line, line_window, parse_line, parse_line_into,
+    plain_block,
 };
 use cnc402_lang::{Dialect, NcError, SourceFile};
 
@@ -165,16 +166,16 @@ impl Stream {
         let ReadLine::Text(window, _) = self.reader.read()? else {
             return Ok(None);
         };
-        let line = parse_line(&window, self.dialect)?;
         let window = Arc::new(window);
         self.last = window.clone();
         // The last view, once the interpreter has let go of it, takes this line in place.
-        let line = match self.spare.as_mut().and_then(Arc::get_mut) {
-            Some(v) => v.reuse_view(unit, &window, line, i).err(),
-            None => Some(line),
-        };
-        if let Some(line) = line {
-            self.spare = Some(Arc::new(unit.view_of(window, line, i)));
+        let reused = self.spare.as_mut().and_then(Arc::get_mut);
+        match reused.and_then(|v| v.reuse_view(unit, &window, i)) {
+            Some(line) => parse_line_into(&window, self.dialect, line)?,
+            None => {
+                let line = parse_line(&window, self.dialect)?;
+                self.spare = Some(Arc::new(unit.view_of(window, line, i)));
+            }
         }
         Ok(self.spare.clone())
     }
