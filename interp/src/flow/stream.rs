@@ -81,16 +81,20 @@ pub(crate) fn load(
         };
         let plain = match raw {
             Ok(text) => {
-                if !linuxcnc && is_statement_line(text) {
-                    return Ok(Loaded::CLike(reader.whole()?));
-                }
                 // Once the prefix question is settled, a checked line with none of the
                 // letters of `O`, `WHILE`, `END`, an O-word, `:` or `%` is a plain block.
-                if checked && (seen_o || prefix_has_code) && !may_be_flow(text) {
-                    Some(true)
+                let checked_plain = checked && (seen_o || prefix_has_code) && !may_be_flow(text);
+                let plain = if checked_plain {
+                    None
                 } else {
                     plain_block(text)
+                };
+                // A plain block is no C-like statement (its letters each stand alone, see
+                // tests/plain_fast_path.rs), so most lines need not be asked.
+                if plain.is_none() && !linuxcnc && is_statement_line(text) {
+                    return Ok(Loaded::CLike(reader.whole()?));
                 }
+                if checked_plain { Some(true) } else { plain }
             }
             Err(_) => None,
         };
