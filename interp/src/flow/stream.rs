@@ -170,8 +170,7 @@ impl Stream {
         let ReadLine::Text(window, _) = self.reader.read()? else {
             return Ok(None);
         };
-        let window = Arc::new(window);
-        self.last = window.clone();
+        let window = self.reuse_window(unit, window);
         // The last view, once the interpreter has let go of it, takes this line in place.
         let reused = self.spare.as_mut().and_then(Arc::get_mut);
         match reused.and_then(|v| v.reuse_view(unit, &window, i)) {
@@ -182,6 +181,20 @@ impl Stream {
             }
         }
         Ok(self.spare.clone())
+    }
+
+    /// `window` (of line `i` of `unit`) in the last line's allocation when nothing else holds
+    /// that any more (the spare view lets go of it first), so that a long program's lines do
+    /// not each allocate one; it is the last window read from then on.
+    fn reuse_window(&mut self, unit: &Unit, window: SourceFile) -> Arc<SourceFile> {
+        if let Some(v) = self.spare.as_mut().and_then(Arc::get_mut) {
+            v.src = unit.src.clone();
+        }
+        match Arc::get_mut(&mut self.last) {
+            Some(last) => *last = window,
+            None => self.last = Arc::new(window),
+        }
+        self.last.clone()
     }
 
     /// Puts the reader at line `i`: from where it is when that is on the way, else from the
