@@ -403,7 +403,7 @@ mod tests {
                 .map(|i| {
                     let r = x.rotate_left(7 * i as u32) ^ (i as u64).wrapping_mul(0x2545_f491);
                     // Mostly not `\n`, so that most texts have it late or not at all.
-                    if r % 23 == 0 {
+                    if r.is_multiple_of(23) {
                         b'\n'
                     } else {
                         bytes[1 + (r % 8) as usize]
