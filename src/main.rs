@@ -334,9 +334,7 @@ fn dump(
         }
         printed += 1;
         let next = match what {
-            Dump::Segments => interp
-                .next_segment()
-                .map(|s| s.map(|s| writer.write_line(&mut text, &s, cfg))),
+            Dump::Segments => interp.with_next_segment(|s| writer.write_line(&mut text, s, cfg)),
             Dump::Canon => interp.next_canon().map(|op| {
                 op.map(|op| {
                     text.push_str(&cnc402_interp::dump::canon::canon_to_json(&op, cfg));

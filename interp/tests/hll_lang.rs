@@ -19,7 +19,7 @@ use cnc402_motion::segment::{AxisPos, Segment, SegmentKind};
 
 fn err(text: &str) -> (u32, u32, String) {
     let e = run(text).unwrap_err();
-    (e.line, e.col, e.message)
+    (e.line, e.col, e.message.clone())
 }
 
 /// A fresh folder under the system temp dir.

@@ -30,7 +30,7 @@ fn ends(text: &str) -> Vec<[f64; 3]> {
 
 fn err(text: &str) -> (u32, u32, String) {
     let e = run(text).unwrap_err();
-    (e.line, e.col, e.message)
+    (e.line, e.col, e.message.clone())
 }
 
 #[test]

@@ -192,6 +192,14 @@ impl SourceFile {
 /// ```
 #[derive(Clone, PartialEq)]
 pub struct NcError {
+    /// Boxed: errors are rare, and every `Result<_, NcError>` on the interpreter's hot path
+    /// is moved whole, so the error's size is paid on every block that has none.
+    at: Box<NcErrorFields>,
+}
+
+/// What an [`NcError`] holds; its fields read through the error itself (`e.line`).
+#[derive(Clone, PartialEq)]
+pub struct NcErrorFields {
     pub file: Arc<str>,
     /// 1-based line of `span.start`.
     pub line: u32,
@@ -207,6 +215,20 @@ pub struct NcError {
     snippet: Snippet,
 }
 
+impl std::ops::Deref for NcError {
+    type Target = NcErrorFields;
+
+    fn deref(&self) -> &NcErrorFields {
+        &self.at
+    }
+}
+
+impl std::ops::DerefMut for NcError {
+    fn deref_mut(&mut self) -> &mut NcErrorFields {
+        &mut self.at
+    }
+}
+
 impl NcError {
     /// An error at `span` of `src`. `span` is clamped to the text.
     pub fn new(src: &SourceFile, span: Span, message: impl Into<String>) -> Self {
@@ -215,7 +237,7 @@ impl NcError {
         let end = (span.end as usize).clamp(start, len);
         let span = Span::new(start, end);
         let (line, col) = src.line_col(start);
-        NcError {
+        let at = NcErrorFields {
             file: src.name.clone(),
             line,
             col,
@@ -224,7 +246,8 @@ impl NcError {
             message: message.into(),
             expected: None,
             snippet: Snippet::new(src, line, span),
-        }
+        };
+        NcError { at: Box::new(at) }
     }
 
     /// Says what would have been accepted where the error is.

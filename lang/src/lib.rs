@@ -9,7 +9,7 @@ pub mod heidenhain;
 mod parse;
 pub mod stream;
 
-pub use diag::{NcError, SourceFile};
+pub use diag::{NcError, NcErrorFields, SourceFile};
 pub use dialect::Dialect;
 pub use parse::{
     HEADER_LINES, MAX_HEIGHT, choose_dialect, declared_dialect, parse, parse_expr, parse_in,

@@ -100,7 +100,7 @@ impl LineReader {
             Ok(avail) => {
                 // As the general path reads: at most MAX_LINE_BYTES and the `\n`.
                 let head = &avail[..avail.len().min(MAX_LINE_BYTES + 1)];
-                head.iter().position(|&b| b == b'\n').map(|p| {
+                find_newline(head).map(|p| {
                     self.buf.extend_from_slice(&head[..=p]);
                     p + 1
                 })
@@ -273,6 +273,26 @@ impl LineReader {
     }
 }
 
+/// Index of the first `\n` in `b`, eight bytes at a time: every line of a program is
+/// searched for its end twice (load pass and run), and a byte loop was a tenth of a block's
+/// instructions.
+fn find_newline(b: &[u8]) -> Option<usize> {
+    const ONES: u64 = 0x0101_0101_0101_0101;
+    const HIGHS: u64 = 0x8080_8080_8080_8080;
+    let (words, rest) = b.as_chunks::<8>();
+    for (k, w) in words.iter().enumerate() {
+        // A byte of `x` is 0 where `w` has a `\n`; the lowest flagged byte is always a
+        // true one (a borrow only flags bytes above a zero byte).
+        let x = u64::from_le_bytes(*w) ^ (ONES * u64::from(b'\n'));
+        let zero = x.wrapping_sub(ONES) & !x & HIGHS;
+        if zero != 0 {
+            return Some(8 * k + (zero.trailing_zeros() / 8) as usize);
+        }
+    }
+    let tail = 8 * words.len();
+    rest.iter().position(|&c| c == b'\n').map(|p| tail + p)
+}
+
 /// The window of a line read from `name` (its bytes without the terminator, starting at
 /// `at`): UTF-8 where valid, else Latin-1 (see [`LineReader`]).
 pub fn line_window(name: Arc<str>, body: &[u8], at: LinePos) -> SourceFile {
@@ -329,6 +349,27 @@ pub fn parse_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcError
     {
         return Ok(line);
     }
+    parse_general_line(window, dialect)
+}
+
+/// [`parse_line`] into `line`, whose vectors a plain block reuses (a streamed program's
+/// blocks are read one after another into the same line). On an error `line` is left
+/// half made and must not be read.
+pub fn parse_line_into(
+    window: &SourceFile,
+    dialect: Dialect,
+    line: &mut Line,
+) -> Result<(), NcError> {
+    let text: &str = &window.text;
+    if !text.contains('\n') && crate::parse::simple::line_into(text, window.first_line(), line) {
+        return Ok(());
+    }
+    *line = parse_general_line(window, dialect)?;
+    Ok(())
+}
+
+/// The one line of `window` read by the general parser.
+fn parse_general_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcError> {
     let Program { mut lines, .. } = crate::parse::parse_gcode(window, dialect)?;
     match lines.pop() {
         Some(l) if lines.is_empty() => Ok(l),
@@ -337,5 +378,47 @@ pub fn parse_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcError
             crate::ast::Span::new(0, 0),
             "one line expected",
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::find_newline;
+
+    /// The word-at-a-time search finds the first `\n` wherever a byte loop finds it, with
+    /// the bytes a borrow or a sign bit could confuse around it.
+    #[test]
+    fn find_newline_finds_the_first_newline_as_a_byte_loop_does() {
+        let bytes = [
+            b'\n',
+            b'\n' ^ 0x80,
+            b'\n' + 1,
+            b'\n' - 1,
+            0,
+            0xff,
+            b'G',
+            b'1',
+            0x80,
+        ];
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let len = (x % 40) as usize;
+            let text: Vec<u8> = (0..len)
+                .map(|i| {
+                    let r = x.rotate_left(7 * i as u32) ^ (i as u64).wrapping_mul(0x2545_f491);
+                    // Mostly not `\n`, so that most texts have it late or not at all.
+                    if r.is_multiple_of(23) {
+                        b'\n'
+                    } else {
+                        bytes[1 + (r % 8) as usize]
+                    }
+                })
+                .collect();
+            let want = text.iter().position(|&c| c == b'\n');
+            assert_eq!(find_newline(&text), want, "{text:?}");
+        }
     }
 }

@@ -23,7 +23,7 @@ fn stmts(l: &Line) -> &[Stmt] {
 
 fn err(text: &str) -> (u32, u32, String) {
     let e = parse(&SourceFile::new("t.nc", text)).unwrap_err();
-    (e.line, e.col, e.message)
+    (e.line, e.col, e.message.clone())
 }
 
 #[test]

@@ -1,14 +1,21 @@
 //! The plain-block fast path of [`parse_line`] (`parse::simple`) against the general parser:
 //! for every line the fast path takes, the same [`Line`] (words, values to the bit, spans,
 //! N number), in every dialect; and whatever it does not take is left to the general parser.
+//! [`parse_line_into`] (a streamed program's lines read into one reused line) the same,
+//! whatever line it held before.
 
-use cnc402_lang::stream::{is_statement_line, parse_line, plain_block};
+use cnc402_lang::stream::{is_statement_line, parse_line, parse_line_into, plain_block};
 use cnc402_lang::{Dialect, SourceFile, parse_in};
 use proptest::prelude::*;
 
-/// Parses `text` as line 7 both ways; panics when they differ.
+/// Parses `text` as line 7 both ways; panics when they differ. A plain block is never a
+/// C-like statement (the load pass of a streamed program asks only the other lines).
 fn same(text: &str) {
     if is_statement_line(text) {
+        assert!(
+            plain_block(text).is_none(),
+            "{text:?}: plain and a statement"
+        );
         return;
     }
     for dialect in [Dialect::Fanuc, Dialect::Haas, Dialect::LinuxCnc] {
@@ -23,6 +30,27 @@ fn same(text: &str) {
         if plain_block(text).is_some() {
             assert!(general.is_ok(), "{text:?}: taken as plain but {general:?}");
         }
+        for before in ["N5 G1 X1 Y2 (cut) ;end", "G0 X1", "", "#1=2", "/N7 (only)"] {
+            same_after(before, text, dialect, &general);
+        }
+    }
+}
+
+/// `text` read by [`parse_line_into`] into the line `before` was read into: as `general`.
+fn same_after(
+    before: &str,
+    text: &str,
+    dialect: Dialect,
+    general: &Result<cnc402_lang::ast::Line, cnc402_lang::NcError>,
+) {
+    let Ok(mut line) = parse_line(&SourceFile::window("p.nc", before, 3), dialect) else {
+        return;
+    };
+    let reused = parse_line_into(&SourceFile::window("p.nc", text, 7), dialect, &mut line);
+    match (general, &reused) {
+        (Ok(g), Ok(())) => assert_eq!(g, &line, "{text:?} after {before:?} in {dialect:?}"),
+        (Err(g), Err(f)) => assert_eq!(g.to_string(), f.to_string(), "{text:?}"),
+        _ => panic!("{text:?} after {before:?} in {dialect:?}: {general:?} against {reused:?}"),
     }
 }
 
@@ -121,6 +149,10 @@ fn piece() -> impl Strategy<Value = &'static str> {
         "^",
         ",",
         "R",
+        "_",
+        "{",
+        "=",
+        "$",
     ])
 }
 
@@ -132,6 +164,21 @@ proptest! {
         parts in prop::collection::vec(piece(), 0..14)
     ) {
         same(&parts.concat());
+    }
+
+    #[test]
+    fn any_line_read_into_the_line_before_it_reads_the_same(
+        before in prop::collection::vec(piece(), 0..10),
+        parts in prop::collection::vec(piece(), 0..14)
+    ) {
+        let text = parts.concat();
+        if !is_statement_line(&text) {
+            for dialect in [Dialect::Fanuc, Dialect::LinuxCnc] {
+                let window = SourceFile::window("p.nc", text.as_str(), 7);
+                let general = parse_in(&window, dialect).map(|mut p| p.lines.remove(0));
+                same_after(&before.concat(), &text, dialect, &general);
+            }
+        }
     }
 
     #[test]

@@ -374,14 +374,30 @@ impl Interpreter {
     /// operation the segment was lowered from: `state.to_work` gives its positions in the
     /// work coordinates the program was written in (what `cnc402 which` and `view` show).
     pub fn next_lowered(&mut self) -> Result<Option<(Segment, Arc<CanonState>)>, NcError> {
-        loop {
-            if let Some(s) = self.flow.lowered.pop_front() {
-                return Ok(Some(s));
-            }
+        self.lower_some()?;
+        Ok(self.flow.lowered.pop_front())
+    }
+
+    /// [`next_segment`](Self::next_segment) handed to `f` where it lies, not moved out (the
+    /// dump's loop: a segment is a few hundred bytes, moved several times on its way out).
+    pub fn with_next_segment<R>(
+        &mut self,
+        f: impl FnOnce(&Segment) -> R,
+    ) -> Result<Option<R>, NcError> {
+        self.lower_some()?;
+        let r = self.flow.lowered.front().map(|(s, _)| f(s));
+        self.flow.lowered.pop_front();
+        Ok(r)
+    }
+
+    /// Runs the program until a lowered segment waits or it ends.
+    fn lower_some(&mut self) -> Result<(), NcError> {
+        while self.flow.lowered.is_empty() {
             if matches!(self.next_op(true)?, Pulled::End) {
-                return Ok(self.flow.lowered.pop_front());
+                break;
             }
         }
+        Ok(())
     }
 
     /// The next canonical operation (work coordinates, canned cycles whole, with the state
@@ -713,6 +729,25 @@ mod tests {
         assert_eq!(it.next_segment().unwrap(), None);
         assert_eq!(it.label_line(7), Some(3));
         assert_eq!(it.label_line(6), None);
+    }
+
+    #[test]
+    fn with_next_segment_hands_out_what_next_segment_gives() {
+        let text = "G0 X1\nG1 Y2 F50\nG2 X3 Y0 R2\nM3 S100\nG4 P1\nM2\n";
+        let mut a = load(text, Options::default());
+        let mut b = load(text, Options::default());
+        let mut n = 0;
+        loop {
+            let seen = a.with_next_segment(|s| s.clone()).unwrap();
+            assert_eq!(seen, b.next_segment().unwrap());
+            assert_eq!(a.state().pos, b.state().pos);
+            if seen.is_none() {
+                break;
+            }
+            n += 1;
+        }
+        assert_eq!(n, 6, "{n} segments");
+        assert_eq!(a.with_next_segment(|_| ()).unwrap(), None);
     }
 
     #[test]

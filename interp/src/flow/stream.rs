@@ -12,7 +12,8 @@ use std::sync::Arc;
 
 use cnc402_lang::ast::{LineKind, Program};
 use cnc402_lang::stream::{
-    LinePos, LineReader, ReadLine, is_statement_line, line_window, parse_line, plain_block,
+    LinePos, LineReader, ReadLine, is_statement_line, line_window, parse_line, parse_line_into,
+    plain_block,
 };
 use cnc402_lang::{Dialect, NcError, SourceFile};
 
@@ -80,16 +81,20 @@ pub(crate) fn load(
         };
         let plain = match raw {
             Ok(text) => {
-                if !linuxcnc && is_statement_line(text) {
-                    return Ok(Loaded::CLike(reader.whole()?));
-                }
                 // Once the prefix question is settled, a checked line with none of the
                 // letters of `O`, `WHILE`, `END`, an O-word, `:` or `%` is a plain block.
-                if checked && (seen_o || prefix_has_code) && !may_be_flow(text) {
-                    Some(true)
+                let checked_plain = checked && (seen_o || prefix_has_code) && !may_be_flow(text);
+                let plain = if checked_plain {
+                    None
                 } else {
                     plain_block(text)
+                };
+                // A plain block is no C-like statement (its letters each stand alone, see
+                // tests/plain_fast_path.rs), so most lines need not be asked.
+                if plain.is_none() && !linuxcnc && is_statement_line(text) {
+                    return Ok(Loaded::CLike(reader.whole()?));
                 }
+                if checked_plain { Some(true) } else { plain }
             }
             Err(_) => None,
         };
@@ -165,18 +170,31 @@ impl Stream {
         let ReadLine::Text(window, _) = self.reader.read()? else {
             return Ok(None);
         };
-        let line = parse_line(&window, self.dialect)?;
-        let window = Arc::new(window);
-        self.last = window.clone();
+        let window = self.reuse_window(unit, window);
         // The last view, once the interpreter has let go of it, takes this line in place.
-        let line = match self.spare.as_mut().and_then(Arc::get_mut) {
-            Some(v) => v.reuse_view(unit, &window, line, i).err(),
-            None => Some(line),
-        };
-        if let Some(line) = line {
-            self.spare = Some(Arc::new(unit.view_of(window, line, i)));
+        let reused = self.spare.as_mut().and_then(Arc::get_mut);
+        match reused.and_then(|v| v.reuse_view(unit, &window, i)) {
+            Some(line) => parse_line_into(&window, self.dialect, line)?,
+            None => {
+                let line = parse_line(&window, self.dialect)?;
+                self.spare = Some(Arc::new(unit.view_of(window, line, i)));
+            }
         }
         Ok(self.spare.clone())
+    }
+
+    /// `window` (of line `i` of `unit`) in the last line's allocation when nothing else holds
+    /// that any more (the spare view lets go of it first), so that a long program's lines do
+    /// not each allocate one; it is the last window read from then on.
+    fn reuse_window(&mut self, unit: &Unit, window: SourceFile) -> Arc<SourceFile> {
+        if let Some(v) = self.spare.as_mut().and_then(Arc::get_mut) {
+            v.src = unit.src.clone();
+        }
+        match Arc::get_mut(&mut self.last) {
+            Some(last) => *last = window,
+            None => self.last = Arc::new(window),
+        }
+        self.last.clone()
     }
 
     /// Puts the reader at line `i`: from where it is when that is on the way, else from the

@@ -236,26 +236,25 @@ impl Unit {
     }
 
     /// Makes this view (of a streamed unit, held nowhere else) a view of `unit`'s line `i`
-    /// in place, so a long program's blocks do not each allocate one; `false` when it
-    /// cannot (another unit's view, or its program is still held elsewhere): the line back.
+    /// in place, so a long program's blocks do not each allocate one: its line, to be read
+    /// into; `None` when it cannot (another unit's view, or its program is still held
+    /// elsewhere).
     pub(crate) fn reuse_view(
         &mut self,
         unit: &Unit,
         src: &Arc<SourceFile>,
-        line: Line,
         i: usize,
-    ) -> Result<(), Line> {
+    ) -> Option<&mut Line> {
         if !Arc::ptr_eq(&self.ix, &unit.ix) || (self.start, self.end) != (unit.start, unit.end) {
-            return Err(line);
+            return None;
         }
-        let Some(program) = Arc::get_mut(&mut self.program) else {
-            return Err(line);
-        };
-        program.lines.clear();
-        program.lines.push(line);
+        let program = Arc::get_mut(&mut self.program)?;
+        if program.lines.len() != 1 {
+            return None;
+        }
         self.src = src.clone();
         self.base = i;
-        Ok(())
+        program.lines.first_mut()
     }
 
     /// The same unit whatever view of it is at hand (for the runaway guard).

@@ -131,7 +131,8 @@ mod tests {
     use super::*;
 
     fn declared(text: &str) -> Result<Option<Dialect>, (u32, u32, String)> {
-        declared_dialect(&SourceFile::new("t.nc", text)).map_err(|e| (e.line, e.col, e.message))
+        declared_dialect(&SourceFile::new("t.nc", text))
+            .map_err(|e| (e.line, e.col, e.message.clone()))
     }
 
     #[test]

@@ -642,7 +642,7 @@ mod tests {
 
     fn err(s: &str) -> (u32, u32, String) {
         let e = parse(&SourceFile::new("t", s)).unwrap_err();
-        (e.line, e.col, e.message)
+        (e.line, e.col, e.message.clone())
     }
 
     #[test]

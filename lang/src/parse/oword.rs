@@ -204,7 +204,7 @@ mod tests {
 
     fn err(text: &str) -> (u32, u32, String) {
         let e = parse_in(&SourceFile::new("t.ngc", text), Dialect::LinuxCnc).unwrap_err();
-        (e.line, e.col, e.message)
+        (e.line, e.col, e.message.clone())
     }
 
     fn oword(k: &LineKind) -> (&OLabel, &OWordKind) {

@@ -87,22 +87,43 @@ pub(crate) fn scan(text: &str, mut word: impl FnMut(Word)) -> Option<(Option<Seq
 /// The [`Line`] of `text` (line `line_no`) when it is a plain block, as the general parser
 /// makes it.
 pub(crate) fn line(text: &str, line_no: u32) -> Option<Line> {
-    // One allocation, as the general parser makes: words are rarely shorter than 4 bytes.
-    let mut words = Vec::with_capacity((text.len() / 4 + 1).min(16));
-    let (n, count) = scan(text, |w| words.push(w))?;
-    Some(Line {
+    let mut line = Line {
         line_no,
-        span: Span::new(0, text.len()),
+        span: Span::new(0, 0),
         block_delete: false,
-        n,
-        kind: if count == 0 {
-            LineKind::Empty
-        } else {
-            LineKind::Block(Block {
-                words,
-                named_axes: Vec::new(),
-            })
-        },
+        n: None,
+        kind: LineKind::Empty,
         comments: Vec::new(),
-    })
+    };
+    line_into(text, line_no, &mut line).then_some(line)
+}
+
+/// Makes `line` the [`Line`] of `text` (line `line_no`) when it is a plain block, keeping
+/// the vectors it had (a streamed program reads every block into one line); `false`, and
+/// `line` is to be overwritten, when `text` is no plain block.
+pub(crate) fn line_into(text: &str, line_no: u32, line: &mut Line) -> bool {
+    let mut block = match std::mem::replace(&mut line.kind, LineKind::Empty) {
+        LineKind::Block(b) => b,
+        // One allocation, as the general parser makes: words are rarely shorter than 4 bytes.
+        _ => Block {
+            words: Vec::with_capacity((text.len() / 4 + 1).min(16)),
+            named_axes: Vec::new(),
+        },
+    };
+    block.words.clear();
+    block.named_axes.clear();
+    let scanned = scan(text, |w| block.words.push(w));
+    let Some((n, count)) = scanned else {
+        line.kind = LineKind::Block(block);
+        return false;
+    };
+    line.line_no = line_no;
+    line.span = Span::new(0, text.len());
+    line.block_delete = false;
+    line.n = n;
+    line.comments.clear();
+    if count > 0 {
+        line.kind = LineKind::Block(block);
+    }
+    true
 }
