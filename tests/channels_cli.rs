@@ -278,6 +278,8 @@ fn the_seeds_regression_test_with_a_failing_program_ends_in_terminate_5558() {
         "{all}"
     );
     assert!(all.contains("another channel stopped"), "{all}");
+    // Each channel's stop names its own axes (was "all axes stopped" for every channel).
+    assert!(all.contains("this channel's axes stopped (U V W)"), "{all}");
     assert!(!all.contains("SIGINT"), "{all}");
 }
 

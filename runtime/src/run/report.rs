@@ -157,9 +157,15 @@ fn stop_report(
             None => msg.push_str(", no EMCY"),
         }
     }
-    msg.push_str(&format!(
-        ", while executing {location}: {block}; all axes stopped"
-    ));
+    // A channel of a multi-channel run reports its own axes (the others say in their own
+    // reports whether `on_error` stopped them too).
+    let stopped = if cfg.channels.is_empty() {
+        "all axes stopped".to_string()
+    } else {
+        let names: Vec<String> = cfg.axes.iter().map(|a| a.name.to_string()).collect();
+        format!("this channel's axes stopped ({})", names.join(" "))
+    };
+    msg.push_str(&format!(", while executing {location}: {block}; {stopped}"));
     let report = StopReport {
         stop,
         axis,
