@@ -35,12 +35,8 @@ pub fn segments(
     dialect: Option<Dialect>,
 ) -> Result<Vec<Segment>, PostError> {
     if cnc402_lang::heidenhain::is_heidenhain(name, text.lines().next().unwrap_or("")) {
-        // A Heidenhain job: through the reader, as `cnc402 segments` reads it.
-        let mut it = interpreter(cfg);
-        let input = std::io::Cursor::new(text.as_bytes().to_vec());
-        it.load_stream(name, Box::new(input), None)
-            .map_err(PostError::Job)?;
-        return drain(it);
+        // A Heidenhain job: through the reader, as a posted iTNC program is read back.
+        return read_back(cfg, name, text);
     }
     let src = SourceFile::new(name, text);
     let program = cnc402_interp::parse_program(cfg, &src, dialect).map_err(PostError::Job)?;

@@ -116,6 +116,13 @@ impl Member {
         self
     }
 
+    /// Its program failed while it ran (the next step stops it as a program error).
+    pub fn program_failed(&self) -> bool {
+        self.program_failed
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::Relaxed))
+    }
+
     /// A resident channel (see [`Member::resident`](Self)) reporting through `signal`.
     pub fn resident(self, signal: Arc<ChannelSignal>) -> Member {
         Member {
@@ -215,11 +222,7 @@ impl<L: DriveLink> ChannelSet<L> {
     /// Allocation-free.
     pub fn step(&mut self, now: Instant) -> bool {
         for m in self.members.iter_mut().filter(|m| m.live()) {
-            if m.program_failed
-                .as_ref()
-                .is_some_and(|f| f.load(Ordering::Relaxed))
-                && m.ctrl.first_stop().is_none()
-            {
+            if m.program_failed() && m.ctrl.first_stop().is_none() {
                 m.ctrl.stop_for(stop_without_drive(StopCause::ProgramError));
             }
             if let (true, Some(sig)) = (m.resident, &m.signal) {

@@ -23,7 +23,7 @@ use crate::channel_set::{ChannelPort, ChannelSet, Deadlock, Member};
 use crate::channels::{ChannelBoard, DryChannels, Resident, spawn_resident};
 use crate::controller::{AxisTable, CycleController, start_position};
 use crate::feeder::{ProgramInput, dry_run_channel, motion_error_to_nc};
-use crate::link::{DriveLink, Startup, StopCause};
+use crate::link::{DriveLink, Startup};
 use crate::operator::{CommandInput, OperatorShared, Panel};
 use crate::program_stop::StopGate;
 use crate::recorder::Recorder;
@@ -795,7 +795,6 @@ fn tick_all(
         if crate::rt::sigint_seen() {
             stop_request.store(true, Ordering::SeqCst);
         }
-        let mut failed = None;
         let mut ready = true;
         let mut held = false;
         for (k, m) in set.members().iter().enumerate() {
@@ -809,7 +808,8 @@ fn tick_all(
             let sig = board.signal(k);
             let idle =
                 sig.blocked.load(Ordering::SeqCst) || (k > 0 && !sig.busy.load(Ordering::SeqCst));
-            if idle || m.ctrl.has_work() || (waiting && !sh.motion_done()) {
+            // A failed program is the step's to stop (as a program error).
+            if idle || m.ctrl.has_work() || m.program_failed() || (waiting && !sh.motion_done()) {
                 continue;
             }
             ready = false;
@@ -821,19 +821,10 @@ fn tick_all(
                 .is_some_and(|h| h.is_finished())
             {
                 if ended_seen[k] {
-                    failed = Some(k);
+                    stop_request.store(true, Ordering::SeqCst);
                 }
                 ended_seen[k] = true;
             }
-        }
-        if let Some(k) = failed {
-            // Stopped as its program error, not as an operator's stop; the others follow
-            // its `on_error` on the next step.
-            set.members_mut()[k]
-                .ctrl
-                .stop_for(crate::controller::stop_without_drive(
-                    StopCause::ProgramError,
-                ));
         }
         if !ready {
             drain_lanes(io.sides, io.rows.as_deref_mut(), board);
