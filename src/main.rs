@@ -33,9 +33,11 @@ use cli_error::{CliError, exit};
     about = "CNC motion backend: NC programs to CiA 402 drives over CAN"
 )]
 struct Cli {
-    /// Machine description.
-    #[arg(long, global = true, default_value = cnc402_config::DEFAULT_PATH)]
-    config: PathBuf,
+    /// Machine description [default: $CNC402_CONFIG, else the first of
+    /// ./config/machine.toml, ~/.config/cnc402/machine.toml, /etc/cnc402/machine.toml, else
+    /// the built-in machine (simulated drives)].
+    #[arg(long, global = true)]
+    config: Option<PathBuf>,
     #[command(subcommand)]
     command: Command,
 }
@@ -231,35 +233,41 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Segments { program, dialect } => {
-            let cfg = load_config(&cli.config)?;
+            let cfg = load_config(cli.config.as_deref())?;
             dump(&cfg, &program, dialect, Dump::Segments)
         }
         Command::Canon { program, dialect } => {
-            let cfg = load_config(&cli.config)?;
+            let cfg = load_config(cli.config.as_deref())?;
             dump(&cfg, &program, dialect, Dump::Canon)
         }
         Command::Run(args) => {
-            let cfg = load_config(&cli.config)?;
+            let cfg = load_config(cli.config.as_deref())?;
             run::run(&cfg, &args)
         }
-        Command::Home(args) => home::home(&load_config(&cli.config)?, args),
-        Command::Which(args) => inspect::which(&load_config(&cli.config)?, args),
-        Command::View(args) => inspect::view(&load_config(&cli.config)?, args),
+        Command::Home(args) => home::home(&load_config(cli.config.as_deref())?, args),
+        Command::Which(args) => inspect::which(&load_config(cli.config.as_deref())?, args),
+        Command::View(args) => inspect::view(&load_config(cli.config.as_deref())?, args),
         Command::Vars { file, command } => {
-            let cfg = load_config(&cli.config)?;
+            let cfg = load_config(cli.config.as_deref())?;
             vars::vars(&cfg, file, command)
         }
         Command::Pages(args) => {
-            let cfg = load_config(&cli.config)?;
+            let cfg = load_config(cli.config.as_deref())?;
             pages::pages(&cfg, *args)
         }
-        Command::Post(args) => post::post(&load_config(&cli.config)?, *args),
-        Command::Test(args) => test_cmd::test(&load_config(&cli.config)?, args),
+        Command::Post(args) => post::post(&load_config(cli.config.as_deref())?, *args),
+        Command::Test(args) => test_cmd::test(&load_config(cli.config.as_deref())?, args),
     }
 }
 
-fn load_config(path: &std::path::Path) -> Result<cnc402_config::MachineConfig, CliError> {
-    cnc402_config::MachineConfig::load(path).map_err(CliError::Config)
+/// The machine of `--config`, or the one found without it (see `cnc402_config::locate`);
+/// running on the built-in machine is said on stderr.
+fn load_config(given: Option<&std::path::Path>) -> Result<cnc402_config::MachineConfig, CliError> {
+    let (cfg, origin) = cnc402_config::MachineConfig::locate(given).map_err(CliError::Config)?;
+    if let Some(note) = origin.note() {
+        eprintln!("{note}");
+    }
+    Ok(cfg)
 }
 
 /// A program's whole text, for the commands that keep every block (`which`, `view`: a page

@@ -52,14 +52,11 @@ pub struct Global {
     /// config's bus.interface]
     #[arg(long, global = true, value_name = "NAME")]
     pub iface: Option<String>,
-    /// Machine config: node ids, axis names, limits for jog/move
-    #[arg(
-        long,
-        global = true,
-        value_name = "PATH",
-        default_value = "config/machine.toml"
-    )]
-    pub config: PathBuf,
+    /// Machine config: node ids, axis names, limits for jog/move [default: $CNC402_CONFIG,
+    /// else the first of ./config/machine.toml, ~/.config/cnc402/machine.toml,
+    /// /etc/cnc402/machine.toml, else the built-in machine]
+    #[arg(long, global = true, value_name = "PATH")]
+    pub config: Option<PathBuf>,
     /// Machine-readable output (one JSON document; streaming commands: one JSON object per
     /// line)
     #[arg(long, global = true)]

@@ -105,14 +105,13 @@ pub fn node_id(n: u8) -> Result<NodeId> {
     NodeId::new(n).map_err(|e| CliError::usage(e.to_string()))
 }
 
-/// Loads the config. A missing file at the default path falls back to the shipped machine
-/// (so `drivectl --iface sim scan` works from any directory); any other problem is an error.
+/// Loads the config: `--config`, else the one `cnc402_config::locate` finds, else the built-in
+/// machine (so `drivectl --iface sim scan` works from any directory); a named file that
+/// cannot be read or is invalid is an error.
 pub fn load_config(cli: &Cli) -> Result<MachineConfig> {
-    let path = &cli.global.config;
-    if !path.exists() && path.as_os_str() == cnc402_config::DEFAULT_PATH {
-        return Ok(MachineConfig::default_machine());
-    }
-    MachineConfig::load(path).map_err(|e| CliError::new(Exit::Config, e.to_string()))
+    MachineConfig::locate(cli.global.config.as_deref())
+        .map(|(cfg, _)| cfg)
+        .map_err(|e| CliError::new(Exit::Config, e.to_string()))
 }
 
 /// Runs a parsed command line. `interrupted` is set by the caller's Ctrl-C handler.

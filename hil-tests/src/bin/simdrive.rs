@@ -37,9 +37,11 @@ const EXAMPLE: &str = "Example:\n  simdrive --config config/machine.toml --iface
     after_long_help = format!("{EXAMPLE}\n\n{}", exit::help_table())
 )]
 struct Args {
-    /// Machine description (one drive per axis with a node id).
-    #[arg(long, default_value = cnc402_config::DEFAULT_PATH)]
-    config: PathBuf,
+    /// Machine description (one drive per axis with a node id) [default: as cnc402 finds it:
+    /// $CNC402_CONFIG, ./config/machine.toml, ~/.config/cnc402/machine.toml,
+    /// /etc/cnc402/machine.toml, else the built-in machine].
+    #[arg(long)]
+    config: Option<PathBuf>,
     /// CAN interface.
     #[arg(long, default_value = "vcan0")]
     iface: String,
@@ -215,8 +217,13 @@ fn main() -> ExitCode {
             return ExitCode::from(exit::for_clap(e.use_stderr()));
         }
     };
-    let cfg = match MachineConfig::load(&args.config) {
-        Ok(c) => c,
+    let cfg = match MachineConfig::locate(args.config.as_deref()) {
+        Ok((c, origin)) => {
+            if let Some(note) = origin.note() {
+                eprintln!("simdrive: {note}");
+            }
+            c
+        }
         Err(e) => {
             eprintln!("simdrive: {e}");
             return ExitCode::from(exit::CONFIG);
