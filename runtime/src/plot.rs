@@ -28,8 +28,10 @@ const WIDTH: u32 = 1000;
 /// above the channels' sections.
 const LINE_H: u32 = 24;
 const TITLE_H: u32 = 40;
-/// A line under a title is cut to this many characters (it must fit the width).
-const LINE_CHARS: usize = 130;
+/// A heading's lines hold at most this many characters (to fit the width), and a heading
+/// at most this many lines.
+const LINE_CHARS: usize = 100;
+const MAX_LINES: usize = 8;
 /// Path speeds are drawn in this many colours (blue: at rest, red: the run's fastest).
 const SPEED_BUCKETS: usize = 12;
 
@@ -39,14 +41,15 @@ pub fn write_plot(path: &Path, report: &RunReport, title: &str) -> Result<(), St
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let mut svg = String::new();
     let t_max = t_end(&report.plot);
-    draw_plot(&mut svg, report, (title, None), t_max, &err)?;
+    draw_plot(&mut svg, report, (title, &[]), t_max, &err)?;
     cnc402_durable::write_atomic(path, svg.as_bytes()).map_err(|e| err(&e))
 }
 
 /// Draws the plot of a run of several channels into one SVG file: `title`, then one section
 /// per channel (`<g id="channel-K">`) headed by the channel, its program and how it ended,
 /// with the resident channel's programs run, and that channel's panels as [`write_plot`]
-/// draws them. Every time panel spans the whole run, so the channels line up in time.
+/// draws them; a deadlock last (`<g id="deadlock">`). Every time panel spans the whole run,
+/// so the channels line up in time.
 pub fn write_channels_plot(
     path: &Path,
     report: &ChannelsReport,
@@ -64,27 +67,24 @@ pub fn write_channels_plot(
         report.channels.len()
     );
     let mut top = String::new();
-    draw_lines(&mut top, (&title, None), TITLE_H, &err)?;
+    let mut y = draw_lines(&mut top, (&title, &[]), &err)?;
     let mut body = String::new();
-    let mut y = TITLE_H;
-    for c in &report.channels {
-        let mut svg = String::new();
-        let h = draw_channel(&mut svg, c, t_max, &err)?;
+    let mut section = |id: String, svg: String, h: u32| {
         body.push_str(&format!(
-            "<g id=\"channel-{}\" transform=\"translate(0,{y})\">\n{}\n</g>\n",
-            c.index,
+            "<g id=\"{id}\" transform=\"translate(0,{y})\">\n{}\n</g>\n",
             svg.trim_end()
         ));
         y += h;
+    };
+    for c in &report.channels {
+        let mut svg = String::new();
+        let h = draw_channel(&mut svg, c, t_max, &err)?;
+        section(format!("channel-{}", c.index), svg, h);
     }
     if let Some(d) = &report.deadlock {
         let mut svg = String::new();
-        draw_lines(&mut svg, ("deadlock", Some(d)), TITLE_H + LINE_H, &err)?;
-        body.push_str(&format!(
-            "<g id=\"deadlock\" transform=\"translate(0,{y})\">\n{}\n</g>\n",
-            svg.trim_end()
-        ));
-        y += TITLE_H + LINE_H;
+        let h = draw_lines(&mut svg, ("deadlock", &wrap(d)), &err)?;
+        section("deadlock".into(), svg, h);
     }
     // The sections are SVG documents of their own nested in one; each escapes its text.
     let svg = format!(
@@ -96,45 +96,76 @@ pub fn write_channels_plot(
 }
 
 /// Channel `c`'s section into `svg`: its panels, or (no report: an error before its run)
-/// its headline and the error. Returns the section's height.
+/// its headline alone. Returns the section's height.
 fn draw_channel(svg: &mut String, c: &ChannelRun, t_max: f64, err: Err) -> Result<u32, String> {
-    let programs =
-        (!c.programs.is_empty()).then(|| format!("programs run: {}", c.programs.join("; ")));
-    let heading = cut(&c.headline());
+    let mut lines = wrap(&c.headline());
+    let title = lines.remove(0);
+    if !c.programs.is_empty() {
+        lines.extend(wrap(&format!("programs run: {}", c.programs.join("; "))));
+    }
     match &c.result {
-        Ok(r) => draw_plot(svg, r, (&heading, programs.as_deref()), t_max, err),
-        Err(_) => {
-            draw_lines(svg, (&heading, programs.as_deref()), TITLE_H + LINE_H, err)?;
-            Ok(TITLE_H + LINE_H)
-        }
+        Ok(r) => draw_plot(svg, r, (&title, &lines), t_max, err),
+        Err(_) => draw_lines(svg, (&title, &lines), err),
     }
 }
 
-/// A band of `height` with a title and, under it, a line of detail (cut to fit).
+/// A band with a title and, under it, `detail`'s lines. Returns its height.
 fn draw_lines(
     svg: &mut String,
-    (title, detail): (&str, Option<&str>),
-    height: u32,
+    (title, detail): (&str, &[String]),
     err: Err,
-) -> Result<(), String> {
+) -> Result<u32, String> {
+    let height = TITLE_H + LINE_H * detail.len() as u32;
     let root = SVGBackend::with_string(svg, (WIDTH, height)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root
-        .titled(&cut(title), ("sans-serif", 20))
+    heading(root, (title, detail), err)?
+        .present()
         .map_err(|e| err(&e))?;
-    if let Some(d) = detail {
-        root.titled(&cut(d), ("sans-serif", 15))
-            .map_err(|e| err(&e))?;
-    }
-    root.present().map_err(|e| err(&e))
+    Ok(height)
 }
 
-/// `line` cut to [`LINE_CHARS`] characters, saying so.
-fn cut(line: &str) -> String {
-    match line.char_indices().nth(LINE_CHARS) {
-        None => line.to_string(),
-        Some((i, _)) => format!("{} … ({} characters)", &line[..i], line.chars().count()),
+/// `title` and `detail`'s lines drawn at the top of `area`; the area under them.
+fn heading<'a>(
+    area: Area<'a>,
+    (title, detail): (&str, &[String]),
+    err: Err,
+) -> Result<Area<'a>, String> {
+    let mut area = area
+        .titled(title, ("sans-serif", 20))
+        .map_err(|e| err(&e))?;
+    for line in detail {
+        area = area.titled(line, ("sans-serif", 15)).map_err(|e| err(&e))?;
     }
+    Ok(area)
+}
+
+/// `text` in lines of at most [`LINE_CHARS`] characters (so that they fit the width), broken
+/// after a space where a word would not fit; at most [`MAX_LINES`], the last then ending in
+/// `…`.
+fn wrap(text: &str) -> Vec<String> {
+    let mut lines = vec![String::new()];
+    let mut len = 0;
+    for word in text.split_inclusive(' ') {
+        let word_len = word.trim_end().chars().count();
+        for (k, c) in word.chars().enumerate() {
+            let word_moves = k == 0 && len > 0 && word_len > LINE_CHARS - len;
+            if len == LINE_CHARS || word_moves {
+                if lines.len() == MAX_LINES {
+                    if let Some(last) = lines.last_mut() {
+                        last.push('…');
+                    }
+                    return lines;
+                }
+                lines.push(String::new());
+                len = 0;
+            }
+            if let Some(last) = lines.last_mut() {
+                last.push(c);
+            }
+            len += 1;
+        }
+    }
+    lines
 }
 
 /// The time of the last point of a series (the end of the run as plotted).
@@ -153,28 +184,21 @@ fn plane_axes(names: &[char]) -> [Option<(usize, char)>; 3] {
     [find('X', 'U'), find('Y', 'V'), find('Z', 'W')]
 }
 
-/// Draws `report`'s panels (see the module doc) under `title` (and its `detail` line), the
+/// Draws `report`'s panels (see the module doc) under `title` (and `detail`'s lines), the
 /// time panels from 0 to `t_max` s. Returns the height drawn.
 fn draw_plot(
     svg: &mut String,
     report: &RunReport,
-    (title, detail): (&str, Option<&str>),
+    (title, detail): (&str, &[String]),
     t_max: f64,
     err: Err,
 ) -> Result<u32, String> {
     let taps = !report.tapping.is_empty();
-    let detail_h = if detail.is_some() { LINE_H } else { 0 };
+    let detail_h = LINE_H * detail.len() as u32;
     let height = detail_h + PATH_H + 2 * SERIES_H + if taps { TAP_H.0 + TAP_H.1 } else { 0 };
     let root = SVGBackend::with_string(svg, (WIDTH, height)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut root = root
-        .titled(title, ("sans-serif", 20))
-        .map_err(|e| err(&e))?;
-    if let Some(d) = detail {
-        root = root
-            .titled(&cut(d), ("sans-serif", 15))
-            .map_err(|e| err(&e))?;
-    }
+    let root = heading(root, (title, detail), err)?;
     let (path_row, rest) = root.split_vertically(PATH_H - 30);
     let (vel, rest) = rest.split_vertically(SERIES_H);
     let (fe, rest) = rest.split_vertically(SERIES_H);
@@ -459,4 +483,61 @@ fn tap_coupling(
             .map_err(|e| err(&e))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A heading's text is kept whole (up to its last line), in lines that fit, broken
+    /// between words; a word longer than a line is split; the lines are bounded.
+    #[test]
+    fn wrap_keeps_the_text_in_bounded_lines_that_fit() {
+        assert_eq!(wrap(""), [""]);
+        assert_eq!(
+            wrap("channel 0 (main): a.nc — finished"),
+            ["channel 0 (main): a.nc — finished"]
+        );
+        let words: Vec<String> = (0..40).map(|k| format!("p{k}.nc: ok;")).collect();
+        let text = words.join(" ");
+        let lines = wrap(&text);
+        assert!(lines.len() > 1 && lines.len() < MAX_LINES);
+        assert_eq!(lines.concat(), text);
+        for l in &lines {
+            assert!(l.chars().count() <= LINE_CHARS, "{l}");
+        }
+        for pair in lines.windows(2) {
+            assert!(
+                pair[0].ends_with(' ') && !pair[1].starts_with(' '),
+                "{pair:?}"
+            );
+        }
+        let long = "é".repeat(LINE_CHARS * 3 / 2);
+        let lines = wrap(&long);
+        assert_eq!(
+            lines.iter().map(|l| l.chars().count()).collect::<Vec<_>>(),
+            [LINE_CHARS, LINE_CHARS / 2]
+        );
+        let lines = wrap(&"word ".repeat(10_000));
+        assert_eq!(lines.len(), MAX_LINES);
+        assert!(lines[MAX_LINES - 1].ends_with('…'));
+    }
+
+    /// A toolpath is drawn in X Y Z, or in the parallel U V W where a channel lacks them.
+    #[test]
+    fn the_toolpath_plane_falls_back_to_u_v_w() {
+        assert_eq!(
+            plane_axes(&['X', 'Y', 'Z', 'C']),
+            [Some((0, 'X')), Some((1, 'Y')), Some((2, 'Z'))]
+        );
+        assert_eq!(
+            plane_axes(&['U', 'V', 'W']),
+            [Some((0, 'U')), Some((1, 'V')), Some((2, 'W'))]
+        );
+        assert_eq!(
+            plane_axes(&['W', 'X', 'U']),
+            [Some((1, 'X')), None, Some((0, 'W'))]
+        );
+        assert_eq!(plane_axes(&['C']), [None, None, None]);
+    }
 }
