@@ -140,15 +140,18 @@ fn heading<'a>(
 }
 
 /// `text` in lines of at most [`LINE_CHARS`] characters (so that they fit the width), broken
-/// after a space where a word would not fit; at most [`MAX_LINES`], the last then ending in
-/// `…`.
+/// after a space where a word would not fit (a word longer than a line where it falls); at
+/// most [`MAX_LINES`], the last then ending in `…`.
 fn wrap(text: &str) -> Vec<String> {
     let mut lines = vec![String::new()];
     let mut len = 0;
     for word in text.split_inclusive(' ') {
         let word_len = word.trim_end().chars().count();
         for (k, c) in word.chars().enumerate() {
-            let word_moves = k == 0 && len > 0 && word_len > LINE_CHARS - len;
+            // A word that fits a line starts one when it does not fit this one; a longer one is
+            // split wherever it falls.
+            let word_moves =
+                k == 0 && len > 0 && word_len > LINE_CHARS - len && word_len <= LINE_CHARS;
             if len == LINE_CHARS || word_moves {
                 if lines.len() == MAX_LINES {
                     if let Some(last) = lines.last_mut() {
@@ -512,12 +515,9 @@ mod tests {
                 "{pair:?}"
             );
         }
-        let long = "é".repeat(LINE_CHARS * 3 / 2);
-        let lines = wrap(&long);
-        assert_eq!(
-            lines.iter().map(|l| l.chars().count()).collect::<Vec<_>>(),
-            [LINE_CHARS, LINE_CHARS / 2]
-        );
+        let long = format!("name: {}", "é".repeat(LINE_CHARS * 3 / 2));
+        let lengths: Vec<usize> = wrap(&long).iter().map(|l| l.chars().count()).collect();
+        assert_eq!(lengths, [LINE_CHARS, LINE_CHARS / 2 + 6]);
         let lines = wrap(&"word ".repeat(10_000));
         assert_eq!(lines.len(), MAX_LINES);
         assert!(lines[MAX_LINES - 1].ends_with('…'));
