@@ -527,3 +527,47 @@ fn plot_of_the_seeds_regression_test_and_of_a_deadlock() {
     let said = t[1..].concat();
     assert!(said.contains("a.nc:2") && said.contains("b.nc:2"), "{t:?}");
 }
+
+/// A channel whose program fails while running (its report is the error) gets its heading
+/// with the error and no panels; the other channel, stopped by it, its panels; the plot is
+/// written although the run exits 2.
+#[test]
+fn plot_of_a_run_where_a_channels_program_fails_shows_the_error_in_its_section() {
+    let d = dir("plot-error");
+    let main = program(
+        &d,
+        "main.nc",
+        "bool ok;\n$flag = 0;\nok = channel_run(1, \"setflag.nc\");\n\
+         if ($flag != 7) { terminate(2, \"flag not seen\"); }\n",
+    );
+    program(&d, "setflag.nc", "G90 G1 U5 F600;\n$flag = 6;\n");
+    let plot = d.join("p.svg");
+    let o = cnc402(&[
+        "--config",
+        TWO,
+        "run",
+        &main,
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    let (doc, ids) = plot_sections(&svg);
+    assert_eq!(ids, ["channel-0", "channel-1"]);
+    let t0 = texts(section(&doc, "channel-0")).concat();
+    assert!(t0.starts_with("channel 0 (main): "), "{t0}");
+    assert!(
+        t0.contains("— error:") && t0.contains("main.nc:4:19: "),
+        "{t0}"
+    );
+    assert!(!t0.contains("toolpath"), "{t0}");
+    let t1 = texts(section(&doc, "channel-1"));
+    assert!(
+        t1[0].contains("— stopped: another channel stopped"),
+        "{t1:?}"
+    );
+    assert!(
+        t1.iter().any(|t| t.starts_with("toolpath UV (from above)")),
+        "{t1:?}"
+    );
+}

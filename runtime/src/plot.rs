@@ -66,8 +66,10 @@ pub fn write_channels_plot(
         "{title}: {} channels, one time axis 0 to {t_max:.3} s",
         report.channels.len()
     );
+    let mut lines = wrap(&title);
+    let title = lines.remove(0);
     let mut top = String::new();
-    let mut y = draw_lines(&mut top, (&title, &[]), &err)?;
+    let mut y = draw_lines(&mut top, (&title, &lines), &err)?;
     let mut body = String::new();
     let mut section = |id: String, svg: String, h: u32| {
         body.push_str(&format!(
