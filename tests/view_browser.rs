@@ -93,7 +93,7 @@ fn browser_dom(browser: &Path, url: &str, profile: &Path, flags: &[&str]) -> Str
         ])
         .args(flags)
         .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(&url)
+        .arg(url)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
