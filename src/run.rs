@@ -398,8 +398,9 @@ fn channels_done(
         let text = serde_json::to_string_pretty(&report.to_json()).map_err(|e| io(&e))?;
         cnc402_durable::write_atomic(p, format!("{text}\n").as_bytes()).map_err(|e| io(&e))?;
     }
-    if args.plot.is_some() {
-        log::warn!("--plot draws one channel's run: not written for several channels");
+    if let Some(p) = &args.plot {
+        let title = format!("cnc402 run {}", args.program.display());
+        cnc402_runtime::write_channels_plot(p, &report, &title).map_err(CliError::Io)?;
     }
     let (ok, error) = (report.ok(), report.error());
     let program_error = report.channels.into_iter().find_map(|c| match c.result {

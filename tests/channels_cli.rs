@@ -354,3 +354,220 @@ fn a_shared_flag_set_by_channel_1_is_read_by_channel_0() {
     assert!(all.contains("MSG: flag seen"), "{all}");
     assert!(all.contains("checked again when it gets there"), "{all}");
 }
+
+/// The plot of a run of several channels, parsed by a strict XML parser (a malformed file or
+/// an unescaped program name fails here); the run's title and each channel's section.
+fn plot_sections(svg: &str) -> (roxmltree::Document<'_>, Vec<String>) {
+    let doc = roxmltree::Document::parse(svg).unwrap_or_else(|e| panic!("not well-formed: {e}"));
+    let ids = doc
+        .root_element()
+        .children()
+        .filter(|n| n.has_tag_name("g"))
+        .map(|n| n.attribute("id").unwrap_or("").to_string())
+        .collect();
+    (doc, ids)
+}
+
+/// The `<g id=…>` section of `doc`.
+fn section<'a, 'i>(doc: &'a roxmltree::Document<'i>, id: &str) -> roxmltree::Node<'a, 'i> {
+    doc.descendants()
+        .find(|n| n.has_tag_name("g") && n.attribute("id") == Some(id))
+        .unwrap_or_else(|| panic!("no section {id}"))
+}
+
+/// Every text drawn in `node`, trimmed.
+fn texts(node: roxmltree::Node) -> Vec<String> {
+    node.descendants()
+        .filter(|n| n.has_tag_name("text"))
+        .filter_map(|n| n.text().map(|t| t.trim().to_string()))
+        .collect()
+}
+
+/// The points of every polyline of `stroke_width` in `node` with more than `min` points.
+fn polylines(node: roxmltree::Node, stroke_width: &str, min: usize) -> Vec<Vec<(f64, f64)>> {
+    node.descendants()
+        .filter(|n| n.has_tag_name("polyline") && n.attribute("stroke-width") == Some(stroke_width))
+        .map(|n| {
+            n.attribute("points")
+                .unwrap()
+                .split_whitespace()
+                .map(|p| {
+                    let (x, y) = p.split_once(',').unwrap();
+                    (x.parse().unwrap(), y.parse().unwrap())
+                })
+                .collect::<Vec<(f64, f64)>>()
+        })
+        .filter(|l| l.len() > min)
+        .collect()
+}
+
+/// `--plot` of two channels: one section per channel in channel order, each headed by its
+/// channel, program and outcome, with its own axes' toolpath (channel 1's in U V W), time
+/// panels and (channel 0 taps) tapping panels; both time axes span the whole run, so channel
+/// 0's series, which ends after about 2 s of about 6 s, ends a third of the way across.
+#[test]
+fn plot_of_two_channels_has_a_section_per_channel_on_one_time_axis() {
+    let d = dir("plot");
+    let a = program(
+        &d,
+        "main & <1>.nc",
+        "G90 G0 X10 Y5 Z10\nM29 S600\nG95 G99 G84 X10 Y5 Z-5 R2 F1.25\nG80 G94\nG0 Z20\nM30\n",
+    );
+    let b = program(&d, "sub.nc", "G90 G1 U100 V20 F1200\nG1 W5\nM30\n");
+    let plot = d.join("p.svg");
+    let (o, rep) = run_two(&d, &a, &b, &["--plot", plot.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!text(&o).contains("--plot"), "{}", text(&o));
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    let (doc, ids) = plot_sections(&svg);
+    assert_eq!(ids, ["channel-0", "channel-1"]);
+    let title = texts(doc.root_element());
+    assert!(title[0].contains("2 channels, one time axis"), "{title:?}");
+
+    let (ch0, ch1) = (section(&doc, "channel-0"), section(&doc, "channel-1"));
+    let (t0, t1) = (texts(ch0), texts(ch1));
+    assert_eq!(t0[0], format!("channel 0 (main): {a} — finished"));
+    assert_eq!(t1[0], format!("channel 1 (sub): {b} — finished"));
+    assert_eq!(t1[1], format!("programs run: {b}: ok"));
+    let has = |t: &[String], s: &str| t.iter().any(|x| x.starts_with(s));
+    for panel in [
+        "toolpath XY (from above)",
+        "toolpath XZ (side view)",
+        "commanded velocity per axis",
+        "following error per axis",
+        "rigid tapping: Z and C setpoints",
+        "rigid-tap coupling error",
+    ] {
+        assert!(has(&t0, panel), "channel 0: no {panel:?} in {t0:?}");
+    }
+    for panel in [
+        "toolpath UV (from above)",
+        "toolpath UW (side view)",
+        "commanded velocity per axis",
+        "following error per axis",
+    ] {
+        assert!(has(&t1, panel), "channel 1: no {panel:?} in {t1:?}");
+    }
+    assert!(!has(&t1, "toolpath X") && !has(&t1, "rigid"), "{t1:?}");
+    // Each channel's legends name its own axes only.
+    let legend = |t: &[String], c: &str| t.iter().filter(|x| *x == c).count();
+    for c in ["X", "Y", "Z", "C"] {
+        assert_eq!((legend(&t0, c), legend(&t1, c)), (2, 0), "{c}");
+    }
+    for c in ["U", "V", "W"] {
+        assert_eq!((legend(&t0, c), legend(&t1, c)), (0, 2), "{c}");
+    }
+    // Each toolpath is its channel's: channel 1's fastest is its F1200 (20 mm/s).
+    assert!(has(
+        &t1,
+        "toolpath UV (from above), path speed blue 0 → red 20.0 mm/s"
+    ));
+    let path1: usize = polylines(ch1, "2", 1).iter().map(Vec::len).sum();
+    assert!(path1 > 100, "channel 1's toolpath has {path1} points");
+
+    // One time axis: the series start at the same pixel; channel 0's ends where its program
+    // time falls on the run's.
+    let time = |k: usize| {
+        rep["channels"][k]["report"]["program_time_s"]
+            .as_f64()
+            .unwrap()
+    };
+    let span = |node| {
+        let lines = polylines(node, "1", 10);
+        let xs = lines.iter().flatten().map(|p| p.0);
+        let lo = xs.clone().fold(f64::INFINITY, f64::min);
+        (lo, xs.fold(f64::NEG_INFINITY, f64::max))
+    };
+    let ((lo0, hi0), (lo1, hi1)) = (span(ch0), span(ch1));
+    assert_eq!(lo0, lo1, "time 0 at one pixel");
+    let (expected, drawn) = (time(0) / time(1), (hi0 - lo0) / (hi1 - lo1));
+    assert!(time(0) < 0.5 * time(1), "{} {}", time(0), time(1));
+    assert!((drawn - expected).abs() < 0.02, "{drawn} vs {expected}");
+}
+
+/// The seed's regression test with `--plot`: channel 0's section names the test program,
+/// channel 1's the part programs it ran there; a run that ends in a deadlock still writes
+/// its plot, the deadlock under the channels.
+#[test]
+fn plot_of_the_seeds_regression_test_and_of_a_deadlock() {
+    let d = dir("plot-seed");
+    let plot = d.join("p.svg");
+    let o = cnc402(&[
+        "--config",
+        TWO,
+        "run",
+        "--plot",
+        plot.to_str().unwrap(),
+        "examples/axioma/regression_test.nc",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    let (doc, ids) = plot_sections(&svg);
+    assert_eq!(ids, ["channel-0", "channel-1"]);
+    let t1 = texts(section(&doc, "channel-1"));
+    assert_eq!(t1[0], "channel 1 (sub): (none) — finished");
+    assert_eq!(
+        t1[1],
+        "programs run: examples/axioma/01.nc: ok; examples/axioma/02.nc: ok"
+    );
+    let path1: usize = polylines(section(&doc, "channel-1"), "2", 1)
+        .iter()
+        .map(Vec::len)
+        .sum();
+    assert!(path1 > 100, "channel 1's toolpath has {path1} points");
+
+    let a = program(&d, "a.nc", "G90 G1 X5 F600\nM100 P12\nM30\n");
+    let b = program(&d, "b.nc", "G90 G1 U5 F600\nM101 P12\nM30\n");
+    let (o, _) = run_two(&d, &a, &b, &["--plot", plot.to_str().unwrap()]);
+    assert!(!o.status.success(), "{}", text(&o));
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    let (doc, ids) = plot_sections(&svg);
+    assert_eq!(ids, ["channel-0", "channel-1", "deadlock"]);
+    let t = texts(section(&doc, "deadlock"));
+    let said = t[1..].concat();
+    assert!(said.contains("a.nc:2") && said.contains("b.nc:2"), "{t:?}");
+}
+
+/// A channel whose program fails while running (its report is the error) gets its heading
+/// with the error and no panels; the other channel, stopped by it, its panels; the plot is
+/// written although the run exits 2.
+#[test]
+fn plot_of_a_run_where_a_channels_program_fails_shows_the_error_in_its_section() {
+    let d = dir("plot-error");
+    let main = program(
+        &d,
+        "main.nc",
+        "bool ok;\n$flag = 0;\nok = channel_run(1, \"setflag.nc\");\n\
+         if ($flag != 7) { terminate(2, \"flag not seen\"); }\n",
+    );
+    program(&d, "setflag.nc", "G90 G1 U5 F600;\n$flag = 6;\n");
+    let plot = d.join("p.svg");
+    let o = cnc402(&[
+        "--config",
+        TWO,
+        "run",
+        &main,
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    let (doc, ids) = plot_sections(&svg);
+    assert_eq!(ids, ["channel-0", "channel-1"]);
+    let t0 = texts(section(&doc, "channel-0")).concat();
+    assert!(t0.starts_with("channel 0 (main): "), "{t0}");
+    assert!(
+        t0.contains("— error:") && t0.contains("main.nc:4:19: "),
+        "{t0}"
+    );
+    assert!(!t0.contains("toolpath"), "{t0}");
+    let t1 = texts(section(&doc, "channel-1"));
+    assert!(
+        t1[0].contains("— stopped: another channel stopped"),
+        "{t1:?}"
+    );
+    assert!(
+        t1.iter().any(|t| t.starts_with("toolpath UV (from above)")),
+        "{t1:?}"
+    );
+}

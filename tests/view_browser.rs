@@ -2,7 +2,9 @@
 //! by `cnc402 view`, click a known point of the path, read the block the page names. The
 //! click is a `click` MouseEvent dispatched on the canvas at the point's screen position (the
 //! page's `#pick=X,Y,Z` hook), so it goes through the same listener and picking code as a
-//! user's click; `--dump-dom` returns the page with the picked block in `#picked`.
+//! user's click; `--dump-dom` returns the page with the picked block in `#picked`. Also the
+//! `cnc402 run --plot` SVG of a run of several channels, opened in a frame as a file: where
+//! the browser lays out its sections and texts.
 //!
 //! Needs `chromium` (CI installs it: `.ci/run`). Without it the tests fail, saying so; a
 //! developer without a browser may set `CNC402_SKIP_BROWSER_TESTS=1` to skip them.
@@ -74,6 +76,11 @@ fn dump_dom(browser: &Path, page: &Path, fragment: &str, profile: &Path) -> Stri
         "file://{}#{fragment}",
         page.canonicalize().unwrap().display()
     );
+    browser_dom(browser, &url, profile, &[])
+}
+
+/// The DOM of `url` after loading it in the headless browser with `flags` besides the usual.
+fn browser_dom(browser: &Path, url: &str, profile: &Path, flags: &[&str]) -> String {
     let mut child = Command::new(browser)
         .args([
             "--headless",
@@ -84,8 +91,9 @@ fn dump_dom(browser: &Path, page: &Path, fragment: &str, profile: &Path) -> Stri
             "--virtual-time-budget=10000",
             "--dump-dom",
         ])
+        .args(flags)
         .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(&url)
+        .arg(url)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -247,5 +255,116 @@ fn the_page_of_a_program_with_an_error_shows_it_and_still_picks() {
     );
     // The top of the G2 arc (R10 from X0 to X20, clockwise: through X10 Y10).
     assert_eq!(picked(&dom, "n"), "30", "{}", element_text(&dom, "picked"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A page that loads the plot `p.svg` beside it in a frame, as a user's browser opens the
+/// file (parsed as XML), and writes into `#out` what the browser made of it: the root
+/// element, parse errors, and each section's box with every text's box, in page pixels.
+const PLOT_PAGE: &str = r#"<!doctype html>
+<html><body style="margin:0">
+<iframe id="plot" src="p.svg" style="border:0;display:block" width="1000" height="8000"></iframe>
+<pre id="out">not loaded</pre>
+<script>
+document.getElementById('plot').addEventListener('load', () => {
+  const out = document.getElementById('out');
+  try {
+    const d = document.getElementById('plot').contentDocument;
+    const root = d.documentElement;
+    const box = e => { const b = e.getBoundingClientRect(); return [b.left, b.right, b.top, b.bottom]; };
+    const r = { root: root.localName, ns: root.namespaceURI,
+      errors: d.getElementsByTagName('parsererror').length, sections: [] };
+    for (const g of root.children) {
+      if (g.localName !== 'g') continue;
+      const texts = [...g.querySelectorAll('text')].map(t => [t.textContent.trim(), box(t)]);
+      r.sections.push({ id: g.id, box: box(g), texts });
+    }
+    out.textContent = JSON.stringify(r);
+  } catch (e) { out.textContent = 'error: ' + e; }
+});
+</script>
+</body></html>
+"#;
+
+/// `cnc402 run --plot` of two channels, opened in the browser: an SVG document without parse
+/// errors, the channels' sections one under the other in channel order, and every text
+/// (headings, captions, tick labels) drawn inside its section and the page's width, also the
+/// heading of a channel whose program's name is longer than a line (it wraps).
+#[test]
+fn the_plot_of_two_channels_renders_each_section_in_its_place() {
+    let Some(browser) = browser_or_skip() else {
+        return;
+    };
+    let dir = scratch("plot");
+    let main = dir.join("main.nc");
+    std::fs::write(&main, "G90 G1 X10 Y5 Z-2 F600\nM30\n").unwrap();
+    let long_name = format!("{}.nc", "a-long-part-program-name".repeat(6));
+    let sub = dir.join(&long_name);
+    std::fs::write(&sub, "G90 G1 U100 V20 F1200\nG1 W5\nM30\n").unwrap();
+    let plot = dir.join("p.svg");
+    let o = Command::new(env!("CARGO_BIN_EXE_cnc402"))
+        .args(["--config", "examples/axioma/two-channel.toml", "run"])
+        .arg(&main)
+        .arg(format!("--channel=1={}", sub.display()))
+        .arg("--plot")
+        .arg(&plot)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run cnc402");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let page = dir.join("page.html");
+    std::fs::write(&page, PLOT_PAGE).unwrap();
+    let url = format!("file://{}", page.canonicalize().unwrap().display());
+    let flags = ["--allow-file-access-from-files"];
+    let dom = browser_dom(&browser, &url, &dir.join("profile"), &flags);
+    let out = element_text(&dom, "out")
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&amp;", "&");
+    let r: serde_json::Value = serde_json::from_str(&out).unwrap_or_else(|e| panic!("{e}: {out}"));
+    assert_eq!(r["root"], "svg");
+    assert_eq!(r["ns"], "http://www.w3.org/2000/svg");
+    assert_eq!(r["errors"], 0);
+    let sections = r["sections"].as_array().unwrap();
+    let ids: Vec<&str> = sections.iter().map(|s| s["id"].as_str().unwrap()).collect();
+    assert_eq!(ids, ["channel-0", "channel-1"]);
+    let b = |v: &serde_json::Value| -> Vec<f64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let mut above = 0.0;
+    for s in sections {
+        let sb = b(&s["box"]);
+        assert!(
+            sb[2] >= above - 0.5,
+            "{} overlaps the section above",
+            s["id"]
+        );
+        assert!(
+            sb[3] - sb[2] > 500.0,
+            "{} is {} px high",
+            s["id"],
+            sb[3] - sb[2]
+        );
+        above = sb[3];
+        for t in s["texts"].as_array().unwrap() {
+            let tb = b(&t[1]);
+            let inside =
+                tb[0] >= -0.5 && tb[1] <= 1000.5 && tb[2] >= sb[2] - 0.5 && tb[3] <= sb[3] + 0.5;
+            assert!(inside, "{}: {t} outside {sb:?}", s["id"]);
+        }
+    }
+    let texts: Vec<&str> = sections[1]["texts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t[0].as_str().unwrap())
+        .collect();
+    assert!(texts[0].starts_with("channel 1 (sub): /"), "{texts:?}");
+    assert!(texts[..4].concat().contains(&long_name), "{texts:?}");
+    assert!(texts.contains(&"toolpath UV (from above), path speed blue 0 → red 20.0 mm/s"));
     let _ = std::fs::remove_dir_all(&dir);
 }

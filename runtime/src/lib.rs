@@ -35,7 +35,7 @@ pub use controller::{CycleController, Step};
 pub use feeder::ProgramInput;
 pub use link::{DriveFeedback, DriveLink, DriveStop, FaultPlan, Startup, StopCause};
 pub use master_link::{CycleBus, LinkTimeouts, MasterLink};
-pub use plot::write_plot;
+pub use plot::{write_channels_plot, write_plot};
 pub use program_stop::{AtStop, StopDecision, StopGate, StopPolicy, StopRecord};
 pub use report::RunReport;
 pub use run::{

@@ -45,6 +45,22 @@ pub struct ChannelRun {
     pub result: Result<RunReport, RunError>,
 }
 
+impl ChannelRun {
+    /// The channel, its program and how it ended, as one line
+    /// (`channel 1 (sub): b.nc — finished`).
+    pub fn headline(&self) -> String {
+        let outcome = match &self.result {
+            Ok(r) if r.ok => "finished".to_string(),
+            Ok(r) => format!("stopped: {}", r.error.as_deref().unwrap_or("not ok")),
+            Err(e) => format!("error: {}", run_error_line(e)),
+        };
+        format!(
+            "channel {} ({}): {} — {outcome}",
+            self.index, self.name, self.program
+        )
+    }
+}
+
 /// The report of a run of several channels.
 #[derive(Debug)]
 pub struct ChannelsReport {
@@ -112,15 +128,7 @@ impl ChannelsReport {
     pub fn summary(&self) -> String {
         let mut out = String::new();
         for c in &self.channels {
-            let outcome = match &c.result {
-                Ok(r) if r.ok => "finished".to_string(),
-                Ok(r) => format!("stopped: {}", r.error.as_deref().unwrap_or("not ok")),
-                Err(e) => format!("error: {}", run_error_line(e)),
-            };
-            out.push_str(&format!(
-                "== channel {} ({}): {} — {outcome}\n",
-                c.index, c.name, c.program
-            ));
+            out.push_str(&format!("== {}\n", c.headline()));
             if !c.programs.is_empty() {
                 out.push_str(&format!("  programs run: {}\n", c.programs.join("; ")));
             }
