@@ -504,6 +504,10 @@ fn plot_of_the_seeds_regression_test_and_of_a_deadlock() {
     let svg = std::fs::read_to_string(&plot).unwrap();
     let (doc, ids) = plot_sections(&svg);
     assert_eq!(ids, ["channel-0", "channel-1"]);
+    // Channel 0 only runs channel 1's programs: said, not drawn as empty panels.
+    let t0 = texts(section(&doc, "channel-0"));
+    assert!(t0.iter().any(|t| t == "no axis moved: no panels"), "{t0:?}");
+    assert!(polylines(section(&doc, "channel-0"), "2", 1).is_empty());
     let t1 = texts(section(&doc, "channel-1"));
     assert_eq!(t1[0], "channel 1 (sub): (none) — finished");
     assert_eq!(

@@ -106,9 +106,22 @@ fn draw_channel(svg: &mut String, c: &ChannelRun, t_max: f64, err: Err) -> Resul
         lines.extend(wrap(&format!("programs run: {}", c.programs.join("; "))));
     }
     match &c.result {
+        Ok(r) if !moved(&r.plot) => {
+            // A channel that only runs others (the seed's channel 0) has nothing to draw:
+            // empty panels scaled -1…1 would read as a plot of a machine at rest.
+            lines.push("no axis moved: no panels".into());
+            draw_lines(svg, (&title, &lines), err)
+        }
         Ok(r) => draw_plot(svg, r, (&title, &lines), t_max, err),
         Err(_) => draw_lines(svg, (&title, &lines), err),
     }
+}
+
+/// Whether any axis's commanded position changed over the plot's points.
+fn moved(points: &[PlotPoint]) -> bool {
+    points
+        .first()
+        .is_some_and(|a| points.iter().any(|p| p.cmd != a.cmd))
 }
 
 /// A band with a title and, under it, `detail`'s lines. Returns its height.
