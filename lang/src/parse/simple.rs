@@ -5,7 +5,7 @@
 //! `None`, and the caller parses the line in full, which gives the same [`Line`] for lines
 //! read here (tests/fuzz compare the two).
 
-use super::lex::scan_unsigned;
+use super::lex::scan_unsigned_at;
 use crate::ast::{Block, Line, LineKind, Number, SeqNo, Span, Value, Word};
 
 /// Longest sequence number taken here (9 digits always fit a `u32`).
@@ -59,7 +59,7 @@ pub(crate) fn scan(text: &str, mut word: impl FnMut(Word)) -> Option<(Option<Seq
         if !matches!(b.get(digits_at), Some(b'0'..=b'9' | b'.')) {
             return None;
         }
-        let u = scan_unsigned(&text[digits_at..]);
+        let u = scan_unsigned_at(b, digits_at);
         let end = digits_at + u.len;
         let value = u.value?;
         // A second point, or a number running into anything but a space or the next
