@@ -18,11 +18,10 @@ fn skip_ws(b: &[u8], mut k: usize) -> usize {
     k
 }
 
-/// Reads `text` (one line, without its terminator) when it is a plain block, handing each
+/// Reads `b` (one line, without its terminator) when it is a plain block, handing each
 /// word to `word` in order; returns the sequence number (if any) and the number of words.
 /// `None` when the line is anything else; then `word` may have seen some of its words.
-pub(crate) fn scan(text: &str, mut word: impl FnMut(Word)) -> Option<(Option<SeqNo>, usize)> {
-    let b = text.as_bytes();
+pub(crate) fn scan(b: &[u8], mut word: impl FnMut(Word)) -> Option<(Option<SeqNo>, usize)> {
     let mut k = skip_ws(b, 0);
     let mut n = None;
     if matches!(b.get(k), Some(b'N' | b'n')) {
@@ -35,7 +34,10 @@ pub(crate) fn scan(text: &str, mut word: impl FnMut(Word)) -> Option<(Option<Seq
         if d == d0 || d - d0 > MAX_N_DIGITS || b.get(d) == Some(&b'.') {
             return None;
         }
-        let value = text[d0..d].parse::<u32>().ok()?;
+        // At most 9 digits: no overflow.
+        let value = b[d0..d]
+            .iter()
+            .fold(0u32, |v, &c| v * 10 + u32::from(c - b'0'));
         n = Some(SeqNo {
             value,
             span: Span::new(start, d),
@@ -112,7 +114,7 @@ pub(crate) fn line_into(text: &str, line_no: u32, line: &mut Line) -> bool {
     };
     block.words.clear();
     block.named_axes.clear();
-    let scanned = scan(text, |w| block.words.push(w));
+    let scanned = scan(text.as_bytes(), |w| block.words.push(w));
     let Some((n, count)) = scanned else {
         line.kind = LineKind::Block(block);
         return false;
