@@ -310,7 +310,7 @@ pub fn line_window(name: Arc<str>, body: &[u8], at: LinePos) -> SourceFile {
 }
 
 /// Whether `text` (one line as read) is a plain block — an optional `N` number and words
-/// of an address letter and a literal number, nothing else — and so no flow line, no
+/// of an address letter and a literal number, with ASCII comments — and so no flow line, no
 /// statement and no error; `Some(true)` when it holds a word or an `N` number, `Some(false)`
 /// when it is empty. `None`: it may be anything, [`parse_line`] tells.
 ///
@@ -318,7 +318,9 @@ pub fn line_window(name: Arc<str>, body: &[u8], at: LinePos) -> SourceFile {
 /// use cnc402_lang::stream::plain_block;
 /// assert_eq!(plain_block("N10 G1 X1.5 Y-2"), Some(true));
 /// assert_eq!(plain_block("  "), Some(false));
-/// assert_eq!(plain_block("G1 X1 (cut)"), None);
+/// assert_eq!(plain_block("G1 X1 (cut)"), Some(true));
+/// assert_eq!(plain_block("(only a comment) ;and another"), Some(false));
+/// assert_eq!(plain_block("G1 X1 (unclosed"), None);
 /// assert_eq!(plain_block("WHILE[#1LT3]DO1"), None);
 /// ```
 pub fn plain_block(text: &str) -> Option<bool> {
@@ -328,7 +330,7 @@ pub fn plain_block(text: &str) -> Option<bool> {
 /// [`plain_block`] of a line's bytes as read (a plain block is ASCII, so bytes that are no
 /// UTF-8 are simply no plain block): the load pass asks it of every line before decoding.
 pub fn plain_block_bytes(body: &[u8]) -> Option<bool> {
-    let (n, words) = crate::parse::simple::scan(body, |_| {})?;
+    let (n, words) = crate::parse::simple::scan(body, |_| {}, |_| {})?;
     Some(n.is_some() || words > 0)
 }
 

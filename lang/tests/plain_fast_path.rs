@@ -14,7 +14,11 @@ use proptest::prelude::*;
 /// C-like statement (the load pass of a streamed program asks only the other lines).
 fn same(text: &str) {
     // The load pass classifies a line's bytes: as its text.
-    assert_eq!(plain_block_bytes(text.as_bytes()), plain_block(text), "{text:?}");
+    assert_eq!(
+        plain_block_bytes(text.as_bytes()),
+        plain_block(text),
+        "{text:?}"
+    );
     if is_statement_line(text) {
         assert!(
             plain_block(text).is_none(),
@@ -105,6 +109,32 @@ fn plain_blocks_read_as_the_general_parser_reads_them() {
         "G1 X+.5",
         "G1 X.",
         "%",
+        "(MSG, hello) G1 X1",
+        "G1 X1 (DEBUG, #1 = [#1]) ;end",
+        "N10 (a(b)c) G0 X1",
+        "(unclosed",
+        "G1 X1 (a(b)",
+        "G1 X1(c)Y2",
+        "X1;",
+        "X1.;(",
+        "(Fräse) G1",
+        "G1 ; é",
+        "G1 ;a\r",
+        "G1 (a\rb)",
+        "N10(c)",
+        "N10;x",
+        "((()))",
+        "(a) / G1",
+        "(a) N10 G1",
+        "(a) O100",
+        "(a) %",
+        "G1 X1 (a) (b) ;c (d)",
+        "G1 X(1)",
+        "G1 X (1) 2",
+        "(PRINT, x)",
+        "  (only) ",
+        "(x) IF[#1EQ1]GOTO5",
+        "(x) #1=2",
     ] {
         same(text);
     }
@@ -157,6 +187,10 @@ fn piece() -> impl Strategy<Value = &'static str> {
         "{",
         "=",
         "$",
+        "(MSG,",
+        "(DEBUG,",
+        "(a(b)c)",
+        ";x(",
     ])
 }
 
