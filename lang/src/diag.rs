@@ -104,6 +104,23 @@ impl SourceFile {
         SourceFile::new(name, text)
     }
 
+    /// A window of line `line_no` whose `text` holds no `\n` (a line as a reader split it),
+    /// made without searching the text for line breaks again.
+    pub(crate) fn one_line(name: Arc<str>, text: Arc<str>, line_no: u32) -> Self {
+        debug_assert!(!text.contains('\n'));
+        SourceFile {
+            name,
+            text,
+            line_starts: Vec::new(),
+            first_line: line_no.max(1),
+        }
+    }
+
+    /// Whether the text is one line (holds no `\n`).
+    pub(crate) fn is_one_line(&self) -> bool {
+        self.line_starts.is_empty()
+    }
+
     /// Byte offsets of line starts (crate-internal, for the parser's line numbers).
     pub(crate) fn line_starts(&self) -> &[u32] {
         // A text without a line break starts one line, at 0 (no table is kept for it).

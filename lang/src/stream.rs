@@ -305,11 +305,12 @@ pub fn line_window(name: Arc<str>, body: &[u8], at: LinePos) -> SourceFile {
             .into(),
     };
     let line_no = u32::try_from(at.index + 1).unwrap_or(u32::MAX);
-    SourceFile::window(name, text, line_no)
+    // A body is one line: the reader splits at the first `\n` and strips it.
+    SourceFile::one_line(name, text, line_no)
 }
 
 /// Whether `text` (one line as read) is a plain block — an optional `N` number and words
-/// of an address letter and a literal number, nothing else — and so no flow line, no
+/// of an address letter and a literal number, with ASCII comments — and so no flow line, no
 /// statement and no error; `Some(true)` when it holds a word or an `N` number, `Some(false)`
 /// when it is empty. `None`: it may be anything, [`parse_line`] tells.
 ///
@@ -317,11 +318,19 @@ pub fn line_window(name: Arc<str>, body: &[u8], at: LinePos) -> SourceFile {
 /// use cnc402_lang::stream::plain_block;
 /// assert_eq!(plain_block("N10 G1 X1.5 Y-2"), Some(true));
 /// assert_eq!(plain_block("  "), Some(false));
-/// assert_eq!(plain_block("G1 X1 (cut)"), None);
+/// assert_eq!(plain_block("G1 X1 (cut)"), Some(true));
+/// assert_eq!(plain_block("(only a comment) ;and another"), Some(false));
+/// assert_eq!(plain_block("G1 X1 (unclosed"), None);
 /// assert_eq!(plain_block("WHILE[#1LT3]DO1"), None);
 /// ```
 pub fn plain_block(text: &str) -> Option<bool> {
-    let (n, words) = crate::parse::simple::scan(text, |_| {})?;
+    plain_block_bytes(text.as_bytes())
+}
+
+/// [`plain_block`] of a line's bytes as read (a plain block is ASCII, so bytes that are no
+/// UTF-8 are simply no plain block): the load pass asks it of every line before decoding.
+pub fn plain_block_bytes(body: &[u8]) -> Option<bool> {
+    let (n, words) = crate::parse::simple::scan(body, |_| {}, |_| {})?;
     Some(n.is_some() || words > 0)
 }
 
@@ -344,7 +353,7 @@ pub fn is_statement_line(text: &str) -> bool {
 pub fn parse_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcError> {
     // Most lines of a long program are plain blocks: read those without the general parser.
     let text: &str = &window.text;
-    if !text.contains('\n')
+    if window.is_one_line()
         && let Some(line) = crate::parse::simple::line(text, window.first_line())
     {
         return Ok(line);
@@ -361,7 +370,7 @@ pub fn parse_line_into(
     line: &mut Line,
 ) -> Result<(), NcError> {
     let text: &str = &window.text;
-    if !text.contains('\n') && crate::parse::simple::line_into(text, window.first_line(), line) {
+    if window.is_one_line() && crate::parse::simple::line_into(text, window.first_line(), line) {
         return Ok(());
     }
     *line = parse_general_line(window, dialect)?;

@@ -4,13 +4,21 @@
 //! [`parse_line_into`] (a streamed program's lines read into one reused line) the same,
 //! whatever line it held before.
 
-use cnc402_lang::stream::{is_statement_line, parse_line, parse_line_into, plain_block};
+use cnc402_lang::stream::{
+    is_statement_line, parse_line, parse_line_into, plain_block, plain_block_bytes,
+};
 use cnc402_lang::{Dialect, SourceFile, parse_in};
 use proptest::prelude::*;
 
 /// Parses `text` as line 7 both ways; panics when they differ. A plain block is never a
 /// C-like statement (the load pass of a streamed program asks only the other lines).
 fn same(text: &str) {
+    // The load pass classifies a line's bytes: as its text.
+    assert_eq!(
+        plain_block_bytes(text.as_bytes()),
+        plain_block(text),
+        "{text:?}"
+    );
     if is_statement_line(text) {
         assert!(
             plain_block(text).is_none(),
@@ -101,6 +109,32 @@ fn plain_blocks_read_as_the_general_parser_reads_them() {
         "G1 X+.5",
         "G1 X.",
         "%",
+        "(MSG, hello) G1 X1",
+        "G1 X1 (DEBUG, #1 = [#1]) ;end",
+        "N10 (a(b)c) G0 X1",
+        "(unclosed",
+        "G1 X1 (a(b)",
+        "G1 X1(c)Y2",
+        "X1;",
+        "X1.;(",
+        "(Fräse) G1",
+        "G1 ; é",
+        "G1 ;a\r",
+        "G1 (a\rb)",
+        "N10(c)",
+        "N10;x",
+        "((()))",
+        "(a) / G1",
+        "(a) N10 G1",
+        "(a) O100",
+        "(a) %",
+        "G1 X1 (a) (b) ;c (d)",
+        "G1 X(1)",
+        "G1 X (1) 2",
+        "(PRINT, x)",
+        "  (only) ",
+        "(x) IF[#1EQ1]GOTO5",
+        "(x) #1=2",
     ] {
         same(text);
     }
@@ -153,11 +187,27 @@ fn piece() -> impl Strategy<Value = &'static str> {
         "{",
         "=",
         "$",
+        "(MSG,",
+        "(DEBUG,",
+        "(a(b)c)",
+        ";x(",
     ])
 }
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    /// Bytes that are no UTF-8 (a Latin-1 line) are never a plain block: the load pass
+    /// decodes and parses such a line in full.
+    #[test]
+    fn a_line_that_is_no_utf8_is_no_plain_block(
+        head in "[GXN0-9. ]{0,8}", byte in 0x80u8.., tail in "[GXN0-9. ]{0,8}"
+    ) {
+        let mut body = head.into_bytes();
+        body.push(byte);
+        body.extend_from_slice(tail.as_bytes());
+        prop_assert_eq!(plain_block_bytes(&body), None);
+    }
 
     #[test]
     fn any_line_reads_the_same_with_or_without_the_fast_path(

@@ -13,7 +13,7 @@ use std::sync::Arc;
 use cnc402_lang::ast::{LineKind, Program};
 use cnc402_lang::stream::{
     LinePos, LineReader, ReadLine, is_statement_line, line_window, parse_line, parse_line_into,
-    plain_block,
+    plain_block_bytes,
 };
 use cnc402_lang::{Dialect, NcError, SourceFile};
 
@@ -66,37 +66,32 @@ pub(crate) fn load(
     let mut seen_o = false;
     let mut prefix_has_code = false;
     let name = reader.name().clone();
-    // The last line read (its bytes and where it started): its window is made once, at the
-    // end, as most lines are read without one.
-    let mut last: (Vec<u8>, LinePos) = (Vec::new(), LinePos::default());
+    // Where the last line started: its window is made once, at the end (read again), as
+    // most lines are read without one.
+    let mut last = None;
     while let Some(at) = reader.read_raw()? {
         let i = at.index;
-        last.0.clear();
-        last.0.extend_from_slice(reader.body());
-        last.1 = at;
-        let raw = if reader.translates() {
-            Err(())
+        last = Some(at);
+        // A plain block is ASCII and no C-like statement (its letters each stand alone, see
+        // lang's tests/plain_fast_path.rs), so it is classified on its bytes; any other line
+        // is decoded and asked below.
+        let plain = if reader.translates() {
+            None
         } else {
-            std::str::from_utf8(reader.body()).map_err(|_| ())
-        };
-        let plain = match raw {
-            Ok(text) => {
-                // Once the prefix question is settled, a checked line with none of the
-                // letters of `O`, `WHILE`, `END`, an O-word, `:` or `%` is a plain block.
-                let checked_plain = checked && (seen_o || prefix_has_code) && !may_be_flow(text);
-                let plain = if checked_plain {
-                    None
-                } else {
-                    plain_block(text)
-                };
-                // A plain block is no C-like statement (its letters each stand alone, see
-                // tests/plain_fast_path.rs), so most lines need not be asked.
-                if plain.is_none() && !linuxcnc && is_statement_line(text) {
-                    return Ok(Loaded::CLike(reader.whole()?));
+            let body = reader.body();
+            // Once the prefix question is settled, a checked line with none of the letters
+            // of `O`, `WHILE`, `END`, an O-word, `:` or `%` is a plain block.
+            if checked && (seen_o || prefix_has_code) && !may_be_flow(body) {
+                match std::str::from_utf8(body) {
+                    Ok(text) if !linuxcnc && is_statement_line(text) => {
+                        return Ok(Loaded::CLike(reader.whole()?));
+                    }
+                    Ok(_) => Some(true),
+                    Err(_) => None,
                 }
-                if checked_plain { Some(true) } else { plain }
+            } else {
+                plain_block_bytes(body)
             }
-            Err(_) => None,
         };
         if let Some(has_code) = plain {
             // What `scan.line` and the match below make of a plain block, without its Line.
@@ -151,13 +146,23 @@ pub(crate) fn load(
             })
         })
         .collect();
+    let last_window = match last {
+        Some(at) => {
+            reader
+                .seek(at)
+                .map_err(|e| read_error(&name, at.index, &e))?;
+            reader.read_raw()?;
+            reader.window(at)
+        }
+        None => line_window(name, b"", LinePos::default()),
+    };
     let stream = Stream {
         reader,
         dialect,
         anchors,
         labels: HashMap::new(),
         found: BTreeMap::new(),
-        last: Arc::new(line_window(name, &last.0, last.1)),
+        last: Arc::new(last_window),
         spare: None,
     };
     Ok(Loaded::Streamed(stream, units))
@@ -226,12 +231,7 @@ impl Stream {
     }
 
     fn io_error(&self, i: usize, e: &std::io::Error) -> NcError {
-        let w = SourceFile::window(self.reader.name().clone(), "", i as u32 + 1);
-        NcError::new(
-            &w,
-            cnc402_lang::ast::Span::default(),
-            format!("cannot read the program: {e}"),
-        )
+        read_error(self.reader.name(), i, e)
     }
 
     /// The line of `N n` in `unit` for a jump from line `from`: searched forward to the
@@ -288,10 +288,20 @@ impl Stream {
     }
 }
 
+/// An error reading line `i` (0-based) of the program `name`.
+fn read_error(name: &Arc<str>, i: usize, e: &std::io::Error) -> NcError {
+    let w = SourceFile::window(name.clone(), "", i as u32 + 1);
+    NcError::new(
+        &w,
+        cnc402_lang::ast::Span::default(),
+        format!("cannot read the program: {e}"),
+    )
+}
+
 /// Whether a line may be one the flow indexes: a program number (`O`, `:`), `%`, a WHILE or
 /// END (also `WH`, `EN`), or a LinuxCNC O-word; every such line holds one of these letters.
-fn may_be_flow(text: &str) -> bool {
-    text.bytes()
+fn may_be_flow(body: &[u8]) -> bool {
+    body.iter()
         .any(|b| matches!(b, b'O' | b'o' | b'W' | b'w' | b'E' | b'e' | b'%' | b':'))
 }
 

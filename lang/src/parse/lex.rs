@@ -69,42 +69,185 @@ pub(crate) struct Unsigned {
 /// Scans `digits [. digits]` or `. digits` at the start of `i`.
 #[inline]
 pub(crate) fn scan_unsigned(i: &str) -> Unsigned {
-    let b = i.as_bytes();
-    let mut k = 0;
-    let mut int: u64 = 0;
-    while k < b.len() && b[k].is_ascii_digit() {
-        int = int.wrapping_mul(10).wrapping_add(u64::from(b[k] - b'0'));
-        k += 1;
-    }
-    let int_digits = k;
-    let mut has_point = false;
-    let mut frac_digits = 0;
-    if k < b.len() && b[k] == b'.' {
-        has_point = true;
-        k += 1;
-        while k < b.len() && b[k].is_ascii_digit() {
-            int = int.wrapping_mul(10).wrapping_add(u64::from(b[k] - b'0'));
-            k += 1;
-            frac_digits += 1;
-        }
-    }
-    let digits = int_digits + frac_digits;
+    scan_unsigned_at(i.as_bytes(), 0)
+}
+
+/// [`scan_unsigned`] of the text from `at` on, `b` being the whole text: a number near its
+/// end is read in one word with the bytes before it.
+#[inline(always)]
+pub(crate) fn scan_unsigned_at(b: &[u8], at: usize) -> Unsigned {
+    let d = short_number(b, at).unwrap_or_else(|| long_number(b, at));
+    let digits = d.int_digits + d.frac_digits;
     // Up to 15 digits fit an f64 exactly, and so does 10^k for k <= 22: one IEEE division
     // of two exact values is the correctly rounded result (Clinger's fast path). Longer
     // numbers go through the std parser, also correctly rounded.
     let value = if digits == 0 {
         None
     } else if digits <= 15 {
-        Some(int as f64 / POW10[frac_digits])
+        Some(d.mantissa as f64 / POW10[d.frac_digits])
     } else {
-        i[..k].parse::<f64>().ok()
+        let text = b
+            .get(at..at + d.len)
+            .and_then(|t| std::str::from_utf8(t).ok());
+        text.and_then(|t| t.parse::<f64>().ok())
     };
     Unsigned {
-        len: k,
+        len: d.len,
         digits,
-        has_point,
+        has_point: d.has_point,
         value,
     }
+}
+
+/// A number's digits as scanned: its length, digits each side of the point, and their
+/// value as one integer (wrapping past 19 digits, when it is not used).
+struct Digits {
+    len: usize,
+    int_digits: usize,
+    frac_digits: usize,
+    has_point: bool,
+    mantissa: u64,
+}
+
+/// A number that ends within the 8 bytes at `at` (`10.0000`, `-2.5`, `3`, most of what
+/// CAM writes): read from one word, with its point taken out. `None`: a longer one.
+#[inline(always)]
+fn short_number(b: &[u8], at: usize) -> Option<Digits> {
+    let word = load8_at(b, at);
+    let stops = non_digits(word);
+    let p1 = (stops.trailing_zeros() / 8) as usize;
+    if p1 == 8 {
+        return None;
+    }
+    if (word >> (8 * p1)) as u8 != b'.' {
+        return Some(Digits {
+            len: p1,
+            int_digits: p1,
+            frac_digits: 0,
+            has_point: false,
+            mantissa: eight_digits(word, p1),
+        });
+    }
+    let p2 = ((stops & (stops - 1)).trailing_zeros() / 8) as usize;
+    if p2 == 8 {
+        return None;
+    }
+    // The bytes after the point moved down one, over it.
+    let below_point = (1u64 << (8 * p1)) - 1;
+    let joined = (word & below_point) | ((word >> 8) & !below_point);
+    Some(Digits {
+        len: p2,
+        int_digits: p1,
+        frac_digits: p2 - p1 - 1,
+        has_point: true,
+        mantissa: eight_digits(joined, p2 - 1),
+    })
+}
+
+/// Any number, one run of digits at a time.
+#[inline(never)]
+fn long_number(b: &[u8], at: usize) -> Digits {
+    let (int, int_digits) = digit_run(b, at);
+    let mut d = Digits {
+        len: int_digits,
+        int_digits,
+        frac_digits: 0,
+        has_point: false,
+        mantissa: int,
+    };
+    if b.get(at + d.len) == Some(&b'.') {
+        d.has_point = true;
+        let (frac, n) = digit_run(b, at + d.len + 1);
+        d.mantissa = d
+            .mantissa
+            .wrapping_mul(POW10_INT.get(n).copied().unwrap_or(0))
+            .wrapping_add(frac);
+        d.len += 1 + n;
+        d.frac_digits = n;
+    }
+    d
+}
+
+/// 10^k as integers, for joining runs of digits (10^19 is the largest a `u64` holds).
+const POW10_INT: [u64; 20] = {
+    let mut t = [1u64; 20];
+    let mut k = 1;
+    while k < 20 {
+        t[k] = t[k - 1] * 10;
+        k += 1;
+    }
+    t
+};
+
+const LANES_01: u64 = 0x0101_0101_0101_0101;
+
+/// The ASCII digits of `b` from `at` on: their value (wrapping past 19 digits) and how
+/// many. Eight bytes at a time: a byte loop was ~13 instructions a digit, and every word of
+/// every streamed line is scanned twice (load pass and run).
+fn digit_run(b: &[u8], at: usize) -> (u64, usize) {
+    let mut value = 0u64;
+    let mut n = 0;
+    // Each full round takes 8 digits, so this ends within b.len() / 8 + 1 rounds.
+    loop {
+        let word = load8_at(b, at + n);
+        let len = (non_digits(word).trailing_zeros() / 8) as usize;
+        value = value
+            .wrapping_mul(POW10_INT[len])
+            .wrapping_add(eight_digits(word, len));
+        n += len;
+        if len < 8 {
+            return (value, n);
+        }
+    }
+}
+
+/// The 8 bytes of `b` from `at` on as a little-endian word, zero bytes past its end (a 0
+/// byte is no digit, so the padding ends a run).
+#[inline(always)]
+fn load8_at(b: &[u8], at: usize) -> u64 {
+    if let Some(w) = b.get(at..).and_then(<[u8]>::first_chunk::<8>) {
+        return u64::from_le_bytes(*w);
+    }
+    // Near the end: the text's last 8 bytes, those before `at` shifted out.
+    if let Some(w) = b.last_chunk::<8>() {
+        let before = (at + 8).saturating_sub(b.len());
+        return u64::from_le_bytes(*w)
+            .checked_shr(8 * before as u32)
+            .unwrap_or(0);
+    }
+    let mut word = 0u64;
+    for (k, &c) in b.iter().skip(at).enumerate() {
+        word |= u64::from(c) << (8 * k);
+    }
+    word
+}
+
+/// The high bit of each byte of `word` that is no ASCII digit. Exact up to and including
+/// the first such byte (all that is read of it).
+#[inline(always)]
+fn non_digits(word: u64) -> u64 {
+    const HIGH_NIBBLES: u64 = 0xF0 * LANES_01;
+    // Zero bytes where the high nibble is 3 (0x30..=0x3F), and where adding 6 keeps it 3
+    // (0x30..=0x39). A carry out of a byte comes only from a byte >= 0xFA, itself no digit,
+    // and reaches only the bytes after it.
+    let not_3x = (word & HIGH_NIBBLES) ^ (0x30 * LANES_01);
+    let above_9 = (word.wrapping_add(0x06 * LANES_01) & HIGH_NIBBLES) ^ (0x30 * LANES_01);
+    let x = not_3x | above_9;
+    // The high bit of each byte of x that is not zero (no carries between bytes).
+    (((x & (0x7F * LANES_01)) + 0x7F * LANES_01) | x) & (0x80 * LANES_01)
+}
+
+/// The value of the `len` (0..=8) digits in the low bytes of `word`, the first digit in the
+/// lowest byte: the other bytes are shifted out, and zeros (leading zeros) come in.
+#[inline(always)]
+fn eight_digits(word: u64, len: usize) -> u64 {
+    let Some(mut v) = (word & (0x0F * LANES_01)).checked_shl(8 * (8 - len as u32)) else {
+        return 0;
+    };
+    // Pairs, then fours, then eight digits, each step within its lanes.
+    v = (v.wrapping_mul(10) + (v >> 8)) & 0x00FF_00FF_00FF_00FF;
+    v = (v.wrapping_mul(100) + (v >> 16)) & 0x0000_FFFF_0000_FFFF;
+    (v.wrapping_mul(10_000) + (v >> 32)) & 0xFFFF_FFFF
 }
 
 impl<'a> Cx<'a> {
@@ -245,6 +388,7 @@ impl<'a> Cx<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::{TestCaseError, prop_assert_eq};
 
     fn num(s: &str) -> Result<(f64, bool, usize), String> {
         let cx = Cx::new(s);
@@ -252,6 +396,156 @@ mod tests {
             Ok((rest, n)) => Ok((n.value, n.has_point, s.len() - rest.len())),
             Err(nom::Err::Failure(e) | nom::Err::Error(e)) => Err(e.msg.to_string()),
             Err(_) => Err("incomplete".into()),
+        }
+    }
+
+    /// The byte-at-a-time scan `scan_unsigned` replaced, with the std parser's value: the
+    /// reference the word-at-a-time scan must equal.
+    fn reference_unsigned(i: &str) -> (usize, usize, bool, Option<f64>) {
+        let b = i.as_bytes();
+        let int = b.iter().take_while(|c| c.is_ascii_digit()).count();
+        let mut len = int;
+        let mut frac = 0;
+        let has_point = b.get(int) == Some(&b'.');
+        if has_point {
+            frac = b[int + 1..]
+                .iter()
+                .take_while(|c| c.is_ascii_digit())
+                .count();
+            len = int + 1 + frac;
+        }
+        let digits = int + frac;
+        let value = if digits == 0 {
+            None
+        } else {
+            i[..len].parse::<f64>().ok()
+        };
+        (len, digits, has_point, value)
+    }
+
+    fn same_as_reference(text: &str) -> Result<(), TestCaseError> {
+        let (len, digits, has_point, value) = reference_unsigned(text);
+        // Alone, and after text before it (a word's number read within its line).
+        for before in ["", "X", "G1 X10.0000 Y", "N1234567 G01 Z"] {
+            let line = format!("{before}{text}");
+            let u = scan_unsigned_at(line.as_bytes(), before.len());
+            prop_assert_eq!(
+                (u.len, u.digits, u.has_point),
+                (len, digits, has_point),
+                "{:?}",
+                line
+            );
+            prop_assert_eq!(
+                u.value.map(f64::to_bits),
+                value.map(f64::to_bits),
+                "{:?}",
+                line
+            );
+        }
+        // With a sign, as a word's value is read: the std parser's bits too.
+        for sign in ["-", "+"] {
+            let signed = format!("{sign}{text}");
+            if let (Ok((v, _, n)), Some(_)) = (num(&signed), value) {
+                let want: f64 = signed[..n].parse().unwrap();
+                prop_assert_eq!(v.to_bits(), want.to_bits(), "{:?}", signed);
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn digit_runs_of_every_length_and_alignment() {
+        for text in [
+            "",
+            ".",
+            "5.",
+            ".5",
+            "0",
+            "00000000",
+            "000000001",
+            "12345678",
+            "123456789",
+            "1234567890123456",
+            "999999999999999",
+            "9999999999999999",
+            "0.000000000000001",
+            "18446744073709551615",
+            "18446744073709551616",
+            "99999999999999999999999",
+            "1.2.3",
+            "7:",
+            "7/",
+            "7\u{ff}",
+            "12345678\u{fa}9",
+            "0.1",
+            "9007199254740993",
+            "X10.0000",
+            "10.0000 Y0.0100",
+            ".123456",
+            ".1234567",
+            "1.23456",
+            "123456.7",
+            "-5",
+            "1e5",
+            "12345678.12345678",
+        ] {
+            same_as_reference(text).unwrap();
+        }
+    }
+
+    /// Every byte value at every place of a word of digits (and after any byte before it):
+    /// the run ends exactly at the first non-digit, whatever carries the test makes.
+    #[test]
+    fn digit_run_ends_at_the_first_non_digit_byte() {
+        for c in 0..=255u8 {
+            for before in [b'0', b'9', 0xFF, 0xFA, b'/', b':'] {
+                for p in 0..10 {
+                    let mut b = b"123456789012".to_vec();
+                    b[p] = c;
+                    if p > 0 {
+                        b[p - 1] = before;
+                    }
+                    let want = b.iter().take_while(|d| d.is_ascii_digit()).count();
+                    let (value, n) = digit_run(&b, 0);
+                    assert_eq!(n, want, "{b:?}");
+                    let digits: String = b[..n].iter().map(|&d| char::from(d)).collect();
+                    assert_eq!(value, digits.parse::<u64>().unwrap_or(0), "{b:?}");
+                }
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(20_000))]
+
+        /// Digit strings of any length, points, and the bytes around digits that a SWAR
+        /// test could take for one ('/', ':', 0xFA.., 0x30 + 16 ...): length, digit count and
+        /// value to the bit as the std parser reads them.
+        #[test]
+        fn scan_unsigned_reads_as_the_std_parser(
+            parts in proptest::collection::vec(proptest::sample::select(vec![
+                "0", "1", "5", "9", "00", "0000000", "12345678", "999999999", ".", "/", ":",
+                "?", "@", " ", "X", "\u{fa}", "\u{ff}", "\u{c0}", "-", "e",
+            ]), 0..12)
+        ) {
+            same_as_reference(&parts.concat())?;
+        }
+
+        /// Every split of up to 10 + 10 digits around a point, with what may follow.
+        #[test]
+        fn digits_around_a_point_read_as_the_std_parser(
+            text in "[0-9]{0,10}(\\.[0-9]{0,10})?[ XY.;]?"
+        ) {
+            same_as_reference(&text)?;
+        }
+
+        /// Numbers as CAM systems print them, with up to 22 decimals.
+        #[test]
+        fn printed_numbers_read_as_the_std_parser(
+            v in -1.0e9f64..1.0e9, decimals in 0usize..22, tail in "[ XY;(.]?"
+        ) {
+            let text = format!("{:.decimals$}{tail}", v.abs());
+            same_as_reference(&text)?;
         }
     }
 

@@ -1,12 +1,12 @@
 //! The fast path for the plain blocks CAM programs are made of (`N10 G1 X1.5 Y-2`): an
-//! optional `N` number, then address letters with literal numbers, separated by spaces or
-//! tabs. Such a line is read here without the general parser's machinery; anything else
-//! (comments, expressions, statements, flow, block delete, odd characters, errors) returns
-//! `None`, and the caller parses the line in full, which gives the same [`Line`] for lines
-//! read here (tests/fuzz compare the two).
+//! optional `N` number, then address letters with literal numbers, separated by spaces,
+//! tabs and ASCII comments (`(…)`, nested, and `;…`). Such a line is read here without the
+//! general parser's machinery; anything else (expressions, statements, flow, block delete,
+//! odd characters, errors) returns `None`, and the caller parses the line in full, which
+//! gives the same [`Line`] for lines read here (tests/fuzz compare the two).
 
-use super::lex::scan_unsigned;
-use crate::ast::{Block, Line, LineKind, Number, SeqNo, Span, Value, Word};
+use super::lex::scan_unsigned_at;
+use crate::ast::{Block, Comment, Line, LineKind, Number, SeqNo, Span, Value, Word};
 
 /// Longest sequence number taken here (9 digits always fit a `u32`).
 const MAX_N_DIGITS: usize = 9;
@@ -18,12 +18,59 @@ fn skip_ws(b: &[u8], mut k: usize) -> usize {
     k
 }
 
-/// Reads `text` (one line, without its terminator) when it is a plain block, handing each
-/// word to `word` in order; returns the sequence number (if any) and the number of words.
-/// `None` when the line is anything else; then `word` may have seen some of its words.
-pub(crate) fn scan(text: &str, mut word: impl FnMut(Word)) -> Option<(Option<SeqNo>, usize)> {
-    let b = text.as_bytes();
-    let mut k = skip_ws(b, 0);
+/// Skips spaces, tabs and comments from `k` on, handing each comment's span to `comment`
+/// (as the general parser's trivia reads them: `(` to its `)`, parentheses nesting, or `;`
+/// to the end). `None` at a comment that does not close or holds a byte that is no ASCII
+/// (or a `\r`): the general parser's. Inline: most calls see a space and a letter.
+#[inline(always)]
+fn skip_trivia(b: &[u8], k: usize, comment: &mut impl FnMut(Span)) -> Option<usize> {
+    let k = skip_ws(b, k);
+    match b.get(k) {
+        Some(b'(' | b';') => skip_comments(b, k, comment),
+        _ => Some(k),
+    }
+}
+
+/// [`skip_trivia`] from a comment on. Each round takes 2 bytes or more, so it ends.
+#[inline(never)]
+fn skip_comments(b: &[u8], mut k: usize, comment: &mut impl FnMut(Span)) -> Option<usize> {
+    loop {
+        let end = match b.get(k) {
+            Some(b'(') => k + 2 + close_paren(&b[k + 1..])?,
+            Some(b';') if b[k + 1..].iter().all(|&c| c.is_ascii() && c != b'\r') => b.len(),
+            _ => return Some(k),
+        };
+        comment(Span::new(k, end));
+        k = skip_ws(b, end);
+    }
+}
+
+/// Index of the `)` closing a comment whose body starts `body`, parentheses nesting; `None`
+/// when there is none, or a byte before it is no ASCII.
+fn close_paren(body: &[u8]) -> Option<usize> {
+    let mut depth = 0u32;
+    for (k, &c) in body.iter().enumerate() {
+        match c {
+            b'(' => depth += 1,
+            b')' if depth == 0 => return Some(k),
+            b')' => depth -= 1,
+            0x80.. => return None,
+            _ => {}
+        }
+    }
+    None
+}
+
+/// Reads `b` (one line, without its terminator) when it is a plain block, handing each
+/// word to `word` and each comment's span to `comment` in order; returns the sequence
+/// number (if any) and the number of words. `None` when the line is anything else; then
+/// `word` and `comment` may have seen some of it.
+pub(crate) fn scan(
+    b: &[u8],
+    mut word: impl FnMut(Word),
+    mut comment: impl FnMut(Span),
+) -> Option<(Option<SeqNo>, usize)> {
+    let mut k = skip_trivia(b, 0, &mut comment)?;
     let mut n = None;
     if matches!(b.get(k), Some(b'N' | b'n')) {
         let start = k;
@@ -35,12 +82,15 @@ pub(crate) fn scan(text: &str, mut word: impl FnMut(Word)) -> Option<(Option<Seq
         if d == d0 || d - d0 > MAX_N_DIGITS || b.get(d) == Some(&b'.') {
             return None;
         }
-        let value = text[d0..d].parse::<u32>().ok()?;
+        // At most 9 digits: no overflow.
+        let value = b[d0..d]
+            .iter()
+            .fold(0u32, |v, &c| v * 10 + u32::from(c - b'0'));
         n = Some(SeqNo {
             value,
             span: Span::new(start, d),
         });
-        k = skip_ws(b, d);
+        k = skip_trivia(b, d, &mut comment)?;
     }
     let mut count = 0;
     while k < b.len() {
@@ -59,13 +109,13 @@ pub(crate) fn scan(text: &str, mut word: impl FnMut(Word)) -> Option<(Option<Seq
         if !matches!(b.get(digits_at), Some(b'0'..=b'9' | b'.')) {
             return None;
         }
-        let u = scan_unsigned(&text[digits_at..]);
+        let u = scan_unsigned_at(b, digits_at);
         let end = digits_at + u.len;
         let value = u.value?;
         // A second point, or a number running into anything but a space or the next
         // letter, is an error (or an expression) for the general parser to describe.
         match b.get(end) {
-            None | Some(b' ' | b'\t') => {}
+            None | Some(b' ' | b'\t' | b'(' | b';') => {}
             Some(c) if c.is_ascii_alphabetic() => {}
             _ => return None,
         }
@@ -79,7 +129,7 @@ pub(crate) fn scan(text: &str, mut word: impl FnMut(Word)) -> Option<(Option<Seq
             span: Span::new(k, end),
         });
         count += 1;
-        k = skip_ws(b, end);
+        k = skip_trivia(b, end, &mut comment)?;
     }
     Some((n, count))
 }
@@ -112,7 +162,20 @@ pub(crate) fn line_into(text: &str, line_no: u32, line: &mut Line) -> bool {
     };
     block.words.clear();
     block.named_axes.clear();
-    let scanned = scan(text, |w| block.words.push(w));
+    line.comments.clear();
+    let comments = &mut line.comments;
+    let scanned = scan(
+        text.as_bytes(),
+        |w| block.words.push(w),
+        |span| {
+            // The text between `(` and `)`, or after `;`.
+            let end = span.end as usize - usize::from(text.as_bytes()[span.start as usize] == b'(');
+            comments.push(Comment {
+                text: text[span.start as usize + 1..end].to_string(),
+                span,
+            });
+        },
+    );
     let Some((n, count)) = scanned else {
         line.kind = LineKind::Block(block);
         return false;
@@ -121,7 +184,6 @@ pub(crate) fn line_into(text: &str, line_no: u32, line: &mut Line) -> bool {
     line.span = Span::new(0, text.len());
     line.block_delete = false;
     line.n = n;
-    line.comments.clear();
     if count > 0 {
         line.kind = LineKind::Block(block);
     }
