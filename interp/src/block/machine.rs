@@ -29,6 +29,8 @@ pub struct Machine {
     /// Length of every segment handed out so far (mm), and where the last one ended.
     pub(crate) path_len: f64,
     pub(crate) path_end: AxisPos,
+    /// The configured axes as path lengths need them (read once: `cfg` does not change).
+    path_axes: PathAxes,
     /// The state of the last canonical operation (shared by the next while unchanged).
     pub(crate) canon: Option<Arc<CanonState>>,
     /// The dialect of the running main program (sub-programs without a header of their own
@@ -55,6 +57,7 @@ impl Machine {
             sync: Box::new(ExactStop),
             path_len: 0.0,
             path_end: opts.start,
+            path_axes: PathAxes::new(cfg),
             canon: None,
             dialect: cfg.interp.dialect,
             opts,
@@ -121,8 +124,7 @@ impl Machine {
             | SegmentKind::Linear { end, .. }
             | SegmentKind::Tap(TapSegment { end, .. })
             | SegmentKind::Arc { end, .. } => {
-                let axes = PathAxes::new(&self.cfg);
-                self.path_len += path_length(&self.path_end, &s.kind, &axes);
+                self.path_len += path_length(&self.path_end, &s.kind, &self.path_axes);
                 self.path_end = *end;
             }
             // G28/G30 C: program C reads the reference from here (the turn is no path).

@@ -85,8 +85,6 @@ struct Flow {
     /// Segments of the last operation not given out yet, each with the state of the
     /// operation it was lowered from (its work → machine offset).
     lowered: VecDeque<(Segment, Arc<CanonState>)>,
-    /// Where one compensated operation is lowered into (kept: no allocation per block).
-    lower_buf: Vec<Segment>,
     /// The last block's words and operations (emptied), reused by the next block so that a
     /// long program does not allocate them per block (boxed: moved in and out per block).
     spare_words: Option<Box<Words>>,
@@ -168,7 +166,6 @@ impl Interpreter {
                 last_n: None,
                 queue: VecDeque::new(),
                 lowered: VecDeque::new(),
-                lower_buf: Vec::new(),
                 spare_words: None,
                 spare_ops: Vec::new(),
                 comp: comp::Stage::new(cfg.interp.cutter_comp, xyz_indices(cfg)),
@@ -420,7 +417,12 @@ impl Interpreter {
             // The error is the last item: what compensation holds back is dropped.
             self.flow.comp.reset(self.m.state.pos);
         })?;
+        let before = self.flow.lowered.len();
         let (fed, pulled) = match op {
+            Some(op) if keep && self.flow.comp.pass_through(&op) => {
+                lower::lower_with_state(&op, self.flow.xyz, &mut self.flow.lowered);
+                (Ok(()), Pulled::Kept)
+            }
             Some(op) if keep => (self.flow.comp.push(op), Pulled::Kept),
             Some(op) => (self.flow.comp.push(op.clone()), Pulled::Op(op)),
             None => (self.flow.comp.finish(), Pulled::End),
@@ -431,16 +433,9 @@ impl Interpreter {
             self.flow.comp.reset(self.m.state.pos);
             return Err(self.comp_error(e));
         }
-        let before = self.flow.lowered.len();
-        let mut segments = std::mem::take(&mut self.flow.lower_buf);
         while let Some(c) = self.flow.comp.pop() {
-            lower::lower(&c, self.flow.xyz, &mut segments);
-            let state = &c.state;
-            self.flow
-                .lowered
-                .extend(segments.drain(..).map(|s| (s, state.clone())));
+            lower::lower_with_state(&c, self.flow.xyz, &mut self.flow.lowered);
         }
-        self.flow.lower_buf = segments;
         for (s, _) in self.flow.lowered.range(before..) {
             self.m.account(s);
         }
@@ -601,8 +596,15 @@ impl Interpreter {
         if canon::makes_motion(&out, &from) {
             self.flow.runaway.reset();
         }
-        self.flow.queue.extend(out.drain(..));
-        self.flow.spare_ops = out;
+        if self.flow.queue.is_empty() {
+            // The usual case: the block's vector becomes the queue (no copy of its
+            // operations) and the emptied queue's buffer the next block's spare.
+            let emptied = std::mem::replace(&mut self.flow.queue, VecDeque::from(out));
+            self.flow.spare_ops = Vec::from(emptied);
+        } else {
+            self.flow.queue.extend(out.drain(..));
+            self.flow.spare_ops = out;
+        }
         if end {
             self.flow.done = true;
             return Ok(());
