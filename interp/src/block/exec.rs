@@ -14,16 +14,15 @@ use super::options::Options;
 use super::state::{Cycle, CycleData, ModalState, Motion};
 use super::words::{Arg, GGroup, Words, fmt_num, g_dec, g_name};
 use crate::canon::{CanonKind, CanonOp, CanonState};
-use crate::lower::xyz_indices;
+use super::machine::AxisMap;
 
 /// The modal state as canonical operations carry it, shared with the previous operation
 /// (`last`) when nothing in it changed, so a long program does not copy it per move.
 pub(crate) fn shared_state(st: &ModalState, last: &mut Option<Arc<CanonState>>) -> Arc<CanonState> {
-    let now = st.canon_state();
     match last.as_ref() {
-        Some(s) if **s == now => s.clone(),
+        Some(s) if st.canon_state_is(s) => s.clone(),
         _ => {
-            let s = Arc::new(now);
+            let s = Arc::new(st.canon_state());
             *last = Some(s.clone());
             s
         }
@@ -33,14 +32,14 @@ pub(crate) fn shared_state(st: &ModalState, last: &mut Option<Arc<CanonState>>) 
 /// The canonical operation one segment of `kind` is: machine positions (as the block layer
 /// computes them) recorded in work coordinates under the current state.
 pub(crate) fn single_op(
-    cfg: &MachineConfig,
+    xyz: [Option<usize>; 3],
     st: &ModalState,
     last: &mut Option<Arc<CanonState>>,
     kind: SegmentKind,
     source: Source,
 ) -> CanonOp {
     let state = shared_state(st, last);
-    let kind = state.convert(kind, xyz_indices(cfg), false);
+    let kind = state.convert(kind, xyz, false);
     CanonOp {
         kind: CanonKind::Single(kind),
         source,
@@ -51,6 +50,8 @@ pub(crate) fn single_op(
 /// One block being executed.
 pub(crate) struct Exec<'a> {
     pub cfg: &'a MachineConfig,
+    /// Axis indices of `cfg` found once.
+    pub map: &'a AxisMap,
     pub opts: &'a Options,
     pub src: &'a SourceFile,
     /// The dialect the program is read in (where controls differ).
@@ -148,7 +149,7 @@ impl Exec<'_> {
     /// coordinates, as the block computes them), recorded in work coordinates under the
     /// state it runs in.
     pub fn push(&mut self, kind: SegmentKind) {
-        let op = single_op(self.cfg, self.st, self.canon, kind, self.source.clone());
+        let op = single_op(self.map.xyz, self.st, self.canon, kind, self.source.clone());
         self.out.push(op);
     }
 
@@ -160,7 +161,7 @@ impl Exec<'_> {
     /// Executes one block of `line` (from `src`), its words already collected in `w`, against
     /// the modal state `st`: the segments it makes, and whether it ended the program (M2/M30).
     pub(crate) fn execute(
-        cfg: &MachineConfig,
+        (cfg, map): (&MachineConfig, &AxisMap),
         opts: &Options,
         (src, dialect): (&SourceFile, Dialect),
         (st, canon): (&mut ModalState, &mut Option<Arc<CanonState>>),
@@ -171,6 +172,7 @@ impl Exec<'_> {
         out.clear();
         let mut ex = Exec {
             cfg,
+            map,
             opts,
             src,
             dialect,
@@ -948,7 +950,7 @@ impl Exec<'_> {
 
     /// Error if a spindle axis is asked to move while it turns in speed mode.
     pub(crate) fn check_spindle_still(&self, end: &AxisPos) -> Result<(), NcError> {
-        for (k, axis) in self.cfg.spindle_axes().into_iter().enumerate() {
+        for (k, axis) in self.map.spindles.into_iter().enumerate() {
             let Some(c) = axis else { continue };
             if (end[c] - self.st.pos[c]).abs() > 1e-9 && self.st.spindle_turning_of(k as u8 + 1) {
                 let name = self.cfg.axes[c].name;
@@ -1007,8 +1009,8 @@ impl Exec<'_> {
     /// block is no such move (or the pitch overflows).
     fn programmed_tap(&self, end: &AxisPos, worded: &[bool]) -> Option<(usize, usize, f64)> {
         let sp = self
-            .cfg
-            .spindle_axes()
+            .map
+            .spindles
             .into_iter()
             .flatten()
             .find(|&i| worded[i] && end[i] != self.st.pos[i])?;
@@ -1141,12 +1143,10 @@ impl Exec<'_> {
             .unwrap_or(self.w.span);
         match self.st.motion {
             Motion::Rapid | Motion::Linear => {
-                let worded: Vec<bool> = self
-                    .cfg
-                    .axes
-                    .iter()
-                    .map(|a| self.w.peek(a.name).is_some())
-                    .collect();
+                let mut worded = [false; cnc402_config::MAX_AXES];
+                for (i, a) in self.cfg.axes.iter().enumerate().take(worded.len()) {
+                    worded[i] = self.w.has(a.name);
+                }
                 let (end, any) = self.targets(g53.is_some());
                 // G53 to where the tool already is makes no segment, as G28/G30 do.
                 if !any || (g53.is_some() && end == self.st.pos) {

@@ -2,7 +2,7 @@
 //! operator switches, the modal state, the motion sync and the path length handed out. It runs
 //! blocks ([`Exec`]) and answers the system variables that read or change this state.
 
-use cnc402_config::MachineConfig;
+use cnc402_config::{MAX_SPINDLES, MachineConfig};
 use cnc402_lang::Dialect;
 use cnc402_lang::ast::Line;
 use cnc402_lang::{NcError, SourceFile};
@@ -20,9 +20,28 @@ use crate::canon::{CanonOp, CanonState};
 use crate::host::{ExactStop, MotionSync};
 use crate::vars::{MVal, VarClass};
 
+/// Axis indices a block looks up, found once from the config (which does not change).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct AxisMap {
+    /// X, Y and Z (arc centres are X Y Z).
+    pub xyz: [Option<usize>; 3],
+    /// Each spindle's axis by number − 1.
+    pub spindles: [Option<usize>; MAX_SPINDLES],
+}
+
+impl AxisMap {
+    pub(crate) fn new(cfg: &MachineConfig) -> AxisMap {
+        AxisMap {
+            xyz: crate::lower::xyz_indices(cfg),
+            spindles: cfg.spindle_axes(),
+        }
+    }
+}
+
 /// Block execution state: what every block runs against.
 pub struct Machine {
     pub(crate) cfg: MachineConfig,
+    pub(crate) map: AxisMap,
     pub(crate) opts: Options,
     pub(crate) state: ModalState,
     pub(crate) sync: Box<dyn MotionSync>,
@@ -54,6 +73,7 @@ impl Machine {
         Machine {
             state: start_state(cfg, &opts),
             cfg: cfg.clone(),
+            map: AxisMap::new(cfg),
             sync: Box::new(ExactStop),
             path_len: 0.0,
             path_end: opts.start,
@@ -75,7 +95,7 @@ impl Machine {
     /// The canonical operation of one segment of `kind` (machine positions) from `source`,
     /// made outside a block's execution (`#3006`'s message and stop).
     pub(crate) fn single_op(&mut self, kind: SegmentKind, source: Source) -> CanonOp {
-        super::exec::single_op(&self.cfg, &self.state, &mut self.canon, kind, source)
+        super::exec::single_op(self.map.xyz, &self.state, &mut self.canon, kind, source)
     }
 
     /// Runs one block of `line` with its words collected (its operations gathered in `out`, a
@@ -89,7 +109,7 @@ impl Machine {
         out: Vec<CanonOp>,
     ) -> Result<(Vec<CanonOp>, bool), NcError> {
         Exec::execute(
-            &self.cfg,
+            (&self.cfg, &self.map),
             &self.opts,
             (src, self.dialect),
             (&mut self.state, &mut self.canon),
