@@ -368,7 +368,20 @@ impl ModalState {
             && s.tool_length == self.tlo
             && s.tool_axis == self.tool_axis
             && s.comp == self.comp
-            && (0..MAX_AXES).all(|i| s.offset.0[i] == self.canon_offset(i))
+            && s.offset.0 == self.canon_offsets_to_compare()
+    }
+
+    /// Each axis's [`canon_offset`](Self::canon_offset) up to the sign of a zero: off the
+    /// tool axis that adds `0.0` (turning −0 into +0), which `==` does not see.
+    fn canon_offsets_to_compare(&self) -> [f64; MAX_AXES] {
+        let mut offset = self.shift;
+        for (o, z) in offset.iter_mut().zip(&self.work_offsets[self.work_offset]) {
+            *o += *z;
+        }
+        if let Some(t) = self.tool_axis.filter(|&t| t < MAX_AXES) {
+            offset[t] += self.tlo_in_pos;
+        }
+        offset
     }
 
     /// Work → machine on axis `i` as operations carry it: the work zero plus the part of
@@ -457,8 +470,9 @@ mod tests {
     fn state(v: &[u8]) -> ModalState {
         let cfg = MachineConfig::default_machine();
         let mut st = ModalState::new(&cfg, AxisPos::default());
-        let f = |b: u8| match b % 5 {
+        let f = |b: u8| match b % 6 {
             4 => f64::NAN,
+            5 => -0.0,
             k => f64::from(k) - 1.0,
         };
         st.plane = [Plane::XY, Plane::ZX, Plane::YZ][v[0] as usize % 3];
