@@ -2,6 +2,7 @@
 //! become [`Segment`]s (modes, feed and speed, M codes, dwell, straight and arc motion; the
 //! offsets and canned cycles are in their own files and extend `Exec`).
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 
 use cnc402_config::{MAX_SPINDLES, MachineConfig};
@@ -14,7 +15,6 @@ use super::options::Options;
 use super::state::{Cycle, CycleData, ModalState, Motion};
 use super::words::{Arg, GGroup, Words, fmt_num, g_dec, g_name};
 use crate::canon::{CanonKind, CanonOp, CanonState};
-use super::machine::AxisMap;
 
 /// The modal state as canonical operations carry it, shared with the previous operation
 /// (`last`) when nothing in it changed, so a long program does not copy it per move.
@@ -47,6 +47,24 @@ pub(crate) fn single_op(
     }
 }
 
+/// Axis indices a block looks up, found once from the config (which does not change).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct AxisMap {
+    /// X, Y and Z (arc centres are X Y Z).
+    pub xyz: [Option<usize>; 3],
+    /// Each spindle's axis by number − 1.
+    pub spindles: [Option<usize>; MAX_SPINDLES],
+}
+
+impl AxisMap {
+    pub(crate) fn new(cfg: &MachineConfig) -> AxisMap {
+        AxisMap {
+            xyz: crate::lower::xyz_indices(cfg),
+            spindles: cfg.spindle_axes(),
+        }
+    }
+}
+
 /// One block being executed.
 pub(crate) struct Exec<'a> {
     pub cfg: &'a MachineConfig,
@@ -60,8 +78,10 @@ pub(crate) struct Exec<'a> {
     pub w: &'a mut Words,
     pub source: Source,
     pub line_span: Span,
-    /// The canonical operations the block makes, in order.
-    pub out: Vec<CanonOp>,
+    /// The canonical operations the block makes, in order: those of `out` from `first` on
+    /// (the interpreter's queue, where they wait to be handed out).
+    pub out: &'a mut VecDeque<CanonOp>,
+    pub first: usize,
     /// The state the last operation ran under, shared by the next while it is the same.
     pub canon: &'a mut Option<Arc<CanonState>>,
     /// M2/M30 was executed.
@@ -150,7 +170,12 @@ impl Exec<'_> {
     /// state it runs in.
     pub fn push(&mut self, kind: SegmentKind) {
         let op = single_op(self.map.xyz, self.st, self.canon, kind, self.source.clone());
-        self.out.push(op);
+        self.out.push_back(op);
+    }
+
+    /// The operations this block has made so far.
+    fn ops(&self) -> impl Iterator<Item = &CanonOp> {
+        self.out.range(self.first..)
     }
 
     /// The modal state as canonical operations carry it (see [`shared_state`]).
@@ -159,17 +184,17 @@ impl Exec<'_> {
     }
 
     /// Executes one block of `line` (from `src`), its words already collected in `w`, against
-    /// the modal state `st`: the segments it makes, and whether it ended the program (M2/M30).
+    /// the modal state `st`: the operations it makes appended to `out` (none on an error),
+    /// and whether it ended the program (M2/M30).
     pub(crate) fn execute(
         (cfg, map): (&MachineConfig, &AxisMap),
         opts: &Options,
         (src, dialect): (&SourceFile, Dialect),
         (st, canon): (&mut ModalState, &mut Option<Arc<CanonState>>),
         (w, line): (&mut Words, &Line),
-        mut out: Vec<CanonOp>,
-    ) -> Result<(Vec<CanonOp>, bool), NcError> {
-        // `out` is a spare vector (kept for its capacity): emptied here whatever it holds.
-        out.clear();
+        out: &mut VecDeque<CanonOp>,
+    ) -> Result<bool, NcError> {
+        let first = out.len();
         let mut ex = Exec {
             cfg,
             map,
@@ -186,14 +211,20 @@ impl Exec<'_> {
             },
             line_span: line.span,
             out,
+            first,
             end: false,
             tlo_commanded: false,
             tlo_cancel_after: false,
             corner_done: false,
             all_spindles: false,
         };
-        ex.run(line)?;
-        Ok((ex.out, ex.end))
+        match ex.run(line) {
+            Ok(()) => Ok(ex.end),
+            Err(e) => {
+                ex.out.truncate(first);
+                Err(e)
+            }
+        }
     }
 
     pub(crate) fn run(&mut self, line: &Line) -> Result<(), NcError> {
@@ -271,7 +302,7 @@ impl Exec<'_> {
         let finite = |vs: &[f64]| vs.iter().fold(0.0, |sum, v| sum + (v - v)) == 0.0;
         let st = &*self.st;
         let mut ok = finite(&st.pos.0) && finite(&st.shift) && finite(&[st.feed, st.speed, st.tlo]);
-        for op in &self.out {
+        for op in self.ops() {
             ok &= finite(&op.state.offset.0)
                 && match &op.kind {
                     CanonKind::Single(SegmentKind::Rapid { end }) => finite(&end.0),
@@ -298,7 +329,7 @@ impl Exec<'_> {
             (!ok).then(|| (letters.to_vec(), what.to_string()))
         };
         let feed = ['F', 'S'];
-        for op in &self.out {
+        for op in self.ops() {
             let found = match &op.kind {
                 CanonKind::Single(k) => match k {
                     SegmentKind::Rapid { end } => bad_axis(end),

@@ -2,7 +2,7 @@
 //! operator switches, the modal state, the motion sync and the path length handed out. It runs
 //! blocks ([`Exec`]) and answers the system variables that read or change this state.
 
-use cnc402_config::{MAX_SPINDLES, MachineConfig};
+use cnc402_config::MachineConfig;
 use cnc402_lang::Dialect;
 use cnc402_lang::ast::Line;
 use cnc402_lang::{NcError, SourceFile};
@@ -10,33 +10,16 @@ use cnc402_motion::segment::{
     AxisPos, PathAxes, Plane, Segment, SegmentKind, Source, TapSegment, path_length,
 };
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 
-use super::exec::Exec;
+use super::exec::{AxisMap, Exec};
 use super::options::Options;
 use super::state::{ModalState, Motion};
 use super::words::Words;
 use crate::canon::{CanonOp, CanonState};
 use crate::host::{ExactStop, MotionSync};
 use crate::vars::{MVal, VarClass};
-
-/// Axis indices a block looks up, found once from the config (which does not change).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct AxisMap {
-    /// X, Y and Z (arc centres are X Y Z).
-    pub xyz: [Option<usize>; 3],
-    /// Each spindle's axis by number − 1.
-    pub spindles: [Option<usize>; MAX_SPINDLES],
-}
-
-impl AxisMap {
-    pub(crate) fn new(cfg: &MachineConfig) -> AxisMap {
-        AxisMap {
-            xyz: crate::lower::xyz_indices(cfg),
-            spindles: cfg.spindle_axes(),
-        }
-    }
-}
 
 /// Block execution state: what every block runs against.
 pub struct Machine {
@@ -108,6 +91,21 @@ impl Machine {
         line: &Line,
         out: Vec<CanonOp>,
     ) -> Result<(Vec<CanonOp>, bool), NcError> {
+        let mut ops = VecDeque::from(out);
+        ops.clear();
+        let end = self.execute_into(src, words, line, &mut ops)?;
+        Ok((Vec::from(ops), end))
+    }
+
+    /// [`execute`](Self::execute) with the block's operations appended to `out` (none on an
+    /// error): the interpreter's queue, so that they are not moved into it.
+    pub(crate) fn execute_into(
+        &mut self,
+        src: &SourceFile,
+        words: &mut Words,
+        line: &Line,
+        out: &mut VecDeque<CanonOp>,
+    ) -> Result<bool, NcError> {
         Exec::execute(
             (&self.cfg, &self.map),
             &self.opts,

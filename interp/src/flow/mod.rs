@@ -85,10 +85,9 @@ struct Flow {
     /// Segments of the last operation not given out yet, each with the state of the
     /// operation it was lowered from (its work → machine offset).
     lowered: VecDeque<(Segment, Arc<CanonState>)>,
-    /// The last block's words and operations (emptied), reused by the next block so that a
-    /// long program does not allocate them per block (boxed: moved in and out per block).
+    /// The last block's words (emptied), reused by the next block so that a long program
+    /// does not allocate them per block (boxed: moved in and out per block).
     spare_words: Option<Box<Words>>,
-    spare_ops: Vec<CanonOp>,
     /// Cutter radius compensation between the canonical operations and lowering.
     comp: comp::Stage,
     /// The machine indices of X, Y and Z (arc centres), for lowering.
@@ -167,7 +166,6 @@ impl Interpreter {
                 queue: VecDeque::new(),
                 lowered: VecDeque::new(),
                 spare_words: None,
-                spare_ops: Vec::new(),
                 comp: comp::Stage::new(cfg.interp.cutter_comp, xyz_indices(cfg)),
                 xyz: xyz_indices(cfg),
                 done: true,
@@ -579,10 +577,10 @@ impl Interpreter {
         }
         let from = self.m.state.pos;
         let sets_g92 = linuxcnc && words.g.iter().any(|g| g.0 == 92);
-        let spare = std::mem::take(&mut self.flow.spare_ops);
-        let (mut out, end) = self.m.execute(&unit.src, &mut words, line, spare)?;
+        let first = self.flow.queue.len();
+        let end = (self.m).execute_into(&unit.src, &mut words, line, &mut self.flow.queue)?;
         if let Some(kind) = wait {
-            out.push(crate::block::mcodes::wait_op(
+            self.flow.queue.push_back(crate::block::mcodes::wait_op(
                 &mut self.m,
                 kind,
                 &unit.src,
@@ -593,17 +591,8 @@ impl Interpreter {
         if sets_g92 {
             self.flow.g92_kept = self.m.state.shift;
         }
-        if canon::makes_motion(&out, &from) {
+        if canon::makes_motion(self.flow.queue.range(first..), &from) {
             self.flow.runaway.reset();
-        }
-        if self.flow.queue.is_empty() {
-            // The usual case: the block's vector becomes the queue (no copy of its
-            // operations) and the emptied queue's buffer the next block's spare.
-            let emptied = std::mem::replace(&mut self.flow.queue, VecDeque::from(out));
-            self.flow.spare_ops = Vec::from(emptied);
-        } else {
-            self.flow.queue.extend(out.drain(..));
-            self.flow.spare_ops = out;
         }
         if end {
             self.flow.done = true;
