@@ -54,6 +54,8 @@ pub(crate) struct AxisMap {
     pub xyz: [Option<usize>; 3],
     /// Each spindle's axis by number − 1.
     pub spindles: [Option<usize>; MAX_SPINDLES],
+    /// An axis named C (else a plain C in a G1 block may be a chamfer).
+    pub c: Option<usize>,
 }
 
 impl AxisMap {
@@ -61,6 +63,7 @@ impl AxisMap {
         AxisMap {
             xyz: crate::lower::xyz_indices(cfg),
             spindles: cfg.spindle_axes(),
+            c: cfg.axis_index('C'),
         }
     }
 }

@@ -399,7 +399,7 @@ impl Interpreter {
     /// each ran under), `Ok(None)` at the end of the program, or the error that ends it.
     pub fn next_canon(&mut self) -> Result<Option<CanonOp>, NcError> {
         Ok(match self.next_op(false)? {
-            Pulled::Op(op) => Some(op),
+            Pulled::Op(op) => Some(*op),
             Pulled::Kept | Pulled::End => None,
         })
     }
@@ -411,19 +411,34 @@ impl Interpreter {
     /// hold it back until the next element shows how the two meet; what it gives out is
     /// lowered. With `keep` the operation itself is not given back (no copy of it is made).
     fn next_op(&mut self, keep: bool) -> Result<Pulled, NcError> {
-        let op = self.pull_op().inspect_err(|_| {
+        let ready = self.ready_op().inspect_err(|_| {
             // The error is the last item: what compensation holds back is dropped.
             self.flow.comp.reset(self.m.state.pos);
         })?;
         let before = self.flow.lowered.len();
-        let (fed, pulled) = match op {
-            Some(op) if keep && self.flow.comp.pass_through(&op) => {
-                lower::lower_with_state(&op, self.flow.xyz, &mut self.flow.lowered);
+        let f = &mut self.flow;
+        let (fed, pulled) = match ready {
+            Ready::Queued if keep && f.queue.front().is_some_and(|op| f.comp.pass_through(op)) => {
+                // Lowered where it waits, then dropped there: the usual operation is not
+                // moved at all.
+                if let Some(op) = f.queue.front() {
+                    lower::lower_with_state(op, f.xyz, &mut f.lowered);
+                }
+                f.queue.drain(..1);
                 (Ok(()), Pulled::Kept)
             }
-            Some(op) if keep => (self.flow.comp.push(op), Pulled::Kept),
-            Some(op) => (self.flow.comp.push(op.clone()), Pulled::Op(op)),
-            None => (self.flow.comp.finish(), Pulled::End),
+            ready => {
+                let op = match ready {
+                    Ready::Queued => f.queue.pop_front(),
+                    Ready::Op(op) => Some(op),
+                    Ready::End => None,
+                };
+                match op {
+                    Some(op) if keep => (f.comp.push(op), Pulled::Kept),
+                    Some(op) => (f.comp.push(op.clone()), Pulled::Op(Box::new(op))),
+                    None => (f.comp.finish(), Pulled::End),
+                }
+            }
         };
         if let Err(e) = fed {
             self.flow.done = true;
@@ -462,20 +477,25 @@ impl Interpreter {
         comp_error_at(src, e)
     }
 
-    fn pull_op(&mut self) -> Result<Option<CanonOp>, NcError> {
+    /// Runs the program until its next operation is ready: at the front of the queue, or
+    /// from the C-like program, or none (the end).
+    fn ready_op(&mut self) -> Result<Ready, NcError> {
         if let Some(e) = self.flow.load_error.take() {
             self.flow.done = true;
             return Err(NcError::new(&self.flow.main_src, Span::default(), e));
         }
         if self.hll.active() {
-            return self.hll.next_op(&mut self.m);
+            return Ok(match self.hll.next_op(&mut self.m)? {
+                Some(op) => Ready::Op(op),
+                None => Ready::End,
+            });
         }
         loop {
-            if let Some(op) = self.flow.queue.pop_front() {
-                return Ok(Some(op));
+            if !self.flow.queue.is_empty() {
+                return Ok(Ready::Queued);
             }
             if self.flow.done {
-                return Ok(None);
+                return Ok(Ready::End);
             }
             if let Err(e) = self.step() {
                 self.flow.done = true;
@@ -602,11 +622,22 @@ impl Interpreter {
     }
 }
 
+/// Where [`Interpreter::next_op`] finds the next operation.
+enum Ready {
+    /// At the front of the queue.
+    Queued,
+    /// Handed over by the C-like program.
+    Op(CanonOp),
+    /// The program has ended.
+    End,
+}
+
 /// What [`Interpreter::next_op`] did.
 #[derive(Debug)]
 enum Pulled {
-    /// The next operation (not kept).
-    Op(CanonOp),
+    /// The next operation (not kept; boxed: `next_op` returns a small value on the
+    /// segments' path).
+    Op(Box<CanonOp>),
     /// The next operation went through, its segments kept for `next_segment`.
     Kept,
     /// The program has ended.
