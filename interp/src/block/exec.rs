@@ -301,8 +301,9 @@ impl Exec<'_> {
     /// (every slot of each position, not just the configured axes'); `false` when one is,
     /// or the block made an operation other than a rapid or a feed move: the search decides.
     fn surely_finite(&self) -> bool {
-        // `v - v` is 0 for a finite `v`, NaN for ±inf and NaN; the sum is 0 when all are.
-        let finite = |vs: &[f64]| vs.iter().fold(0.0, |sum, v| sum + (v - v)) == 0.0;
+        // `v * 0.0` is ±0 for a finite `v`, NaN for ±inf and NaN: the sum is 0 when all
+        // are finite (one pass without a branch per value).
+        let finite = |vs: &[f64]| vs.iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0;
         let st = &*self.st;
         let mut ok = finite(&st.pos.0) && finite(&st.shift) && finite(&[st.feed, st.speed, st.tlo]);
         for op in self.ops() {

@@ -485,13 +485,13 @@ mod tests {
         st.work_offset = v[7] as usize % 2;
         st.work_offsets[1][v[8] as usize % MAX_AXES] = f(v[9]);
         st.shift[v[10] as usize % MAX_AXES] = f(v[11]);
-        st.tool_loaded = (v[12] % 3 > 0).then_some(u32::from(v[12] % 3));
+        st.tool_loaded = (!v[12].is_multiple_of(3)).then_some(u32::from(v[12] % 3));
         st.tool_length = [ToolLength::Off, ToolLength::Plus, ToolLength::Minus][v[13] as usize % 3];
         st.h = u32::from(v[14] % 2);
         st.tlo = f(v[15]);
         st.tlo_in_pos = f(v[16]);
-        st.tool_axis = (v[17] % 3 > 0).then_some(v[17] as usize % 3);
-        st.comp = (v[18] % 3 > 0).then_some(CutterComp {
+        st.tool_axis = (!v[17].is_multiple_of(3)).then_some(v[17] as usize % 3);
+        st.comp = (!v[18].is_multiple_of(3)).then_some(CutterComp {
             side: if v[18] % 3 == 1 {
                 crate::canon::CompSide::Left
             } else {
