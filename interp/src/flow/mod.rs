@@ -839,6 +839,17 @@ mod tests {
         assert_eq!(e.line, 2);
         assert_eq!(it.next_segment().unwrap(), None);
     }
+
+    /// The quick overflow check of a block of plain moves looks at the move's own feed: in
+    /// G95 a finite F times a finite S may overflow (F and S alone are finite).
+    #[test]
+    fn a_g95_feed_that_overflows_is_an_error_at_f() {
+        let text = format!("G95 G1 S6000 F{} X1\n", "9".repeat(306));
+        let mut it = load(&text, Options::default());
+        let e = it.next_segment().unwrap_err();
+        assert!(e.message.contains("the feed overflows"), "{}", e.message);
+        assert_eq!(e.col, 14);
+    }
 }
 
 #[cfg(test)]
