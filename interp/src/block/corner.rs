@@ -26,7 +26,7 @@ impl Exec<'_> {
         let word = match self.w.corner.take() {
             Some(w) => Some(w),
             None if self.dialect != Dialect::LinuxCnc => {
-                let c_free = self.cfg.axis_index('C').is_none();
+                let c_free = self.map.c.is_none();
                 match (self.w.take('R'), c_free.then(|| self.w.take('C')).flatten()) {
                     (Some(r), None) => Some(('R', r)),
                     (None, Some(c)) => Some(('C', c)),

@@ -211,7 +211,7 @@ impl Exec<'_> {
         let holes = self.run_holes(&d, &cc, &state, [r_level, bottom, ret])?;
         cc.holes = holes;
         let _ = (la, lb);
-        self.out.push(CanonOp {
+        self.out.push_back(CanonOp {
             kind: CanonKind::CannedCycle(Box::new(cc)),
             source: self.source.clone(),
             state,

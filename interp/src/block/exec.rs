@@ -2,6 +2,7 @@
 //! become [`Segment`]s (modes, feed and speed, M codes, dwell, straight and arc motion; the
 //! offsets and canned cycles are in their own files and extend `Exec`).
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 
 use cnc402_config::{MAX_SPINDLES, MachineConfig};
@@ -14,16 +15,14 @@ use super::options::Options;
 use super::state::{Cycle, CycleData, ModalState, Motion};
 use super::words::{Arg, GGroup, Words, fmt_num, g_dec, g_name};
 use crate::canon::{CanonKind, CanonOp, CanonState};
-use crate::lower::xyz_indices;
 
 /// The modal state as canonical operations carry it, shared with the previous operation
 /// (`last`) when nothing in it changed, so a long program does not copy it per move.
 pub(crate) fn shared_state(st: &ModalState, last: &mut Option<Arc<CanonState>>) -> Arc<CanonState> {
-    let now = st.canon_state();
     match last.as_ref() {
-        Some(s) if **s == now => s.clone(),
+        Some(s) if st.canon_state_is(s) => s.clone(),
         _ => {
-            let s = Arc::new(now);
+            let s = Arc::new(st.canon_state());
             *last = Some(s.clone());
             s
         }
@@ -33,14 +32,14 @@ pub(crate) fn shared_state(st: &ModalState, last: &mut Option<Arc<CanonState>>) 
 /// The canonical operation one segment of `kind` is: machine positions (as the block layer
 /// computes them) recorded in work coordinates under the current state.
 pub(crate) fn single_op(
-    cfg: &MachineConfig,
+    xyz: [Option<usize>; 3],
     st: &ModalState,
     last: &mut Option<Arc<CanonState>>,
     kind: SegmentKind,
     source: Source,
 ) -> CanonOp {
     let state = shared_state(st, last);
-    let kind = state.convert(kind, xyz_indices(cfg), false);
+    let kind = state.convert(kind, xyz, false);
     CanonOp {
         kind: CanonKind::Single(kind),
         source,
@@ -48,9 +47,32 @@ pub(crate) fn single_op(
     }
 }
 
+/// Axis indices a block looks up, found once from the config (which does not change).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct AxisMap {
+    /// X, Y and Z (arc centres are X Y Z).
+    pub xyz: [Option<usize>; 3],
+    /// Each spindle's axis by number − 1.
+    pub spindles: [Option<usize>; MAX_SPINDLES],
+    /// An axis named C (else a plain C in a G1 block may be a chamfer).
+    pub c: Option<usize>,
+}
+
+impl AxisMap {
+    pub(crate) fn new(cfg: &MachineConfig) -> AxisMap {
+        AxisMap {
+            xyz: crate::lower::xyz_indices(cfg),
+            spindles: cfg.spindle_axes(),
+            c: cfg.axis_index('C'),
+        }
+    }
+}
+
 /// One block being executed.
 pub(crate) struct Exec<'a> {
     pub cfg: &'a MachineConfig,
+    /// Axis indices of `cfg` found once.
+    pub map: &'a AxisMap,
     pub opts: &'a Options,
     pub src: &'a SourceFile,
     /// The dialect the program is read in (where controls differ).
@@ -59,8 +81,10 @@ pub(crate) struct Exec<'a> {
     pub w: &'a mut Words,
     pub source: Source,
     pub line_span: Span,
-    /// The canonical operations the block makes, in order.
-    pub out: Vec<CanonOp>,
+    /// The canonical operations the block makes, in order: those of `out` from `first` on
+    /// (the interpreter's queue, where they wait to be handed out).
+    pub out: &'a mut VecDeque<CanonOp>,
+    pub first: usize,
     /// The state the last operation ran under, shared by the next while it is the same.
     pub canon: &'a mut Option<Arc<CanonState>>,
     /// M2/M30 was executed.
@@ -148,8 +172,13 @@ impl Exec<'_> {
     /// coordinates, as the block computes them), recorded in work coordinates under the
     /// state it runs in.
     pub fn push(&mut self, kind: SegmentKind) {
-        let op = single_op(self.cfg, self.st, self.canon, kind, self.source.clone());
-        self.out.push(op);
+        let op = single_op(self.map.xyz, self.st, self.canon, kind, self.source.clone());
+        self.out.push_back(op);
+    }
+
+    /// The operations this block has made so far.
+    fn ops(&self) -> impl Iterator<Item = &CanonOp> {
+        self.out.range(self.first..)
     }
 
     /// The modal state as canonical operations carry it (see [`shared_state`]).
@@ -158,19 +187,20 @@ impl Exec<'_> {
     }
 
     /// Executes one block of `line` (from `src`), its words already collected in `w`, against
-    /// the modal state `st`: the segments it makes, and whether it ended the program (M2/M30).
+    /// the modal state `st`: the operations it makes appended to `out` (none on an error),
+    /// and whether it ended the program (M2/M30).
     pub(crate) fn execute(
-        cfg: &MachineConfig,
+        (cfg, map): (&MachineConfig, &AxisMap),
         opts: &Options,
         (src, dialect): (&SourceFile, Dialect),
         (st, canon): (&mut ModalState, &mut Option<Arc<CanonState>>),
         (w, line): (&mut Words, &Line),
-        mut out: Vec<CanonOp>,
-    ) -> Result<(Vec<CanonOp>, bool), NcError> {
-        // `out` is a spare vector (kept for its capacity): emptied here whatever it holds.
-        out.clear();
+        out: &mut VecDeque<CanonOp>,
+    ) -> Result<bool, NcError> {
+        let first = out.len();
         let mut ex = Exec {
             cfg,
+            map,
             opts,
             src,
             dialect,
@@ -184,14 +214,20 @@ impl Exec<'_> {
             },
             line_span: line.span,
             out,
+            first,
             end: false,
             tlo_commanded: false,
             tlo_cancel_after: false,
             corner_done: false,
             all_spindles: false,
         };
-        ex.run(line)?;
-        Ok((ex.out, ex.end))
+        match ex.run(line) {
+            Ok(()) => Ok(ex.end),
+            Err(e) => {
+                ex.out.truncate(first);
+                Err(e)
+            }
+        }
     }
 
     pub(crate) fn run(&mut self, line: &Line) -> Result<(), NcError> {
@@ -245,6 +281,10 @@ impl Exec<'_> {
     /// offset past f64's range is an error at the word it came from ("X overflows"), so that
     /// no `inf` or `NaN` reaches a segment, the planner or the output.
     fn check_finite(&self) -> Result<(), NcError> {
+        if self.surely_finite() {
+            debug_assert!(self.first_non_finite().is_none());
+            return Ok(());
+        }
         let Some((letters, what)) = self.first_non_finite() else {
             return Ok(());
         };
@@ -254,6 +294,29 @@ impl Exec<'_> {
                 format!("{what} overflows (not a finite number)"),
             )
             .with_expected("values that stay within ±1.8e308"))
+    }
+
+    /// The usual block's quick answer for [`check_finite`](Self::check_finite): `true` when
+    /// no number [`first_non_finite`](Self::first_non_finite) looks at can be non-finite
+    /// (every slot of each position, not just the configured axes'); `false` when one is,
+    /// or the block made an operation other than a rapid or a feed move: the search decides.
+    fn surely_finite(&self) -> bool {
+        // `v * 0.0` is ±0 for a finite `v`, NaN for ±inf and NaN: the sum is 0 when all
+        // are finite (one pass without a branch per value).
+        let finite = |vs: &[f64]| vs.iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0;
+        let st = &*self.st;
+        let mut ok = finite(&st.pos.0) && finite(&st.shift) && finite(&[st.feed, st.speed, st.tlo]);
+        for op in self.ops() {
+            ok &= finite(&op.state.offset.0)
+                && match &op.kind {
+                    CanonKind::Single(SegmentKind::Rapid { end }) => finite(&end.0),
+                    CanonKind::Single(SegmentKind::Linear { end, feed }) => {
+                        finite(&end.0) && feed.is_finite()
+                    }
+                    _ => false,
+                };
+        }
+        ok
     }
 
     /// The words to blame and what overflowed, for the first non-finite number of the
@@ -270,7 +333,7 @@ impl Exec<'_> {
             (!ok).then(|| (letters.to_vec(), what.to_string()))
         };
         let feed = ['F', 'S'];
-        for op in &self.out {
+        for op in self.ops() {
             let found = match &op.kind {
                 CanonKind::Single(k) => match k {
                     SegmentKind::Rapid { end } => bad_axis(end),
@@ -948,7 +1011,7 @@ impl Exec<'_> {
 
     /// Error if a spindle axis is asked to move while it turns in speed mode.
     pub(crate) fn check_spindle_still(&self, end: &AxisPos) -> Result<(), NcError> {
-        for (k, axis) in self.cfg.spindle_axes().into_iter().enumerate() {
+        for (k, axis) in self.map.spindles.into_iter().enumerate() {
             let Some(c) = axis else { continue };
             if (end[c] - self.st.pos[c]).abs() > 1e-9 && self.st.spindle_turning_of(k as u8 + 1) {
                 let name = self.cfg.axes[c].name;
@@ -1007,8 +1070,8 @@ impl Exec<'_> {
     /// block is no such move (or the pitch overflows).
     fn programmed_tap(&self, end: &AxisPos, worded: &[bool]) -> Option<(usize, usize, f64)> {
         let sp = self
-            .cfg
-            .spindle_axes()
+            .map
+            .spindles
             .into_iter()
             .flatten()
             .find(|&i| worded[i] && end[i] != self.st.pos[i])?;
@@ -1141,12 +1204,10 @@ impl Exec<'_> {
             .unwrap_or(self.w.span);
         match self.st.motion {
             Motion::Rapid | Motion::Linear => {
-                let worded: Vec<bool> = self
-                    .cfg
-                    .axes
-                    .iter()
-                    .map(|a| self.w.peek(a.name).is_some())
-                    .collect();
+                let mut worded = [false; cnc402_config::MAX_AXES];
+                for (i, a) in self.cfg.axes.iter().enumerate().take(worded.len()) {
+                    worded[i] = self.w.has(a.name);
+                }
                 let (end, any) = self.targets(g53.is_some());
                 // G53 to where the tool already is makes no segment, as G28/G30 do.
                 if !any || (g53.is_some() && end == self.st.pos) {

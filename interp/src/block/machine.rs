@@ -10,9 +10,10 @@ use cnc402_motion::segment::{
     AxisPos, PathAxes, Plane, Segment, SegmentKind, Source, TapSegment, path_length,
 };
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 
-use super::exec::Exec;
+use super::exec::{AxisMap, Exec};
 use super::options::Options;
 use super::state::{ModalState, Motion};
 use super::words::Words;
@@ -23,12 +24,15 @@ use crate::vars::{MVal, VarClass};
 /// Block execution state: what every block runs against.
 pub struct Machine {
     pub(crate) cfg: MachineConfig,
+    pub(crate) map: AxisMap,
     pub(crate) opts: Options,
     pub(crate) state: ModalState,
     pub(crate) sync: Box<dyn MotionSync>,
     /// Length of every segment handed out so far (mm), and where the last one ended.
     pub(crate) path_len: f64,
     pub(crate) path_end: AxisPos,
+    /// The configured axes as path lengths need them (read once: `cfg` does not change).
+    path_axes: PathAxes,
     /// The state of the last canonical operation (shared by the next while unchanged).
     pub(crate) canon: Option<Arc<CanonState>>,
     /// The dialect of the running main program (sub-programs without a header of their own
@@ -52,9 +56,11 @@ impl Machine {
         Machine {
             state: start_state(cfg, &opts),
             cfg: cfg.clone(),
+            map: AxisMap::new(cfg),
             sync: Box::new(ExactStop),
             path_len: 0.0,
             path_end: opts.start,
+            path_axes: PathAxes::new(cfg),
             canon: None,
             dialect: cfg.interp.dialect,
             opts,
@@ -72,7 +78,7 @@ impl Machine {
     /// The canonical operation of one segment of `kind` (machine positions) from `source`,
     /// made outside a block's execution (`#3006`'s message and stop).
     pub(crate) fn single_op(&mut self, kind: SegmentKind, source: Source) -> CanonOp {
-        super::exec::single_op(&self.cfg, &self.state, &mut self.canon, kind, source)
+        super::exec::single_op(self.map.xyz, &self.state, &mut self.canon, kind, source)
     }
 
     /// Runs one block of `line` with its words collected (its operations gathered in `out`, a
@@ -85,8 +91,23 @@ impl Machine {
         line: &Line,
         out: Vec<CanonOp>,
     ) -> Result<(Vec<CanonOp>, bool), NcError> {
+        let mut ops = VecDeque::from(out);
+        ops.clear();
+        let end = self.execute_into(src, words, line, &mut ops)?;
+        Ok((Vec::from(ops), end))
+    }
+
+    /// [`execute`](Self::execute) with the block's operations appended to `out` (none on an
+    /// error): the interpreter's queue, so that they are not moved into it.
+    pub(crate) fn execute_into(
+        &mut self,
+        src: &SourceFile,
+        words: &mut Words,
+        line: &Line,
+        out: &mut VecDeque<CanonOp>,
+    ) -> Result<bool, NcError> {
         Exec::execute(
-            &self.cfg,
+            (&self.cfg, &self.map),
             &self.opts,
             (src, self.dialect),
             (&mut self.state, &mut self.canon),
@@ -121,8 +142,7 @@ impl Machine {
             | SegmentKind::Linear { end, .. }
             | SegmentKind::Tap(TapSegment { end, .. })
             | SegmentKind::Arc { end, .. } => {
-                let axes = PathAxes::new(&self.cfg);
-                self.path_len += path_length(&self.path_end, &s.kind, &axes);
+                self.path_len += path_length(&self.path_end, &s.kind, &self.path_axes);
                 self.path_end = *end;
             }
             // G28/G30 C: program C reads the reference from here (the turn is no path).

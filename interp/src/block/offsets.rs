@@ -352,7 +352,7 @@ impl Exec<'_> {
     /// G28/G29/G30 with the spindle axis while the spindle turns in speed mode: an error at
     /// its word, even when C would not move (its position is not known while it turns).
     fn spindle_still_for(&self, name: &str) -> Result<(), NcError> {
-        for (k, axis) in self.cfg.spindle_axes().into_iter().enumerate() {
+        for (k, axis) in self.map.spindles.into_iter().enumerate() {
             let Some(c) = axis else { continue };
             let Some(a) = self.w.peek(self.cfg.axes[c].name) else {
                 continue;

@@ -336,34 +336,13 @@ impl ModalState {
     pub fn canon_state(&self) -> CanonState {
         let mut offset = AxisPos::default();
         for i in 0..MAX_AXES {
-            let tlo = if self.tool_axis == Some(i) {
-                self.tlo_in_pos
-            } else {
-                0.0
-            };
-            offset.0[i] = self.work_zero(i) + tlo;
+            offset.0[i] = self.canon_offset(i);
         }
         CanonState {
             plane: self.plane,
-            units: if self.inch {
-                ProgramUnits::Inch
-            } else {
-                ProgramUnits::Mm
-            },
-            feed_mode: if self.feed_per_rev {
-                FeedMode::PerRevolution
-            } else {
-                FeedMode::PerMinute
-            },
-            path_mode: match self.path_mode {
-                _ if self.exact_stop_once => PathMode::ExactStop,
-                61 => PathMode::ExactStop,
-                63 => PathMode::Tapping,
-                _ => PathMode::Continuous {
-                    tolerance: self.path_tolerance,
-                    collinear: self.path_collinear,
-                },
-            },
+            units: self.canon_units(),
+            feed_mode: self.canon_feed_mode(),
+            path_mode: self.canon_path_mode(),
             work_offset: self.work_offset,
             offset,
             tool: self.tool_loaded,
@@ -372,6 +351,75 @@ impl ModalState {
             tool_length: self.tlo,
             tool_axis: self.tool_axis,
             comp: self.comp,
+        }
+    }
+
+    /// Whether `self.canon_state() == *s`, field by field as the derived `PartialEq`
+    /// compares them, without building the state (asked once per operation).
+    pub fn canon_state_is(&self, s: &CanonState) -> bool {
+        s.plane == self.plane
+            && s.units == self.canon_units()
+            && s.feed_mode == self.canon_feed_mode()
+            && s.path_mode == self.canon_path_mode()
+            && s.work_offset == self.work_offset
+            && s.tool == self.tool_loaded
+            && s.tool_length_mode == self.tool_length.code()
+            && s.h == self.h
+            && s.tool_length == self.tlo
+            && s.tool_axis == self.tool_axis
+            && s.comp == self.comp
+            && s.offset.0 == self.canon_offsets_to_compare()
+    }
+
+    /// Each axis's [`canon_offset`](Self::canon_offset) up to the sign of a zero: off the
+    /// tool axis that adds `0.0` (turning −0 into +0), which `==` does not see.
+    fn canon_offsets_to_compare(&self) -> [f64; MAX_AXES] {
+        let mut offset = self.shift;
+        for (o, z) in offset.iter_mut().zip(&self.work_offsets[self.work_offset]) {
+            *o += *z;
+        }
+        if let Some(t) = self.tool_axis.filter(|&t| t < MAX_AXES) {
+            offset[t] += self.tlo_in_pos;
+        }
+        offset
+    }
+
+    /// Work → machine on axis `i` as operations carry it: the work zero plus the part of
+    /// the tool length offset vector that the position includes.
+    fn canon_offset(&self, i: usize) -> f64 {
+        let tlo = if self.tool_axis == Some(i) {
+            self.tlo_in_pos
+        } else {
+            0.0
+        };
+        self.work_zero(i) + tlo
+    }
+
+    fn canon_units(&self) -> ProgramUnits {
+        if self.inch {
+            ProgramUnits::Inch
+        } else {
+            ProgramUnits::Mm
+        }
+    }
+
+    fn canon_feed_mode(&self) -> FeedMode {
+        if self.feed_per_rev {
+            FeedMode::PerRevolution
+        } else {
+            FeedMode::PerMinute
+        }
+    }
+
+    fn canon_path_mode(&self) -> PathMode {
+        match self.path_mode {
+            _ if self.exact_stop_once => PathMode::ExactStop,
+            61 => PathMode::ExactStop,
+            63 => PathMode::Tapping,
+            _ => PathMode::Continuous {
+                tolerance: self.path_tolerance,
+                collinear: self.path_collinear,
+            },
         }
     }
 
@@ -409,5 +457,69 @@ impl ModalState {
         self.parked[old] = (self.speed, self.spindle);
         (self.speed, self.spindle) = self.parked[new];
         self.spindle_sel = number;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A state with every field `CanonState` reads set from `v` (small values, repeats
+    /// likely, so that equal and unequal pairs both occur; NaN included).
+    fn state(v: &[u8]) -> ModalState {
+        let cfg = MachineConfig::default_machine();
+        let mut st = ModalState::new(&cfg, AxisPos::default());
+        let f = |b: u8| match b % 6 {
+            4 => f64::NAN,
+            5 => -0.0,
+            k => f64::from(k) - 1.0,
+        };
+        st.plane = [Plane::XY, Plane::ZX, Plane::YZ][v[0] as usize % 3];
+        st.inch = v[1] % 2 == 1;
+        st.feed_per_rev = v[2] % 2 == 1;
+        st.path_mode = [61, 63, 64][v[3] as usize % 3];
+        st.exact_stop_once = v[4] % 2 == 1;
+        st.path_tolerance = f(v[5]);
+        st.path_collinear = f(v[6]);
+        st.work_offset = v[7] as usize % 2;
+        st.work_offsets[1][v[8] as usize % MAX_AXES] = f(v[9]);
+        st.shift[v[10] as usize % MAX_AXES] = f(v[11]);
+        st.tool_loaded = (!v[12].is_multiple_of(3)).then_some(u32::from(v[12] % 3));
+        st.tool_length = [ToolLength::Off, ToolLength::Plus, ToolLength::Minus][v[13] as usize % 3];
+        st.h = u32::from(v[14] % 2);
+        st.tlo = f(v[15]);
+        st.tlo_in_pos = f(v[16]);
+        st.tool_axis = (!v[17].is_multiple_of(3)).then_some(v[17] as usize % 3);
+        st.comp = (!v[18].is_multiple_of(3)).then_some(CutterComp {
+            side: if v[18] % 3 == 1 {
+                crate::canon::CompSide::Left
+            } else {
+                crate::canon::CompSide::Right
+            },
+            d: u32::from(v[19] % 2),
+            radius: f(v[20]),
+        });
+        st
+    }
+
+    proptest! {
+        /// The comparison that decides whether an operation shares the last one's state
+        /// answers as building the state and comparing it would: every modal value the
+        /// state holds, changed, makes a new state.
+        #[test]
+        fn canon_state_is_answers_as_building_it_would(
+            a in proptest::collection::vec(0u8..12, 21),
+            changed in 0usize..21,
+            to in 0u8..12,
+        ) {
+            // Two states that differ (if at all) in one value.
+            let mut b = a.clone();
+            b[changed] = to;
+            let (sa, sb) = (state(&a), state(&b));
+            let built = sb.canon_state();
+            prop_assert_eq!(sa.canon_state_is(&built), sa.canon_state() == built);
+            prop_assert_eq!(sb.canon_state_is(&built), built == built.clone());
+        }
     }
 }

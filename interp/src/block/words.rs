@@ -203,7 +203,12 @@ impl Words {
         w.corner = None;
         w.dollar = None;
         w.m.clear();
-        w.args = [None; 26];
+        // Only the given letters hold a value (`given` is set with each one).
+        let mut given = w.given;
+        while given != 0 {
+            w.args[given.trailing_zeros() as usize] = None;
+            given &= given - 1;
+        }
         w.given = 0;
         w.used = 0;
         w.span = block

@@ -310,7 +310,7 @@ pub struct LinuxCncCycle {
 /// rule for what resets the runaway guard (G-code blocks and the C-like program's requests
 /// alike): messages, zero dwells and zero-length moves are not motion, so a loop of them
 /// ends as a runaway instead of spinning forever.
-pub fn makes_motion(ops: &[CanonOp], from: &AxisPos) -> bool {
+pub fn makes_motion<'a>(ops: impl IntoIterator<Item = &'a CanonOp>, from: &AxisPos) -> bool {
     let mut pos = *from;
     for op in ops {
         let end = match &op.kind {

@@ -94,13 +94,30 @@ impl Stage {
         self.end_run()
     }
 
-    /// Takes one programmed operation.
-    pub fn push(&mut self, op: CanonOp) -> Result<(), CompError> {
+    /// Takes `op` when it would pass unchanged (compensation off in it and in the stage,
+    /// nothing held or waiting): the caller lowers it where it lies instead of moving it
+    /// through the stage's queue. `false`: nothing was done, [`push`](Self::push) it.
+    pub fn pass_through(&mut self, op: &CanonOp) -> bool {
+        if self.run.is_some() || op.state.comp.is_some() || !self.out.is_empty() {
+            return false;
+        }
+        self.first_op(op);
+        self.follow(op);
+        true
+    }
+
+    /// Where the program is before its first operation.
+    fn first_op(&mut self, op: &CanonOp) {
         if self.prog.is_none() {
             let p = op.state.to_work(&self.start);
             self.prog = Some(p);
             self.tool = p;
         }
+    }
+
+    /// Takes one programmed operation.
+    pub fn push(&mut self, op: CanonOp) -> Result<(), CompError> {
+        self.first_op(&op);
         let now = op.state.comp;
         if let Some(run) = &self.run
             && (now != Some(run.comp) || op.state.plane != run.plane)
@@ -148,9 +165,14 @@ impl Stage {
 
     /// An operation given out unchanged (no compensation on).
     fn pass(&mut self, op: CanonOp) {
-        self.track(&op);
-        self.tool = self.prog.unwrap_or_default();
+        self.follow(&op);
         self.out.push_back(op);
+    }
+
+    /// The tool follows the program through `op` (compensation off).
+    fn follow(&mut self, op: &CanonOp) {
+        self.track(op);
+        self.tool = self.prog.unwrap_or_default();
     }
 
     /// Follows the programmed position through `op`.

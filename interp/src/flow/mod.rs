@@ -85,12 +85,9 @@ struct Flow {
     /// Segments of the last operation not given out yet, each with the state of the
     /// operation it was lowered from (its work → machine offset).
     lowered: VecDeque<(Segment, Arc<CanonState>)>,
-    /// Where one compensated operation is lowered into (kept: no allocation per block).
-    lower_buf: Vec<Segment>,
-    /// The last block's words and operations (emptied), reused by the next block so that a
-    /// long program does not allocate them per block (boxed: moved in and out per block).
+    /// The last block's words (emptied), reused by the next block so that a long program
+    /// does not allocate them per block (boxed: moved in and out per block).
     spare_words: Option<Box<Words>>,
-    spare_ops: Vec<CanonOp>,
     /// Cutter radius compensation between the canonical operations and lowering.
     comp: comp::Stage,
     /// The machine indices of X, Y and Z (arc centres), for lowering.
@@ -168,9 +165,7 @@ impl Interpreter {
                 last_n: None,
                 queue: VecDeque::new(),
                 lowered: VecDeque::new(),
-                lower_buf: Vec::new(),
                 spare_words: None,
-                spare_ops: Vec::new(),
                 comp: comp::Stage::new(cfg.interp.cutter_comp, xyz_indices(cfg)),
                 xyz: xyz_indices(cfg),
                 done: true,
@@ -404,7 +399,7 @@ impl Interpreter {
     /// each ran under), `Ok(None)` at the end of the program, or the error that ends it.
     pub fn next_canon(&mut self) -> Result<Option<CanonOp>, NcError> {
         Ok(match self.next_op(false)? {
-            Pulled::Op(op) => Some(op),
+            Pulled::Op(op) => Some(*op),
             Pulled::Kept | Pulled::End => None,
         })
     }
@@ -416,14 +411,34 @@ impl Interpreter {
     /// hold it back until the next element shows how the two meet; what it gives out is
     /// lowered. With `keep` the operation itself is not given back (no copy of it is made).
     fn next_op(&mut self, keep: bool) -> Result<Pulled, NcError> {
-        let op = self.pull_op().inspect_err(|_| {
+        let ready = self.ready_op().inspect_err(|_| {
             // The error is the last item: what compensation holds back is dropped.
             self.flow.comp.reset(self.m.state.pos);
         })?;
-        let (fed, pulled) = match op {
-            Some(op) if keep => (self.flow.comp.push(op), Pulled::Kept),
-            Some(op) => (self.flow.comp.push(op.clone()), Pulled::Op(op)),
-            None => (self.flow.comp.finish(), Pulled::End),
+        let before = self.flow.lowered.len();
+        let f = &mut self.flow;
+        let (fed, pulled) = match ready {
+            Ready::Queued if keep && f.queue.front().is_some_and(|op| f.comp.pass_through(op)) => {
+                // Lowered where it waits, then dropped there: the usual operation is not
+                // moved at all.
+                if let Some(op) = f.queue.front() {
+                    lower::lower_with_state(op, f.xyz, &mut f.lowered);
+                }
+                f.queue.drain(..1);
+                (Ok(()), Pulled::Kept)
+            }
+            ready => {
+                let op = match ready {
+                    Ready::Queued => f.queue.pop_front(),
+                    Ready::Op(op) => Some(op),
+                    Ready::End => None,
+                };
+                match op {
+                    Some(op) if keep => (f.comp.push(op), Pulled::Kept),
+                    Some(op) => (f.comp.push(op.clone()), Pulled::Op(Box::new(op))),
+                    None => (f.comp.finish(), Pulled::End),
+                }
+            }
         };
         if let Err(e) = fed {
             self.flow.done = true;
@@ -431,16 +446,9 @@ impl Interpreter {
             self.flow.comp.reset(self.m.state.pos);
             return Err(self.comp_error(e));
         }
-        let before = self.flow.lowered.len();
-        let mut segments = std::mem::take(&mut self.flow.lower_buf);
         while let Some(c) = self.flow.comp.pop() {
-            lower::lower(&c, self.flow.xyz, &mut segments);
-            let state = &c.state;
-            self.flow
-                .lowered
-                .extend(segments.drain(..).map(|s| (s, state.clone())));
+            lower::lower_with_state(&c, self.flow.xyz, &mut self.flow.lowered);
         }
-        self.flow.lower_buf = segments;
         for (s, _) in self.flow.lowered.range(before..) {
             self.m.account(s);
         }
@@ -469,20 +477,25 @@ impl Interpreter {
         comp_error_at(src, e)
     }
 
-    fn pull_op(&mut self) -> Result<Option<CanonOp>, NcError> {
+    /// Runs the program until its next operation is ready: at the front of the queue, or
+    /// from the C-like program, or none (the end).
+    fn ready_op(&mut self) -> Result<Ready, NcError> {
         if let Some(e) = self.flow.load_error.take() {
             self.flow.done = true;
             return Err(NcError::new(&self.flow.main_src, Span::default(), e));
         }
         if self.hll.active() {
-            return self.hll.next_op(&mut self.m);
+            return Ok(match self.hll.next_op(&mut self.m)? {
+                Some(op) => Ready::Op(op),
+                None => Ready::End,
+            });
         }
         loop {
-            if let Some(op) = self.flow.queue.pop_front() {
-                return Ok(Some(op));
+            if !self.flow.queue.is_empty() {
+                return Ok(Ready::Queued);
             }
             if self.flow.done {
-                return Ok(None);
+                return Ok(Ready::End);
             }
             if let Err(e) = self.step() {
                 self.flow.done = true;
@@ -584,10 +597,10 @@ impl Interpreter {
         }
         let from = self.m.state.pos;
         let sets_g92 = linuxcnc && words.g.iter().any(|g| g.0 == 92);
-        let spare = std::mem::take(&mut self.flow.spare_ops);
-        let (mut out, end) = self.m.execute(&unit.src, &mut words, line, spare)?;
+        let first = self.flow.queue.len();
+        let end = (self.m).execute_into(&unit.src, &mut words, line, &mut self.flow.queue)?;
         if let Some(kind) = wait {
-            out.push(crate::block::mcodes::wait_op(
+            self.flow.queue.push_back(crate::block::mcodes::wait_op(
                 &mut self.m,
                 kind,
                 &unit.src,
@@ -598,11 +611,9 @@ impl Interpreter {
         if sets_g92 {
             self.flow.g92_kept = self.m.state.shift;
         }
-        if canon::makes_motion(&out, &from) {
+        if canon::makes_motion(self.flow.queue.range(first..), &from) {
             self.flow.runaway.reset();
         }
-        self.flow.queue.extend(out.drain(..));
-        self.flow.spare_ops = out;
         if end {
             self.flow.done = true;
             return Ok(());
@@ -611,11 +622,22 @@ impl Interpreter {
     }
 }
 
+/// Where [`Interpreter::next_op`] finds the next operation.
+enum Ready {
+    /// At the front of the queue.
+    Queued,
+    /// Handed over by the C-like program.
+    Op(CanonOp),
+    /// The program has ended.
+    End,
+}
+
 /// What [`Interpreter::next_op`] did.
 #[derive(Debug)]
 enum Pulled {
-    /// The next operation (not kept).
-    Op(CanonOp),
+    /// The next operation (not kept; boxed: `next_op` returns a small value on the
+    /// segments' path).
+    Op(Box<CanonOp>),
     /// The next operation went through, its segments kept for `next_segment`.
     Kept,
     /// The program has ended.
@@ -816,6 +838,17 @@ mod tests {
         let e = it.next_segment().unwrap_err();
         assert_eq!(e.line, 2);
         assert_eq!(it.next_segment().unwrap(), None);
+    }
+
+    /// The quick overflow check of a block of plain moves looks at the move's own feed: in
+    /// G95 a finite F times a finite S may overflow (F and S alone are finite).
+    #[test]
+    fn a_g95_feed_that_overflows_is_an_error_at_f() {
+        let text = format!("G95 G1 S6000 F{} X1\n", "9".repeat(306));
+        let mut it = load(&text, Options::default());
+        let e = it.next_segment().unwrap_err();
+        assert!(e.message.contains("the feed overflows"), "{}", e.message);
+        assert_eq!(e.col, 14);
     }
 }
 

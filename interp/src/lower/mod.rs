@@ -4,10 +4,13 @@
 //! consumer of the canonical stream (the interpreter's segment API, a verifier, a
 //! post-processor's preview) gets the same segments.
 
+use std::collections::VecDeque;
+use std::sync::Arc;
+
 use cnc402_config::MachineConfig;
 use cnc402_motion::segment::{Segment, SegmentEnd, SegmentKind};
 
-use crate::canon::{CanonKind, CanonOp};
+use crate::canon::{CanonKind, CanonOp, CanonState};
 
 pub mod cycle;
 
@@ -53,6 +56,37 @@ pub fn lower(op: &CanonOp, xyz: [Option<usize>; 3], out: &mut impl Extend<Segmen
                         ends: SegmentEnd::ExactStop,
                     }),
             );
+        }
+    }
+}
+
+/// Lowers `op` into `out`, each segment with the operation's state (what the interpreter
+/// hands out): written in place, without an intermediate vector.
+pub(crate) fn lower_with_state(
+    op: &CanonOp,
+    xyz: [Option<usize>; 3],
+    out: &mut VecDeque<(Segment, Arc<CanonState>)>,
+) {
+    lower(
+        op,
+        xyz,
+        &mut WithState {
+            out,
+            state: &op.state,
+        },
+    );
+}
+
+/// Appends segments to the interpreter's queue with the state they were lowered under.
+struct WithState<'a> {
+    out: &'a mut VecDeque<(Segment, Arc<CanonState>)>,
+    state: &'a Arc<CanonState>,
+}
+
+impl Extend<Segment> for WithState<'_> {
+    fn extend<I: IntoIterator<Item = Segment>>(&mut self, segments: I) {
+        for s in segments {
+            self.out.push_back((s, self.state.clone()));
         }
     }
 }
