@@ -440,14 +440,28 @@ pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig)
 /// ```
 pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
     let mut o = String::with_capacity(160);
-    write_segment(&mut o, seg, cfg, None);
+    write_segment(&mut o, seg, cfg, None, None);
     o
 }
 
-/// [`segment_to_json`] appended to `o`; `file_json`: the source file's name already escaped.
-fn write_segment(o: &mut String, seg: &Segment, cfg: &MachineConfig, file_json: Option<&str>) {
+/// [`segment_to_json`] appended to `o`; `file_json`: the source file's name already escaped;
+/// `last`: the text of the numbers that repeat from one segment to the next, when kept.
+fn write_segment(
+    o: &mut String,
+    seg: &Segment,
+    cfg: &MachineConfig,
+    file_json: Option<&str>,
+    mut last: Option<&mut Repeated>,
+) {
     source_keys_with(o, "kind", kind_name(&seg.kind), &seg.source, file_json);
-    kind_keys(o, &seg.kind, cfg);
+    match (&seg.kind, last.as_deref_mut()) {
+        (SegmentKind::Linear { end, feed }, Some(last)) => {
+            axes_obj(o, "end", end, cfg);
+            o.push_str(",\"feed\":");
+            last.feed.write(o, *feed);
+        }
+        (kind, _) => kind_keys(o, kind, cfg),
+    }
     match seg.ends {
         SegmentEnd::ExactStop => o.push_str(",\"ends\":\"exact_stop\""),
         SegmentEnd::Continuous {
@@ -455,7 +469,10 @@ fn write_segment(o: &mut String, seg: &Segment, cfg: &MachineConfig, file_json: 
             collinear,
         } => {
             o.push_str(",\"ends\":\"continuous\",\"tolerance\":");
-            write_num(o, tolerance);
+            match last {
+                Some(last) => last.tolerance.write(o, tolerance),
+                None => write_num(o, tolerance),
+            }
             if collinear > 0.0 {
                 o.push_str(",\"collinear\":");
                 write_num(o, collinear);
@@ -465,9 +482,37 @@ fn write_segment(o: &mut String, seg: &Segment, cfg: &MachineConfig, file_json: 
     o.push('}');
 }
 
+/// The numbers most segments of a program share with the one before (the feed of a run of
+/// moves, the path tolerance), kept as text.
+#[derive(Default)]
+struct Repeated {
+    feed: NumText,
+    tolerance: NumText,
+}
+
+/// A number's [`write_num`] text, kept for as long as the same number comes again.
+#[derive(Default)]
+struct NumText {
+    /// The number's bits (-0 and 0 apart: their texts are the same anyway).
+    bits: u64,
+    text: String,
+}
+
+impl NumText {
+    /// Appends `v`'s text to `o`, made again only when `v` is not the last number.
+    fn write(&mut self, o: &mut String, v: f64) {
+        if self.text.is_empty() || v.to_bits() != self.bits {
+            self.text.clear();
+            write_num(&mut self.text, v);
+            self.bits = v.to_bits();
+        }
+        o.push_str(&self.text);
+    }
+}
+
 /// Writes segments as JSON Lines, as [`segment_to_json`] does, for a long dump: it remembers
-/// the last source file's escaped name (a program's segments share it), so each line costs
-/// no allocation and no second pass over the name.
+/// the last source file's escaped name (a program's segments share it), and the last feed's
+/// and tolerance's text, so each line costs no allocation and no second pass over them.
 ///
 /// ```
 /// use cnc402_config::MachineConfig;
@@ -490,6 +535,8 @@ fn write_segment(o: &mut String, seg: &Segment, cfg: &MachineConfig, file_json: 
 pub struct SegmentWriter {
     /// The last source file and its name as a JSON string literal.
     file: Option<(std::sync::Arc<str>, String)>,
+    /// The last feed and tolerance and their text.
+    last: Repeated,
 }
 
 impl SegmentWriter {
@@ -504,7 +551,7 @@ impl SegmentWriter {
             self.file = Some((file.clone(), json_str(file)));
         }
         let file_json = self.file.as_ref().map(|(_, j)| j.as_str());
-        write_segment(o, seg, cfg, file_json);
+        write_segment(o, seg, cfg, file_json, Some(&mut self.last));
         o.push('\n');
     }
 }
