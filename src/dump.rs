@@ -8,9 +8,11 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
 use crate::CliError;
 
-/// Items handed to the writer at a time: large enough that the channel costs nothing per
-/// block, small enough that the writer starts early and the batches stay in cache.
-const BATCH: usize = 256;
+/// Items handed to the writer at a time: large enough that the channel and the writer's
+/// wake-ups cost nothing per block (256 took 2,760 context switches on 200,000 blocks, 1,024
+/// about 800), small enough that the writer starts early and three batches stay small
+/// (a few hundred KiB).
+const BATCH: usize = 1024;
 /// Batches in circulation: one being filled, one being written, one waiting between.
 const BATCHES: usize = 3;
 /// The writer's text buffer: lines are gathered and written in pieces of about this size.
