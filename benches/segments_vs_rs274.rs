@@ -1,6 +1,7 @@
 //! End to end: `cnc402 segments FILE` against LinuxCNC's `rs274 -g FILE` on the same
 //! generated 200,000-block program, each a whole process writing to /dev/null, in one run;
-//! prints both times (best of 5) and the ratio. `cargo bench --bench segments_vs_rs274`
+//! prints both wall times (best of 5), their CPU times (user + sys, mean of the 5: `segments`
+//! writes on a second thread, so its CPU time may exceed its wall time) and the ratio. `cargo bench --bench segments_vs_rs274`
 //! (rs274 not installed: cnc402's time alone). Goal of issue 11: cnc402 10× faster.
 //! The program is the issue's CAM-like path: G1 blocks along a circle of radius 10 mm in
 //! 0.01 mm steps (4 decimals) at F3000 under G64 P0.01.
@@ -31,8 +32,36 @@ fn program(dir: &Path) -> PathBuf {
     path
 }
 
+/// User + system CPU seconds of this process's waited-for children (Linux: /proc/self/stat,
+/// in ticks of 1/100 s; elsewhere none).
+fn children_cpu() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // The fields after the command name `(…)`, from field 3 (state) on.
+    let rest = stat.get(stat.rfind(')')? + 1..)?;
+    let mut fields = rest.split_whitespace().skip(13);
+    let cutime: f64 = fields.next()?.parse().ok()?;
+    let cstime: f64 = fields.next()?.parse().ok()?;
+    Some((cutime + cstime) / 100.0)
+}
+
+/// Best wall time of `RUNS` runs of `cmd`, which must succeed, and their mean CPU time.
+fn best(make: impl FnMut() -> Command) -> (Duration, Option<f64>) {
+    let before = children_cpu();
+    let wall = best_wall(make);
+    let cpu = children_cpu()
+        .zip(before)
+        .map(|(a, b)| (a - b) / RUNS as f64);
+    (wall, cpu)
+}
+
+/// Prints `what`'s times.
+fn print_times(what: &str, (wall, cpu): (Duration, Option<f64>)) {
+    let cpu = cpu.map_or(String::new(), |c| format!(", CPU {c:.3} s"));
+    println!("{what}: {:.3} s{cpu}", wall.as_secs_f64());
+}
+
 /// Best wall time of `RUNS` runs of `cmd`, which must succeed.
-fn best(mut make: impl FnMut() -> Command) -> Duration {
+fn best_wall(mut make: impl FnMut() -> Command) -> Duration {
     (0..RUNS)
         .map(|_| {
             let t = Instant::now();
@@ -70,10 +99,10 @@ fn main() {
         c.arg("--config").arg(&config).arg("segments").arg(&file);
         c
     });
-    let per_block = ours.as_secs_f64() / BLOCKS as f64 * 1e6;
-    println!(
-        "cnc402 segments, {BLOCKS} blocks: {:.3} s ({per_block:.2} µs/block)",
-        ours.as_secs_f64()
+    let per_block = ours.0.as_secs_f64() / BLOCKS as f64 * 1e6;
+    print_times(
+        &format!("cnc402 segments, {BLOCKS} blocks ({per_block:.2} µs/block)"),
+        ours,
     );
     match find_rs274() {
         Some(rs274) => {
@@ -84,10 +113,10 @@ fn main() {
                 c.current_dir(&dir);
                 c
             });
-            println!("rs274 -g, same file: {:.3} s", theirs.as_secs_f64());
+            print_times("rs274 -g, same file", theirs);
             println!(
                 "ratio: cnc402 is {:.2}x as fast as rs274 -g (goal 10x)",
-                theirs.as_secs_f64() / ours.as_secs_f64()
+                theirs.0.as_secs_f64() / ours.0.as_secs_f64()
             );
         }
         None => println!("rs274 not found on PATH: no ratio (apt-get install linuxcnc-uspace)"),

@@ -17,6 +17,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cli_error;
+mod dump;
 mod home;
 mod inspect;
 mod pages;
@@ -25,6 +26,7 @@ mod run;
 mod test_cmd;
 mod vars;
 use cli_error::{CliError, exit};
+use dump::{Dump, dump};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -292,86 +294,4 @@ pub(crate) fn open_program(
         return Err(CliError::Io(format!("{}: is a directory", path.display())));
     }
     Ok(std::io::BufReader::with_capacity(1 << 16, file))
-}
-
-/// What `segments` and `canon` print.
-#[derive(Clone, Copy)]
-enum Dump {
-    Segments,
-    Canon,
-}
-
-/// Prints a program's segments or canonical operations as JSON Lines.
-fn dump(
-    cfg: &cnc402_config::MachineConfig,
-    program: &std::path::Path,
-    dialect: Option<cnc402_lang::Dialect>,
-    what: Dump,
-) -> Result<(), CliError> {
-    use std::io::Write;
-    // Read line by line: memory stays bounded whatever the program's length.
-    let file = open_program(program)?;
-    // The interpreter does no I/O: sub-programs, `#use` files and the variables file come
-    // from the file system through host_fs. A dump never writes the variables file.
-    let mut interp = cnc402_interp::host_fs::interpreter(
-        cfg,
-        cnc402_interp::Options::default(),
-        cnc402_interp::host_fs::VarsAccess::ReadOnly,
-    );
-    let name = program.display().to_string();
-    interp
-        .load_stream(name, Box::new(file), dialect)
-        .map_err(CliError::Program)?;
-    let stdout = std::io::stdout();
-    let mut out = std::io::BufWriter::new(stdout.lock());
-    let io = |e: std::io::Error| CliError::Io(e.to_string());
-    // An endless program with motion never ends: print what `run`'s dry run checks.
-    let mut printed = 0;
-    // Lines are gathered in one buffer and written in large pieces.
-    let mut text = String::with_capacity(1 << 16);
-    let mut writer = cnc402_interp::dump::SegmentWriter::default();
-    loop {
-        if printed == cnc402_runtime::feeder::DRY_RUN_MOVES {
-            out.write_all(text.as_bytes()).map_err(io)?;
-            out.flush().map_err(io)?;
-            eprintln!(
-                "note: printed the first {printed} lines, as many as `cnc402 run` checks before \
-                 motion; the program goes on past them"
-            );
-            return Ok(());
-        }
-        printed += 1;
-        let next = match what {
-            Dump::Segments => interp.with_next_segment(|s| writer.write_line(&mut text, s, cfg)),
-            Dump::Canon => interp.next_canon().map(|op| {
-                op.map(|op| {
-                    text.push_str(&cnc402_interp::dump::canon::canon_to_json(&op, cfg));
-                    text.push('\n');
-                })
-            }),
-        };
-        let more = match next {
-            Ok(more) => more,
-            Err(e) => {
-                // What came before the error is printed, as it always was.
-                out.write_all(text.as_bytes()).map_err(io)?;
-                return Err(CliError::Program(e));
-            }
-        };
-        if more.is_none() || text.len() >= (1 << 16) - 1024 {
-            out.write_all(text.as_bytes()).map_err(io)?;
-            text.clear();
-        }
-        if more.is_none() {
-            break;
-        }
-    }
-    out.flush().map_err(io)?;
-    if let Some(line) = interp.main_m99_line() {
-        eprintln!(
-            "note: M99 at line {line} ends the main program: `cnc402 run` (like a Fanuc \
-             control) starts it over there, endlessly; this is one pass"
-        );
-    }
-    Ok(())
 }

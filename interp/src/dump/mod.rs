@@ -31,6 +31,8 @@ use cnc402_config::MachineConfig;
 use crate::words::fmt_num;
 
 pub mod canon;
+#[cfg(test)]
+mod reference;
 use cnc402_motion::segment::{
     ArcDir, AxisPos, Plane, Segment, SegmentEnd, SegmentKind, Source, SpindleDir, StopKind,
     TapSegment,
@@ -87,37 +89,74 @@ pub fn write_num(o: &mut String, v: f64) {
         o.push('0');
         return;
     }
-    // The text is built in one buffer (fraction without its trailing zeros, point, whole
-    // part, sign) and pushed once.
     let neg = k < 0;
     let k = k.unsigned_abs();
-    let (whole, frac) = (k / 1_000_000, k % 1_000_000);
-    // The six fraction digits go last in three pairs; the text ends after the last one that
-    // is not 0 (or before the point, for a whole number).
-    let mut buf = [0u8; 32];
-    let mut at = buf.len() - 7;
-    let mut end = at;
+    let (whole, frac) = (k / 1_000_000, (k % 1_000_000) as usize);
+    // Sign, whole part, point and fraction without its trailing zeros, written straight
+    // into `o`'s spare room: below 1e9 (1e9 itself after rounding) that is at most
+    // 1 + 10 + 7 bytes.
+    let mut text = [0u8; WINDOW];
+    let mut at = usize::from(neg);
+    text[0] = b'-';
+    let whole_digits = whole.checked_ilog10().unwrap_or(0) as usize + 1;
+    at += whole_digits;
+    digits_before(&mut text, at, whole);
     if frac != 0 {
-        buf[at] = b'.';
-        for (i, v) in [frac / 10_000, frac / 100 % 100, frac % 100]
-            .into_iter()
-            .enumerate()
-        {
-            let v = v as usize;
-            buf[at + 1 + 2 * i] = PAIRS[2 * v];
-            buf[at + 2 + 2 * i] = PAIRS[2 * v + 1];
-        }
-        end = buf.len();
-        while buf[end - 1] == b'0' {
-            end -= 1;
-        }
+        let (a, b, c) = (frac / 10_000, frac / 100 % 100, frac % 100);
+        text[at] = b'.';
+        put_pair(&mut text, at + 1, a);
+        put_pair(&mut text, at + 3, b);
+        put_pair(&mut text, at + 5, c);
+        // The text ends after the last digit that is not 0.
+        let zeros = match (b, c) {
+            (_, c) if c != 0 => usize::from(c % 10 == 0),
+            (b, _) if b != 0 => 2 + usize::from(b % 10 == 0),
+            _ => 4 + usize::from(a % 10 == 0),
+        };
+        at += 7 - zeros;
     }
-    at = digits_before(&mut buf, at, whole);
-    if neg {
-        at -= 1;
-        buf[at] = b'-';
+    push_window(o, &text, 0, at);
+}
+
+/// How many bytes [`push_window`] copies at a time: more than any number it is given.
+const WINDOW: usize = 24;
+
+/// Appends `buf[at..at + len]` (`len` ≤ [`WINDOW`]) to `o` by copying the [`WINDOW`] bytes
+/// from `at` and cutting off the rest: a copy of a size known when compiling is a few
+/// moves, where one of a few bytes of a size known only at run time is a call to `memcpy`,
+/// and the window's ASCII check is a few word tests, not a loop. Callers fill `buf` with
+/// ASCII only (digits, sign, point, quotes, ASCII axis names) and leave a window after `at`.
+#[inline(always)]
+fn push_window(o: &mut String, buf: &[u8], at: usize, len: usize) {
+    let window = buf.get(at..).and_then(|b| b.first_chunk::<WINDOW>());
+    match window {
+        Some(window) if window.is_ascii() && len <= WINDOW => {
+            // SAFETY: the window is ASCII (checked just above), so `o` is valid UTF-8 after
+            // the copy and after the cut, which falls on one of the copied ASCII bytes.
+            let v = unsafe { o.as_mut_vec() };
+            let keep = v.len() + len;
+            v.extend_from_slice(window);
+            v.truncate(keep);
+        }
+        // Not reached with this module's callers; still right (and checked) if it were.
+        _ => push_ascii(o, buf.get(at..at + len).unwrap_or_default()),
     }
-    push_ascii(o, &buf[at..end]);
+}
+
+/// Appends the ASCII bytes `a` (a piece of known size: no call to `memcpy`, and the ASCII
+/// check is a word test); anything else is left out, as [`push_ascii`] does.
+#[inline(always)]
+fn push_array<const N: usize>(o: &mut String, a: &[u8; N]) {
+    if a.is_ascii() {
+        // SAFETY: ASCII bytes (checked just above) are valid UTF-8 on their own.
+        unsafe { o.as_mut_vec() }.extend_from_slice(a);
+    }
+}
+
+/// Writes `v` (< 100) as two digits at `buf[at..at + 2]`.
+#[inline(always)]
+fn put_pair(buf: &mut [u8], at: usize, v: usize) {
+    buf[at..at + 2].copy_from_slice(&PAIRS[2 * v..2 * v + 2]);
 }
 
 /// "00" to "99": two decimal digits at a time.
@@ -129,15 +168,20 @@ const PAIRS: &[u8; 200] = b"\
 8081828384858687888990919293949596979899";
 
 /// Writes `v`'s decimal digits into `buf` ending before `at`; returns where they start.
-fn digits_before(buf: &mut [u8; 32], mut at: usize, mut v: u64) -> usize {
-    loop {
-        at -= 1;
-        buf[at] = b'0' + (v % 10) as u8;
-        v /= 10;
-        if v == 0 {
-            return at;
-        }
+fn digits_before(buf: &mut [u8], mut at: usize, mut v: u64) -> usize {
+    while v >= 100 {
+        at -= 2;
+        put_pair(buf, at, (v % 100) as usize);
+        v /= 100;
     }
+    if v >= 10 {
+        at -= 2;
+        put_pair(buf, at, v as usize);
+    } else {
+        at -= 1;
+        buf[at] = b'0' + v as u8;
+    }
+    at
 }
 
 /// Appends ASCII bytes (digits, sign, point) to `o`.
@@ -163,9 +207,10 @@ pub fn json_str(s: &str) -> String {
 
 /// `v`'s decimal digits written onto `o` (what `{v}` prints, without the formatter).
 fn push_u64(o: &mut String, v: u64) {
-    let mut buf = [0u8; 32];
-    let at = digits_before(&mut buf, 32, v);
-    push_ascii(o, &buf[at..]);
+    // u64::MAX has 20 digits.
+    let mut buf = [b'0'; 20 + WINDOW];
+    let at = digits_before(&mut buf, 20, v);
+    push_window(o, &buf, at, 20 - at);
 }
 
 /// [`json_str`] written onto `o`.
@@ -193,12 +238,22 @@ pub(crate) fn axes_obj(o: &mut String, key: &str, end: &AxisPos, cfg: &MachineCo
     o.push_str(key);
     o.push_str("\":{");
     for (i, ax) in cfg.axes.iter().enumerate() {
-        if i > 0 {
-            o.push(',');
+        if ax.name.is_ascii() {
+            // `,"X":` (the first axis without its comma) as a piece of known size.
+            let name = ax.name as u8;
+            if i > 0 {
+                push_array(o, &[b',', b'"', name, b'"', b':']);
+            } else {
+                push_array(o, &[b'"', name, b'"', b':']);
+            }
+        } else {
+            if i > 0 {
+                o.push(',');
+            }
+            o.push('"');
+            o.push(ax.name);
+            o.push_str("\":");
         }
-        o.push('"');
-        o.push(ax.name);
-        o.push_str("\":");
         write_num(o, end[i]);
     }
     o.push('}');
@@ -278,14 +333,14 @@ pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig)
         }) => {
             axes_obj(o, "end", end, cfg);
             let name = |i: u8| cfg.axes.get(usize::from(i)).map_or('?', |a| a.name);
-            let _ = write!(
-                o,
-                ",\"feed\":{},\"tool\":\"{}\",\"spindle\":\"{}\",\"pitch\":{}",
-                num(*feed),
-                name(*tool),
-                name(*spindle),
-                num(*pitch)
-            );
+            o.push_str(",\"feed\":");
+            write_num(o, *feed);
+            o.push_str(",\"tool\":\"");
+            o.push(name(*tool));
+            o.push_str("\",\"spindle\":\"");
+            o.push(name(*spindle));
+            o.push_str("\",\"pitch\":");
+            write_num(o, *pitch);
         }
         SegmentKind::Arc {
             end,
@@ -296,23 +351,24 @@ pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig)
             feed,
         } => {
             axes_obj(o, "end", end, cfg);
-            let plane = match plane {
-                Plane::XY => "XY",
-                Plane::ZX => "ZX",
-                Plane::YZ => "YZ",
-            };
-            let dir = match dir {
-                ArcDir::Cw => "cw",
-                ArcDir::Ccw => "ccw",
-            };
-            let _ = write!(
-                o,
-                ",\"center\":{{\"X\":{},\"Y\":{},\"Z\":{}}},\"plane\":\"{plane}\",\"dir\":\"{dir}\",\"turns\":{turns},\"feed\":{}",
-                num(center[0]),
-                num(center[1]),
-                num(center[2]),
-                num(*feed)
-            );
+            o.push_str(",\"center\":{\"X\":");
+            write_num(o, center[0]);
+            o.push_str(",\"Y\":");
+            write_num(o, center[1]);
+            o.push_str(",\"Z\":");
+            write_num(o, center[2]);
+            o.push_str(match plane {
+                Plane::XY => "},\"plane\":\"XY\"",
+                Plane::ZX => "},\"plane\":\"ZX\"",
+                Plane::YZ => "},\"plane\":\"YZ\"",
+            });
+            o.push_str(match dir {
+                ArcDir::Cw => ",\"dir\":\"cw\",\"turns\":",
+                ArcDir::Ccw => ",\"dir\":\"ccw\",\"turns\":",
+            });
+            push_u64(o, u64::from(*turns));
+            o.push_str(",\"feed\":");
+            write_num(o, *feed);
         }
         SegmentKind::Dwell { seconds } => {
             let _ = write!(o, ",\"seconds\":{}", num(*seconds));
@@ -384,14 +440,28 @@ pub(crate) fn kind_keys(o: &mut String, kind: &SegmentKind, cfg: &MachineConfig)
 /// ```
 pub fn segment_to_json(seg: &Segment, cfg: &MachineConfig) -> String {
     let mut o = String::with_capacity(160);
-    write_segment(&mut o, seg, cfg, None);
+    write_segment(&mut o, seg, cfg, None, None);
     o
 }
 
-/// [`segment_to_json`] appended to `o`; `file_json`: the source file's name already escaped.
-fn write_segment(o: &mut String, seg: &Segment, cfg: &MachineConfig, file_json: Option<&str>) {
+/// [`segment_to_json`] appended to `o`; `file_json`: the source file's name already escaped;
+/// `last`: the text of the numbers that repeat from one segment to the next, when kept.
+fn write_segment(
+    o: &mut String,
+    seg: &Segment,
+    cfg: &MachineConfig,
+    file_json: Option<&str>,
+    mut last: Option<&mut Repeated>,
+) {
     source_keys_with(o, "kind", kind_name(&seg.kind), &seg.source, file_json);
-    kind_keys(o, &seg.kind, cfg);
+    match (&seg.kind, last.as_deref_mut()) {
+        (SegmentKind::Linear { end, feed }, Some(last)) => {
+            axes_obj(o, "end", end, cfg);
+            o.push_str(",\"feed\":");
+            last.feed.write(o, *feed);
+        }
+        (kind, _) => kind_keys(o, kind, cfg),
+    }
     match seg.ends {
         SegmentEnd::ExactStop => o.push_str(",\"ends\":\"exact_stop\""),
         SegmentEnd::Continuous {
@@ -399,7 +469,10 @@ fn write_segment(o: &mut String, seg: &Segment, cfg: &MachineConfig, file_json: 
             collinear,
         } => {
             o.push_str(",\"ends\":\"continuous\",\"tolerance\":");
-            write_num(o, tolerance);
+            match last {
+                Some(last) => last.tolerance.write(o, tolerance),
+                None => write_num(o, tolerance),
+            }
             if collinear > 0.0 {
                 o.push_str(",\"collinear\":");
                 write_num(o, collinear);
@@ -409,9 +482,37 @@ fn write_segment(o: &mut String, seg: &Segment, cfg: &MachineConfig, file_json: 
     o.push('}');
 }
 
+/// The numbers most segments of a program share with the one before (the feed of a run of
+/// moves, the path tolerance), kept as text.
+#[derive(Default)]
+struct Repeated {
+    feed: NumText,
+    tolerance: NumText,
+}
+
+/// A number's [`write_num`] text, kept for as long as the same number comes again.
+#[derive(Default)]
+struct NumText {
+    /// The number's bits (-0 and 0 apart: their texts are the same anyway).
+    bits: u64,
+    text: String,
+}
+
+impl NumText {
+    /// Appends `v`'s text to `o`, made again only when `v` is not the last number.
+    fn write(&mut self, o: &mut String, v: f64) {
+        if self.text.is_empty() || v.to_bits() != self.bits {
+            self.text.clear();
+            write_num(&mut self.text, v);
+            self.bits = v.to_bits();
+        }
+        o.push_str(&self.text);
+    }
+}
+
 /// Writes segments as JSON Lines, as [`segment_to_json`] does, for a long dump: it remembers
-/// the last source file's escaped name (a program's segments share it), so each line costs
-/// no allocation and no second pass over the name.
+/// the last source file's escaped name (a program's segments share it), and the last feed's
+/// and tolerance's text, so each line costs no allocation and no second pass over them.
 ///
 /// ```
 /// use cnc402_config::MachineConfig;
@@ -434,6 +535,8 @@ fn write_segment(o: &mut String, seg: &Segment, cfg: &MachineConfig, file_json: 
 pub struct SegmentWriter {
     /// The last source file and its name as a JSON string literal.
     file: Option<(std::sync::Arc<str>, String)>,
+    /// The last feed and tolerance and their text.
+    last: Repeated,
 }
 
 impl SegmentWriter {
@@ -448,7 +551,7 @@ impl SegmentWriter {
             self.file = Some((file.clone(), json_str(file)));
         }
         let file_json = self.file.as_ref().map(|(_, j)| j.as_str());
-        write_segment(o, seg, cfg, file_json);
+        write_segment(o, seg, cfg, file_json, Some(&mut self.last));
         o.push('\n');
     }
 }
