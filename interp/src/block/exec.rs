@@ -426,7 +426,7 @@ impl Exec<'_> {
     }
 
     fn check_groups(&self) -> Result<(), NcError> {
-        let g = &self.w.g;
+        let g = self.w.g();
         for (i, &(code, grp, span)) in g.iter().enumerate() {
             if let Some(&(c0, _, _)) = g[..i].iter().find(|x| x.1 == grp) {
                 return Err(self.err(
@@ -1160,7 +1160,7 @@ impl Exec<'_> {
     }
 
     fn motion(&mut self) -> Result<(), NcError> {
-        let g53 = self.w.g.iter().find(|g| g.0 == 53).map(|g| g.2);
+        let g53 = self.w.g().iter().find(|g| g.0 == 53).map(|g| g.2);
         self.apply_motion_code();
         if let Some((code, span)) = self.w.g_of(GGroup::Cycle)
             && let Some(c) = Cycle::from_code(code)
