@@ -1160,7 +1160,11 @@ impl Exec<'_> {
     }
 
     fn motion(&mut self) -> Result<(), NcError> {
-        let g53 = self.w.g().iter().find(|g| g.0 == 53).map(|g| g.2);
+        // One code of the group at most (check_groups): G53 is the block's non-modal code.
+        let g53 = match self.w.g_of(GGroup::NonModal) {
+            Some((53, span)) => Some(span),
+            _ => None,
+        };
         self.apply_motion_code();
         if let Some((code, span)) = self.w.g_of(GGroup::Cycle)
             && let Some(c) = Cycle::from_code(code)

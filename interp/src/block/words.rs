@@ -109,14 +109,23 @@ pub fn g_name(code: u32) -> String {
 
 /// The modal group of G code `code` (see [`DECIMAL_G`] for `G90.1` and the like), or the
 /// reason it cannot be run.
+#[inline]
 pub fn g_group(code: u32) -> Result<GGroup, String> {
+    // The motion codes, in nearly every block, answered inline (the other codes' answer is
+    // returned through memory).
+    match code {
+        0..=3 => Ok(GGroup::Motion),
+        _ => other_g_group(code),
+    }
+}
+
+fn other_g_group(code: u32) -> Result<GGroup, String> {
     use GGroup::*;
     if code >= DECIMAL_G {
         return decimal_g_group(code);
     }
     Ok(match code {
         4 | 10 | 28..=30 | 53 | 92 => NonModal,
-        0..=3 => Motion,
         17..=19 => Plane,
         90 | 91 => Distance,
         94 | 95 => FeedMode,
