@@ -808,6 +808,10 @@ impl Exec<'_> {
     }
 
     fn m_before_motion(&mut self) -> Result<(), NcError> {
+        if self.w.m.is_empty() {
+            // Most blocks: no copy of the (empty) list, no coolant event.
+            return Ok(());
+        }
         let ms = self.w.m.clone();
         let mut coolant = false;
         for (code, span) in ms {
@@ -851,6 +855,9 @@ impl Exec<'_> {
     }
 
     fn m_after_motion(&mut self) {
+        if self.w.m.is_empty() {
+            return;
+        }
         let ms = self.w.m.clone();
         for (code, _) in ms {
             let kind = match code {
