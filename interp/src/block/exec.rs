@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use cnc402_config::{MAX_SPINDLES, MachineConfig};
+use cnc402_config::{MAX_AXES, MAX_SPINDLES, MachineConfig};
 use cnc402_lang::ast::{Comment, Line, Span};
 use cnc402_lang::{Dialect, NcError, SourceFile};
 use cnc402_motion::segment::{ArcDir, AxisPos, Plane, SegmentKind, Source, SpindleDir, StopKind};
@@ -56,14 +56,28 @@ pub(crate) struct AxisMap {
     pub spindles: [Option<usize>; MAX_SPINDLES],
     /// An axis named C (else a plain C in a G1 block may be a chamfer).
     pub c: Option<usize>,
+    /// Each axis's soft limits widened by the 1e-9 every target is allowed past them
+    /// (±∞ for an axis without limits), read in one place for each target.
+    pub limits: [(f64, f64); MAX_AXES],
+    /// How many of `limits` are configured axes.
+    pub n_axes: usize,
 }
 
 impl AxisMap {
     pub(crate) fn new(cfg: &MachineConfig) -> AxisMap {
+        let mut limits = [(f64::NEG_INFINITY, f64::INFINITY); MAX_AXES];
+        let n_axes = cfg.axes.len().min(MAX_AXES);
+        for (l, ax) in limits.iter_mut().zip(&cfg.axes) {
+            if let Some((lo, hi)) = ax.soft_limits {
+                *l = (lo - 1e-9, hi + 1e-9);
+            }
+        }
         AxisMap {
             xyz: crate::lower::xyz_indices(cfg),
             spindles: cfg.spindle_axes(),
             c: cfg.axis_index('C'),
+            limits,
+            n_axes,
         }
     }
 }
@@ -426,7 +440,7 @@ impl Exec<'_> {
     }
 
     fn check_groups(&self) -> Result<(), NcError> {
-        let g = &self.w.g;
+        let g = self.w.g();
         for (i, &(code, grp, span)) in g.iter().enumerate() {
             if let Some(&(c0, _, _)) = g[..i].iter().find(|x| x.1 == grp) {
                 return Err(self.err(
@@ -808,6 +822,10 @@ impl Exec<'_> {
     }
 
     fn m_before_motion(&mut self) -> Result<(), NcError> {
+        if self.w.m.is_empty() {
+            // Most blocks: no copy of the (empty) list, no coolant event.
+            return Ok(());
+        }
         let ms = self.w.m.clone();
         let mut coolant = false;
         for (code, span) in ms {
@@ -851,6 +869,9 @@ impl Exec<'_> {
     }
 
     fn m_after_motion(&mut self) {
+        if self.w.m.is_empty() {
+            return;
+        }
         let ms = self.w.m.clone();
         for (code, _) in ms {
             let kind = match code {
@@ -971,6 +992,16 @@ impl Exec<'_> {
     /// Soft-limit check of a target, before the segment exists. `hint`: words to blame for an
     /// axis whose own word is not in the block.
     pub fn check_limits(&self, end: &AxisPos, hint: &[char]) -> Result<(), NcError> {
+        let n = self.map.n_axes;
+        // Every target inside (the usual answer), from the limits as `AxisMap` holds them:
+        // ±∞ where an axis has none, which no target (nor NaN) is past.
+        let outside = |i: usize| {
+            let (lo, hi) = self.map.limits[i];
+            end[i] < lo || end[i] > hi
+        };
+        if !(0..n).any(outside) {
+            return Ok(());
+        }
         for (i, ax) in self.cfg.axes.iter().enumerate() {
             let Some((lo, hi)) = ax.soft_limits else {
                 continue;
@@ -1160,7 +1191,11 @@ impl Exec<'_> {
     }
 
     fn motion(&mut self) -> Result<(), NcError> {
-        let g53 = self.w.g.iter().find(|g| g.0 == 53).map(|g| g.2);
+        // One code of the group at most (check_groups): G53 is the block's non-modal code.
+        let g53 = match self.w.g_of(GGroup::NonModal) {
+            Some((53, span)) => Some(span),
+            _ => None,
+        };
         self.apply_motion_code();
         if let Some((code, span)) = self.w.g_of(GGroup::Cycle)
             && let Some(c) = Cycle::from_code(code)

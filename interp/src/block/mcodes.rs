@@ -24,7 +24,7 @@ pub(crate) fn macro_calls(
     src: &SourceFile,
     w: &mut Words,
 ) -> Result<(), NcError> {
-    if w.g.iter().any(|g| g.1 == GGroup::MacroCall) {
+    if w.g().iter().any(|g| g.1 == GGroup::MacroCall) {
         // In a G65/G66 block M is argument #13, not a code.
         return Ok(());
     }
@@ -59,7 +59,7 @@ pub(crate) fn macro_calls(
     }
     w.m.retain(|m| m.0 != code);
     if args {
-        w.g.push((65, GGroup::MacroCall, span));
+        w.push_g(65, GGroup::MacroCall, span);
     } else {
         w.m.push((98, span));
     }
@@ -229,7 +229,7 @@ pub(crate) fn wait_mcode(
     if dialect == Dialect::LinuxCnc {
         return Ok(None);
     }
-    if w.g.iter().any(|g| g.1 == GGroup::MacroCall) {
+    if w.g().iter().any(|g| g.1 == GGroup::MacroCall) {
         return Ok(None);
     }
     let is_wait = |c: u32| (first..=last).contains(&c) && !cfg.mcodes.contains_key(&c);

@@ -56,6 +56,31 @@ pub enum GGroup {
     Cancel(u8),
 }
 
+impl GGroup {
+    /// The group's bit in a set of groups (every [`Cancel`](GGroup::Cancel) shares one).
+    pub const fn bit(self) -> u32 {
+        use GGroup::*;
+        1 << match self {
+            NonModal => 0,
+            Motion => 1,
+            Plane => 2,
+            Distance => 3,
+            ArcDistance => 4,
+            FeedMode => 5,
+            Units => 6,
+            Cycle => 7,
+            ReturnMode => 8,
+            ToolLength => 9,
+            WorkOffset => 10,
+            PathMode => 11,
+            ExactStopOnce => 12,
+            CutterComp => 13,
+            MacroCall => 14,
+            Cancel(_) => 15,
+        }
+    }
+}
+
 /// G codes with one decimal (`G90.1`) are numbered `DECIMAL_G + 10·whole + tenth`: a code
 /// stays one `u32` that `match` takes plainly, and never equals a whole code (those are at
 /// most 9999). Write them with [`g_dec`]; print any code with [`g_name`].
@@ -84,14 +109,23 @@ pub fn g_name(code: u32) -> String {
 
 /// The modal group of G code `code` (see [`DECIMAL_G`] for `G90.1` and the like), or the
 /// reason it cannot be run.
+#[inline]
 pub fn g_group(code: u32) -> Result<GGroup, String> {
+    // The motion codes, in nearly every block, answered inline (the other codes' answer is
+    // returned through memory).
+    match code {
+        0..=3 => Ok(GGroup::Motion),
+        _ => other_g_group(code),
+    }
+}
+
+fn other_g_group(code: u32) -> Result<GGroup, String> {
     use GGroup::*;
     if code >= DECIMAL_G {
         return decimal_g_group(code);
     }
     Ok(match code {
         4 | 10 | 28..=30 | 53 | 92 => NonModal,
-        0..=3 => Motion,
         17..=19 => Plane,
         90 | 91 => Distance,
         94 | 95 => FeedMode,
@@ -143,8 +177,12 @@ fn decimal_g_group(code: u32) -> Result<GGroup, String> {
 /// The words of one block.
 #[derive(Debug)]
 pub struct Words {
-    /// G codes in source order, with their group.
-    pub g: Vec<(u32, GGroup, Span)>,
+    /// G codes in source order, with their group (read with [`g`](Self::g), added with
+    /// [`push_g`](Self::push_g), which keeps `groups` with them).
+    g: Vec<(u32, GGroup, Span)>,
+    /// Bit [`GGroup::bit`] of each group of `g`: a block asks for a dozen groups and has
+    /// one or two, so most questions are answered without looking at `g`.
+    groups: u32,
     /// The corner word `,R` (`'R'`) or `,C` (`'C'`) of Fanuc's corner rounding and
     /// chamfer, if the block has one; taken (set to `None`) by the code that uses it.
     pub corner: Option<(char, Arg)>,
@@ -178,6 +216,7 @@ impl Words {
     ) -> Result<Words, NcError> {
         let mut w = Words {
             g: Vec::new(),
+            groups: 0,
             corner: None,
             dollar: None,
             m: Vec::new(),
@@ -200,6 +239,7 @@ impl Words {
     ) -> Result<(), NcError> {
         let w = self;
         w.g.clear();
+        w.groups = 0;
         w.corner = None;
         w.dollar = None;
         w.m.clear();
@@ -239,7 +279,7 @@ impl Words {
                 'G' if decimal_g_code(v).is_some() => {
                     let code = decimal_g_code(v).unwrap_or_default();
                     let grp = g_group(code).map_err(here)?;
-                    w.g.push((code, grp, word.span));
+                    w.push_g(code, grp, word.span);
                 }
                 'G' | 'M' => {
                     let l = word.letter;
@@ -252,7 +292,7 @@ impl Words {
                     })?;
                     if l == 'G' {
                         let grp = g_group(code).map_err(here)?;
-                        w.g.push((code, grp, word.span));
+                        w.push_g(code, grp, word.span);
                     } else {
                         w.m.push((code, word.span));
                     }
@@ -357,8 +397,22 @@ impl Words {
             .min_by_key(|(_, a)| a.span.start)
     }
 
+    /// The block's G codes in source order, with their group.
+    pub fn g(&self) -> &[(u32, GGroup, Span)] {
+        &self.g
+    }
+
+    /// Adds G code `code` of `group` at `span` to the block's G codes.
+    pub fn push_g(&mut self, code: u32, group: GGroup, span: Span) {
+        self.g.push((code, group, span));
+        self.groups |= group.bit();
+    }
+
     /// The G code of `group` in this block, if any (the caller has checked there is at most one).
     pub fn g_of(&self, group: GGroup) -> Option<(u32, Span)> {
+        if self.groups & group.bit() == 0 {
+            return None;
+        }
         self.g
             .iter()
             .find(|(_, g, _)| *g == group)
@@ -417,6 +471,58 @@ mod tests {
         match &p.lines[0].kind {
             LineKind::Block(b) => Words::collect(&src, b),
             k => panic!("not a block: {k:?}"),
+        }
+    }
+
+    /// Every group of the block is found by `g_of` as a search of the codes finds it, also
+    /// a group added after collecting and after the words are collected again (the group
+    /// set is a filter in front of the search: a bit not set or not cleared shows here).
+    #[test]
+    fn group_set_answers_as_searching_the_codes() {
+        use GGroup::*;
+        let all = [
+            NonModal,
+            Motion,
+            Plane,
+            Distance,
+            ArcDistance,
+            FeedMode,
+            Units,
+            Cycle,
+            ReturnMode,
+            ToolLength,
+            WorkOffset,
+            PathMode,
+            ExactStopOnce,
+            CutterComp,
+            MacroCall,
+            Cancel(11),
+            Cancel(16),
+            Cancel(17),
+        ];
+        let search =
+            |w: &Words, grp: GGroup| w.g().iter().find(|g| g.1 == grp).map(|&(c, _, s)| (c, s));
+        let blocks = [
+            "G0 G90 X1",
+            "G17 G21 G40 G49 G54 G64 G80 G94 G98 G91.1",
+            "G4 P1",
+            "G50 G69 G15 G9 G43 H1",
+            "G18 G20 G61 G95 G99 G83 Z-1 R1 Q1",
+            "X1",
+        ];
+        let mut w = words(blocks[0]).unwrap();
+        for t in blocks {
+            let s2 = SourceFile::new("w", t);
+            let p = cnc402_lang::parse(&s2).expect("parses");
+            let LineKind::Block(b) = &p.lines[0].kind else {
+                panic!("not a block")
+            };
+            w.collect_again(&s2, b, &mut eval::NoVars).unwrap();
+            for grp in all {
+                assert_eq!(w.g_of(grp), search(&w, grp), "{t}: {grp:?}");
+            }
+            w.push_g(65, MacroCall, Span::default());
+            assert_eq!(w.g_of(MacroCall), search(&w, MacroCall), "{t} + G65");
         }
     }
 

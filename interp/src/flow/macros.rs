@@ -514,7 +514,7 @@ impl Interpreter {
         w: &mut Words,
         ijk: &[(char, MVal, Span)],
     ) -> Result<Option<After>, NcError> {
-        if let Some(&(code, _, gspan)) = w.g.iter().find(|g| g.1 == GGroup::MacroCall) {
+        if let Some(&(code, _, gspan)) = w.g().iter().find(|g| g.1 == GGroup::MacroCall) {
             self.macro_call(unit, w, ijk, code, gspan)?;
             return Ok(None);
         }
@@ -555,7 +555,7 @@ impl Interpreter {
         gspan: Span,
     ) -> Result<(), NcError> {
         let err = |span: Span, m: String| NcError::new(&unit.src, span, m);
-        if let Some(other) = w.g.iter().find(|g| g.2 != gspan) {
+        if let Some(other) = w.g().iter().find(|g| g.2 != gspan) {
             return Err(err(
                 other.2,
                 format!("G{} cannot share a block with G{code}", other.0),

@@ -596,7 +596,7 @@ impl Interpreter {
             self.flow.last_m = Some(f64::from(m.0));
         }
         let from = self.m.state.pos;
-        let sets_g92 = linuxcnc && words.g.iter().any(|g| g.0 == 92);
+        let sets_g92 = linuxcnc && words.g().iter().any(|g| g.0 == 92);
         let first = self.flow.queue.len();
         let end = (self.m).execute_into(&unit.src, &mut words, line, &mut self.flow.queue)?;
         if let Some(kind) = wait {

@@ -385,7 +385,7 @@ impl Running {
             return Ok(());
         };
         let mut w = Words::collect(&src, b)?;
-        if let Some(g) = w.g.iter().find(|g| g.1 == GGroup::MacroCall) {
+        if let Some(g) = w.g().iter().find(|g| g.1 == GGroup::MacroCall) {
             return Err(NcError::new(
                 &src,
                 g.2,
