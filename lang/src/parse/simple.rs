@@ -134,6 +134,80 @@ pub(crate) fn scan(
     Some((n, count))
 }
 
+/// What [`scan`] says of `b` (`Some(true)`: a plain block with an `N` number or a word,
+/// `Some(false)`: an empty one, `None`: no plain block), read through a state table for the
+/// lines CAM writes most (words and spaces, no `N`, no comment); a line the table cannot
+/// tell is read by [`scan`]. The load pass asks it of every line of a program.
+pub(crate) fn classify(b: &[u8]) -> Option<bool> {
+    // No early exit: `ASK` keeps itself, and a line that reaches it is read again anyway.
+    let mut state = BETWEEN;
+    for &c in b {
+        state = STEP[(usize::from(state & 15) << 8) | usize::from(c)];
+    }
+    if matches!(state & !SEEN, BETWEEN | INT | FRAC) {
+        Some(state & SEEN != 0)
+    } else {
+        classify_by_scan(b)
+    }
+}
+
+/// [`classify`] by the full [`scan`] (also what [`classify`] is tested against).
+pub(crate) fn classify_by_scan(b: &[u8]) -> Option<bool> {
+    let (n, words) = scan(b, |_| {}, |_| {})?;
+    Some(n.is_some() || words > 0)
+}
+
+// The states of [`classify`]: between words (or at the start), after an address letter,
+// after its sign, after a point with no digit yet, in the integer digits, in the fraction;
+// `ASK`: the table cannot tell, [`scan`] reads the line. `SEEN` is added once a word began.
+const BETWEEN: u8 = 0;
+const LETTER: u8 = 1;
+const SIGN: u8 = 2;
+const POINT: u8 = 3;
+const INT: u8 = 4;
+const FRAC: u8 = 5;
+const ASK: u8 = 6;
+const SEEN: u8 = 8;
+
+/// The state after `state` (one of the above, without `SEEN`) reads byte `c`, as [`scan`]
+/// reads a word: a letter (not `N`/`O`), spaces, a sign, digits with one point and at least
+/// one digit, then a space, the next letter or the end. Everything else asks.
+const fn next_state(state: u8, c: u8) -> u8 {
+    let letter = c.is_ascii_alphabetic() && !matches!(c, b'N' | b'n' | b'O' | b'o');
+    match (state, c) {
+        (BETWEEN | INT | FRAC, b' ' | b'\t') => BETWEEN,
+        (LETTER, b' ' | b'\t') => LETTER,
+        (BETWEEN | INT | FRAC, _) if letter => LETTER,
+        (LETTER | SIGN | INT, b'0'..=b'9') => INT,
+        (LETTER | SIGN, b'.') => POINT,
+        (LETTER, b'+' | b'-') => SIGN,
+        (POINT | FRAC, b'0'..=b'9') | (INT, b'.') => FRAC,
+        _ => ASK,
+    }
+}
+
+/// [`next_state`] of every state (with and without `SEEN`) and byte, one row of 256 a state.
+static STEP: [u8; 16 * 256] = {
+    let mut t = [ASK; 16 * 256];
+    let mut i = 0;
+    while i < t.len() {
+        let (state, c) = ((i >> 8) as u8, i as u8);
+        let base = state & !SEEN;
+        if base < ASK {
+            let next = next_state(base, c);
+            t[i] = if next == ASK {
+                ASK
+            } else if next == LETTER {
+                next | SEEN
+            } else {
+                next | (state & SEEN)
+            };
+        }
+        i += 1;
+    }
+    t
+};
+
 /// The [`Line`] of `text` (line `line_no`) when it is a plain block, as the general parser
 /// makes it.
 pub(crate) fn line(text: &str, line_no: u32) -> Option<Line> {
