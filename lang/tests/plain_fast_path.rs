@@ -224,10 +224,14 @@ proptest! {
         bytes in prop::collection::vec(prop::sample::select(
             b" \tGXyNnOo019.+-();*\r\x80\xff#[".to_vec()), 0..24),
         // Only bytes the table reads itself: most such lines are decided there.
-        table in prop::collection::vec(prop::sample::select(b" \tGXy09.+-".to_vec()), 0..16),
+        table in prop::collection::vec(prop::sample::select(b" \tGXyNn059.+-".to_vec()), 0..16),
+        // An `N` number of up to 12 digits (9 are read, no more) and what may follow it.
+        n_digits in "[0-9]{0,12}",
+        after in prop::sample::select(vec!["", " ", "G1", " X-1.5", ".", ".5", "(c)", ";", "N1", "O1"]),
         parts in prop::collection::vec(piece(), 0..10),
     ) {
-        for b in [&bytes, &table] {
+        let numbered = format!("N{n_digits}{after}").into_bytes();
+        for b in [&bytes, &table, &numbered] {
             prop_assert_eq!(plain_block_bytes(b), plain_block_bytes_by_scan(b), "{:?}", b);
         }
         let text = parts.concat();
