@@ -51,6 +51,46 @@ pub struct LineReader {
     heidenhain: Option<Box<crate::heidenhain::Translator>>,
     /// The machine's G83 re-entry clearance, for the Heidenhain reader's cycle 205.
     peck_clearance: Option<f64>,
+    /// Texts of lines read before, taken again for lines of their length.
+    texts: LineTexts,
+}
+
+/// Longest line whose text [`LineTexts`] keeps (bytes): CAM blocks are shorter.
+const KEPT_TEXT_LEN: usize = 128;
+
+/// The texts of the last lines read, two of each length below [`KEPT_TEXT_LEN`], taken
+/// again for a line of the same length once no window holds them any more: a streamed
+/// program's lines then do not each allocate and free their text (two, as the window of
+/// the line before is still held while the next is read). At most 2 × 128 short texts.
+#[derive(Default)]
+struct LineTexts {
+    by_len: Vec<[Option<Arc<str>>; 2]>,
+}
+
+impl LineTexts {
+    /// `text` in an `Arc`: a kept one nothing else holds any more, else a new one (kept).
+    fn text(&mut self, text: &str) -> Arc<str> {
+        if text.len() >= KEPT_TEXT_LEN {
+            return text.into();
+        }
+        if self.by_len.is_empty() {
+            self.by_len.resize(KEPT_TEXT_LEN, [None, None]);
+        }
+        let kept = &mut self.by_len[text.len()];
+        for slot in kept.iter_mut() {
+            if let Some(t) = slot
+                && let Some(free) = Arc::get_mut(t)
+            {
+                // SAFETY: `free` and `text` have the same length and `text` is UTF-8, so
+                // `free` holds valid UTF-8 afterwards (all of its bytes are `text`'s).
+                unsafe { free.as_bytes_mut() }.copy_from_slice(text.as_bytes());
+                return t.clone();
+            }
+        }
+        let t: Arc<str> = text.into();
+        kept[1] = kept[0].replace(t.clone());
+        t
+    }
 }
 
 impl LineReader {
@@ -63,6 +103,7 @@ impl LineReader {
             buf: Vec::new(),
             heidenhain: None,
             peck_clearance: None,
+            texts: LineTexts::default(),
         }
     }
 
@@ -185,20 +226,38 @@ impl LineReader {
 
     /// The bytes of the line last read, without its `\n` (or `\r\n`).
     pub fn body(&self) -> &[u8] {
-        let body: &[u8] = &self.buf;
-        let body = body.strip_suffix(b"\n").unwrap_or(body);
-        body.strip_suffix(b"\r").unwrap_or(body)
+        &self.buf[self.body_range()]
+    }
+
+    /// Where [`Self::body`] lies in the buffer.
+    fn body_range(&self) -> std::ops::Range<usize> {
+        let mut end = self.buf.len();
+        if end > 0 && self.buf[end - 1] == b'\n' {
+            end -= 1;
+        }
+        if end > 0 && self.buf[end - 1] == b'\r' {
+            end -= 1;
+        }
+        0..end
     }
 
     /// The line last read (it started at `at`) as a window of the program, untranslated.
-    pub fn window(&self, at: LinePos) -> SourceFile {
-        line_window(self.name.clone(), self.body(), at)
+    pub fn window(&mut self, at: LinePos) -> SourceFile {
+        let body = self.body_range();
+        match std::str::from_utf8(&self.buf[body]) {
+            // Most lines: the text of a line read before of its length, when free.
+            Ok(text) => {
+                let text = self.texts.text(text);
+                SourceFile::one_line(self.name.clone(), text, line_no(at))
+            }
+            Err(_) => line_window(self.name.clone(), self.body(), at),
+        }
     }
 
     /// The line last read (it started at `at`) as the interpreter reads it: translated to
     /// ISO in a Heidenhain program ([`crate::heidenhain::is_heidenhain`]), else its window.
     pub fn current_window(&mut self, at: LinePos) -> Result<SourceFile, NcError> {
-        let window = line_window(self.name.clone(), self.body(), at);
+        let window = self.window(at);
         let Some(t) = &mut self.heidenhain else {
             return Ok(window);
         };
@@ -304,9 +363,13 @@ pub fn line_window(name: Arc<str>, body: &[u8], at: LinePos) -> SourceFile {
             .collect::<String>()
             .into(),
     };
-    let line_no = u32::try_from(at.index + 1).unwrap_or(u32::MAX);
     // A body is one line: the reader splits at the first `\n` and strips it.
-    SourceFile::one_line(name, text, line_no)
+    SourceFile::one_line(name, text, line_no(at))
+}
+
+/// The 1-based line number of the line at `at`.
+fn line_no(at: LinePos) -> u32 {
+    u32::try_from(at.index + 1).unwrap_or(u32::MAX)
 }
 
 /// Whether `text` (one line as read) is a plain block — an optional `N` number and words
@@ -330,8 +393,14 @@ pub fn plain_block(text: &str) -> Option<bool> {
 /// [`plain_block`] of a line's bytes as read (a plain block is ASCII, so bytes that are no
 /// UTF-8 are simply no plain block): the load pass asks it of every line before decoding.
 pub fn plain_block_bytes(body: &[u8]) -> Option<bool> {
-    let (n, words) = crate::parse::simple::scan(body, |_| {}, |_| {})?;
-    Some(n.is_some() || words > 0)
+    crate::parse::simple::classify(body)
+}
+
+/// [`plain_block_bytes`] by the plain-block parser itself, without its class table (for
+/// tests that hold the two equal).
+#[doc(hidden)]
+pub fn plain_block_bytes_by_scan(body: &[u8]) -> Option<bool> {
+    crate::parse::simple::classify_by_scan(body)
 }
 
 /// Whether a line (as read) is a statement of the C-like language: a program with one is
@@ -392,7 +461,72 @@ fn parse_general_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcE
 
 #[cfg(test)]
 mod tests {
-    use super::find_newline;
+    use super::{LineReader, ReadLine, find_newline, parse_line};
+    use crate::{Dialect, SourceFile};
+    use proptest::prelude::*;
+    use std::io::Cursor;
+
+    fn reader(text: &str) -> LineReader {
+        LineReader::new("p.nc", Box::new(Cursor::new(text.as_bytes().to_vec())))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(500))]
+
+        /// Windows of lines of few lengths (texts taken again), some held across later
+        /// reads and dropped at random: each holds its own line's text to the end, whichever
+        /// text it was given (a text written while a window held it fails this).
+        #[test]
+        fn windows_keep_their_line_while_texts_are_taken_again(
+            lines in prop::collection::vec(("[GXY0-9. ]{0,3}", 0usize..3), 1..60),
+            latin1 in any::<bool>(),
+        ) {
+            let mut text: Vec<u8> = Vec::new();
+            for (k, (l, _)) in lines.iter().enumerate() {
+                text.extend_from_slice(l.as_bytes());
+                if latin1 && k % 7 == 3 {
+                    text.push(0xe9);
+                }
+                text.extend_from_slice(if k % 5 == 0 { b"\r\n" } else { b"\n" });
+            }
+            let mut r = LineReader::new("p.nc", Box::new(Cursor::new(text.clone())));
+            let want: Vec<String> = text
+                .split(|&b| b == b'\n')
+                .map(|l| l.strip_suffix(b"\r").unwrap_or(l).iter().map(|&b| char::from(b)).collect())
+                .collect();
+            let mut held: Vec<(usize, SourceFile)> = Vec::new();
+            let mut k = 0;
+            while let ReadLine::Text(w, at) = r.read().unwrap() {
+                prop_assert_eq!(at.index, k);
+                prop_assert_eq!(w.first_line() as usize, k + 1);
+                held.push((k, w));
+                // Drop some of the windows held, the oldest first.
+                held.drain(..lines[k].1.min(held.len()));
+                for (i, w) in &held {
+                    prop_assert_eq!(w.line_text(w.first_line()), want[*i].as_str(), "line {}", i);
+                }
+                k += 1;
+            }
+            prop_assert_eq!(k, lines.len());
+        }
+    }
+
+    /// An error on a line whose text was taken again (lines of one length before it) keeps
+    /// its file, line, column and block.
+    #[test]
+    fn an_error_on_a_line_in_a_text_taken_again_keeps_its_place() {
+        let mut r = reader("G1X1\nG1X2\nG1X3\nG1 X\nG1X5\n");
+        let mut last = None;
+        while let ReadLine::Text(w, _) = r.read().unwrap() {
+            if let Err(e) = parse_line(&w, Dialect::Fanuc) {
+                last = Some(e);
+                break;
+            }
+        }
+        let e = last.expect("line 4 is an error");
+        assert_eq!((&*e.file, e.line, e.col), ("p.nc", 4, 4));
+        assert_eq!(e.block, "G1 X");
+    }
 
     /// The word-at-a-time search finds the first `\n` wherever a byte loop finds it, with
     /// the bytes a borrow or a sign bit could confuse around it.

@@ -6,6 +6,7 @@
 
 use cnc402_lang::stream::{
     is_statement_line, parse_line, parse_line_into, plain_block, plain_block_bytes,
+    plain_block_bytes_by_scan,
 };
 use cnc402_lang::{Dialect, SourceFile, parse_in};
 use proptest::prelude::*;
@@ -17,6 +18,12 @@ fn same(text: &str) {
     assert_eq!(
         plain_block_bytes(text.as_bytes()),
         plain_block(text),
+        "{text:?}"
+    );
+    // The class table's answer is the plain-block parser's.
+    assert_eq!(
+        plain_block_bytes(text.as_bytes()),
+        plain_block_bytes_by_scan(text.as_bytes()),
         "{text:?}"
     );
     if is_statement_line(text) {
@@ -207,6 +214,32 @@ proptest! {
         body.push(byte);
         body.extend_from_slice(tail.as_bytes());
         prop_assert_eq!(plain_block_bytes(&body), None);
+    }
+
+    /// The load pass's class table classifies any bytes as the plain-block parser does:
+    /// lines of the bytes where its states change (letters, `N`/`O`, signs, points, digits,
+    /// spaces, comments, `\r`, bytes past ASCII), and of the pieces below.
+    #[test]
+    fn the_class_table_classifies_a_line_as_the_parser_does(
+        bytes in prop::collection::vec(prop::sample::select(
+            b" \tGXyNnOo019.+-();*\r\x80\xff#[".to_vec()), 0..24),
+        // Only bytes the table reads itself: most such lines are decided there.
+        table in prop::collection::vec(prop::sample::select(b" \tGXyNn059.+-".to_vec()), 0..16),
+        // An `N` number of up to 12 digits (9 are read, no more) and what may follow it.
+        n_digits in "[0-9]{0,12}",
+        after in prop::sample::select(vec!["", " ", "G1", " X-1.5", ".", ".5", "(c)", ";", "N1", "O1"]),
+        parts in prop::collection::vec(piece(), 0..10),
+    ) {
+        let numbered = format!("N{n_digits}{after}").into_bytes();
+        for b in [&bytes, &table, &numbered] {
+            prop_assert_eq!(plain_block_bytes(b), plain_block_bytes_by_scan(b), "{:?}", b);
+        }
+        let text = parts.concat();
+        prop_assert_eq!(
+            plain_block_bytes(text.as_bytes()),
+            plain_block_bytes_by_scan(text.as_bytes()),
+            "{:?}", text
+        );
     }
 
     #[test]

@@ -134,6 +134,83 @@ pub(crate) fn scan(
     Some((n, count))
 }
 
+/// What [`scan`] says of `b` (`Some(true)`: a plain block with an `N` number or a word,
+/// `Some(false)`: an empty one, `None`: no plain block), read through a state table for the
+/// lines CAM writes most (an `N` number, words and spaces, no comment); a line the table
+/// cannot tell is read by [`scan`]. The load pass asks it of every line of a program.
+pub(crate) fn classify(b: &[u8]) -> Option<bool> {
+    // No early exit: `ASK` keeps itself, and a line that reaches it is read again anyway.
+    let mut state = START;
+    for &c in b {
+        state = STEP[(usize::from(state & 31) << 8) | usize::from(c)];
+    }
+    match state {
+        START => Some(false),
+        BETWEEN | INT | FRAC | N_DIGIT..=N_LAST_DIGIT => Some(true),
+        _ => classify_by_scan(b),
+    }
+}
+
+/// [`classify`] by the full [`scan`] (also what [`classify`] is tested against).
+pub(crate) fn classify_by_scan(b: &[u8]) -> Option<bool> {
+    let (n, words) = scan(b, |_| {}, |_| {})?;
+    Some(n.is_some() || words > 0)
+}
+
+// The states of [`classify`]: only spaces read yet; between words; after an address letter;
+// after its sign; after a point with no digit yet; in the integer digits; in the fraction;
+// `ASK`: the table cannot tell, [`scan`] reads the line; after the `N`; after its k-th digit
+// (`N_DIGIT + k - 1`, at most MAX_N_DIGITS).
+const START: u8 = 0;
+const BETWEEN: u8 = 1;
+const LETTER: u8 = 2;
+const SIGN: u8 = 3;
+const POINT: u8 = 4;
+const INT: u8 = 5;
+const FRAC: u8 = 6;
+const ASK: u8 = 7;
+const N_LETTER: u8 = 8;
+const N_DIGIT: u8 = 9;
+const N_LAST_DIGIT: u8 = N_DIGIT + MAX_N_DIGITS as u8 - 1;
+
+/// The state after `state` reads byte `c`, as [`scan`] reads a line: an optional `N` with
+/// 1 to [`MAX_N_DIGITS`] digits and no point, then words — a letter (not `N`/`O`), spaces,
+/// a sign, digits with one point and at least one digit — each ended by a space, the next
+/// letter or the end. Everything else asks.
+const fn next_state(state: u8, c: u8) -> u8 {
+    let letter = c.is_ascii_alphabetic() && !matches!(c, b'N' | b'n' | b'O' | b'o');
+    let ws = matches!(c, b' ' | b'\t');
+    match (state, c) {
+        (START, _) if ws => START,
+        (START, b'N' | b'n') => N_LETTER,
+        (N_LETTER | LETTER, _) if ws => state,
+        (N_LETTER, b'0'..=b'9') => N_DIGIT,
+        (N_DIGIT..N_LAST_DIGIT, b'0'..=b'9') => state + 1,
+        (START | BETWEEN | INT | FRAC | N_DIGIT..=N_LAST_DIGIT, _) if letter => LETTER,
+        (BETWEEN | INT | FRAC | N_DIGIT..=N_LAST_DIGIT, _) if ws => BETWEEN,
+        (LETTER | SIGN | INT, b'0'..=b'9') => INT,
+        (LETTER | SIGN, b'.') => POINT,
+        (LETTER, b'+' | b'-') => SIGN,
+        (POINT | FRAC, b'0'..=b'9') | (INT, b'.') => FRAC,
+        _ => ASK,
+    }
+}
+
+/// [`next_state`] of every state and byte, one row of 256 a state (32 rows: a state masked
+/// to 5 bits is always a row).
+static STEP: [u8; 32 * 256] = {
+    let mut t = [ASK; 32 * 256];
+    let mut i = 0;
+    while i < t.len() {
+        let state = (i >> 8) as u8;
+        if state <= N_LAST_DIGIT {
+            t[i] = next_state(state, i as u8);
+        }
+        i += 1;
+    }
+    t
+};
+
 /// The [`Line`] of `text` (line `line_no`) when it is a plain block, as the general parser
 /// makes it.
 pub(crate) fn line(text: &str, line_no: u32) -> Option<Line> {
