@@ -57,16 +57,13 @@ pub(crate) struct AxisMap {
     /// An axis named C (else a plain C in a G1 block may be a chamfer).
     pub c: Option<usize>,
     /// Each axis's soft limits widened by the 1e-9 every target is allowed past them
-    /// (±∞ for an axis without limits), read in one place for each target.
+    /// (±∞ for an axis without limits or not configured), read in one place for each target.
     pub limits: [(f64, f64); MAX_AXES],
-    /// How many of `limits` are configured axes.
-    pub n_axes: usize,
 }
 
 impl AxisMap {
     pub(crate) fn new(cfg: &MachineConfig) -> AxisMap {
         let mut limits = [(f64::NEG_INFINITY, f64::INFINITY); MAX_AXES];
-        let n_axes = cfg.axes.len().min(MAX_AXES);
         for (l, ax) in limits.iter_mut().zip(&cfg.axes) {
             if let Some((lo, hi)) = ax.soft_limits {
                 *l = (lo - 1e-9, hi + 1e-9);
@@ -77,7 +74,6 @@ impl AxisMap {
             spindles: cfg.spindle_axes(),
             c: cfg.axis_index('C'),
             limits,
-            n_axes,
         }
     }
 }
@@ -992,14 +988,13 @@ impl Exec<'_> {
     /// Soft-limit check of a target, before the segment exists. `hint`: words to blame for an
     /// axis whose own word is not in the block.
     pub fn check_limits(&self, end: &AxisPos, hint: &[char]) -> Result<(), NcError> {
-        let n = self.map.n_axes;
         // Every target inside (the usual answer), from the limits as `AxisMap` holds them:
         // ±∞ where an axis has none, which no target (nor NaN) is past.
         let outside = |i: usize| {
             let (lo, hi) = self.map.limits[i];
             end[i] < lo || end[i] > hi
         };
-        if !(0..n).any(outside) {
+        if !(0..MAX_AXES).any(outside) {
             return Ok(());
         }
         for (i, ax) in self.cfg.axes.iter().enumerate() {

@@ -334,10 +334,7 @@ impl ModalState {
     /// The state canonical operations carry ([`CanonState`]): modes, the work → machine
     /// offset of every axis as the position carries it, tool and tool length.
     pub fn canon_state(&self) -> CanonState {
-        let mut offset = AxisPos::default();
-        for i in 0..MAX_AXES {
-            offset.0[i] = self.canon_offset(i);
-        }
+        let offset = AxisPos(self.canon_offsets());
         CanonState {
             plane: self.plane,
             units: self.canon_units(),
@@ -368,31 +365,20 @@ impl ModalState {
             && s.tool_length == self.tlo
             && s.tool_axis == self.tool_axis
             && s.comp == self.comp
-            && s.offset.0 == self.canon_offsets_to_compare()
+            && s.offset.0 == self.canon_offsets()
     }
 
-    /// Each axis's [`canon_offset`](Self::canon_offset) up to the sign of a zero: off the
-    /// tool axis that adds `0.0` (turning −0 into +0), which `==` does not see.
-    fn canon_offsets_to_compare(&self) -> [f64; MAX_AXES] {
-        let mut offset = self.shift;
-        for (o, z) in offset.iter_mut().zip(&self.work_offsets[self.work_offset]) {
-            *o += *z;
-        }
-        if let Some(t) = self.tool_axis.filter(|&t| t < MAX_AXES) {
-            offset[t] += self.tlo_in_pos;
-        }
-        offset
-    }
-
-    /// Work → machine on axis `i` as operations carry it: the work zero plus the part of
+    /// Work → machine on every axis as operations carry it: the work zero plus the part of
     /// the tool length offset vector that the position includes.
-    fn canon_offset(&self, i: usize) -> f64 {
-        let tlo = if self.tool_axis == Some(i) {
-            self.tlo_in_pos
-        } else {
-            0.0
-        };
-        self.work_zero(i) + tlo
+    fn canon_offsets(&self) -> [f64; MAX_AXES] {
+        std::array::from_fn(|i| {
+            let tlo = if self.tool_axis == Some(i) {
+                self.tlo_in_pos
+            } else {
+                0.0
+            };
+            self.work_zero(i) + tlo
+        })
     }
 
     fn canon_units(&self) -> ProgramUnits {

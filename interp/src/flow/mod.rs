@@ -90,8 +90,6 @@ struct Flow {
     spare_words: Option<Box<Words>>,
     /// Cutter radius compensation between the canonical operations and lowering.
     comp: comp::Stage,
-    /// The machine indices of X, Y and Z (arc centres), for lowering.
-    xyz: [Option<usize>; 3],
     /// A `%` after the first block, M2/M30, an error, or the end of the text.
     done: bool,
     seen_block: bool,
@@ -167,7 +165,6 @@ impl Interpreter {
                 lowered: VecDeque::new(),
                 spare_words: None,
                 comp: comp::Stage::new(cfg.interp.cutter_comp, xyz_indices(cfg)),
-                xyz: xyz_indices(cfg),
                 done: true,
                 seen_block: false,
                 main_m99_line: None,
@@ -416,13 +413,15 @@ impl Interpreter {
             self.flow.comp.reset(self.m.state.pos);
         })?;
         let before = self.flow.lowered.len();
+        // X, Y and Z's indices (arc centres) for lowering.
+        let xyz = self.m.map.xyz;
         let f = &mut self.flow;
         let (fed, pulled) = match ready {
             Ready::Queued if keep && f.queue.front().is_some_and(|op| f.comp.pass_through(op)) => {
                 // Lowered where it waits, then dropped there: the usual operation is not
                 // moved at all.
                 if let Some(op) = f.queue.front() {
-                    lower::lower_with_state(op, f.xyz, &mut f.lowered);
+                    lower::lower_with_state(op, xyz, &mut f.lowered);
                 }
                 f.queue.drain(..1);
                 (Ok(()), Pulled::Kept)
@@ -447,7 +446,7 @@ impl Interpreter {
             return Err(self.comp_error(e));
         }
         while let Some(c) = self.flow.comp.pop() {
-            lower::lower_with_state(&c, self.flow.xyz, &mut self.flow.lowered);
+            lower::lower_with_state(&c, xyz, &mut self.flow.lowered);
         }
         for (s, _) in self.flow.lowered.range(before..) {
             self.m.account(s);
