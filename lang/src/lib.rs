@@ -7,6 +7,7 @@ pub mod diag;
 pub mod dialect;
 pub mod heidenhain;
 mod parse;
+pub mod plain;
 pub mod stream;
 
 pub use diag::{NcError, NcErrorFields, SourceFile};

@@ -12,6 +12,7 @@ pub(crate) mod machine;
 pub(crate) mod mcodes;
 pub mod offsets;
 pub mod options;
+pub(crate) mod plain;
 pub mod state;
 pub mod words;
 

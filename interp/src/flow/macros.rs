@@ -34,6 +34,18 @@ pub enum After {
     },
 }
 
+/// What [`Interpreter::plain_lane`] did with a line.
+enum Lane {
+    /// Ran it.
+    Ran,
+    /// Found the end of the file.
+    End,
+    /// Read it (starting at this position) and left it to the general path.
+    Read(cnc402_lang::stream::LinePos),
+    /// Did not read it.
+    NotRead,
+}
+
 fn whole(v: f64) -> Option<u32> {
     (v >= 0.0 && v.fract() == 0.0 && v <= 99_999_999.0).then_some(v as u32)
 }
@@ -70,8 +82,18 @@ impl Interpreter {
             return self.end_of_unit(&unit);
         }
         frame.pc += 1;
-        // A streamed unit's line is read now: `unit` becomes the view holding it.
-        let Some(unit) = self.line_view(&unit, pc)? else {
+        // A streamed unit's line is read now: `unit` becomes the view holding it (unless
+        // the plain-block lane ran it from its bytes).
+        let view = match self.plain_lane(&unit, pc)? {
+            Lane::Ran => return Ok(()),
+            Lane::End => None,
+            Lane::Read(at) => match &mut self.flow.stream {
+                Some(s) => s.view_read(&unit, pc, at)?,
+                None => None,
+            },
+            Lane::NotRead => self.line_view(&unit, pc)?,
+        };
+        let Some(unit) = view else {
             return self.end_of_unit(&unit);
         };
         let program = unit.program.clone();
@@ -204,6 +226,49 @@ impl Interpreter {
             (Some(s), true) => s.view(unit, i),
             _ => Ok((i < unit.program.lines.len()).then(|| unit.clone())),
         }
+    }
+
+    /// Runs line `i` of `unit` in the plain-block lane (`crate::block::plain`) when it can:
+    /// a streamed line read where the reader is, a plain block the lane reads, in a state
+    /// where the general path would do no more than the lane (no G66 call after a move, the
+    /// runaway guard not at its limit), which then does all `step` and `exec_block` do for a
+    /// block that moves.
+    fn plain_lane(&mut self, unit: &Arc<Unit>, i: usize) -> Result<Lane, NcError> {
+        let f = &mut self.flow;
+        let (Some(lane), Some(s), true) = (&f.lane, &mut f.stream, unit.streamed) else {
+            return Ok(Lane::NotRead);
+        };
+        if f.modal_call.is_some() || f.runaway.count >= self.m.cfg.interp.block_limit {
+            return Ok(Lane::NotRead);
+        }
+        let at = match s.read_raw_at(i)? {
+            None => return Ok(Lane::NotRead),
+            Some(None) => return Ok(Lane::End),
+            Some(Some(at)) => at,
+        };
+        let Some(b) = lane.read(s.body()) else {
+            return Ok(Lane::Read(at));
+        };
+        let line = u32::try_from(at.index + 1).unwrap_or(u32::MAX);
+        let source = Source {
+            file: unit.src.name.clone(),
+            line,
+            n: b.n,
+        };
+        let linuxcnc = unit.program.dialect == cnc402_lang::Dialect::LinuxCnc;
+        if !(self.m).run_plain(lane, (&b, linuxcnc), source, &mut f.queue) {
+            return Ok(Lane::Read(at));
+        }
+        if let Some(n) = b.n {
+            f.last_n = Some(f64::from(n));
+        }
+        // Counted as a block, and a block that moved.
+        f.runaway.note(unit, line);
+        f.runaway.reset();
+        f.seen_block = true;
+        f.lane_blocks += 1;
+        s.ran_plain(at);
+        Ok(Lane::Ran)
     }
 
     /// The line of `N n` in `unit`, for a jump from the line before `from`.
@@ -346,8 +411,8 @@ impl Interpreter {
     fn end_of_unit(&mut self, unit: &Unit) -> Result<(), NcError> {
         if self.flow.frames.len() <= 1 {
             self.flow.done = true;
-            let src = match (&self.flow.stream, unit.streamed) {
-                (Some(s), true) => s.last.clone(),
+            let src = match (&mut self.flow.stream, unit.streamed) {
+                (Some(s), true) => s.last_window()?,
                 _ => unit.src.clone(),
             };
             return self.m.end_of_program(&src);

@@ -24,6 +24,7 @@ use cnc402_lang::{NcError, SourceFile};
 use cnc402_motion::segment::Segment;
 
 use crate::block::Machine;
+use crate::block::plain::PlainLane;
 use crate::block::state::ModalState;
 use crate::block::words::Words;
 pub use crate::block::{MainM99, Options};
@@ -103,6 +104,11 @@ struct Flow {
     /// LinuxCNC's global parameters `#31`-`#5000` that have no Fanuc meaning here (`#61`),
     /// by number: at most 4970 entries.
     lc_globals: std::collections::BTreeMap<i64, f64>,
+    /// The plain-block lane (`crate::block::plain`); `None` when switched off (tests hold
+    /// the general path against it so).
+    lane: Option<PlainLane>,
+    /// Blocks the lane ran (tests check it is taken).
+    lane_blocks: u64,
 }
 
 /// The macro variables and their storage.
@@ -171,6 +177,8 @@ impl Interpreter {
                 g92_kept: Default::default(),
                 lc_debug_switch: 1.0,
                 lc_globals: Default::default(),
+                lane: Some(PlainLane::new(cfg)),
+                lane_blocks: 0,
             },
             vars: Vars::default(),
             hll: Hll::default(),
@@ -502,6 +510,20 @@ impl Interpreter {
                 return Err(e);
             }
         }
+    }
+
+    /// Switches the plain-block lane on (the default) or off: every block then runs
+    /// through the general block layer. The outputs are the same either way; tests compare
+    /// them.
+    #[doc(hidden)]
+    pub fn set_plain_lane(&mut self, on: bool) {
+        self.flow.lane = on.then(|| PlainLane::new(&self.m.cfg));
+    }
+
+    /// How many blocks the plain-block lane has run since this interpreter was made.
+    #[doc(hidden)]
+    pub fn plain_lane_blocks(&self) -> u64 {
+        self.flow.lane_blocks
     }
 
     /// The modal state after the last executed block.

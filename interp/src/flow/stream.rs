@@ -33,10 +33,14 @@ pub(crate) struct Stream {
     /// (unit start, N) → the line found by a search, and positions of lines found so.
     labels: HashMap<(usize, u32), LinePos>,
     found: BTreeMap<usize, u64>,
-    /// The window of the last line read for the flow (errors at the program's end).
-    pub(crate) last: Arc<SourceFile>,
+    /// The window of the last line read for the flow (errors at the program's end; see
+    /// [`Stream::last_window`]).
+    last: Arc<SourceFile>,
     /// The last view given out, reused for the next line once nothing else holds it.
     spare: Option<Arc<Unit>>,
+    /// Where the last line read started when the plain-block lane read it (no window made):
+    /// `last` is then made again from it when it is asked for.
+    plain_last: Option<LinePos>,
 }
 
 /// What the load pass made of a file.
@@ -164,6 +168,7 @@ pub(crate) fn load(
         found: BTreeMap::new(),
         last: Arc::new(last_window),
         spare: None,
+        plain_last: None,
     };
     Ok(Loaded::Streamed(stream, units))
 }
@@ -175,6 +180,16 @@ impl Stream {
         let ReadLine::Text(window, _) = self.reader.read()? else {
             return Ok(None);
         };
+        self.view_window(unit, i, window)
+    }
+
+    /// The view of line `i` of `unit` whose window (read just now) is `window`.
+    fn view_window(
+        &mut self,
+        unit: &Unit,
+        i: usize,
+        window: SourceFile,
+    ) -> Result<Option<Arc<Unit>>, NcError> {
         let window = self.reuse_window(unit, window);
         // The last view, once the interpreter has let go of it, takes this line in place.
         let reused = self.spare.as_mut().and_then(Arc::get_mut);
@@ -192,6 +207,7 @@ impl Stream {
     /// that any more (the spare view lets go of it first), so that a long program's lines do
     /// not each allocate one; it is the last window read from then on.
     fn reuse_window(&mut self, unit: &Unit, window: SourceFile) -> Arc<SourceFile> {
+        self.plain_last = None;
         if let Some(v) = self.spare.as_mut().and_then(Arc::get_mut) {
             v.src = unit.src.clone();
         }
@@ -313,4 +329,59 @@ fn starts_with_n(text: &str) -> bool {
         .unwrap_or(t)
         .trim_start_matches([' ', '\t']);
     t.starts_with(['N', 'n'])
+}
+
+/// The plain-block lane's reading (see `crate::block::plain`): a line's bytes without its
+/// window, and the view made of the same line when the lane leaves it to the general path.
+impl Stream {
+    /// Reads line `i` without making its window, when the reader is there and the bytes are
+    /// what the interpreter reads (no translating reader): `Some(Some(at))` with the bytes in
+    /// [`body`](Self::body), `Some(None)` past the file's end, `None` when the line is to be
+    /// read by [`view`](Self::view).
+    pub(crate) fn read_raw_at(&mut self, i: usize) -> Result<Option<Option<LinePos>>, NcError> {
+        if self.reader.position().index != i || self.reader.translates() {
+            return Ok(None);
+        }
+        self.reader.read_raw().map(Some)
+    }
+
+    /// The bytes of the line [`read_raw_at`](Self::read_raw_at) read.
+    pub(crate) fn body(&self) -> &[u8] {
+        self.reader.body()
+    }
+
+    /// The lane ran the line read at `at`: it is the last line read.
+    pub(crate) fn ran_plain(&mut self, at: LinePos) {
+        self.plain_last = Some(at);
+    }
+
+    /// The view of line `i` of `unit` (read by [`read_raw_at`](Self::read_raw_at) at `at`), as
+    /// [`view`](Self::view) would have given it.
+    pub(crate) fn view_read(
+        &mut self,
+        unit: &Unit,
+        i: usize,
+        at: LinePos,
+    ) -> Result<Option<Arc<Unit>>, NcError> {
+        let window = self.reader.current_window(at)?;
+        self.view_window(unit, i, window)
+    }
+
+    /// The window of the last line read (errors at the program's end), made again when the
+    /// lane read that line; the reader is where it was afterwards.
+    pub(crate) fn last_window(&mut self) -> Result<Arc<SourceFile>, NcError> {
+        if let Some(at) = self.plain_last.take() {
+            let here = self.reader.position();
+            self.reader
+                .seek(at)
+                .map_err(|e| read_error(self.reader.name(), at.index, &e))?;
+            if let ReadLine::Text(w, _) = self.reader.read()? {
+                self.last = Arc::new(w);
+            }
+            self.reader
+                .seek(here)
+                .map_err(|e| read_error(self.reader.name(), here.index, &e))?;
+        }
+        Ok(self.last.clone())
+    }
 }
