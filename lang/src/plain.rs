@@ -21,6 +21,13 @@ use crate::ast::Value;
 /// assert_eq!(words(b"G1 X[1+2]", |_, _, _| {}), None);
 /// ```
 pub fn words(body: &[u8], mut word: impl FnMut(u8, f64, bool)) -> Option<(Option<u32>, usize)> {
+    let mut found = [(0u8, 0.0f64, false); TIGHT_WORDS];
+    if let Some((n, count)) = tight(body, &mut found) {
+        for &(letter, v, point) in &found[..count] {
+            word(letter, v, point);
+        }
+        return Some((n, count));
+    }
     let mut comment = false;
     let (n, count) = crate::parse::simple::scan(
         body,
@@ -33,4 +40,137 @@ pub fn words(body: &[u8], mut word: impl FnMut(u8, f64, bool)) -> Option<(Option
         |_| comment = true,
     )?;
     (!comment).then_some((n.map(|n| n.value), count))
+}
+
+/// Most words [`tight`] takes in a line.
+const TIGHT_WORDS: usize = 12;
+
+/// [`words`] of the lines CAM writes most, read in one pass: an optional `N` number and words
+/// of an upper-case letter directly followed by its number, separated by spaces; `None` (the
+/// full scan decides) at anything else. What it reads, it reads as the full scan does: the
+/// same number scanner, the same rules for what may follow a number.
+fn tight(b: &[u8], found: &mut [(u8, f64, bool); TIGHT_WORDS]) -> Option<(Option<u32>, usize)> {
+    let mut k = 0;
+    let mut n = None;
+    if b.first() == Some(&b'N') {
+        let mut v = 0u32;
+        k = 1;
+        while let Some(&c @ b'0'..=b'9') = b.get(k) {
+            // At most 9 digits: no overflow.
+            if k > 9 {
+                return None;
+            }
+            v = v * 10 + u32::from(c - b'0');
+            k += 1;
+        }
+        if k == 1 || b.get(k) == Some(&b'.') {
+            return None;
+        }
+        n = Some(v);
+    }
+    let mut count = 0;
+    loop {
+        while b.get(k) == Some(&b' ') {
+            k += 1;
+        }
+        let Some(&letter) = b.get(k) else {
+            return Some((n, count));
+        };
+        if !letter.is_ascii_uppercase() || matches!(letter, b'N' | b'O') {
+            return None;
+        }
+        let (neg, at) = match b.get(k + 1) {
+            Some(b'-') => (true, k + 2),
+            Some(b'+') => (false, k + 2),
+            _ => (false, k + 1),
+        };
+        if !matches!(b.get(at), Some(b'0'..=b'9' | b'.')) {
+            return None;
+        }
+        let u = crate::parse::lex::scan_unsigned_at(b, at);
+        let value = u.value?;
+        k = at + u.len;
+        match b.get(k) {
+            None | Some(b' ') => {}
+            Some(c) if c.is_ascii_uppercase() => {}
+            _ => return None,
+        }
+        let value = if neg { -value } else { value };
+        *found.get_mut(count)? = (letter, value, u.has_point);
+        count += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    /// [`super::words`] by the full scan alone.
+    fn by_scan(b: &[u8]) -> Option<(Option<u32>, Vec<(u8, u64, bool)>)> {
+        let mut seen = Vec::new();
+        let mut comment = false;
+        let (n, _) = crate::parse::simple::scan(
+            b,
+            |w| {
+                if let crate::ast::Value::Number(v) = w.value {
+                    seen.push((w.letter as u8, v.value.to_bits(), v.has_point));
+                }
+            },
+            |_| comment = true,
+        )?;
+        (!comment).then_some((n.map(|n| n.value), seen))
+    }
+
+    fn by_words(b: &[u8]) -> Option<(Option<u32>, Vec<(u8, u64, bool)>)> {
+        let mut seen = Vec::new();
+        let (n, count) = super::words(b, |l, v, p| seen.push((l, v.to_bits(), p)))?;
+        assert_eq!(count, seen.len());
+        Some((n, seen))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(4096))]
+
+        /// The one-pass reading gives what the full scan gives, bit for bit, on lines built
+        /// from the bytes CAM lines are made of (and some that are not).
+        #[test]
+        fn the_tight_reading_is_the_full_scans(
+            parts in prop::collection::vec(prop_oneof![
+                4 => prop::sample::select(vec!["G", "X", "Y", "Z", "F", "N", "A", "x", "O"])
+                    .prop_map(String::from),
+                6 => "[0-9]{1,8}",
+                2 => Just(".".to_string()),
+                2 => Just(" ".to_string()),
+                1 => prop::sample::select(vec!["-", "+", "\t", "(c)", ";", "  ", "#1", "[", "e"])
+                    .prop_map(String::from),
+                1 => Just("1".repeat(30)),
+            ], 0..14),
+        ) {
+            let line = parts.concat();
+            prop_assert_eq!(by_words(line.as_bytes()), by_scan(line.as_bytes()), "{:?}", line);
+        }
+    }
+
+    #[test]
+    fn cam_lines_are_read_tight() {
+        for line in [
+            "G1 X10.0000 Y0.0100",
+            "N120 G01 X-1.5 Y+2. Z.5 F3000",
+            "X1Y2",
+            "N5",
+            " G1 X1",
+        ] {
+            assert!(
+                super::tight(line.as_bytes(), &mut [(0, 0.0, false); 12]).is_some(),
+                "{line}"
+            );
+            assert_eq!(by_words(line.as_bytes()), by_scan(line.as_bytes()));
+        }
+        for line in ["g1 x1", "G1 X 1", "G1\tX1", "N1234567890 X1", "G1 X1 (c)"] {
+            assert!(
+                super::tight(line.as_bytes(), &mut [(0, 0.0, false); 12]).is_none(),
+                "{line}"
+            );
+        }
+    }
 }

@@ -253,7 +253,8 @@ impl Machine {
 
     /// Every number `Exec::check_finite` looks at is finite after the block made `op`.
     fn finite_after(&self, op: &CanonOp) -> bool {
-        let finite = |vs: &[f64]| vs.iter().all(|v| v.is_finite());
+        // `v * 0.0` is ±0 for a finite `v`, NaN for ±inf and NaN: one pass, no branch a value.
+        let finite = |vs: &[f64]| vs.iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0;
         let st = &self.state;
         let kind_ok = match &op.kind {
             canon::CanonKind::Single(SegmentKind::Rapid { end }) => finite(&end.0),

@@ -11,7 +11,7 @@ pub use header::{HEADER_LINES, choose_dialect, declared_dialect};
 
 pub use expr::MAX_HEIGHT;
 mod lcexpr;
-mod lex;
+pub(crate) mod lex;
 mod line;
 mod oword;
 pub(crate) mod simple;
