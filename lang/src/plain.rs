@@ -105,8 +105,11 @@ fn tight(b: &[u8], found: &mut [(u8, f64, bool); TIGHT_WORDS]) -> Option<(Option
 mod tests {
     use proptest::prelude::*;
 
+    /// A line's `N` number and words (letter, value's bits, written with a point).
+    type Read = Option<(Option<u32>, Vec<(u8, u64, bool)>)>;
+
     /// [`super::words`] by the full scan alone.
-    fn by_scan(b: &[u8]) -> Option<(Option<u32>, Vec<(u8, u64, bool)>)> {
+    fn by_scan(b: &[u8]) -> Read {
         let mut seen = Vec::new();
         let mut comment = false;
         let (n, _) = crate::parse::simple::scan(
@@ -121,7 +124,7 @@ mod tests {
         (!comment).then_some((n.map(|n| n.value), seen))
     }
 
-    fn by_words(b: &[u8]) -> Option<(Option<u32>, Vec<(u8, u64, bool)>)> {
+    fn by_words(b: &[u8]) -> Read {
         let mut seen = Vec::new();
         let (n, count) = super::words(b, |l, v, p| seen.push((l, v.to_bits(), p)))?;
         assert_eq!(count, seen.len());

@@ -171,8 +171,8 @@ impl Machine {
                     true => feed * st.speed,
                     false => feed,
                 };
-                // Not `rate <= 0.0`: a NaN is the general path's too.
-                if !(rate > 0.0) {
+                // A NaN is the general path's too.
+                if rate.is_nan() || rate <= 0.0 {
                     return false;
                 }
                 SegmentKind::Linear { end, feed: rate }
