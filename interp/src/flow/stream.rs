@@ -44,6 +44,8 @@ pub(crate) struct Stream {
 }
 
 /// What the load pass made of a file.
+// Made once a program and taken apart at once: the size of its variants does not matter.
+#[allow(clippy::large_enum_variant)]
 pub(crate) enum Loaded {
     /// Read line by line: the stream and its units (the first runs first).
     Streamed(Stream, Vec<Arc<Unit>>),
