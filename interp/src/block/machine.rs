@@ -35,6 +35,10 @@ pub struct Machine {
     path_axes: PathAxes,
     /// The state of the last canonical operation (shared by the next while unchanged).
     pub(crate) canon: Option<Arc<CanonState>>,
+    /// `canon` is the canonical state of `state` as the plain-block lane left it, nothing
+    /// else having run since (see `super::plain`): the lane's next block shares it without
+    /// comparing.
+    pub(crate) lane_canon: bool,
     /// The dialect of the running main program (sub-programs without a header of their own
     /// are read in it).
     pub(crate) dialect: Dialect,
@@ -62,6 +66,7 @@ impl Machine {
             path_end: opts.start,
             path_axes: PathAxes::new(cfg),
             canon: None,
+            lane_canon: false,
             dialect: cfg.interp.dialect,
             opts,
         }
@@ -73,6 +78,7 @@ impl Machine {
         self.path_len = 0.0;
         self.path_end = self.opts.start;
         self.canon = None;
+        self.lane_canon = false;
     }
 
     /// The canonical operation of one segment of `kind` (machine positions) from `source`,

@@ -14,7 +14,7 @@ use cnc402_motion::segment::{AxisPos, SegmentKind, Source};
 use super::exec::single_op;
 use super::machine::Machine;
 use super::state::Motion;
-use crate::canon::{self, CanonOp};
+use crate::canon::{self, CanonKind, CanonOp};
 
 /// Not an axis the lane moves (a letter of no configured axis, or a spindle's).
 const NO_AXIS: u8 = u8::MAX;
@@ -119,11 +119,12 @@ impl Machine {
     /// modal state is no plain one (a canned cycle, cutter compensation, a held corner), the
     /// target is past a soft limit, the feed is zero or overflows, or the block would not
     /// move. `lane`: the machine's letters. `linuxcnc`: the block is read as LinuxCNC's.
+    /// `lane_canon`: the last block was the lane's (`Machine::lane_canon` as it was then).
     pub(crate) fn run_plain(
         &mut self,
         lane: &PlainLane,
         (b, linuxcnc): (&PlainBlock, bool),
-        source: Source,
+        (source, lane_canon): (Source, bool),
         out: &mut VecDeque<CanonOp>,
     ) -> bool {
         let st = &self.state;
@@ -180,7 +181,7 @@ impl Machine {
         };
         let before = self.change_state(b, linuxcnc, feed, end);
         let from = before.pos;
-        let op = single_op(self.map.xyz, &self.state, &mut self.canon, kind, source);
+        let op = self.lane_op(&before, kind, (source, lane_canon));
         // What `Exec::check_finite` and the runaway guard (`canon::makes_motion`) ask of the
         // block after it ran: the general path gives the error, or runs the block as a
         // block without motion.
@@ -189,7 +190,33 @@ impl Machine {
             return false;
         }
         out.push_back(op);
+        self.lane_canon = true;
         true
+    }
+
+    /// The operation of `kind` under the state the block left (`before`: the state before
+    /// it), sharing the last operation's state without comparing when it is the lane's and
+    /// the block changed nothing of it (the lane changes only G9's once and, on a tool-axis
+    /// move, the part of the tool length offset the position holds).
+    fn lane_op(
+        &mut self,
+        before: &Before,
+        kind: SegmentKind,
+        (source, lane_canon): (Source, bool),
+    ) -> CanonOp {
+        let st = &self.state;
+        let same = lane_canon && !before.exact_stop_once && before.tlo_in_pos == st.tlo_in_pos;
+        match &self.canon {
+            Some(state) if same => {
+                debug_assert!(st.canon_state_is(state));
+                CanonOp {
+                    kind: CanonKind::Single(state.convert(kind, self.map.xyz, false)),
+                    source,
+                    state: state.clone(),
+                }
+            }
+            _ => single_op(self.map.xyz, st, &mut self.canon, kind, source),
+        }
     }
 
     /// LinuxCNC selects its default spindle in every block (`Exec::spindle_selection`): the
@@ -257,8 +284,8 @@ impl Machine {
         let finite = |vs: &[f64]| vs.iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0;
         let st = &self.state;
         let kind_ok = match &op.kind {
-            canon::CanonKind::Single(SegmentKind::Rapid { end }) => finite(&end.0),
-            canon::CanonKind::Single(SegmentKind::Linear { end, feed }) => {
+            CanonKind::Single(SegmentKind::Rapid { end }) => finite(&end.0),
+            CanonKind::Single(SegmentKind::Linear { end, feed }) => {
                 finite(&end.0) && feed.is_finite()
             }
             _ => false,

@@ -84,7 +84,9 @@ impl Interpreter {
         frame.pc += 1;
         // A streamed unit's line is read now: `unit` becomes the view holding it (unless
         // the plain-block lane ran it from its bytes).
-        let view = match self.plain_lane(&unit, pc)? {
+        // Whatever runs now but the lane, the lane's next block compares the state again.
+        let lane_canon = std::mem::take(&mut self.m.lane_canon);
+        let view = match self.plain_lane(&unit, pc, lane_canon)? {
             Lane::Ran => return Ok(()),
             Lane::End => None,
             Lane::Read(at) => match &mut self.flow.stream {
@@ -233,7 +235,12 @@ impl Interpreter {
     /// where the general path would do no more than the lane (no G66 call after a move, the
     /// runaway guard not at its limit), which then does all `step` and `exec_block` do for a
     /// block that moves.
-    fn plain_lane(&mut self, unit: &Arc<Unit>, i: usize) -> Result<Lane, NcError> {
+    fn plain_lane(
+        &mut self,
+        unit: &Arc<Unit>,
+        i: usize,
+        lane_canon: bool,
+    ) -> Result<Lane, NcError> {
         let f = &mut self.flow;
         let (Some(lane), Some(s), true) = (&f.lane, &mut f.stream, unit.streamed) else {
             return Ok(Lane::NotRead);
@@ -256,7 +263,7 @@ impl Interpreter {
             n: b.n,
         };
         let linuxcnc = unit.program.dialect == cnc402_lang::Dialect::LinuxCnc;
-        if !(self.m).run_plain(lane, (&b, linuxcnc), source, &mut f.queue) {
+        if !(self.m).run_plain(lane, (&b, linuxcnc), (source, lane_canon), &mut f.queue) {
             return Ok(Lane::Read(at));
         }
         if let Some(n) = b.n {

@@ -492,6 +492,7 @@ impl Interpreter {
             return Err(NcError::new(&self.flow.main_src, Span::default(), e));
         }
         if self.hll.active() {
+            self.m.lane_canon = false;
             return Ok(match self.hll.next_op(&mut self.m)? {
                 Some(op) => Ready::Op(op),
                 None => Ready::End,
