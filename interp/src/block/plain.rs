@@ -290,8 +290,8 @@ impl Machine {
             }
             _ => false,
         };
+        // The position is the move's end (checked with the kind).
         kind_ok
-            && finite(&st.pos.0)
             && finite(&st.shift)
             && finite(&[st.feed, st.speed, st.tlo])
             && finite(&op.state.offset.0)
