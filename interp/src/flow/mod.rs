@@ -418,12 +418,11 @@ impl Interpreter {
         let f = &mut self.flow;
         let (fed, pulled) = match ready {
             Ready::Queued if keep && f.queue.front().is_some_and(|op| f.comp.pass_through(op)) => {
-                // Lowered where it waits, then dropped there: the usual operation is not
-                // moved at all.
-                if let Some(op) = f.queue.front() {
-                    lower::lower_with_state(op, xyz, &mut f.lowered);
+                // Checked where it waits, then taken out and lowered by value: its kind,
+                // source and state move into the segment.
+                if let Some(op) = f.queue.pop_front() {
+                    lower::lower_owned(op, xyz, &mut f.lowered);
                 }
-                f.queue.drain(..1);
                 (Ok(()), Pulled::Kept)
             }
             ready => {
