@@ -753,7 +753,9 @@ mod tests {
 
     #[test]
     fn with_next_segment_hands_out_what_next_segment_gives() {
-        let text = "G0 X1\nG1 Y2 F50\nG2 X3 Y0 R2\nM3 S100\nG4 P1\nM2\n";
+        // A cycle gives several segments an operation, the rest one each.
+        let text = "G0 X1\nG1 Y2 F50\nG2 X3 Y0 R2\nM3 S100\nG4 P1\n\
+                    G81 X1 Y1 Z-1 R1 F100\nX2\nG80\nG0 X0\nM2\n";
         let mut a = load(text, Options::default());
         let mut b = load(text, Options::default());
         let mut n = 0;
@@ -766,7 +768,7 @@ mod tests {
             }
             n += 1;
         }
-        assert_eq!(n, 6, "{n} segments");
+        assert_eq!(n, 15, "{n} segments");
         assert_eq!(a.with_next_segment(|_| ()).unwrap(), None);
     }
 

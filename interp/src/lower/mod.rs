@@ -86,8 +86,8 @@ pub(crate) fn lower_owned(
     out: &mut VecDeque<(Segment, Arc<CanonState>)>,
 ) {
     match op.kind {
-        CanonKind::Single(kind) => {
-            let kind = op.state.convert(kind, xyz, true);
+        CanonKind::Single(mut kind) => {
+            op.state.convert_in_place(&mut kind, xyz, true);
             let segment = Segment {
                 ends: ends(&op.state, &kind),
                 kind,
@@ -217,7 +217,78 @@ mod tests {
         }
     }
 
+    /// What `CanonState::convert` gave before it converted in place (kept as the reference):
+    /// positions through `to_machine`/`to_work`, arc centres shifted by ±offset.
+    fn convert_reference(
+        st: &CanonState,
+        kind: SegmentKind,
+        xyz: [Option<usize>; 3],
+        to_machine: bool,
+    ) -> SegmentKind {
+        let pos = |p: &AxisPos| {
+            if to_machine {
+                st.to_machine(p)
+            } else {
+                st.to_work(p)
+            }
+        };
+        let sign = if to_machine { 1.0 } else { -1.0 };
+        match kind {
+            SegmentKind::Rapid { end } => SegmentKind::Rapid { end: pos(&end) },
+            SegmentKind::Linear { end, feed } => SegmentKind::Linear {
+                end: pos(&end),
+                feed,
+            },
+            SegmentKind::Tap(t) => SegmentKind::Tap(TapSegment {
+                end: pos(&t.end),
+                ..t
+            }),
+            SegmentKind::Arc {
+                end,
+                center,
+                plane,
+                dir,
+                turns,
+                feed,
+            } => {
+                let mut c = center;
+                for (k, i) in xyz.into_iter().enumerate() {
+                    if let Some(i) = i {
+                        c[k] = center[k] + sign * st.offset.0[i];
+                    }
+                }
+                SegmentKind::Arc {
+                    end: pos(&end),
+                    center: c,
+                    plane,
+                    dir,
+                    turns,
+                    feed,
+                }
+            }
+            other => other,
+        }
+    }
+
     proptest! {
+        /// Converting in place gives, bit for bit, what the conversion through `to_machine`
+        /// and `to_work` gave, both ways.
+        #[test]
+        fn convert_in_place_gives_what_the_reference_gives(
+            s in proptest::collection::vec(0u8..=255, 16),
+            k in proptest::collection::vec(0u8..=255, 16),
+            which in 0u8..11,
+            xyz in 0usize..3,
+            to_machine: bool,
+        ) {
+            let xyz = [[Some(0), Some(1), Some(2)], [Some(1), None, Some(3)], [None, None, None]][xyz];
+            let st = state(&s);
+            let kind = kind(which, &k);
+            let want = convert_reference(&st, kind.clone(), xyz, to_machine);
+            let got = st.convert(kind, xyz, to_machine);
+            prop_assert_eq!(format!("{want:?}"), format!("{got:?}"));
+        }
+
         /// Lowering an operation by value gives what lowering it by reference gives, byte for
         /// byte (NaN and −0 compared by their text), with the operation's own state.
         #[test]
