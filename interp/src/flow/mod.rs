@@ -423,6 +423,13 @@ impl Interpreter {
                 if let Some(op) = f.queue.pop_front() {
                     lower::lower_owned(op, xyz, &mut f.lowered);
                 }
+                if f.lowered.len() == before + 1
+                    && let Some((s, _)) = f.lowered.back()
+                {
+                    // The usual one segment: counted without ranging over the queue.
+                    self.m.account(s);
+                    return Ok(Pulled::Kept);
+                }
                 (Ok(()), Pulled::Kept)
             }
             ready => {
