@@ -136,6 +136,7 @@ impl Machine {
     }
 
     /// Adds a handed-out segment's length to the path length.
+    #[inline]
     pub(crate) fn account(&mut self, s: &Segment) {
         match &s.kind {
             // A straight move's length as `path_length` takes it, without its second match.

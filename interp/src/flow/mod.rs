@@ -370,19 +370,18 @@ impl Interpreter {
         Ok(self.flow.lowered.pop_front())
     }
 
-    /// [`next_segment`](Self::next_segment) handed to `f` where it lies, not moved out (the
-    /// dump's loop: a segment is a few hundred bytes, moved several times on its way out).
+    /// [`next_segment`](Self::next_segment) handed to `f` by reference (the dump's loop: a
+    /// segment is 160 bytes, taken out of the queue once and not moved again on its way out).
     pub fn with_next_segment<R>(
         &mut self,
         f: impl FnOnce(&Segment) -> R,
     ) -> Result<Option<R>, NcError> {
         self.lower_some()?;
-        let r = self.flow.lowered.front().map(|(s, _)| f(s));
-        self.flow.lowered.pop_front();
-        Ok(r)
+        Ok(self.flow.lowered.pop_front().map(|(s, _)| f(&s)))
     }
 
     /// Runs the program until a lowered segment waits or it ends.
+    #[inline]
     fn lower_some(&mut self) -> Result<(), NcError> {
         while self.flow.lowered.is_empty() {
             if matches!(self.next_op(true)?, Pulled::End) {
