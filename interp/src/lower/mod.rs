@@ -155,12 +155,12 @@ mod tests {
             },
             work_offset: v[6] as usize % 6,
             offset: pos(&v[7..]),
-            tool: (v[1] % 3 == 0).then_some(u32::from(v[2])),
+            tool: v[1].is_multiple_of(3).then_some(u32::from(v[2])),
             tool_length_mode: 49,
             h: 0,
             tool_length: num(v[3]),
             tool_axis: Some(2),
-            comp: (v[4] % 4 == 0).then_some(CutterComp {
+            comp: v[4].is_multiple_of(4).then_some(CutterComp {
                 side: CompSide::Left,
                 d: 1,
                 radius: num(v[5]),
@@ -198,15 +198,15 @@ mod tests {
             },
             6 => SegmentKind::SpindleOrient {
                 angle: f,
-                program: (v[1] % 2 == 0).then_some(num(v[2])),
+                program: v[1].is_multiple_of(2).then_some(num(v[2])),
                 spindle: 1,
             },
             7 => SegmentKind::ToolChange {
                 tool: u32::from(v[1]),
             },
             8 => SegmentKind::Coolant {
-                mist: v[1] % 2 == 0,
-                flood: v[2] % 2 == 0,
+                mist: v[1].is_multiple_of(2),
+                flood: v[2].is_multiple_of(2),
             },
             9 => SegmentKind::Stop {
                 kind: [StopKind::Program, StopKind::Optional, StopKind::End][v[1] as usize % 3],
