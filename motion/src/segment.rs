@@ -152,11 +152,15 @@ impl PathAxes {
 
     /// Squared straight-line distance from `a` to `b` over the linear axes, and over the
     /// rotary ones.
+    /// (Slices of the configured axes, zipped: no bounds check per axis; inlined into the
+    /// interpreter, which sums it per segment.)
+    #[inline]
     fn squared_distances(&self, a: &AxisPos, b: &AxisPos) -> (f64, f64) {
         let (mut lin2, mut rot2) = (0.0, 0.0);
-        for i in 0..self.n {
-            let d = b.0[i] - a.0[i];
-            if self.linear[i] {
+        let n = self.n.min(MAX_AXES);
+        for ((a, b), &linear) in a.0[..n].iter().zip(&b.0[..n]).zip(&self.linear[..n]) {
+            let d = b - a;
+            if linear {
                 lin2 += d * d;
             } else {
                 rot2 += d * d;
@@ -173,6 +177,7 @@ impl PathAxes {
 
     /// The length of a straight move from `a` to `b`: mm over the linear axes that move,
     /// degrees over the rotary axes when only rotary axes move.
+    #[inline]
     pub fn line_length(&self, a: &AxisPos, b: &AxisPos) -> f64 {
         let (lin2, rot2) = self.squared_distances(a, b);
         if lin2 > 0.0 { lin2.sqrt() } else { rot2.sqrt() }

@@ -142,12 +142,17 @@ impl Machine {
     }
 
     /// Adds a handed-out segment's length to the path length.
+    #[inline]
     pub(crate) fn account(&mut self, s: &Segment) {
         match &s.kind {
+            // A straight move's length as `path_length` takes it, without its second match.
             SegmentKind::Rapid { end }
             | SegmentKind::Linear { end, .. }
-            | SegmentKind::Tap(TapSegment { end, .. })
-            | SegmentKind::Arc { end, .. } => {
+            | SegmentKind::Tap(TapSegment { end, .. }) => {
+                self.path_len += self.path_axes.line_length(&self.path_end, end);
+                self.path_end = *end;
+            }
+            SegmentKind::Arc { end, .. } => {
                 self.path_len += path_length(&self.path_end, &s.kind, &self.path_axes);
                 self.path_end = *end;
             }
@@ -322,5 +327,46 @@ impl Machine {
             _ => return None,
         };
         Some(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// `account` adds what `path_length` gives for every kind of path segment (straight
+        /// moves take a shorter way there), one after another from the start.
+        #[test]
+        fn account_adds_what_path_length_gives(
+            moves in proptest::collection::vec((0u8..4, proptest::collection::vec(-3i8..4, 4)), 1..6),
+        ) {
+            let cfg = MachineConfig::default_machine();
+            let mut m = Machine::new(&cfg, Options::default());
+            let axes = PathAxes::new(&cfg);
+            let (mut at, mut want) = (m.path_end, 0.0);
+            for (which, v) in moves {
+                let mut end = AxisPos::default();
+                for (i, x) in v.iter().enumerate() {
+                    end.0[i] = f64::from(*x) * 0.75;
+                }
+                let kind = match which {
+                    0 => SegmentKind::Rapid { end },
+                    1 => SegmentKind::Linear { end, feed: 100.0 },
+                    2 => SegmentKind::Tap(TapSegment { end, feed: 100.0, tool: 2, spindle: 3, pitch: -1.0 }),
+                    _ => SegmentKind::Arc { end, center: [0.5, -0.5, 0.0], plane: Plane::XY, dir: cnc402_motion::segment::ArcDir::Cw, turns: 0, feed: 100.0 },
+                };
+                want += path_length(&at, &kind, &axes);
+                at = end;
+                m.account(&Segment {
+                    kind,
+                    source: Source { file: Arc::from("p.nc"), line: 1, n: None },
+                    ends: cnc402_motion::segment::SegmentEnd::ExactStop,
+                });
+                prop_assert_eq!(m.path_len.to_bits(), want.to_bits());
+                prop_assert_eq!(m.path_end, at);
+            }
+        }
     }
 }

@@ -7,7 +7,7 @@
 use std::sync::Arc;
 
 use cnc402_motion::segment::{
-    AxisPos, MAX_AXES, Plane, SegmentEnd, SegmentKind, Source, SpindleDir, TapSegment,
+    AxisPos, MAX_AXES, Plane, SegmentEnd, SegmentKind, Source, SpindleDir,
 };
 
 /// One canonical operation: what, from where, under which state.
@@ -155,44 +155,41 @@ impl CanonState {
     /// (`to_machine: true`) or back.
     pub fn convert(
         &self,
-        kind: SegmentKind,
+        mut kind: SegmentKind,
         xyz: [Option<usize>; 3],
         to_machine: bool,
     ) -> SegmentKind {
-        let pos = |p: &AxisPos| {
-            if to_machine {
-                self.to_machine(p)
-            } else {
-                self.to_work(p)
+        self.convert_in_place(&mut kind, xyz, to_machine);
+        kind
+    }
+
+    /// [`convert`](Self::convert) where `kind` lies (lowering: the kind is not moved in and
+    /// out). The same sums as [`to_machine`](Self::to_machine) and
+    /// [`to_work`](Self::to_work).
+    pub fn convert_in_place(
+        &self,
+        kind: &mut SegmentKind,
+        xyz: [Option<usize>; 3],
+        to_machine: bool,
+    ) {
+        let pos = |p: &mut AxisPos| {
+            for i in 0..MAX_AXES {
+                if to_machine {
+                    p.0[i] += self.offset.0[i];
+                } else {
+                    p.0[i] -= self.offset.0[i];
+                }
             }
         };
         let sign = if to_machine { 1.0 } else { -1.0 };
         match kind {
-            SegmentKind::Rapid { end } => SegmentKind::Rapid { end: pos(&end) },
-            SegmentKind::Linear { end, feed } => SegmentKind::Linear {
-                end: pos(&end),
-                feed,
-            },
-            SegmentKind::Tap(t) => SegmentKind::Tap(TapSegment {
-                end: pos(&t.end),
-                ..t
-            }),
-            SegmentKind::Arc {
-                end,
-                center,
-                plane,
-                dir,
-                turns,
-                feed,
-            } => SegmentKind::Arc {
-                end: pos(&end),
-                center: self.xyz_shift(center, xyz, sign),
-                plane,
-                dir,
-                turns,
-                feed,
-            },
-            other => other,
+            SegmentKind::Rapid { end } | SegmentKind::Linear { end, .. } => pos(end),
+            SegmentKind::Tap(t) => pos(&mut t.end),
+            SegmentKind::Arc { end, center, .. } => {
+                pos(end);
+                *center = self.xyz_shift(*center, xyz, sign);
+            }
+            _ => {}
         }
     }
 }

@@ -97,6 +97,7 @@ impl Stage {
     /// Takes `op` when it would pass unchanged (compensation off in it and in the stage,
     /// nothing held or waiting): the caller lowers it where it lies instead of moving it
     /// through the stage's queue. `false`: nothing was done, [`push`](Self::push) it.
+    #[inline]
     pub fn pass_through(&mut self, op: &CanonOp) -> bool {
         if self.run.is_some() || op.state.comp.is_some() || !self.out.is_empty() {
             return false;

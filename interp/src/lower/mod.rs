@@ -25,9 +25,9 @@ pub fn xyz_indices(cfg: &MachineConfig) -> [Option<usize>; 3] {
 
 /// How a segment of `kind` made under the operation's path mode ends: rapids, feeds and arcs
 /// follow G61/G64; a tap, a wait or an event ends in an exact stop.
-fn ends(op: &CanonOp, kind: &SegmentKind) -> SegmentEnd {
+fn ends(state: &CanonState, kind: &SegmentKind) -> SegmentEnd {
     if kind.is_path() && !matches!(kind, SegmentKind::Tap(_)) {
-        op.state.path_mode.segment_end()
+        state.path_mode.segment_end()
     } else {
         SegmentEnd::ExactStop
     }
@@ -40,7 +40,7 @@ pub fn lower(op: &CanonOp, xyz: [Option<usize>; 3], out: &mut impl Extend<Segmen
         CanonKind::Single(kind) => {
             let kind = op.state.convert(kind.clone(), xyz, true);
             out.extend(std::iter::once(Segment {
-                ends: ends(op, &kind),
+                ends: ends(&op.state, &kind),
                 kind,
                 source: op.source.clone(),
             }));
@@ -77,6 +77,28 @@ pub(crate) fn lower_with_state(
     );
 }
 
+/// As [`lower_with_state`], taking `op` by value: a one-segment operation's kind, source and
+/// state move into its segment (no reference counts touched, nothing cloned); a cycle is
+/// lowered as there.
+pub(crate) fn lower_owned(
+    op: CanonOp,
+    xyz: [Option<usize>; 3],
+    out: &mut VecDeque<(Segment, Arc<CanonState>)>,
+) {
+    match op.kind {
+        CanonKind::Single(mut kind) => {
+            op.state.convert_in_place(&mut kind, xyz, true);
+            let segment = Segment {
+                ends: ends(&op.state, &kind),
+                kind,
+                source: op.source,
+            };
+            out.push_back((segment, op.state));
+        }
+        CanonKind::CannedCycle(_) => lower_with_state(&op, xyz, out),
+    }
+}
+
 /// Appends segments to the interpreter's queue with the state they were lowered under.
 struct WithState<'a> {
     out: &'a mut VecDeque<(Segment, Arc<CanonState>)>,
@@ -87,6 +109,208 @@ impl Extend<Segment> for WithState<'_> {
     fn extend<I: IntoIterator<Item = Segment>>(&mut self, segments: I) {
         for s in segments {
             self.out.push_back((s, self.state.clone()));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::canon::{CompSide, CutterComp, FeedMode, PathMode, ProgramUnits};
+    use cnc402_motion::segment::{
+        ArcDir, AxisPos, MAX_AXES, Plane, Source, SpindleDir, StopKind, TapSegment,
+    };
+    use proptest::prelude::*;
+
+    /// A value from a byte: small numbers, repeats likely, NaN, −0 and infinity included.
+    fn num(b: u8) -> f64 {
+        match b % 8 {
+            5 => f64::NAN,
+            6 => -0.0,
+            7 => f64::INFINITY,
+            k => f64::from(k) * 1.25 - 2.0,
+        }
+    }
+
+    fn pos(v: &[u8]) -> AxisPos {
+        let mut p = AxisPos::default();
+        for (i, b) in v.iter().take(MAX_AXES).enumerate() {
+            p.0[i] = num(*b);
+        }
+        p
+    }
+
+    fn state(v: &[u8]) -> CanonState {
+        CanonState {
+            plane: [Plane::XY, Plane::ZX, Plane::YZ][v[0] as usize % 3],
+            units: [ProgramUnits::Mm, ProgramUnits::Inch][v[1] as usize % 2],
+            feed_mode: [FeedMode::PerMinute, FeedMode::PerRevolution][v[2] as usize % 2],
+            path_mode: match v[3] % 3 {
+                0 => PathMode::ExactStop,
+                1 => PathMode::Tapping,
+                _ => PathMode::Continuous {
+                    tolerance: num(v[4]),
+                    collinear: num(v[5]),
+                },
+            },
+            work_offset: v[6] as usize % 6,
+            offset: pos(&v[7..]),
+            tool: v[1].is_multiple_of(3).then_some(u32::from(v[2])),
+            tool_length_mode: 49,
+            h: 0,
+            tool_length: num(v[3]),
+            tool_axis: Some(2),
+            comp: v[4].is_multiple_of(4).then_some(CutterComp {
+                side: CompSide::Left,
+                d: 1,
+                radius: num(v[5]),
+            }),
+        }
+    }
+
+    /// Every kind of single operation, its values from `v`.
+    fn kind(which: u8, v: &[u8]) -> SegmentKind {
+        let end = pos(&v[1..]);
+        let f = num(v[0]);
+        match which % 11 {
+            0 => SegmentKind::Rapid { end },
+            1 => SegmentKind::Linear { end, feed: f },
+            2 => SegmentKind::Tap(TapSegment {
+                end,
+                feed: f,
+                tool: 2,
+                spindle: 3,
+                pitch: num(v[2]),
+            }),
+            3 => SegmentKind::Arc {
+                end,
+                center: [num(v[3]), num(v[4]), num(v[5])],
+                plane: [Plane::XY, Plane::ZX, Plane::YZ][v[6] as usize % 3],
+                dir: [ArcDir::Cw, ArcDir::Ccw][v[7] as usize % 2],
+                turns: u32::from(v[8] % 3),
+                feed: f,
+            },
+            4 => SegmentKind::Dwell { seconds: f },
+            5 => SegmentKind::Spindle {
+                rpm: f,
+                dir: [SpindleDir::Cw, SpindleDir::Ccw, SpindleDir::Stop][v[1] as usize % 3],
+                spindle: v[2] % 3,
+            },
+            6 => SegmentKind::SpindleOrient {
+                angle: f,
+                program: v[1].is_multiple_of(2).then_some(num(v[2])),
+                spindle: 1,
+            },
+            7 => SegmentKind::ToolChange {
+                tool: u32::from(v[1]),
+            },
+            8 => SegmentKind::Coolant {
+                mist: v[1].is_multiple_of(2),
+                flood: v[2].is_multiple_of(2),
+            },
+            9 => SegmentKind::Stop {
+                kind: [StopKind::Program, StopKind::Optional, StopKind::End][v[1] as usize % 3],
+            },
+            _ => SegmentKind::Message {
+                text: format!("m{}", v[1]),
+            },
+        }
+    }
+
+    /// What `CanonState::convert` gave before it converted in place (kept as the reference):
+    /// positions through `to_machine`/`to_work`, arc centres shifted by ±offset.
+    fn convert_reference(
+        st: &CanonState,
+        kind: SegmentKind,
+        xyz: [Option<usize>; 3],
+        to_machine: bool,
+    ) -> SegmentKind {
+        let pos = |p: &AxisPos| {
+            if to_machine {
+                st.to_machine(p)
+            } else {
+                st.to_work(p)
+            }
+        };
+        let sign = if to_machine { 1.0 } else { -1.0 };
+        match kind {
+            SegmentKind::Rapid { end } => SegmentKind::Rapid { end: pos(&end) },
+            SegmentKind::Linear { end, feed } => SegmentKind::Linear {
+                end: pos(&end),
+                feed,
+            },
+            SegmentKind::Tap(t) => SegmentKind::Tap(TapSegment {
+                end: pos(&t.end),
+                ..t
+            }),
+            SegmentKind::Arc {
+                end,
+                center,
+                plane,
+                dir,
+                turns,
+                feed,
+            } => {
+                let mut c = center;
+                for (k, i) in xyz.into_iter().enumerate() {
+                    if let Some(i) = i {
+                        c[k] = center[k] + sign * st.offset.0[i];
+                    }
+                }
+                SegmentKind::Arc {
+                    end: pos(&end),
+                    center: c,
+                    plane,
+                    dir,
+                    turns,
+                    feed,
+                }
+            }
+            other => other,
+        }
+    }
+
+    proptest! {
+        /// Converting in place gives, bit for bit, what the conversion through `to_machine`
+        /// and `to_work` gave, both ways.
+        #[test]
+        fn convert_in_place_gives_what_the_reference_gives(
+            s in proptest::collection::vec(0u8..=255, 16),
+            k in proptest::collection::vec(0u8..=255, 16),
+            which in 0u8..11,
+            xyz in 0usize..3,
+            to_machine: bool,
+        ) {
+            let xyz = [[Some(0), Some(1), Some(2)], [Some(1), None, Some(3)], [None, None, None]][xyz];
+            let st = state(&s);
+            let kind = kind(which, &k);
+            let want = convert_reference(&st, kind.clone(), xyz, to_machine);
+            let got = st.convert(kind, xyz, to_machine);
+            prop_assert_eq!(format!("{want:?}"), format!("{got:?}"));
+        }
+
+        /// Lowering an operation by value gives what lowering it by reference gives, byte for
+        /// byte (NaN and −0 compared by their text), with the operation's own state.
+        #[test]
+        fn lower_owned_gives_what_lower_with_state_gives(
+            s in proptest::collection::vec(0u8..=255, 16),
+            k in proptest::collection::vec(0u8..=255, 16),
+            which in 0u8..11,
+            xyz in 0usize..3,
+        ) {
+            let xyz = [[Some(0), Some(1), Some(2)], [Some(1), None, Some(3)], [None, None, None]][xyz];
+            let op = CanonOp {
+                kind: CanonKind::Single(kind(which, &k)),
+                source: Source { file: Arc::from("p.nc"), line: u32::from(k[0]), n: None },
+                state: Arc::new(state(&s)),
+            };
+            let (mut by_ref, mut by_value) = (VecDeque::new(), VecDeque::new());
+            lower_with_state(&op, xyz, &mut by_ref);
+            let state = op.state.clone();
+            lower_owned(op, xyz, &mut by_value);
+            prop_assert_eq!(format!("{by_ref:?}"), format!("{by_value:?}"));
+            prop_assert_eq!(by_value.len(), 1);
+            prop_assert!(Arc::ptr_eq(&by_value[0].1, &state));
         }
     }
 }
