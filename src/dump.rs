@@ -60,9 +60,9 @@ pub(crate) fn dump(
         Dump::Segments => {
             let mut writer = cnc402_interp::dump::SegmentWriter::default();
             pipeline(
-                // The segment is cloned where it lies rather than moved out through the
-                // interpreter's return values: one copy instead of several.
-                |batch: &mut Vec<_>| interp.with_next_segment(|s| batch.push(s.clone())),
+                // The segment goes from the interpreter's queue into the batch, not through
+                // its return values: one move instead of several.
+                |batch: &mut Vec<_>| interp.with_next_segment(|s| batch.push(s)),
                 move |text: &mut String, s| writer.write_line(text, s, cfg),
                 stdout,
                 cap,

@@ -378,14 +378,14 @@ impl Interpreter {
         Ok(self.flow.lowered.pop_front())
     }
 
-    /// [`next_segment`](Self::next_segment) handed to `f` by reference (the dump's loop: a
-    /// segment is 160 bytes, taken out of the queue once and not moved again on its way out).
+    /// [`next_segment`](Self::next_segment) handed to `f` (the dump's loop: a segment is 160
+    /// bytes, moved out of the queue into `f` once rather than through the return values).
     pub fn with_next_segment<R>(
         &mut self,
-        f: impl FnOnce(&Segment) -> R,
+        f: impl FnOnce(Segment) -> R,
     ) -> Result<Option<R>, NcError> {
         self.lower_some()?;
-        Ok(self.flow.lowered.pop_front().map(|(s, _)| f(&s)))
+        Ok(self.flow.lowered.pop_front().map(|(s, _)| f(s)))
     }
 
     /// Runs the program until a lowered segment waits or it ends.
@@ -789,7 +789,7 @@ mod tests {
         let mut b = load(text, Options::default());
         let mut n = 0;
         loop {
-            let seen = a.with_next_segment(|s| s.clone()).unwrap();
+            let seen = a.with_next_segment(|s| s).unwrap();
             assert_eq!(seen, b.next_segment().unwrap());
             assert_eq!(a.state().pos, b.state().pos);
             if seen.is_none() {
