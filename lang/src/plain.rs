@@ -79,6 +79,17 @@ fn tight(b: &[u8], found: &mut [(u8, f64, bool); TIGHT_WORDS]) -> Option<(Option
         if !letter.is_ascii_uppercase() || matches!(letter, b'N' | b'O') {
             return None;
         }
+        // `G0`/`G1`, in nearly every CAM line: the value the scanner gives a lone digit.
+        if letter == b'G'
+            && let Some(&d @ (b'0' | b'1')) = b.get(k + 1)
+            && b.get(k + 2)
+                .is_none_or(|&c| c == b' ' || c.is_ascii_uppercase())
+        {
+            *found.get_mut(count)? = (letter, f64::from(d - b'0'), false);
+            count += 1;
+            k += 2;
+            continue;
+        }
         let (neg, at) = match b.get(k + 1) {
             Some(b'-') => (true, k + 2),
             Some(b'+') => (false, k + 2),
@@ -159,6 +170,11 @@ mod tests {
         for line in [
             "G1 X10.0000 Y0.0100",
             "N120 G01 X-1.5 Y+2. Z.5 F3000",
+            "G0 X1",
+            "G1",
+            "G1X2",
+            "G10 L2",
+            "G1.5",
             "X1Y2",
             "N5",
             " G1 X1",
