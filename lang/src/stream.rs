@@ -45,7 +45,17 @@ pub struct LineReader {
     input: Box<dyn ProgramRead>,
     /// The next line to be read.
     next: LinePos,
+    /// Bytes read from `input` and not yet handed out start at `buf[start]` and end at
+    /// `buf[end]`: lines are found in place (one search for the `\n` each), not copied out
+    /// of the input's buffer one by one. `buf` is [`READ_CHUNK`] bytes, more (up to
+    /// [`MAX_LINE_BYTES`] + 1) only while a longer line is read.
     buf: Vec<u8>,
+    start: usize,
+    end: usize,
+    /// Where the last line read lies in `buf`, without its `\n` (or `\r\n`).
+    body: std::ops::Range<usize>,
+    /// Whether the last line read is ASCII (so UTF-8, without validating it again).
+    ascii: bool,
     /// A Heidenhain program (issue 16): its lines are translated as they are read.
     /// (Boxed: most readers have none, and the reader is moved around whole.)
     heidenhain: Option<Box<crate::heidenhain::Translator>>,
@@ -54,6 +64,10 @@ pub struct LineReader {
     /// Texts of lines read before, taken again for lines of their length.
     texts: LineTexts,
 }
+
+/// How many bytes the reader asks its input for at a time (and keeps: the memory of a
+/// streamed program, whatever its length).
+const READ_CHUNK: usize = 64 << 10;
 
 /// Longest line whose text [`LineTexts`] keeps (bytes): CAM blocks are shorter.
 const KEPT_TEXT_LEN: usize = 128;
@@ -101,6 +115,10 @@ impl LineReader {
             input,
             next: LinePos::default(),
             buf: Vec::new(),
+            start: 0,
+            end: 0,
+            body: 0..0,
+            ascii: true,
             heidenhain: None,
             peck_clearance: None,
             texts: LineTexts::default(),
@@ -127,52 +145,114 @@ impl LineReader {
     pub fn seek(&mut self, pos: LinePos) -> io::Result<()> {
         if pos != self.next {
             self.input.seek(SeekFrom::Start(pos.offset))?;
+            self.drop_read_ahead();
             self.next = pos;
         }
         Ok(())
     }
 
-    /// Reads the next line's bytes into the buffer; `false` at the end of the file.
+    /// Forgets the bytes read ahead (the input was moved). The line last read stays where
+    /// it is ([`Self::body`]) until the next line is read.
+    fn drop_read_ahead(&mut self) {
+        self.start = 0;
+        self.end = 0;
+    }
+
+    /// Finds the next line in the buffer (reading more when it is not whole there) and makes
+    /// it the line last read; `false` at the end of the file. As `read_until` reads a line:
+    /// up to and with its `\n`, or to the end of the file; a line with no `\n` in its first
+    /// [`MAX_LINE_BYTES`] + 1 bytes is an error.
+    #[inline]
     fn fill(&mut self) -> Result<bool, NcError> {
-        self.buf.clear();
-        let line_no = self.next.index.saturating_add(1);
-        // Most lines lie whole in the reader's buffer: take them from there in one piece.
-        let whole_line = match self.input.fill_buf() {
-            Ok(avail) => {
-                // As the general path reads: at most MAX_LINE_BYTES and the `\n`.
-                let head = &avail[..avail.len().min(MAX_LINE_BYTES + 1)];
-                find_newline(head).map(|p| {
-                    self.buf.extend_from_slice(&head[..=p]);
-                    p + 1
-                })
+        // The buffer is never longer than a line may be: a `\n` in it ends a line.
+        debug_assert!(self.buf.len() <= MAX_LINE_BYTES + 1);
+        match find_newline(&self.buf[self.start..self.end]) {
+            Some((p, ascii)) => {
+                self.take_line(p + 1, ascii);
+                Ok(true)
             }
-            Err(_) => None,
-        };
-        let n = match whole_line {
-            Some(n) => {
-                self.input.consume(n);
-                n
-            }
-            None => {
-                let input: &mut dyn ProgramRead = &mut *self.input;
-                io::Read::take(input, MAX_LINE_BYTES as u64 + 1)
-                    .read_until(b'\n', &mut self.buf)
-                    .map_err(|e| self.io_error(line_no, &e))?
-            }
-        };
-        if n == 0 {
-            return Ok(false);
+            None => self.fill_slow(),
         }
-        if self.buf.last() != Some(&b'\n') && n > MAX_LINE_BYTES {
-            return Err(NcError::new(
-                &SourceFile::window(self.name.clone(), "", line_no as u32),
-                crate::ast::Span::new(0, 0),
-                format!("line longer than {MAX_LINE_BYTES} bytes"),
-            ));
+    }
+
+    /// [`Self::fill`] when the buffer holds no whole line: reads until it does.
+    #[cold]
+    #[inline(never)]
+    fn fill_slow(&mut self) -> Result<bool, NcError> {
+        loop {
+            let ahead = &self.buf[self.start..self.end];
+            if let Some((p, ascii)) = find_newline(ahead) {
+                self.take_line(p + 1, ascii);
+                return Ok(true);
+            }
+            let line_no = self.next.index.saturating_add(1);
+            if ahead.len() > MAX_LINE_BYTES {
+                return Err(NcError::new(
+                    &SourceFile::window(self.name.clone(), "", line_no as u32),
+                    crate::ast::Span::new(0, 0),
+                    format!("line longer than {MAX_LINE_BYTES} bytes"),
+                ));
+            }
+            if self.read_more().map_err(|e| self.io_error(line_no, &e))? == 0 {
+                // The end of the file: what is left is the last line, without a `\n`.
+                let rest = self.end - self.start;
+                if rest == 0 {
+                    return Ok(false);
+                }
+                let ascii = self.buf[self.start..self.end].is_ascii();
+                self.take_line(rest, ascii);
+                return Ok(true);
+            }
         }
+    }
+
+    /// Makes the next `n` bytes in the buffer (a line and its terminator) the line read;
+    /// `ascii`: its bytes are all ASCII.
+    #[inline]
+    fn take_line(&mut self, n: usize, ascii: bool) {
+        let line = &self.buf[self.start..self.start + n];
+        let mut len = n;
+        if line[len - 1] == b'\n' {
+            len -= 1;
+        }
+        if len > 0 && line[len - 1] == b'\r' {
+            len -= 1;
+        }
+        self.body = self.start..self.start + len;
+        self.ascii = ascii;
+        self.start += n;
         self.next.index += 1;
         self.next.offset += n as u64;
-        Ok(true)
+    }
+
+    /// Reads more of the input after the bytes not yet handed out (moved to the buffer's
+    /// start first: they are part of one line); the number of bytes read, 0 at the end.
+    #[cold]
+    fn read_more(&mut self) -> io::Result<usize> {
+        self.buf.copy_within(self.start..self.end, 0);
+        self.end -= self.start;
+        self.start = 0;
+        self.body = 0..0;
+        self.ascii = true;
+        if self.end == self.buf.len() {
+            // A line longer than the buffer: room for the longest line and its `\n`.
+            let len = (2 * self.buf.len()).clamp(READ_CHUNK, MAX_LINE_BYTES + 1);
+            self.buf.resize(len, 0);
+        } else if self.end < READ_CHUNK && self.buf.len() > READ_CHUNK {
+            // The long line is gone: back to the usual size.
+            self.buf.truncate(READ_CHUNK);
+            self.buf.shrink_to_fit();
+        }
+        loop {
+            match self.input.read(&mut self.buf[self.end..]) {
+                Ok(n) => {
+                    self.end += n;
+                    return Ok(n);
+                }
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+        }
     }
 
     /// An error reading line `line_no` (the file changed or went away under the run).
@@ -201,21 +281,27 @@ impl LineReader {
     /// Reads the next line without making a window of it (its bytes are [`Self::body`]);
     /// `None` at the end of the file. For passes that look at most lines only briefly; they
     /// must take [`Self::current_window`] instead of the bytes when [`Self::translates`].
+    #[inline]
     pub fn read_raw(&mut self) -> Result<Option<LinePos>, NcError> {
         let at = self.next;
         if !self.fill()? {
             return Ok(None);
         }
         if at.index == 0 {
-            // The first line decides whether the program is a Heidenhain one.
-            let first = String::from_utf8_lossy(self.body());
-            self.heidenhain = crate::heidenhain::is_heidenhain(&self.name, &first).then(|| {
-                Box::new(crate::heidenhain::Translator::for_machine(
-                    self.peck_clearance,
-                ))
-            });
+            self.read_first_line();
         }
         Ok(Some(at))
+    }
+
+    /// The first line decides whether the program is a Heidenhain one.
+    #[cold]
+    fn read_first_line(&mut self) {
+        let first = String::from_utf8_lossy(self.body());
+        self.heidenhain = crate::heidenhain::is_heidenhain(&self.name, &first).then(|| {
+            Box::new(crate::heidenhain::Translator::for_machine(
+                self.peck_clearance,
+            ))
+        });
     }
 
     /// Whether the lines read are translated (a Heidenhain program): their bytes are not
@@ -226,25 +312,19 @@ impl LineReader {
 
     /// The bytes of the line last read, without its `\n` (or `\r\n`).
     pub fn body(&self) -> &[u8] {
-        &self.buf[self.body_range()]
-    }
-
-    /// Where [`Self::body`] lies in the buffer.
-    fn body_range(&self) -> std::ops::Range<usize> {
-        let mut end = self.buf.len();
-        if end > 0 && self.buf[end - 1] == b'\n' {
-            end -= 1;
-        }
-        if end > 0 && self.buf[end - 1] == b'\r' {
-            end -= 1;
-        }
-        0..end
+        &self.buf[self.body.clone()]
     }
 
     /// The line last read (it started at `at`) as a window of the program, untranslated.
     pub fn window(&mut self, at: LinePos) -> SourceFile {
-        let body = self.body_range();
-        match std::str::from_utf8(&self.buf[body]) {
+        let body = &self.buf[self.body.clone()];
+        let text = if self.ascii {
+            // SAFETY: ASCII is UTF-8 (`ascii` was found on these very bytes by `fill`).
+            Ok(unsafe { std::str::from_utf8_unchecked(body) })
+        } else {
+            std::str::from_utf8(body)
+        };
+        match text {
             // Most lines: the text of a line read before of its length, when free.
             Ok(text) => {
                 let text = self.texts.text(text);
@@ -265,8 +345,19 @@ impl LineReader {
         let text = window.line_text(line_no);
         // An `L` ends where an `RND`/`CHF` after it begins: it sees the lines ahead.
         let ahead = if crate::heidenhain::looks_ahead(text) {
-            crate::heidenhain::peek_lines(&mut *self.input, self.next.offset, MAX_LINE_BYTES)
-                .map_err(|e| NcError::new(&window, crate::ast::Span::new(0, 0), e.to_string()))?
+            let ahead = &self.buf[self.start..self.end];
+            let newlines = ahead.iter().filter(|&&b| b == b'\n').count();
+            let lines = if newlines >= crate::heidenhain::AHEAD_LINES {
+                crate::heidenhain::peek_lines(&mut io::Cursor::new(ahead), 0, MAX_LINE_BYTES)
+            } else {
+                // Not all read ahead: from the input, at the next line (read again after).
+                self.start = self.end;
+                let at = self.next.offset;
+                self.input.seek(SeekFrom::Start(at)).and_then(|_| {
+                    crate::heidenhain::peek_lines(&mut *self.input, at, MAX_LINE_BYTES)
+                })
+            };
+            lines.map_err(|e| NcError::new(&window, crate::ast::Span::new(0, 0), e.to_string()))?
         } else {
             Vec::new()
         };
@@ -303,8 +394,12 @@ impl LineReader {
     /// The whole program as one text (for a program that must be held whole: the C-like
     /// language is compiled whole).
     pub fn whole(&mut self) -> Result<SourceFile, NcError> {
-        self.seek(LinePos::default())
+        // From the file's start, whatever was read ahead.
+        self.input
+            .seek(SeekFrom::Start(0))
             .map_err(|e| self.io_error(1, &e))?;
+        self.drop_read_ahead();
+        self.next = LinePos::default();
         let mut bytes = Vec::new();
         self.input
             .read_to_end(&mut bytes)
@@ -332,24 +427,35 @@ impl LineReader {
     }
 }
 
-/// Index of the first `\n` in `b`, eight bytes at a time: every line of a program is
-/// searched for its end twice (load pass and run), and a byte loop was a tenth of a block's
-/// instructions.
-fn find_newline(b: &[u8]) -> Option<usize> {
+/// Index of the first `\n` in `b` and whether the bytes before it are all ASCII, eight
+/// bytes at a time: every line of a program is searched for its end twice (load pass and
+/// run), and a byte loop was a tenth of a block's instructions; the ASCII test spares
+/// validating a line's UTF-8 again for its window.
+fn find_newline(b: &[u8]) -> Option<(usize, bool)> {
     const ONES: u64 = 0x0101_0101_0101_0101;
     const HIGHS: u64 = 0x8080_8080_8080_8080;
     let (words, rest) = b.as_chunks::<8>();
+    // The high bits of every byte before the `\n`.
+    let mut high = 0;
     for (k, w) in words.iter().enumerate() {
         // A byte of `x` is 0 where `w` has a `\n`; the lowest flagged byte is always a
         // true one (a borrow only flags bytes above a zero byte).
-        let x = u64::from_le_bytes(*w) ^ (ONES * u64::from(b'\n'));
+        let w = u64::from_le_bytes(*w);
+        let x = w ^ (ONES * u64::from(b'\n'));
         let zero = x.wrapping_sub(ONES) & !x & HIGHS;
         if zero != 0 {
-            return Some(8 * k + (zero.trailing_zeros() / 8) as usize);
+            let at = zero.trailing_zeros() / 8;
+            // The bytes below the `\n` (none when it is the first: a shift by 64 is none).
+            let below = u64::MAX.checked_shr(64 - 8 * at).unwrap_or(0);
+            high |= w & below;
+            return Some((8 * k + at as usize, high & HIGHS == 0));
         }
+        high |= w;
     }
     let tail = 8 * words.len();
-    rest.iter().position(|&c| c == b'\n').map(|p| tail + p)
+    let p = rest.iter().position(|&c| c == b'\n')?;
+    let ascii = high & HIGHS == 0 && rest[..p].is_ascii();
+    Some((tail + p, ascii))
 }
 
 /// The window of a line read from `name` (its bytes without the terminator, starting at
@@ -460,6 +566,9 @@ fn parse_general_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcE
 }
 
 #[cfg(test)]
+mod reference;
+
+#[cfg(test)]
 mod tests {
     use super::{LineReader, ReadLine, find_newline, parse_line};
     use crate::{Dialect, SourceFile};
@@ -528,8 +637,9 @@ mod tests {
         assert_eq!(e.block, "G1 X");
     }
 
-    /// The word-at-a-time search finds the first `\n` wherever a byte loop finds it, with
-    /// the bytes a borrow or a sign bit could confuse around it.
+    /// The word-at-a-time search finds the first `\n` wherever a byte loop finds it, and
+    /// tells whether the bytes before it are ASCII as a byte loop does, with the bytes a
+    /// borrow or a sign bit could confuse around it.
     #[test]
     fn find_newline_finds_the_first_newline_as_a_byte_loop_does() {
         let bytes = [
@@ -560,7 +670,10 @@ mod tests {
                     }
                 })
                 .collect();
-            let want = text.iter().position(|&c| c == b'\n');
+            let want = text
+                .iter()
+                .position(|&c| c == b'\n')
+                .map(|p| (p, text[..p].is_ascii()));
             assert_eq!(find_newline(&text), want, "{text:?}");
         }
     }
