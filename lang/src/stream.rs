@@ -137,6 +137,7 @@ impl LineReader {
     }
 
     /// Where the next line starts.
+    #[inline]
     pub fn position(&self) -> LinePos {
         self.next
     }
@@ -210,14 +211,12 @@ impl LineReader {
     /// `ascii`: its bytes are all ASCII.
     #[inline]
     fn take_line(&mut self, n: usize, ascii: bool) {
-        let line = &self.buf[self.start..self.start + n];
-        let mut len = n;
-        if line[len - 1] == b'\n' {
-            len -= 1;
-        }
-        if len > 0 && line[len - 1] == b'\r' {
-            len -= 1;
-        }
+        // Without its `\n`, then without a `\r` before it.
+        let len = match &self.buf[self.start..self.start + n] {
+            [.., b'\r', b'\n'] => n - 2,
+            [.., b'\n' | b'\r'] => n - 1,
+            _ => n,
+        };
         self.body = self.start..self.start + len;
         self.ascii = ascii;
         self.start += n;
@@ -271,6 +270,7 @@ impl LineReader {
 
     /// The next line, as a window of the program (a Heidenhain program's line as the ISO
     /// block it translates to).
+    #[inline]
     pub fn read(&mut self) -> Result<ReadLine, NcError> {
         let Some(at) = self.read_raw()? else {
             return Ok(ReadLine::End);
@@ -306,11 +306,13 @@ impl LineReader {
 
     /// Whether the lines read are translated (a Heidenhain program): their bytes are not
     /// what the interpreter reads.
+    #[inline]
     pub fn translates(&self) -> bool {
         self.heidenhain.is_some()
     }
 
     /// The bytes of the line last read, without its `\n` (or `\r\n`).
+    #[inline]
     pub fn body(&self) -> &[u8] {
         &self.buf[self.body.clone()]
     }
@@ -336,8 +338,18 @@ impl LineReader {
 
     /// The line last read (it started at `at`) as the interpreter reads it: translated to
     /// ISO in a Heidenhain program ([`crate::heidenhain::is_heidenhain`]), else its window.
+    #[inline]
     pub fn current_window(&mut self, at: LinePos) -> Result<SourceFile, NcError> {
         let window = self.window(at);
+        if self.heidenhain.is_none() {
+            return Ok(window);
+        }
+        self.translate(window, at)
+    }
+
+    /// The ISO block of the Heidenhain line last read (its window `window`, at `at`).
+    #[cold]
+    fn translate(&mut self, window: SourceFile, at: LinePos) -> Result<SourceFile, NcError> {
         let Some(t) = &mut self.heidenhain else {
             return Ok(window);
         };
