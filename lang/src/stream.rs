@@ -66,8 +66,9 @@ pub struct LineReader {
 }
 
 /// How many bytes the reader asks its input for at a time (and keeps: the memory of a
-/// streamed program, whatever its length).
-const READ_CHUNK: usize = 64 << 10;
+/// streamed program, whatever its length). More than the program file's `BufReader` holds
+/// (64 KiB), so that a read goes past that buffer instead of being copied through it.
+const READ_CHUNK: usize = 128 << 10;
 
 /// Longest line whose text [`LineTexts`] keeps (bytes): CAM blocks are shorter.
 const KEPT_TEXT_LEN: usize = 128;
