@@ -45,7 +45,17 @@ pub struct LineReader {
     input: Box<dyn ProgramRead>,
     /// The next line to be read.
     next: LinePos,
+    /// Bytes read from `input` and not yet handed out start at `buf[start]` and end at
+    /// `buf[end]`: lines are found in place (one search for the `\n` each), not copied out
+    /// of the input's buffer one by one. `buf` is [`READ_CHUNK`] bytes, more (up to
+    /// [`MAX_LINE_BYTES`] + 1) only while a longer line is read.
     buf: Vec<u8>,
+    start: usize,
+    end: usize,
+    /// Where the last line read lies in `buf`, without its `\n` (or `\r\n`).
+    body: std::ops::Range<usize>,
+    /// Whether the last line read is ASCII (so UTF-8, without validating it again).
+    ascii: bool,
     /// A Heidenhain program (issue 16): its lines are translated as they are read.
     /// (Boxed: most readers have none, and the reader is moved around whole.)
     heidenhain: Option<Box<crate::heidenhain::Translator>>,
@@ -54,6 +64,11 @@ pub struct LineReader {
     /// Texts of lines read before, taken again for lines of their length.
     texts: LineTexts,
 }
+
+/// How many bytes the reader asks its input for at a time (and keeps: the memory of a
+/// streamed program, whatever its length). More than the program file's `BufReader` holds
+/// (64 KiB), so that a read goes past that buffer instead of being copied through it.
+const READ_CHUNK: usize = 128 << 10;
 
 /// Longest line whose text [`LineTexts`] keeps (bytes): CAM blocks are shorter.
 const KEPT_TEXT_LEN: usize = 128;
@@ -101,6 +116,10 @@ impl LineReader {
             input,
             next: LinePos::default(),
             buf: Vec::new(),
+            start: 0,
+            end: 0,
+            body: 0..0,
+            ascii: true,
             heidenhain: None,
             peck_clearance: None,
             texts: LineTexts::default(),
@@ -119,6 +138,7 @@ impl LineReader {
     }
 
     /// Where the next line starts.
+    #[inline]
     pub fn position(&self) -> LinePos {
         self.next
     }
@@ -127,52 +147,112 @@ impl LineReader {
     pub fn seek(&mut self, pos: LinePos) -> io::Result<()> {
         if pos != self.next {
             self.input.seek(SeekFrom::Start(pos.offset))?;
+            self.drop_read_ahead();
             self.next = pos;
         }
         Ok(())
     }
 
-    /// Reads the next line's bytes into the buffer; `false` at the end of the file.
+    /// Forgets the bytes read ahead (the input was moved). The line last read stays where
+    /// it is ([`Self::body`]) until the next line is read.
+    fn drop_read_ahead(&mut self) {
+        self.start = 0;
+        self.end = 0;
+    }
+
+    /// Finds the next line in the buffer (reading more when it is not whole there) and makes
+    /// it the line last read; `false` at the end of the file. As `read_until` reads a line:
+    /// up to and with its `\n`, or to the end of the file; a line with no `\n` in its first
+    /// [`MAX_LINE_BYTES`] + 1 bytes is an error.
+    #[inline]
     fn fill(&mut self) -> Result<bool, NcError> {
-        self.buf.clear();
-        let line_no = self.next.index.saturating_add(1);
-        // Most lines lie whole in the reader's buffer: take them from there in one piece.
-        let whole_line = match self.input.fill_buf() {
-            Ok(avail) => {
-                // As the general path reads: at most MAX_LINE_BYTES and the `\n`.
-                let head = &avail[..avail.len().min(MAX_LINE_BYTES + 1)];
-                find_newline(head).map(|p| {
-                    self.buf.extend_from_slice(&head[..=p]);
-                    p + 1
-                })
+        // The buffer is never longer than a line may be: a `\n` in it ends a line.
+        debug_assert!(self.buf.len() <= MAX_LINE_BYTES + 1);
+        match find_newline(&self.buf[self.start..self.end]) {
+            Some((p, ascii)) => {
+                self.take_line(p + 1, ascii);
+                Ok(true)
             }
-            Err(_) => None,
-        };
-        let n = match whole_line {
-            Some(n) => {
-                self.input.consume(n);
-                n
-            }
-            None => {
-                let input: &mut dyn ProgramRead = &mut *self.input;
-                io::Read::take(input, MAX_LINE_BYTES as u64 + 1)
-                    .read_until(b'\n', &mut self.buf)
-                    .map_err(|e| self.io_error(line_no, &e))?
-            }
-        };
-        if n == 0 {
-            return Ok(false);
+            None => self.fill_slow(),
         }
-        if self.buf.last() != Some(&b'\n') && n > MAX_LINE_BYTES {
-            return Err(NcError::new(
-                &SourceFile::window(self.name.clone(), "", line_no as u32),
-                crate::ast::Span::new(0, 0),
-                format!("line longer than {MAX_LINE_BYTES} bytes"),
-            ));
+    }
+
+    /// [`Self::fill`] when the buffer holds no whole line: reads until it does.
+    #[cold]
+    #[inline(never)]
+    fn fill_slow(&mut self) -> Result<bool, NcError> {
+        loop {
+            let ahead = &self.buf[self.start..self.end];
+            if let Some((p, ascii)) = find_newline(ahead) {
+                self.take_line(p + 1, ascii);
+                return Ok(true);
+            }
+            let line_no = self.next.index.saturating_add(1);
+            if ahead.len() > MAX_LINE_BYTES {
+                return Err(NcError::new(
+                    &SourceFile::window(self.name.clone(), "", line_no as u32),
+                    crate::ast::Span::new(0, 0),
+                    format!("line longer than {MAX_LINE_BYTES} bytes"),
+                ));
+            }
+            if self.read_more().map_err(|e| self.io_error(line_no, &e))? == 0 {
+                // The end of the file: what is left is the last line, without a `\n`.
+                let rest = self.end - self.start;
+                if rest == 0 {
+                    return Ok(false);
+                }
+                let ascii = self.buf[self.start..self.end].is_ascii();
+                self.take_line(rest, ascii);
+                return Ok(true);
+            }
         }
+    }
+
+    /// Makes the next `n` bytes in the buffer (a line and its terminator) the line read;
+    /// `ascii`: its bytes are all ASCII.
+    #[inline]
+    fn take_line(&mut self, n: usize, ascii: bool) {
+        // Without its `\n`, then without a `\r` before it.
+        let len = match &self.buf[self.start..self.start + n] {
+            [.., b'\r', b'\n'] => n - 2,
+            [.., b'\n' | b'\r'] => n - 1,
+            _ => n,
+        };
+        self.body = self.start..self.start + len;
+        self.ascii = ascii;
+        self.start += n;
         self.next.index += 1;
         self.next.offset += n as u64;
-        Ok(true)
+    }
+
+    /// Reads more of the input after the bytes not yet handed out (moved to the buffer's
+    /// start first: they are part of one line); the number of bytes read, 0 at the end.
+    #[cold]
+    fn read_more(&mut self) -> io::Result<usize> {
+        self.buf.copy_within(self.start..self.end, 0);
+        self.end -= self.start;
+        self.start = 0;
+        self.body = 0..0;
+        self.ascii = true;
+        if self.end == self.buf.len() {
+            // A line longer than the buffer: room for the longest line and its `\n`.
+            let len = (2 * self.buf.len()).clamp(READ_CHUNK, MAX_LINE_BYTES + 1);
+            self.buf.resize(len, 0);
+        } else if self.end < READ_CHUNK && self.buf.len() > READ_CHUNK {
+            // The long line is gone: back to the usual size.
+            self.buf.truncate(READ_CHUNK);
+            self.buf.shrink_to_fit();
+        }
+        loop {
+            match self.input.read(&mut self.buf[self.end..]) {
+                Ok(n) => {
+                    self.end += n;
+                    return Ok(n);
+                }
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+        }
     }
 
     /// An error reading line `line_no` (the file changed or went away under the run).
@@ -191,6 +271,7 @@ impl LineReader {
 
     /// The next line, as a window of the program (a Heidenhain program's line as the ISO
     /// block it translates to).
+    #[inline]
     pub fn read(&mut self) -> Result<ReadLine, NcError> {
         let Some(at) = self.read_raw()? else {
             return Ok(ReadLine::End);
@@ -201,50 +282,52 @@ impl LineReader {
     /// Reads the next line without making a window of it (its bytes are [`Self::body`]);
     /// `None` at the end of the file. For passes that look at most lines only briefly; they
     /// must take [`Self::current_window`] instead of the bytes when [`Self::translates`].
+    #[inline]
     pub fn read_raw(&mut self) -> Result<Option<LinePos>, NcError> {
         let at = self.next;
         if !self.fill()? {
             return Ok(None);
         }
         if at.index == 0 {
-            // The first line decides whether the program is a Heidenhain one.
-            let first = String::from_utf8_lossy(self.body());
-            self.heidenhain = crate::heidenhain::is_heidenhain(&self.name, &first).then(|| {
-                Box::new(crate::heidenhain::Translator::for_machine(
-                    self.peck_clearance,
-                ))
-            });
+            self.read_first_line();
         }
         Ok(Some(at))
     }
 
+    /// The first line decides whether the program is a Heidenhain one.
+    #[cold]
+    fn read_first_line(&mut self) {
+        let first = String::from_utf8_lossy(self.body());
+        self.heidenhain = crate::heidenhain::is_heidenhain(&self.name, &first).then(|| {
+            Box::new(crate::heidenhain::Translator::for_machine(
+                self.peck_clearance,
+            ))
+        });
+    }
+
     /// Whether the lines read are translated (a Heidenhain program): their bytes are not
     /// what the interpreter reads.
+    #[inline]
     pub fn translates(&self) -> bool {
         self.heidenhain.is_some()
     }
 
     /// The bytes of the line last read, without its `\n` (or `\r\n`).
+    #[inline]
     pub fn body(&self) -> &[u8] {
-        &self.buf[self.body_range()]
-    }
-
-    /// Where [`Self::body`] lies in the buffer.
-    fn body_range(&self) -> std::ops::Range<usize> {
-        let mut end = self.buf.len();
-        if end > 0 && self.buf[end - 1] == b'\n' {
-            end -= 1;
-        }
-        if end > 0 && self.buf[end - 1] == b'\r' {
-            end -= 1;
-        }
-        0..end
+        &self.buf[self.body.clone()]
     }
 
     /// The line last read (it started at `at`) as a window of the program, untranslated.
     pub fn window(&mut self, at: LinePos) -> SourceFile {
-        let body = self.body_range();
-        match std::str::from_utf8(&self.buf[body]) {
+        let body = &self.buf[self.body.clone()];
+        let text = if self.ascii {
+            // SAFETY: ASCII is UTF-8 (`ascii` was found on these very bytes by `fill`).
+            Ok(unsafe { std::str::from_utf8_unchecked(body) })
+        } else {
+            std::str::from_utf8(body)
+        };
+        match text {
             // Most lines: the text of a line read before of its length, when free.
             Ok(text) => {
                 let text = self.texts.text(text);
@@ -256,8 +339,18 @@ impl LineReader {
 
     /// The line last read (it started at `at`) as the interpreter reads it: translated to
     /// ISO in a Heidenhain program ([`crate::heidenhain::is_heidenhain`]), else its window.
+    #[inline]
     pub fn current_window(&mut self, at: LinePos) -> Result<SourceFile, NcError> {
         let window = self.window(at);
+        if self.heidenhain.is_none() {
+            return Ok(window);
+        }
+        self.translate(window, at)
+    }
+
+    /// The ISO block of the Heidenhain line last read (its window `window`, at `at`).
+    #[cold]
+    fn translate(&mut self, window: SourceFile, at: LinePos) -> Result<SourceFile, NcError> {
         let Some(t) = &mut self.heidenhain else {
             return Ok(window);
         };
@@ -265,8 +358,19 @@ impl LineReader {
         let text = window.line_text(line_no);
         // An `L` ends where an `RND`/`CHF` after it begins: it sees the lines ahead.
         let ahead = if crate::heidenhain::looks_ahead(text) {
-            crate::heidenhain::peek_lines(&mut *self.input, self.next.offset, MAX_LINE_BYTES)
-                .map_err(|e| NcError::new(&window, crate::ast::Span::new(0, 0), e.to_string()))?
+            let ahead = &self.buf[self.start..self.end];
+            let newlines = ahead.iter().filter(|&&b| b == b'\n').count();
+            let lines = if newlines >= crate::heidenhain::AHEAD_LINES {
+                crate::heidenhain::peek_lines(&mut io::Cursor::new(ahead), 0, MAX_LINE_BYTES)
+            } else {
+                // Not all read ahead: from the input, at the next line (read again after).
+                self.start = self.end;
+                let at = self.next.offset;
+                self.input.seek(SeekFrom::Start(at)).and_then(|_| {
+                    crate::heidenhain::peek_lines(&mut *self.input, at, MAX_LINE_BYTES)
+                })
+            };
+            lines.map_err(|e| NcError::new(&window, crate::ast::Span::new(0, 0), e.to_string()))?
         } else {
             Vec::new()
         };
@@ -303,8 +407,12 @@ impl LineReader {
     /// The whole program as one text (for a program that must be held whole: the C-like
     /// language is compiled whole).
     pub fn whole(&mut self) -> Result<SourceFile, NcError> {
-        self.seek(LinePos::default())
+        // From the file's start, whatever was read ahead.
+        self.input
+            .seek(SeekFrom::Start(0))
             .map_err(|e| self.io_error(1, &e))?;
+        self.drop_read_ahead();
+        self.next = LinePos::default();
         let mut bytes = Vec::new();
         self.input
             .read_to_end(&mut bytes)
@@ -332,24 +440,69 @@ impl LineReader {
     }
 }
 
-/// Index of the first `\n` in `b`, eight bytes at a time: every line of a program is
-/// searched for its end twice (load pass and run), and a byte loop was a tenth of a block's
-/// instructions.
-fn find_newline(b: &[u8]) -> Option<usize> {
+/// Index of the first `\n` in `b` and whether the bytes before it are all ASCII, sixteen
+/// bytes at a time (SSE2, which every x86-64 has): every line of a program is searched for
+/// its end twice (load pass and run), and a byte loop was a tenth of a block's
+/// instructions; the ASCII test spares validating a line's UTF-8 again for its window.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn find_newline(b: &[u8]) -> Option<(usize, bool)> {
+    use std::arch::x86_64::{_mm_cmpeq_epi8, _mm_loadu_si128, _mm_movemask_epi8, _mm_set1_epi8};
+    let (blocks, rest) = b.as_chunks::<16>();
+    // Bit i: byte i of a block is `\n` (`newline`), has its high bit set (`high`).
+    let mut high = 0;
+    for (k, block) in blocks.iter().enumerate() {
+        // SAFETY: SSE2 is in every x86-64 (the baseline `target_feature`); `block` is the
+        // 16 bytes the load reads, and it asks no alignment.
+        let (newline, h) = unsafe {
+            let v = _mm_loadu_si128(block.as_ptr().cast());
+            let newline = _mm_movemask_epi8(_mm_cmpeq_epi8(v, _mm_set1_epi8(b'\n' as i8)));
+            (newline, _mm_movemask_epi8(v))
+        };
+        if newline != 0 {
+            let at = newline.trailing_zeros();
+            // The bytes below the `\n` (fewer than 16: the shift is in range).
+            high |= h & ((1 << at) - 1);
+            return Some((16 * k + at as usize, high == 0));
+        }
+        high |= h;
+    }
+    let (p, ascii) = find_newline_by_words(rest)?;
+    Some((16 * blocks.len() + p, ascii && high == 0))
+}
+
+/// [`find_newline`] where there is no SSE2.
+#[cfg(not(target_arch = "x86_64"))]
+fn find_newline(b: &[u8]) -> Option<(usize, bool)> {
+    find_newline_by_words(b)
+}
+
+/// [`find_newline`] eight bytes at a time, in a `u64`.
+fn find_newline_by_words(b: &[u8]) -> Option<(usize, bool)> {
     const ONES: u64 = 0x0101_0101_0101_0101;
     const HIGHS: u64 = 0x8080_8080_8080_8080;
     let (words, rest) = b.as_chunks::<8>();
+    // The high bits of every byte before the `\n`.
+    let mut high = 0;
     for (k, w) in words.iter().enumerate() {
         // A byte of `x` is 0 where `w` has a `\n`; the lowest flagged byte is always a
         // true one (a borrow only flags bytes above a zero byte).
-        let x = u64::from_le_bytes(*w) ^ (ONES * u64::from(b'\n'));
+        let w = u64::from_le_bytes(*w);
+        let x = w ^ (ONES * u64::from(b'\n'));
         let zero = x.wrapping_sub(ONES) & !x & HIGHS;
         if zero != 0 {
-            return Some(8 * k + (zero.trailing_zeros() / 8) as usize);
+            let at = zero.trailing_zeros() / 8;
+            // The bytes below the `\n` (none when it is the first: a shift by 64 is none).
+            let below = u64::MAX.checked_shr(64 - 8 * at).unwrap_or(0);
+            high |= w & below;
+            return Some((8 * k + at as usize, high & HIGHS == 0));
         }
+        high |= w;
     }
     let tail = 8 * words.len();
-    rest.iter().position(|&c| c == b'\n').map(|p| tail + p)
+    let p = rest.iter().position(|&c| c == b'\n')?;
+    let ascii = high & HIGHS == 0 && rest[..p].is_ascii();
+    Some((tail + p, ascii))
 }
 
 /// The window of a line read from `name` (its bytes without the terminator, starting at
@@ -460,8 +613,11 @@ fn parse_general_line(window: &SourceFile, dialect: Dialect) -> Result<Line, NcE
 }
 
 #[cfg(test)]
+mod reference;
+
+#[cfg(test)]
 mod tests {
-    use super::{LineReader, ReadLine, find_newline, parse_line};
+    use super::{LineReader, ReadLine, find_newline, find_newline_by_words, parse_line};
     use crate::{Dialect, SourceFile};
     use proptest::prelude::*;
     use std::io::Cursor;
@@ -528,8 +684,9 @@ mod tests {
         assert_eq!(e.block, "G1 X");
     }
 
-    /// The word-at-a-time search finds the first `\n` wherever a byte loop finds it, with
-    /// the bytes a borrow or a sign bit could confuse around it.
+    /// The word-at-a-time search finds the first `\n` wherever a byte loop finds it, and
+    /// tells whether the bytes before it are ASCII as a byte loop does, with the bytes a
+    /// borrow or a sign bit could confuse around it.
     #[test]
     fn find_newline_finds_the_first_newline_as_a_byte_loop_does() {
         let bytes = [
@@ -548,7 +705,7 @@ mod tests {
             x ^= x << 13;
             x ^= x >> 7;
             x ^= x << 17;
-            let len = (x % 40) as usize;
+            let len = (x % 80) as usize;
             let text: Vec<u8> = (0..len)
                 .map(|i| {
                     let r = x.rotate_left(7 * i as u32) ^ (i as u64).wrapping_mul(0x2545_f491);
@@ -560,8 +717,12 @@ mod tests {
                     }
                 })
                 .collect();
-            let want = text.iter().position(|&c| c == b'\n');
+            let want = text
+                .iter()
+                .position(|&c| c == b'\n')
+                .map(|p| (p, text[..p].is_ascii()));
             assert_eq!(find_newline(&text), want, "{text:?}");
+            assert_eq!(find_newline_by_words(&text), want, "{text:?}");
         }
     }
 }

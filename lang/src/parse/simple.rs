@@ -140,11 +140,17 @@ pub(crate) fn scan(
 /// cannot tell is read by [`scan`]. The load pass asks it of every line of a program.
 pub(crate) fn classify(b: &[u8]) -> Option<bool> {
     // No early exit: `ASK` keeps itself, and a line that reaches it is read again anyway.
-    let mut state = START;
-    for &c in b {
-        state = STEP[(usize::from(state & 31) << 8) | usize::from(c)];
+    // Four bytes a round (fewer loop tests); a state is kept as its row's first index.
+    let step = |row: u16, c: u8| STEP[(usize::from(row) | usize::from(c)) & (STEP.len() - 1)];
+    let (quads, rest) = b.as_chunks::<4>();
+    let mut row = u16::from(START) << 8;
+    for &[c0, c1, c2, c3] in quads {
+        row = step(step(step(step(row, c0), c1), c2), c3);
     }
-    match state {
+    for &c in rest {
+        row = step(row, c);
+    }
+    match (row >> 8) as u8 {
         START => Some(false),
         BETWEEN | INT | FRAC | N_DIGIT..=N_LAST_DIGIT => Some(true),
         _ => classify_by_scan(b),
@@ -196,15 +202,15 @@ const fn next_state(state: u8, c: u8) -> u8 {
     }
 }
 
-/// [`next_state`] of every state and byte, one row of 256 a state (32 rows: a state masked
-/// to 5 bits is always a row).
-static STEP: [u8; 32 * 256] = {
-    let mut t = [ASK; 32 * 256];
+/// [`next_state`] of every state and byte, one row of 256 a state (32 rows, a power of two:
+/// every index masked to the table is in it), each as the index of its row's first entry.
+static STEP: [u16; 32 * 256] = {
+    let mut t = [(ASK as u16) << 8; 32 * 256];
     let mut i = 0;
     while i < t.len() {
         let state = (i >> 8) as u8;
         if state <= N_LAST_DIGIT {
-            t[i] = next_state(state, i as u8);
+            t[i] = (next_state(state, i as u8) as u16) << 8;
         }
         i += 1;
     }
