@@ -179,6 +179,31 @@ impl Machine {
                 SegmentKind::Linear { end, feed: rate }
             }
         };
+        let tlo_moves =
+            st.tool_axis.is_some_and(|z| b.given >> z & 1 != 0) && st.tlo_in_pos != st.tlo;
+        if lane_canon
+            && !st.exact_stop_once
+            && !tlo_moves
+            && let Some(state) = &self.canon
+        {
+            // The last block was the lane's and this one changes nothing of the canonical
+            // state: the operation is made and checked first, the state changed after.
+            debug_assert!(st.canon_state_is(state));
+            let op = CanonOp {
+                kind: CanonKind::Single(state.convert(kind, self.map.xyz, false)),
+                source,
+                state: state.clone(),
+            };
+            // The shift, S, the tool length and the state's offsets are as the last lane
+            // block found them finite.
+            if !finite_move(&op, feed) || !canon::makes_motion(std::iter::once(&op), &st.pos) {
+                return false;
+            }
+            self.apply(b, linuxcnc, feed, end);
+            out.push_back(op);
+            self.lane_canon = true;
+            return true;
+        }
         let before = self.change_state(b, linuxcnc, feed, end);
         let from = before.pos;
         let op = self.lane_op(&before, kind, (source, lane_canon));
@@ -235,7 +260,7 @@ impl Machine {
     /// the motion code (and the canned cycle data it clears), G9 gone, F, the position and
     /// the tool length offset vector restored on a programmed tool-axis move.
     fn change_state(&mut self, b: &PlainBlock, linuxcnc: bool, feed: f64, end: AxisPos) -> Before {
-        let st = &mut self.state;
+        let st = &self.state;
         let before = Before {
             motion: st.motion,
             cycle_data: st.cycle_data,
@@ -246,6 +271,13 @@ impl Machine {
             tlo_in_pos: st.tlo_in_pos,
             polar_step: st.polar_step,
         };
+        self.apply(b, linuxcnc, feed, end);
+        before
+    }
+
+    /// [`change_state`](Self::change_state) without keeping what the state was.
+    fn apply(&mut self, b: &PlainBlock, linuxcnc: bool, feed: f64, end: AxisPos) {
+        let st = &mut self.state;
         if linuxcnc {
             st.polar_step = None;
         }
@@ -263,7 +295,6 @@ impl Machine {
             given &= given - 1;
         }
         st.pos = end;
-        before
     }
 
     fn put_back(&mut self, b: Before) {
@@ -280,20 +311,27 @@ impl Machine {
 
     /// Every number `Exec::check_finite` looks at is finite after the block made `op`.
     fn finite_after(&self, op: &CanonOp) -> bool {
-        // `v * 0.0` is ±0 for a finite `v`, NaN for ±inf and NaN: one pass, no branch a value.
-        let finite = |vs: &[f64]| vs.iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0;
         let st = &self.state;
-        let kind_ok = match &op.kind {
-            CanonKind::Single(SegmentKind::Rapid { end }) => finite(&end.0),
-            CanonKind::Single(SegmentKind::Linear { end, feed }) => {
-                finite(&end.0) && feed.is_finite()
-            }
-            _ => false,
-        };
-        // The position is the move's end (checked with the kind).
-        kind_ok
+        // The position is the move's end (checked with the operation).
+        finite_move(op, st.feed)
             && finite(&st.shift)
-            && finite(&[st.feed, st.speed, st.tlo])
+            && finite(&[st.speed, st.tlo])
             && finite(&op.state.offset.0)
     }
+}
+
+/// All of `vs` are finite. (`v * 0.0` is ±0 for a finite `v`, NaN for ±inf and NaN: one pass,
+/// no branch a value.)
+fn finite(vs: &[f64]) -> bool {
+    vs.iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0
+}
+
+/// The move `op` (its end and feed rate) and the modal feed `feed` are finite.
+fn finite_move(op: &CanonOp, feed: f64) -> bool {
+    let (end, rate) = match &op.kind {
+        CanonKind::Single(SegmentKind::Rapid { end }) => (end, 0.0),
+        CanonKind::Single(SegmentKind::Linear { end, feed }) => (end, *feed),
+        _ => return false,
+    };
+    finite(&end.0) && finite(&[rate, feed])
 }
