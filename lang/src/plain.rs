@@ -4,37 +4,52 @@
 
 use crate::ast::Value;
 
+/// Where [`words`] hands a line's words.
+pub trait WordSink {
+    /// The next word: its upper-case letter, its value, and whether it was written with a
+    /// point.
+    fn word(&mut self, letter: u8, value: f64, point: bool);
+    /// Forget the words handed so far: the line is read again from its start.
+    fn restart(&mut self);
+}
+
+/// Collects the words in order (tests and examples).
+impl WordSink for Vec<(u8, f64, bool)> {
+    fn word(&mut self, letter: u8, value: f64, point: bool) {
+        self.push((letter, value, point));
+    }
+    fn restart(&mut self) {
+        self.clear();
+    }
+}
+
 /// The words of `body` (one line as read, without its terminator) when it is a plain block
 /// without comments — an optional `N` number, then words of an address letter and a literal
-/// number — each handed to `word` as (upper-case letter, value, whether it was written with a
-/// point); returns the `N` number, if any, and how many words there were. `None` when the
-/// line is anything else (a comment, an expression, a flow line, an error…): then `word` may
-/// have seen some of it, and the line is the parser's.
+/// number — each handed to `sink`; returns the `N` number, if any, and how many words there
+/// were. `None` when the line is anything else (a comment, an expression, a flow line, an
+/// error…): then `sink` may have seen some of it, and the line is the parser's.
 ///
 /// ```
 /// use cnc402_lang::plain::words;
 /// let mut seen = Vec::new();
-/// let r = words(b"N20 G1 x-1.5 Y2", |l, v, p| seen.push((l, v, p)));
+/// let r = words(b"N20 G1 x-1.5 Y2", &mut seen);
 /// assert_eq!(r, Some((Some(20), 3)));
 /// assert_eq!(seen, [(b'G', 1.0, false), (b'X', -1.5, true), (b'Y', 2.0, false)]);
-/// assert_eq!(words(b"G1 X1 (cut)", |_, _, _| {}), None);
-/// assert_eq!(words(b"G1 X[1+2]", |_, _, _| {}), None);
+/// assert_eq!(words(b"G1 X1 (cut)", &mut seen), None);
+/// assert_eq!(words(b"G1 X[1+2]", &mut seen), None);
 /// ```
-pub fn words(body: &[u8], mut word: impl FnMut(u8, f64, bool)) -> Option<(Option<u32>, usize)> {
-    let mut found = [(0u8, 0.0f64, false); TIGHT_WORDS];
-    if let Some((n, count)) = tight(body, &mut found) {
-        for &(letter, v, point) in &found[..count] {
-            word(letter, v, point);
-        }
-        return Some((n, count));
+pub fn words(body: &[u8], sink: &mut impl WordSink) -> Option<(Option<u32>, usize)> {
+    if let Some(read) = tight(body, sink) {
+        return Some(read);
     }
+    sink.restart();
     let mut comment = false;
     let (n, count) = crate::parse::simple::scan(
         body,
         |w| {
             if let Value::Number(v) = w.value {
                 // `scan` folds the letter to upper case: it is ASCII.
-                word(w.letter as u8, v.value, v.has_point);
+                sink.word(w.letter as u8, v.value, v.has_point);
             }
         },
         |_| comment = true,
@@ -42,14 +57,11 @@ pub fn words(body: &[u8], mut word: impl FnMut(u8, f64, bool)) -> Option<(Option
     (!comment).then_some((n.map(|n| n.value), count))
 }
 
-/// Most words [`tight`] takes in a line.
-const TIGHT_WORDS: usize = 12;
-
 /// [`words`] of the lines CAM writes most, read in one pass: an optional `N` number and words
 /// of an upper-case letter directly followed by its number, separated by spaces; `None` (the
 /// full scan decides) at anything else. What it reads, it reads as the full scan does: the
 /// same number scanner, the same rules for what may follow a number.
-fn tight(b: &[u8], found: &mut [(u8, f64, bool); TIGHT_WORDS]) -> Option<(Option<u32>, usize)> {
+fn tight(b: &[u8], sink: &mut impl WordSink) -> Option<(Option<u32>, usize)> {
     let mut k = 0;
     let mut n = None;
     if b.first() == Some(&b'N') {
@@ -85,7 +97,7 @@ fn tight(b: &[u8], found: &mut [(u8, f64, bool); TIGHT_WORDS]) -> Option<(Option
             && b.get(k + 2)
                 .is_none_or(|&c| c == b' ' || c.is_ascii_uppercase())
         {
-            *found.get_mut(count)? = (letter, f64::from(d - b'0'), false);
+            sink.word(letter, f64::from(d - b'0'), false);
             count += 1;
             k += 2;
             continue;
@@ -107,7 +119,7 @@ fn tight(b: &[u8], found: &mut [(u8, f64, bool); TIGHT_WORDS]) -> Option<(Option
             _ => return None,
         }
         let value = if neg { -value } else { value };
-        *found.get_mut(count)? = (letter, value, u.has_point);
+        sink.word(letter, value, u.has_point);
         count += 1;
     }
 }
@@ -136,9 +148,13 @@ mod tests {
     }
 
     fn by_words(b: &[u8]) -> Read {
-        let mut seen = Vec::new();
-        let (n, count) = super::words(b, |l, v, p| seen.push((l, v.to_bits(), p)))?;
-        assert_eq!(count, seen.len());
+        let mut words = Vec::new();
+        let (n, count) = super::words(b, &mut words)?;
+        assert_eq!(count, words.len());
+        let seen = words
+            .into_iter()
+            .map(|(l, v, p)| (l, v.to_bits(), p))
+            .collect();
         Some((n, seen))
     }
 
@@ -180,14 +196,14 @@ mod tests {
             " G1 X1",
         ] {
             assert!(
-                super::tight(line.as_bytes(), &mut [(0, 0.0, false); 12]).is_some(),
+                super::tight(line.as_bytes(), &mut Vec::new()).is_some(),
                 "{line}"
             );
             assert_eq!(by_words(line.as_bytes()), by_scan(line.as_bytes()));
         }
         for line in ["g1 x1", "G1 X 1", "G1\tX1", "N1234567890 X1", "G1 X1 (c)"] {
             assert!(
-                super::tight(line.as_bytes(), &mut [(0, 0.0, false); 12]).is_none(),
+                super::tight(line.as_bytes(), &mut Vec::new()).is_none(),
                 "{line}"
             );
         }

@@ -48,40 +48,56 @@ impl PlainLane {
     /// written without a point or sign), `F`, and the letters of non-spindle axes, each once,
     /// at least one axis word; no comment.
     pub(crate) fn read(&self, body: &[u8]) -> Option<PlainBlock> {
-        let mut b = PlainBlock {
-            n: None,
-            motion: None,
-            feed: None,
-            values: [0.0; MAX_AXES],
-            given: 0,
+        let mut r = Reading {
+            lane: self,
+            block: PlainBlock::EMPTY,
+            ok: true,
+            letters: 0,
         };
-        let mut ok = true;
-        let mut letters = 0u32;
-        let (n, _) = cnc402_lang::plain::words(body, |letter, v, point| {
-            let bit = 1u32 << (letter - b'A');
-            ok &= letters & bit == 0;
-            letters |= bit;
-            match letter {
-                // `-0` is a sign the general path reads its own way.
-                b'G' if !point && v.is_sign_positive() && (v == 0.0 || v == 1.0) => {
-                    b.motion = Some(if v == 0.0 {
-                        Motion::Rapid
-                    } else {
-                        Motion::Linear
-                    });
-                }
-                b'F' => b.feed = Some(v),
-                _ => match self.axis_of[usize::from(letter - b'A')] {
-                    NO_AXIS => ok = false,
-                    i => {
-                        b.values[usize::from(i)] = v;
-                        b.given |= 1 << i;
-                    }
-                },
+        let (n, _) = cnc402_lang::plain::words(body, &mut r)?;
+        r.block.n = n;
+        (r.ok && r.block.given != 0).then_some(r.block)
+    }
+}
+
+/// A line being read by [`PlainLane::read`].
+struct Reading<'a> {
+    lane: &'a PlainLane,
+    block: PlainBlock,
+    /// No word the lane leaves to the general path so far.
+    ok: bool,
+    /// The letters seen (bit `letter - 'A'`).
+    letters: u32,
+}
+
+impl cnc402_lang::plain::WordSink for Reading<'_> {
+    fn word(&mut self, letter: u8, v: f64, point: bool) {
+        let bit = 1u32 << (letter - b'A');
+        self.ok &= self.letters & bit == 0;
+        self.letters |= bit;
+        let b = &mut self.block;
+        match letter {
+            // `-0` is a sign the general path reads its own way.
+            b'G' if !point && v.is_sign_positive() && (v == 0.0 || v == 1.0) => {
+                b.motion = Some(if v == 0.0 {
+                    Motion::Rapid
+                } else {
+                    Motion::Linear
+                });
             }
-        })?;
-        b.n = n;
-        (ok && b.given != 0).then_some(b)
+            b'F' => b.feed = Some(v),
+            _ => match self.lane.axis_of[usize::from(letter - b'A')] {
+                NO_AXIS => self.ok = false,
+                i => {
+                    b.values[usize::from(i)] = v;
+                    b.given |= 1 << i;
+                }
+            },
+        }
+    }
+
+    fn restart(&mut self) {
+        (self.block, self.ok, self.letters) = (PlainBlock::EMPTY, true, 0);
     }
 }
 
@@ -97,6 +113,16 @@ pub(crate) struct PlainBlock {
     /// Each axis word's value as written (program units), by axis index; `given` says which.
     values: [f64; MAX_AXES],
     given: u16,
+}
+
+impl PlainBlock {
+    const EMPTY: PlainBlock = PlainBlock {
+        n: None,
+        motion: None,
+        feed: None,
+        values: [0.0; MAX_AXES],
+        given: 0,
+    };
 }
 
 /// The state a plain block changes, as it was before: put back when the block turns out to
