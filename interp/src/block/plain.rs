@@ -183,11 +183,12 @@ impl Machine {
                 v + st.origin(i)
             };
         }
-        let outside = |i: usize| {
+        // Every axis, without a branch each (a NaN is inside: `check_finite` has it).
+        let outside = (0..MAX_AXES).fold(false, |out, i| {
             let (lo, hi) = self.map.limits[i];
-            end[i] < lo || end[i] > hi
-        };
-        if end == st.pos || (0..MAX_AXES).any(outside) {
+            out | (end[i] < lo) | (end[i] > hi)
+        });
+        if outside || end == st.pos {
             return false;
         }
         let kind = match motion {

@@ -3,7 +3,7 @@
 //! guard's counter and the Macro B call arguments (specifications I and II). Data only: the
 //! interpreter's flow through them is in `macros`.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 use cnc402_lang::SourceFile;
@@ -342,14 +342,30 @@ pub struct ModalCall {
     pub depth: usize,
 }
 
+/// How many recent blocks [`Runaway`] remembers to name the loop.
+const RECENT: usize = 512;
+
 /// Counts blocks since the last motion; remembers recent lines to name the loop.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct Runaway {
     pub count: u64,
     /// Blocks executed since the program was loaded (never reset by motion): with the C-like
     /// requests, the block serial of `Interpreter::block_serial`.
     pub total: u64,
-    recent: VecDeque<(usize, u32)>,
+    /// The last [`RECENT`] blocks' (unit, line), block `total - 1` at `(total - 1) % RECENT`
+    /// (a ring: every block of a long program passes here).
+    recent: Box<[(usize, u32); RECENT]>,
+}
+
+impl Default for Runaway {
+    fn default() -> Self {
+        Runaway {
+            count: 0,
+            total: 0,
+            // The ring's unused slots name no unit (`Unit::id` is a pointer, never 0).
+            recent: Box::new([(0, 0); RECENT]),
+        }
+    }
 }
 
 impl Runaway {
@@ -357,12 +373,9 @@ impl Runaway {
         self.count = 0;
     }
     pub(crate) fn note(&mut self, unit: &Unit, line: u32) {
+        self.recent[(self.total % RECENT as u64) as usize] = (unit.id(), line);
         self.count += 1;
         self.total += 1;
-        if self.recent.len() == 512 {
-            self.recent.pop_front();
-        }
-        self.recent.push_back((unit.id(), line));
     }
     /// The line range the recent blocks of `unit` ran over.
     pub(crate) fn lines(&self, unit: &Unit) -> (u32, u32) {
