@@ -219,10 +219,12 @@ fn tokens(expr: &str) -> Result<Vec<Token>, String> {
             rest = &rest[1..];
             continue;
         }
+        // At least the whole first character: a sign like `±` (a Latin-1 byte read as a
+        // character) is one token, a number that does not parse, not half a character.
         let len = rest
             .find(|ch: char| !(ch.is_ascii_alphanumeric() || ch == '.' || ch == ','))
             .unwrap_or(rest.len())
-            .max(1);
+            .max(c.len_utf8());
         let word = &rest[..len];
         out.push(if word.starts_with('Q') {
             Token::Q(q_number(word)?)
@@ -240,4 +242,34 @@ pub fn q_number(text: &str) -> Result<u32, String> {
         .and_then(|d| d.trim().parse::<u32>().ok())
         .filter(|n| *n <= MAX_Q)
         .ok_or_else(|| format!("{text} is not a Q parameter (Q0 to Q{MAX_Q})"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::QTable;
+
+    /// Found by the differential fuzzer: `Q1 = -2.92±` (a Latin-1 byte 0xB1 at the end of
+    /// the line) cut the `±` in half and panicked.
+    #[test]
+    fn a_formula_with_a_multibyte_character_used_to_panic_and_is_an_error() {
+        for text in ["Q1 = -2.92±", "Q1 = ±2", "Q1 = 2 * é", "Q2 = Q1 €"] {
+            let e = QTable::default().assign(text).unwrap_err();
+            assert!(!e.is_empty(), "{text}");
+        }
+        assert_eq!(QTable::default().assign("Q1 = -2.92"), Ok((1, -2.92)));
+    }
+
+    proptest::proptest! {
+        /// No assignment text panics: any characters (ASCII, Latin-1 read as characters,
+        /// multibyte) after `Qn =` or `FN k:` are a value or an error.
+        #[test]
+        fn no_assignment_text_panics(
+            head in proptest::sample::select(vec!["Q1 = ", "FN 0: Q2 = ", "Q3=", "FN 4: Q1 = "]),
+            body in "[0-9Q.,+*/() \\-±éµ€a-z]{0,24}",
+        ) {
+            let mut t = QTable::default();
+            let _ = t.assign("Q5 = 3");
+            let _ = t.assign(&format!("{head}{body}"));
+        }
+    }
 }
