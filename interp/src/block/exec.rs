@@ -61,7 +61,30 @@ pub(crate) struct AxisMap {
     pub limits: [(f64, f64); MAX_AXES],
 }
 
+/// All of `vs` are finite. (`v * 0.0` is ±0 for a finite `v`, NaN for ±inf and NaN: one
+/// pass without a branch per value.)
+pub(crate) fn all_finite(vs: &[f64]) -> bool {
+    vs.iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0
+}
+
+/// The spindle a LinuxCNC block without `$` acts on: the program's default
+/// (`Options::default_spindle`) when the machine has it, else spindle 1.
+pub(crate) fn linuxcnc_default_spindle(cfg: &MachineConfig, opts: &Options) -> u8 {
+    Some(opts.default_spindle)
+        .filter(|&n| cfg.spindle_axis(n).is_some())
+        .unwrap_or(1)
+}
+
 impl AxisMap {
+    /// Whether a target is past some axis's soft limits (widened as they are held here;
+    /// every axis without a branch each; a NaN is inside: `check_finite` has it).
+    pub(crate) fn outside_limits(&self, end: &AxisPos) -> bool {
+        (0..MAX_AXES).fold(false, |out, i| {
+            let (lo, hi) = self.limits[i];
+            out | (end[i] < lo) | (end[i] > hi)
+        })
+    }
+
     pub(crate) fn new(cfg: &MachineConfig) -> AxisMap {
         let mut limits = [(f64::NEG_INFINITY, f64::INFINITY); MAX_AXES];
         for (l, ax) in limits.iter_mut().zip(&cfg.axes) {
@@ -313,7 +336,7 @@ impl Exec<'_> {
     fn surely_finite(&self) -> bool {
         // `v * 0.0` is ±0 for a finite `v`, NaN for ±inf and NaN: the sum is 0 when all
         // are finite (one pass without a branch per value).
-        let finite = |vs: &[f64]| vs.iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0;
+        let finite = all_finite;
         let st = &*self.st;
         let mut ok = finite(&st.pos.0) && finite(&st.shift) && finite(&[st.feed, st.speed, st.tlo]);
         for op in self.ops() {
@@ -682,9 +705,7 @@ impl Exec<'_> {
         let spindle_block = self.w.has('S')
             || (self.w.m.iter()).any(|m| matches!(m.0, 3..=5) || (m.0 == 19 && orient_p));
         let (number, span) = if self.dialect == Dialect::LinuxCnc {
-            let default = Some(self.opts.default_spindle)
-                .filter(|&n| self.cfg.spindle_axis(n).is_some())
-                .unwrap_or(1);
+            let default = linuxcnc_default_spindle(self.cfg, self.opts);
             match self.w.dollar.take() {
                 None => (default, None),
                 Some(a) if a.v == -1.0 => {
@@ -990,11 +1011,7 @@ impl Exec<'_> {
     pub fn check_limits(&self, end: &AxisPos, hint: &[char]) -> Result<(), NcError> {
         // Every target inside (the usual answer), from the limits as `AxisMap` holds them:
         // ±∞ where an axis has none, which no target (nor NaN) is past.
-        let outside = |i: usize| {
-            let (lo, hi) = self.map.limits[i];
-            end[i] < lo || end[i] > hi
-        };
-        if !(0..MAX_AXES).any(outside) {
+        if !self.map.outside_limits(end) {
             return Ok(());
         }
         for (i, ax) in self.cfg.axes.iter().enumerate() {
@@ -1114,11 +1131,7 @@ impl Exec<'_> {
     /// G91, with the work zero and the tool length offset. On the tool axis this (re)applies
     /// the offset vector: after it, `pos` includes all of it.
     pub fn word_target(&mut self, i: usize, v: f64) -> f64 {
-        let m = if self.st.incremental {
-            self.st.pos[i] + v + self.tlo_pending(i)
-        } else {
-            v + self.st.origin(i)
-        };
+        let m = self.st.target(i, v);
         self.st.restore_tlo(i);
         m
     }

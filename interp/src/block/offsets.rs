@@ -27,6 +27,17 @@ impl ModalState {
         }
     }
 
+    /// The machine position of a programmed value `v` of axis `i` (mm / degrees), G90 or
+    /// G91, with the work zero and the tool length offset: the vector is all in the result
+    /// (call [`restore_tlo`](Self::restore_tlo) once the move is made).
+    pub(crate) fn target(&self, i: usize, v: f64) -> f64 {
+        if self.incremental {
+            self.pos[i] + v + self.tlo_pending(i)
+        } else {
+            v + self.origin(i)
+        }
+    }
+
     /// A move of axis `i` from here on carries the whole vector (a programmed tool-axis move).
     pub(crate) fn restore_tlo(&mut self, i: usize) {
         if self.tool_axis == Some(i) {

@@ -11,7 +11,7 @@ use cnc402_config::{MAX_AXES, MachineConfig};
 use cnc402_lang::Dialect;
 use cnc402_motion::segment::{AxisPos, SegmentKind, Source};
 
-use super::exec::single_op;
+use super::exec::{all_finite as finite, linuxcnc_default_spindle, single_op};
 use super::machine::Machine;
 use super::state::Motion;
 use crate::canon::{self, CanonKind, CanonOp};
@@ -177,18 +177,9 @@ impl Machine {
             } else {
                 b.values[i] * unit
             };
-            end[i] = if st.incremental {
-                st.pos[i] + v + st.tlo_pending(i)
-            } else {
-                v + st.origin(i)
-            };
+            end[i] = st.target(i, v);
         }
-        // Every axis, without a branch each (a NaN is inside: `check_finite` has it).
-        let outside = (0..MAX_AXES).fold(false, |out, i| {
-            let (lo, hi) = self.map.limits[i];
-            out | (end[i] < lo) | (end[i] > hi)
-        });
-        if outside || end == st.pos {
+        if self.map.outside_limits(&end) || end == st.pos {
             return false;
         }
         let kind = match motion {
@@ -233,7 +224,7 @@ impl Machine {
         }
         let before = self.change_state(b, linuxcnc, feed, end);
         let from = before.pos;
-        let op = self.lane_op(&before, kind, (source, lane_canon));
+        let op = single_op(self.map.xyz, &self.state, &mut self.canon, kind, source);
         // What `Exec::check_finite` and the runaway guard (`canon::makes_motion`) ask of the
         // block after it ran: the general path gives the error, or runs the block as a
         // block without motion.
@@ -246,41 +237,13 @@ impl Machine {
         true
     }
 
-    /// The operation of `kind` under the state the block left (`before`: the state before
-    /// it), sharing the last operation's state without comparing when it is the lane's and
-    /// the block changed nothing of it (the lane changes only G9's once and, on a tool-axis
-    /// move, the part of the tool length offset the position holds).
-    fn lane_op(
-        &mut self,
-        before: &Before,
-        kind: SegmentKind,
-        (source, lane_canon): (Source, bool),
-    ) -> CanonOp {
-        let st = &self.state;
-        let same = lane_canon && !before.exact_stop_once && before.tlo_in_pos == st.tlo_in_pos;
-        match &self.canon {
-            Some(state) if same => {
-                debug_assert!(st.canon_state_is(state));
-                CanonOp {
-                    kind: CanonKind::Single(state.convert(kind, self.map.xyz, false)),
-                    source,
-                    state: state.clone(),
-                }
-            }
-            _ => single_op(self.map.xyz, st, &mut self.canon, kind, source),
-        }
-    }
-
     /// LinuxCNC selects its default spindle in every block (`Exec::spindle_selection`): the
     /// lane runs only when that changes nothing.
     fn default_spindle_kept(&self) -> bool {
         if self.dialect != Dialect::LinuxCnc {
             return true;
         }
-        let default = Some(self.opts.default_spindle)
-            .filter(|&n| self.cfg.spindle_axis(n).is_some())
-            .unwrap_or(1);
-        self.state.spindle_sel == default
+        self.state.spindle_sel == linuxcnc_default_spindle(&self.cfg, &self.opts)
     }
 
     /// The modal state after the block, as `Exec::run` leaves it (what it was, returned):
@@ -345,12 +308,6 @@ impl Machine {
             && finite(&[st.speed, st.tlo])
             && finite(&op.state.offset.0)
     }
-}
-
-/// All of `vs` are finite. (`v * 0.0` is ±0 for a finite `v`, NaN for ±inf and NaN: one pass,
-/// no branch a value.)
-fn finite(vs: &[f64]) -> bool {
-    vs.iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0
 }
 
 /// The move `op` (its end and feed rate) and the modal feed `feed` are finite.

@@ -38,10 +38,9 @@ pub enum After {
 enum Lane {
     /// Ran it.
     Ran,
-    /// Found the end of the file.
-    End,
-    /// Read it (starting at this position) and left it to the general path.
-    Read(cnc402_lang::stream::LinePos),
+    /// Read it and left it to the general path: its view (`None`: the file's end), as
+    /// [`Interpreter::line_view`] gives it.
+    Left(Option<Arc<Unit>>),
     /// Did not read it.
     NotRead,
 }
@@ -82,17 +81,13 @@ impl Interpreter {
             return self.end_of_unit(&unit);
         }
         frame.pc += 1;
-        // A streamed unit's line is read now: `unit` becomes the view holding it (unless
-        // the plain-block lane ran it from its bytes).
-        // Whatever runs now but the lane, the lane's next block compares the state again.
+        // A streamed unit's line is read now: `unit` becomes the view holding it, unless the
+        // plain-block lane ran it from its bytes. Whatever runs now but the lane, the lane's
+        // next block compares the state again.
         let lane_canon = std::mem::take(&mut self.m.lane_canon);
         let view = match self.plain_lane(&unit, pc, lane_canon)? {
             Lane::Ran => return Ok(()),
-            Lane::End => None,
-            Lane::Read(at) => match &mut self.flow.stream {
-                Some(s) => s.view_read(&unit, pc, at)?,
-                None => None,
-            },
+            Lane::Left(view) => view,
             Lane::NotRead => self.line_view(&unit, pc)?,
         };
         let Some(unit) = view else {
@@ -250,11 +245,11 @@ impl Interpreter {
         }
         let at = match s.read_raw_at(i)? {
             None => return Ok(Lane::NotRead),
-            Some(None) => return Ok(Lane::End),
+            Some(None) => return Ok(Lane::Left(None)),
             Some(Some(at)) => at,
         };
         let Some(b) = lane.read(s.body()) else {
-            return Ok(Lane::Read(at));
+            return s.view_read(unit, i, at).map(Lane::Left);
         };
         let line = u32::try_from(at.index + 1).unwrap_or(u32::MAX);
         let source = Source {
@@ -264,7 +259,7 @@ impl Interpreter {
         };
         let linuxcnc = unit.program.dialect == cnc402_lang::Dialect::LinuxCnc;
         if !(self.m).run_plain(lane, (&b, linuxcnc), (source, lane_canon), &mut f.queue) {
-            return Ok(Lane::Read(at));
+            return s.view_read(unit, i, at).map(Lane::Left);
         }
         if let Some(n) = b.n {
             f.last_n = Some(f64::from(n));
