@@ -8,7 +8,7 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 
 use cnc402_config::MachineConfig;
-use cnc402_motion::segment::{Segment, SegmentEnd, SegmentKind};
+use cnc402_motion::segment::{Segment, SegmentEnd, SegmentKind, Source};
 
 use crate::canon::{CanonKind, CanonOp, CanonState};
 
@@ -33,18 +33,31 @@ fn ends(state: &CanonState, kind: &SegmentKind) -> SegmentEnd {
     }
 }
 
+/// The one segment of a single operation's `kind` (work coordinates) made under `state`.
+fn single(
+    state: &CanonState,
+    mut kind: SegmentKind,
+    source: Source,
+    xyz: [Option<usize>; 3],
+) -> Segment {
+    state.convert_in_place(&mut kind, xyz, true);
+    Segment {
+        ends: ends(state, &kind),
+        kind,
+        source,
+    }
+}
+
 /// Lowers `op` into machine-coordinate segments, appended to `out` (a `Vec` or a
 /// `VecDeque`). `xyz` comes from [`xyz_indices`].
 pub fn lower(op: &CanonOp, xyz: [Option<usize>; 3], out: &mut impl Extend<Segment>) {
     match &op.kind {
-        CanonKind::Single(kind) => {
-            let kind = op.state.convert(kind.clone(), xyz, true);
-            out.extend(std::iter::once(Segment {
-                ends: ends(&op.state, &kind),
-                kind,
-                source: op.source.clone(),
-            }));
-        }
+        CanonKind::Single(kind) => out.extend(std::iter::once(single(
+            &op.state,
+            kind.clone(),
+            op.source.clone(),
+            xyz,
+        ))),
         CanonKind::CannedCycle(cc) => {
             // A cycle reaches every level it names (Fanuc checks in-position there).
             out.extend(
@@ -86,13 +99,8 @@ pub(crate) fn lower_owned(
     out: &mut VecDeque<(Segment, Arc<CanonState>)>,
 ) {
     match op.kind {
-        CanonKind::Single(mut kind) => {
-            op.state.convert_in_place(&mut kind, xyz, true);
-            let segment = Segment {
-                ends: ends(&op.state, &kind),
-                kind,
-                source: op.source,
-            };
+        CanonKind::Single(kind) => {
+            let segment = single(&op.state, kind, op.source, xyz);
             out.push_back((segment, op.state));
         }
         CanonKind::CannedCycle(_) => lower_with_state(&op, xyz, out),
